@@ -1,0 +1,53 @@
+"""torqueopt: redundancy resolution of robot arms through torque optimisation.
+
+Reproduces and extends Hollerbach & Suh, "Redundancy resolution of
+manipulators through torque optimization" (IEEE J. Robotics and Automation,
+1987) on top of Pinocchio.
+"""
+
+from .errors import (
+    FrameNotFound,
+    InvalidInput,
+    MissingDependency,
+    NoRedundancy,
+    ResolverNotFound,
+    RobotNotFound,
+    SingularJacobian,
+    TaskNotFound,
+    TorqueoptError,
+    UrdfError,
+)
+from .resolvers import Resolution, Resolver, get_resolver, resolver_names
+from .result import SimResult, load_result
+from .robot import Robot, TaskTerms, load_robot
+from .simulate import Feedback, resolve, rk4_step, simulate
+from .trajectory import StraightLine
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "load_robot",
+    "Robot",
+    "TaskTerms",
+    "StraightLine",
+    "simulate",
+    "rk4_step",
+    "resolve",
+    "Feedback",
+    "resolver_names",
+    "get_resolver",
+    "Resolver",
+    "Resolution",
+    "SimResult",
+    "load_result",
+    "TorqueoptError",
+    "InvalidInput",
+    "RobotNotFound",
+    "UrdfError",
+    "FrameNotFound",
+    "ResolverNotFound",
+    "TaskNotFound",
+    "NoRedundancy",
+    "SingularJacobian",
+    "MissingDependency",
+]

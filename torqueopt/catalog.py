@@ -1,0 +1,193 @@
+"""Where robot descriptions come from: the project's ``robots/`` folder and
+the URDFs that the ``example-robot-data`` package installs.
+
+A robot is named by a URDF path, by the stem of a file in ``robots/``
+(``planar3``) or by the stem of a URDF in example-robot-data (``panda``,
+``xarm7``, ``baxter``, ``tiago``, ...). For the arms we know, the catalogue
+also gives the task frame, task, SRDF configuration and locked joints to use
+when the user names none.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+__all__ = ["RobotSource", "find_robot", "available_robots", "example_robot_data_dir"]
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+@dataclass(frozen=True)
+class RobotSource:
+    """A URDF on disk and the defaults that go with it."""
+
+    name: str
+    urdf: Path
+    package_dirs: tuple[Path, ...] = ()
+    srdf: Path | None = None
+    srdf_configuration: str | None = None
+    frame: str | None = None
+    task: str | None = None
+    locked_joints: tuple[str, ...] = ()
+    gravity: bool = True
+    notes: str = ""
+
+
+@dataclass(frozen=True)
+class _KnownArm:
+    urdf: str
+    frame: str
+    srdf: str | None = None
+    srdf_configuration: str | None = None
+    task: str = "position"
+    locked_joints: tuple[str, ...] = field(default=())
+
+
+# Defaults for the example-robot-data arms with seven joints in a chain (and
+# kinova, a six-joint arm), so that ``--robot panda`` works with no more flags.
+_KNOWN_ARMS = {
+    "panda": _KnownArm(
+        "panda_description/urdf/panda.urdf",
+        frame="panda_hand",
+        srdf="panda_description/srdf/panda.srdf",
+        srdf_configuration="default",
+    ),
+    "xarm7": _KnownArm(
+        "xarm_description/urdf/xarm7.urdf",
+        frame="link_eef",
+    ),
+    "baxter": _KnownArm(
+        "baxter_description/urdf/baxter.urdf",
+        frame="right_gripper",
+        srdf="baxter_description/srdf/baxter_manipulation.srdf",
+        srdf_configuration="neutral",
+    ),
+    "tiago": _KnownArm(
+        "tiago_description/robots/tiago.urdf",
+        frame="arm_tool_link",
+        locked_joints=("torso_lift_joint",),
+    ),
+    "kinova": _KnownArm(
+        "kinova_description/robots/kinova.urdf",
+        frame="j2s6s200_end_effector",
+        srdf="kinova_description/srdf/kinova.srdf",
+        srdf_configuration="arm_up",
+    ),
+}
+
+_LOCAL_DEFAULTS = {
+    "planar3": {"frame": "tip", "task": "xy", "gravity": False},
+}
+
+
+def _robots_dirs() -> list[Path]:
+    # Installed wheels carry robots/ inside the package; a source checkout
+    # (editable install, tests) has it beside the package.
+    return [p for p in (_PACKAGE_DIR / "robots", _PACKAGE_DIR.parent / "robots") if p.is_dir()]
+
+
+@lru_cache(maxsize=1)
+def example_robot_data_dir() -> Path | None:
+    """The ``robots`` folder of the installed example-robot-data, or None.
+
+    example-robot-data 6.x is a cmeel package: its files live under
+    ``cmeel.prefix/share/example-robot-data/robots`` in site-packages.
+    """
+    candidates = [Path(entry) for entry in sys.path if entry]
+    try:
+        import cmeel
+
+        candidates.insert(0, Path(cmeel.__file__).resolve().parent.parent)
+    except ImportError:
+        pass
+    for base in candidates:
+        robots = base / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+        if robots.is_dir():
+            return robots
+    return None
+
+
+@lru_cache(maxsize=1)
+def _example_robot_urdfs() -> dict[str, Path]:
+    root = example_robot_data_dir()
+    if root is None:
+        return {}
+    found: dict[str, Path] = {}
+    for path in sorted(root.glob("*/**/*.urdf")):
+        found.setdefault(path.stem, path)
+    for name, arm in _KNOWN_ARMS.items():
+        if (root / arm.urdf).is_file():
+            found[name] = root / arm.urdf
+    return found
+
+
+def available_robots() -> list[str]:
+    """Names accepted by :func:`find_robot`: local robots first, then example-robot-data."""
+    local = sorted({p.stem for d in _robots_dirs() for p in d.glob("*.urdf")})
+    return local + sorted(set(_example_robot_urdfs()) - set(local))
+
+
+def find_robot(source: str | Path) -> RobotSource:
+    """Locate a robot by URDF path or by name.
+
+    Raises:
+        RobotNotFound: no such file, or no robot of that name.
+    """
+    from .errors import RobotNotFound
+
+    text = str(source)
+    path = Path(text).expanduser()
+    looks_like_path = path.suffix.lower() == ".urdf" or "/" in text or "\\" in text
+    if looks_like_path:
+        if not path.is_file():
+            raise RobotNotFound(f"URDF file '{text}' does not exist")
+        return RobotSource(name=path.stem, urdf=path.resolve(), package_dirs=_package_dirs_for(path.resolve()))
+
+    for robots_dir in _robots_dirs():
+        local = robots_dir / f"{text}.urdf"
+        if local.is_file():
+            defaults = _LOCAL_DEFAULTS.get(text, {})
+            return RobotSource(name=text, urdf=local, package_dirs=(robots_dir,), **defaults)
+
+    urdfs = _example_robot_urdfs()
+    if text in urdfs:
+        root = example_robot_data_dir()
+        # Meshes are named package://example-robot-data/robots/..., so the
+        # package directory is the "share" folder that holds example-robot-data.
+        package_dirs = (root.parent.parent,)
+        arm = _KNOWN_ARMS.get(text)
+        if arm is None:
+            return RobotSource(name=text, urdf=urdfs[text], package_dirs=package_dirs)
+        return RobotSource(
+            name=text,
+            urdf=urdfs[text],
+            package_dirs=package_dirs,
+            srdf=root / arm.srdf if arm.srdf else None,
+            srdf_configuration=arm.srdf_configuration,
+            frame=arm.frame,
+            task=arm.task,
+            locked_joints=arm.locked_joints,
+        )
+
+    known = available_robots()
+    hint = ", ".join(known[:12]) + (", ..." if len(known) > 12 else "")
+    if example_robot_data_dir() is None:
+        hint += " (example-robot-data is not installed: pip install example-robot-data)"
+    raise RobotNotFound(f"unknown robot '{text}': give a URDF path or one of {hint}")
+
+
+def _package_dirs_for(urdf: Path) -> tuple[Path, ...]:
+    """Folders in which ``package://NAME/...`` mesh URIs of a user URDF may resolve.
+
+    The URDF's own folder and its ancestors cover the usual layouts
+    (``NAME/urdf/robot.urdf`` with meshes in ``NAME/meshes``), and the
+    example-robot-data share folder covers URDFs that reuse its meshes.
+    """
+    dirs = [urdf.parent, *urdf.parent.parents][:4]
+    root = example_robot_data_dir()
+    if root is not None:
+        dirs.append(root.parent.parent)
+    return tuple(dirs)

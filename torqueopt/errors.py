@@ -1,0 +1,59 @@
+"""The exceptions torqueopt raises for bad input and failed computations.
+
+Every message names the offending value and, where there is a finite set of
+valid choices, lists them. The CLI prints the message on one line and exits
+with code 2.
+"""
+
+__all__ = [
+    "TorqueoptError",
+    "InvalidInput",
+    "RobotNotFound",
+    "UrdfError",
+    "FrameNotFound",
+    "ResolverNotFound",
+    "TaskNotFound",
+    "NoRedundancy",
+    "SingularJacobian",
+    "MissingDependency",
+]
+
+
+class TorqueoptError(Exception):
+    """Base class of every error torqueopt raises on purpose."""
+
+
+class InvalidInput(TorqueoptError, ValueError):
+    """A value given by the user is malformed: wrong length, NaN, out of range."""
+
+
+class RobotNotFound(TorqueoptError, LookupError):
+    """No URDF file or known robot answers to the given name."""
+
+
+class UrdfError(TorqueoptError):
+    """A URDF file exists but cannot be parsed into a robot model."""
+
+
+class FrameNotFound(TorqueoptError, LookupError):
+    """The robot has no frame of the given name."""
+
+
+class ResolverNotFound(TorqueoptError, LookupError):
+    """No resolver is registered under the given name."""
+
+
+class TaskNotFound(TorqueoptError, LookupError):
+    """The task kind is not one of the known ones."""
+
+
+class NoRedundancy(TorqueoptError):
+    """The task leaves no null space where the resolver needs one (m >= n)."""
+
+
+class SingularJacobian(TorqueoptError):
+    """The task Jacobian lost rank, so the task acceleration cannot be realised."""
+
+
+class MissingDependency(TorqueoptError, ImportError):
+    """An optional package needed for this feature is not installed."""

@@ -1,0 +1,100 @@
+r"""The resolver contract.
+
+Every resolver of the paper writes the joint acceleration as a particular
+solution plus a null-space motion, Eq. (26):
+
+.. math::
+
+    \ddot q = J^\dagger(\ddot x - \dot J \dot q) + Z y,
+    \qquad \tau = H \ddot q + \dot q \cdot C \cdot \dot q + g,
+
+where :math:`Z` is an orthonormal basis of the null space of :math:`J`
+(:math:`I - J^\dagger J = Z Z^\top`) and :math:`y` are the null-space
+coordinates. A resolver only chooses :math:`y`; every choice realises the
+task exactly, :math:`J\ddot q + \dot J \dot q = \ddot x`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import NoRedundancy
+from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianDecomposition
+from ..robot import Robot, TaskTerms
+
+__all__ = ["Resolution", "Resolver"]
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """What a resolver returns at one state.
+
+    Attributes:
+        torque: joint torques τ [N·m].
+        joint_acceleration: the joint acceleration q̈ these torques produce [rad/s²].
+        jacobian_condition: σ_min/σ_max of the task Jacobian at this state.
+    """
+
+    torque: np.ndarray
+    joint_acceleration: np.ndarray
+    jacobian_condition: float
+
+
+class Resolver(ABC):
+    """Maps a desired task acceleration to joint torques.
+
+    Subclasses set :attr:`name`, document their equation, and implement
+    :meth:`null_space_coordinates`.
+    """
+
+    name: ClassVar[str]
+    #: True when the method is only defined with a null space (m < n).
+    needs_redundancy: ClassVar[bool] = False
+
+    def __init__(self, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        self.singular_tolerance = singular_tolerance
+
+    def check(self, robot: Robot) -> None:
+        """Raise if this resolver cannot serve the robot's task."""
+        if robot.m > robot.nv:
+            raise NoRedundancy(
+                f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' moves it with only "
+                f"n={robot.nv} joints; choose a task with m <= n"
+            )
+        if self.needs_redundancy and robot.m == robot.nv:
+            raise NoRedundancy(
+                f"resolver '{self.name}' needs redundancy but task '{robot.task}' (m={robot.m}) on robot "
+                f"'{robot.name}' (n={robot.nv}) leaves none; choose a task with m < n or resolver pinv / inertia-pinv"
+            )
+
+    def resolve(self, robot: Robot, terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
+        """Joint torques realising ``task_acceleration`` [m/s², rad/s²] at the state of ``terms``.
+
+        Raises:
+            SingularJacobian: the task Jacobian is singular at this state.
+        """
+        decomposition = JacobianDecomposition(terms.jacobian, self.singular_tolerance)
+        particular = decomposition.pseudo_inverse_apply(task_acceleration - terms.drift)
+        basis = decomposition.null_space_basis
+        coordinates = self.null_space_coordinates(robot, terms, basis, particular) if basis.shape[1] else None
+        acceleration = particular if coordinates is None else particular + basis.dot(coordinates)
+        torque = terms.inertia.dot(acceleration) + terms.bias_torque
+        return Resolution(torque, acceleration, decomposition.condition)
+
+    @abstractmethod
+    def null_space_coordinates(
+        self, robot: Robot, terms: TaskTerms, null_space_basis: np.ndarray, particular: np.ndarray
+    ) -> np.ndarray | None:
+        r"""The null-space coordinates :math:`y` (n − m), or None for :math:`y = 0`.
+
+        Args:
+            null_space_basis: :math:`Z`, orthonormal basis of the null space of J.
+            particular: :math:`J^\dagger(\ddot x - \dot J\dot q)` [rad/s²].
+        """
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"

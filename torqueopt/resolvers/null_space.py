@@ -1,0 +1,102 @@
+"""The paper's torque optimisation: a null-space acceleration that brings the
+joint torques closest to the middle of their ranges."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInput, NoRedundancy
+from ..linalg import DEFAULT_SINGULAR_TOLERANCE, least_squares
+from ..robot import Robot, TaskTerms
+from .base import Resolver
+
+__all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
+
+
+def torque_midpoint(robot: Robot) -> np.ndarray:
+    r""":math:`(\tau^+ + \tau^-)/2` [N·m], zero for unbounded joints."""
+    midpoint = 0.5 * (robot.torque_upper + robot.torque_lower)
+    midpoint[~np.isfinite(midpoint)] = 0.0
+    return midpoint
+
+
+class NullSpaceTorque(Resolver):
+    r"""Unweighted null-space torque optimisation, Eqs. (28)-(31), (36).
+
+    With :math:`\tilde\tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q\cdot C\cdot\dot q + g`
+    (Eq. 28), it picks the null-space motion that minimises
+
+    .. math::
+
+        \Big\|\tau - \frac{\tau^+ + \tau^-}{2}\Big\|^2, \qquad
+        \tau = \tilde\tau + H Z y \quad\text{(Eqs. 27, 29)}
+
+    a least-squares problem in :math:`y` whose matrix :math:`HZ` has full
+    column rank n − m. This is Eq. (31) without forming
+    :math:`[H(I - J^\dagger J)]^\dagger`, whose rank n − m a loose
+    pseudoinverse cutoff would get wrong.
+    """
+
+    name = "null-space"
+    needs_redundancy = True
+
+    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
+        inertia_basis = terms.inertia.dot(null_space_basis)
+        torque_offset = torque_midpoint(robot) - terms.inertia.dot(particular) - terms.bias_torque
+        return least_squares(inertia_basis, torque_offset)
+
+
+class WeightedNullSpaceTorque(Resolver):
+    r"""Null-space torque optimisation weighted by torque range, Eqs. (32), (33), (37).
+
+    Minimises :math:`(\tau - \tau_{mid})^\top W (\tau - \tau_{mid})` over the
+    torques that realise the task, with by default
+
+    .. math::
+
+        W = \mathrm{diag}\big(1/(\tau_i^+ - \tau_i^-)^2\big)
+
+    (zero weight for an unbounded joint). A user weight is a vector (the
+    diagonal of W) or a symmetric positive semi-definite n×n matrix.
+    """
+
+    name = "weighted-null-space"
+    needs_redundancy = True
+
+    def __init__(self, weight=None, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        super().__init__(singular_tolerance)
+        self.weight = None if weight is None else np.asarray(weight, dtype=float)
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        if self.weight is None and not np.isfinite(robot.torque_upper - robot.torque_lower).any():
+            raise NoRedundancy(
+                f"resolver '{self.name}' weights torques by their range, but robot '{robot.name}' has no "
+                "finite torque limit; give torque limits or a weight matrix"
+            )
+        self.weight_root(robot)
+
+    def weight_root(self, robot: Robot) -> np.ndarray:
+        r"""A square root :math:`S` with :math:`S^\top S = W` (a vector when W is diagonal)."""
+        if self.weight is None:
+            torque_range = robot.torque_upper - robot.torque_lower
+            return np.where(np.isfinite(torque_range), 1.0 / torque_range, 0.0)
+        weight, n = self.weight, robot.nv
+        if weight.shape == (n,):
+            if not np.isfinite(weight).all() or (weight < 0).any():
+                raise InvalidInput(f"weight {weight.tolist()} must be {n} finite non-negative numbers")
+            return np.sqrt(weight)
+        if weight.shape != (n, n) or not np.isfinite(weight).all() or not np.allclose(weight, weight.T):
+            raise InvalidInput(f"weight must be a vector of {n} values or a symmetric {n}x{n} matrix, got shape {weight.shape}")
+        eigenvalues, eigenvectors = np.linalg.eigh(weight)
+        if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
+            raise InvalidInput(f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}")
+        return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
+
+    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
+        root = self.weight_root(robot)
+        inertia_basis = terms.inertia.dot(null_space_basis)
+        torque_offset = torque_midpoint(robot) - terms.inertia.dot(particular) - terms.bias_torque
+        if root.ndim == 1:
+            return least_squares(root[:, None] * inertia_basis, root * torque_offset)
+        return least_squares(root.dot(inertia_basis), root.dot(torque_offset))

@@ -1,0 +1,47 @@
+"""Resolvers that use a generalised inverse alone, with no torque criterion."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..robot import Robot, TaskTerms
+from .base import Resolver
+
+__all__ = ["PseudoInverse", "InertiaWeightedPseudoInverse"]
+
+
+class PseudoInverse(Resolver):
+    r"""Unweighted pseudoinverse, Eq. (34) of the paper.
+
+    .. math::
+
+        \tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q \cdot C \cdot \dot q + g
+
+    The joint acceleration is the minimum-norm one, :math:`\min \|\ddot q\|^2`.
+    """
+
+    name = "pinv"
+
+    def null_space_coordinates(self, robot, terms, null_space_basis, particular):
+        return None
+
+
+class InertiaWeightedPseudoInverse(Resolver):
+    r"""Inertia-weighted pseudoinverse, Eqs. (16), (19), (35) of the paper.
+
+    .. math::
+
+        \ddot q = J_H^\dagger(\ddot x - \dot J\dot q), \qquad
+        J_H^\dagger = H^{-1}J^\top(J H^{-1} J^\top)^{-1}
+
+    which minimises :math:`\ddot q^\top H \ddot q` over the joint
+    accelerations that realise the task. In null-space coordinates,
+    :math:`y = -(Z^\top H Z)^{-1} Z^\top H\, J^\dagger(\ddot x - \dot J\dot q)`.
+    """
+
+    name = "inertia-pinv"
+
+    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
+        inertia_basis = terms.inertia.dot(null_space_basis)
+        reduced_inertia = null_space_basis.T.dot(inertia_basis)
+        return -np.linalg.solve(reduced_inertia, inertia_basis.T.dot(particular))

@@ -1,0 +1,257 @@
+"""The result of a simulation, its summary figures and its files."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InvalidInput
+
+__all__ = ["SimResult", "atomic_write", "load_result"]
+
+_ARRAY_FIELDS = (
+    "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
+    "jacobian_condition", "torque_upper", "torque_lower",
+)  # fmt: skip
+
+
+@dataclass
+class SimResult:
+    """A simulated run, one row per step start.
+
+    Attributes:
+        t: times [s], shape (N,).
+        q: configuration vectors, (N, nq).
+        joint_angles: one coordinate per joint [rad or m], (N, n).
+        v: joint velocities [rad/s], (N, n).
+        acceleration: joint accelerations the resolver commanded [rad/s²], (N, n).
+        tau: joint torques held over each step [N·m], (N, n).
+        x: task coordinates of the tip [m, rad], (N, m).
+        x_ref: reference task coordinates [m, rad], (N, m).
+        jacobian_condition: σ_min/σ_max of the task Jacobian, (N,).
+        torque_upper, torque_lower: torque limits τ⁺, τ⁻ [N·m] (±inf: unbounded).
+        duration: the requested simulated time [s].
+        stop_reason: why the run ended early, None when it completed.
+        stop_time: when it ended early [s], None when it completed.
+    """
+
+    robot: str
+    frame: str
+    task: str
+    resolver: str
+    joint_names: list[str]
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    joint_angles: np.ndarray
+    v: np.ndarray
+    acceleration: np.ndarray
+    tau: np.ndarray
+    x: np.ndarray
+    x_ref: np.ndarray
+    jacobian_condition: np.ndarray
+    torque_upper: np.ndarray
+    torque_lower: np.ndarray
+    duration: float
+    stop_reason: str | None = None
+    stop_time: float | None = None
+
+    # -- summary ---------------------------------------------------------------
+    @property
+    def completed(self) -> bool:
+        """True when the run reached its duration."""
+        return self.stop_reason is None
+
+    @property
+    def n(self) -> int:
+        return self.tau.shape[1]
+
+    @property
+    def m(self) -> int:
+        return self.x.shape[1]
+
+    @property
+    def peak_torque(self) -> np.ndarray:
+        """Per joint, the largest |τ| over the run [N·m]."""
+        return np.abs(self.tau).max(axis=0) if len(self.t) else np.zeros(self.n)
+
+    @property
+    def torque_ratio(self) -> np.ndarray:
+        """|τ| / limit per row and joint, (N, n); 0 for unbounded joints."""
+        upper = np.where(np.isfinite(self.torque_upper), self.torque_upper, np.inf)
+        lower = np.where(np.isfinite(self.torque_lower), self.torque_lower, -np.inf)
+        return np.where(self.tau >= 0, self.tau / upper, self.tau / lower)
+
+    @property
+    def peak_torque_ratio(self) -> np.ndarray:
+        """Per joint, the largest |τ|/limit over the run (above 1: the limit was exceeded)."""
+        return self.torque_ratio.max(axis=0) if len(self.t) else np.zeros(self.n)
+
+    @property
+    def first_limit_violation(self) -> float | None:
+        """First time any torque exceeds its limit [s], or None."""
+        index = self._first_violation_index()
+        return None if index is None else float(self.t[index])
+
+    @property
+    def first_limit_violation_joint(self) -> str | None:
+        """Name of the joint that first exceeds its limit, or None."""
+        index = self._first_violation_index()
+        if index is None:
+            return None
+        return self.joint_names[int(np.argmax(self.torque_ratio[index]))]
+
+    def _first_violation_index(self) -> int | None:
+        over = (self.torque_ratio > 1.0).any(axis=1)
+        return int(np.argmax(over)) if over.any() else None
+
+    @property
+    def tip_error(self) -> np.ndarray:
+        """Distance between tip and reference position per row [m]."""
+        linear = min(self.m, 3)
+        return np.linalg.norm(self.x[:, :linear] - self.x_ref[:, :linear], axis=1)
+
+    @property
+    def max_tip_error(self) -> float:
+        """Largest tip position error over the run [m]."""
+        return float(self.tip_error.max()) if len(self.t) else 0.0
+
+    @property
+    def max_orientation_error(self) -> float | None:
+        """Largest orientation error for the ``pose`` task [rad], else None."""
+        if self.m != 6 or not len(self.t):
+            return None
+        return float(np.linalg.norm(self.x[:, 3:] - self.x_ref[:, 3:], axis=1).max())
+
+    def summary(self) -> dict:
+        """The run's figures as plain JSON-ready values."""
+        return {
+            "robot": self.robot,
+            "frame": self.frame,
+            "task": self.task,
+            "resolver": self.resolver,
+            "duration": self.duration,
+            "simulated_time": float(self.t[-1]) if len(self.t) else 0.0,
+            "completed": self.completed,
+            "stop_reason": self.stop_reason,
+            "stop_time": self.stop_time,
+            "joint_names": list(self.joint_names),
+            "peak_torque": self.peak_torque.tolist(),
+            "torque_limit": [_json_number(x) for x in self.torque_upper],
+            "peak_torque_ratio": self.peak_torque_ratio.tolist(),
+            "first_limit_violation": self.first_limit_violation,
+            "first_limit_violation_joint": self.first_limit_violation_joint,
+            "max_tip_error": self.max_tip_error,
+            "max_orientation_error": self.max_orientation_error,
+        }
+
+    # -- files -----------------------------------------------------------------
+    def csv_columns(self) -> list[str]:
+        """Column names: t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm."""
+        n, m = self.n, self.m
+        return (
+            ["t"]
+            + [f"q{i}" for i in range(1, n + 1)]
+            + [f"v{i}" for i in range(1, n + 1)]
+            + [f"tau{i}" for i in range(1, n + 1)]
+            + [f"x{i}" for i in range(1, m + 1)]
+            + [f"xref{i}" for i in range(1, m + 1)]
+        )
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """Write the run to ``path``: CSV, or NumPy ``.npz`` when the path ends so.
+
+        The CSV's q columns hold one angle per joint (see
+        :meth:`Robot.joint_angles`). Beside a CSV, ``<path>.json`` keeps what
+        the columns cannot (robot, limits, stop reason) so that
+        :func:`load_result` can read the run back. Files are written to a
+        temporary name and renamed, so they are never left half-written.
+        """
+        path = Path(path)
+        if path.suffix.lower() == ".npz":
+            arrays = {name: getattr(self, name) for name in _ARRAY_FIELDS}
+            atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(self._metadata()), **arrays))
+            return path
+        table = np.column_stack([self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref])
+        header = ",".join(self.csv_columns())
+        atomic_write(path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g"))
+        sidecar = self._metadata()
+        sidecar["torque_upper"] = [_json_number(x) for x in self.torque_upper]
+        sidecar["torque_lower"] = [_json_number(x) for x in self.torque_lower]
+        metadata = json.dumps(sidecar, indent=2).encode()
+        atomic_write(Path(f"{path}.json"), lambda handle: handle.write(metadata))
+        return path
+
+    def _metadata(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _ARRAY_FIELDS}
+
+    def __repr__(self) -> str:
+        status = "completed" if self.completed else f"stopped: {self.stop_reason}"
+        return f"SimResult({self.robot}, {self.resolver}, {len(self.t)} rows, {status})"
+
+
+def load_result(path: str | os.PathLike) -> SimResult:
+    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidInput(f"run file '{path}' does not exist")
+    if path.suffix.lower() == ".npz":
+        with np.load(path, allow_pickle=False) as archive:
+            metadata = json.loads(str(archive["metadata"]))
+            arrays = {name: archive[name] for name in _ARRAY_FIELDS}
+        return SimResult(**metadata, **arrays)
+    sidecar = Path(f"{path}.json")
+    if not sidecar.is_file():
+        raise InvalidInput(f"run file '{path}' has no sidecar '{sidecar}'; write runs with torqueopt run --out")
+    metadata = json.loads(sidecar.read_text())
+    try:
+        with open(path) as handle:
+            header = handle.readline().strip().split(",")
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except (OSError, ValueError) as error:
+        raise InvalidInput(f"run file '{path}' is not a torqueopt CSV: {error}") from None
+    n = len(metadata["joint_names"])
+    m = (len(header) - 1 - 3 * n) // 2
+    if table.shape[1] != len(header) or m < 1:
+        raise InvalidInput(f"run file '{path}' has {table.shape[1]} columns, which do not fit {n} joints")
+    columns = np.split(table, np.cumsum([1, n, n, n, m]), axis=1)
+    t, angles, v, tau, x, x_ref = columns
+    upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
+    lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
+    return SimResult(
+        **metadata,
+        t=t[:, 0],
+        q=angles,
+        joint_angles=angles,
+        v=v,
+        acceleration=np.full_like(v, np.nan),
+        tau=tau,
+        x=x,
+        x_ref=x_ref,
+        jacobian_condition=np.full(len(t), np.nan),
+        torque_upper=upper,
+        torque_lower=lower,
+    )
+
+
+def atomic_write(path: Path, write) -> None:
+    """Call ``write(binary_handle)`` on a temporary file beside ``path``, then rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=f".{path.name}.", suffix=".part", delete=False)
+    try:
+        with handle:
+            write(handle)
+        os.replace(handle.name, path)
+    except BaseException:
+        os.unlink(handle.name)
+        raise
+
+
+def _json_number(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None

@@ -1,0 +1,417 @@
+r"""The robot model: a Pinocchio model, a task frame and a task kind.
+
+At a state :math:`(q, \dot q)` a :class:`Robot` gives every term the
+resolvers need, all computed by Pinocchio:
+
+* the joint-space inertia :math:`H(q)` (CRBA), symmetric, in [kg·m²];
+* the bias torques :math:`b(q,\dot q) = \dot q \cdot C \cdot \dot q + g(q)`
+  (RNEA with zero acceleration), in [N·m], Eq. (20) of the paper;
+* the task Jacobian :math:`J` and drift :math:`\dot J \dot q` in the
+  world-aligned frame at the task frame's origin, Eq. (18).
+
+Tasks:
+
+``xy``
+    planar tip position (m = 2), the paper's task.
+``position``
+    3-D position of the frame origin (m = 3).
+``pose``
+    position and orientation (m = 6). The orientation coordinates are the
+    rotation vector :math:`\log(R R_0^\top)` of the frame's rotation relative
+    to a reference rotation :math:`R_0` in world axes; their rates and
+    accelerations are the world angular velocity and acceleration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .catalog import RobotSource, find_robot
+from .errors import FrameNotFound, InvalidInput, TaskNotFound, UrdfError
+
+__all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "load_robot"]
+
+TASK_DIMENSIONS = {"xy": 2, "position": 3, "pose": 6}
+_TASK_ROWS = {"xy": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@dataclass(frozen=True)
+class TaskTerms:
+    r"""Dynamic and task terms at one state.
+
+    Attributes:
+        inertia: joint-space inertia :math:`H` (n×n) [kg·m², kg].
+        bias_torque: :math:`\dot q \cdot C \cdot \dot q + g` (n) [N·m].
+        jacobian: task Jacobian :math:`J` (m×n), world-aligned.
+        drift: :math:`\dot J \dot q` (m), the classical task acceleration at
+            zero joint acceleration [m/s², rad/s²].
+        placement: pose of the task frame in the world (Pinocchio SE3).
+        task_velocity: :math:`J \dot q` (m) [m/s, rad/s].
+    """
+
+    inertia: np.ndarray
+    bias_torque: np.ndarray
+    jacobian: np.ndarray
+    drift: np.ndarray
+    placement: pin.SE3
+    task_velocity: np.ndarray
+
+
+class Robot:
+    """A Pinocchio model with a task frame, a task kind and torque limits.
+
+    Build one with :func:`load_robot`. Joints outside the chain that carries
+    the task frame (the other arm, a gripper, a mobile base) are locked at
+    their reference values, so ``nv`` counts only the joints that move the
+    task frame.
+    """
+
+    def __init__(
+        self,
+        model: pin.Model,
+        frame: str,
+        task: str,
+        *,
+        name: str = "robot",
+        source: RobotSource | None = None,
+        torque_limit=None,
+        gravity=True,
+        locked_joints: tuple[str, ...] = (),
+        full_model: pin.Model | None = None,
+        locked_configuration: np.ndarray | None = None,
+        default_configuration: np.ndarray | None = None,
+    ):
+        if task not in TASK_DIMENSIONS:
+            raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
+        if not model.existFrame(frame):
+            raise FrameNotFound(f"robot '{name}' has no frame '{frame}': choose one of {_frame_hint(model)}")
+        self.model = model
+        self.data = model.createData()
+        self.name = name
+        self.source = source
+        self.frame = frame
+        self.frame_id = model.getFrameId(frame)
+        self.task = task
+        self.task_rows = _TASK_ROWS[task]
+        self.locked_joints = tuple(locked_joints)
+        self.full_model = full_model if full_model is not None else model
+        self.locked_configuration = locked_configuration
+        self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
+        self._neutral = pin.neutral(model)
+        self._default_configuration = (
+            self._neutral.copy() if default_configuration is None else np.asarray(default_configuration, float)
+        )
+        self.set_gravity(gravity)
+        self.urdf_effort_limit = np.array(model.effortLimit, dtype=float)
+        self.set_torque_limit(torque_limit)
+
+    # -- sizes --------------------------------------------------------------
+    @property
+    def nq(self) -> int:
+        """Size of a configuration vector (2 per continuous joint)."""
+        return self.model.nq
+
+    @property
+    def nv(self) -> int:
+        """Number of joint velocities n: the joints that move the task frame."""
+        return self.model.nv
+
+    @property
+    def m(self) -> int:
+        """Task dimension m."""
+        return TASK_DIMENSIONS[self.task]
+
+    @property
+    def redundancy(self) -> int:
+        """Degree of redundancy n - m."""
+        return self.nv - self.m
+
+    # -- settings -------------------------------------------------------------
+    def set_gravity(self, gravity) -> None:
+        """Switch gravity on (``True``: -9.81 m/s² along world z), off, or set its vector [m/s²]."""
+        if gravity is True:
+            vector = np.array([0.0, 0.0, -9.81])
+        elif gravity is False or gravity is None:
+            vector = np.zeros(3)
+        else:
+            vector = _finite_vector(gravity, 3, "gravity")
+        self.model.gravity.linear = vector
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravity vector in world axes [m/s²]."""
+        return np.array(self.model.gravity.linear)
+
+    def set_torque_limit(self, torque_limit=None) -> None:
+        r"""Set symmetric torque limits :math:`\tau^+ = -\tau^-` [N·m].
+
+        ``None`` takes the URDF's effort limits; a scalar applies to every
+        joint; a vector gives one limit per joint. A URDF limit that is zero,
+        infinite or missing means "unbounded" (recorded in
+        :attr:`joints_without_torque_limit`); a limit given here must be
+        positive, and ``inf`` marks a joint as unbounded on purpose.
+        """
+        if torque_limit is None:
+            limit = self.urdf_effort_limit.copy()
+            limit[~np.isfinite(limit) | (limit <= 0)] = np.inf
+        else:
+            values = np.atleast_1d(np.asarray(torque_limit, dtype=float))
+            if values.size == 1:
+                values = np.full(self.nv, values.item())
+            if values.shape != (self.nv,):
+                raise InvalidInput(
+                    f"torque limit has {values.size} values; robot '{self.name}' needs 1 or {self.nv} "
+                    f"(joints {', '.join(self.joint_names)})"
+                )
+            if np.isnan(values).any() or (values <= 0).any():
+                raise InvalidInput(f"torque limit {values.tolist()} must be positive numbers (inf for unbounded)")
+            limit = values
+        self.torque_upper = limit
+        self.torque_lower = -limit
+
+    @property
+    def torque_limit(self) -> np.ndarray:
+        """Symmetric torque limit per joint [N·m]; ``inf`` where unbounded."""
+        return self.torque_upper
+
+    @property
+    def joints_without_torque_limit(self) -> list[str]:
+        """Joints whose torque is unbounded (no usable limit in the URDF, or set so)."""
+        return [name for name, hi in zip(self.joint_names, self.torque_upper) if not np.isfinite(hi)]
+
+    # -- configurations -------------------------------------------------------
+    @property
+    def default_configuration(self) -> np.ndarray:
+        """The SRDF reference configuration when there is one, else Pinocchio's neutral."""
+        return self._default_configuration.copy()
+
+    def configuration(self, joint_angles) -> np.ndarray:
+        """Configuration vector from one coordinate per joint (angles in [rad], lengths in [m]).
+
+        For continuous joints, whose configuration is (cos, sin), the angle is
+        measured from Pinocchio's neutral configuration.
+        """
+        angles = _finite_vector(joint_angles, self.nv, "q0", names=self.joint_names)
+        return pin.integrate(self.model, self._neutral, angles)
+
+    def joint_angles(self, configuration) -> np.ndarray:
+        """Inverse of :meth:`configuration`: one coordinate per joint."""
+        return pin.difference(self.model, self._neutral, np.asarray(configuration, float))
+
+    def check_velocity(self, velocity) -> np.ndarray:
+        """A validated joint velocity vector (n values, finite) [rad/s]."""
+        return _finite_vector(velocity, self.nv, "v0", names=self.joint_names)
+
+    # -- dynamics -------------------------------------------------------------
+    def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:
+        """Inertia, bias torques, task Jacobian and drift at (q, v), all from Pinocchio."""
+        model, data, frame_id = self.model, self.data, self.frame_id
+        pin.computeAllTerms(model, data, q, v)
+        placement = pin.updateFramePlacement(model, data, frame_id)
+        jacobian6 = pin.getFrameJacobian(model, data, frame_id, _LWA)
+        # computeAllTerms leaves the kinematics at zero joint acceleration, so
+        # the classical acceleration of the frame is exactly J̇q̇.
+        drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
+        rows = self.task_rows
+        jacobian = jacobian6[rows]
+        return TaskTerms(
+            inertia=data.M.copy(),
+            bias_torque=data.nle.copy(),
+            jacobian=jacobian,
+            drift=drift6[rows],
+            placement=placement,
+            task_velocity=jacobian.dot(v),
+        )
+
+    def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """Joint acceleration from torque, by Pinocchio's ABA [rad/s²]."""
+        return pin.aba(self.model, self.data, q, v, tau)
+
+    def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Configuration reached from q by the joint displacement dq."""
+        return pin.integrate(self.model, q, dq)
+
+    def frame_placement(self, q: np.ndarray) -> pin.SE3:
+        """World pose of the task frame at configuration q."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self.data.oMf[self.frame_id].copy()
+
+    def task_coordinates(self, placement: pin.SE3, reference_rotation: np.ndarray | None = None) -> np.ndarray:
+        """Task coordinates x (m) of a frame placement; see the module docstring for ``pose``."""
+        if self.task == "pose":
+            reference = np.eye(3) if reference_rotation is None else reference_rotation
+            return np.concatenate([placement.translation, pin.log3(placement.rotation.dot(reference.T))])
+        return placement.translation[self.task_rows].copy()
+
+    def task_position(self, q: np.ndarray, reference_rotation: np.ndarray | None = None) -> np.ndarray:
+        """Task coordinates x (m) at configuration q."""
+        return self.task_coordinates(self.frame_placement(q), reference_rotation)
+
+    def __repr__(self) -> str:
+        return (
+            f"Robot({self.name!r}, frame={self.frame!r}, task={self.task!r}, n={self.nv}, m={self.m}, "
+            f"torque_limit={self.torque_limit.tolist()})"
+        )
+
+
+def load_robot(
+    source: str | Path,
+    frame: str | None = None,
+    task: str | None = None,
+    *,
+    torque_limit=None,
+    gravity=None,
+    lock: tuple[str, ...] | list[str] = (),
+    reference_configuration=None,
+) -> Robot:
+    """Load a robot from a URDF path, a file in ``robots/`` or an example-robot-data name.
+
+    Args:
+        source: URDF path, ``planar3``, ``panda``, ``xarm7``, ``baxter``, ...
+        frame: task frame; defaults to the catalogue's choice for known
+            robots, else the single leaf link of the URDF.
+        task: ``xy``, ``position`` or ``pose``; defaults to ``xy`` for
+            planar3 and ``position`` otherwise.
+        torque_limit: override of the URDF effort limits [N·m], see
+            :meth:`Robot.set_torque_limit`.
+        gravity: ``True`` (−9.81 m/s² along z), ``False`` or a 3-vector;
+            defaults to off for the paper's arm and on otherwise.
+        lock: joints of the task chain to lock as well (the joints outside
+            the chain are always locked).
+        reference_configuration: full-model configuration at which locked
+            joints are held; defaults to the SRDF configuration or neutral.
+
+    Raises:
+        RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput.
+    """
+    robot_source = find_robot(source)
+    mimic_joints = _validate_urdf(robot_source.urdf)
+    full_model = _build_model(robot_source.urdf, mimic=False)
+    if full_model.nv == 0:
+        raise UrdfError(f"URDF '{robot_source.urdf}' has no movable joint")
+
+    frame = frame or robot_source.frame or _single_leaf_frame(full_model, robot_source.urdf)
+    task = task or robot_source.task or "position"
+    if task not in TASK_DIMENSIONS:
+        raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
+    if not full_model.existFrame(frame):
+        raise FrameNotFound(f"robot '{robot_source.name}' has no frame '{frame}': choose one of {_frame_hint(full_model)}")
+
+    chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    if any(full_model.names[j] in mimic_joints for j in chain):
+        # A mimic joint that moves the task frame must follow its leader;
+        # mimic joints elsewhere (grippers) are locked and can stay independent.
+        full_model = _build_model(robot_source.urdf, mimic=True)
+        chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    full_reference = _full_reference_configuration(full_model, robot_source, reference_configuration)
+    extra_locks = set(robot_source.locked_joints) | set(lock)
+    for joint in extra_locks:
+        if not full_model.existJointName(joint):
+            raise InvalidInput(f"cannot lock joint '{joint}': robot '{robot_source.name}' has joints {', '.join(list(full_model.names)[1:])}")
+    locked_ids = [
+        j
+        for j in range(1, full_model.njoints)
+        if full_model.joints[j].nv > 0 and (j not in chain or full_model.names[j] in extra_locks)
+    ]
+    if locked_ids:
+        model = pin.buildReducedModel(full_model, locked_ids, full_reference)
+    else:
+        model = full_model.copy()
+    if model.nv == 0:
+        raise InvalidInput(f"frame '{frame}' of robot '{robot_source.name}' is not moved by any joint")
+
+    default_configuration = _reduce_configuration(full_model, model, full_reference)
+    return Robot(
+        model,
+        frame,
+        task,
+        name=robot_source.name,
+        source=robot_source,
+        torque_limit=torque_limit,
+        gravity=robot_source.gravity if gravity is None else gravity,
+        locked_joints=tuple(full_model.names[j] for j in locked_ids),
+        full_model=full_model,
+        locked_configuration=full_reference,
+        default_configuration=default_configuration,
+    )
+
+
+def _build_model(urdf: Path, mimic: bool) -> pin.Model:
+    try:
+        return pin.buildModelFromUrdf(str(urdf), mimic=mimic)
+    except (RuntimeError, ValueError) as error:
+        raise UrdfError(f"Pinocchio cannot build a model from '{urdf}': {error}") from None
+
+
+def _validate_urdf(path: Path) -> set[str]:
+    """Parse with yourdfpy first, since unlike Pinocchio it names the broken tag.
+
+    Returns the names of the URDF's mimic joints.
+    """
+    import yourdfpy
+
+    try:
+        urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)
+    except Exception as error:  # yourdfpy raises lxml, KeyError, ValueError... for broken files
+        detail = " ".join(str(error).split()) or type(error).__name__
+        raise UrdfError(f"malformed URDF '{path}': {detail}") from None
+    if not urdf.validate():
+        problems = "; ".join(getattr(urdf, "errors", []) or ["yourdfpy validation failed"])
+        raise UrdfError(f"malformed URDF '{path}': {problems}")
+    return {joint.name for joint in urdf.robot.joints if joint.mimic is not None}
+
+
+def _single_leaf_frame(model: pin.Model, urdf: Path) -> str:
+    parents = {model.frames[f].parentFrame for f in range(len(model.frames))}
+    leaves = [
+        frame.name
+        for index, frame in enumerate(model.frames)
+        if frame.type == pin.FrameType.BODY and index not in parents
+    ]
+    if len(leaves) == 1:
+        return leaves[0]
+    raise FrameNotFound(f"URDF '{urdf}' has several end links; name the task frame with --frame, one of {', '.join(leaves)}")
+
+
+def _frame_hint(model: pin.Model) -> str:
+    names = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
+    shown = ", ".join(names[-12:])
+    return ("..., " if len(names) > 12 else "") + shown
+
+
+def _full_reference_configuration(full_model, robot_source: RobotSource, reference_configuration) -> np.ndarray:
+    if reference_configuration is not None:
+        return _finite_vector(reference_configuration, full_model.nq, "reference configuration")
+    if robot_source.srdf is not None and robot_source.srdf_configuration:
+        pin.loadReferenceConfigurations(full_model, str(robot_source.srdf), False)
+        if robot_source.srdf_configuration in full_model.referenceConfigurations:
+            return np.array(full_model.referenceConfigurations[robot_source.srdf_configuration])
+    return pin.neutral(full_model)
+
+
+def _reduce_configuration(full_model, model, full_configuration) -> np.ndarray:
+    reduced = pin.neutral(model)
+    for joint_id in range(1, model.njoints):
+        full_id = full_model.getJointId(model.names[joint_id])
+        full_joint, joint = full_model.joints[full_id], model.joints[joint_id]
+        reduced[joint.idx_q : joint.idx_q + joint.nq] = full_configuration[full_joint.idx_q : full_joint.idx_q + full_joint.nq]
+    return reduced
+
+
+def _finite_vector(values, size: int, what: str, names=None) -> np.ndarray:
+    """A float vector of the given size with only finite entries, or InvalidInput."""
+    try:
+        vector = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{what} {values!r} is not a vector of numbers") from None
+    if vector.size != size:
+        joints = f" (joints {', '.join(names)})" if names else ""
+        raise InvalidInput(f"{what} has {vector.size} values but needs {size}{joints}")
+    if not np.isfinite(vector).all():
+        raise InvalidInput(f"{what} {vector.tolist()} has a non-finite value; all {size} values must be finite")
+    return vector

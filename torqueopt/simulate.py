@@ -1,0 +1,286 @@
+r"""Simulation of a resolver tracking a tip trajectory, as in Section 3 of the paper.
+
+At the start of each step :math:`[t_k, t_k + \Delta t]` the resolver maps
+the reference task acceleration to joint torques :math:`\tau_k`; the torque
+is held over the step while the forward dynamics
+:math:`\ddot q = H^{-1}(\tau_k - \dot q\cdot C\cdot\dot q - g)` (Pinocchio's
+ABA) is integrated by classical fourth-order Runge-Kutta. The paper used
+:math:`\Delta t = 1` ms and open loop (no feedback of the tip error); task
+feedback :math:`\ddot x = \ddot x_{ref} + K_D(\dot x_{ref} - \dot x) + K_P(x_{ref} - x)`
+is an option.
+
+A run stops early, keeping every row computed so far, when the task Jacobian
+becomes singular, when a torque or the state stops being finite, or when the
+motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
+``max_torque_ratio`` times its limit).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InvalidInput, SingularJacobian
+from .resolvers import Resolver, get_resolver
+from .result import SimResult
+from .robot import Robot
+from .trajectory import StraightLine
+
+__all__ = ["simulate", "rk4_step", "resolve", "Feedback"]
+
+#: Joint speed [rad/s or m/s] beyond which a run is declared diverged.
+DEFAULT_MAX_JOINT_SPEED = 1.0e3
+#: Torque, as a multiple of its limit, beyond which a run is declared diverged.
+DEFAULT_MAX_TORQUE_RATIO = 1.0e3
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """Task-space PD gains: ẍ = ẍ_ref + kd (ẋ_ref − ẋ) + kp (x_ref − x); kp in [1/s²], kd in [1/s]."""
+
+    kp: float
+    kd: float
+
+    def __post_init__(self):
+        for name in ("kp", "kd"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InvalidInput(f"feedback gain {name}={value!r} must be a finite number >= 0")
+
+
+def rk4_step(robot: Robot, q, v, tau, dt: float, acceleration=None):
+    """One classical RK4 step of the forward dynamics with the torque held constant.
+
+    Configurations are advanced with Pinocchio's ``integrate`` so continuous
+    joints stay on their circle; for ordinary joints this is plain addition.
+
+    Args:
+        acceleration: ABA(q, v, tau) when the caller already has it.
+
+    Returns:
+        (q, v) after the step.
+    """
+    half = 0.5 * dt
+    a1 = robot.forward_dynamics(q, v, tau) if acceleration is None else acceleration
+    v2 = v + half * a1
+    a2 = robot.forward_dynamics(robot.integrate(q, half * v), v2, tau)
+    v3 = v + half * a2
+    a3 = robot.forward_dynamics(robot.integrate(q, half * v2), v3, tau)
+    v4 = v + dt * a3
+    a4 = robot.forward_dynamics(robot.integrate(q, dt * v3), v4, tau)
+    sixth = dt / 6.0
+    q_next = robot.integrate(q, sixth * (v + 2.0 * (v2 + v3) + v4))
+    v_next = v + sixth * (a1 + 2.0 * (a2 + a3) + a4)
+    return q_next, v_next
+
+
+def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration) -> np.ndarray:
+    """Joint torques [N·m] that ``resolver`` gives for ``task_acceleration`` at state (q, v).
+
+    ``q`` is a configuration vector (as from :meth:`Robot.configuration`),
+    ``v`` the joint velocities [rad/s], ``task_acceleration`` the m-vector ẍ.
+    """
+    resolver = get_resolver(resolver)
+    resolver.check(robot)
+    q = _configuration(robot, q)
+    v = robot.check_velocity(v)
+    task_acceleration = _task_vector(robot, task_acceleration, "task acceleration")
+    return resolver.resolve(robot, robot.terms(q, v), task_acceleration).torque
+
+
+def simulate(
+    robot: Robot,
+    resolver: str | Resolver,
+    trajectory: StraightLine,
+    q0,
+    v0=None,
+    dt: float = 1e-3,
+    *,
+    duration: float | None = None,
+    feedback: Feedback | tuple[float, float] | None = None,
+    max_joint_speed: float = DEFAULT_MAX_JOINT_SPEED,
+    max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
+) -> SimResult:
+    """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
+
+    Args:
+        robot: from :func:`torqueopt.load_robot`.
+        resolver: a registered name (see :func:`torqueopt.resolver_names`) or a Resolver.
+        trajectory: the tip reference; anchored at the tip's position at q0
+            when it has no start.
+        q0: initial configuration, either a configuration vector (nq) or one
+            angle per joint (n) [rad].
+        v0: initial joint velocities [rad/s]; zero by default.
+        dt: step [s]; the torque is held over each step.
+        duration: simulated time [s]; the trajectory's duration by default.
+        feedback: task-space PD gains (kp, kd); open loop when None.
+        max_joint_speed: a joint speed beyond this [rad/s] ends the run as diverged.
+        max_torque_ratio: a torque beyond this multiple of its limit ends the run as diverged.
+
+    Returns:
+        SimResult with one row per step start, t = 0, dt, ..., duration.
+    """
+    resolver = get_resolver(resolver)
+    resolver.check(robot)
+    _check_positive(dt, "dt")
+    duration = trajectory.duration if duration is None else duration
+    _check_positive(duration, "duration")
+    if dt > duration:
+        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    if feedback is not None and not isinstance(feedback, Feedback):
+        feedback = Feedback(*feedback)
+
+    q = _configuration(robot, q0)
+    v = np.zeros(robot.nv) if v0 is None else robot.check_velocity(v0)
+    placement = robot.frame_placement(q)
+    reference_rotation = placement.rotation.copy()
+    linear_dimension = min(robot.m, 3)
+    if trajectory.direction.size != linear_dimension:
+        raise InvalidInput(
+            f"direction has {trajectory.direction.size} values but task '{robot.task}' moves the tip in "
+            f"{linear_dimension} dimensions"
+        )
+    if trajectory.start is None:
+        trajectory = trajectory.anchored(placement.translation[:linear_dimension])
+
+    steps = int(round(duration / dt))
+    times = dt * np.arange(steps + 1)
+    reference = _task_reference(robot, trajectory, times)
+
+    n, m = robot.nv, robot.m
+    rows = steps + 1
+    q_log = np.empty((rows, robot.nq))
+    v_log = np.empty((rows, n))
+    acceleration_log = np.empty((rows, n))
+    torque_log = np.empty((rows, n))
+    x_log = np.empty((rows, m))
+    condition_log = np.empty(rows)
+    limit = robot.torque_upper
+    torque_ceiling = (max_torque_ratio * limit).tolist()
+    resolve_at = resolver.resolve
+    ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
+
+    stop_reason = None
+    stop_time = None
+    recorded = 0
+    for k in range(rows):
+        t = times[k]
+        terms = robot.terms(q, v)
+        x = robot.task_coordinates(terms.placement, reference_rotation)
+        command = ref_acceleration[k]
+        if feedback is not None:
+            command = (
+                command
+                + feedback.kd * (ref_velocity[k] - terms.task_velocity)
+                + feedback.kp * _task_error(robot, ref_position[k], x)
+            )
+        try:
+            resolution = resolve_at(robot, terms, command)
+        except SingularJacobian as error:
+            stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
+            break
+        tau = resolution.torque
+        torque_list = tau.tolist()
+        if not all(map(math.isfinite, torque_list)):
+            stop_reason, stop_time = f"torque became non-finite at t = {t:.4f} s", t
+            break
+        if any(abs(value) > ceiling for value, ceiling in zip(torque_list, torque_ceiling)):
+            joint = int(np.argmax(np.abs(tau) / limit))
+            stop_reason = (
+                f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
+                f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
+            )
+            stop_time = t
+            break
+        q_log[k] = q
+        v_log[k] = v
+        acceleration_log[k] = resolution.joint_acceleration
+        torque_log[k] = tau
+        x_log[k] = x
+        condition_log[k] = resolution.jacobian_condition
+        recorded = k + 1
+        if k == steps:
+            break
+        q, v = rk4_step(robot, q, v, tau, dt, resolution.joint_acceleration)
+        # One dot product tells both: a NaN or inf anywhere makes it non-finite.
+        if not math.isfinite(q.dot(q) + v.dot(v)):
+            stop_reason, stop_time = f"state became non-finite during the step from t = {t:.4f} s", t + dt
+            break
+        speed = max(map(abs, v.tolist()))
+        if speed > max_joint_speed:
+            joint = int(np.argmax(np.abs(v)))
+            stop_reason = (
+                f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
+                f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
+            )
+            stop_time = t + dt
+            break
+
+    return SimResult(
+        robot=robot.name,
+        frame=robot.frame,
+        task=robot.task,
+        resolver=resolver.name,
+        joint_names=list(robot.joint_names),
+        dt=dt,
+        t=times[:recorded].copy(),
+        q=q_log[:recorded].copy(),
+        joint_angles=np.array([robot.joint_angles(qk) for qk in q_log[:recorded]]).reshape(recorded, n),
+        v=v_log[:recorded].copy(),
+        acceleration=acceleration_log[:recorded].copy(),
+        tau=torque_log[:recorded].copy(),
+        x=x_log[:recorded].copy(),
+        x_ref=ref_position[:recorded].copy(),
+        jacobian_condition=condition_log[:recorded].copy(),
+        torque_upper=robot.torque_upper.copy(),
+        torque_lower=robot.torque_lower.copy(),
+        duration=duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+    )
+
+
+def _task_reference(robot: Robot, trajectory: StraightLine, times: np.ndarray):
+    """The trajectory's samples embedded in the task coordinates (zero orientation rows for ``pose``)."""
+    sample = trajectory.sample(times)
+    if robot.task != "pose":
+        return sample
+    pad = np.zeros((times.size, 3))
+    return type(sample)(
+        position=np.hstack([sample.position, pad]),
+        velocity=np.hstack([sample.velocity, pad]),
+        acceleration=np.hstack([sample.acceleration, pad]),
+    )
+
+
+def _task_error(robot: Robot, reference: np.ndarray, x: np.ndarray) -> np.ndarray:
+    # For pose, x holds log(R R0ᵀ) and the reference orientation is R0, so
+    # reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
+    return reference - x
+
+
+def _configuration(robot: Robot, q) -> np.ndarray:
+    """A configuration vector from either nq configuration values or n joint angles."""
+    try:
+        values = np.asarray(q, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"q0 {q!r} is not a vector of numbers") from None
+    if robot.nq != robot.nv and values.size == robot.nq:
+        if not np.isfinite(values).all():
+            raise InvalidInput(f"q0 {values.tolist()} has a non-finite value; all {robot.nq} values must be finite")
+        return values
+    return robot.configuration(values)
+
+
+def _task_vector(robot: Robot, values, what: str) -> np.ndarray:
+    vector = np.asarray(values, dtype=float).reshape(-1)
+    if vector.size != robot.m or not np.isfinite(vector).all():
+        raise InvalidInput(f"{what} {vector.tolist()} must be {robot.m} finite numbers for task '{robot.task}'")
+    return vector
+
+
+def _check_positive(value, name: str) -> None:
+    if not (isinstance(value, (int, float, np.floating)) and np.isfinite(value) and value > 0):
+        raise InvalidInput(f"{name}={value!r} must be a positive number of seconds")
