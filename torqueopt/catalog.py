@@ -172,8 +172,12 @@ def find_robot(source: str | Path) -> RobotSource:
             locked_joints=arm.locked_joints,
         )
 
-    known = available_robots()
-    hint = ", ".join(known[:12]) + (", ..." if len(known) > 12 else "")
+    local = sorted({p.stem for d in _robots_dirs() for p in d.glob("*.urdf")})
+    arms = [name for name in _KNOWN_ARMS if name in urdfs]
+    others = len(set(urdfs) - set(arms) - set(local))
+    hint = ", ".join(local + arms)
+    if others:
+        hint += f", or one of {others} more URDF names from example-robot-data"
     if example_robot_data_dir() is None:
         hint += " (example-robot-data is not installed: pip install example-robot-data)"
     raise RobotNotFound(f"unknown robot '{text}': give a URDF path or one of {hint}")

@@ -348,20 +348,77 @@ def _build_model(urdf: Path, mimic: bool) -> pin.Model:
         raise UrdfError(f"Pinocchio cannot build a model from '{urdf}': {error}") from None
 
 
+# Attributes that must hold numbers, by tag: checked before yourdfpy, whose
+# message for a bad number does not say where it is.
+_NUMERIC_ATTRIBUTES = {
+    "mass": ("value",),
+    "inertia": ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+    "origin": ("xyz", "rpy"),
+    "axis": ("xyz",),
+    "limit": ("lower", "upper", "effort", "velocity"),
+    "mimic": ("multiplier", "offset"),
+}
+
+
 def _validate_urdf(path: Path) -> set[str]:
-    """Parse with yourdfpy first, since unlike Pinocchio it names the broken tag.
+    """Check a URDF before Pinocchio reads it, naming the broken tag when it is broken.
 
     Returns the names of the URDF's mimic joints.
     """
+    import logging
+    import xml.etree.ElementTree as ElementTree
+
     import yourdfpy
 
+    try:
+        root = ElementTree.parse(path).getroot()
+    except ElementTree.ParseError as error:
+        raise UrdfError(f"malformed URDF '{path}': XML syntax error: {error}") from None
+    if root.tag != "robot":
+        raise UrdfError(f"malformed URDF '{path}': the root element is <{root.tag}>, a URDF's must be <robot>")
+    if not root.get("name"):
+        raise UrdfError(f"malformed URDF '{path}': <robot> has no name attribute")
+    link_names = {link.get("name") for link in root.iter("link") if link.get("name")}
+    for element in root:
+        if element.tag in ("link", "joint") and not element.get("name"):
+            raise UrdfError(f"malformed URDF '{path}': a <{element.tag}> has no name attribute")
+    for joint in root.findall("joint"):
+        for tag in ("parent", "child"):
+            reference = joint.find(tag)
+            link = None if reference is None else reference.get("link")
+            if not link:
+                raise UrdfError(f"malformed URDF '{path}': <joint name=\"{joint.get('name')}\"> has no <{tag} link=\"...\"/>")
+            if link not in link_names:
+                raise UrdfError(
+                    f"malformed URDF '{path}': <joint name=\"{joint.get('name')}\"> has {tag} link '{link}', "
+                    "which is not a <link> of the file"
+                )
+    for owner in root:
+        for element in owner.iter():
+            for attribute in _NUMERIC_ATTRIBUTES.get(element.tag, ()):
+                text = element.get(attribute)
+                if text is None:
+                    continue
+                try:
+                    [float(value) for value in text.split()]
+                except ValueError:
+                    raise UrdfError(
+                        f"malformed URDF '{path}': <{element.tag} {attribute}=\"{text}\"> in "
+                        f"<{owner.tag} name=\"{owner.get('name')}\"> is not a number"
+                    ) from None
+
+    logger = logging.getLogger("yourdfpy")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)  # its fallback parser logs noise for files we already checked
     try:
         urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)
     except Exception as error:  # yourdfpy raises lxml, KeyError, ValueError... for broken files
         detail = " ".join(str(error).split()) or type(error).__name__
         raise UrdfError(f"malformed URDF '{path}': {detail}") from None
+    finally:
+        logger.setLevel(level)
     if not urdf.validate():
-        problems = "; ".join(getattr(urdf, "errors", []) or ["yourdfpy validation failed"])
+        problems = "; ".join(str(problem) for problem in urdf.errors) or "yourdfpy validation failed"
         raise UrdfError(f"malformed URDF '{path}': {problems}")
     return {joint.name for joint in urdf.robot.joints if joint.mimic is not None}
 

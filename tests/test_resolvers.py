@@ -1,0 +1,189 @@
+"""The resolver contract, checked for every registered resolver at seeded random
+states on the planar arm and on 7-DOF arms:
+
+* the torque realises the task exactly: with q̈ = ABA(q, q̇, τ) computed by
+  Pinocchio from the torque alone, J q̈ + J̇q̇ = ẍ;
+* each resolver is the optimum of its own criterion, checked against the
+  paper's closed formulas (Eqs. 16, 31, 33), computed independently with
+  numpy's pseudoinverse truncated to the known rank, and against the
+  first-order optimality conditions.
+"""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.errors import NoRedundancy, SingularJacobian
+from torqueopt.resolvers.null_space import torque_midpoint
+
+ROBOTS = ["planar3", "panda", "panda_pose", "xarm7"]
+
+
+def random_cases(robot, rng, count=6):
+    for _ in range(count):
+        q = pin.randomConfiguration(robot.model) if robot.nv > 3 else rng.uniform(-np.pi, np.pi, 3)
+        v = rng.uniform(-1.5, 1.5, robot.nv)
+        xdd = rng.uniform(-2.0, 2.0, robot.m)
+        terms = robot.terms(q, v)
+        if np.linalg.svd(terms.jacobian, compute_uv=False)[-1] < 1e-3:
+            continue
+        yield q, v, xdd, terms
+
+
+def truncated_pinv(matrix, rank):
+    """Moore-Penrose pseudoinverse keeping exactly ``rank`` singular values."""
+    u, s, vt = np.linalg.svd(matrix)
+    return (vt[:rank].T / s[:rank]).dot(u[:, :rank].T)
+
+
+def paper_torque(robot, name, terms, xdd):
+    """τ from the paper's formulas, Eqs. (34)-(37), written literally."""
+    H, b, J = terms.inertia, terms.bias_torque, terms.jacobian
+    n, m = robot.nv, robot.m
+    J_pinv = truncated_pinv(J, m)
+    pseudo = J_pinv.dot(xdd - terms.drift)
+    tau_tilde = H.dot(pseudo) + b  # Eq. (28)
+    if name == "pinv":
+        return tau_tilde  # Eq. (34)
+    if name == "inertia-pinv":
+        H_inv = np.linalg.inv(H)
+        J_H = H_inv.dot(J.T).dot(np.linalg.inv(J.dot(H_inv).dot(J.T)))  # Eq. (16) with W = H
+        return H.dot(J_H.dot(xdd - terms.drift)) + b  # Eq. (35)
+    projector = np.eye(n) - J_pinv.dot(J)
+    tau_hat_mid = torque_midpoint(robot) - tau_tilde  # (τ̂⁺ + τ̂⁻)/2
+    if name == "null-space":
+        phi = truncated_pinv(H.dot(projector), n - m).dot(tau_hat_mid)  # Eq. (31)
+    else:
+        root = np.diag(np.sqrt(default_weight(robot)))
+        phi = truncated_pinv(root.dot(H).dot(projector), n - m).dot(root.dot(tau_hat_mid))  # Eq. (33)
+    return tau_tilde + H.dot(projector).dot(phi)  # Eq. (27)
+
+
+def default_weight(robot):
+    torque_range = robot.torque_upper - robot.torque_lower
+    return np.where(np.isfinite(torque_range), 1.0 / torque_range**2, 0.0)
+
+
+@pytest.mark.parametrize("robot_name", ROBOTS)
+@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_every_resolver_realises_the_task_exactly(name, robot_name, request, rng):
+    robot = request.getfixturevalue(robot_name)
+    resolver = torqueopt.get_resolver(name)
+    resolver.check(robot)
+    for q, v, xdd, terms in random_cases(robot, rng):
+        resolution = resolver.resolve(robot, terms, xdd)
+        acceleration = pin.aba(robot.model, robot.model.createData(), q, v, resolution.torque)
+        np.testing.assert_allclose(acceleration, resolution.joint_acceleration, atol=1e-8 * (1 + np.abs(acceleration).max()))
+        np.testing.assert_allclose(terms.jacobian.dot(acceleration) + terms.drift, xdd, atol=1e-8)
+
+
+@pytest.mark.parametrize("robot_name", ROBOTS)
+@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_every_resolver_matches_the_papers_formula(name, robot_name, request, rng):
+    robot = request.getfixturevalue(robot_name)
+    resolver = torqueopt.get_resolver(name)
+    for q, v, xdd, terms in random_cases(robot, rng):
+        torque = resolver.resolve(robot, terms, xdd).torque
+        expected = paper_torque(robot, name, terms, xdd)
+        np.testing.assert_allclose(torque, expected, rtol=1e-7, atol=1e-7 * (1 + np.abs(expected).max()))
+
+
+@pytest.mark.parametrize("robot_name", ROBOTS)
+def test_null_space_resolvers_are_least_squares_optima(robot_name, request, rng):
+    """First-order conditions of Eqs. (29) and (32): the residual τ − τ_mid is
+    (W-)orthogonal to every torque change H Z y the null space allows, and no
+    random null-space change lowers the cost."""
+    robot = request.getfixturevalue(robot_name)
+    for name, weight in (("null-space", np.ones(robot.nv)), ("weighted-null-space", default_weight(robot))):
+        resolver = torqueopt.get_resolver(name)
+        for q, v, xdd, terms in random_cases(robot, rng, count=4):
+            torque = resolver.resolve(robot, terms, xdd).torque
+            null_basis = np.linalg.svd(terms.jacobian)[2][robot.m :].T
+            allowed = terms.inertia.dot(null_basis)
+            residual = weight * (torque - torque_midpoint(robot))
+            scale = np.linalg.norm(allowed) * np.linalg.norm(residual) + 1e-12
+            assert np.abs(allowed.T.dot(residual)).max() < 1e-9 * scale
+
+            def cost(tau):
+                error = tau - torque_midpoint(robot)
+                return float(error.dot(weight * error))
+
+            best = cost(torque)
+            for _ in range(20):
+                assert cost(torque + allowed.dot(rng.normal(size=robot.redundancy) * 0.1)) >= best - 1e-12 * (1 + best)
+
+
+@pytest.mark.parametrize("robot_name", ROBOTS)
+def test_pseudoinverses_minimise_their_acceleration_norms(robot_name, request, rng):
+    robot = request.getfixturevalue(robot_name)
+    for q, v, xdd, terms in random_cases(robot, rng, count=4):
+        null_basis = np.linalg.svd(terms.jacobian)[2][robot.m :].T
+        plain = torqueopt.get_resolver("pinv").resolve(robot, terms, xdd).joint_acceleration
+        weighted = torqueopt.get_resolver("inertia-pinv").resolve(robot, terms, xdd).joint_acceleration
+        assert np.abs(null_basis.T.dot(plain)).max() < 1e-10 * (1 + np.abs(plain).max())  # min ‖q̈‖²
+        assert np.abs(null_basis.T.dot(terms.inertia.dot(weighted))).max() < 1e-9 * (1 + np.abs(weighted).max())  # min q̈ᵀHq̈
+
+
+def test_loose_pseudoinverse_cutoff_would_be_wrong_where_ours_is_right(planar3):
+    """H(I − J⁺J) has rank n − m = 1; a pseudoinverse that keeps its round-off
+    singular value (the pitfall) projects onto two directions instead of one
+    and gives a plausible-looking but wrong torque. The resolver matches the
+    form truncated to the known rank."""
+    q, v = np.array([0.4, 1.2, -0.9]), np.array([0.3, -0.2, 0.5])
+    terms = planar3.terms(q, v)
+    xdd = np.array([1.0, 1.0])
+    tau = torqueopt.get_resolver("null-space").resolve(planar3, terms, xdd).torque
+    np.testing.assert_allclose(tau, paper_torque(planar3, "null-space", terms, xdd), atol=1e-9)
+
+    J_pinv = np.linalg.pinv(terms.jacobian)
+    product = terms.inertia.dot(np.eye(3) - J_pinv.dot(terms.jacobian))
+    singular_values = np.linalg.svd(product, compute_uv=False)
+    assert 0 < singular_values[1] < 1e-12 * singular_values[0]  # round-off, not zero
+    tau_tilde = terms.inertia.dot(J_pinv.dot(xdd - terms.drift)) + terms.bias_torque
+    loose = tau_tilde + product.dot(np.linalg.pinv(product, rcond=1e-20).dot(-tau_tilde))
+    assert np.abs(loose - tau).max() > 1e-3 * np.abs(tau).max()
+
+
+def test_weighted_resolver_accepts_a_user_weight(planar3):
+    q, v, xdd = np.array([0.4, 1.2, -0.9]), np.zeros(3), np.array([1.0, -0.5])
+    terms = planar3.terms(q, v)
+    unit = torqueopt.get_resolver("weighted-null-space", weight=np.ones(3)).resolve(planar3, terms, xdd).torque
+    plain = torqueopt.get_resolver("null-space").resolve(planar3, terms, xdd).torque
+    np.testing.assert_allclose(unit, plain, atol=1e-10)
+    matrix = torqueopt.get_resolver("weighted-null-space", weight=np.diag([1.0, 4.0, 9.0]))
+    vector = torqueopt.get_resolver("weighted-null-space", weight=[1.0, 4.0, 9.0])
+    np.testing.assert_allclose(matrix.resolve(planar3, terms, xdd).torque, vector.resolve(planar3, terms, xdd).torque, atol=1e-10)
+
+
+def test_resolve_api_matches_resolver_object(planar3):
+    q, v, xdd = np.array([0.4, 1.2, -0.9]), np.array([0.1, 0.2, 0.3]), np.array([1.0, -0.5])
+    for name in torqueopt.resolver_names():
+        expected = torqueopt.get_resolver(name).resolve(planar3, planar3.terms(q, v), xdd).torque
+        np.testing.assert_allclose(torqueopt.resolve(planar3, name, q, v, xdd), expected)
+
+
+@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_singular_jacobian_is_reported_not_hidden(name, planar3):
+    """Straight arm: J has rank 1, no joint acceleration moves the tip along the arm."""
+    resolver = torqueopt.get_resolver(name)
+    for q in (np.zeros(3), np.array([0.0, 1e-9, -1e-9])):
+        with pytest.raises(SingularJacobian, match="task Jacobian is singular"):
+            resolver.resolve(planar3, planar3.terms(q, np.zeros(3)), np.array([1.0, 0.0]))
+
+
+def test_null_space_resolvers_need_redundancy(panda):
+    square = torqueopt.load_robot("planar3", task="position")  # m = 3 = n
+    for name in ("null-space", "weighted-null-space"):
+        with pytest.raises(NoRedundancy, match=r"needs redundancy but task 'position' \(m=3\) on robot 'planar3' \(n=3\)"):
+            torqueopt.get_resolver(name).check(square)
+    torqueopt.get_resolver("pinv").check(square)
+    too_many = torqueopt.load_robot("planar3", task="pose")
+    with pytest.raises(NoRedundancy, match="m=6 coordinates but robot 'planar3' moves it with only n=3 joints"):
+        torqueopt.get_resolver("pinv").check(too_many)
+
+
+def test_unknown_resolver_lists_the_registered_names():
+    with pytest.raises(torqueopt.ResolverNotFound) as error:
+        torqueopt.get_resolver("quadratic")
+    assert str(error.value) == "unknown resolver 'quadratic': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
