@@ -1,0 +1,107 @@
+"""The run command: the summary, the files, and one-line errors with exit code 2."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from torqueopt.catalog import find_robot
+from torqueopt.cli import main
+
+PAPER = ["--robot", "planar3", "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--direction", "1,1"]
+
+
+def test_run_prints_a_summary_and_writes_the_run(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    code = main(["run", *PAPER, "--resolver", "null-space", "--duration", "0.5", "--out", str(out)])
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert "planar3: resolver null-space, task xy at frame 'tip' (n=3, m=2), 501 steps of 1 ms" in printed
+    assert "first limit violation: none" in printed and "status: completed" in printed
+    assert out.is_file() and (tmp_path / "run.csv.json").is_file()
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert table.shape == (501, 14)
+    # The summary's peak torque of joint 1 is the CSV's, to print precision.
+    joint1 = [line for line in printed.splitlines() if line.startswith("joint1")][0]
+    assert float(joint1.split()[1]) == pytest.approx(np.abs(table[:, 7]).max(), abs=1e-3)
+
+
+def test_degrees_and_npz(tmp_path, capsys):
+    out = tmp_path / "run.npz"
+    code = main(["run", "--robot", "planar3", "--q0=-45,135,-135", "--degrees", "--direction", "1,1",
+                 "--resolver", "pinv", "--duration", "0.2", "--out", str(out)])  # fmt: skip
+    assert code == 0 and out.is_file()
+
+
+def test_run_that_explodes_exits_3_and_keeps_its_rows(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    code = main(["run", "--robot", "xarm7", "--resolver", "null-space", "--direction", "0,1,0",
+                 "--duration", "0.5", "--out", str(out)])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert code == 3
+    assert "status: STOPPED EARLY: speed of joint" in printed
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert np.isfinite(table).all() and 10 < len(table) < 501
+
+
+def broken_urdf(tmp_path):
+    path = tmp_path / "broken.urdf"
+    path.write_text(find_robot("planar3").urdf.read_text().replace('<child link="link2"/>', ""))
+    return str(path)
+
+
+BAD_INPUTS = [
+    (["--robot", "nowhere/arm.urdf"], "URDF file 'nowhere/arm.urdf' does not exist"),
+    (["--robot", "BROKEN"], "<joint name=\"joint2\"> has no <child link=\"...\"/>"),
+    (["--robot", "robbie"], "unknown robot 'robbie': give a URDF path or one of planar3, panda"),
+    (["--robot", "planar3", "--frame", "hand"], "robot 'planar3' has no frame 'hand': choose one of"),
+    (["--robot", "planar3", "--resolver", "magic"], "unknown resolver 'magic': choose one of pinv, inertia-pinv, null-space, weighted-null-space"),
+    (["--robot", "planar3", "--task", "spin"], "unknown task 'spin': choose one of xy, position, pose"),
+    (["--robot", "planar3", "--q0=0.1,0.2"], "--q0 has 2 values but needs 3"),
+    (["--robot", "planar3", "--q0=0.1,nan,0.2"], "--q0: 'nan' is not finite; give finite numbers"),
+    (["--robot", "planar3", "--q0=0.1,abc,0.2"], "--q0: 'abc' is not a number (give comma-separated numbers, e.g. 1,1)"),
+    (["--robot", "planar3", "--direction", "0,0"], "direction [0.0, 0.0] is zero; give a non-zero direction"),
+    (["--robot", "planar3", "--duration", "0"], "--duration: 0 must be a positive finite number"),
+    (["--robot", "planar3", "--duration", "-1"], "--duration: -1 must be a positive finite number"),
+    (["--robot", "planar3", "--dt", "0"], "--dt: 0 must be a positive finite number"),
+    (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "resolver 'null-space' needs redundancy but task 'position' (m=3) on robot 'planar3' (n=3) leaves none"),
+    (["--robot", "planar3", "--torque-limit", "1,2"], "torque limit has 2 values; robot 'planar3' needs 1 or 3"),
+    (["--robot", "planar3", "--feedback", "1"], "--feedback has 1 values but needs 2"),
+]
+
+
+@pytest.mark.parametrize("arguments, message", BAD_INPUTS)
+def test_bad_input_is_one_line_exit_2_and_no_file(arguments, message, tmp_path, capsys):
+    arguments = [broken_urdf(tmp_path) if a == "BROKEN" else a for a in arguments]
+    defaults = {"--resolver": "null-space", "--direction": "1,1", "--duration": "0.1"}
+    for option, value in defaults.items():
+        if option not in arguments:
+            arguments += [option, value]
+    out = tmp_path / "run.csv"
+    code = main(["run", *arguments, "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 2
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("torqueopt run: error: ")
+    assert message in lines[0]
+    assert "Traceback" not in captured.err and not out.exists()
+
+
+def test_usage_errors_are_one_line_too(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "--robot", "planar3"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "the following arguments are required: --resolver, --direction" in err[0]
+
+
+def test_console_script_exit_code_and_no_traceback(tmp_path):
+    process = subprocess.run(
+        [sys.executable, "-m", "torqueopt", "run", *PAPER, "--resolver", "spline"],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert process.returncode == 2
+    assert process.stderr.strip() == (
+        "torqueopt run: error: unknown resolver 'spline': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
+    )

@@ -1,0 +1,93 @@
+"""Loading robots: the paper's arm, example-robot-data arms, chains, limits, bad URDFs."""
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import FrameNotFound, InvalidInput, RobotNotFound, TaskNotFound, UrdfError
+from torqueopt.catalog import find_robot
+
+
+@pytest.mark.parametrize(
+    "name, frame, joints",
+    [
+        ("panda", "panda_hand", [f"panda_joint{i}" for i in range(1, 8)]),
+        ("xarm7", "link_eef", [f"joint{i}" for i in range(1, 8)]),
+        ("baxter", "right_gripper", ["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"]),
+        ("tiago", "arm_tool_link", [f"arm_{i}_joint" for i in range(1, 8)]),
+    ],
+)
+def test_seven_dof_arms_load_with_only_their_chain(name, frame, joints):
+    robot = torqueopt.load_robot(name)
+    assert robot.frame == frame and robot.task == "position"
+    assert robot.joint_names == joints and robot.nv == 7
+    assert np.all(np.isfinite(robot.torque_limit)) and np.all(robot.torque_limit > 0)
+    np.testing.assert_allclose(robot.gravity, [0, 0, -9.81])
+
+
+def test_other_chain_is_chosen_by_the_task_frame():
+    left = torqueopt.load_robot("baxter", frame="left_gripper")
+    assert left.joint_names[0] == "left_s0" and left.nv == 7
+    assert "right_s0" in left.locked_joints and "head_pan" in left.locked_joints
+
+
+def test_panda_fingers_are_locked_and_srdf_configuration_is_the_default():
+    panda = torqueopt.load_robot("panda")
+    assert set(panda.locked_joints) == {"panda_finger_joint1", "panda_finger_joint2"}
+    np.testing.assert_allclose(panda.default_configuration[[1, 3]], [-0.785398, -2.35619])
+
+
+def test_user_urdf_path_and_extra_locks(tmp_path):
+    path = find_robot("planar3").urdf
+    robot = torqueopt.load_robot(str(path), frame="tip", task="xy", lock=["joint1"])
+    assert robot.joint_names == ["joint2", "joint3"] and robot.nv == 2
+
+
+def test_torque_limit_override_and_missing_limits(tmp_path):
+    source = find_robot("planar3").urdf.read_text()
+    no_limit = tmp_path / "nolimit.urdf"
+    no_limit.write_text(source.replace('effort="24.0"', 'effort="0"'))
+    robot = torqueopt.load_robot(str(no_limit), frame="tip", task="xy")
+    assert robot.joints_without_torque_limit == ["joint2"]
+    assert np.isinf(robot.torque_limit[1])
+    robot.set_torque_limit([54, 24, 6])
+    assert robot.joints_without_torque_limit == []
+    with pytest.raises(InvalidInput, match=r"torque limit has 2 values; robot 'nolimit' needs 1 or 3"):
+        robot.set_torque_limit([1, 2])
+    with pytest.raises(InvalidInput, match="must be positive numbers"):
+        robot.set_torque_limit([1, -2, 3])
+
+
+def test_configuration_from_angles_round_trips_for_continuous_joints():
+    kinova = torqueopt.load_robot("kinova")
+    angles = np.array([0.3, -2.0, 1.0, 2.5, -0.4, 3.0])
+    np.testing.assert_allclose(kinova.joint_angles(kinova.configuration(angles)), angles, atol=1e-12)
+
+
+def test_unknown_names_list_the_valid_choices():
+    with pytest.raises(RobotNotFound, match=r"unknown robot 'robbie': give a URDF path or one of planar3, panda, xarm7, baxter"):
+        torqueopt.load_robot("robbie")
+    with pytest.raises(RobotNotFound, match=r"URDF file 'missing/arm.urdf' does not exist"):
+        torqueopt.load_robot("missing/arm.urdf")
+    with pytest.raises(FrameNotFound, match=r"robot 'planar3' has no frame 'hand': choose one of .*tip"):
+        torqueopt.load_robot("planar3", frame="hand")
+    with pytest.raises(TaskNotFound, match=r"^unknown task 'orientation': choose one of xy, position, pose$"):
+        torqueopt.load_robot("planar3", task="orientation")
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (('<parent link="link1"/>', ""), r'<joint name="joint2"> has no <parent link="..."/>'),
+        (('<child link="link2"/>', '<child link="linkX"/>'), r"<joint name=\"joint2\"> has child link 'linkX', which is not a <link>"),
+        (('<mass value="10.0"/>', '<mass value="ten"/>'), r'<mass value="ten"> in <link name="link1"> is not a number'),
+        (("</robot>", ""), "XML syntax error"),
+        (('effort="6.0" velocity="100.0"/>', "/>"), "URDFIncompleteError"),
+    ],
+)
+def test_malformed_urdf_names_the_broken_tag(tmp_path, edit, message):
+    text = find_robot("planar3").urdf.read_text().replace(*edit, 1)
+    path = tmp_path / "broken.urdf"
+    path.write_text(text)
+    with pytest.raises(UrdfError, match=f"malformed URDF '.*broken.urdf': .*{message}"):
+        torqueopt.load_robot(str(path), frame="tip")

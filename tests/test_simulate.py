@@ -1,0 +1,151 @@
+"""simulate(): rows, tracking, early stops, files."""
+
+import json
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import InvalidInput, StraightLine
+from torqueopt.result import atomic_write
+
+from .conftest import PAPER_Q0
+
+
+@pytest.fixture(scope="module")
+def short_pinv(planar3):
+    return torqueopt.simulate(planar3, "pinv", StraightLine([1, 1], duration=0.5), PAPER_Q0)
+
+
+def test_rows_follow_the_steps_and_the_tip_tracks_open_loop(short_pinv):
+    result = short_pinv
+    assert result.completed and result.stop_reason is None
+    assert len(result.t) == 501 and result.t[-1] == pytest.approx(0.5)
+    np.testing.assert_allclose(np.diff(result.t), 1e-3)
+    np.testing.assert_allclose(result.x[0], [np.sqrt(2), 1 - np.sqrt(2)], atol=1e-9)
+    np.testing.assert_allclose(result.x_ref[-1] - result.x_ref[0], [0.0625, 0.0625], atol=1e-12)
+    assert result.max_tip_error < 2e-3
+    np.testing.assert_allclose(result.v[0], 0.0)
+    # The commanded joint accelerations integrate to the recorded velocities.
+    velocity_from_acceleration = np.cumsum(result.acceleration[:-1], axis=0) * 1e-3
+    np.testing.assert_allclose(result.v[1:], velocity_from_acceleration, atol=5e-3)
+
+
+def test_summary_figures_agree_with_the_arrays(short_pinv):
+    result = short_pinv
+    np.testing.assert_allclose(result.peak_torque, np.abs(result.tau).max(axis=0))
+    np.testing.assert_allclose(result.peak_torque_ratio, result.peak_torque / np.array([54.0, 24.0, 6.0]))
+    assert result.first_limit_violation is None
+    summary = result.summary()
+    assert summary["resolver"] == "pinv" and summary["completed"] is True
+    assert summary["torque_limit"] == [54.0, 24.0, 6.0]
+
+
+def test_feedback_cuts_the_tip_error(planar3, short_pinv):
+    closed = torqueopt.simulate(planar3, "pinv", StraightLine([1, 1], duration=0.5), PAPER_Q0, feedback=(400.0, 40.0))
+    assert closed.max_tip_error < 0.2 * short_pinv.max_tip_error
+
+
+def test_csv_has_the_named_columns_and_reads_back(tmp_path, short_pinv):
+    path = short_pinv.to_csv(tmp_path / "run.csv")
+    header = path.read_text().splitlines()[0]
+    assert header == "t,q1,q2,q3,v1,v2,v3,tau1,tau2,tau3,x1,x2,xref1,xref2"
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    assert table.shape == (501, 14)
+    np.testing.assert_allclose(table[:, 7:10], short_pinv.tau, rtol=1e-9, atol=1e-12)
+    assert json.loads((tmp_path / "run.csv.json").read_text())["resolver"] == "pinv"
+    back = torqueopt.load_result(path)
+    np.testing.assert_allclose(back.joint_angles, short_pinv.joint_angles, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(back.torque_upper, [54, 24, 6])
+
+
+def test_npz_keeps_everything(tmp_path, short_pinv):
+    back = torqueopt.load_result(short_pinv.to_csv(tmp_path / "run.npz"))
+    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(short_pinv, name))
+    assert back.summary() == short_pinv.summary()
+
+
+def test_failed_write_leaves_no_file(tmp_path):
+    target = tmp_path / "out.csv"
+
+    def explode(handle):
+        handle.write(b"partial")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        atomic_write(target, explode)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_explosion_stops_the_run_and_keeps_finite_rows(planar3):
+    """The weighted null-space method blows up on the paper's long movement:
+    with a torque ceiling of 20x the limits the run must stop, say when, and
+    keep only finite rows up to that point."""
+    result = torqueopt.simulate(
+        planar3, "weighted-null-space", StraightLine([1, 1], duration=2.0), PAPER_Q0, max_torque_ratio=20.0
+    )
+    assert not result.completed
+    assert 0.5 < result.stop_time < 2.0
+    assert result.stop_reason.startswith("torque of joint joint")
+    assert f"at t = {result.stop_time:.4f} s" in result.stop_reason
+    assert len(result.t) == round(result.stop_time / 1e-3)
+    for array in (result.q, result.v, result.tau, result.x):
+        assert np.isfinite(array).all()
+    assert result.peak_torque_ratio.max() <= 20.0
+
+
+def test_singular_jacobian_stops_the_run(planar3):
+    """Pushing the tip towards the arm's 3 m reach straightens it: with a
+    cutoff of 0.02 on σ_min/σ_max the run stops there and says so."""
+    resolver = torqueopt.get_resolver("pinv", singular_tolerance=0.02)
+    result = torqueopt.simulate(planar3, resolver, StraightLine([1, 0], accel=1.0, duration=3.0), [0.0, 1.0, -1.0])
+    assert not result.completed
+    assert result.stop_reason.startswith("task Jacobian is singular: smallest/largest singular value")
+    assert result.stop_reason.endswith(f"is below the cutoff 0.02 at t = {result.stop_time:.4f} s")
+    assert 0.5 < result.stop_time < 1.0
+    assert result.jacobian_condition.min() >= 0.02 and result.jacobian_condition[0] > 0.1
+    assert np.isfinite(result.tau).all()
+
+
+@pytest.mark.parametrize("robot_name", ["panda", "xarm7"])
+@pytest.mark.parametrize("name", ["pinv", "inertia-pinv"])
+def test_pseudoinverses_track_on_7dof_arms(robot_name, name, request):
+    robot = request.getfixturevalue(robot_name)
+    line = StraightLine([0, 1, 0], duration=0.5)
+    q0 = robot.default_configuration
+    open_loop = torqueopt.simulate(robot, name, line, q0)
+    closed = torqueopt.simulate(robot, name, line, q0, feedback=(400.0, 40.0))
+    assert open_loop.completed and open_loop.max_tip_error < 5e-3
+    assert closed.completed and closed.max_tip_error < 1e-4
+
+
+@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_every_resolver_tracks_a_pose_on_panda(name, panda_pose):
+    line = StraightLine([0, 1, 0], duration=0.5)
+    result = torqueopt.simulate(panda_pose, name, line, panda_pose.default_configuration, feedback=(400.0, 40.0))
+    assert result.completed
+    assert result.max_tip_error < 1e-4 and result.max_orientation_error < 1e-4
+    np.testing.assert_allclose(result.x_ref[:, 3:], 0.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"q0": [0.1, 0.2]}, r"q0 has 2 values but needs 3 \(joints joint1, joint2, joint3\)"),
+        ({"q0": [0.1, float("nan"), 0.3]}, r"q0 \[0.1, nan, 0.3\] has a non-finite value"),
+        ({"q0": ["a", 1, 2]}, "q0 .* is not a vector of numbers"),
+        ({"dt": 0.0}, "dt=0.0 must be a positive number of seconds"),
+        ({"dt": -1e-3}, "dt=-0.001 must be a positive number of seconds"),
+        ({"v0": [0, 0]}, "v0 has 2 values but needs 3"),
+    ],
+)
+def test_bad_simulation_input(planar3, kwargs, message):
+    arguments = {"q0": PAPER_Q0, **kwargs}
+    with pytest.raises(InvalidInput, match=message):
+        torqueopt.simulate(planar3, "pinv", StraightLine([1, 1], duration=0.5), **arguments)
+
+
+def test_direction_must_fit_the_task(planar3, panda):
+    with pytest.raises(InvalidInput, match="direction has 3 values but task 'xy' moves the tip in 2 dimensions"):
+        torqueopt.simulate(planar3, "pinv", StraightLine([1, 1, 0], duration=0.5), PAPER_Q0)
