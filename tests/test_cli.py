@@ -105,3 +105,21 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
     assert process.stderr.strip() == (
         "torqueopt run: error: unknown resolver 'spline': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
     )
+
+
+def test_missing_torque_limits_are_reported_and_required_where_divided_by(tmp_path, capsys):
+    path = tmp_path / "nolimit.urdf"
+    path.write_text(find_robot("planar3").urdf.read_text().replace('effort="6.0"', 'effort="0"'))
+    base = ["run", "--robot", str(path), "--frame", "tip", "--task", "xy", "--direction", "1,1", "--duration", "0.1",
+            "--q0=-0.7853981634,2.3561944902,-2.3561944902"]  # fmt: skip
+    assert main([*base, "--resolver", "weighted-null-space"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "torqueopt run: error: joints joint3 of robot 'nolimit' have no torque limit (URDF effort zero, infinite or "
+        "missing) and weighted-null-space weights torques by their range: give --torque-limit (or --weight)"
+    ]
+    assert main([*base, "--resolver", "weighted-null-space", "--torque-limit", "54,24,6"]) == 0
+    assert main([*base, "--resolver", "null-space"]) == 0
+    captured = capsys.readouterr()
+    assert "note: joints joint3 of robot 'nolimit' have no torque limit" in captured.err
+    assert "no torque limit for joints joint3" in captured.out

@@ -77,6 +77,7 @@ def run_command(args: argparse.Namespace) -> int:
     resolver = get_resolver(args.resolver, **options)
     robot = robot_from_args(args)
     resolver.check(robot)
+    check_torque_limits(robot, resolver.name, weighted=args.weight is None)
     if args.q0 is None:
         q0 = robot.default_configuration
     else:
@@ -90,6 +91,24 @@ def run_command(args: argparse.Namespace) -> int:
         extra = f" and {path}.json" if path.suffix.lower() != ".npz" else ""
         print(f"wrote {path}{extra}")
     return EXIT_OK if result.completed else EXIT_STOPPED
+
+
+def check_torque_limits(robot: Robot, resolver_name: str, weighted: bool) -> None:
+    """Say which joints have no usable limit; refuse where the resolver divides by the range."""
+    missing = robot.joints_without_torque_limit
+    if not missing:
+        return
+    joints = ", ".join(missing)
+    if resolver_name == "weighted-null-space" and weighted:
+        raise_invalid(
+            f"joints {joints} of robot '{robot.name}' have no torque limit (URDF effort zero, infinite or missing) "
+            "and weighted-null-space weights torques by their range: give --torque-limit (or --weight)"
+        )
+    print(
+        f"note: joints {joints} of robot '{robot.name}' have no torque limit (URDF effort zero, infinite or "
+        "missing); they are treated as unbounded: give --torque-limit to check them",
+        file=sys.stderr,
+    )
 
 
 def raise_invalid(message: str):

@@ -15,9 +15,10 @@ __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
 
 def torque_midpoint(robot: Robot) -> np.ndarray:
     r""":math:`(\tau^+ + \tau^-)/2` [N·m], zero for unbounded joints."""
-    midpoint = 0.5 * (robot.torque_upper + robot.torque_lower)
-    midpoint[~np.isfinite(midpoint)] = 0.0
-    return midpoint
+    bounded = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
+    upper = np.where(bounded, robot.torque_upper, 0.0)
+    lower = np.where(bounded, robot.torque_lower, 0.0)
+    return 0.5 * (upper + lower)
 
 
 class NullSpaceTorque(Resolver):
