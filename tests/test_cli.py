@@ -123,3 +123,11 @@ def test_missing_torque_limits_are_reported_and_required_where_divided_by(tmp_pa
     captured = capsys.readouterr()
     assert "note: joints joint3 of robot 'nolimit' have no torque limit" in captured.err
     assert "no torque limit for joints joint3" in captured.out
+
+
+def test_robots_lists_the_paper_arm_and_the_7dof_arms(capsys):
+    assert main(["robots"]) == 0
+    rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
+    assert rows["planar3"][1:3] == ["tip", "xy"]
+    assert rows["panda"][1:3] == ["panda_hand", "position"]
+    assert {"xarm7", "baxter", "tiago", "kinova"} <= set(rows)

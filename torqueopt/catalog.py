@@ -125,9 +125,11 @@ def _example_robot_urdfs() -> dict[str, Path]:
 
 
 def available_robots() -> list[str]:
-    """Names accepted by :func:`find_robot`: local robots first, then example-robot-data."""
+    """Names accepted by :func:`find_robot`: local robots, the known arms, then the rest of example-robot-data."""
     local = sorted({p.stem for d in _robots_dirs() for p in d.glob("*.urdf")})
-    return local + sorted(set(_example_robot_urdfs()) - set(local))
+    urdfs = _example_robot_urdfs()
+    arms = [name for name in _KNOWN_ARMS if name in urdfs and name not in local]
+    return local + arms + sorted(set(urdfs) - set(local) - set(arms), key=str.lower)
 
 
 def find_robot(source: str | Path) -> RobotSource:
@@ -172,12 +174,11 @@ def find_robot(source: str | Path) -> RobotSource:
             locked_joints=arm.locked_joints,
         )
 
-    local = sorted({p.stem for d in _robots_dirs() for p in d.glob("*.urdf")})
-    arms = [name for name in _KNOWN_ARMS if name in urdfs]
-    others = len(set(urdfs) - set(arms) - set(local))
-    hint = ", ".join(local + arms)
-    if others:
-        hint += f", or one of {others} more URDF names from example-robot-data"
+    names = available_robots()
+    shown = names[: len(names) - len(set(urdfs) - set(_KNOWN_ARMS))]
+    hint = ", ".join(shown)
+    if len(names) > len(shown):
+        hint += f", or one of {len(names) - len(shown)} more URDF names from example-robot-data (torqueopt robots lists them)"
     if example_robot_data_dir() is None:
         hint += " (example-robot-data is not installed: pip install example-robot-data)"
     raise RobotNotFound(f"unknown robot '{text}': give a URDF path or one of {hint}")

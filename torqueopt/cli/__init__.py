@@ -23,7 +23,7 @@ EXIT_STOPPED = 3
 
 # One module per subcommand, each with ``add_parser(subparsers)`` that sets
 # ``handler`` (a function of the parsed arguments returning an exit code).
-_COMMANDS = ("run",)
+_COMMANDS = ("run", "robots")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -58,6 +58,10 @@ def main(argv: list[str] | None = None) -> int:
     except TorqueoptError as error:
         print(f"torqueopt {args.command}: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader went away (``torqueopt robots | head``): nothing left to say.
+        sys.stderr.close()
+        return EXIT_OK
     except KeyboardInterrupt:
         print(f"torqueopt {args.command}: interrupted", file=sys.stderr)
         return 130
