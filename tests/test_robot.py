@@ -91,3 +91,8 @@ def test_malformed_urdf_names_the_broken_tag(tmp_path, edit, message):
     path.write_text(text)
     with pytest.raises(UrdfError, match=f"malformed URDF '.*broken.urdf': .*{message}"):
         torqueopt.load_robot(str(path), frame="tip")
+
+
+def test_planar3_starts_at_the_papers_configuration_by_default(planar3):
+    np.testing.assert_allclose(planar3.default_configuration, np.radians([-45.0, 135.0, -135.0]))
+    np.testing.assert_allclose(planar3.task_position(planar3.default_configuration), [np.sqrt(2), 1 - np.sqrt(2)], atol=1e-12)

@@ -79,7 +79,7 @@ _KNOWN_ARMS = {
 }
 
 _LOCAL_DEFAULTS = {
-    "planar3": {"frame": "tip", "task": "xy", "gravity": False},
+    "planar3": {"frame": "tip", "task": "xy", "gravity": False, "srdf_configuration": "paper"},
 }
 
 
@@ -151,7 +151,10 @@ def find_robot(source: str | Path) -> RobotSource:
     for robots_dir in _robots_dirs():
         local = robots_dir / f"{text}.urdf"
         if local.is_file():
-            defaults = _LOCAL_DEFAULTS.get(text, {})
+            defaults = dict(_LOCAL_DEFAULTS.get(text, {}))
+            srdf = local.with_suffix(".srdf")
+            if srdf.is_file():
+                defaults["srdf"] = srdf
             return RobotSource(name=text, urdf=local, package_dirs=(robots_dir,), **defaults)
 
     urdfs = _example_robot_urdfs()
