@@ -159,7 +159,8 @@ def simulate(
     condition_log = np.empty(rows)
     limit = robot.torque_upper
     torque_ceiling = (max_torque_ratio * limit).tolist()
-    resolve_at = resolver.resolve
+    # Built once per run: the resolver's per-robot constants and workspaces.
+    solve = resolver.solver(robot)
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
 
     stop_reason = None
@@ -177,11 +178,10 @@ def simulate(
                 + feedback.kp * _task_error(robot, ref_position[k], x)
             )
         try:
-            resolution = resolve_at(robot, terms, command)
+            tau, joint_acceleration, condition = solve(terms, command)
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             break
-        tau = resolution.torque
         torque_list = tau.tolist()
         if not all(map(math.isfinite, torque_list)):
             stop_reason, stop_time = f"torque became non-finite at t = {t:.4f} s", t
@@ -196,14 +196,14 @@ def simulate(
             break
         q_log[k] = q
         v_log[k] = v
-        acceleration_log[k] = resolution.joint_acceleration
+        acceleration_log[k] = joint_acceleration
         torque_log[k] = tau
         x_log[k] = x
-        condition_log[k] = resolution.jacobian_condition
+        condition_log[k] = condition
         recorded = k + 1
         if k == steps:
             break
-        q, v = rk4_step(robot, q, v, tau, dt, resolution.joint_acceleration)
+        q, v = rk4_step(robot, q, v, tau, dt, joint_acceleration)
         # One dot product tells both: a NaN or inf anywhere makes it non-finite.
         if not math.isfinite(q.dot(q) + v.dot(v)):
             stop_reason, stop_time = f"state became non-finite during the step from t = {t:.4f} s", t + dt

@@ -77,13 +77,46 @@ class Resolver(ABC):
         Raises:
             SingularJacobian: the task Jacobian is singular at this state.
         """
-        decomposition = JacobianDecomposition(terms.jacobian, self.singular_tolerance)
-        particular = decomposition.pseudo_inverse_apply(task_acceleration - terms.drift)
-        basis = decomposition.null_space_basis
-        coordinates = self.null_space_coordinates(robot, terms, basis, particular) if basis.shape[1] else None
-        acceleration = particular if coordinates is None else particular + basis.dot(coordinates)
-        torque = terms.inertia.dot(acceleration) + terms.bias_torque
-        return Resolution(torque, acceleration, decomposition.condition)
+        return Resolution(*self.solver(robot)(terms, task_acceleration))
+
+    def solver(self, robot: Robot):
+        """:meth:`resolve` for one robot as a function ``(terms, ẍ) -> (τ, q̈, condition)``.
+
+        What depends only on the robot (torque midpoint, weights, SVD
+        workspaces) is computed once here, so a simulation builds one solver
+        per run and each step pays only for what changes with the state;
+        nothing carries over from one run to the next.
+        """
+        tolerance = self.singular_tolerance
+        svd = JacobianDecomposition.workspace(robot.m, robot.nv)
+        coordinates_at = self.null_space_solver(robot) if robot.nv > robot.m else None
+
+        def solve(terms: TaskTerms, task_acceleration: np.ndarray):
+            decomposition = JacobianDecomposition(terms.jacobian, tolerance, svd)
+            particular = decomposition.pseudo_inverse_apply(task_acceleration - terms.drift)
+            if coordinates_at is None:
+                acceleration = particular
+            else:
+                basis = decomposition.null_space_basis
+                coordinates = coordinates_at(terms, basis, particular)
+                acceleration = particular if coordinates is None else particular + basis.dot(coordinates)
+            torque = terms.inertia.dot(acceleration) + terms.bias_torque
+            return torque, acceleration, decomposition.condition
+
+        return solve
+
+    def null_space_solver(self, robot: Robot):
+        """:meth:`null_space_coordinates` for one robot as a function ``(terms, Z, particular) -> y``.
+
+        None means :math:`y = 0` at every state. Subclasses whose coordinates
+        use per-robot constants compute them here once and define
+        :meth:`null_space_coordinates` through it, so the two never disagree.
+        """
+
+        def coordinates(terms: TaskTerms, null_space_basis: np.ndarray, particular: np.ndarray):
+            return self.null_space_coordinates(robot, terms, null_space_basis, particular)
+
+        return coordinates
 
     @abstractmethod
     def null_space_coordinates(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInput, NoRedundancy
-from ..linalg import DEFAULT_SINGULAR_TOLERANCE, least_squares
+from ..linalg import DEFAULT_SINGULAR_TOLERANCE, LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import Resolver
 
@@ -42,9 +42,19 @@ class NullSpaceTorque(Resolver):
     needs_redundancy = True
 
     def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
-        inertia_basis = terms.inertia.dot(null_space_basis)
-        torque_offset = torque_midpoint(robot) - terms.inertia.dot(particular) - terms.bias_torque
-        return least_squares(inertia_basis, torque_offset)
+        return self.null_space_solver(robot)(terms, null_space_basis, particular)
+
+    def null_space_solver(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        least_squares = LeastSquares(robot.nv, robot.redundancy)
+
+        def coordinates(terms: TaskTerms, null_space_basis, particular):
+            inertia = terms.inertia
+            inertia_basis = inertia.dot(null_space_basis)
+            torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque
+            return least_squares(inertia_basis, torque_offset)
+
+        return coordinates
 
 
 class WeightedNullSpaceTorque(Resolver):
@@ -95,9 +105,21 @@ class WeightedNullSpaceTorque(Resolver):
         return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
 
     def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
+        return self.null_space_solver(robot)(terms, null_space_basis, particular)
+
+    def null_space_solver(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
         root = self.weight_root(robot)
-        inertia_basis = terms.inertia.dot(null_space_basis)
-        torque_offset = torque_midpoint(robot) - terms.inertia.dot(particular) - terms.bias_torque
-        if root.ndim == 1:
-            return least_squares(root[:, None] * inertia_basis, root * torque_offset)
-        return least_squares(root.dot(inertia_basis), root.dot(torque_offset))
+        least_squares = LeastSquares(root.shape[0], robot.redundancy)
+        diagonal = root.ndim == 1
+        root_column = root[:, None] if diagonal else None
+
+        def coordinates(terms: TaskTerms, null_space_basis, particular):
+            inertia = terms.inertia
+            inertia_basis = inertia.dot(null_space_basis)
+            torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque
+            if diagonal:
+                return least_squares(root_column * inertia_basis, root * torque_offset)
+            return least_squares(root.dot(inertia_basis), root.dot(torque_offset))
+
+        return coordinates

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import numpy as np
-
+from ..linalg import solve_positive_definite
 from ..robot import Robot, TaskTerms
 from .base import Resolver
 
@@ -25,6 +24,9 @@ class PseudoInverse(Resolver):
     def null_space_coordinates(self, robot, terms, null_space_basis, particular):
         return None
 
+    def null_space_solver(self, robot: Robot):
+        return None
+
 
 class InertiaWeightedPseudoInverse(Resolver):
     r"""Inertia-weighted pseudoinverse, Eqs. (16), (19), (35) of the paper.
@@ -43,5 +45,6 @@ class InertiaWeightedPseudoInverse(Resolver):
 
     def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
         inertia_basis = terms.inertia.dot(null_space_basis)
+        # Z^T H Z is symmetric positive definite (H is, Z has full column rank).
         reduced_inertia = null_space_basis.T.dot(inertia_basis)
-        return -np.linalg.solve(reduced_inertia, inertia_basis.T.dot(particular))
+        return -solve_positive_definite(reduced_inertia, inertia_basis.T.dot(particular))
