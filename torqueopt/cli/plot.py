@@ -1,0 +1,52 @@
+"""``torqueopt plot``: draw any saved run (torques with limits, joint velocities, tip path)."""
+
+from __future__ import annotations
+
+import argparse
+import zipfile
+from pathlib import Path
+
+from ..errors import InvalidInput, TorqueoptError
+from ..plots import plot_run
+from ..result import SimResult, load_result
+from . import EXIT_OK
+
+__all__ = ["add_parser"]
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "plot",
+        help="plot a saved run: torques against limits, joint velocities, tip path against reference",
+        description=(
+            "Plot a run written by 'torqueopt run --out' (a .csv with its .csv.json sidecar, or a .npz): the torque "
+            "of each joint with its ± limits, the joint velocities, and the tip path and error against the "
+            "reference. A run that stopped early is drawn up to where it stopped, and the figure says so."
+        ),
+    )
+    parser.add_argument("run", metavar="RUN", help="run file: .csv (with its .csv.json sidecar) or .npz")
+    parser.add_argument("--out", metavar="PNG", help="figure to write (default: RUN with the suffix .png)")
+    parser.add_argument("--title", help="figure title (default: robot, resolver, task and duration)")
+    parser.set_defaults(handler=plot_command)
+
+
+def plot_command(args: argparse.Namespace) -> int:
+    result = read_run(args.run)
+    out = Path(args.out) if args.out else Path(args.run).with_suffix(".png")
+    path = plot_run(result, out, title=args.title)
+    status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
+    print(f"wrote {path}{status}")
+    return EXIT_OK
+
+
+def read_run(path: str) -> SimResult:
+    """:func:`load_result`, with a one-line :class:`InvalidInput` for any file it cannot make sense of."""
+    try:
+        return load_result(path)
+    except TorqueoptError:
+        raise
+    except (ValueError, KeyError, TypeError, OSError, zipfile.BadZipFile) as error:
+        detail = " ".join(str(error).split()) or type(error).__name__
+        if isinstance(error, KeyError):
+            detail = f"missing field {detail}"
+        raise InvalidInput(f"run file '{path}' is malformed ({detail}); write runs with torqueopt run --out") from None
