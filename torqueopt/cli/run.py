@@ -15,6 +15,7 @@ from ..simulate import Feedback, simulate
 from ..trajectory import StraightLine
 from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
+from .play import add_playback_options, playback_options, show_playback
 
 __all__ = ["add_parser", "format_summary"]
 
@@ -60,6 +61,7 @@ def add_parser(subparsers) -> None:
         help="task-space PD feedback: xdd = xdd_ref + KD(xd_ref − xd) + KP(x_ref − x); default open loop, as the paper",
     )
     group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
+    add_playback_options(parser)
     parser.set_defaults(handler=run_command)
 
 
@@ -69,6 +71,7 @@ def run_command(args: argparse.Namespace) -> int:
     dt = parse_positive(args.dt, "dt")
     direction = parse_vector(args.direction, "direction")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
+    playback = playback_options(args, live=args.play)
     options = {}
     if args.weight is not None:
         if args.resolver != "weighted-null-space":
@@ -90,6 +93,8 @@ def run_command(args: argparse.Namespace) -> int:
         path = result.to_csv(args.out)
         extra = f" and {path}.json" if path.suffix.lower() != ".npz" else ""
         print(f"wrote {path}{extra}")
+    if playback.wanted:
+        show_playback(playback, robot, result)
     return EXIT_OK if result.completed else EXIT_STOPPED
 
 
