@@ -149,3 +149,21 @@ def test_bad_simulation_input(planar3, kwargs, message):
 def test_direction_must_fit_the_task(planar3, panda):
     with pytest.raises(InvalidInput, match="direction has 3 values but task 'xy' moves the tip in 2 dimensions"):
         torqueopt.simulate(planar3, "pinv", StraightLine([1, 1, 0], duration=0.5), PAPER_Q0)
+
+
+def test_csv_of_continuous_joints_rebuilds_configurations_and_files_are_not_private(tmp_path):
+    kinova = torqueopt.load_robot("kinova", gravity=False)
+    result = torqueopt.simulate(kinova, "pinv", StraightLine([0, 0, 1], accel=0.5, duration=0.05), kinova.default_configuration)
+    path = result.to_csv(tmp_path / "kinova.csv")
+    back = torqueopt.load_result(path, robot=kinova)
+    assert back.q.shape == result.q.shape == (51, kinova.nq)
+    np.testing.assert_allclose(back.q, result.q, atol=1e-9)
+    assert (path.stat().st_mode & 0o777) == 0o666 & ~_umask()
+
+
+def _umask():
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

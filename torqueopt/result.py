@@ -195,8 +195,14 @@ class SimResult:
         return f"SimResult({self.robot}, {self.resolver}, {len(self.t)} rows, {status})"
 
 
-def load_result(path: str | os.PathLike) -> SimResult:
-    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz)."""
+def load_result(path: str | os.PathLike, robot=None) -> SimResult:
+    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz).
+
+    A CSV holds one angle per joint, not configuration vectors: with ``robot``
+    given, ``q`` is rebuilt from them (needed for continuous joints, whose
+    configuration is (cos, sin)); without it ``q`` holds the angles. A CSV
+    has no joint accelerations or Jacobian condition: those arrays are NaN.
+    """
     path = Path(path)
     if not path.is_file():
         raise InvalidInput(f"run file '{path}' does not exist")
@@ -226,7 +232,7 @@ def load_result(path: str | os.PathLike) -> SimResult:
     return SimResult(
         **metadata,
         t=t[:, 0],
-        q=angles,
+        q=angles if robot is None else np.array([robot.configuration(row) for row in angles]).reshape(len(angles), -1),
         joint_angles=angles,
         v=v,
         acceleration=np.full_like(v, np.nan),
@@ -247,6 +253,11 @@ def atomic_write(path: Path, write) -> None:
     try:
         with handle:
             write(handle)
+        # NamedTemporaryFile makes the file private (0600); give it the
+        # permissions an ordinary new file would get under the user's umask.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(handle.name, 0o666 & ~umask)
         os.replace(handle.name, path)
     except BaseException:
         os.unlink(handle.name)
