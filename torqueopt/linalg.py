@@ -14,7 +14,15 @@ import numpy as np
 
 from .errors import SingularJacobian
 
-__all__ = ["JacobianDecomposition", "LeastSquares", "least_squares", "solve_positive_definite", "DEFAULT_SINGULAR_TOLERANCE"]
+__all__ = [
+    "JacobianDecomposition",
+    "JacobianSolver",
+    "LeastSquares",
+    "least_squares",
+    "PositiveDefiniteSolver",
+    "solve_positive_definite",
+    "DEFAULT_SINGULAR_TOLERANCE",
+]
 
 #: Relative singular-value cutoff: a task Jacobian whose smallest singular
 #: value falls below this fraction of its largest is treated as singular.
@@ -22,6 +30,7 @@ DEFAULT_SINGULAR_TOLERANCE = 1e-6
 
 _FULL_UV = eigenpy.DecompositionOptions.ComputeFullU | eigenpy.DecompositionOptions.ComputeFullV
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
+_SUCCESS = eigenpy.ComputationInfo.Success
 
 
 class JacobianDecomposition:
@@ -32,11 +41,6 @@ class JacobianDecomposition:
         null_space_basis: orthonormal basis of the null space of J (n×(n−m)).
         condition: :math:`\sigma_{min} / \sigma_{max}` (0 at a singularity).
 
-    Args:
-        svd: an ``eigenpy.HhJacobiSVD`` made by :meth:`workspace`, reused
-            from one call to the next in a loop (a fresh one when None); its
-            results are copied out, so decompositions never share memory.
-
     Raises:
         SingularJacobian: when :math:`\sigma_{min} < \text{tolerance}\cdot\sigma_{max}`,
             since then no joint acceleration realises every task direction
@@ -44,34 +48,56 @@ class JacobianDecomposition:
             are dominated by round-off.
     """
 
-    def __init__(self, jacobian: np.ndarray, tolerance: float = DEFAULT_SINGULAR_TOLERANCE, svd=None):
-        rows = jacobian.shape[0]
-        if svd is None:
-            svd = eigenpy.HhJacobiSVD(jacobian, _FULL_UV)
-        else:
-            svd.compute(jacobian)
-        singular_values = svd.singularValues()
-        largest = singular_values[0]
-        self.condition = singular_values[-1] / largest if largest > 0 else 0.0
-        if not self.condition >= tolerance:
-            raise SingularJacobian(
-                f"task Jacobian is singular: smallest/largest singular value {self.condition:.3g} "
-                f"is below the cutoff {tolerance:.3g}"
-            )
-        self.singular_values = singular_values
-        self._u = svd.matrixU()
-        v = svd.matrixV()
-        self._v_range = v[:, :rows]
-        self.null_space_basis = v[:, rows:]
-
-    @staticmethod
-    def workspace(rows: int, columns: int):
-        """An SVD of an m×n matrix to pass as ``svd``, so a loop allocates it once."""
-        return eigenpy.HhJacobiSVD(rows, columns, _FULL_UV)
+    def __init__(self, jacobian: np.ndarray, tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        self._svd = eigenpy.HhJacobiSVD(jacobian, _FULL_UV)
+        self.singular_values = self._svd.singularValues()
+        self.condition = _condition(self.singular_values, tolerance)
+        self.null_space_basis = self._svd.matrixV()[:, jacobian.shape[0] :]
 
     def pseudo_inverse_apply(self, vector: np.ndarray) -> np.ndarray:
         r""":math:`J^\dagger r = V_m \Sigma^{-1} U^\top r`."""
-        return self._v_range.dot(self._u.T.dot(vector) / self.singular_values)
+        return self._svd.solve(vector).reshape(-1)
+
+
+class JacobianSolver:
+    r""":class:`JacobianDecomposition` for a loop: one SVD workspace, fresh results at each call.
+
+    Calling it with an m×n Jacobian J and an m-vector r returns
+    :math:`(J^\dagger r,\ Z,\ \sigma_{min}/\sigma_{max})`, with Z the
+    null-space basis (None when built with ``null_space=False``). Raises
+    SingularJacobian under the same cutoff as JacobianDecomposition.
+    """
+
+    def __init__(self, rows: int, columns: int, tolerance: float = DEFAULT_SINGULAR_TOLERANCE, null_space: bool = True):
+        self._svd = eigenpy.HhJacobiSVD(rows, columns, _FULL_UV)
+        self._rows = rows
+        self._tolerance = tolerance
+        self._null_space = null_space
+
+    def __call__(self, jacobian: np.ndarray, vector: np.ndarray):
+        svd = self._svd.compute(jacobian)
+        condition = _condition(svd.singularValues(), self._tolerance)
+        particular = svd.solve(vector).reshape(-1)
+        basis = svd.matrixV()[:, self._rows :] if self._null_space else None
+        return particular, basis, condition
+
+
+def _condition(singular_values: np.ndarray, tolerance: float) -> float:
+    r"""σ_min/σ_max, or SingularJacobian below ``tolerance``.
+
+    Above the cutoff every singular value is far above Eigen's own rank
+    threshold (min(m, n)·ε), so the SVD's ``solve`` is exactly
+    :math:`V_m \Sigma^{-1} U^\top r`.
+    """
+    values = singular_values.tolist()
+    largest = values[0]
+    condition = values[-1] / largest if largest > 0 else 0.0
+    if not condition >= tolerance:
+        raise SingularJacobian(
+            f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "
+            f"is below the cutoff {tolerance:.3g}"
+        )
+    return condition
 
 
 class LeastSquares:
@@ -95,13 +121,25 @@ def least_squares(matrix: np.ndarray, rhs: np.ndarray, tolerance: float = 1e-12)
     return LeastSquares(*matrix.shape, tolerance)(matrix, rhs)
 
 
-def solve_positive_definite(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """:math:`A^{-1} b` for a symmetric positive definite A and a vector b, by Cholesky (Eigen's LLT).
+class PositiveDefiniteSolver:
+    """:math:`A^{-1} b` for symmetric positive definite k×k matrices A and vectors b, by Cholesky (Eigen's LLT).
+
+    One object keeps its factorisation storage from call to call.
 
     Raises:
         numpy.linalg.LinAlgError: A is not positive definite.
     """
-    factor = eigenpy.LLT(matrix)
-    if factor.info() != eigenpy.ComputationInfo.Success:
-        raise np.linalg.LinAlgError(f"matrix is not positive definite: {matrix.tolist()}")
-    return factor.solve(rhs).reshape(-1)
+
+    def __init__(self, size: int):
+        self._factor = eigenpy.LLT(size)
+
+    def __call__(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        factor = self._factor.compute(matrix)
+        if factor.info() != _SUCCESS:
+            raise np.linalg.LinAlgError(f"matrix is not positive definite: {matrix.tolist()}")
+        return factor.solve(rhs).reshape(-1)
+
+
+def solve_positive_definite(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """:math:`A^{-1} b` for a symmetric positive definite A; see :class:`PositiveDefiniteSolver`."""
+    return PositiveDefiniteSolver(matrix.shape[0])(matrix, rhs)

@@ -23,7 +23,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import NoRedundancy
-from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianDecomposition
+from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
 from ..robot import Robot, TaskTerms
 
 __all__ = ["Resolution", "Resolver"]
@@ -87,21 +87,18 @@ class Resolver(ABC):
         per run and each step pays only for what changes with the state;
         nothing carries over from one run to the next.
         """
-        tolerance = self.singular_tolerance
-        svd = JacobianDecomposition.workspace(robot.m, robot.nv)
         coordinates_at = self.null_space_solver(robot) if robot.nv > robot.m else None
+        decompose = JacobianSolver(robot.m, robot.nv, self.singular_tolerance, null_space=coordinates_at is not None)
 
         def solve(terms: TaskTerms, task_acceleration: np.ndarray):
-            decomposition = JacobianDecomposition(terms.jacobian, tolerance, svd)
-            particular = decomposition.pseudo_inverse_apply(task_acceleration - terms.drift)
+            particular, basis, condition = decompose(terms.jacobian, task_acceleration - terms.drift)
             if coordinates_at is None:
                 acceleration = particular
             else:
-                basis = decomposition.null_space_basis
                 coordinates = coordinates_at(terms, basis, particular)
                 acceleration = particular if coordinates is None else particular + basis.dot(coordinates)
             torque = terms.inertia.dot(acceleration) + terms.bias_torque
-            return torque, acceleration, decomposition.condition
+            return torque, acceleration, condition
 
         return solve
 

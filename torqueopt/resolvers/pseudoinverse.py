@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..linalg import solve_positive_definite
+from ..linalg import PositiveDefiniteSolver
 from ..robot import Robot, TaskTerms
 from .base import Resolver
 
@@ -44,7 +44,15 @@ class InertiaWeightedPseudoInverse(Resolver):
     name = "inertia-pinv"
 
     def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
-        inertia_basis = terms.inertia.dot(null_space_basis)
-        # Z^T H Z is symmetric positive definite (H is, Z has full column rank).
-        reduced_inertia = null_space_basis.T.dot(inertia_basis)
-        return -solve_positive_definite(reduced_inertia, inertia_basis.T.dot(particular))
+        return self.null_space_solver(robot)(terms, null_space_basis, particular)
+
+    def null_space_solver(self, robot: Robot):
+        solve = PositiveDefiniteSolver(robot.redundancy)
+
+        def coordinates(terms: TaskTerms, null_space_basis, particular):
+            inertia_basis = terms.inertia.dot(null_space_basis)
+            # Z^T H Z is symmetric positive definite (H is, Z has full column rank).
+            reduced_inertia = null_space_basis.T.dot(inertia_basis)
+            return -solve(reduced_inertia, inertia_basis.T.dot(particular))
+
+        return coordinates
