@@ -18,6 +18,7 @@ motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -201,15 +202,15 @@ def simulate(
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver(robot)
     advance = _rk4_stepper(robot, dt)
+    terms_at, task_coordinates = robot.terms, robot.task_coordinates
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
 
     stop_reason = None
     stop_time = None
     recorded = 0
-    for k in range(rows):
-        t = times[k]
-        terms = robot.terms(q, v)
-        x = robot.task_coordinates(terms.placement, reference_rotation)
+    for k, t in enumerate(times.tolist()):
+        terms = terms_at(q, v)
+        x = task_coordinates(terms.placement, reference_rotation)
         command = ref_acceleration[k]
         if feedback is not None:
             command = (
@@ -226,7 +227,7 @@ def simulate(
         if not all(map(math.isfinite, torque_list)):
             stop_reason, stop_time = f"torque became non-finite at t = {t:.4f} s", t
             break
-        if any(abs(value) > ceiling for value, ceiling in zip(torque_list, torque_ceiling)):
+        if any(map(operator.gt, map(abs, torque_list), torque_ceiling)):
             joint = int(np.argmax(np.abs(tau) / limit))
             stop_reason = (
                 f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
