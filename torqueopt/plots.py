@@ -333,7 +333,7 @@ def _symlog(ax, linthresh: float, peak: float) -> None:
     from matplotlib.ticker import FixedLocator, NullLocator, StrMethodFormatter
 
     ax.set_yscale("symlog", linthresh=linthresh, linscale=1.5)
-    decades = [10.0**k for k in range(int(np.ceil(np.log10(2 * linthresh))), int(np.floor(np.log10(peak))) + 1)]
+    decades = [10.0**k for k in range(int(np.ceil(np.log10(1.2 * linthresh))), int(np.floor(np.log10(peak))) + 1)]
     ticks = sorted({0.0, linthresh, -linthresh, *decades, *(-d for d in decades)})
     ax.yaxis.set_major_locator(FixedLocator(ticks))
     ax.yaxis.set_major_formatter(StrMethodFormatter("{x:g}"))
