@@ -1,0 +1,254 @@
+"""The paper's scenario and its six claims, each checked on the numbers; the files and CLI of ``torqueopt paper``."""
+
+import contextlib
+import io
+import json
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from torqueopt.cli import build_parser, main
+from torqueopt.cli.paper import scenario_from_args
+from torqueopt.errors import InvalidInput
+from torqueopt.paper import MOVEMENTS, PAPER, alignment_times, run_paper, summary_entries
+
+SUMMARY_FIELDS = {
+    "movement", "resolver", "duration", "peak_torque", "torque_limit", "first_limit_violation", "unstable",
+    "instability_time", "max_tip_error",
+}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def paper():
+    return run_paper()
+
+
+def peaks(paper, movement, resolver):
+    return paper.runs[movement, resolver].peak_torque
+
+
+# -- the scenario --------------------------------------------------------------
+def test_the_scenario_is_the_issues(paper):
+    assert np.degrees(PAPER.q0) == pytest.approx([-45.0, 135.0, -135.0])
+    assert PAPER.direction == (1.0, 1.0) and PAPER.accel == pytest.approx(math.sqrt(2.0))
+    assert PAPER.durations == (0.5, 1.25, 2.0) and PAPER.dt == 1e-3
+    assert PAPER.torque_limit == (54.0, 24.0, 6.0)
+    np.testing.assert_allclose(PAPER.weight, [1 / 54**2, 1 / 24**2, 1 / 6**2])
+    robot = paper.robot
+    assert robot.gravity.tolist() == [0.0, 0.0, 0.0]
+    tip = robot.task_position(robot.configuration(PAPER.q0))
+    np.testing.assert_allclose(tip, [math.sqrt(2.0), 1.0 - math.sqrt(2.0)], atol=1e-12)
+    # The lines are 0.088 m, 0.55 m and 1.41 m long (a T^2 / 4).
+    assert [PAPER.line(m).length for m in MOVEMENTS] == pytest.approx([0.0884, 0.5524, 1.4142], abs=1e-4)
+    assert set(paper.runs) == {(m, r) for m in MOVEMENTS for r in ("pinv", "inertia-pinv", "null-space",
+                                                                    "weighted-null-space")}  # fmt: skip
+    assert all(result.completed for result in paper.runs.values())
+
+
+def test_replace_gives_another_scenario():
+    other = PAPER.replace(q0=np.radians([-40.0, 130.0, -130.0]), direction=(1.0, 0.5), durations=(0.4, 1.0, 1.6))
+    assert other.duration("long") == 1.6 and other.direction == (1.0, 0.5)
+    assert PAPER.duration("long") == 2.0
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"durations": (0.5, 2.0)}, "durations [0.5, 2.0] must be 3 positive numbers of seconds (short, medium, long)"),
+        ({"durations": (0.5, -1.0, 2.0)}, "durations [0.5, -1.0, 2.0] must be 3 positive numbers of seconds"),
+        ({"q0": (0.0, math.nan, 0.0)}, "q0 [0.0, nan, 0.0] must be finite numbers"),
+        ({"torque_limit": (54.0, 0.0, 6.0)}, "torque_limit [54.0, 0.0, 6.0] must be positive numbers [N·m]"),
+        ({"dt": 1.0}, "dt=1.0 s is longer than the shortest movement, 0.5 s"),
+    ],
+)
+def test_bad_scenarios_are_refused(changes, message):
+    with pytest.raises(InvalidInput) as error:
+        PAPER.replace(**changes)
+    assert str(error.value).startswith(message)
+
+
+def test_unknown_movement():
+    with pytest.raises(InvalidInput, match=r"^unknown movement 'huge': choose one of short, medium, long$"):
+        PAPER.duration("huge")
+
+
+def test_a_singular_start_is_refused_before_simulating():
+    with pytest.raises(InvalidInput, match=r"^q0 = \(0°, 0°, 0°\) is a singular configuration \(task Jacobian"):
+        run_paper(PAPER.replace(q0=(0.0, 0.0, 0.0)))
+
+
+# -- the claims ----------------------------------------------------------------
+def test_claim_1_short_null_space_cuts_joint_1_and_pulls_joint_3_from_its_limit(paper):
+    pinv, null = peaks(paper, "short", "pinv"), peaks(paper, "short", "null-space")
+    np.testing.assert_allclose(pinv, [13.04, 3.54, 5.61], atol=0.01)
+    np.testing.assert_allclose(null, [0.74, 3.20, 4.25], atol=0.01)
+    assert null[0] < 0.06 * pinv[0]  # a twentieth
+    assert pinv[2] / 6.0 > 0.93 and null[2] / 6.0 < 0.71  # 94 % of the limit down to 71 %
+    assert paper.claims[0].holds
+
+
+def test_claim_2_medium_null_space_still_lower_at_joints_1_and_3_within_limits(paper):
+    pinv, null = peaks(paper, "medium", "pinv"), peaks(paper, "medium", "null-space")
+    np.testing.assert_allclose(pinv, [13.68, 6.26, 5.89], atol=0.01)
+    np.testing.assert_allclose(null, [2.28, 10.64, 4.64], atol=0.01)
+    assert null[0] < pinv[0] and null[2] < pinv[2]
+    assert null[1] > pinv[1]  # joint 2 is larger ...
+    assert paper.runs["medium", "null-space"].first_limit_violation is None  # ... but within its 24 N·m
+    assert not paper.whiplash["medium", "null-space"].unstable
+    assert paper.claims[1].holds
+
+
+def test_claim_3_long_pinv_within_limits_null_space_unstable_late_through_alignment(paper):
+    pinv, null = paper.runs["long", "pinv"], paper.runs["long", "null-space"]
+    np.testing.assert_allclose(pinv.peak_torque, [22.07, 9.25, 5.89], atol=0.01)
+    assert pinv.first_limit_violation is None and not paper.whiplash["long", "pinv"].unstable
+    np.testing.assert_allclose(null.peak_torque, [515.5, 335.6, 76.5], rtol=2e-3)
+    verdict = paper.whiplash["long", "null-space"]
+    assert verdict.unstable and verdict.time == pytest.approx(1.387) and verdict.time > 0.5 * null.duration
+    # Links 2 and 3 pass through line (joint 3 at 0) once, at 1.333 s, as the whip builds up ...
+    assert alignment_times(null) == pytest.approx([1.333], abs=1e-3)
+    row = int(np.searchsorted(null.t, 1.333))
+    pinv_fastest = np.abs(pinv.v).max()
+    assert pinv_fastest == pytest.approx(1.24, abs=0.01)
+    # ... with joint 3 at 3.9 rad/s, 3.1 times the fastest joint of pinv over the whole movement,
+    assert np.abs(null.v[row]).max() == pytest.approx(3.87, abs=0.02)
+    # and all three joints peak (4.0, 8.2, 7.4 rad/s) some 0.16 s later, with the torque.
+    np.testing.assert_allclose(np.abs(null.v).max(axis=0), [4.02, 8.24, 7.39], atol=0.01)
+    assert null.t[np.argmax(np.abs(null.v[:, 1]))] == pytest.approx(1.50, abs=0.01)
+    assert paper.claims[2].holds
+
+
+def test_claim_4_short_weighted_shrinks_joint_3_at_the_expense_of_joints_1_and_2(paper):
+    weighted, null = peaks(paper, "short", "weighted-null-space"), peaks(paper, "short", "null-space")
+    np.testing.assert_allclose(weighted, [18.88, 8.15, 2.62], atol=0.01)
+    assert weighted[2] < 0.62 * null[2]
+    assert weighted[0] > 20 * null[0] and weighted[1] > 2 * null[1]
+    assert (weighted / np.array([54.0, 24.0, 6.0])).max() < 0.45  # well within the limits
+    assert paper.claims[3].holds
+
+
+def test_claim_5_weighted_and_inertia_pinv_unstable_too_inertia_pinv_in_between(paper):
+    for name, when in (("weighted-null-space", 0.730), ("inertia-pinv", 1.151)):
+        verdict = paper.whiplash["long", name]
+        assert verdict.unstable and verdict.time == pytest.approx(when)
+    inertia, pinv, null = (peaks(paper, "short", name) for name in ("inertia-pinv", "pinv", "null-space"))
+    np.testing.assert_allclose(inertia, [5.44, 1.17, 4.65], atol=0.01)
+    between = [min(p, z) < i < max(p, z) for i, p, z in zip(inertia, pinv, null)]
+    # Joints 1 and 3 lie between; joint 2 (1.17 N·m) is below both (3.54 and 3.20): "most joints" is 2 of 3.
+    assert between == [True, False, True]
+    assert paper.claims[4].holds
+
+
+def test_claim_6_the_free_swing_whips_as_links_2_and_3_straighten(paper):
+    swing = paper.free_swing
+    assert swing.resolver == "free swing" and not swing.tau.any()
+    # Gravity along the line direction, sized for a tip acceleration of √2 m/s² from rest.
+    gravity = paper.free_swing_gravity
+    np.testing.assert_allclose(gravity / np.linalg.norm(gravity), [1 / math.sqrt(2), 1 / math.sqrt(2), 0.0])
+    tip_acceleration = (swing.x[2] - 2 * swing.x[1] + swing.x[0]) / swing.dt**2
+    assert np.linalg.norm(tip_acceleration) == pytest.approx(math.sqrt(2.0), rel=1e-2)
+    speed = np.abs(swing.v)
+    peak_row = int(np.argmax(speed.max(axis=1)))
+    assert np.argmax(speed[peak_row]) == 2  # joint 3
+    assert speed[peak_row, 2] == pytest.approx(9.86, abs=0.01) and swing.t[peak_row] == pytest.approx(1.431)
+    assert alignment_times(swing) == pytest.approx([1.463], abs=1e-3)
+    assert abs(swing.t[peak_row] - 1.463) < 0.05
+    assert paper.claims[5].holds
+
+
+def test_the_free_swing_conserves_energy(paper):
+    # Independent of the integrator's use: with zero torque, kinetic + potential energy is constant.
+    swing, robot = paper.free_swing, paper.robot
+    data = robot.model.createData()
+    mass = pin.computeTotalMass(robot.model)
+    energy = []
+    for q, v in zip(swing.q[::50], swing.v[::50]):
+        inertia = robot.terms(q, v).inertia
+        center = pin.centerOfMass(robot.model, data, q)
+        energy.append(0.5 * v @ inertia @ v - mass * paper.free_swing_gravity @ center)
+    kinetic_peak = 0.5 * mass * np.abs(swing.v).max() ** 2
+    assert np.ptp(energy) < 1e-6 * kinetic_peak
+
+
+def test_every_claim_holds(paper):
+    assert [(claim.number, claim.holds) for claim in paper.claims] == [(n, True) for n in range(1, 7)]
+
+
+def test_summary_entries_have_exactly_the_issues_fields(paper):
+    entries = summary_entries(paper)
+    assert len(entries) == 12
+    for entry in entries:
+        assert set(entry) == SUMMARY_FIELDS
+        result = paper.runs[entry["movement"], entry["resolver"]]
+        assert entry["peak_torque"] == result.peak_torque.tolist()
+        assert entry["torque_limit"] == [54.0, 24.0, 6.0]
+        assert entry["max_tip_error"] == result.max_tip_error
+        assert entry["unstable"] == (entry["instability_time"] is not None)
+    unstable = {(e["movement"], e["resolver"]) for e in entries if e["unstable"]}
+    assert unstable == {("long", "null-space"), ("long", "weighted-null-space"), ("long", "inertia-pinv")}
+
+
+# -- the command ---------------------------------------------------------------
+@pytest.fixture(scope="module")
+def paper_command(tmp_path_factory):
+    out = tmp_path_factory.mktemp("paper-out")
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(["paper", "--out", str(out)])
+    return code, out, printed.getvalue()
+
+
+def test_paper_command_writes_every_figure_and_both_summaries(paper_command):
+    code, out, printed = paper_command
+    assert code == 0
+    figures = [f"fig{i}.png" for i in range(2, 8)] + [
+        f"arm_long_{name}.png" for name in ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
+    ]
+    for name in figures:
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    assert not list(out.glob(".*.part"))
+    summary = json.loads((out / "summary.json").read_text())
+    assert [set(entry) for entry in summary["runs"]] == [SUMMARY_FIELDS] * 12
+    assert all(claim["holds"] for claim in summary["claims"])
+    assert summary["scenario"]["q0_deg"] == [-45.0, 135.0, -135.0]
+    assert summary["whiplash"]["limit_factor"] == 2.0 and summary["whiplash"]["growth_factor"] == 8.0
+    markdown = (out / "summary.md").read_text()
+    assert "| long | null-space | 2 | 515, 336, 76.5 | 54, 24, 6 | 0.859 | **yes** | 1.387 |" in markdown
+    assert "| short | pinv | 0.5 | 13, 3.54, 5.61 | 54, 24, 6 | - | no | - |" in markdown
+    assert markdown.count("**holds**") == 6
+    assert "long     null-space                        13.98     t = 0.859 s  UNSTABLE from t = 1.387 s" in printed
+    assert "claim 6: holds" in printed
+
+
+def test_paper_options_make_the_scenario():
+    args = build_parser().parse_args([
+        "paper", "--out", "x", "--q0=-40,130,-130", "--degrees", "--direction", "1,0.5",
+        "--durations", "0.4,1,1.6", "--limit-factor", "3", "--growth-factor", "6",
+    ])  # fmt: skip
+    scenario, limit_factor, growth_factor = scenario_from_args(args)
+    assert np.degrees(scenario.q0) == pytest.approx([-40.0, 130.0, -130.0])
+    assert scenario.direction == (1.0, 0.5) and scenario.durations == (0.4, 1.0, 1.6)
+    assert (limit_factor, growth_factor) == (3.0, 6.0)
+    assert scenario.torque_limit == PAPER.torque_limit and scenario.accel == PAPER.accel
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--durations", "0.5,2"], "--durations has 2 values but needs 3"),
+        (["--durations", "0.5,-1,2"], "--durations: -1.0 must be a positive finite number"),
+        (["--q0=1,2"], "--q0 has 2 values but needs 3"),
+        (["--direction", "1,x"], "--direction: 'x' is not a number (give comma-separated numbers, e.g. 1,1)"),
+        (["--limit-factor", "0"], "--limit-factor: 0 must be a positive finite number"),
+        (["--growth-factor", "many"], "--growth-factor: 'many' is not a number"),
+        (["--q0=0,0,0"], ("q0 = (0°, 0°, 0°) is a singular configuration (task Jacobian is singular: smallest/largest "
+                         "singular value 0 is below the cutoff 1e-06); choose another start")),
+    ],
+)
+def test_paper_bad_options_exit_2_with_one_line(tmp_path, capsys, options, message):
+    code = main(["paper", "--out", str(tmp_path / "out"), *options])
+    assert code == 2
+    assert capsys.readouterr().err == f"torqueopt paper: error: {message}\n"
+    assert not (tmp_path / "out").exists()
