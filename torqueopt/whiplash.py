@@ -38,8 +38,8 @@ says that the excess was there from the start, not built up by a whip.
 
 Neither default is fitted to the paper's runs. On its scenario every run the
 paper calls stable peaks below 1.0 times the limits and every run it calls
-unstable above 4 times them, so any ``limit_factor`` from about 1.2 to 4
-classifies them as the paper does; 2 sits in the middle of that gap. The
+unstable above 4 times them, so any ``limit_factor`` from 1 to 4 classifies
+them as the paper does; 2 sits in the middle of that gap. The
 ``growth_factor`` of 8 was set on 360 random straight lines of the paper's
 arm with other start points and directions (pinv, inertia-pinv and
 null-space, 0.5 to 2 s): there, with the limits ignored, it agrees with the
