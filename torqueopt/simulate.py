@@ -85,33 +85,35 @@ def _rk4_stepper(robot: Robot, dt: float):
         v^+ = v + \tfrac{h}{6}(k_1 + 2k_2 + 2k_3 + k_4),\qquad
         q^+ = q \oplus \tfrac{h}{6}(v + 2v_2 + 2v_3 + v_4) = q \oplus \big(h v + \tfrac{h^2}{6}(k_1 + k_2 + k_3)\big).
 
-    Every vector there is a fixed linear combination of :math:`v, k_1, \dots, k_4`,
-    kept as the rows of one array allocated here, so each costs one small
-    matrix product rather than several elementwise numpy operations (whose
-    call overhead, not arithmetic, dominates at these sizes).
+    Each stage's configuration increment (:math:`\tfrac{h}{2} v`,
+    :math:`\tfrac{h}{2} v_2 = \tfrac{h}{2} v + \tfrac{h^2}{4} k_1`,
+    :math:`h v_3 = h v + \tfrac{h^2}{2} k_2`) and velocity, and the final
+    update, are fixed linear combinations of :math:`v, k_1, \dots, k_4`: the
+    rows of one array allocated here. So each stage costs one 2×k matrix
+    product rather than several elementwise numpy operations, whose call
+    overhead, not arithmetic, dominates at these sizes.
     """
-    half = np.float64(0.5 * dt)
-    step = np.float64(dt)
+    h = float(dt)
     stages = np.zeros((5, robot.nv))  # rows: v, k1, k2, k3, k4
     up_to_k1, up_to_k2, up_to_k3 = stages[:2], stages[:3], stages[:4]
-    v2_weights = np.array([1.0, half])
-    v3_weights = np.array([1.0, 0.0, half])
-    v4_weights = np.array([1.0, 0.0, 0.0, step])
-    sixth, third, sixth_squared = dt / 6.0, dt / 3.0, dt * dt / 6.0
-    update_weights = np.array([[step, sixth_squared, sixth_squared, sixth_squared, 0.0], [1.0, sixth, third, third, sixth]])
+    # Row 0: configuration increment; row 1: stage velocity (or v⁺ for the update).
+    stage2 = np.array([[h / 2, 0.0], [1.0, h / 2]])
+    stage3 = np.array([[h / 2, h * h / 4, 0.0], [1.0, 0.0, h / 2]])
+    stage4 = np.array([[h, 0.0, h * h / 2, 0.0], [1.0, 0.0, 0.0, h]])
+    update = np.array([[h, h * h / 6, h * h / 6, h * h / 6, 0.0], [1.0, h / 6, h / 3, h / 3, h / 6]])
     forward_dynamics, integrate = robot.forward_dynamics, robot.integrate
 
     def rk4(q, v, tau, k1):
         stages[0] = v
         stages[1] = k1
-        v2 = v2_weights.dot(up_to_k1)
-        stages[2] = forward_dynamics(integrate(q, half * v), v2, tau)
-        v3 = v3_weights.dot(up_to_k2)
-        stages[3] = forward_dynamics(integrate(q, half * v2), v3, tau)
-        v4 = v4_weights.dot(up_to_k3)
-        stages[4] = forward_dynamics(integrate(q, step * v3), v4, tau)
-        update = update_weights.dot(stages)
-        return integrate(q, update[0]), update[1]
+        combination = stage2.dot(up_to_k1)
+        stages[2] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
+        combination = stage3.dot(up_to_k2)
+        stages[3] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
+        combination = stage4.dot(up_to_k3)
+        stages[4] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
+        combination = update.dot(stages)
+        return integrate(q, combination[0]), combination[1]
 
     return rk4
 
