@@ -54,6 +54,7 @@ __all__ = [
     "free_swing_gravity",
     "alignment_times",
     "check_claims",
+    "format_summary_markdown",
     "summary_entries",
     "write_paper",
 ]
@@ -186,6 +187,7 @@ class PaperResults:
 
     Attributes:
         scenario: the scenario that was run.
+        robot: the arm it was run on (gravity off).
         runs: SimResult per (movement, resolver).
         whiplash: WhiplashReport per (movement, resolver).
         free_swing: the zero-torque swing of Fig. 7 (resolver name ``free swing``).
