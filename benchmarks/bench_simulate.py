@@ -12,8 +12,9 @@ median wall time of ``simulate`` (the robot is loaded once, outside the
 timing), reported as RK4 steps per second. Each step includes one resolver
 evaluation and four ABA calls (the first is the resolver's own acceleration).
 
-The process is pinned to one thread (OpenBLAS / OpenMP thread counts set to 1
-before numpy loads) and, where the OS allows, to one CPU.
+The process runs on one thread (OpenBLAS / OpenMP thread counts set to 1
+before numpy loads); ``--cpu N`` also pins it to one CPU, which on a shared
+machine can put it next to a busy process, so it is off by default.
 
 Run::
 
@@ -65,17 +66,18 @@ def cases(panda_tasks):
 
 
 def time_case(robot, resolver, trajectory, q0, repeats):
-    """Median wall time [s] of ``simulate`` and the number of RK4 steps it took."""
+    """Wall times and CPU times [s] of ``repeats`` runs of ``simulate``, and the number of RK4 steps of one."""
     result = torqueopt.simulate(robot, resolver, trajectory, q0)
     if not result.completed:
         raise RuntimeError(f"{robot.name} / {resolver} stopped early: {result.stop_reason}")
     steps = result.t.size - 1
-    times = []
+    wall, cpu = [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         torqueopt.simulate(robot, resolver, trajectory, q0)
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), min(times), steps
+        wall.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    return wall, cpu, steps
 
 
 def openblas_core() -> str:
@@ -109,20 +111,23 @@ def machine() -> dict:
         "pin": pin.__version__,
         "torqueopt": torqueopt.__version__,
         "openblas_core": openblas_core(),
+        "load_average": " ".join(f"{value:.2f}" for value in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a",
         **{name: os.environ.get(name, "(unset)") for name in OPENBLAS_TUNING},
     }
 
 
 def run(repeats: int, panda_tasks) -> dict:
+    info = machine()
     rows = []
     for label, robot, trajectory, q0 in cases(panda_tasks):
         for resolver in torqueopt.resolver_names():
-            median, best, steps = time_case(robot, resolver, trajectory, q0, repeats)
+            wall, cpu, steps = time_case(robot, resolver, trajectory, q0, repeats)
+            median = statistics.median(wall)
             rows.append(
                 {"case": label, "resolver": resolver, "steps": steps, "median_s": median, "steps_per_s": steps / median,
-                 "best_steps_per_s": steps / best}
+                 "cpu_steps_per_s": steps / statistics.median(cpu), "best_steps_per_s": steps / min(wall)}
             )
-    return {"machine": machine(), "repeats": repeats, "rows": rows}
+    return {"machine": info, "repeats": repeats, "rows": rows}
 
 
 def markdown(report: dict, title: str) -> str:
@@ -134,15 +139,17 @@ def markdown(report: dict, title: str) -> str:
         f"- python {info['python']}, numpy {info['numpy']}, pin {info['pin']}, torqueopt {info['torqueopt']}",
         f"- OpenBLAS kernel {info['openblas_core']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}, "
         f"OPENBLAS_L2_SIZE={info['OPENBLAS_L2_SIZE']}; one thread",
-        f"- median of {report['repeats']} timed runs after one warm-up run",
+        f"- median of {report['repeats']} timed runs after one warm-up run; load average before the runs "
+        f"{info['load_average']}",
         "",
-        "| case | resolver | RK4 steps | median time [ms] | steps/s (median) | steps/s (best) |",
-        "|---|---|---:|---:|---:|---:|",
+        "| case | resolver | RK4 steps | median wall time [ms] | steps/s (median wall) | steps/s (median CPU) "
+        "| steps/s (best wall) |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     for row in report["rows"]:
         lines.append(
             f"| {row['case']} | {row['resolver']} | {row['steps']} | {1e3 * row['median_s']:.1f} | "
-            f"{row['steps_per_s']:,.0f} | {row['best_steps_per_s']:,.0f} |"
+            f"{row['steps_per_s']:,.0f} | {row['cpu_steps_per_s']:,.0f} | {row['best_steps_per_s']:,.0f} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -159,10 +166,10 @@ def write_block(path: Path, text: str) -> None:
     path.write_text(new)
 
 
-def pin_to_one_cpu() -> None:
-    if hasattr(os, "sched_setaffinity"):
-        cpus = sorted(os.sched_getaffinity(0))
-        os.sched_setaffinity(0, {cpus[-1]})
+def pin_to_cpu(cpu: int) -> None:
+    if not hasattr(os, "sched_setaffinity"):
+        raise SystemExit("--cpu needs os.sched_setaffinity (Linux)")
+    os.sched_setaffinity(0, {cpu})
 
 
 def main(argv=None) -> int:
@@ -173,11 +180,13 @@ def main(argv=None) -> int:
     parser.add_argument("--openblas-env", choices=("as-is", "unset", "both"), default="as-is",
                         help="time with OPENBLAS_CORETYPE/OPENBLAS_L2_SIZE as they are, unset (in a child "
                         "process only), or both")
+    parser.add_argument("--cpu", type=int, help="pin the process to this CPU (default: let the OS place it)")
     parser.add_argument("--write", type=Path, help="write the tables into this Markdown file between the markers")
     parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     panda_tasks = args.panda_task or ["position", "pose"]
-    pin_to_one_cpu()
+    if args.cpu is not None:
+        pin_to_cpu(args.cpu)
 
     reports = []
     if args.openblas_env in ("as-is", "both"):
@@ -186,6 +195,8 @@ def main(argv=None) -> int:
         if any(name in os.environ for name in OPENBLAS_TUNING) or args.openblas_env == "unset":
             env = {k: v for k, v in os.environ.items() if k not in OPENBLAS_TUNING}
             command = [sys.executable, __file__, "--json", "--repeats", str(args.repeats)]
+            if args.cpu is not None:
+                command += ["--cpu", str(args.cpu)]
             for task in panda_tasks:
                 command += ["--panda-task", task]
             output = subprocess.run(command, env=env, check=True, capture_output=True, text=True).stdout
