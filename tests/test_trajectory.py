@@ -55,3 +55,9 @@ def test_paper_default_acceleration_is_root_two():
 def test_bad_lines_are_rejected_with_the_value(kwargs, message):
     with pytest.raises(InvalidInput, match=message):
         StraightLine(**kwargs)
+
+
+def test_the_step_starting_at_half_time_decelerates():
+    line = StraightLine([1, 0], accel=2.0, duration=1.0).anchored([0, 0])
+    before, middle = line.sample(np.array([0.5 - 1e-3, 0.5])).acceleration[:, 0]
+    assert before == 2.0 and middle == -2.0

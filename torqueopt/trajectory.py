@@ -105,7 +105,8 @@ class StraightLine:
         first = tc <= half
         arc = np.where(first, 0.5 * a * tc**2, self.length - 0.5 * a * (total - tc) ** 2)
         speed = np.where(first, a * tc, a * (total - tc))
-        tangential = np.where(first, a, -a)
+        # The step that starts at T/2 belongs to the deceleration half.
+        tangential = np.where(tc < half, a, -a)
         tangential = np.where((times < 0.0) | (times >= total), 0.0, tangential)
         speed = np.where((times < 0.0) | (times > total), 0.0, speed)
         start = self._start()

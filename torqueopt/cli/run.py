@@ -13,6 +13,7 @@ from ..result import SimResult
 from ..robot import Robot
 from ..simulate import Feedback, simulate
 from ..trajectory import StraightLine
+from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
 from .play import add_playback_options, playback_options, show_playback
@@ -60,6 +61,12 @@ def add_parser(subparsers) -> None:
         metavar="KP,KD",
         help="task-space PD feedback: xdd = xdd_ref + KD(xd_ref − xd) + KP(x_ref − x); default open loop, as the paper",
     )
+    group.add_argument(
+        "--limit-factor",
+        default=repr(DEFAULT_LIMIT_FACTOR),
+        metavar="K",
+        help="whiplash detector: unstable once a joint needs more than K times its torque limit (default 2)",
+    )
     group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
     add_playback_options(parser)
     parser.set_defaults(handler=run_command)
@@ -69,6 +76,7 @@ def run_command(args: argparse.Namespace) -> int:
     duration = parse_positive(args.duration, "duration")
     accel = parse_positive(args.accel, "accel")
     dt = parse_positive(args.dt, "dt")
+    limit_factor = parse_positive(args.limit_factor, "limit-factor")
     direction = parse_vector(args.direction, "direction")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
     playback = playback_options(args, live=args.play)
@@ -88,7 +96,7 @@ def run_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     line = StraightLine(direction, accel=accel, duration=duration)
     result = simulate(robot, resolver, line, q0, dt=dt, feedback=feedback)
-    print(format_summary(robot, result))
+    print(format_summary(robot, result, limit_factor))
     if args.out:
         path = result.to_csv(args.out)
         extra = f" and {path}.json" if path.suffix.lower() != ".npz" else ""
@@ -122,7 +130,7 @@ def raise_invalid(message: str):
     raise InvalidInput(message)
 
 
-def format_summary(robot: Robot, result: SimResult) -> str:
+def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
     """A short human-readable report of a run."""
     lines = [
         f"{result.robot}: resolver {result.resolver}, task {result.task} at frame '{result.frame}' "
@@ -150,5 +158,6 @@ def format_summary(robot: Robot, result: SimResult) -> str:
     lines.append(f"max tip error: {result.max_tip_error * 1e3:.3f} mm")
     if result.max_orientation_error is not None:
         lines.append(f"max orientation error: {math.degrees(result.max_orientation_error):.4f} deg")
+    lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")
     lines.append("status: completed" if result.completed else f"status: STOPPED EARLY: {result.stop_reason}")
     return "\n".join(lines)
