@@ -148,7 +148,7 @@ def malformed_runs(folder):
     path = folder / "garbage.csv"
     path.write_text("t,q1\nnot,numbers\n")
     (folder / "garbage.csv.json").write_text(sidecar)
-    cases.append((path, f"run file '{path}' is not a torqueopt CSV: "))
+    cases.append((path, f"run file '{path}' is malformed (could not convert string 'not' to float64"))
     path = folder / "no-sidecar.csv"
     path.write_text(good)
     cases.append((path, f"run file '{path}' has no sidecar '{path}.json'; write runs with torqueopt run --out"))

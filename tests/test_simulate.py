@@ -167,3 +167,23 @@ def _umask():
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda csv, sidecar: sidecar.write_text("{not json"), r"is malformed \(Expecting property name"),
+        (lambda csv, sidecar: sidecar.write_text('{"robot": "planar3"}'), r"is malformed \(missing field 'joint_names'\); write runs with torqueopt run --out"),
+        (lambda csv, sidecar: csv.write_text("t,q1\n0,abc\n"), "is malformed"),
+        (lambda csv, sidecar: sidecar.unlink(), "has no sidecar"),
+    ],
+)
+def test_damaged_run_files_give_one_clear_error(tmp_path, short_pinv, damage, message):
+    csv = short_pinv.to_csv(tmp_path / "run.csv")
+    damage(csv, tmp_path / "run.csv.json")
+    with pytest.raises(InvalidInput, match=message):
+        torqueopt.load_result(csv)
+    broken_npz = tmp_path / "run.npz"
+    broken_npz.write_bytes(b"PK\x03\x04 not really a zip")
+    with pytest.raises(InvalidInput, match="run file '.*run.npz' is malformed"):
+        torqueopt.load_result(broken_npz)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -206,27 +207,39 @@ def load_result(path: str | os.PathLike, robot=None) -> SimResult:
     path = Path(path)
     if not path.is_file():
         raise InvalidInput(f"run file '{path}' does not exist")
-    if path.suffix.lower() == ".npz":
-        with np.load(path, allow_pickle=False) as archive:
-            metadata = json.loads(str(archive["metadata"]))
-            arrays = {name: archive[name] for name in _ARRAY_FIELDS}
-        return SimResult(**metadata, **arrays)
+    try:
+        if path.suffix.lower() == ".npz":
+            return _load_npz(path)
+        return _load_csv(path, robot)
+    except InvalidInput:
+        raise
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, zipfile.BadZipFile) as error:
+        detail = " ".join(str(error).split()) or type(error).__name__
+        if isinstance(error, KeyError):
+            detail = f"missing field {detail}"
+        raise InvalidInput(f"run file '{path}' is malformed ({detail}); write runs with torqueopt run --out") from None
+
+
+def _load_npz(path: Path) -> SimResult:
+    with np.load(path, allow_pickle=False) as archive:
+        metadata = json.loads(str(archive["metadata"]))
+        arrays = {name: archive[name] for name in _ARRAY_FIELDS}
+    return SimResult(**metadata, **arrays)
+
+
+def _load_csv(path: Path, robot) -> SimResult:
     sidecar = Path(f"{path}.json")
     if not sidecar.is_file():
         raise InvalidInput(f"run file '{path}' has no sidecar '{sidecar}'; write runs with torqueopt run --out")
     metadata = json.loads(sidecar.read_text())
-    try:
-        with open(path) as handle:
-            header = handle.readline().strip().split(",")
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    except (OSError, ValueError) as error:
-        raise InvalidInput(f"run file '{path}' is not a torqueopt CSV: {error}") from None
+    with open(path) as handle:
+        header = handle.readline().strip().split(",")
+    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     n = len(metadata["joint_names"])
     m = (len(header) - 1 - 3 * n) // 2
-    if table.shape[1] != len(header) or m < 1:
-        raise InvalidInput(f"run file '{path}' has {table.shape[1]} columns, which do not fit {n} joints")
-    columns = np.split(table, np.cumsum([1, n, n, n, m]), axis=1)
-    t, angles, v, tau, x, x_ref = columns
+    if table.shape[1] != len(header) or m < 1 or len(header) != 1 + 3 * n + 2 * m:
+        raise ValueError(f"it has {table.shape[1]} columns, which do not fit its {n} joints")
+    t, angles, v, tau, x, x_ref = np.split(table, np.cumsum([1, n, n, n, m]), axis=1)
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
     return SimResult(

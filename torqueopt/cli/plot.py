@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import zipfile
 from pathlib import Path
 
-from ..errors import InvalidInput, TorqueoptError
 from ..plots import plot_run
 from ..result import SimResult, load_result
 from . import EXIT_OK
@@ -40,13 +38,5 @@ def plot_command(args: argparse.Namespace) -> int:
 
 
 def read_run(path: str) -> SimResult:
-    """:func:`load_result`, with a one-line :class:`InvalidInput` for any file it cannot make sense of."""
-    try:
-        return load_result(path)
-    except TorqueoptError:
-        raise
-    except (ValueError, KeyError, TypeError, OSError, zipfile.BadZipFile) as error:
-        detail = " ".join(str(error).split()) or type(error).__name__
-        if isinstance(error, KeyError):
-            detail = f"missing field {detail}"
-        raise InvalidInput(f"run file '{path}' is malformed ({detail}); write runs with torqueopt run --out") from None
+    """:func:`load_result`, which raises a one-line :class:`InvalidInput` for any file it cannot read."""
+    return load_result(path)
