@@ -65,6 +65,19 @@ def cases(panda_tasks):
         yield f"panda {task} 0.5 s", panda, torqueopt.StraightLine((1.0, 0.0, 0.0), duration=0.5), panda.default_configuration
 
 
+def numpy_call_cost(calls: int = 20000) -> float:
+    """Seconds per ``a + b`` on two 3-vectors: a yardstick of how fast the machine ran just then.
+
+    The simulation's cost is mostly such calls, so when this figure rises
+    (other load on the host) the steps per second fall in proportion.
+    """
+    a, b = np.ones(3), np.ones(3)
+    start = time.perf_counter()
+    for _ in range(calls):
+        a + b
+    return (time.perf_counter() - start) / calls
+
+
 def time_case(robot, resolver, trajectory, q0, repeats):
     """Wall times and CPU times [s] of ``repeats`` runs of ``simulate``, and the number of RK4 steps of one."""
     result = torqueopt.simulate(robot, resolver, trajectory, q0)
@@ -118,15 +131,18 @@ def machine() -> dict:
 
 def run(repeats: int, panda_tasks) -> dict:
     info = machine()
-    rows = []
+    rows, yardstick = [], []
     for label, robot, trajectory, q0 in cases(panda_tasks):
         for resolver in torqueopt.resolver_names():
+            yardstick.append(numpy_call_cost())
             wall, cpu, steps = time_case(robot, resolver, trajectory, q0, repeats)
             median = statistics.median(wall)
             rows.append(
                 {"case": label, "resolver": resolver, "steps": steps, "median_s": median, "steps_per_s": steps / median,
                  "cpu_steps_per_s": steps / statistics.median(cpu), "best_steps_per_s": steps / min(wall)}
             )
+    info["numpy_add_us_median"] = 1e6 * statistics.median(yardstick)
+    info["numpy_add_us_best"] = 1e6 * min(yardstick)
     return {"machine": info, "repeats": repeats, "rows": rows}
 
 
@@ -140,7 +156,8 @@ def markdown(report: dict, title: str) -> str:
         f"- OpenBLAS kernel {info['openblas_core']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}, "
         f"OPENBLAS_L2_SIZE={info['OPENBLAS_L2_SIZE']}; one thread",
         f"- median of {report['repeats']} timed runs after one warm-up run; load average before the runs "
-        f"{info['load_average']}",
+        f"{info['load_average']}; one 3-vector numpy addition took {info['numpy_add_us_median']:.2f} µs "
+        f"(median before each case; best {info['numpy_add_us_best']:.2f} µs)",
         "",
         "| case | resolver | RK4 steps | median wall time [ms] | steps/s (median wall) | steps/s (median CPU) "
         "| steps/s (best wall) |",
