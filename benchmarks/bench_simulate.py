@@ -34,22 +34,22 @@ import os
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_variable] = "1"
 
-import argparse  # noqa: E402
-import ctypes  # noqa: E402
-import glob  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import platform  # noqa: E402
-import statistics  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import ctypes
+import glob
+import json
+import math
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
+import numpy as np
+import pinocchio as pin
 
-import torqueopt  # noqa: E402
+import torqueopt
 
 PAPER_Q0 = (-math.pi / 4, 3 * math.pi / 4, -3 * math.pi / 4)
 OPENBLAS_TUNING = ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")
@@ -62,7 +62,12 @@ def cases(panda_tasks):
     yield "planar3 xy 2.0 s", planar3, torqueopt.StraightLine((1.0, 1.0), duration=2.0), PAPER_Q0
     for task in panda_tasks:
         panda = torqueopt.load_robot("panda", task=task)
-        yield f"panda {task} 0.5 s", panda, torqueopt.StraightLine((1.0, 0.0, 0.0), duration=0.5), panda.default_configuration
+        yield (
+            f"panda {task} 0.5 s",
+            panda,
+            torqueopt.StraightLine((1.0, 0.0, 0.0), duration=0.5),
+            panda.default_configuration,
+        )
 
 
 def numpy_call_cost(calls: int = 20000) -> float:
@@ -138,8 +143,15 @@ def run(repeats: int, panda_tasks) -> dict:
             wall, cpu, steps = time_case(robot, resolver, trajectory, q0, repeats)
             median = statistics.median(wall)
             rows.append(
-                {"case": label, "resolver": resolver, "steps": steps, "median_s": median, "steps_per_s": steps / median,
-                 "cpu_steps_per_s": steps / statistics.median(cpu), "best_steps_per_s": steps / min(wall)}
+                {
+                    "case": label,
+                    "resolver": resolver,
+                    "steps": steps,
+                    "median_s": median,
+                    "steps_per_s": steps / median,
+                    "cpu_steps_per_s": steps / statistics.median(cpu),
+                    "best_steps_per_s": steps / min(wall),
+                }
             )
     info["numpy_add_us_median"] = 1e6 * statistics.median(yardstick)
     info["numpy_add_us_best"] = 1e6 * min(yardstick)
@@ -153,14 +165,20 @@ def markdown(report: dict, title: str) -> str:
         "",
         f"- machine: {info['cpu']}, {info['logical_cpus']} logical CPUs, {info['os']}",
         f"- python {info['python']}, numpy {info['numpy']}, pin {info['pin']}, torqueopt {info['torqueopt']}",
-        f"- OpenBLAS kernel {info['openblas_core']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}, "
-        f"OPENBLAS_L2_SIZE={info['OPENBLAS_L2_SIZE']}; one thread",
-        f"- median of {report['repeats']} timed runs after one warm-up run; load average before the runs "
-        f"{info['load_average']}; one 3-vector numpy addition took {info['numpy_add_us_median']:.2f} µs "
-        f"(median before each case; best {info['numpy_add_us_best']:.2f} µs)",
+        (
+            f"- OpenBLAS kernel {info['openblas_core']}; OPENBLAS_CORETYPE={info['OPENBLAS_CORETYPE']}, "
+            f"OPENBLAS_L2_SIZE={info['OPENBLAS_L2_SIZE']}; one thread"
+        ),
+        (
+            f"- median of {report['repeats']} timed runs after one warm-up run; load average before the runs "
+            f"{info['load_average']}; one 3-vector numpy addition took {info['numpy_add_us_median']:.2f} µs "
+            f"(median before each case; best {info['numpy_add_us_best']:.2f} µs)"
+        ),
         "",
-        "| case | resolver | RK4 steps | median wall time [ms] | steps/s (median wall) | steps/s (median CPU) "
-        "| steps/s (best wall) |",
+        (
+            "| case | resolver | RK4 steps | median wall time [ms] | steps/s (median wall) | steps/s (median CPU) "
+            "| steps/s (best wall) |"
+        ),
         "|---|---|---:|---:|---:|---:|---:|",
     ]
     for row in report["rows"]:
@@ -191,12 +209,21 @@ def pin_to_cpu(cpu: int) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeats", type=int, default=7, help="timed runs per case (default 7); the median is reported")
-    parser.add_argument("--panda-task", action="append", choices=("position", "pose"),
-                        help="panda task(s) to time (default: position and pose)")
-    parser.add_argument("--openblas-env", choices=("as-is", "unset", "both"), default="as-is",
-                        help="time with OPENBLAS_CORETYPE/OPENBLAS_L2_SIZE as they are, unset (in a child "
-                        "process only), or both")
+    parser.add_argument(
+        "--repeats", type=int, default=7, help="timed runs per case (default 7); the median is reported"
+    )
+    parser.add_argument(
+        "--panda-task",
+        action="append",
+        choices=("position", "pose"),
+        help="panda task(s) to time (default: position and pose)",
+    )
+    parser.add_argument(
+        "--openblas-env",
+        choices=("as-is", "unset", "both"),
+        default="as-is",
+        help="time with OPENBLAS_CORETYPE/OPENBLAS_L2_SIZE as they are, unset (in a child process only), or both",
+    )
     parser.add_argument("--cpu", type=int, help="pin the process to this CPU (default: let the OS place it)")
     parser.add_argument("--write", type=Path, help="write the tables into this Markdown file between the markers")
     parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)

@@ -20,7 +20,6 @@ __all__ = [
     "LeastSquares",
     "least_squares",
     "PositiveDefiniteSolver",
-    "solve_positive_definite",
     "DEFAULT_SINGULAR_TOLERANCE",
 ]
 
@@ -138,8 +137,3 @@ class PositiveDefiniteSolver:
         if factor.info() != _SUCCESS:
             raise np.linalg.LinAlgError(f"matrix is not positive definite: {matrix.tolist()}")
         return factor.solve(rhs).reshape(-1)
-
-
-def solve_positive_definite(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """:math:`A^{-1} b` for a symmetric positive definite A; see :class:`PositiveDefiniteSolver`."""
-    return PositiveDefiniteSolver(matrix.shape[0])(matrix, rhs)
