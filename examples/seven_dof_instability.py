@@ -4,8 +4,9 @@ The paper conjectured about 7-DOF arms but only simulated a planar 3-link
 arm. This script runs the four resolvers on panda and xarm7 (3-D position
 task, n − m = 4, gravity on, open loop as in the paper) over a long
 straight-line movement from each arm's default configuration, and reports
-which runs stay within the torque limits, which exceed them, and which
-diverge, with when.
+which runs stay within the torque limits, which exceed them, which the
+whiplash detector calls unstable (a joint needing more than twice its torque
+limit) and which diverge outright, each with when.
 
 Run: python examples/seven_dof_instability.py [--duration 2.0]
 """
@@ -13,6 +14,7 @@ Run: python examples/seven_dof_instability.py [--duration 2.0]
 import argparse
 
 import torqueopt
+from torqueopt.whiplash import detect_whiplash
 
 
 def main() -> None:
@@ -23,27 +25,31 @@ def main() -> None:
 
     line = torqueopt.StraightLine(direction=[0.0, 1.0, 0.0], accel=0.2, duration=args.duration)
     print(f"straight line along +y, {line.length:.3f} m in {args.duration} s (0.2 m/s²), open loop, gravity on\n")
-    header = f"{'robot':<8}{'resolver':<21}{'outcome':<12}{'when [s]':>9}{'peak |τ|/limit':>16}{'tip error [mm]':>16}"
+    header = (
+        f"{'robot':<8}{'resolver':<21}{'verdict':<12}{'from [s]':>9}{'diverged [s]':>14}"
+        f"{'peak |τ|/limit':>16}{'tip error [mm]':>16}"
+    )
     print(header)
     print("-" * len(header))
     for robot_name in args.robots.split(","):
         robot = torqueopt.load_robot(robot_name, task="position")
         for name in torqueopt.resolver_names():
             result = torqueopt.simulate(robot, name, line, robot.default_configuration)
-            if not result.completed:
-                outcome, when = "DIVERGED", result.stop_time
+            whiplash = detect_whiplash(result)
+            if whiplash.unstable:
+                verdict, when = "UNSTABLE", whiplash.time
             elif result.first_limit_violation is not None:
-                outcome, when = "over limit", result.first_limit_violation
+                verdict, when = "over limit", result.first_limit_violation
             else:
-                outcome, when = "ok", None
+                verdict, when = "ok", None
             when_text = f"{when:9.3f}" if when is not None else f"{'-':>9}"
+            diverged = f"{result.stop_time:14.3f}" if not result.completed else f"{'-':>14}"
             print(
-                f"{robot_name:<8}{name:<21}{outcome:<12}{when_text}{result.peak_torque_ratio.max():16.2f}"
+                f"{robot_name:<8}{name:<21}{verdict:<12}{when_text}{diverged}{result.peak_torque_ratio.max():16.2f}"
                 f"{result.max_tip_error * 1e3:16.2f}"
             )
-            if not result.completed:
-                print(f"{'':<8}  why: {result.stop_reason}")
-
+            if whiplash.unstable:
+                print(f"{'':<8}  {whiplash.reason}")
 
 if __name__ == "__main__":
     main()
