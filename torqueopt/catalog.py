@@ -33,7 +33,6 @@ class RobotSource:
     task: str | None = None
     locked_joints: tuple[str, ...] = ()
     gravity: bool = True
-    notes: str = ""
 
 
 @dataclass(frozen=True)
