@@ -96,3 +96,10 @@ def test_malformed_urdf_names_the_broken_tag(tmp_path, edit, message):
 def test_planar3_starts_at_the_papers_configuration_by_default(planar3):
     np.testing.assert_allclose(planar3.default_configuration, np.radians([-45.0, 135.0, -135.0]))
     np.testing.assert_allclose(planar3.task_position(planar3.default_configuration), [np.sqrt(2), 1 - np.sqrt(2)], atol=1e-12)
+
+
+def test_joint_angles_of_many_configurations_at_once():
+    for robot in (torqueopt.load_robot("kinova"), torqueopt.load_robot("planar3")):
+        angles = np.random.default_rng(3).uniform(-3.0, 3.0, (5, robot.nv))
+        configurations = np.array([robot.configuration(row) for row in angles])
+        np.testing.assert_allclose(robot.joint_angles(configurations), angles, atol=1e-12)

@@ -200,8 +200,14 @@ class Robot:
         return pin.integrate(self.model, self._neutral, angles)
 
     def joint_angles(self, configuration) -> np.ndarray:
-        """Inverse of :meth:`configuration`: one coordinate per joint."""
-        return pin.difference(self.model, self._neutral, np.asarray(configuration, float))
+        """Inverse of :meth:`configuration`: one coordinate per joint, for one configuration or rows of them."""
+        configurations = np.asarray(configuration, float)
+        if self.nq == self.nv:
+            # Every joint is revolute or prismatic: Pinocchio's difference is a subtraction.
+            return configurations - self._neutral
+        if configurations.ndim == 1:
+            return pin.difference(self.model, self._neutral, configurations)
+        return np.array([pin.difference(self.model, self._neutral, row) for row in configurations]).reshape(-1, self.nv)
 
     def check_velocity(self, velocity) -> np.ndarray:
         """A validated joint velocity vector (n values, finite) [rad/s]."""

@@ -247,11 +247,11 @@ def simulate(
         if k == steps:
             break
         q, v = advance(q, v, tau, joint_acceleration)
-        # One dot product tells both: a NaN or inf anywhere makes it non-finite.
-        if not math.isfinite(q.dot(q) + v.dot(v)):
+        velocity = v.tolist()
+        if not (all(map(math.isfinite, q.tolist())) and all(map(math.isfinite, velocity))):
             stop_reason, stop_time = f"state became non-finite during the step from t = {t:.4f} s", t + dt
             break
-        speed = max(map(abs, v.tolist()))
+        speed = max(map(abs, velocity))
         if speed > max_joint_speed:
             joint = int(np.argmax(np.abs(v)))
             stop_reason = (
@@ -270,7 +270,7 @@ def simulate(
         dt=dt,
         t=times[:recorded].copy(),
         q=q_log[:recorded].copy(),
-        joint_angles=np.array([robot.joint_angles(qk) for qk in q_log[:recorded]]).reshape(recorded, n),
+        joint_angles=robot.joint_angles(q_log[:recorded]).reshape(recorded, n),
         v=v_log[:recorded].copy(),
         acceleration=acceleration_log[:recorded].copy(),
         tau=torque_log[:recorded].copy(),
