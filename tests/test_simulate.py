@@ -135,8 +135,8 @@ def test_every_resolver_tracks_a_pose_on_panda(name, panda_pose):
         ({"q0": [0.1, 0.2]}, r"q0 has 2 values but needs 3 \(joints joint1, joint2, joint3\)"),
         ({"q0": [0.1, float("nan"), 0.3]}, r"q0 \[0.1, nan, 0.3\] has a non-finite value"),
         ({"q0": ["a", 1, 2]}, "q0 .* is not a vector of numbers"),
-        ({"dt": 0.0}, "dt=0.0 must be a positive number of seconds"),
-        ({"dt": -1e-3}, "dt=-0.001 must be a positive number of seconds"),
+        ({"dt": 0.0}, r"dt=0.0 must be a positive finite number \[s\]"),
+        ({"dt": -1e-3}, r"dt=-0.001 must be a positive finite number \[s\]"),
         ({"v0": [0, 0]}, "v0 has 2 values but needs 3"),
     ],
 )

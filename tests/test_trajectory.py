@@ -47,9 +47,9 @@ def test_paper_default_acceleration_is_root_two():
         ({"direction": [0, 0]}, r"direction \[0.0, 0.0\] is zero; give a non-zero direction"),
         ({"direction": [1, float("nan")]}, "must be 2 or 3 finite numbers"),
         ({"direction": [1, 2, 3, 4]}, "must be 2 or 3 finite numbers"),
-        ({"direction": [1, 1], "duration": 0}, r"duration 0 must be a positive finite number \[s\]"),
-        ({"direction": [1, 1], "duration": -2.0}, r"duration -2.0 must be a positive finite number \[s\]"),
-        ({"direction": [1, 1], "accel": float("inf")}, "accel inf must be a positive finite number"),
+        ({"direction": [1, 1], "duration": 0}, r"duration=0 must be a positive finite number \[s\]"),
+        ({"direction": [1, 1], "duration": -2.0}, r"duration=-2.0 must be a positive finite number \[s\]"),
+        ({"direction": [1, 1], "accel": float("inf")}, r"accel=inf must be a positive finite number \[m/s²\]"),
     ],
 )
 def test_bad_lines_are_rejected_with_the_value(kwargs, message):

@@ -142,7 +142,7 @@ def test_runs_that_cannot_be_judged():
         (0.0, "limit_factor=0.0 must be a positive finite number (a multiple, such as 2)"),
         (-1, "limit_factor=-1 must be a positive finite number (a multiple, such as 2)"),
         (math.nan, "limit_factor=nan must be a positive finite number (a multiple, such as 2)"),
-        ("two", "limit_factor='two' is not a number; give a positive multiple such as 2"),
+        ("two", "limit_factor='two' is not a number (a multiple, such as 2)"),
     ],
 )
 def test_bad_thresholds_are_refused(factor, message):

@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from .catalog import RobotSource, find_robot
+from .checks import finite_vector
 from .errors import FrameNotFound, InvalidInput, TaskNotFound, UrdfError
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "load_robot"]
@@ -139,7 +140,7 @@ class Robot:
         elif gravity is False or gravity is None:
             vector = np.zeros(3)
         else:
-            vector = _finite_vector(gravity, 3, "gravity")
+            vector = finite_vector(gravity, 3, "gravity")
         self.model.gravity.linear = vector
 
     @property
@@ -196,7 +197,7 @@ class Robot:
         For continuous joints, whose configuration is (cos, sin), the angle is
         measured from Pinocchio's neutral configuration.
         """
-        angles = _finite_vector(joint_angles, self.nv, "q0", names=self.joint_names)
+        angles = finite_vector(joint_angles, self.nv, "q0", names=self.joint_names)
         return pin.integrate(self.model, self._neutral, angles)
 
     def joint_angles(self, configuration) -> np.ndarray:
@@ -211,7 +212,7 @@ class Robot:
 
     def check_velocity(self, velocity) -> np.ndarray:
         """A validated joint velocity vector (n values, finite) [rad/s]."""
-        return _finite_vector(velocity, self.nv, "v0", names=self.joint_names)
+        return finite_vector(velocity, self.nv, "v0", names=self.joint_names)
 
     # -- dynamics -------------------------------------------------------------
     def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:
@@ -449,7 +450,7 @@ def _frame_hint(model: pin.Model) -> str:
 
 def _full_reference_configuration(full_model, robot_source: RobotSource, reference_configuration) -> np.ndarray:
     if reference_configuration is not None:
-        return _finite_vector(reference_configuration, full_model.nq, "reference configuration")
+        return finite_vector(reference_configuration, full_model.nq, "reference configuration")
     if robot_source.srdf is not None and robot_source.srdf_configuration:
         pin.loadReferenceConfigurations(full_model, str(robot_source.srdf), False)
         if robot_source.srdf_configuration in full_model.referenceConfigurations:
@@ -464,17 +465,3 @@ def _reduce_configuration(full_model, model, full_configuration) -> np.ndarray:
         full_joint, joint = full_model.joints[full_id], model.joints[joint_id]
         reduced[joint.idx_q : joint.idx_q + joint.nq] = full_configuration[full_joint.idx_q : full_joint.idx_q + full_joint.nq]
     return reduced
-
-
-def _finite_vector(values, size: int, what: str, names=None) -> np.ndarray:
-    """A float vector of the given size with only finite entries, or InvalidInput."""
-    try:
-        vector = np.asarray(values, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{what} {values!r} is not a vector of numbers") from None
-    if vector.size != size:
-        joints = f" (joints {', '.join(names)})" if names else ""
-        raise InvalidInput(f"{what} has {vector.size} values but needs {size}{joints}")
-    if not np.isfinite(vector).all():
-        raise InvalidInput(f"{what} {vector.tolist()} has a non-finite value; all {size} values must be finite")
-    return vector

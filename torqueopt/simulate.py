@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import positive_number
 from .errors import InvalidInput, SingularJacobian
 from .resolvers import Resolver, get_resolver
 from .result import SimResult
@@ -166,9 +167,9 @@ def simulate(
     """
     resolver = get_resolver(resolver)
     resolver.check(robot)
-    _check_positive(dt, "dt")
+    dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
-    _check_positive(duration, "duration")
+    duration = positive_number(duration, "duration", "s")
     if dt > duration:
         raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
     if feedback is not None and not isinstance(feedback, Feedback):
@@ -322,8 +323,3 @@ def _task_vector(robot: Robot, values, what: str) -> np.ndarray:
     if vector.size != robot.m or not np.isfinite(vector).all():
         raise InvalidInput(f"{what} {vector.tolist()} must be {robot.m} finite numbers for task '{robot.task}'")
     return vector
-
-
-def _check_positive(value, name: str) -> None:
-    if not (isinstance(value, (int, float, np.floating)) and np.isfinite(value) and value > 0):
-        raise InvalidInput(f"{name}={value!r} must be a positive number of seconds")

@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .checks import positive_number
 from .errors import InvalidInput
 
 __all__ = ["StraightLine", "Reference"]
@@ -66,8 +67,8 @@ class StraightLine:
         norm = float(np.linalg.norm(direction))
         if norm == 0.0:
             raise InvalidInput(f"direction {direction.tolist()} is zero; give a non-zero direction")
-        _positive(self.accel, "accel", "m/s²")
-        _positive(self.duration, "duration", "s")
+        positive_number(self.accel, "accel", "m/s²")
+        positive_number(self.duration, "duration", "s")
         object.__setattr__(self, "direction", direction / norm)
         object.__setattr__(self, "accel", float(self.accel))
         object.__setattr__(self, "duration", float(self.duration))
@@ -121,12 +122,3 @@ class StraightLine:
         if self.start is None:
             raise InvalidInput("this StraightLine has no start point; use anchored(start) or let simulate anchor it")
         return self.start
-
-
-def _positive(value, name: str, unit: str) -> None:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} {value!r} is not a number") from None
-    if not (math.isfinite(number) and number > 0):
-        raise InvalidInput(f"{name} {value!r} must be a positive finite number [{unit}]")

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .checks import positive_number
 from .errors import InvalidInput, MissingDependency, TorqueoptError
 from .result import SimResult, atomic_write
 from .robot import Robot
@@ -149,8 +150,8 @@ def sample_frames(result: SimResult, fps: float = DEFAULT_FPS, speed: float = 1.
 
     The first and the last row are always shown; a row is never shown twice.
     """
-    fps = _positive(fps, "fps")
-    speed = _positive(speed, "speed")
+    fps = positive_number(fps, "fps")
+    speed = positive_number(speed, "speed")
     times = np.asarray(result.t, dtype=float)
     if times.size == 0:
         raise InvalidInput("the run has no rows to play (it stopped before its first step)")
@@ -223,7 +224,7 @@ class Playback:
         check_run_matches(robot, result)
         self.robot = robot
         self.result = result
-        self.speed = _positive(speed, "speed")
+        self.speed = positive_number(speed, "speed")
         self.frames = sample_frames(result, fps, speed)
         self.fps = float(fps)
         self.model, self.geometry = visual_model(robot)
@@ -821,13 +822,3 @@ def _translation(position: np.ndarray) -> np.ndarray:
 def _quaternion(placement: pin.SE3) -> list[float]:
     """Rotation as three.js wants it: [x, y, z, w]."""
     return pin.Quaternion(placement.rotation).coeffs().tolist()
-
-
-def _positive(value, name: str) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}={value!r} is not a number") from None
-    if not (math.isfinite(number) and number > 0):
-        raise InvalidInput(f"{name}={value!r} must be a positive finite number")
-    return number

@@ -57,7 +57,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidInput
+from .checks import positive_number
 from .result import SimResult
 
 __all__ = [
@@ -110,8 +110,8 @@ def torque_demand(
     Columns of joints that cannot be judged (no limit, and no unlimited joint
     applied torque at the first sample) are nan. See the module docstring.
     """
-    limit_factor = _check_factor(limit_factor, "limit_factor")
-    growth_factor = _check_factor(growth_factor, "growth_factor")
+    limit_factor = positive_number(limit_factor, "limit_factor", hint="a multiple, such as 2")
+    growth_factor = positive_number(growth_factor, "growth_factor", hint="a multiple, such as 8")
     limited = _limited(result)
     demand = np.full(result.tau.shape, np.nan)
     # torque_ratio divides by τ⁺ or |τ⁻| by the torque's sign, so asymmetric limits are right too.
@@ -199,13 +199,3 @@ def _threshold_text(result: SimResult, limit_factor: float, growth_factor: float
     if (~limited).any():
         parts.append(f"{growth_factor:g} times the starting torque for joints without a limit")
     return " and ".join(parts)
-
-
-def _check_factor(value, name: str) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}={value!r} is not a number; give a positive multiple such as 2") from None
-    if not (math.isfinite(number) and number > 0):
-        raise InvalidInput(f"{name}={value!r} must be a positive finite number (a multiple, such as 2)")
-    return number
