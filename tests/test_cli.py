@@ -131,3 +131,17 @@ def test_robots_lists_the_paper_arm_and_the_7dof_arms(capsys):
     assert rows["planar3"][1:3] == ["tip", "xy"]
     assert rows["panda"][1:3] == ["panda_hand", "position"]
     assert {"xarm7", "baxter", "tiago", "kinova"} <= set(rows)
+
+
+def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
+    folder = tmp_path / "taken"
+    folder.mkdir()
+    code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.1", "--out", str(folder)])
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == ""
+    assert captured.err == f"torqueopt run: error: cannot write '{folder}': it is a folder; give a file name\n"
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    code = main(["paper", "--out", str(blocker / "sub")])
+    assert code == 2
+    assert capsys.readouterr().err == f"torqueopt paper: error: cannot write to '{blocker / 'sub'}': '{blocker}' is a file, not a folder\n"

@@ -15,7 +15,7 @@ import pytest
 import torqueopt
 from torqueopt import viewer
 from torqueopt.cli import main
-from torqueopt.errors import InvalidInput, MissingDependency
+from torqueopt.errors import InvalidInput, MissingDependency, OutputError
 
 from .conftest import PAPER_Q0
 
@@ -196,7 +196,7 @@ def test_html_is_written_atomically(planar3, violating_run, tmp_path, monkeypatc
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr("os.replace", full_disk)
-    with pytest.raises(InvalidInput, match="cannot write HTML file .*No space left on device"):
+    with pytest.raises(OutputError, match="cannot write '.*run.html': No space left on device"):
         viewer.export_html(playback, target)
     monkeypatch.undo()
     assert target.read_text() == "previous export"

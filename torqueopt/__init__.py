@@ -10,6 +10,7 @@ from .errors import (
     InvalidInput,
     MissingDependency,
     NoRedundancy,
+    OutputError,
     ResolverNotFound,
     RobotNotFound,
     SingularJacobian,
@@ -50,4 +51,5 @@ __all__ = [
     "NoRedundancy",
     "SingularJacobian",
     "MissingDependency",
+    "OutputError",
 ]

@@ -16,6 +16,7 @@ __all__ = [
     "NoRedundancy",
     "SingularJacobian",
     "MissingDependency",
+    "OutputError",
 ]
 
 
@@ -57,3 +58,7 @@ class SingularJacobian(TorqueoptError):
 
 class MissingDependency(TorqueoptError, ImportError):
     """An optional package needed for this feature is not installed."""
+
+
+class OutputError(TorqueoptError, OSError):
+    """A result file cannot be written where the user asked for it."""

@@ -442,10 +442,7 @@ def export_html(playback: Playback, path: str | Path) -> Path:
     """Write ``playback`` as a self-contained HTML file, atomically; returns the path."""
     path = Path(path)
     page = playback.html().encode("utf-8")
-    try:
-        atomic_write(path, lambda handle: handle.write(page))
-    except OSError as error:
-        raise InvalidInput(f"cannot write HTML file '{path}': {error.strerror or error}") from None
+    atomic_write(path, lambda handle: handle.write(page))
     return path
 
 

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
+from ..result import writable_path
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector
@@ -56,6 +57,7 @@ def add_parser(subparsers) -> None:
 def paper_command(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     scenario, limit_factor, growth_factor = scenario_from_args(args)
+    writable_path(args.out, directory=True)
     results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor)
     written = write_paper(results, args.out)
 

@@ -11,7 +11,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..result import SimResult, load_result
+from ..result import SimResult, load_result, writable_path
 from ..robot import TASK_DIMENSIONS, Robot, load_robot
 from . import EXIT_OK
 from .common import parse_positive
@@ -93,7 +93,7 @@ def playback_options(args: argparse.Namespace, live: bool) -> PlaybackOptions:
     """Validated playback options; checks meshcat is installed when playback is wanted."""
     options = PlaybackOptions(
         live=live,
-        html=None if args.html is None else Path(args.html),
+        html=None if args.html is None else writable_path(args.html),
         speed=parse_positive(args.speed, "speed"),
         fps=parse_positive(args.fps, "fps"),
     )

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from ..resolvers import get_resolver, resolver_names
-from ..result import SimResult
+from ..result import SimResult, writable_path
 from ..robot import Robot
 from ..simulate import Feedback, simulate
 from ..trajectory import StraightLine
@@ -94,6 +94,8 @@ def run_command(args: argparse.Namespace) -> int:
     else:
         angles = parse_vector(args.q0, "q0", robot.nv)
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
+    if args.out:
+        writable_path(args.out)
     line = StraightLine(direction, accel=accel, duration=duration)
     result = simulate(robot, resolver, line, q0, dt=dt, feedback=feedback)
     print(format_summary(robot, result, limit_factor))
