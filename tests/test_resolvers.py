@@ -187,3 +187,27 @@ def test_unknown_resolver_lists_the_registered_names():
     with pytest.raises(torqueopt.ResolverNotFound) as error:
         torqueopt.get_resolver("quadratic")
     assert str(error.value) == "unknown resolver 'quadratic': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
+
+
+def test_a_user_resolver_plugs_in_through_null_space_solver(planar3):
+    """A resolver object works wherever a name does; this one damps the
+    self-motion velocity, y = −k Zᵀq̇, and still realises the task exactly."""
+
+    class DampedSelfMotion(torqueopt.Resolver):
+        name = "damped-self-motion"
+
+        def null_space_solver(self, robot):
+            def coordinates(terms, null_space_basis, particular):
+                return -5.0 * null_space_basis.T.dot(terms.joint_velocity)
+
+            return coordinates
+
+    q, v = np.array([0.4, 1.2, -0.9]), np.array([0.3, -0.2, 0.5])
+    terms = planar3.terms(q, v)
+    resolution = DampedSelfMotion().resolve(planar3, terms, np.array([1.0, -0.5]))
+    acceleration = pin.aba(planar3.model, planar3.model.createData(), q, v, resolution.torque)
+    np.testing.assert_allclose(terms.jacobian.dot(acceleration) + terms.drift, [1.0, -0.5], atol=1e-10)
+    null_basis = np.linalg.svd(terms.jacobian)[2][2:].T
+    np.testing.assert_allclose(null_basis.T.dot(acceleration), -5.0 * null_basis.T.dot(v), atol=1e-10)
+    result = torqueopt.simulate(planar3, DampedSelfMotion(), torqueopt.StraightLine([1, 1], duration=0.2), q)
+    assert result.resolver == "damped-self-motion" and result.completed

@@ -53,6 +53,8 @@ class TaskTerms:
             zero joint acceleration [m/s², rad/s²].
         placement: pose of the task frame in the world (Pinocchio SE3).
         task_velocity: :math:`J \dot q` (m) [m/s, rad/s].
+        joint_velocity: :math:`\dot q` (n) [rad/s], the state's velocity
+            (for resolvers that shape the self-motion by it).
     """
 
     inertia: np.ndarray
@@ -61,6 +63,7 @@ class TaskTerms:
     drift: np.ndarray
     placement: pin.SE3
     task_velocity: np.ndarray
+    joint_velocity: np.ndarray
 
 
 class Robot:
@@ -233,6 +236,7 @@ class Robot:
             drift=drift6[rows],
             placement=placement,
             task_velocity=jacobian.dot(v),
+            joint_velocity=v,
         )
 
     def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:

@@ -48,7 +48,7 @@ class Resolver(ABC):
     """Maps a desired task acceleration to joint torques.
 
     Subclasses set :attr:`name`, document their equation, and implement
-    :meth:`null_space_coordinates`.
+    :meth:`null_space_solver`.
     """
 
     name: ClassVar[str]
@@ -88,6 +88,7 @@ class Resolver(ABC):
         nothing carries over from one run to the next.
         """
         coordinates_at = self.null_space_solver(robot) if robot.nv > robot.m else None
+        # None: y = 0 (pinv), or no null space to move in (m = n).
         decompose = JacobianSolver(robot.m, robot.nv, self.singular_tolerance, null_space=coordinates_at is not None)
 
         def solve(terms: TaskTerms, task_acceleration: np.ndarray):
@@ -95,35 +96,21 @@ class Resolver(ABC):
             if coordinates_at is None:
                 acceleration = particular
             else:
-                coordinates = coordinates_at(terms, basis, particular)
-                acceleration = particular if coordinates is None else particular + basis.dot(coordinates)
+                acceleration = particular + basis.dot(coordinates_at(terms, basis, particular))
             torque = terms.inertia.dot(acceleration) + terms.bias_torque
             return torque, acceleration, condition
 
         return solve
 
-    def null_space_solver(self, robot: Robot):
-        """:meth:`null_space_coordinates` for one robot as a function ``(terms, Z, particular) -> y``.
-
-        None means :math:`y = 0` at every state. Subclasses whose coordinates
-        use per-robot constants compute them here once and define
-        :meth:`null_space_coordinates` through it, so the two never disagree.
-        """
-
-        def coordinates(terms: TaskTerms, null_space_basis: np.ndarray, particular: np.ndarray):
-            return self.null_space_coordinates(robot, terms, null_space_basis, particular)
-
-        return coordinates
-
     @abstractmethod
-    def null_space_coordinates(
-        self, robot: Robot, terms: TaskTerms, null_space_basis: np.ndarray, particular: np.ndarray
-    ) -> np.ndarray | None:
-        r"""The null-space coordinates :math:`y` (n − m), or None for :math:`y = 0`.
+    def null_space_solver(self, robot: Robot):
+        r"""How this resolver picks the null-space coordinates on ``robot``.
 
-        Args:
-            null_space_basis: :math:`Z`, orthonormal basis of the null space of J.
-            particular: :math:`J^\dagger(\ddot x - \dot J\dot q)` [rad/s²].
+        Returns a function ``(terms, Z, particular) -> y`` (n − m values),
+        where Z is an orthonormal basis of the null space of J and
+        ``particular`` is :math:`J^\dagger(\ddot x - \dot J\dot q)` [rad/s²];
+        or None for :math:`y = 0` at every state. What depends only on the
+        robot (torque midpoint, weights, workspaces) is computed here, once.
         """
 
     def __repr__(self) -> str:

@@ -41,9 +41,6 @@ class NullSpaceTorque(Resolver):
     name = "null-space"
     needs_redundancy = True
 
-    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
-        return self.null_space_solver(robot)(terms, null_space_basis, particular)
-
     def null_space_solver(self, robot: Robot):
         midpoint = torque_midpoint(robot)
         least_squares = LeastSquares(robot.nv, robot.redundancy)
@@ -103,9 +100,6 @@ class WeightedNullSpaceTorque(Resolver):
         if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
             raise InvalidInput(f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}")
         return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
-
-    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
-        return self.null_space_solver(robot)(terms, null_space_basis, particular)
 
     def null_space_solver(self, robot: Robot):
         midpoint = torque_midpoint(robot)

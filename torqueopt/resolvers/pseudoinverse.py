@@ -21,9 +21,6 @@ class PseudoInverse(Resolver):
 
     name = "pinv"
 
-    def null_space_coordinates(self, robot, terms, null_space_basis, particular):
-        return None
-
     def null_space_solver(self, robot: Robot):
         return None
 
@@ -42,9 +39,6 @@ class InertiaWeightedPseudoInverse(Resolver):
     """
 
     name = "inertia-pinv"
-
-    def null_space_coordinates(self, robot: Robot, terms: TaskTerms, null_space_basis, particular):
-        return self.null_space_solver(robot)(terms, null_space_basis, particular)
 
     def null_space_solver(self, robot: Robot):
         solve = PositiveDefiniteSolver(robot.redundancy)
