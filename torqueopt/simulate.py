@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import positive_number
+from .checks import finite_vector, positive_number
 from .errors import InvalidInput, SingularJacobian
 from .resolvers import Resolver, get_resolver
 from .result import SimResult
@@ -129,7 +129,7 @@ def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration) -> 
     resolver.check(robot)
     q = _configuration(robot, q)
     v = robot.check_velocity(v)
-    task_acceleration = _task_vector(robot, task_acceleration, "task acceleration")
+    task_acceleration = finite_vector(task_acceleration, robot.m, f"task acceleration for task '{robot.task}'")
     return resolver.resolve(robot, robot.terms(q, v), task_acceleration).torque
 
 
@@ -219,7 +219,9 @@ def simulate(
             command = (
                 command
                 + feedback.kd * (ref_velocity[k] - terms.task_velocity)
-                + feedback.kp * _task_error(robot, ref_position[k], x)
+                # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
+                # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
+                + feedback.kp * (ref_position[k] - x)
             )
         try:
             tau, joint_acceleration, condition = solve(terms, command)
@@ -299,12 +301,6 @@ def _task_reference(robot: Robot, trajectory: StraightLine, times: np.ndarray):
     )
 
 
-def _task_error(robot: Robot, reference: np.ndarray, x: np.ndarray) -> np.ndarray:
-    # For pose, x holds log(R R0ᵀ) and the reference orientation is R0, so
-    # reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
-    return reference - x
-
-
 def _configuration(robot: Robot, q) -> np.ndarray:
     """A configuration vector from either nq configuration values or n joint angles."""
     try:
@@ -312,14 +308,5 @@ def _configuration(robot: Robot, q) -> np.ndarray:
     except (TypeError, ValueError):
         raise InvalidInput(f"q0 {q!r} is not a vector of numbers") from None
     if robot.nq != robot.nv and values.size == robot.nq:
-        if not np.isfinite(values).all():
-            raise InvalidInput(f"q0 {values.tolist()} has a non-finite value; all {robot.nq} values must be finite")
-        return values
+        return finite_vector(values, robot.nq, "q0")
     return robot.configuration(values)
-
-
-def _task_vector(robot: Robot, values, what: str) -> np.ndarray:
-    vector = np.asarray(values, dtype=float).reshape(-1)
-    if vector.size != robot.m or not np.isfinite(vector).all():
-        raise InvalidInput(f"{what} {vector.tolist()} must be {robot.m} finite numbers for task '{robot.task}'")
-    return vector

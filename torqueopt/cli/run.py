@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from ..errors import InvalidInput
 from ..resolvers import get_resolver, resolver_names
 from ..result import SimResult, writable_path
 from ..robot import Robot
@@ -83,7 +84,7 @@ def run_command(args: argparse.Namespace) -> int:
     options = {}
     if args.weight is not None:
         if args.resolver != "weighted-null-space":
-            raise_invalid(f"--weight applies to weighted-null-space only, not to '{args.resolver}'")
+            raise InvalidInput(f"--weight applies to weighted-null-space only, not to '{args.resolver}'")
         options["weight"] = parse_vector(args.weight, "weight")
     resolver = get_resolver(args.resolver, **options)
     robot = robot_from_args(args)
@@ -115,7 +116,7 @@ def check_torque_limits(robot: Robot, resolver_name: str, weighted: bool) -> Non
         return
     joints = ", ".join(missing)
     if resolver_name == "weighted-null-space" and weighted:
-        raise_invalid(
+        raise InvalidInput(
             f"joints {joints} of robot '{robot.name}' have no torque limit (URDF effort zero, infinite or missing) "
             "and weighted-null-space weights torques by their range: give --torque-limit (or --weight)"
         )
@@ -124,12 +125,6 @@ def check_torque_limits(robot: Robot, resolver_name: str, weighted: bool) -> Non
         "missing); they are treated as unbounded: give --torque-limit to check them",
         file=sys.stderr,
     )
-
-
-def raise_invalid(message: str):
-    from ..errors import InvalidInput
-
-    raise InvalidInput(message)
 
 
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
