@@ -72,23 +72,27 @@ class JacobianSolver:
         self._rows = rows
         self._tolerance = tolerance
         self._null_space = null_space
+        # eigenpy returns a length-1 result as a 1×1 matrix; longer ones are already flat.
+        self._flatten = columns == 1
 
     def __call__(self, jacobian: np.ndarray, vector: np.ndarray):
         svd = self._svd.compute(jacobian)
-        condition = _condition(svd.singularValues(), self._tolerance)
-        particular = svd.solve(vector).reshape(-1)
+        condition = _condition(svd.singularValues().tolist(), self._tolerance)
+        particular = svd.solve(vector)
+        if self._flatten:
+            particular = particular.reshape(-1)
         basis = svd.matrixV()[:, self._rows :] if self._null_space else None
         return particular, basis, condition
 
 
-def _condition(singular_values: np.ndarray, tolerance: float) -> float:
-    r"""σ_min/σ_max, or SingularJacobian below ``tolerance``.
+def _condition(singular_values, tolerance: float) -> float:
+    r"""σ_min/σ_max of singular values sorted largest first, or SingularJacobian below ``tolerance``.
 
     Above the cutoff every singular value is far above Eigen's own rank
     threshold (min(m, n)·ε), so the SVD's ``solve`` is exactly
     :math:`V_m \Sigma^{-1} U^\top r`.
     """
-    values = singular_values.tolist()
+    values = list(singular_values)
     largest = values[0]
     condition = values[-1] / largest if largest > 0 else 0.0
     if not condition >= tolerance:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import operator
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -89,31 +90,60 @@ def _rk4_stepper(robot: Robot, dt: float):
     Each stage's configuration increment (:math:`\tfrac{h}{2} v`,
     :math:`\tfrac{h}{2} v_2 = \tfrac{h}{2} v + \tfrac{h^2}{4} k_1`,
     :math:`h v_3 = h v + \tfrac{h^2}{2} k_2`) and velocity, and the final
-    update, are fixed linear combinations of :math:`v, k_1, \dots, k_4`: the
-    rows of one array allocated here. So each stage costs one 2×k matrix
-    product rather than several elementwise numpy operations, whose call
-    overhead, not arithmetic, dominates at these sizes.
+    update, are fixed linear combinations of :math:`v, k_1, \dots, k_4`:
+    the rows of one array allocated here. So each stage costs one small
+    matrix product, written into a buffer whose rows ABA reads, rather than
+    several elementwise numpy operations, whose call overhead, not
+    arithmetic, dominates at these sizes. When every joint is revolute or
+    prismatic (``robot.euclidean``), :math:`q \oplus \delta = q + \delta`
+    and q joins those rows, so no ``integrate`` call is needed at all.
     """
     h = float(dt)
-    stages = np.zeros((5, robot.nv))  # rows: v, k1, k2, k3, k4
-    up_to_k1, up_to_k2, up_to_k3 = stages[:2], stages[:3], stages[:4]
-    # Row 0: configuration increment; row 1: stage velocity (or v⁺ for the update).
-    stage2 = np.array([[h / 2, 0.0], [1.0, h / 2]])
-    stage3 = np.array([[h / 2, h * h / 4, 0.0], [1.0, 0.0, h / 2]])
-    stage4 = np.array([[h, 0.0, h * h / 2, 0.0], [1.0, 0.0, 0.0, h]])
-    update = np.array([[h, h * h / 6, h * h / 6, h * h / 6, 0.0], [1.0, h / 6, h / 3, h / 3, h / 6]])
-    forward_dynamics, integrate = robot.forward_dynamics, robot.integrate
+    n = robot.nv
+    # Weights of (v, k1, k2, k3, k4) in each stage's (configuration increment, velocity).
+    stage2 = [[h / 2, 0.0], [1.0, h / 2]]
+    stage3 = [[h / 2, h * h / 4, 0.0], [1.0, 0.0, h / 2]]
+    stage4 = [[h, 0.0, h * h / 2, 0.0], [1.0, 0.0, 0.0, h]]
+    update = [[h, h * h / 6, h * h / 6, h * h / 6, 0.0], [1.0, h / 6, h / 3, h / 3, h / 6]]
+    forward_dynamics = robot.forward_dynamics_function()
+    buffer = np.empty((2, n))
+    increment, velocity = buffer[0], buffer[1]  # views that every stage's product refills
+
+    if robot.euclidean:
+        # Rows q, v, k1..k4; q enters the configuration row with weight 1.
+        stages = np.zeros((6, n))
+        weights = [np.array([[1.0, *row0], [0.0, *row1]]) for row0, row1 in (stage2, stage3, stage4, update)]
+        weight2, weight3, weight4, weight_update = weights
+        rows3, rows4, rows5 = stages[:3], stages[:4], stages[:5]
+        head, k2_row, k3_row, k4_row = stages[:3], stages[3], stages[4], stages[5]
+
+        def rk4(q, v, tau, k1):
+            head[0], head[1], head[2] = q, v, k1
+            weight2.dot(rows3, out=buffer)
+            k2_row[:] = forward_dynamics(increment, velocity, tau)
+            weight3.dot(rows4, out=buffer)
+            k3_row[:] = forward_dynamics(increment, velocity, tau)
+            weight4.dot(rows5, out=buffer)
+            k4_row[:] = forward_dynamics(increment, velocity, tau)
+            combination = weight_update.dot(stages)
+            return combination[0], combination[1]
+
+        return rk4
+
+    stages = np.zeros((5, n))  # rows: v, k1, k2, k3, k4
+    weight2, weight3, weight4, weight_update = (np.array(w) for w in (stage2, stage3, stage4, update))
+    rows2, rows3, rows4 = stages[:2], stages[:3], stages[:4]
+    integrate = robot.integrate
 
     def rk4(q, v, tau, k1):
-        stages[0] = v
-        stages[1] = k1
-        combination = stage2.dot(up_to_k1)
-        stages[2] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
-        combination = stage3.dot(up_to_k2)
-        stages[3] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
-        combination = stage4.dot(up_to_k3)
-        stages[4] = forward_dynamics(integrate(q, combination[0]), combination[1], tau)
-        combination = update.dot(stages)
+        stages[0], stages[1] = v, k1
+        weight2.dot(rows2, out=buffer)
+        stages[2] = forward_dynamics(integrate(q, increment), velocity, tau)
+        weight3.dot(rows3, out=buffer)
+        stages[3] = forward_dynamics(integrate(q, increment), velocity, tau)
+        weight4.dot(rows4, out=buffer)
+        stages[4] = forward_dynamics(integrate(q, increment), velocity, tau)
+        combination = weight_update.dot(stages)
         return integrate(q, combination[0]), combination[1]
 
     return rk4
@@ -192,29 +222,29 @@ def simulate(
     times = dt * np.arange(steps + 1)
     reference = _task_reference(robot, trajectory, times)
 
-    n, m = robot.nv, robot.m
-    rows = steps + 1
-    q_log = np.empty((rows, robot.nq))
-    v_log = np.empty((rows, n))
-    acceleration_log = np.empty((rows, n))
-    torque_log = np.empty((rows, n))
-    x_log = np.empty((rows, m))
-    condition_log = np.empty(rows)
+    n = robot.nv
     limit = robot.torque_upper
     torque_ceiling = (max_torque_ratio * limit).tolist()
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver(robot)
     advance = _rk4_stepper(robot, dt)
-    terms_at, task_coordinates = robot.terms, robot.task_coordinates
+    terms_at = robot.terms
+    task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
+    isfinite = math.isfinite
 
+    # One tuple per recorded step (q, v, q̈, τ, x, condition): appending is far
+    # cheaper than writing six rows into preallocated arrays, and every array
+    # in it is fresh at each step, so nothing is overwritten later.
+    log = []
     stop_reason = None
     stop_time = None
-    recorded = 0
+    # A list of row views: indexing a list costs far less than indexing an array.
+    command_rows = list(ref_acceleration)
     for k, t in enumerate(times.tolist()):
         terms = terms_at(q, v)
-        x = task_coordinates(terms.placement, reference_rotation)
-        command = ref_acceleration[k]
+        x = task_coordinates(terms.placement)
+        command = command_rows[k]
         if feedback is not None:
             command = (
                 command
@@ -229,7 +259,9 @@ def simulate(
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             break
         torque_list = tau.tolist()
-        if not all(map(math.isfinite, torque_list)):
+        # One sum is non-finite when any term is. (Finite torques overflow it
+        # only beyond ~1e307 N·m, which the speed limit stops long before.)
+        if not isfinite(sum(torque_list)):
             stop_reason, stop_time = f"torque became non-finite at t = {t:.4f} s", t
             break
         if any(map(operator.gt, map(abs, torque_list), torque_ceiling)):
@@ -240,22 +272,15 @@ def simulate(
             )
             stop_time = t
             break
-        q_log[k] = q
-        v_log[k] = v
-        acceleration_log[k] = joint_acceleration
-        torque_log[k] = tau
-        x_log[k] = x
-        condition_log[k] = condition
-        recorded = k + 1
+        log.append((q, v, joint_acceleration, tau, x, condition))
         if k == steps:
             break
         q, v = advance(q, v, tau, joint_acceleration)
         velocity = v.tolist()
-        if not (all(map(math.isfinite, q.tolist())) and all(map(math.isfinite, velocity))):
+        if not isfinite(sum(q.tolist()) + sum(velocity)):
             stop_reason, stop_time = f"state became non-finite during the step from t = {t:.4f} s", t + dt
             break
-        speed = max(map(abs, velocity))
-        if speed > max_joint_speed:
+        if max(map(abs, velocity)) > max_joint_speed:
             joint = int(np.argmax(np.abs(v)))
             stop_reason = (
                 f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
@@ -264,6 +289,10 @@ def simulate(
             stop_time = t + dt
             break
 
+    recorded = len(log)
+    q_log, v_log, acceleration_log, torque_log, x_log, condition_log = _columns(
+        log, (robot.nq, n, n, n, robot.m, 1)
+    )
     return SimResult(
         robot=robot.name,
         frame=robot.frame,
@@ -272,20 +301,33 @@ def simulate(
         joint_names=list(robot.joint_names),
         dt=dt,
         t=times[:recorded].copy(),
-        q=q_log[:recorded].copy(),
-        joint_angles=robot.joint_angles(q_log[:recorded]).reshape(recorded, n),
-        v=v_log[:recorded].copy(),
-        acceleration=acceleration_log[:recorded].copy(),
-        tau=torque_log[:recorded].copy(),
-        x=x_log[:recorded].copy(),
+        q=q_log,
+        joint_angles=robot.joint_angles(q_log).reshape(recorded, n),
+        v=v_log,
+        acceleration=acceleration_log,
+        tau=torque_log,
+        x=x_log,
         x_ref=ref_position[:recorded].copy(),
-        jacobian_condition=condition_log[:recorded].copy(),
+        jacobian_condition=condition_log.reshape(recorded),
         torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(),
         duration=duration,
         stop_reason=stop_reason,
         stop_time=stop_time,
     )
+
+
+def _columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
+    """The per-step tuples of ``log`` as one (steps × size) array per field.
+
+    Every field but the last is a vector, joined by one ``concatenate``
+    (cheaper per row than ``np.array`` of a list of arrays); the last is a float.
+    """
+    if not log:
+        return [np.empty((0, size)) for size in sizes]
+    *vectors, scalars = zip(*log)
+    arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
+    return [*arrays, np.array(scalars, dtype=float).reshape(len(log), 1)]
 
 
 def _task_reference(robot: Robot, trajectory: StraightLine, times: np.ndarray):
