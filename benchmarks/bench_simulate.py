@@ -7,10 +7,12 @@ Cases:
 * ``panda`` (tasks ``position`` and ``pose``): a 0.5 s straight line along
   world x from the SRDF default configuration, dt = 1 ms (500 RK4 steps).
 
-Each case runs once to warm up, then ``--repeats`` times; the figure is the
-median wall time of ``simulate`` (the robot is loaded once, outside the
-timing), reported as RK4 steps per second. Each step includes one resolver
-evaluation and four ABA calls (the first is the resolver's own acceleration).
+Each case runs once to warm up, then ``--repeats`` rounds time every case
+once each (interleaved, so the host's load changes hit all cases alike);
+the figure is the median wall time of ``simulate`` (the robot is loaded once,
+outside the timing), reported as RK4 steps per second. Each step includes
+one resolver evaluation and three ABA calls (the first stage reuses the
+resolver's acceleration).
 
 The process runs on one thread (OpenBLAS / OpenMP thread counts set to 1
 before numpy loads); ``--cpu N`` also pins it to one CPU, which on a shared
@@ -83,19 +85,11 @@ def numpy_call_cost(calls: int = 20000) -> float:
     return (time.perf_counter() - start) / calls
 
 
-def time_case(robot, resolver, trajectory, q0, repeats):
-    """Wall times and CPU times [s] of ``repeats`` runs of ``simulate``, and the number of RK4 steps of one."""
-    result = torqueopt.simulate(robot, resolver, trajectory, q0)
-    if not result.completed:
-        raise RuntimeError(f"{robot.name} / {resolver} stopped early: {result.stop_reason}")
-    steps = result.t.size - 1
-    wall, cpu = [], []
-    for _ in range(repeats):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        torqueopt.simulate(robot, resolver, trajectory, q0)
-        wall.append(time.perf_counter() - start)
-        cpu.append(time.process_time() - start_cpu)
-    return wall, cpu, steps
+def timed_run(robot, resolver, trajectory, q0) -> tuple[float, float]:
+    """Wall and CPU time [s] of one ``simulate`` call."""
+    start, start_cpu = time.perf_counter(), time.process_time()
+    torqueopt.simulate(robot, resolver, trajectory, q0)
+    return time.perf_counter() - start, time.process_time() - start_cpu
 
 
 def openblas_core() -> str:
@@ -135,24 +129,41 @@ def machine() -> dict:
 
 
 def run(repeats: int, panda_tasks) -> dict:
+    """Time every (case, resolver) ``repeats`` times, interleaved.
+
+    Each round times every pair once, so a minute when the host is busy
+    slows every resolver alike instead of whichever case ran then.
+    """
     info = machine()
-    rows, yardstick = [], []
+    jobs = []
     for label, robot, trajectory, q0 in cases(panda_tasks):
         for resolver in torqueopt.resolver_names():
-            yardstick.append(numpy_call_cost())
-            wall, cpu, steps = time_case(robot, resolver, trajectory, q0, repeats)
-            median = statistics.median(wall)
-            rows.append(
-                {
-                    "case": label,
-                    "resolver": resolver,
-                    "steps": steps,
-                    "median_s": median,
-                    "steps_per_s": steps / median,
-                    "cpu_steps_per_s": steps / statistics.median(cpu),
-                    "best_steps_per_s": steps / min(wall),
-                }
-            )
+            result = torqueopt.simulate(robot, resolver, trajectory, q0)  # warm-up, and the step count
+            if not result.completed:
+                raise RuntimeError(f"{robot.name} / {resolver} stopped early: {result.stop_reason}")
+            jobs.append({"case": label, "resolver": resolver, "steps": result.t.size - 1,
+                         "arguments": (robot, resolver, trajectory, q0), "wall": [], "cpu": []})
+    yardstick = []
+    for _ in range(repeats):
+        yardstick.append(numpy_call_cost())
+        for job in jobs:
+            wall, cpu = timed_run(*job["arguments"])
+            job["wall"].append(wall)
+            job["cpu"].append(cpu)
+    rows = []
+    for job in jobs:
+        median = statistics.median(job["wall"])
+        rows.append(
+            {
+                "case": job["case"],
+                "resolver": job["resolver"],
+                "steps": job["steps"],
+                "median_s": median,
+                "steps_per_s": job["steps"] / median,
+                "cpu_steps_per_s": job["steps"] / statistics.median(job["cpu"]),
+                "best_steps_per_s": job["steps"] / min(job["wall"]),
+            }
+        )
     info["numpy_add_us_median"] = 1e6 * statistics.median(yardstick)
     info["numpy_add_us_best"] = 1e6 * min(yardstick)
     return {"machine": info, "repeats": repeats, "rows": rows}
@@ -170,9 +181,9 @@ def markdown(report: dict, title: str) -> str:
             f"OPENBLAS_L2_SIZE={info['OPENBLAS_L2_SIZE']}; one thread"
         ),
         (
-            f"- median of {report['repeats']} timed runs after one warm-up run; load average before the runs "
-            f"{info['load_average']}; one 3-vector numpy addition took {info['numpy_add_us_median']:.2f} µs "
-            f"(median before each case; best {info['numpy_add_us_best']:.2f} µs)"
+            f"- median of {report['repeats']} timed runs after one warm-up run, in {report['repeats']} interleaved "
+            f"rounds; load average before the runs {info['load_average']}; one 3-vector numpy addition took "
+            f"{info['numpy_add_us_median']:.2f} µs (median over the rounds; best {info['numpy_add_us_best']:.2f} µs)"
         ),
         "",
         (

@@ -19,7 +19,6 @@ __all__ = [
     "JacobianSolver",
     "LeastSquares",
     "least_squares",
-    "PositiveDefiniteSolver",
     "DEFAULT_SINGULAR_TOLERANCE",
 ]
 
@@ -29,7 +28,6 @@ DEFAULT_SINGULAR_TOLERANCE = 1e-6
 
 _FULL_UV = eigenpy.DecompositionOptions.ComputeFullU | eigenpy.DecompositionOptions.ComputeFullV
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
-_SUCCESS = eigenpy.ComputationInfo.Success
 
 
 class JacobianDecomposition:
@@ -122,22 +120,3 @@ class LeastSquares:
 def least_squares(matrix: np.ndarray, rhs: np.ndarray, tolerance: float = 1e-12) -> np.ndarray:
     r"""Minimum-norm :math:`y` minimising :math:`\|A y - b\|`, with relative rank cutoff; see :class:`LeastSquares`."""
     return LeastSquares(*matrix.shape, tolerance)(matrix, rhs)
-
-
-class PositiveDefiniteSolver:
-    """:math:`A^{-1} b` for symmetric positive definite k×k matrices A and vectors b, by Cholesky (Eigen's LLT).
-
-    One object keeps its factorisation storage from call to call.
-
-    Raises:
-        numpy.linalg.LinAlgError: A is not positive definite.
-    """
-
-    def __init__(self, size: int):
-        self._factor = eigenpy.LLT(size)
-
-    def __call__(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        factor = self._factor.compute(matrix)
-        if factor.info() != _SUCCESS:
-            raise np.linalg.LinAlgError(f"matrix is not positive definite: {matrix.tolist()}")
-        return factor.solve(rhs).reshape(-1)
