@@ -48,7 +48,7 @@ class JacobianDecomposition:
     def __init__(self, jacobian: np.ndarray, tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
         self._svd = eigenpy.HhJacobiSVD(jacobian, _FULL_UV)
         self.singular_values = self._svd.singularValues()
-        self.condition = _condition(self.singular_values, tolerance)
+        self.condition = _condition(self.singular_values.tolist(), tolerance)
         self.null_space_basis = self._svd.matrixV()[:, jacobian.shape[0] :]
 
     def pseudo_inverse_apply(self, vector: np.ndarray) -> np.ndarray:
@@ -90,9 +90,8 @@ def _condition(singular_values, tolerance: float) -> float:
     threshold (min(m, n)·ε), so the SVD's ``solve`` is exactly
     :math:`V_m \Sigma^{-1} U^\top r`.
     """
-    values = list(singular_values)
-    largest = values[0]
-    condition = values[-1] / largest if largest > 0 else 0.0
+    largest = singular_values[0]
+    condition = singular_values[-1] / largest if largest > 0 else 0.0
     if not condition >= tolerance:
         raise SingularJacobian(
             f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "

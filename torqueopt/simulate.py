@@ -115,16 +115,15 @@ def _rk4_stepper(robot: Robot, dt: float):
         weights = [np.array([[1.0, *row0], [0.0, *row1]]) for row0, row1 in (stage2, stage3, stage4, update)]
         weight2, weight3, weight4, weight_update = weights
         rows3, rows4, rows5 = stages[:3], stages[:4], stages[:5]
-        head, k2_row, k3_row, k4_row = stages[:3], stages[3], stages[4], stages[5]
 
         def rk4(q, v, tau, k1):
-            head[0], head[1], head[2] = q, v, k1
+            stages[0], stages[1], stages[2] = q, v, k1
             weight2.dot(rows3, out=buffer)
-            k2_row[:] = forward_dynamics(increment, velocity, tau)
+            stages[3] = forward_dynamics(increment, velocity, tau)
             weight3.dot(rows4, out=buffer)
-            k3_row[:] = forward_dynamics(increment, velocity, tau)
+            stages[4] = forward_dynamics(increment, velocity, tau)
             weight4.dot(rows5, out=buffer)
-            k4_row[:] = forward_dynamics(increment, velocity, tau)
+            stages[5] = forward_dynamics(increment, velocity, tau)
             combination = weight_update.dot(stages)
             return combination[0], combination[1]
 
@@ -290,9 +289,7 @@ def simulate(
             break
 
     recorded = len(log)
-    q_log, v_log, acceleration_log, torque_log, x_log, condition_log = _columns(
-        log, (robot.nq, n, n, n, robot.m, 1)
-    )
+    q_log, v_log, acceleration_log, torque_log, x_log, condition_log = _columns(log, (robot.nq, n, n, n, robot.m))
     return SimResult(
         robot=robot.name,
         frame=robot.frame,
@@ -308,7 +305,7 @@ def simulate(
         tau=torque_log,
         x=x_log,
         x_ref=ref_position[:recorded].copy(),
-        jacobian_condition=condition_log.reshape(recorded),
+        jacobian_condition=condition_log,
         torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(),
         duration=duration,
@@ -318,16 +315,16 @@ def simulate(
 
 
 def _columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
-    """The per-step tuples of ``log`` as one (steps × size) array per field.
+    """The per-step tuples of ``log`` as arrays: one (steps × size) array per vector field, then the trailing float.
 
-    Every field but the last is a vector, joined by one ``concatenate``
-    (cheaper per row than ``np.array`` of a list of arrays); the last is a float.
+    Each vector field is joined by one ``concatenate`` (cheaper per row than
+    ``np.array`` of a list of arrays).
     """
     if not log:
-        return [np.empty((0, size)) for size in sizes]
+        return [*(np.empty((0, size)) for size in sizes), np.empty(0)]
     *vectors, scalars = zip(*log)
     arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
-    return [*arrays, np.array(scalars, dtype=float).reshape(len(log), 1)]
+    return [*arrays, np.array(scalars, dtype=float)]
 
 
 def _task_reference(robot: Robot, trajectory: StraightLine, times: np.ndarray):
