@@ -29,6 +29,8 @@ import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 
+import torqueopt
+
 RUN = """
 import math, sys
 import torqueopt
@@ -72,7 +74,13 @@ def main() -> None:
     arguments = parser.parse_args()
     if shutil.which("valgrind") is None:
         sys.exit("valgrind not found; install it (Debian: apt-get install valgrind)")
-    resolvers = arguments.resolver or ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
+    known = torqueopt.resolver_names()
+    resolvers = arguments.resolver or known
+    unknown = [name for name in resolvers if name not in known]
+    if unknown:
+        parser.error(f"unknown resolver {unknown[0]!r}: choose from {', '.join(known)}")
+    if not 0 < arguments.short < arguments.long:
+        parser.error(f"need 0 < --short < --long, got --short {arguments.short} and --long {arguments.long}")
     jobs = [(name, steps) for name in resolvers for steps in (arguments.short, arguments.long)]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
         counts = list(pool.map(lambda job: instructions(arguments.robot, arguments.task, *job), jobs))
