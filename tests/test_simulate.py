@@ -95,6 +95,38 @@ def test_explosion_stops_the_run_and_keeps_finite_rows(planar3):
     assert result.peak_torque_ratio.max() <= 20.0
 
 
+class _Overdriven(torqueopt.Resolver):
+    """Realises the task plus a null-space acceleration of ``size`` rad/s²."""
+
+    name = "overdriven"
+
+    def __init__(self, size: float):
+        super().__init__()
+        self.size = size
+
+    def null_space_solver(self, robot):
+        return lambda terms, basis, particular: np.full(robot.redundancy, self.size)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_non_finite_torque_stops_the_run_before_its_first_row(planar3):
+    result = torqueopt.simulate(planar3, _Overdriven(np.inf), StraightLine([1, 1]), PAPER_Q0, max_torque_ratio=np.inf)
+    assert result.stop_reason == "torque became non-finite at t = 0.0000 s"
+    assert result.stop_time == 0.0 and len(result.t) == 0
+
+
+def test_non_finite_state_stops_the_run_at_the_step_that_made_it(planar3):
+    """With both explosion guards off, a finite but absurd torque (~1e300 N·m)
+    makes RK4's stage velocities overflow within the first step: the run must
+    stop after that step, name it, and keep the one finite row before it."""
+    result = torqueopt.simulate(
+        planar3, _Overdriven(1e300), StraightLine([1, 1]), PAPER_Q0, max_joint_speed=np.inf, max_torque_ratio=np.inf
+    )
+    assert result.stop_reason == "state became non-finite during the step from t = 0.0000 s"
+    assert result.stop_time == pytest.approx(1e-3)
+    assert len(result.t) == 1 and np.isfinite(result.tau).all() and np.abs(result.tau).max() > 1e299
+
+
 def test_singular_jacobian_stops_the_run(planar3):
     """Pushing the tip towards the arm's 3 m reach straightens it: with a
     cutoff of 0.02 on σ_min/σ_max the run stops there and says so."""

@@ -233,15 +233,32 @@ class Robot:
     # -- dynamics -------------------------------------------------------------
     def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:
         """Inertia, bias torques, task Jacobian and drift at (q, v), all from Pinocchio."""
-        model, data, frame_id = self.model, self.data, self.frame_id
-        pin.computeAllTerms(model, data, q, v)
-        placement = pin.updateFramePlacement(model, data, frame_id)
-        jacobian6 = pin.getFrameJacobian(model, data, frame_id, _LWA)
-        # computeAllTerms leaves the kinematics at zero joint acceleration, so
-        # the classical acceleration of the frame is exactly J̇q̇.
-        drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
-        rows = self.task_rows
-        return TaskTerms(data.M.copy(), data.nle.copy(), jacobian6[rows], drift6[rows], placement, v)
+        terms = self.terms_function()(q, v)
+        return terms._replace(inertia=terms.inertia.copy(), bias_torque=terms.bias_torque.copy())
+
+    def terms_function(self):
+        """:meth:`terms` as a bare function ``(q, v) -> TaskTerms``, for inner loops.
+
+        Its ``inertia`` and ``bias_torque`` are views of Pinocchio's data, not
+        copies: they hold the latest call's values until this robot's data is
+        next written (by this function, :meth:`terms` or other Pinocchio
+        algorithms). A loop that uses them before its next call saves four
+        numpy calls per step; the other fields are fresh at each call.
+        """
+        model, data, frame_id, rows = self.model, self.data, self.frame_id, self.task_rows
+        # Eigen never reallocates these fixed-size members, so one view serves every call.
+        inertia, bias_torque = data.M, data.nle
+
+        def terms(q: np.ndarray, v: np.ndarray) -> TaskTerms:
+            pin.computeAllTerms(model, data, q, v)
+            placement = pin.updateFramePlacement(model, data, frame_id)
+            jacobian6 = pin.getFrameJacobian(model, data, frame_id, _LWA)
+            # computeAllTerms leaves the kinematics at zero joint acceleration, so
+            # the classical acceleration of the frame is exactly J̇q̇.
+            drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
+            return TaskTerms(inertia, bias_torque, jacobian6[rows], drift6[rows], placement, v)
+
+        return terms
 
     def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Joint acceleration from torque, by Pinocchio's ABA [rad/s²].

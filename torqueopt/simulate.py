@@ -17,8 +17,8 @@ motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
 
 from __future__ import annotations
 
-import math
 import operator
+import sys
 from dataclasses import dataclass
 from functools import partial
 
@@ -37,6 +37,7 @@ __all__ = ["simulate", "rk4_step", "resolve", "Feedback"]
 DEFAULT_MAX_JOINT_SPEED = 1.0e3
 #: Torque, as a multiple of its limit, beyond which a run is declared diverged.
 DEFAULT_MAX_TORQUE_RATIO = 1.0e3
+_LARGEST_FLOAT = sys.float_info.max
 
 
 @dataclass(frozen=True)
@@ -223,14 +224,20 @@ def simulate(
 
     n = robot.nv
     limit = robot.torque_upper
-    torque_ceiling = (max_torque_ratio * limit).tolist()
+    # Each vector gets one test per step, all(|value| <= ceiling): with every
+    # ceiling capped at the largest float, inf and NaN (which compare False)
+    # fail it too, and the reason is worked out only then.
+    torque_ceiling = np.minimum(max_torque_ratio * limit, _LARGEST_FLOAT).tolist()
+    speed_ceiling = [min(max_joint_speed, _LARGEST_FLOAT)] * n
+    within = partial(map, operator.le)
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver(robot)
     advance = _rk4_stepper(robot, dt)
-    terms_at = robot.terms
+    terms_at = robot.terms_function()
     task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
+    # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
+    position_rows = None if robot.task == "pose" else robot.task_rows
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
-    isfinite = math.isfinite
 
     # One tuple per recorded step (q, v, q̈, τ, x, condition): appending is far
     # cheaper than writing six rows into preallocated arrays, and every array
@@ -242,7 +249,8 @@ def simulate(
     command_rows = list(ref_acceleration)
     for k, t in enumerate(times.tolist()):
         terms = terms_at(q, v)
-        x = task_coordinates(terms.placement)
+        placement = terms.placement
+        x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
         command = command_rows[k]
         if feedback is not None:
             command = (
@@ -257,35 +265,17 @@ def simulate(
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             break
-        torque_list = tau.tolist()
-        # One sum is non-finite when any term is. (Finite torques overflow it
-        # only beyond ~1e307 N·m, which the speed limit stops long before.)
-        if not isfinite(sum(torque_list)):
-            stop_reason, stop_time = f"torque became non-finite at t = {t:.4f} s", t
-            break
-        if any(map(operator.gt, map(abs, torque_list), torque_ceiling)):
-            joint = int(np.argmax(np.abs(tau) / limit))
-            stop_reason = (
-                f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
-                f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
-            )
-            stop_time = t
+        if not all(within(map(abs, tau.tolist()), torque_ceiling)):
+            stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
             break
         log.append((q, v, joint_acceleration, tau, x, condition))
         if k == steps:
             break
         q, v = advance(q, v, tau, joint_acceleration)
-        velocity = v.tolist()
-        if not isfinite(sum(q.tolist()) + sum(velocity)):
-            stop_reason, stop_time = f"state became non-finite during the step from t = {t:.4f} s", t + dt
-            break
-        if max(map(abs, velocity)) > max_joint_speed:
-            joint = int(np.argmax(np.abs(v)))
-            stop_reason = (
-                f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
-                f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
-            )
-            stop_time = t + dt
+        # RK4 weighs every stage acceleration that moves q into v as well, so a
+        # finite v after the step means a finite q.
+        if not all(within(map(abs, v.tolist()), speed_ceiling)):
+            stop_reason, stop_time = _speed_stop(robot, v, max_joint_speed, t, dt), t + dt
             break
 
     recorded = len(log)
@@ -311,6 +301,29 @@ def simulate(
         duration=duration,
         stop_reason=stop_reason,
         stop_time=stop_time,
+    )
+
+
+def _torque_stop(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:
+    """Why torques that failed the ceiling test end the run at time t [s]."""
+    if not np.isfinite(tau).all():
+        return f"torque became non-finite at t = {t:.4f} s"
+    limit = robot.torque_upper
+    joint = int(np.argmax(np.abs(tau) / limit))
+    return (
+        f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
+        f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
+    )
+
+
+def _speed_stop(robot: Robot, v: np.ndarray, max_joint_speed: float, t: float, dt: float) -> str:
+    """Why joint velocities that failed the ceiling test after the step from t to t + dt [s] end the run."""
+    if not np.isfinite(v).all():
+        return f"state became non-finite during the step from t = {t:.4f} s"
+    joint = int(np.argmax(np.abs(v)))
+    return (
+        f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
+        f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
     )
 
 
