@@ -98,16 +98,27 @@ def random_states(rng, count, n, speed=2.0):
         yield rng.uniform(-np.pi, np.pi, n), rng.uniform(-speed, speed, n)
 
 
+def assert_closed_form_terms(terms, q, v):
+    np.testing.assert_allclose(terms.inertia, closed_form_inertia(q), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(terms.inertia, terms.inertia.T, atol=0)
+    np.testing.assert_allclose(terms.bias_torque, closed_form_coriolis(q, v), rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(terms.jacobian, closed_form_jacobian(q), atol=1e-12)
+    np.testing.assert_allclose(terms.drift, closed_form_drift(q, v), atol=1e-12)
+
+
 def test_planar3_inertia_bias_jacobian_drift_match_closed_form(planar3, rng):
+    """Both ways to the terms: the loop's (views of Pinocchio's data, checked
+    before the next call) and :meth:`Robot.terms` (copies, which a later
+    state must leave alone)."""
+    terms_at = planar3.terms_function()
+    kept = []
     for q, v in random_states(rng, 25, 3):
-        terms = planar3.terms(q, v)
-        np.testing.assert_allclose(terms.inertia, closed_form_inertia(q), rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(terms.inertia, terms.inertia.T, atol=0)
-        np.testing.assert_allclose(terms.bias_torque, closed_form_coriolis(q, v), rtol=1e-10, atol=1e-10)
-        np.testing.assert_allclose(terms.jacobian, closed_form_jacobian(q), atol=1e-12)
-        np.testing.assert_allclose(terms.drift, closed_form_drift(q, v), atol=1e-12)
+        assert_closed_form_terms(terms_at(q, v), q, v)
+        kept.append((planar3.terms(q, v), q, v))
         tip = LENGTH * np.array([np.cos(np.cumsum(q)).sum(), np.sin(np.cumsum(q)).sum()])
         np.testing.assert_allclose(planar3.task_position(q), tip, atol=1e-12)
+    for terms, q, v in kept:
+        assert_closed_form_terms(terms, q, v)
 
 
 def test_planar3_gravity_torque_matches_closed_form(rng):

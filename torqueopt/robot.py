@@ -60,6 +60,11 @@ class TaskTerms(NamedTuple):
         placement: pose of the task frame in the world (Pinocchio SE3).
         joint_velocity: :math:`\dot q` (n) [rad/s], the state's velocity
             (for resolvers that shape the self-motion by it).
+
+    The terms a resolver gets inside :func:`torqueopt.simulate` come from
+    :meth:`Robot.terms_function`: there ``inertia`` and ``bias_torque`` are
+    views of the robot's Pinocchio data, valid for that step only; copy them
+    to keep them.
     """
 
     inertia: np.ndarray
