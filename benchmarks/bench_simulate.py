@@ -105,6 +105,20 @@ def openblas_core() -> str:
     return "unknown"
 
 
+def cpu_ticks() -> tuple[int, int] | None:
+    """(steal, total) clock ticks of all CPUs from /proc/stat, or None where it is not readable.
+
+    Steal is the time the hypervisor ran another guest while this VM had
+    work: the part of a busy host that the VM can see.
+    """
+    try:
+        fields = [int(value) for value in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    except (OSError, ValueError):
+        return None
+    # user nice system idle iowait irq softirq steal [guest guest_nice, already counted in user and nice]
+    return (fields[7], sum(fields[:8])) if len(fields) >= 8 else None
+
+
 def machine() -> dict:
     cpu = platform.processor() or platform.machine()
     try:
@@ -144,6 +158,7 @@ def run(repeats: int, panda_tasks) -> dict:
             jobs.append({"case": label, "resolver": resolver, "steps": result.t.size - 1,
                          "arguments": (robot, resolver, trajectory, q0), "wall": [], "cpu": []})
     yardstick = []
+    ticks_before = cpu_ticks()
     for _ in range(repeats):
         yardstick.append(numpy_call_cost())
         for job in jobs:
@@ -164,6 +179,11 @@ def run(repeats: int, panda_tasks) -> dict:
                 "best_steps_per_s": job["steps"] / min(job["wall"]),
             }
         )
+    ticks_after = cpu_ticks()
+    if ticks_before and ticks_after and ticks_after[1] > ticks_before[1]:
+        info["steal_percent"] = f"{100 * (ticks_after[0] - ticks_before[0]) / (ticks_after[1] - ticks_before[1]):.1f} %"
+    else:
+        info["steal_percent"] = "n/a"
     info["numpy_add_us_median"] = 1e6 * statistics.median(yardstick)
     info["numpy_add_us_best"] = 1e6 * min(yardstick)
     return {"machine": info, "repeats": repeats, "rows": rows}
@@ -183,7 +203,8 @@ def markdown(report: dict, title: str) -> str:
         (
             f"- median of {report['repeats']} timed runs after one warm-up run, in {report['repeats']} interleaved "
             f"rounds; load average before the runs {info['load_average']}; one 3-vector numpy addition took "
-            f"{info['numpy_add_us_median']:.2f} µs (median over the rounds; best {info['numpy_add_us_best']:.2f} µs)"
+            f"{info['numpy_add_us_median']:.2f} µs (median over the rounds; best {info['numpy_add_us_best']:.2f} µs); "
+            f"CPU time stolen by the hypervisor during the rounds {info['steal_percent']}"
         ),
         "",
         (
