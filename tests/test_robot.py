@@ -5,7 +5,7 @@ import pytest
 
 import torqueopt
 from torqueopt import FrameNotFound, InvalidInput, RobotNotFound, TaskNotFound, UrdfError
-from torqueopt.catalog import find_robot
+from torqueopt.catalog import available_robots, find_robot
 
 
 @pytest.mark.parametrize(
@@ -103,3 +103,35 @@ def test_joint_angles_of_many_configurations_at_once():
         angles = np.random.default_rng(3).uniform(-3.0, 3.0, (5, robot.nv))
         configurations = np.array([robot.configuration(row) for row in angles])
         np.testing.assert_allclose(robot.joint_angles(configurations), angles, atol=1e-12)
+
+
+VETTED = [name for name in available_robots() if find_robot(name).vetted]
+
+
+def test_the_catalogue_vets_the_papers_arm_and_the_known_arms_only():
+    assert VETTED == ["planar3", "panda", "xarm7", "baxter", "tiago", "kinova"]
+    assert not find_robot("a1").vetted
+    assert not find_robot(str(find_robot("planar3").urdf)).vetted
+
+
+@pytest.mark.parametrize("name", VETTED)
+def test_vetted_urdfs_pass_yourdfpy_and_agree_on_mimic_joints(name):
+    """Loading a vetted robot skips yourdfpy, so its check is made here; the
+    mimic joints read off the XML must be the ones yourdfpy finds."""
+    import yourdfpy
+
+    from torqueopt.robot import _validate_urdf
+
+    path = find_robot(name).urdf
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)
+    assert urdf.validate(), urdf.errors
+    assert _validate_urdf(path) == {joint.name for joint in urdf.robot.joints if joint.mimic is not None}
+
+
+def test_loading_the_papers_arm_does_not_import_yourdfpy():
+    import subprocess
+    import sys
+
+    code = "import sys, torqueopt; torqueopt.load_robot('planar3'); print('yourdfpy' in sys.modules)"
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert completed.stdout.strip() == "False"

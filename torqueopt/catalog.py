@@ -22,7 +22,13 @@ _PACKAGE_DIR = Path(__file__).resolve().parent
 
 @dataclass(frozen=True)
 class RobotSource:
-    """A URDF on disk and the defaults that go with it."""
+    """A URDF on disk and the defaults that go with it.
+
+    ``vetted`` marks the catalogue's own files (``robots/`` and the known
+    example-robot-data arms): the test suite checks each with yourdfpy, so
+    loading them skips that check, and the second it takes to import
+    yourdfpy; any other URDF gets it at every load.
+    """
 
     name: str
     urdf: Path
@@ -33,6 +39,7 @@ class RobotSource:
     task: str | None = None
     locked_joints: tuple[str, ...] = ()
     gravity: bool = True
+    vetted: bool = False
 
 
 @dataclass(frozen=True)
@@ -154,7 +161,7 @@ def find_robot(source: str | Path) -> RobotSource:
             srdf = local.with_suffix(".srdf")
             if srdf.is_file():
                 defaults["srdf"] = srdf
-            return RobotSource(name=text, urdf=local, package_dirs=(robots_dir,), **defaults)
+            return RobotSource(name=text, urdf=local, package_dirs=(robots_dir,), vetted=True, **defaults)
 
     urdfs = _example_robot_urdfs()
     if text in urdfs:
@@ -174,6 +181,7 @@ def find_robot(source: str | Path) -> RobotSource:
             frame=arm.frame,
             task=arm.task,
             locked_joints=arm.locked_joints,
+            vetted=True,
         )
 
     names = available_robots()

@@ -340,7 +340,7 @@ def load_robot(
         RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput.
     """
     robot_source = find_robot(source)
-    mimic_joints = _validate_urdf(robot_source.urdf)
+    mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
     full_model = _build_model(robot_source.urdf, mimic=False)
     if full_model.nv == 0:
         raise UrdfError(f"URDF '{robot_source.urdf}' has no movable joint")
@@ -410,15 +410,14 @@ _NUMERIC_ATTRIBUTES = {
 }
 
 
-def _validate_urdf(path: Path) -> set[str]:
+def _validate_urdf(path: Path, with_yourdfpy: bool = True) -> set[str]:
     """Check a URDF before Pinocchio reads it, naming the broken tag when it is broken.
 
-    Returns the names of the URDF's mimic joints.
+    Our own checks of the XML run always; yourdfpy's load and ``validate()``
+    run when ``with_yourdfpy``. Returns the names of the URDF's mimic joints.
     """
     import logging
     import xml.etree.ElementTree as ElementTree
-
-    import yourdfpy
 
     try:
         root = ElementTree.parse(path).getroot()
@@ -457,6 +456,12 @@ def _validate_urdf(path: Path) -> set[str]:
                         f"<{owner.tag} name=\"{owner.get('name')}\"> is not a number"
                     ) from None
 
+    mimic_joints = {joint.get("name") for joint in root.findall("joint") if joint.find("mimic") is not None}
+    if not with_yourdfpy:
+        return mimic_joints
+
+    import yourdfpy
+
     logger = logging.getLogger("yourdfpy")
     level = logger.level
     logger.setLevel(logging.CRITICAL)  # its fallback parser logs noise for files we already checked
@@ -470,7 +475,7 @@ def _validate_urdf(path: Path) -> set[str]:
     if not urdf.validate():
         problems = "; ".join(str(problem) for problem in urdf.errors) or "yourdfpy validation failed"
         raise UrdfError(f"malformed URDF '{path}': {problems}")
-    return {joint.name for joint in urdf.robot.joints if joint.mimic is not None}
+    return mimic_joints
 
 
 def _single_leaf_frame(model: pin.Model, urdf: Path) -> str:
