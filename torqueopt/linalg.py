@@ -15,10 +15,8 @@ import numpy as np
 from .errors import SingularJacobian
 
 __all__ = [
-    "JacobianDecomposition",
     "JacobianSolver",
     "LeastSquares",
-    "least_squares",
     "DEFAULT_SINGULAR_TOLERANCE",
 ]
 
@@ -30,39 +28,19 @@ _FULL_UV = eigenpy.DecompositionOptions.ComputeFullU | eigenpy.DecompositionOpti
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
 
-class JacobianDecomposition:
-    r"""SVD :math:`J = U \Sigma V^\top` of an m×n task Jacobian (m <= n).
+class JacobianSolver:
+    r"""SVD :math:`J = U \Sigma V^\top` of m×n task Jacobians (m <= n), one workspace for every call.
 
-    Attributes:
-        singular_values: the m singular values, largest first.
-        null_space_basis: orthonormal basis of the null space of J (n×(n−m)).
-        condition: :math:`\sigma_{min} / \sigma_{max}` (0 at a singularity).
+    Calling it with an m×n Jacobian J and an m-vector r returns
+    :math:`(J^\dagger r,\ Z,\ \sigma_{min}/\sigma_{max})`, with Z an
+    orthonormal basis of the null space of J (n×(n−m); None when built with
+    ``null_space=False``), all fresh at each call.
 
     Raises:
         SingularJacobian: when :math:`\sigma_{min} < \text{tolerance}\cdot\sigma_{max}`,
             since then no joint acceleration realises every task direction
             and the pseudoinverse would return torques that look fine but
             are dominated by round-off.
-    """
-
-    def __init__(self, jacobian: np.ndarray, tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        self._svd = eigenpy.HhJacobiSVD(jacobian, _FULL_UV)
-        self.singular_values = self._svd.singularValues()
-        self.condition = _condition(self.singular_values.tolist(), tolerance)
-        self.null_space_basis = self._svd.matrixV()[:, jacobian.shape[0] :]
-
-    def pseudo_inverse_apply(self, vector: np.ndarray) -> np.ndarray:
-        r""":math:`J^\dagger r = V_m \Sigma^{-1} U^\top r`."""
-        return self._svd.solve(vector).reshape(-1)
-
-
-class JacobianSolver:
-    r""":class:`JacobianDecomposition` for a loop: one SVD workspace, fresh results at each call.
-
-    Calling it with an m×n Jacobian J and an m-vector r returns
-    :math:`(J^\dagger r,\ Z,\ \sigma_{min}/\sigma_{max})`, with Z the
-    null-space basis (None when built with ``null_space=False``). Raises
-    SingularJacobian under the same cutoff as JacobianDecomposition.
     """
 
     def __init__(self, rows: int, columns: int, tolerance: float = DEFAULT_SINGULAR_TOLERANCE, null_space: bool = True):
@@ -115,7 +93,3 @@ class LeastSquares:
     def __call__(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         return self._svd.compute(matrix).solve(rhs).reshape(-1)
 
-
-def least_squares(matrix: np.ndarray, rhs: np.ndarray, tolerance: float = 1e-12) -> np.ndarray:
-    r"""Minimum-norm :math:`y` minimising :math:`\|A y - b\|`, with relative rank cutoff; see :class:`LeastSquares`."""
-    return LeastSquares(*matrix.shape, tolerance)(matrix, rhs)

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InvalidInput, SingularJacobian
-from .linalg import JacobianDecomposition
+from .linalg import JacobianSolver
 from .resolvers import get_resolver, resolver_names
 from .result import SimResult, atomic_write
 from .robot import Robot, load_robot
@@ -348,8 +348,10 @@ def run_paper(
 
 def _check_start(robot: Robot, scenario: PaperScenario) -> None:
     q = robot.configuration(scenario.q0)
+    jacobian = robot.terms(q, np.zeros(robot.nv)).jacobian
     try:
-        JacobianDecomposition(robot.terms(q, np.zeros(robot.nv)).jacobian)
+        # Only its singularity check is wanted here.
+        JacobianSolver(robot.m, robot.nv, null_space=False)(jacobian, np.zeros(robot.m))
     except SingularJacobian as error:
         degrees = ", ".join(f"{a:g}°" for a in np.degrees(scenario.q0).round(4))
         raise InvalidInput(f"q0 = ({degrees}) is a singular configuration ({error}); choose another start") from None

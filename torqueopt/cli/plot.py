@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..plots import plot_run
-from ..result import SimResult, load_result, writable_path
+from ..result import load_result, writable_path
 from . import EXIT_OK
 
 __all__ = ["add_parser"]
@@ -29,14 +29,10 @@ def add_parser(subparsers) -> None:
 
 
 def plot_command(args: argparse.Namespace) -> int:
-    result = read_run(args.run)
+    result = load_result(args.run)
     out = writable_path(args.out if args.out else Path(args.run).with_suffix(".png"))
     path = plot_run(result, out, title=args.title)
     status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
     print(f"wrote {path}{status}")
     return EXIT_OK
 
-
-def read_run(path: str) -> SimResult:
-    """:func:`load_result`, which raises a one-line :class:`InvalidInput` for any file it cannot read."""
-    return load_result(path)
