@@ -172,6 +172,16 @@ def test_the_free_swing_conserves_energy(paper):
     assert np.ptp(energy) < 1e-6 * kinetic_peak
 
 
+def test_the_free_swing_leaves_the_callers_robot_alone(paper):
+    from torqueopt.paper import free_swing
+
+    robot = paper.scenario.load_robot()
+    swing = free_swing(paper.scenario, robot, duration=0.05)
+    assert robot.gravity.tolist() == [0.0, 0.0, 0.0]
+    # The swing moved under gravity, through the one simulation loop.
+    assert swing.completed and swing.t[-1] == pytest.approx(0.05) and np.abs(swing.v[-1]).max() > 0
+
+
 def test_every_claim_holds(paper):
     assert [(claim.number, claim.holds) for claim in paper.claims] == [(n, True) for n in range(1, 7)]
 

@@ -135,3 +135,15 @@ def test_loading_the_papers_arm_does_not_import_yourdfpy():
     code = "import sys, torqueopt; torqueopt.load_robot('planar3'); print('yourdfpy' in sys.modules)"
     completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert completed.stdout.strip() == "False"
+
+
+def test_with_gravity_is_a_copy_and_leaves_the_robot_alone():
+    robot = torqueopt.load_robot("planar3", torque_limit=[54, 24, 6])
+    heavy = robot.with_gravity([0.0, -9.81, 0.0])
+    assert robot.gravity.tolist() == [0.0, 0.0, 0.0]
+    assert heavy.gravity.tolist() == [0.0, -9.81, 0.0]
+    assert heavy.model is not robot.model
+    np.testing.assert_array_equal(heavy.torque_limit, robot.torque_limit)
+    q, zero = robot.configuration([0.3, 0.2, 0.1]), np.zeros(3)
+    assert not robot.forward_dynamics(q, zero, zero).any()
+    assert heavy.forward_dynamics(q, zero, zero).any()

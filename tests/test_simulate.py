@@ -7,7 +7,7 @@ import pytest
 
 import torqueopt
 from torqueopt import InvalidInput, StraightLine
-from torqueopt.result import atomic_write
+from torqueopt.io import atomic_write
 
 from .conftest import PAPER_Q0
 

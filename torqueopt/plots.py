@@ -2,7 +2,7 @@
 
 Every function draws one figure with matplotlib's object API on the Agg
 canvas (no pyplot, no global backend switch, no window) and writes it as a
-PNG through :func:`torqueopt.result.atomic_write`, so a figure file is either
+PNG through :func:`torqueopt.io.atomic_write`, so a figure file is either
 complete or absent. A run that stopped early is drawn up to where it stopped,
 with a dashed line there and a note saying why.
 
@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InvalidInput, MissingDependency
-from .result import SimResult, atomic_write
+from .io import atomic_write
+from .result import SimResult
 from .robot import Robot
 
 __all__ = [

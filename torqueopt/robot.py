@@ -60,6 +60,8 @@ class TaskTerms(NamedTuple):
         placement: pose of the task frame in the world (Pinocchio SE3).
         joint_velocity: :math:`\dot q` (n) [rad/s], the state's velocity
             (for resolvers that shape the self-motion by it).
+        configuration: :math:`q` (nq), the state's configuration vector
+            (for resolvers that need more of the model at this state).
 
     The terms a resolver gets inside :func:`torqueopt.simulate` come from
     :meth:`Robot.terms_function`: there ``inertia`` and ``bias_torque`` are
@@ -73,6 +75,7 @@ class TaskTerms(NamedTuple):
     drift: np.ndarray
     placement: pin.SE3
     joint_velocity: np.ndarray
+    configuration: np.ndarray
 
     @property
     def task_velocity(self) -> np.ndarray:
@@ -169,6 +172,26 @@ class Robot:
         """Gravity vector in world axes [m/s²]."""
         return np.array(self.model.gravity.linear)
 
+    def with_gravity(self, gravity) -> Robot:
+        """A copy of this robot (its own Pinocchio model) under ``gravity``; this robot is left as it is.
+
+        ``gravity`` is as for :meth:`set_gravity`: ``True``, ``False`` or a
+        3-vector [m/s²]. The torque limits are this robot's.
+        """
+        return Robot(
+            self.model.copy(),
+            self.frame,
+            self.task,
+            name=self.name,
+            source=self.source,
+            torque_limit=self.torque_upper.copy(),
+            gravity=gravity,
+            locked_joints=self.locked_joints,
+            full_model=self.full_model,
+            locked_configuration=self.locked_configuration,
+            default_configuration=self._default_configuration,
+        )
+
     def set_torque_limit(self, torque_limit=None) -> None:
         r"""Set symmetric torque limits :math:`\tau^+ = -\tau^-` [N·m].
 
@@ -261,7 +284,7 @@ class Robot:
             # computeAllTerms leaves the kinematics at zero joint acceleration, so
             # the classical acceleration of the frame is exactly J̇q̇.
             drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
-            return TaskTerms(inertia, bias_torque, jacobian6[rows], drift6[rows], placement, v)
+            return TaskTerms(inertia, bias_torque, jacobian6[rows], drift6[rows], placement, v, q)
 
         return terms
 

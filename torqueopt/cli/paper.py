@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
+from ..io import writable_path
 from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
-from ..result import writable_path
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector

@@ -11,7 +11,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..result import SimResult, load_result, writable_path
+from ..io import writable_path
+from ..result import SimResult, load_result
 from ..robot import TASK_DIMENSIONS, Robot, load_robot
 from . import EXIT_OK
 from .common import parse_positive

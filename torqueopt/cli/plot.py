@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..io import writable_path
 from ..plots import plot_run
-from ..result import load_result, writable_path
+from ..result import load_result
 from . import EXIT_OK
 
 __all__ = ["add_parser"]

@@ -9,8 +9,9 @@ import sys
 import numpy as np
 
 from ..errors import InvalidInput
+from ..io import writable_path
 from ..resolvers import get_resolver, resolver_names
-from ..result import SimResult, writable_path
+from ..result import SimResult
 from ..robot import Robot
 from ..simulate import Feedback, simulate
 from ..trajectory import StraightLine

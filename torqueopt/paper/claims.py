@@ -1,0 +1,181 @@
+"""The paper's six claims, each checked on the runs of :func:`~torqueopt.paper.run_paper`.
+
+The thresholds that turn the paper's words ("a small fraction", "much
+smaller", "high joint speed") into numbers are the module constants.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..result import SimResult
+from ..whiplash import WhiplashReport
+from .alignment import alignment_times
+
+if TYPE_CHECKING:
+    from .runner import PaperResults
+
+__all__ = [
+    "Claim",
+    "check_claims",
+    "SMALL_FRACTION",
+    "PULLED_AWAY",
+    "MUCH_SMALLER",
+    "HIGH_SPEED",
+    "NEAR_ALIGNMENT",
+]
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One of the paper's claims, checked on the runs.
+
+    Attributes:
+        number: 1 to 6, in the order of Section 3 (short, medium and long movements, weighting, free swing).
+        statement: the claim in words.
+        holds: whether the numbers bear it out.
+        evidence: the numbers, in one or two sentences.
+    """
+
+    number: int
+    statement: str
+    holds: bool
+    evidence: str
+
+
+#: What the words of the claims are taken to mean, in numbers.
+SMALL_FRACTION = 0.25  # claim 1: "a small fraction": at most a quarter
+PULLED_AWAY = 0.10  # claim 1: joint 3's peak drops by at least 10 % of its limit
+MUCH_SMALLER = 0.75  # claim 4: "much smaller": at most three quarters
+HIGH_SPEED = 3.0  # claims 3, 6: "high joint speed": 3 times pinv's fastest joint on the long movement
+NEAR_ALIGNMENT = 0.1  # claims 3, 6: a speed peak "as links 2 and 3 straighten": within 0.1 s [s]
+
+
+def check_claims(results: PaperResults) -> list[Claim]:
+    """The paper's six claims about its Figures 2-7, each with its verdict and numbers.
+
+    The thresholds that turn the paper's words into numbers are the module
+    constants ``SMALL_FRACTION``, ``PULLED_AWAY``, ``MUCH_SMALLER``,
+    ``HIGH_SPEED`` and ``NEAR_ALIGNMENT``.
+    """
+    # A run that stopped at its first step has no rows: its peaks are 0 and
+    # ratios of them nan, which every comparison below counts as "does not hold".
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _check_claims(results)
+
+
+def _check_claims(results: PaperResults) -> list[Claim]:
+    runs, judged = results.runs, results.whiplash
+    limit = np.asarray(results.scenario.torque_limit)
+
+    def peak(movement, name):
+        return runs[movement, name].peak_torque
+
+    def within(movement, name):
+        return runs[movement, name].first_limit_violation is None and runs[movement, name].completed
+
+    def fmt(values):
+        return "[" + ", ".join(f"{v:.3g}" for v in values) + "]"
+
+    claims = []
+    pinv, null = peak("short", "pinv"), peak("short", "null-space")
+    fraction = null[0] / pinv[0]
+    pulled = (pinv[2] - null[2]) / limit[2]
+    claims.append(Claim(
+        1,
+        "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
+        "away from its 6 N·m limit",
+        bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
+        f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m: joint 1 at {fraction:.1%} of pinv's "
+        f"(small: <= {SMALL_FRACTION:.0%}); joint 3 at {pinv[2] / limit[2]:.0%} of its limit with pinv, "
+        f"{null[2] / limit[2]:.0%} with null-space (pulled away: by >= {PULLED_AWAY:.0%} of the limit)",
+    ))
+
+    pinv, null = peak("medium", "pinv"), peak("medium", "null-space")
+    claims.append(Claim(
+        2,
+        "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
+        "limits, though joint 2 is larger",
+        bool(null[0] < pinv[0] and null[2] < pinv[2] and within("medium", "null-space") and null[1] > pinv[1]),
+        f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m, limits {fmt(limit)}; null-space first limit "
+        f"violation: {_when(runs['medium', 'null-space'].first_limit_violation)}",
+    ))
+
+    long_pinv, long_null = runs["long", "pinv"], runs["long", "null-space"]
+    verdict = judged["long", "null-space"]
+    pinv_speed = float(np.abs(long_pinv.v).max(initial=0.0))
+    aligned = [t for t in alignment_times(long_null) if verdict.time is not None and t >= verdict.time - NEAR_ALIGNMENT]
+    speed_at = [_speed_at(long_null, t) for t in aligned]
+    fast = [pinv_speed > 0 and s >= HIGH_SPEED * pinv_speed for s in speed_at]
+    late = bool(verdict.unstable and verdict.time > 0.5 * long_null.duration)
+    claims.append(Claim(
+        3,
+        "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
+        "passing through alignment at high joint speeds",
+        bool(within("long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
+        f"pinv peak |τ| {fmt(long_pinv.peak_torque)} N·m, fastest joint {pinv_speed:.3g} rad/s; null-space "
+        f"{verdict_text(verdict)} of {long_null.duration:g} s, peak |τ| {fmt(long_null.peak_torque)} N·m; "
+        f"links 2 and 3 in line at t = {fmt(aligned)} s with the fastest joint at {fmt(speed_at)} rad/s "
+        f"(high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+    ))
+
+    weighted, null = peak("short", "weighted-null-space"), peak("short", "null-space")
+    ratio = weighted[2] / null[2]
+    claims.append(Claim(
+        4,
+        "short: weighted-null-space makes joint 3's torque much smaller than null-space's at the expense of "
+        "joints 1 and 2, all within limits",
+        bool(ratio <= MUCH_SMALLER and weighted[0] > null[0] and weighted[1] > null[1]
+             and within("short", "weighted-null-space")),
+        f"peak |τ| weighted {fmt(weighted)}, null-space {fmt(null)} N·m: joint 3 at {ratio:.0%} of null-space's "
+        f"(much smaller: <= {MUCH_SMALLER:.0%}); weighted peak/limit {fmt(weighted / limit)}",
+    ))
+
+    inertia, pinv, null = peak("short", "inertia-pinv"), peak("short", "pinv"), peak("short", "null-space")
+    between = [min(p, z) <= i <= max(p, z) for i, p, z in zip(inertia, pinv, null)]
+    unstable_long = {name: judged["long", name] for name in ("weighted-null-space", "inertia-pinv")}
+    claims.append(Claim(
+        5,
+        "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
+        "movement lie between those of pinv and null-space for most joints",
+        bool(all(v.unstable for v in unstable_long.values()) and sum(between) > len(between) / 2),
+        "; ".join(f"{name} {verdict_text(v)}" for name, v in unstable_long.items())
+        + f"; short peak |τ| inertia-pinv {fmt(inertia)}, pinv {fmt(pinv)}, null-space {fmt(null)} N·m: between "
+        f"for joints {[i + 1 for i, b in enumerate(between) if b]} of {len(between)}",
+    ))
+
+    swing = results.free_swing
+    speed = np.abs(swing.v).max(axis=1, initial=0.0)
+    peak_row = int(np.argmax(speed))
+    peak_time, peak_speed = float(swing.t[peak_row]), float(speed[peak_row])
+    peak_joint = swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))]
+    swing_aligned = alignment_times(swing)
+    nearest = min(swing_aligned, key=lambda t: abs(t - peak_time)) if swing_aligned else None
+    claims.append(Claim(
+        6,
+        "the free-swinging arm shows the same whip: a joint-speed peak as links 2 and 3 straighten",
+        bool(nearest is not None and abs(nearest - peak_time) <= NEAR_ALIGNMENT and pinv_speed > 0
+             and peak_speed >= HIGH_SPEED * pinv_speed),
+        f"zero torque, gravity {fmt(results.free_swing_gravity)} m/s²: fastest joint {peak_joint} at "
+        f"{peak_speed:.3g} rad/s at t = {peak_time:.3f} s; links 2 and 3 in line at t = {fmt(swing_aligned)} s "
+        f"(near: within {NEAR_ALIGNMENT:g} s; high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+    ))
+    return claims
+
+
+def _speed_at(result: SimResult, time: float) -> float:
+    row = int(np.clip(np.searchsorted(result.t, time), 0, len(result.t) - 1))
+    return float(np.abs(result.v[row]).max())
+
+
+def _when(time: float | None) -> str:
+    return "none" if time is None else f"t = {time:.3f} s"
+
+
+def verdict_text(report: WhiplashReport) -> str:
+    """"unstable from t = ... s" or "stable", for summaries and figure titles."""
+    return f"unstable from t = {report.time:.3f} s" if report.unstable else "stable"
+

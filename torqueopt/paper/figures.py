@@ -1,0 +1,87 @@
+"""Figures 2-7 of the paper, the long movement's stick-figure strips and its tip paths, from the runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..resolvers import resolver_names
+from ..result import SimResult
+from ..whiplash import WhiplashReport
+from .alignment import alignment_times
+from .claims import verdict_text
+from .runner import PaperResults
+
+__all__ = ["write_figures"]
+
+
+def write_figures(results: PaperResults, out: Path) -> list[Path]:
+    """Write Figures 2-7, the long movement's stick-figure strips and its tip paths into the folder ``out``; returns their paths."""
+    from .. import plots
+
+    scenario, runs, judged = results.scenario, results.runs, results.whiplash
+
+    def unstable(movement, *names):
+        return {name: judged[movement, name].time for name in names}
+
+    def movement_text(movement):
+        line = scenario.line(movement)
+        return f"{movement} movement ({line.duration:g} s, {line.length:.3g} m straight line, peak tip speed {line.peak_speed:.3g} m/s)"
+
+    written = []
+    comparisons = (
+        ("fig2.png", "short", ("pinv", "null-space"), "Fig. 2"),
+        ("fig3.png", "medium", ("pinv", "null-space"), "Fig. 3"),
+        ("fig4.png", "long", ("pinv", "null-space"), "Fig. 4"),
+        ("fig6.png", "short", ("weighted-null-space", "inertia-pinv"), "Fig. 6"),
+    )
+    for filename, movement, names, label in comparisons:
+        title = f"{label}: joint torques, {' vs '.join(names)}, {movement_text(movement)}"
+        written.append(plots.plot_torques([runs[movement, n] for n in names], out / filename, title=title,
+                                          instability_times=unstable(movement, *names)))
+
+    long_null = runs["long", "null-space"]
+    events = _events(long_null, judged["long", "null-space"])
+    written.append(plots.plot_motion(
+        long_null, out / "fig5.png",
+        title=f"Fig. 5: joint velocities and accelerations of the null-space method, {movement_text('long')}",
+        events=events,
+    ))
+    swing = results.free_swing
+    gravity = np.linalg.norm(results.free_swing_gravity)
+    written.append(plots.plot_stick_strip(
+        results.robot, swing, out / "fig7.png",
+        title=(
+            f"Fig. 7: free-swinging arm: zero torque, gravity {gravity:.3g} m/s² along the line direction "
+            f"(initial tip acceleration {scenario.accel:.3g} m/s²), {swing.duration:g} s; dashed: the long "
+            "movement's straight line, which the swing replaces"
+        ),
+        snapshots=10,
+        events=dict(zip(["links 2 and 3 in line"], alignment_times(swing))),
+    ))
+    for name in resolver_names():
+        result = runs["long", name]
+        verdict = judged["long", name]
+        state = verdict_text(verdict)
+        written.append(plots.plot_stick_strip(
+            results.robot, result, out / f"arm_long_{name}.png",
+            title=f"{name}: the arm during the {movement_text('long')}: {state}",
+            snapshots=10,
+            events=_events(result, verdict),
+        ))
+    written.append(plots.plot_tip_path(
+        [runs["long", name] for name in resolver_names()], out / "tip_long.png",
+        title=f"Tip paths of the four resolvers, {movement_text('long')} (open loop)",
+    ))
+    return written
+
+
+def _events(result: SimResult, report: WhiplashReport) -> dict[str, float]:
+    events = {}
+    if report.unstable:
+        events[f"{result.resolver} unstable"] = report.time
+    aligned = alignment_times(result)
+    if aligned:
+        events["links 2 and 3 first in line"] = aligned[0]
+    return events

@@ -1,0 +1,128 @@
+r"""The paper's scenario (Hollerbach & Suh, Section 3) as a frozen dataclass, :data:`PAPER`.
+
+A planar arm of three 1 m, 10 kg thin rods, without gravity, with torque
+limits of 54, 24 and 6 N·m, tracks rest-to-rest straight lines with a
+tangential acceleration of √2 m/s² (RK4, 1 ms, torque held over each step).
+The paper does not give the start configuration; torqueopt uses
+q0 = (−45°, 135°, −135°), where the tip is at (√2, 1 − √2) m, and the
+direction (1, 1)/√2. Movements last 0.5 s (short, Fig. 2), 1.25 s (medium,
+2.5 times longer, Fig. 3) and 2 s (long, 4 times, Fig. 4); the weighted
+null-space method uses W = diag(1/limit²).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidInput
+from ..robot import Robot, load_robot
+from ..trajectory import StraightLine
+
+__all__ = ["MOVEMENTS", "PAPER", "PaperScenario"]
+
+#: Movement names, shortest first.
+MOVEMENTS = ("short", "medium", "long")
+
+
+def _finite_tuple(values, name: str) -> tuple[float, ...]:
+    try:
+        array = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a list of numbers") from None
+    if not array.size or not np.isfinite(array).all():
+        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers")
+    return tuple(array.tolist())
+
+
+@dataclass(frozen=True)
+class PaperScenario:
+    """The paper's experiment (Section 3); every field can be replaced.
+
+    Attributes:
+        q0: start joint angles [rad], one per joint.
+        direction: direction of the straight line in the xy plane (normalised on use).
+        accel: tangential acceleration and deceleration [m/s²].
+        durations: (short, medium, long) movement durations [s].
+        torque_limit: symmetric torque limits τ⁺ = −τ⁻ [N·m].
+        dt: integration step [s]; the torque is held over each step.
+        robot: the arm, ``planar3`` (gravity off).
+    """
+
+    q0: tuple[float, ...] = tuple(np.radians([-45.0, 135.0, -135.0]).tolist())
+    direction: tuple[float, ...] = (1.0, 1.0)
+    accel: float = math.sqrt(2.0)
+    durations: tuple[float, float, float] = (0.5, 1.25, 2.0)
+    torque_limit: tuple[float, ...] = (54.0, 24.0, 6.0)
+    dt: float = 1e-3
+    robot: str = "planar3"
+
+    def __post_init__(self):
+        object.__setattr__(self, "q0", _finite_tuple(self.q0, "q0"))
+        object.__setattr__(self, "direction", _finite_tuple(self.direction, "direction"))
+        durations = _finite_tuple(self.durations, "durations")
+        if len(durations) != len(MOVEMENTS) or min(durations) <= 0:
+            raise InvalidInput(
+                f"durations {list(durations)} must be {len(MOVEMENTS)} positive numbers of seconds "
+                f"({', '.join(MOVEMENTS)})"
+            )
+        object.__setattr__(self, "durations", durations)
+        limits = _finite_tuple(self.torque_limit, "torque_limit")
+        if min(limits) <= 0:
+            raise InvalidInput(f"torque_limit {list(limits)} must be positive numbers [N·m]")
+        object.__setattr__(self, "torque_limit", limits)
+        for name in ("accel", "dt"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InvalidInput(f"{name}={value!r} must be a positive finite number")
+        if self.dt > min(durations):
+            raise InvalidInput(f"dt={self.dt} s is longer than the shortest movement, {min(durations)} s")
+
+    def replace(self, **changes) -> PaperScenario:
+        """The same scenario with some fields changed, e.g. ``PAPER.replace(durations=(0.4, 1.0, 1.6))``."""
+        return dataclasses.replace(self, **changes)
+
+    def duration(self, movement: str) -> float:
+        """Duration of ``short``, ``medium`` or ``long`` [s]."""
+        try:
+            return self.durations[MOVEMENTS.index(movement)]
+        except ValueError:
+            raise InvalidInput(f"unknown movement '{movement}': choose one of {', '.join(MOVEMENTS)}") from None
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Diagonal of W = diag(1/limit²) for ``weighted-null-space``, as in the paper."""
+        return 1.0 / np.square(self.torque_limit)
+
+    def line(self, movement: str) -> StraightLine:
+        """The straight line of a movement, anchored by :func:`~torqueopt.simulate` at the tip's start."""
+        return StraightLine(self.direction, accel=self.accel, duration=self.duration(movement))
+
+    def load_robot(self) -> Robot:
+        """The arm with the scenario's limits and gravity off."""
+        robot = load_robot(self.robot, torque_limit=np.array(self.torque_limit), gravity=False)
+        if len(self.q0) != robot.nv:
+            raise InvalidInput(f"q0 has {len(self.q0)} angles but robot '{robot.name}' has {robot.nv} joints")
+        return robot
+
+    def as_dict(self) -> dict:
+        """JSON-ready description, angles in degrees as well."""
+        return {
+            "robot": self.robot,
+            "q0_rad": list(self.q0),
+            "q0_deg": np.degrees(self.q0).round(9).tolist(),
+            "direction": (np.asarray(self.direction) / np.linalg.norm(self.direction)).tolist(),
+            "accel": self.accel,
+            "durations": dict(zip(MOVEMENTS, self.durations)),
+            "torque_limit": list(self.torque_limit),
+            "weight": self.weight.tolist(),
+            "dt": self.dt,
+            "gravity": False,
+        }
+
+
+#: The paper's scenario as torqueopt reproduces it.
+PAPER = PaperScenario()
