@@ -93,7 +93,7 @@ def test_usage_errors_are_one_line_too(capsys):
         main(["run", "--robot", "planar3"])
     assert stop.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "the following arguments are required: --resolver, --direction" in err[0]
+    assert len(err) == 1 and "the following arguments are required: --resolver" in err[0]
 
 
 def test_console_script_exit_code_and_no_traceback(tmp_path):

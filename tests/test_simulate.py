@@ -179,7 +179,7 @@ def test_bad_simulation_input(planar3, kwargs, message):
 
 
 def test_direction_must_fit_the_task(planar3, panda):
-    with pytest.raises(InvalidInput, match="direction has 3 values but task 'xy' moves the tip in 2 dimensions"):
+    with pytest.raises(InvalidInput, match="trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"):
         torqueopt.simulate(planar3, "pinv", StraightLine([1, 1, 0], duration=0.5), PAPER_Q0)
 
 

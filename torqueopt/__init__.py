@@ -22,7 +22,7 @@ from .resolvers import Resolution, Resolver, get_resolver, resolver_names
 from .result import SimResult, load_result
 from .robot import Robot, TaskTerms, load_robot
 from .simulate import Feedback, resolve, rk4_step, simulate
-from .trajectory import StraightLine
+from .trajectory import Circle, MinimumJerkLine, Reference, StraightLine, Trajectory, WaypointPath
 
 __version__ = "0.1.0"
 
@@ -30,7 +30,12 @@ __all__ = [
     "load_robot",
     "Robot",
     "TaskTerms",
+    "Trajectory",
+    "Reference",
     "StraightLine",
+    "MinimumJerkLine",
+    "Circle",
+    "WaypointPath",
     "simulate",
     "rk4_step",
     "resolve",

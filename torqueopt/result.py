@@ -39,6 +39,9 @@ class SimResult:
         duration: the requested simulated time [s].
         stop_reason: why the run ended early, None when it completed.
         stop_time: when it ended early [s], None when it completed.
+        trajectory: what the tip followed, as :meth:`Trajectory.describe`
+            gives it (kind, parameters, start, duration); None in files
+            written before it was recorded.
     """
 
     robot: str
@@ -61,6 +64,7 @@ class SimResult:
     duration: float
     stop_reason: str | None = None
     stop_time: float | None = None
+    trajectory: dict | None = None
 
     # -- summary ---------------------------------------------------------------
     @property

@@ -29,7 +29,7 @@ from .errors import InvalidInput, SingularJacobian
 from .resolvers import Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .trajectory import StraightLine
+from .trajectory import Trajectory, check_trajectory, describe
 
 __all__ = ["simulate", "rk4_step", "resolve", "Feedback"]
 
@@ -174,7 +174,7 @@ def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration) -> 
 def simulate(
     robot: Robot,
     resolver: str | Resolver,
-    trajectory: StraightLine,
+    trajectory: Trajectory,
     q0,
     v0=None,
     dt: float = 1e-3,
@@ -189,7 +189,9 @@ def simulate(
     Args:
         robot: from :func:`torqueopt.load_robot`.
         resolver: a registered name (see :func:`torqueopt.resolver_names`) or a Resolver.
-        trajectory: the tip reference; anchored at the tip's position at q0
+        trajectory: the tip reference, any :class:`torqueopt.trajectory.Trajectory`
+            (StraightLine, MinimumJerkLine, Circle, WaypointPath, or an object
+            with the same members); anchored at the tip's position at q0
             when it has no start.
         q0: initial configuration, either a configuration vector (nq) or one
             angle per joint (n) [rad].
@@ -205,6 +207,7 @@ def simulate(
     """
     resolver = get_resolver(resolver)
     resolver.check(robot)
+    check_trajectory(trajectory)
     dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
@@ -218,10 +221,10 @@ def simulate(
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
     linear_dimension = min(robot.m, 3)
-    if trajectory.direction.size != linear_dimension:
+    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
         raise InvalidInput(
-            f"direction has {trajectory.direction.size} values but task '{robot.task}' moves the tip in "
-            f"{linear_dimension} dimensions"
+            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
+            f"'{robot.task}' moves the tip in {linear_dimension}"
         )
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
@@ -309,6 +312,7 @@ def simulate(
         duration=duration,
         stop_reason=stop_reason,
         stop_time=stop_time,
+        trajectory=describe(trajectory),
     )
 
 
@@ -348,7 +352,7 @@ def _columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
     return [*arrays, np.array(scalars, dtype=float)]
 
 
-def _task_reference(robot: Robot, trajectory: StraightLine, times: np.ndarray):
+def _task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray):
     """The trajectory's samples embedded in the task coordinates (zero orientation rows for ``pose``)."""
     sample = trajectory.sample(times)
     if robot.task != "pose":

@@ -1,4 +1,4 @@
-"""``torqueopt run``: simulate one resolver on one straight-line movement."""
+"""``torqueopt run``: simulate one resolver on one tip path (the paper's line by default)."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ from ..resolvers import get_resolver, resolver_names
 from ..result import SimResult
 from ..robot import Robot
 from ..simulate import Feedback, simulate
-from ..trajectory import StraightLine
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
+from .paths import add_path_options, trajectory_from_args
 from .play import add_playback_options, playback_options, show_playback
 
 __all__ = ["add_parser", "format_summary"]
@@ -26,11 +26,11 @@ __all__ = ["add_parser", "format_summary"]
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "run",
-        help="simulate a resolver tracking a straight line",
+        help="simulate a resolver tracking a tip path (the paper's straight line by default)",
         description=(
-            "Simulate a resolver tracking the paper's rest-to-rest straight line (constant tangential "
-            "acceleration over the first half, deceleration over the second), RK4 with the torque held over "
-            "each step. Prints peak torques against limits, the first limit violation, the tip error and "
+            "Simulate a resolver tracking a tip path: by default the paper's rest-to-rest straight line (constant "
+            "tangential acceleration over the first half, deceleration over the second); --path picks a "
+            "minimum-jerk line, a circle or waypoints from a CSV file. RK4 with the torque held over each step. Prints peak torques against limits, the first limit violation, the tip error and "
             "whether the run stopped early. Angles in radians; give negative vectors as --q0=-0.78,..."
         ),
     )
@@ -50,13 +50,7 @@ def add_parser(subparsers) -> None:
         help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
     )
     group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
-    group.add_argument(
-        "--direction", required=True, metavar="D", help="line direction in world axes: 2 values for xy, 3 otherwise"
-    )
-    group.add_argument("--duration", default="2.0", metavar="T", help="movement duration [s] (default 2.0)")
-    group.add_argument(
-        "--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)"
-    )
+    add_path_options(group)
     group.add_argument("--dt", default="0.001", help="integration step [s]; torque held over each (default 0.001)")
     group.add_argument(
         "--feedback",
@@ -75,11 +69,9 @@ def add_parser(subparsers) -> None:
 
 
 def run_command(args: argparse.Namespace) -> int:
-    duration = parse_positive(args.duration, "duration")
-    accel = parse_positive(args.accel, "accel")
+    trajectory = trajectory_from_args(args)
     dt = parse_positive(args.dt, "dt")
     limit_factor = parse_positive(args.limit_factor, "limit-factor")
-    direction = parse_vector(args.direction, "direction")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
     playback = playback_options(args, live=args.play)
     options = {}
@@ -98,8 +90,7 @@ def run_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
         writable_path(args.out)
-    line = StraightLine(direction, accel=accel, duration=duration)
-    result = simulate(robot, resolver, line, q0, dt=dt, feedback=feedback)
+    result = simulate(robot, resolver, trajectory, q0, dt=dt, feedback=feedback)
     print(format_summary(robot, result, limit_factor))
     if args.out:
         path = result.to_csv(args.out)
