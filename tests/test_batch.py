@@ -1,0 +1,142 @@
+"""The batched simulation path against the readable reference, torqueopt.simulate, run by run."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt import StraightLine
+from torqueopt.batch import BATCHED_RESOLVERS, batch_supports, simulate_batch, simulate_many
+from torqueopt.errors import InvalidInput
+
+from .conftest import PAPER_Q0
+
+PAPER_RESOLVERS = ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
+_ARRAYS = ("t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition")
+
+
+def assert_same_run(batched, reference, tolerance=1e-9):
+    """Same rows, same stop, and every array equal to ``tolerance`` relative to (1 + |value|)."""
+    assert batched.stop_reason == reference.stop_reason
+    assert batched.stop_time == reference.stop_time
+    assert (batched.robot, batched.resolver, batched.duration, batched.dt) == (
+        reference.robot, reference.resolver, reference.duration, reference.dt
+    )  # fmt: skip
+    for name in _ARRAYS:
+        ours, theirs = getattr(batched, name), getattr(reference, name)
+        assert ours.shape == theirs.shape, name
+        if ours.size:
+            assert np.max(np.abs(ours - theirs) / (1.0 + np.abs(theirs))) <= tolerance, name
+
+
+def _population(robot, count, seed):
+    rng = np.random.default_rng(seed)
+    q0s = rng.uniform(-np.pi, np.pi, (count, robot.nv))
+    directions = rng.normal(size=(count, min(robot.m, 3)))
+    return q0s, directions
+
+
+@pytest.mark.parametrize("name", PAPER_RESOLVERS)
+def test_batch_equals_simulate_on_planar3(planar3, name):
+    """Random starts and directions plus the paper's movement: the long
+    null-space runs whip and (with a ceiling of 20x the limits) stop early,
+    so the batch loses members mid-way and the others must not notice."""
+    q0s, directions = _population(planar3, 10, seed=7)
+    q0s = np.vstack([q0s, PAPER_Q0])
+    directions = np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.6) for d in directions]
+    runs = simulate_batch(planar3, name, lines, q0s, max_torque_ratio=20.0)
+    references = [torqueopt.simulate(planar3, name, line, q0, max_torque_ratio=20.0) for line, q0 in zip(lines, q0s)]
+    for run, reference in zip(runs, references):
+        assert_same_run(run, reference)
+    if name != "pinv":
+        assert any(not run.completed for run in runs)  # the test exercises early stops
+    assert any(run.completed for run in runs)
+
+
+@pytest.mark.parametrize("name", PAPER_RESOLVERS)
+def test_batch_equals_simulate_on_panda(panda, name):
+    """Seven joints, three task rows, gravity on: a null space of dimension 4."""
+    if name == "weighted-null-space" and not np.isfinite(panda.torque_upper).all():
+        pytest.skip("panda has joints without torque limit")
+    rng = np.random.default_rng(3)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(3)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.4) for _ in q0s]
+    runs = simulate_batch(panda, name, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(panda, name, line, q0))
+
+
+def test_weighted_with_a_user_weight_and_a_singular_stop(planar3):
+    """A user weight vector and a matrix go through the batch as through the
+    resolver; a run that straightens the arm stops at the singular cutoff with
+    simulate's message, while its batch-mates finish."""
+    weights = [np.array([1.0, 4.0, 9.0]), np.diag([2.0, 1.0, 5.0]) + 0.5]
+    for weight in weights:
+        resolver = torqueopt.get_resolver("weighted-null-space", weight=weight)
+        lines = [StraightLine([1, 1], duration=1.0), StraightLine([0.3, -1], duration=1.0)]
+        q0s = [PAPER_Q0, [0.4, 1.1, -0.7]]
+        for run, line, q0 in zip(simulate_batch(planar3, resolver, lines, q0s), lines, q0s):
+            assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0))
+    resolver = torqueopt.get_resolver("pinv", singular_tolerance=0.02)
+    lines = [StraightLine([1, 0], accel=1.0, duration=3.0), StraightLine([0, 1], accel=0.2, duration=3.0)]
+    q0s = [[0.0, 1.0, -1.0], PAPER_Q0]
+    runs = simulate_batch(planar3, resolver, lines, q0s)
+    assert runs[0].stop_reason.startswith("task Jacobian is singular") and runs[1].completed
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0))
+
+
+def test_speed_stop_matches_simulate(planar3):
+    """A low joint-speed ceiling stops the whipping runs after a step, as simulate does."""
+    lines = [StraightLine([1, 1], duration=2.0), StraightLine([1, 1], duration=2.0)]
+    q0s = [PAPER_Q0, [0.2, 0.9, 0.6]]
+    runs = simulate_batch(planar3, "null-space", lines, q0s, max_joint_speed=3.0)
+    assert runs[0].stop_reason.startswith("speed of joint")
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, "null-space", line, q0, max_joint_speed=3.0))
+
+
+def test_simulate_many_batches_by_duration_and_falls_back(planar3, panda_pose):
+    lines = [StraightLine([1, 1], duration=0.3), StraightLine([1, -1], duration=0.5), StraightLine([0, 1], duration=0.3)]
+    q0s = [PAPER_Q0, PAPER_Q0, [0.3, 1.2, -0.4]]
+    for run, line, q0 in zip(simulate_many(planar3, "null-space", lines, q0s), lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, "null-space", line, q0))
+    # The pose task is not batched: simulate_many calls simulate, so the runs are identical.
+    assert not batch_supports(panda_pose, "pinv")
+    line = StraightLine([0, 0, 1], accel=0.3, duration=0.1)
+    (run,) = simulate_many(panda_pose, "pinv", [line], [panda_pose.default_configuration])
+    assert_same_run(run, torqueopt.simulate(panda_pose, "pinv", line, panda_pose.default_configuration), tolerance=0.0)
+
+
+def test_batch_leaves_the_robot_data_alone_and_refuses_what_it_cannot_do(planar3, panda_pose):
+    before = planar3.data.M.copy()
+    simulate_batch(planar3, "pinv", [StraightLine([1, 1], duration=0.05)], [PAPER_Q0])
+    assert np.array_equal(planar3.data.M, before)
+    with pytest.raises(InvalidInput, match="the batched path does not support resolver 'pinv' on robot 'panda'"):
+        simulate_batch(panda_pose, "pinv", [StraightLine([0, 0, 1], duration=0.1)], [panda_pose.default_configuration])
+    with pytest.raises(InvalidInput, match=r"a batch needs movements of one duration, got \[0.1, 0.2\] s"):
+        simulate_batch(planar3, "pinv", [StraightLine([1, 1], duration=d) for d in (0.1, 0.2)], [PAPER_Q0] * 2)
+    assert {cls.name for cls in BATCHED_RESOLVERS} == set(PAPER_RESOLVERS)
+
+
+def test_batch_energies_against_their_definition(planar3):
+    """Kinetic energy ½ q̇ᵀHq̇ from Pinocchio's CRBA at the recorded states, and
+    the self-motion energy T − ½ẋᵀΛẋ against a direct minimisation: the
+    least kinetic energy of any q̇' with Jq̇' = Jq̇ is at q̇' = J_H⁺ J q̇."""
+    lines = [StraightLine([1, 1], duration=1.2), StraightLine([-1, 0.2], duration=1.2)]
+    q0s = [PAPER_Q0, [0.5, 1.0, -2.0]]
+    runs, extras = simulate_batch(planar3, "null-space", lines, q0s, extras=True)
+    data = planar3.model.createData()
+    for run, extra in zip(runs, extras):
+        for row in range(0, len(run.t), 97):
+            q, v = run.q[row], run.v[row]
+            inertia = pin.crba(planar3.model, data, q)
+            inertia = np.triu(inertia) + np.triu(inertia, 1).T
+            jacobian = pin.computeFrameJacobian(planar3.model, data, q, planar3.frame_id, pin.LOCAL_WORLD_ALIGNED)[:2]
+            kinetic = 0.5 * v @ inertia @ v
+            # Minimum-energy velocity with the same tip velocity, by a KKT solve.
+            kkt = np.block([[inertia, jacobian.T], [jacobian, np.zeros((2, 2))]])
+            least = np.linalg.solve(kkt, np.concatenate([np.zeros(3), jacobian @ v]))[:3]
+            assert extra.kinetic_energy[row] == pytest.approx(kinetic, rel=1e-9)
+            assert extra.self_motion_energy[row] == pytest.approx(kinetic - 0.5 * least @ inertia @ least, rel=1e-7, abs=1e-9)

@@ -1,0 +1,445 @@
+r"""Many movements advanced together: the batched twin of :func:`torqueopt.simulate`.
+
+:func:`simulate_batch` runs B movements of one robot and one resolver side
+by side, one time step for the whole batch at a time. It computes what
+:func:`~torqueopt.simulate` computes, in the same order, and the tests hold
+each of its runs to the matching ``simulate`` run to 1e-9:
+
+* the task terms :math:`H`, :math:`b = \dot q\cdot C\cdot\dot q + g`,
+  :math:`J`, :math:`\dot J\dot q` and the tip placement come from Pinocchio,
+  one ``computeAllTerms`` per movement (the Jacobian and its drift have no
+  batched Pinocchio call; CRBA inside ``computeAllTerms`` is cheaper than
+  :math:`n + 1` batched RNEA calls for :math:`H`, see BENCHMARKS.md);
+* the resolver's linear algebra runs on (B, n, n) stacks at once: one
+  batched SVD of the task Jacobians gives :math:`J^\dagger r` and a null-space
+  basis :math:`Z`, then each resolver's choice of the null-space
+  coordinates :math:`y` is a batched solve (the formulas of
+  :mod:`torqueopt.resolvers`, Eqs. (31), (33), (34)-(37));
+* RK4 with the torque held (:func:`torqueopt.simulate.rk4_step`) takes the
+  resolver's :math:`\ddot q` as its first stage and computes the other three
+  stage accelerations of the whole batch with one ``pin.abaInParallel``
+  call each, over a ``pin.ModelPool``.
+
+A movement that stops early (singular Jacobian, runaway torque or speed,
+non-finite values, for the reasons and with the messages of ``simulate``)
+leaves the batch at once: the arrays are compacted, so the rest go on at
+the cost of the movements still running.
+
+Supported: the four paper resolvers (``pinv``, ``inertia-pinv``,
+``null-space``, ``weighted-null-space``, with any weight) on robots whose
+joints all add (revolute or prismatic, :attr:`Robot.euclidean`), for the
+``xy`` and ``position`` tasks, open loop. :func:`batch_supports` says
+whether a case is; :func:`simulate_many` runs any list of movements,
+batching what is supported and calling ``simulate`` for the rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from .checks import positive_number
+from .errors import InvalidInput
+from .linalg import DEFAULT_SINGULAR_TOLERANCE
+from .resolvers import Resolver, get_resolver
+from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
+from .resolvers.pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
+from .result import SimResult
+from .robot import Robot
+from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, _configuration, _speed_stop, _torque_stop
+from .simulate import simulate as simulate_one
+from .trajectory import StraightLine
+
+__all__ = ["BATCHED_RESOLVERS", "BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+#: Resolver classes whose step has a batched twin here (exact classes: a subclass may change the step).
+BATCHED_RESOLVERS = (PseudoInverse, InertiaWeightedPseudoInverse, NullSpaceTorque, WeightedNullSpaceTorque)
+
+
+def batch_supports(robot: Robot, resolver: str | Resolver, feedback=None) -> bool:
+    """True when :func:`simulate_batch` can run ``resolver`` on ``robot`` (else use :func:`torqueopt.simulate`)."""
+    resolver = get_resolver(resolver)
+    return (
+        type(resolver) in BATCHED_RESOLVERS
+        and robot.euclidean
+        and robot.task in ("xy", "position")
+        and feedback is None
+    )
+
+
+class BatchExtras:
+    r"""Per-step quantities the batch computes beside the :class:`SimResult` rows, per movement.
+
+    Attributes:
+        kinetic_energy: :math:`T = \tfrac12\dot q^\top H\dot q` [J] at each recorded sample.
+        self_motion_energy: :math:`T - \tfrac12\dot x^\top\Lambda\dot x` [J], with
+            :math:`\dot x = J\dot q` and :math:`\Lambda = (J H^{-1} J^\top)^{-1}`:
+            the kinetic energy beyond the least any joint motion with the
+            same tip velocity has, i.e. the energy of the self-motion
+            (zero exactly when :math:`\dot q` is the inertia-weighted
+            pseudoinverse velocity :math:`J_H^\dagger\dot x`). See
+            :func:`torqueopt.atlas.verdicts.self_motion_energy` for the same
+            figure computed from a finished run.
+    """
+
+    __slots__ = ("kinetic_energy", "self_motion_energy")
+
+    def __init__(self, kinetic_energy: np.ndarray, self_motion_energy: np.ndarray):
+        self.kinetic_energy = kinetic_energy
+        self.self_motion_energy = self_motion_energy
+
+
+def simulate_many(
+    robot: Robot,
+    resolver: str | Resolver,
+    trajectories: Sequence[StraightLine],
+    q0s,
+    dt: float = 1e-3,
+    *,
+    batch: bool = True,
+    max_joint_speed: float = DEFAULT_MAX_JOINT_SPEED,
+    max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
+) -> list[SimResult]:
+    """One :class:`SimResult` per (trajectory, q0): batched where supported, else :func:`torqueopt.simulate` each.
+
+    Movements of different durations are batched by duration.
+    """
+    resolver = get_resolver(resolver)
+    trajectories = list(trajectories)
+    if len(trajectories) != len(q0s):
+        raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
+    if not (batch and batch_supports(robot, resolver)):
+        return [
+            simulate_one(robot, resolver, line, q0, dt=dt, max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio)
+            for line, q0 in zip(trajectories, q0s)
+        ]
+    results: list[SimResult | None] = [None] * len(trajectories)
+    for duration in sorted({line.duration for line in trajectories}):
+        members = [i for i, line in enumerate(trajectories) if line.duration == duration]
+        runs = simulate_batch(
+            robot,
+            resolver,
+            [trajectories[i] for i in members],
+            [q0s[i] for i in members],
+            dt,
+            max_joint_speed=max_joint_speed,
+            max_torque_ratio=max_torque_ratio,
+        )
+        for i, run in zip(members, runs):
+            results[i] = run
+    return results
+
+
+def simulate_batch(
+    robot: Robot,
+    resolver: str | Resolver,
+    trajectories: Sequence[StraightLine],
+    q0s,
+    dt: float = 1e-3,
+    *,
+    max_joint_speed: float = DEFAULT_MAX_JOINT_SPEED,
+    max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
+    threads: int = 1,
+    extras: bool = False,
+):
+    """Simulate every (trajectory, q0) pair with ``resolver``, all movements of one duration together.
+
+    Args:
+        robot: from :func:`torqueopt.load_robot`; its data is not touched
+            (the batch makes its own Pinocchio Data).
+        resolver: a supported resolver (see :func:`batch_supports`).
+        trajectories: straight lines of one duration, anchored at the tip
+            at their q0 when they have no start, as in ``simulate``.
+        q0s: one start configuration per trajectory (nq values or n angles).
+        dt: step [s]; the torque is held over each.
+        max_joint_speed, max_torque_ratio: the divergence stops of ``simulate``.
+        threads: OpenMP threads for ``abaInParallel`` (1 inside a sweep
+            worker, where the sweep's processes use the cores).
+        extras: also return one :class:`BatchExtras` per movement.
+
+    Returns:
+        One :class:`SimResult` per movement, equal to what ``simulate``
+        returns for it (to round-off); with ``extras``, (results, extras).
+
+    Raises:
+        InvalidInput: an unsupported case, mixed durations or bad values.
+    """
+    resolver = get_resolver(resolver)
+    resolver.check(robot)
+    if not batch_supports(robot, resolver):
+        raise InvalidInput(
+            f"the batched path does not support resolver '{resolver.name}' on robot '{robot.name}' (task "
+            f"'{robot.task}'); it supports {', '.join(cls.name for cls in BATCHED_RESOLVERS)} on revolute/prismatic "
+            "joints for the xy and position tasks: use torqueopt.simulate or simulate_many"
+        )
+    trajectories = list(trajectories)
+    count = len(trajectories)
+    if count == 0:
+        return ([], []) if extras else []
+    if len(q0s) != count:
+        raise InvalidInput(f"{count} trajectories but {len(q0s)} start configurations")
+    dt = positive_number(dt, "dt", "s")
+    durations = {line.duration for line in trajectories}
+    if len(durations) != 1:
+        raise InvalidInput(f"a batch needs movements of one duration, got {sorted(durations)} s: use simulate_many")
+    duration = durations.pop()
+    if dt > duration:
+        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    threads = int(threads)
+
+    model = robot.model
+    data = model.createData()  # the batch's own: the robot's data is never written
+    pool = pin.ModelPool(model, max(threads, 1))
+    n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
+    linear_dimension = min(m, 3)
+    steps = round(duration / dt)
+    times = dt * np.arange(steps + 1)
+
+    q = np.array([_configuration(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
+    v = np.zeros((count, n))
+    reference_position = np.empty((count, steps + 1, m))
+    reference_acceleration = np.empty((count, steps + 1, m))
+    for i, line in enumerate(trajectories):
+        if line.direction.size != linear_dimension:
+            raise InvalidInput(
+                f"direction has {line.direction.size} values but task '{robot.task}' moves the tip in "
+                f"{linear_dimension} dimensions"
+            )
+        if line.start is None:
+            pin.framesForwardKinematics(model, data, q[i])
+            line = line.anchored(data.oMf[frame_id].translation[:linear_dimension].copy())
+        sample = line.sample(times)
+        reference_position[i] = sample.position
+        reference_acceleration[i] = sample.acceleration
+
+    step = _batched_step(robot, resolver)
+    limit = robot.torque_upper
+    torque_ceiling = np.minimum(max_torque_ratio * limit, np.finfo(float).max)
+    speed_ceiling = min(max_joint_speed, np.finfo(float).max)
+
+    # Logs: one row per recorded step and movement; rows past a movement's stop stay unused.
+    q_log = np.empty((count, steps + 1, n))
+    v_log = np.empty((count, steps + 1, n))
+    acceleration_log = np.empty((count, steps + 1, n))
+    torque_log = np.empty((count, steps + 1, n))
+    x_log = np.empty((count, steps + 1, m))
+    condition_log = np.empty((count, steps + 1))
+    energy_log = np.empty((count, steps + 1)) if extras else None
+    self_energy_log = np.empty((count, steps + 1)) if extras else None
+    recorded = np.zeros(count, dtype=int)
+    stop_reason: list[str | None] = [None] * count
+    stop_time: list[float | None] = [None] * count
+
+    active = np.arange(count)  # movement index of each batch row
+    inertia = np.empty((count, n, n))
+    bias = np.empty((count, n))
+    jacobian = np.empty((count, m, n))
+    drift = np.empty((count, m))
+    tip = np.empty((count, m))
+    h = dt
+    # Bound once: attribute look-ups cost as much as the calls at this size.
+    all_terms, frame_jacobian = pin.computeAllTerms, pin.getFrameJacobian
+    classical_acceleration, frame_placement = pin.getFrameClassicalAcceleration, pin.updateFramePlacement
+    data_inertia, data_bias = data.M, data.nle  # Eigen never reallocates these: one view serves every call
+    for k, t in enumerate(times.tolist()):
+        size = active.size
+        if size == 0:
+            break
+        # Task terms, one computeAllTerms per movement (as simulate's terms_function).
+        for row, (q_row, v_row) in enumerate(zip(q, v)):
+            all_terms(model, data, q_row, v_row)
+            inertia[row] = data_inertia
+            bias[row] = data_bias
+            jacobian[row] = frame_jacobian(model, data, frame_id, _LWA)[rows]
+            drift[row] = classical_acceleration(model, data, frame_id, _LWA).vector[rows]
+            tip[row] = frame_placement(model, data, frame_id).translation[rows]
+        H, b, J, Jd = inertia[:size], bias[:size], jacobian[:size], drift[:size]
+        command = reference_acceleration[active, k]
+        torque, joint_acceleration, condition, singular = step(H, b, J, Jd, command)
+
+        over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
+        stopping = singular | over
+        keep = ~stopping
+        for row in np.flatnonzero(stopping).tolist():
+            movement = int(active[row])
+            if singular[row]:
+                stop_reason[movement] = f"{resolver_singular_message(condition[row], resolver)} at t = {t:.4f} s"
+            else:
+                stop_reason[movement] = _torque_stop(robot, torque[row], max_torque_ratio, t)
+            stop_time[movement] = t
+        # Record the rows that go on (simulate appends a row only after both checks).
+        going = active[keep]
+        q_log[going, k] = q[:size][keep]
+        v_log[going, k] = v[:size][keep]
+        acceleration_log[going, k] = joint_acceleration[keep]
+        torque_log[going, k] = torque[keep]
+        x_log[going, k] = tip[:size][keep]
+        condition_log[going, k] = condition[keep]
+        recorded[going] = k + 1
+        if extras:
+            kinetic, self_motion = _energies(H[keep], J[keep], v[:size][keep])
+            energy_log[going, k] = kinetic
+            self_energy_log[going, k] = self_motion
+        if k == steps:
+            break
+        if stopping.any():
+            active = going
+            q = q[:size][keep]
+            v = v[:size][keep]
+            torque = torque[keep]
+            joint_acceleration = joint_acceleration[keep]
+            size = active.size
+            if size == 0:
+                break
+        else:
+            q, v = q[:size], v[:size]
+
+        # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
+        k1 = joint_acceleration
+        k2 = _aba(pool, threads, q + (h / 2) * v, v + (h / 2) * k1, torque)
+        k3 = _aba(pool, threads, q + ((h / 2) * v + (h * h / 4) * k1), v + (h / 2) * k2, torque)
+        k4 = _aba(pool, threads, q + (h * v + (h * h / 2) * k2), v + h * k3, torque)
+        q = q + (h * v + (h * h / 6) * (k1 + k2 + k3))
+        v = v + ((h / 6) * k1 + (h / 3) * k2 + (h / 3) * k3 + (h / 6) * k4)
+        fast = ~(np.abs(v) <= speed_ceiling).all(axis=1)
+        if fast.any():
+            for row in np.flatnonzero(fast).tolist():
+                movement = int(active[row])
+                stop_reason[movement] = _speed_stop(robot, v[row], max_joint_speed, t, dt)
+                stop_time[movement] = t + dt
+            keep = ~fast
+            active, q, v = active[keep], q[keep], v[keep]
+
+    results = []
+    joint_names = list(robot.joint_names)
+    for i in range(count):
+        length = int(recorded[i])
+        q_rows = q_log[i, :length].copy()
+        results.append(
+            SimResult(
+                robot=robot.name,
+                frame=robot.frame,
+                task=robot.task,
+                resolver=resolver.name,
+                joint_names=joint_names,
+                dt=dt,
+                t=times[:length].copy(),
+                q=q_rows,
+                joint_angles=robot.joint_angles(q_rows).reshape(length, n),
+                v=v_log[i, :length].copy(),
+                acceleration=acceleration_log[i, :length].copy(),
+                tau=torque_log[i, :length].copy(),
+                x=x_log[i, :length].copy(),
+                x_ref=reference_position[i, :length].copy(),
+                jacobian_condition=condition_log[i, :length].copy(),
+                torque_upper=robot.torque_upper.copy(),
+                torque_lower=robot.torque_lower.copy(),
+                duration=duration,
+                stop_reason=stop_reason[i],
+                stop_time=stop_time[i],
+            )
+        )
+    if not extras:
+        return results
+    more = [
+        BatchExtras(energy_log[i, : recorded[i]].copy(), self_energy_log[i, : recorded[i]].copy()) for i in range(count)
+    ]
+    return results, more
+
+
+def resolver_singular_message(condition: float, resolver: Resolver) -> str:
+    """The message of :class:`~torqueopt.errors.SingularJacobian` that ``simulate`` records (see linalg._condition)."""
+    return (
+        f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "
+        f"is below the cutoff {resolver.singular_tolerance:.3g}"
+    )
+
+
+def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """ABA for every row of the (B, n) stacks in one ``pin.abaInParallel`` call; returns (B, n)."""
+    out = np.empty_like(v)
+    # Eigen's matrices are column-major: the transpose of a C-ordered (B, n) array is an (n, B) one without a copy.
+    pin.abaInParallel(threads, pool, q.T, v.T, tau.T, out.T)
+    return out
+
+
+def _energies(inertia: np.ndarray, jacobian: np.ndarray, velocity: np.ndarray):
+    r"""Kinetic energy :math:`\tfrac12\dot q^\top H\dot q` and its self-motion part (see :class:`BatchExtras`), per row [J]."""
+    kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, inertia, velocity)
+    tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)
+    inverse_inertia_jt = np.linalg.solve(inertia, np.swapaxes(jacobian, 1, 2))  # H⁻¹Jᵀ, (B, n, m)
+    task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
+    task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, np.linalg.solve(task_inverse_inertia, tip_velocity[..., None])[..., 0])
+    return kinetic, np.maximum(kinetic - task_energy, 0.0)
+
+
+def _batched_step(robot: Robot, resolver: Resolver):
+    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, condition, singular)``.
+
+    Same equations as the resolver's own step (:meth:`Resolver.solver`):
+    :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y` (Eq. (26)),
+    :math:`\tau = H\ddot q + b`, with y as each resolver chooses it.
+    Rows whose Jacobian is singular (σ_min/σ_max below the resolver's
+    cutoff) are flagged; their outputs are not used.
+    """
+    n, m = robot.nv, robot.m
+    tolerance = getattr(resolver, "singular_tolerance", DEFAULT_SINGULAR_TOLERANCE)
+    kind = type(resolver)
+    midpoint = torque_midpoint(robot)
+    root = resolver.weight_root(robot) if kind is WeightedNullSpaceTorque else None
+    redundant = n > m
+
+    def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Minimum-norm least squares per row, rank cutoff 1e-12 relative (as linalg.LeastSquares)."""
+        if matrix.shape[2] == 1:
+            # One column a: y = aᵀb / aᵀa, or 0 for a zero column (the minimum-norm answer).
+            column = matrix[:, :, 0]
+            norm2 = np.einsum("bi,bi->b", column, column)
+            safe = np.where(norm2 > 0.0, norm2, 1.0)
+            return np.where(norm2 > 0.0, np.einsum("bi,bi->b", column, rhs) / safe, 0.0)[:, None]
+        u, s, vt = np.linalg.svd(matrix, full_matrices=False)
+        keep = s > 1e-12 * s[:, :1]
+        inverse = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
+        projected = np.einsum("bji,bj->bi", u, rhs) * inverse
+        return np.einsum("bji,bj->bi", vt, projected)
+
+    def step(H, b, J, drift, command):
+        # σ²(J) are the eigenvalues of J Jᵀ (m×m): the condition σ_min/σ_max without a full SVD.
+        squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
+        largest = squared[:, -1]
+        condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
+        condition = np.where(largest > 0, condition, 0.0)
+        singular = ~(condition >= tolerance)
+        # Jᵀ = Q R (complete QR): the first m columns of Q span the row space of J, the rest its null space.
+        orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
+        upper = triangular[:, :m, :]
+        upper = np.where(singular[:, None, None], np.eye(m), upper)
+        residual = command - drift
+        # J⁺ r = Q_m R⁻ᵀ r, the minimum-norm solution of J q̈ = r: Eq. (26)'s particular solution.
+        particular = np.einsum("bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0])
+        acceleration = particular
+        if redundant and kind is not PseudoInverse:
+            basis = orthogonal[:, :, m:]  # Z, (B, n, n − m), orthonormal
+            inertia_basis = H @ basis  # H Z
+            if kind is InertiaWeightedPseudoInverse:
+                # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eqs. (16), (35); ZᵀHZ is positive definite
+                reduced = np.swapaxes(basis, 1, 2) @ inertia_basis
+                rhs = np.einsum("bji,bj->bi", inertia_basis, particular)
+                y = -np.linalg.solve(reduced, rhs[..., None])[..., 0]
+            else:
+                # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖W½ (H Z y − offset)‖, Eqs. (31), (33)
+                offset = midpoint - np.einsum("bij,bj->bi", H, particular) - b
+                if root is None:
+                    y = least_squares(inertia_basis, offset)
+                elif root.ndim == 1:
+                    y = least_squares(root[None, :, None] * inertia_basis, root * offset)
+                else:
+                    y = least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
+            acceleration = particular + np.einsum("bij,bj->bi", basis, y)
+        torque = np.einsum("bij,bj->bi", H, acceleration) + b  # Eq. (20)
+        return torque, acceleration, condition, singular
+
+    return step
