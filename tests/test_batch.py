@@ -19,6 +19,7 @@ def assert_same_run(batched, reference, tolerance=1e-9):
     """Same rows, same stop, and every array equal to ``tolerance`` relative to (1 + |value|)."""
     assert batched.stop_reason == reference.stop_reason
     assert batched.stop_time == reference.stop_time
+    assert batched.trajectory == reference.trajectory
     assert (batched.robot, batched.resolver, batched.duration, batched.dt) == (
         reference.robot, reference.resolver, reference.duration, reference.dt
     )  # fmt: skip
@@ -140,3 +141,13 @@ def test_batch_energies_against_their_definition(planar3):
             least = np.linalg.solve(kkt, np.concatenate([np.zeros(3), jacobian @ v]))[:3]
             assert extra.kinetic_energy[row] == pytest.approx(kinetic, rel=1e-9)
             assert extra.self_motion_energy[row] == pytest.approx(kinetic - 0.5 * least @ inertia @ least, rel=1e-7, abs=1e-9)
+
+
+def test_batch_takes_any_trajectory(planar3):
+    """The trajectory protocol: a minimum-jerk line and a circle, batched together."""
+    from torqueopt.trajectory import Circle, MinimumJerkLine
+
+    lines = [MinimumJerkLine([1, 0.5], length=0.6, duration=0.8), Circle(radius=0.3, duration=0.8, centre_direction=[0, 1])]
+    q0s = [PAPER_Q0, [0.3, 1.4, -1.0]]
+    for run, line, q0 in zip(simulate_batch(planar3, "inertia-pinv", lines, q0s), lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, "inertia-pinv", line, q0))

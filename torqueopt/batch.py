@@ -50,7 +50,7 @@ from .result import SimResult
 from .robot import Robot
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, _configuration, _speed_stop, _torque_stop
 from .simulate import simulate as simulate_one
-from .trajectory import StraightLine
+from .trajectory import Trajectory, check_trajectory, describe
 
 __all__ = ["BATCHED_RESOLVERS", "BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
 
@@ -95,7 +95,7 @@ class BatchExtras:
 def simulate_many(
     robot: Robot,
     resolver: str | Resolver,
-    trajectories: Sequence[StraightLine],
+    trajectories: Sequence[Trajectory],
     q0s,
     dt: float = 1e-3,
     *,
@@ -136,7 +136,7 @@ def simulate_many(
 def simulate_batch(
     robot: Robot,
     resolver: str | Resolver,
-    trajectories: Sequence[StraightLine],
+    trajectories: Sequence[Trajectory],
     q0s,
     dt: float = 1e-3,
     *,
@@ -151,7 +151,7 @@ def simulate_batch(
         robot: from :func:`torqueopt.load_robot`; its data is not touched
             (the batch makes its own Pinocchio Data).
         resolver: a supported resolver (see :func:`batch_supports`).
-        trajectories: straight lines of one duration, anchored at the tip
+        trajectories: any :class:`~torqueopt.trajectory.Trajectory` objects of one duration, anchored at the tip
             at their q0 when they have no start, as in ``simulate``.
         q0s: one start configuration per trajectory (nq values or n angles).
         dt: step [s]; the torque is held over each.
@@ -202,15 +202,18 @@ def simulate_batch(
     v = np.zeros((count, n))
     reference_position = np.empty((count, steps + 1, m))
     reference_acceleration = np.empty((count, steps + 1, m))
+    descriptions = []
     for i, line in enumerate(trajectories):
-        if line.direction.size != linear_dimension:
+        check_trajectory(line)
+        if line.dimension is not None and line.dimension != linear_dimension:
             raise InvalidInput(
-                f"direction has {line.direction.size} values but task '{robot.task}' moves the tip in "
-                f"{linear_dimension} dimensions"
+                f"trajectory {type(line).__name__} moves in {line.dimension} dimensions but task "
+                f"'{robot.task}' moves the tip in {linear_dimension}"
             )
         if line.start is None:
             pin.framesForwardKinematics(model, data, q[i])
             line = line.anchored(data.oMf[frame_id].translation[:linear_dimension].copy())
+        descriptions.append(describe(line))
         sample = line.sample(times)
         reference_position[i] = sample.position
         reference_acceleration[i] = sample.acceleration
@@ -340,6 +343,7 @@ def simulate_batch(
                 duration=duration,
                 stop_reason=stop_reason[i],
                 stop_time=stop_time[i],
+                trajectory=descriptions[i],
             )
         )
     if not extras:
