@@ -17,5 +17,5 @@ for name in ("pinv", "null-space"):
     print(f"{name:>12}: peak |tau| = [{peaks}] N·m (limits 54, 24, 6), max tip error {result.max_tip_error * 1e3:.2f} mm")
 
 # The torque at one state, without simulating:
-tau = torqueopt.resolve(robot, "null-space", q0, np.zeros(3), task_acceleration=[1.0, 1.0])
+tau = torqueopt.resolve(robot, "null-space", q0, np.zeros(3), task_acceleration=[1.0, 1.0]).torque
 print("null-space torque at rest for a tip acceleration of (1, 1) m/s²:", np.round(tau, 3), "N·m")

@@ -6,6 +6,8 @@ import sys
 import numpy as np
 import pytest
 
+import torqueopt
+
 from torqueopt.catalog import find_robot
 from torqueopt.cli import main
 
@@ -21,7 +23,7 @@ def test_run_prints_a_summary_and_writes_the_run(tmp_path, capsys):
     assert "first limit violation: none" in printed and "status: completed" in printed
     assert out.is_file() and (tmp_path / "run.csv.json").is_file()
     table = np.loadtxt(out, delimiter=",", skiprows=1)
-    assert table.shape == (501, 14)
+    assert table.shape == (501, 16)  # t, 3 q, 3 v, 3 tau, 2 x, 2 xref, task_error, infeasible
     # The summary's peak torque of joint 1 is the CSV's, to print precision.
     joint1 = [line for line in printed.splitlines() if line.startswith("joint1")][0]
     assert float(joint1.split()[1]) == pytest.approx(np.abs(table[:, 7]).max(), abs=1e-3)
@@ -56,7 +58,7 @@ BAD_INPUTS = [
     (["--robot", "BROKEN"], "<joint name=\"joint2\"> has no <child link=\"...\"/>"),
     (["--robot", "robbie"], "unknown robot 'robbie': give a URDF path or one of planar3, panda"),
     (["--robot", "planar3", "--frame", "hand"], "robot 'planar3' has no frame 'hand': choose one of"),
-    (["--robot", "planar3", "--resolver", "magic"], "unknown resolver 'magic': choose one of pinv, inertia-pinv, null-space, weighted-null-space"),
+    (["--robot", "planar3", "--resolver", "magic"], f"unknown resolver 'magic': choose one of {', '.join(torqueopt.resolver_names())}"),
     (["--robot", "planar3", "--task", "spin"], "unknown task 'spin': choose one of xy, position, pose"),
     (["--robot", "planar3", "--q0=0.1,0.2"], "--q0 has 2 values but needs 3"),
     (["--robot", "planar3", "--q0=0.1,nan,0.2"], "--q0: 'nan' is not finite; give finite numbers"),
@@ -103,7 +105,7 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
     )  # fmt: skip
     assert process.returncode == 2
     assert process.stderr.strip() == (
-        "torqueopt run: error: unknown resolver 'spline': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
+        f"torqueopt run: error: unknown resolver 'spline': choose one of {', '.join(torqueopt.resolver_names())}"
     )
 
 
@@ -116,7 +118,7 @@ def test_missing_torque_limits_are_reported_and_required_where_divided_by(tmp_pa
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
         "torqueopt run: error: joints joint3 of robot 'nolimit' have no torque limit (URDF effort zero, infinite or "
-        "missing) and weighted-null-space weights torques by their range: give --torque-limit (or --weight)"
+        "missing) and weighted-null-space weights torques by their range: give --torque-limit (or a weight option)"
     ]
     assert main([*base, "--resolver", "weighted-null-space", "--torque-limit", "54,24,6"]) == 0
     assert main([*base, "--resolver", "null-space"]) == 0
@@ -145,3 +147,50 @@ def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
     code = main(["paper", "--out", str(blocker / "sub")])
     assert code == 2
     assert capsys.readouterr().err == f"torqueopt paper: error: cannot write to '{blocker / 'sub'}': '{blocker}' is a file, not a folder\n"
+
+
+def test_option_errors_are_one_line_exit_2(tmp_path, capsys):
+    cases = [
+        (["--resolver", "weighted-null-space", "--option", "wieght=1,1,1"],
+         "unknown option 'wieght' for resolver 'weighted-null-space' (did you mean 'weight'?); valid options: weight, singular_tolerance"),
+        (["--resolver", "pinv", "--weight", "1,1,1"], "unknown option 'weight' for resolver 'pinv'; valid options: singular_tolerance"),
+        (["--resolver", "pinv", "--option", "singular_tolerance"], "--option 'singular_tolerance' must be NAME=VALUE, e.g. --option damping=2"),
+        (["--resolver", "pinv", "--option", "singular_tolerance=-1"],
+         "option singular_tolerance=-1 of resolver 'pinv' must be a finite number > 0"),
+        (["--resolver", "weighted-null-space", "--weight", "1,1,1", "--option", "weight=1,1,1"],
+         "--weight and --option weight= are the same option; give one"),
+        (["--resolver", "weighted-null-space", "--weight", "1,1"],
+         "weight must be a vector of 3 values or a symmetric 3x3 matrix, got shape (2,)"),
+    ]  # fmt: skip
+    out = tmp_path / "run.csv"
+    for arguments, message in cases:
+        code = main(["run", *PAPER, "--duration", "0.1", *arguments, "--out", str(out)])
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("torqueopt run: error: ")
+        assert message in lines[0], lines[0]
+        assert not out.exists()
+
+
+def test_weight_alias_and_generic_option_give_the_same_run(tmp_path, capsys):
+    base = ["run", *PAPER, "--duration", "0.2", "--resolver", "weighted-null-space"]
+    assert main([*base, "--weight", "1,4,9", "--out", str(tmp_path / "alias.npz")]) == 0
+    assert main([*base, "--option", "weight=1,4,9", "--out", str(tmp_path / "option.npz")]) == 0
+    alias, option = (torqueopt.load_result(tmp_path / name) for name in ("alias.npz", "option.npz"))
+    np.testing.assert_array_equal(alias.tau, option.tau)
+    assert alias.resolver_options == {"weight": [1.0, 4.0, 9.0], "singular_tolerance": 1e-6}
+    default = main([*base, "--out", str(tmp_path / "default.npz")])
+    assert default == 0 and np.abs(torqueopt.load_result(tmp_path / "default.npz").tau - alias.tau).max() > 1e-3
+
+
+def test_resolvers_command_lists_every_resolver_and_option(capsys):
+    assert main(["resolvers"]) == 0
+    printed = capsys.readouterr().out
+    for name, cls in torqueopt.resolvers.RESOLVERS.items():
+        assert f"{name}: {cls.summary()}" in printed
+        for option in cls.declared_options():
+            assert option.name in printed and option.meaning in printed
+    assert "[1/(N·m)²]" in printed and "default 1/(τ⁺−τ⁻)², Eq. (33)" in printed
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "--option NAME=VALUE" in help_text and "weighted-null-space: weight [1/(N·m)²]" in help_text

@@ -18,6 +18,7 @@ from torqueopt.errors import NoRedundancy, SingularJacobian
 from torqueopt.resolvers.null_space import torque_midpoint
 
 ROBOTS = ["planar3", "panda", "panda_pose", "xarm7"]
+PAPER_RESOLVERS = ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
 
 
 def random_cases(robot, rng, count=6):
@@ -67,20 +68,48 @@ def default_weight(robot):
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
 @pytest.mark.parametrize("name", torqueopt.resolver_names())
-def test_every_resolver_realises_the_task_exactly(name, robot_name, request, rng):
+def test_every_resolver_meets_the_contract(name, robot_name, request, rng):
+    """The step solver(robot)(terms, ẍ) returns a Resolution whose torque produces its joint
+    acceleration (Pinocchio's ABA from the torque alone), whose task_error is the true shortfall
+    ‖J q̈ + J̇q̇ − ẍ‖, and which realises the task exactly unless it says it is infeasible."""
     robot = request.getfixturevalue(robot_name)
     resolver = torqueopt.get_resolver(name)
     resolver.check(robot)
+    step = resolver.solver(robot)
+    data = robot.model.createData()
     for q, v, xdd, terms in random_cases(robot, rng):
-        resolution = resolver.resolve(robot, terms, xdd)
-        acceleration = pin.aba(robot.model, robot.model.createData(), q, v, resolution.torque)
+        resolution = step(terms, xdd)
+        assert isinstance(resolution, torqueopt.Resolution)
+        assert isinstance(resolution.infeasible, (bool, np.bool_)) and isinstance(resolution.task_error, float)
+        assert resolution.torque.shape == (robot.nv,) and resolution.joint_acceleration.shape == (robot.nv,)
+        acceleration = pin.aba(robot.model, data, q, v, resolution.torque)
         np.testing.assert_allclose(acceleration, resolution.joint_acceleration, atol=1e-8 * (1 + np.abs(acceleration).max()))
-        np.testing.assert_allclose(terms.jacobian.dot(acceleration) + terms.drift, xdd, atol=1e-8)
+        shortfall = float(np.linalg.norm(terms.jacobian.dot(acceleration) + terms.drift - xdd))
+        assert resolution.task_error == pytest.approx(shortfall, abs=1e-8 * (1 + np.abs(xdd).max()))
+        if not resolution.infeasible:
+            np.testing.assert_allclose(terms.jacobian.dot(acceleration) + terms.drift, xdd, atol=1e-8)
+
+
+@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_every_resolver_declares_its_options_completely(name):
+    """Each declared option has a type, unit, meaning and default its own check accepts; the
+    constructor takes exactly the declared names and sets each as an attribute."""
+    cls = torqueopt.resolvers.RESOLVERS[name]
+    declared = cls.declared_options()
+    names = [option.name for option in declared]
+    assert len(set(names)) == len(names) and names[-1] == "singular_tolerance"
+    resolver = cls()
+    for option in declared:
+        assert option.kind and option.meaning and isinstance(option.unit, str)
+        if option.default is not None:
+            assert option.convert(option.default) == pytest.approx(option.default) or option.convert(option.default) == option.default
+        assert getattr(resolver, option.name) is option.default
+    assert resolver.settings == {option.name: option.default for option in declared}
 
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
-@pytest.mark.parametrize("name", torqueopt.resolver_names())
-def test_every_resolver_matches_the_papers_formula(name, robot_name, request, rng):
+@pytest.mark.parametrize("name", PAPER_RESOLVERS)
+def test_every_paper_resolver_matches_the_papers_formula(name, robot_name, request, rng):
     robot = request.getfixturevalue(robot_name)
     resolver = torqueopt.get_resolver(name)
     for q, v, xdd, terms in random_cases(robot, rng):
@@ -159,11 +188,61 @@ def test_weighted_resolver_accepts_a_user_weight(planar3):
 def test_resolve_api_matches_resolver_object(planar3):
     q, v, xdd = np.array([0.4, 1.2, -0.9]), np.array([0.1, 0.2, 0.3]), np.array([1.0, -0.5])
     for name in torqueopt.resolver_names():
-        expected = torqueopt.get_resolver(name).resolve(planar3, planar3.terms(q, v), xdd).torque
-        np.testing.assert_allclose(torqueopt.resolve(planar3, name, q, v, xdd), expected)
+        expected = torqueopt.get_resolver(name).resolve(planar3, planar3.terms(q, v), xdd)
+        got = torqueopt.resolve(planar3, name, q, v, xdd)
+        np.testing.assert_allclose(got.torque, expected.torque)
+        assert (got.task_error, got.infeasible) == (expected.task_error, expected.infeasible)
+    weighted = torqueopt.resolve(planar3, "weighted-null-space", q, v, xdd, weight=[1.0, 4.0, 9.0])
+    expected = torqueopt.get_resolver("weighted-null-space", weight=[1.0, 4.0, 9.0]).resolve(planar3, planar3.terms(q, v), xdd)
+    np.testing.assert_allclose(weighted.torque, expected.torque)
 
 
-@pytest.mark.parametrize("name", torqueopt.resolver_names())
+def test_unknown_option_is_one_line_naming_the_close_match_and_the_valid_ones(planar3):
+    with pytest.raises(torqueopt.InvalidInput) as error:
+        torqueopt.get_resolver("weighted-null-space", wieght=[1, 1, 1])
+    assert str(error.value) == (
+        "unknown option 'wieght' for resolver 'weighted-null-space' (did you mean 'weight'?); "
+        "valid options: weight, singular_tolerance"
+    )
+    with pytest.raises(torqueopt.InvalidInput) as error:
+        torqueopt.resolve(planar3, "pinv", np.zeros(3) + 0.5, np.zeros(3), [1.0, 0.0], damping=2.0)
+    assert str(error.value) == "unknown option 'damping' for resolver 'pinv'; valid options: singular_tolerance"
+    with pytest.raises(torqueopt.InvalidInput, match="^unknown option 'weigth' for resolver 'weighted-null-space'"):
+        torqueopt.simulate(planar3, "weighted-null-space", torqueopt.StraightLine([1, 1]), [0.4, 1.2, -0.9],
+                           resolver_options={"weigth": [1, 1, 1]})  # fmt: skip
+
+
+def test_bad_option_values_name_the_value_and_what_it_must_be():
+    cases = [
+        ({"singular_tolerance": 0}, "option singular_tolerance=0 of resolver 'pinv' must be a finite number > 0"),
+        ({"singular_tolerance": "abc"}, "option singular_tolerance=abc of resolver 'pinv' is not a number; give a finite number > 0"),
+        ({"singular_tolerance": float("nan")}, "option singular_tolerance=nan of resolver 'pinv' must be a finite number > 0"),
+    ]
+    for options, message in cases:
+        with pytest.raises(torqueopt.InvalidInput) as error:
+            torqueopt.get_resolver("pinv", **options)
+        assert str(error.value) == message
+    with pytest.raises(torqueopt.InvalidInput) as error:
+        torqueopt.get_resolver("weighted-null-space", weight="1,x,1")
+    assert str(error.value) == (
+        "option weight=1,x,1 of resolver 'weighted-null-space' is not a vector or a matrix; "
+        "give comma-separated numbers, e.g. 1,1,1 [1/(N·m)²]"
+    )
+    with pytest.raises(torqueopt.InvalidInput) as error:
+        torqueopt.get_resolver(torqueopt.get_resolver("pinv"), singular_tolerance=1e-3)
+    assert str(error.value) == (
+        "options singular_tolerance given with a PseudoInverse object; set them when making it, "
+        "or give the resolver's name 'pinv'"
+    )
+
+
+def test_a_misspelt_resolver_name_suggests_the_close_one():
+    with pytest.raises(torqueopt.ResolverNotFound) as error:
+        torqueopt.get_resolver("null_space")
+    assert str(error.value).startswith("unknown resolver 'null_space' (did you mean 'null-space'?): choose one of pinv,")
+
+
+@pytest.mark.parametrize("name", PAPER_RESOLVERS)
 def test_singular_jacobian_is_reported_not_hidden(name, planar3):
     """Straight arm: J has rank 1, no joint acceleration moves the tip along the arm."""
     resolver = torqueopt.get_resolver(name)
@@ -186,14 +265,14 @@ def test_null_space_resolvers_need_redundancy(panda):
 def test_unknown_resolver_lists_the_registered_names():
     with pytest.raises(torqueopt.ResolverNotFound) as error:
         torqueopt.get_resolver("quadratic")
-    assert str(error.value) == "unknown resolver 'quadratic': choose one of pinv, inertia-pinv, null-space, weighted-null-space"
+    assert str(error.value) == f"unknown resolver 'quadratic': choose one of {', '.join(torqueopt.resolver_names())}"
 
 
 def test_a_user_resolver_plugs_in_through_null_space_solver(planar3):
     """A resolver object works wherever a name does; this one damps the
     self-motion velocity, y = −k Zᵀq̇, and still realises the task exactly."""
 
-    class DampedSelfMotion(torqueopt.Resolver):
+    class DampedSelfMotion(torqueopt.NullSpaceResolver):
         name = "damped-self-motion"
 
         def null_space_solver(self, robot):

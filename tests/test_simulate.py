@@ -49,9 +49,10 @@ def test_feedback_cuts_the_tip_error(planar3, short_pinv):
 def test_csv_has_the_named_columns_and_reads_back(tmp_path, short_pinv):
     path = short_pinv.to_csv(tmp_path / "run.csv")
     header = path.read_text().splitlines()[0]
-    assert header == "t,q1,q2,q3,v1,v2,v3,tau1,tau2,tau3,x1,x2,xref1,xref2"
+    assert header == "t,q1,q2,q3,v1,v2,v3,tau1,tau2,tau3,x1,x2,xref1,xref2,task_error,infeasible"
     table = np.loadtxt(path, delimiter=",", skiprows=1)
-    assert table.shape == (501, 14)
+    assert table.shape == (501, 16)
+    np.testing.assert_array_equal(table[:, 14:], 0.0)  # pinv realises its task at every step
     np.testing.assert_allclose(table[:, 7:10], short_pinv.tau, rtol=1e-9, atol=1e-12)
     assert json.loads((tmp_path / "run.csv.json").read_text())["resolver"] == "pinv"
     back = torqueopt.load_result(path)
@@ -59,9 +60,61 @@ def test_csv_has_the_named_columns_and_reads_back(tmp_path, short_pinv):
     np.testing.assert_allclose(back.torque_upper, [54, 24, 6])
 
 
+def test_files_written_before_the_task_columns_still_read_back(tmp_path, short_pinv):
+    """A CSV without the task_error and infeasible columns, and an .npz without those arrays,
+    read back as runs that realised their task at every step."""
+    path = short_pinv.to_csv(tmp_path / "run.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(line.rsplit(",", 2)[0] for line in lines) + "\n")
+    back = torqueopt.load_result(path)
+    np.testing.assert_allclose(back.tau, short_pinv.tau, rtol=1e-9, atol=1e-12)
+    assert back.task_error.shape == (501,) and not back.task_error.any() and not back.infeasible.any()
+    archive = tmp_path / "old.npz"
+    arrays = {name: getattr(short_pinv, name) for name in ("t", "q", "joint_angles", "v", "acceleration", "tau", "x",
+                                                            "x_ref", "jacobian_condition", "torque_upper", "torque_lower")}  # fmt: skip
+    metadata = {key: value for key, value in short_pinv.summary().items() if key in ("robot", "frame", "task", "resolver",
+                                                                                       "joint_names", "duration")}  # fmt: skip
+    metadata.update(dt=short_pinv.dt, stop_reason=None, stop_time=None)
+    np.savez_compressed(archive, metadata=json.dumps(metadata), **arrays)
+    old = torqueopt.load_result(archive)
+    assert old.max_task_error == 0.0 and old.infeasible_steps == 0 and old.resolver_options is None
+
+
+def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar3):
+    """A resolver that gives up part of the task says so per step; simulate keeps it, files keep it."""
+
+    class HalfTask(torqueopt.Resolver):
+        """Realises half the task acceleration on odd steps and calls them infeasible."""
+
+        name = "half-task"
+
+        def solver(self, robot):
+            full = torqueopt.get_resolver("pinv").solver(robot)
+            calls = []
+
+            def step(terms, task_acceleration):
+                calls.append(None)
+                if len(calls) % 2:
+                    return full(terms, task_acceleration)
+                half = full(terms, 0.5 * task_acceleration + 0.5 * terms.drift)
+                error = float(np.linalg.norm(0.5 * (task_acceleration - terms.drift)))
+                return half._replace(task_error=error, infeasible=True)
+
+            return step
+
+    result = torqueopt.simulate(planar3, HalfTask(), StraightLine([1, 1], duration=0.01), PAPER_Q0)
+    assert result.infeasible.tolist() == [False, True] * 5 + [False]
+    assert result.task_error[0] == 0.0 and result.task_error[1] == pytest.approx(0.5 * np.sqrt(2.0), rel=1e-3)  # half of √2 m/s², J̇q̇ ≈ 0
+    assert result.summary()["infeasible_steps"] == 5 and result.max_task_error == result.task_error.max() > 0
+    for name in ("run.csv", "run.npz"):
+        back = torqueopt.load_result(result.to_csv(tmp_path / name))
+        np.testing.assert_array_equal(back.infeasible, result.infeasible)
+        np.testing.assert_allclose(back.task_error, result.task_error, rtol=1e-9)
+
+
 def test_npz_keeps_everything(tmp_path, short_pinv):
     back = torqueopt.load_result(short_pinv.to_csv(tmp_path / "run.npz"))
-    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition"):
+    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition", "task_error", "infeasible"):
         np.testing.assert_array_equal(getattr(back, name), getattr(short_pinv, name))
     assert back.summary() == short_pinv.summary()
 
@@ -95,7 +148,7 @@ def test_explosion_stops_the_run_and_keeps_finite_rows(planar3):
     assert result.peak_torque_ratio.max() <= 20.0
 
 
-class _Overdriven(torqueopt.Resolver):
+class _Overdriven(torqueopt.NullSpaceResolver):
     """Realises the task plus a null-space acceleration of ``size`` rad/s²."""
 
     name = "overdriven"

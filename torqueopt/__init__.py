@@ -18,7 +18,7 @@ from .errors import (
     TorqueoptError,
     UrdfError,
 )
-from .resolvers import Resolution, Resolver, get_resolver, resolver_names
+from .resolvers import NullSpaceResolver, Option, Resolution, Resolver, get_resolver, resolver_names
 from .result import SimResult, load_result
 from .robot import Robot, TaskTerms, load_robot
 from .simulate import Feedback, resolve, rk4_step, simulate
@@ -43,6 +43,8 @@ __all__ = [
     "resolver_names",
     "get_resolver",
     "Resolver",
+    "NullSpaceResolver",
+    "Option",
     "Resolution",
     "SimResult",
     "load_result",

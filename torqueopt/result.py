@@ -15,9 +15,11 @@ from .io import atomic_write
 
 __all__ = ["SimResult", "load_result"]
 
+#: The per-step columns after xref, in this order; files written before they existed lack them.
+_STEP_COLUMNS = ("task_error", "infeasible")
 _ARRAY_FIELDS = (
     "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
-    "jacobian_condition", "torque_upper", "torque_lower",
+    "jacobian_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
 )  # fmt: skip
 
 
@@ -42,6 +44,10 @@ class SimResult:
         trajectory: what the tip followed, as :meth:`Trajectory.describe`
             gives it (kind, parameters, start, duration); None in files
             written before it was recorded.
+        task_error: per row, the task acceleration the resolver gave up,
+            ‖J q̈ + J̇q̇ − ẍ‖ [m/s², rad/s²], (N,); zeros when not given.
+        infeasible: per row, True where no admissible torque realised the task, (N,).
+        resolver_options: the resolver's option values, JSON-ready (None when unknown).
     """
 
     robot: str
@@ -65,6 +71,15 @@ class SimResult:
     stop_reason: str | None = None
     stop_time: float | None = None
     trajectory: dict | None = None
+    task_error: np.ndarray | None = None
+    infeasible: np.ndarray | None = None
+    resolver_options: dict | None = None
+
+    def __post_init__(self):
+        # Runs written before these columns existed, and results built by hand, realised their task.
+        rows = len(self.t)
+        self.task_error = np.zeros(rows) if self.task_error is None else np.asarray(self.task_error, dtype=float)
+        self.infeasible = np.zeros(rows, dtype=bool) if self.infeasible is None else np.asarray(self.infeasible, dtype=bool)
 
     # -- summary ---------------------------------------------------------------
     @property
@@ -133,6 +148,16 @@ class SimResult:
             return None
         return float(np.linalg.norm(self.x[:, 3:] - self.x_ref[:, 3:], axis=1).max())
 
+    @property
+    def max_task_error(self) -> float:
+        """Largest task-acceleration shortfall over the run [m/s², rad/s²]; 0 when every step realised its task."""
+        return float(self.task_error.max()) if len(self.task_error) else 0.0
+
+    @property
+    def infeasible_steps(self) -> int:
+        """How many steps found no admissible torque that realises the task."""
+        return int(np.count_nonzero(self.infeasible))
+
     def summary(self) -> dict:
         """The run's figures as plain JSON-ready values."""
         return {
@@ -153,11 +178,14 @@ class SimResult:
             "first_limit_violation_joint": self.first_limit_violation_joint,
             "max_tip_error": self.max_tip_error,
             "max_orientation_error": self.max_orientation_error,
+            "max_task_error": self.max_task_error,
+            "infeasible_steps": self.infeasible_steps,
+            "resolver_options": self.resolver_options,
         }
 
     # -- files -----------------------------------------------------------------
     def csv_columns(self) -> list[str]:
-        """Column names: t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm."""
+        """Column names: t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible."""
         n, m = self.n, self.m
         return (
             ["t"]
@@ -166,6 +194,7 @@ class SimResult:
             + [f"tau{i}" for i in range(1, n + 1)]
             + [f"x{i}" for i in range(1, m + 1)]
             + [f"xref{i}" for i in range(1, m + 1)]
+            + list(_STEP_COLUMNS)
         )
 
     def to_csv(self, path: str | os.PathLike) -> Path:
@@ -182,7 +211,9 @@ class SimResult:
             arrays = {name: getattr(self, name) for name in _ARRAY_FIELDS}
             atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(self._metadata()), **arrays))
             return path
-        table = np.column_stack([self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref])
+        table = np.column_stack(
+            [self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref, self.task_error, self.infeasible]
+        )
         header = ",".join(self.csv_columns())
         atomic_write(path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g"))
         sidecar = self._metadata()
@@ -227,7 +258,8 @@ def load_result(path: str | os.PathLike, robot=None) -> SimResult:
 def _load_npz(path: Path) -> SimResult:
     with np.load(path, allow_pickle=False) as archive:
         metadata = json.loads(str(archive["metadata"]))
-        arrays = {name: archive[name] for name in _ARRAY_FIELDS}
+        # Files written before the per-step task columns existed lack them: SimResult fills them in.
+        arrays = {name: archive[name] for name in _ARRAY_FIELDS if name in archive.files or name not in _STEP_COLUMNS}
     return SimResult(**metadata, **arrays)
 
 
@@ -240,10 +272,14 @@ def _load_csv(path: Path, robot) -> SimResult:
         header = handle.readline().strip().split(",")
     table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     n = len(metadata["joint_names"])
-    m = (len(header) - 1 - 3 * n) // 2
-    if table.shape[1] != len(header) or m < 1 or len(header) != 1 + 3 * n + 2 * m:
+    has_step_columns = tuple(header[-len(_STEP_COLUMNS) :]) == _STEP_COLUMNS
+    vector_columns = len(header) - (len(_STEP_COLUMNS) if has_step_columns else 0)
+    m = (vector_columns - 1 - 3 * n) // 2
+    if table.shape[1] != len(header) or m < 1 or vector_columns != 1 + 3 * n + 2 * m:
         raise ValueError(f"it has {table.shape[1]} columns, which do not fit its {n} joints")
-    t, angles, v, tau, x, x_ref = np.split(table, np.cumsum([1, n, n, n, m]), axis=1)
+    t, angles, v, tau, x, x_ref, steps = np.split(table, np.cumsum([1, n, n, n, m, m]), axis=1)
+    if has_step_columns:
+        metadata["task_error"], metadata["infeasible"] = steps[:, 0], steps[:, 1] != 0
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
     return SimResult(

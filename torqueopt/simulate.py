@@ -26,7 +26,7 @@ import numpy as np
 
 from .checks import finite_vector, positive_number
 from .errors import InvalidInput, SingularJacobian
-from .resolvers import Resolver, get_resolver
+from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
 from .trajectory import Trajectory, check_trajectory, describe
@@ -157,18 +157,21 @@ def _rk4_stepper(robot: Robot, dt: float):
     return rk4
 
 
-def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration) -> np.ndarray:
-    """Joint torques [N·m] that ``resolver`` gives for ``task_acceleration`` at state (q, v).
+def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **options) -> Resolution:
+    """What ``resolver`` gives for ``task_acceleration`` at state (q, v): torques, joint accelerations, task error.
 
     ``q`` is a configuration vector (as from :meth:`Robot.configuration`),
-    ``v`` the joint velocities [rad/s], ``task_acceleration`` the m-vector ẍ.
+    ``v`` the joint velocities [rad/s], ``task_acceleration`` the m-vector ẍ;
+    ``options`` are the resolver's declared options (see
+    ``torqueopt resolvers``). The torque is ``resolve(...).torque`` [N·m];
+    ``task_error`` and ``infeasible`` say whether the task was realised.
     """
-    resolver = get_resolver(resolver)
+    resolver = get_resolver(resolver, **options)
     resolver.check(robot)
     q = _configuration(robot, q)
     v = robot.check_velocity(v)
     task_acceleration = finite_vector(task_acceleration, robot.m, f"task acceleration for task '{robot.task}'")
-    return resolver.resolve(robot, robot.terms(q, v), task_acceleration).torque
+    return resolver.resolve(robot, robot.terms(q, v), task_acceleration)
 
 
 def simulate(
@@ -183,6 +186,7 @@ def simulate(
     feedback: Feedback | tuple[float, float] | None = None,
     max_joint_speed: float = DEFAULT_MAX_JOINT_SPEED,
     max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
+    resolver_options: dict | None = None,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -201,11 +205,13 @@ def simulate(
         feedback: task-space PD gains (kp, kd); open loop when None.
         max_joint_speed: a joint speed beyond this [rad/s] ends the run as diverged.
         max_torque_ratio: a torque beyond this multiple of its limit ends the run as diverged.
+        resolver_options: the resolver's declared options, when ``resolver`` is a name
+            (``simulate(robot, "damped-null-space", ..., resolver_options={"damping": 2.0})``).
 
     Returns:
         SimResult with one row per step start, t = 0, dt, ..., duration.
     """
-    resolver = get_resolver(resolver)
+    resolver = get_resolver(resolver, **(resolver_options or {}))
     resolver.check(robot)
     check_trajectory(trajectory)
     dt = positive_number(dt, "dt", "s")
@@ -254,6 +260,9 @@ def simulate(
     # cheaper than writing six rows into preallocated arrays, and every array
     # in it is fresh at each step, so nothing is overwritten later.
     log = []
+    # (row, task error, infeasible) of the rows whose task was not realised exactly:
+    # most resolvers never give any up, so the common row costs one test.
+    shortfalls = []
     stop_reason = None
     stop_time = None
     # A list of row views: indexing a list costs far less than indexing an array.
@@ -272,13 +281,15 @@ def simulate(
                 + feedback.kp * (ref_position[k] - x)
             )
         try:
-            tau, joint_acceleration, condition = solve(terms, command)
+            tau, joint_acceleration, condition, task_error, infeasible = solve(terms, command)
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             break
         if not all(within(map(abs, tau.tolist()), torque_ceiling)):
             stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
             break
+        if task_error or infeasible:
+            shortfalls.append((len(log), task_error, infeasible))
         log.append((q, v, joint_acceleration, tau, x, condition))
         if k == steps:
             break
@@ -291,11 +302,16 @@ def simulate(
 
     recorded = len(log)
     q_log, v_log, acceleration_log, torque_log, x_log, condition_log = _columns(log, (robot.nq, n, n, n, robot.m))
+    task_error_log = np.zeros(recorded)
+    infeasible_log = np.zeros(recorded, dtype=bool)
+    for row, task_error, infeasible in shortfalls:
+        task_error_log[row], infeasible_log[row] = task_error, infeasible
     return SimResult(
         robot=robot.name,
         frame=robot.frame,
         task=robot.task,
         resolver=resolver.name,
+        resolver_options=resolver.settings_for_file(),
         joint_names=list(robot.joint_names),
         dt=dt,
         t=times[:recorded].copy(),
@@ -313,6 +329,8 @@ def simulate(
         stop_reason=stop_reason,
         stop_time=stop_time,
         trajectory=describe(trajectory),
+        task_error=task_error_log,
+        infeasible=infeasible_log,
     )
 
 

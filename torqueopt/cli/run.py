@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 from ..io import writable_path
-from ..resolvers import get_resolver, resolver_names
+from ..resolvers import Resolver
 from ..result import SimResult
 from ..robot import Robot
 from ..simulate import Feedback, simulate
@@ -19,6 +19,7 @@ from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
 from .paths import add_path_options, trajectory_from_args
 from .play import add_playback_options, playback_options, show_playback
+from .resolvers import add_resolver_arguments, resolver_from_args
 
 __all__ = ["add_parser", "format_summary"]
 
@@ -36,14 +37,7 @@ def add_parser(subparsers) -> None:
     )
     add_robot_options(parser)
     group = parser.add_argument_group("movement")
-    group.add_argument(
-        "--resolver", required=True, help=f"resolver: {', '.join(resolver_names())}"
-    )
-    group.add_argument(
-        "--weight",
-        metavar="W",
-        help="weighted-null-space only: diagonal of W, one value per joint (default 1/(τ⁺−τ⁻)²)",
-    )
+    add_resolver_arguments(group)
     group.add_argument(
         "--q0",
         metavar="ANGLES",
@@ -74,15 +68,10 @@ def run_command(args: argparse.Namespace) -> int:
     limit_factor = parse_positive(args.limit_factor, "limit-factor")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
     playback = playback_options(args, live=args.play)
-    options = {}
-    if args.weight is not None:
-        if args.resolver != "weighted-null-space":
-            raise InvalidInput(f"--weight applies to weighted-null-space only, not to '{args.resolver}'")
-        options["weight"] = parse_vector(args.weight, "weight")
-    resolver = get_resolver(args.resolver, **options)
+    resolver = resolver_from_args(args)
     robot = robot_from_args(args)
     resolver.check(robot)
-    check_torque_limits(robot, resolver.name, weighted=args.weight is None)
+    check_torque_limits(robot, resolver)
     if args.q0 is None:
         q0 = robot.default_configuration
     else:
@@ -101,16 +90,16 @@ def run_command(args: argparse.Namespace) -> int:
     return EXIT_OK if result.completed else EXIT_STOPPED
 
 
-def check_torque_limits(robot: Robot, resolver_name: str, weighted: bool) -> None:
-    """Say which joints have no usable limit; refuse where the resolver divides by the range."""
+def check_torque_limits(robot: Robot, resolver: Resolver) -> None:
+    """Say which joints have no usable limit; refuse where the resolver, with its options, divides by the range."""
     missing = robot.joints_without_torque_limit
     if not missing:
         return
     joints = ", ".join(missing)
-    if resolver_name == "weighted-null-space" and weighted:
+    if resolver.needs_torque_limits:
         raise InvalidInput(
             f"joints {joints} of robot '{robot.name}' have no torque limit (URDF effort zero, infinite or missing) "
-            "and weighted-null-space weights torques by their range: give --torque-limit (or --weight)"
+            f"and {resolver.name} weights torques by their range: give --torque-limit (or a weight option)"
         )
     print(
         f"note: joints {joints} of robot '{robot.name}' have no torque limit (URDF effort zero, infinite or "
@@ -145,6 +134,11 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         else f"first limit violation: t = {violation:.3f} s at joint {result.first_limit_violation_joint}"
     )
     lines.append(f"max tip error: {result.max_tip_error * 1e3:.3f} mm")
+    if result.max_task_error > 0 or result.infeasible_steps:
+        lines.append(
+            f"task not realised: largest task-acceleration shortfall {result.max_task_error:.4g} m/s², "
+            f"{result.infeasible_steps} infeasible step{'s' if result.infeasible_steps != 1 else ''}"
+        )
     if result.max_orientation_error is not None:
         lines.append(f"max orientation error: {math.degrees(result.max_orientation_error):.4f} deg")
     lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InvalidInput, SingularJacobian
 from ..linalg import JacobianSolver
-from ..resolvers import get_resolver, resolver_names
+from ..resolvers import resolver_names
 from ..result import SimResult
 from ..robot import Robot
 from ..simulate import simulate
@@ -54,8 +54,7 @@ class PaperResults:
 def run_movement(scenario: PaperScenario, movement: str, resolver: str, robot: Robot | None = None) -> SimResult:
     """Simulate one resolver on one of the scenario's movements."""
     robot = robot or scenario.load_robot()
-    options = {"weight": scenario.weight} if resolver == "weighted-null-space" else {}
-    return simulate(robot, get_resolver(resolver, **options), scenario.line(movement), scenario.q0, dt=scenario.dt)
+    return simulate(robot, resolver, scenario.line(movement), scenario.q0, dt=scenario.dt)
 
 
 def run_paper(

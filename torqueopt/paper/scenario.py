@@ -94,7 +94,12 @@ class PaperScenario:
 
     @property
     def weight(self) -> np.ndarray:
-        """Diagonal of W = diag(1/limit²) for ``weighted-null-space``, as in the paper."""
+        """Diagonal of the paper's W = diag(1/limit²).
+
+        ``weighted-null-space`` runs with its default 1/(τ⁺−τ⁻)², which for
+        these symmetric limits is W/4: the same minimiser, since scaling W
+        does not move it.
+        """
         return 1.0 / np.square(self.torque_limit)
 
     def line(self, movement: str) -> StraightLine:

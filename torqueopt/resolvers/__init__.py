@@ -12,14 +12,20 @@ name                   method (equation of the paper)
 
 from __future__ import annotations
 
-from ..errors import ResolverNotFound
-from .base import Resolution, Resolver
+import difflib
+
+from ..errors import InvalidInput, ResolverNotFound
+from .base import NullSpaceResolver, Resolution, Resolver, Step
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
+from .options import Option
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 
 __all__ = [
     "Resolution",
     "Resolver",
+    "NullSpaceResolver",
+    "Step",
+    "Option",
     "PseudoInverse",
     "InertiaWeightedPseudoInverse",
     "NullSpaceTorque",
@@ -40,11 +46,24 @@ def resolver_names() -> list[str]:
 
 
 def get_resolver(resolver: str | Resolver, **options) -> Resolver:
-    """A resolver object from its registered name (options go to its constructor), or the object itself."""
+    """A resolver object from its registered name with ``options`` (its declared options), or the object itself.
+
+    Raises:
+        ResolverNotFound: no resolver has that name (the message lists those that exist).
+        InvalidInput: an option the resolver does not declare, or a value it refuses;
+            or options given with a Resolver object (set them when making the object).
+    """
     if isinstance(resolver, Resolver):
+        if options:
+            raise InvalidInput(
+                f"options {', '.join(options)} given with a {type(resolver).__name__} object; "
+                f"set them when making it, or give the resolver's name '{resolver.name}'"
+            )
         return resolver
     try:
         cls = RESOLVERS[resolver]
     except (KeyError, TypeError):
-        raise ResolverNotFound(f"unknown resolver '{resolver}': choose one of {', '.join(RESOLVERS)}") from None
+        close = difflib.get_close_matches(str(resolver), list(RESOLVERS), n=1, cutoff=0.7)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        raise ResolverNotFound(f"unknown resolver '{resolver}'{hint}: choose one of {', '.join(RESOLVERS)}") from None
     return cls(**options)

@@ -1,65 +1,130 @@
 r"""The resolver contract.
 
-Every resolver of the paper writes the joint acceleration as a particular
-solution plus a null-space motion, Eq. (26):
+A resolver maps a desired task acceleration :math:`\ddot x` [m/s², rad/s²]
+at one state to joint torques. It is one abstract step: ``solver(robot)``
+returns a robot-bound function
+
+.. math::
+
+    (\text{terms}, \ddot x) \mapsto \text{Resolution}(\tau, \ddot q, \text{condition},
+    \text{task error}, \text{infeasible})
+
+where the terms (:class:`~torqueopt.robot.TaskTerms`) carry :math:`H`, the
+bias torques, :math:`J`, :math:`\dot J\dot q` and :math:`\dot q`. What
+depends only on the robot (torque midpoints, weights, workspaces, a QP
+built once) is prepared in ``solver``; each step pays only for what changes.
+
+Most resolvers of the paper write the joint acceleration as a particular
+solution plus a null-space motion, Eq. (26),
 
 .. math::
 
     \ddot q = J^\dagger(\ddot x - \dot J \dot q) + Z y,
     \qquad \tau = H \ddot q + \dot q \cdot C \cdot \dot q + g,
 
-where :math:`Z` is an orthonormal basis of the null space of :math:`J`
-(:math:`I - J^\dagger J = Z Z^\top`) and :math:`y` are the null-space
-coordinates. A resolver only chooses :math:`y`; every choice realises the
-task exactly, :math:`J\ddot q + \dot J \dot q = \ddot x`.
+with :math:`Z` an orthonormal basis of the null space of :math:`J`
+(:math:`I - J^\dagger J = Z Z^\top`): :class:`NullSpaceResolver` is that
+family, whose members only choose :math:`y`; every choice realises the task
+exactly. A resolver under inequalities (torque bounds) implements
+``solver`` itself and may give up part of the task, saying so in the
+resolution.
+
+Each resolver declares its options (:class:`~torqueopt.resolvers.options.Option`)
+in its class attribute ``options``; the constructor accepts exactly those, as
+keywords, and checks them.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import ClassVar
+from collections.abc import Callable
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
 from ..errors import NoRedundancy
 from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
 from ..robot import Robot, TaskTerms
+from .options import Option, format_value, number, validate_options
 
-__all__ = ["Resolution", "Resolver"]
+__all__ = ["Resolution", "Resolver", "NullSpaceResolver", "Step", "SINGULAR_TOLERANCE_OPTION"]
 
 
-@dataclass(frozen=True)
-class Resolution:
-    """What a resolver returns at one state.
+class Resolution(NamedTuple):
+    r"""What a resolver returns at one state (a tuple: cheap to build at every step).
 
     Attributes:
         torque: joint torques τ [N·m].
         joint_acceleration: the joint acceleration q̈ these torques produce [rad/s²].
         jacobian_condition: σ_min/σ_max of the task Jacobian at this state.
+        task_error: :math:`\|J\ddot q + \dot J\dot q - \ddot x\|` [m/s², rad/s²], the part of the
+            task acceleration the resolver gave up; 0 when it realised the task exactly.
+        infeasible: True when no admissible torque (within the resolver's constraints)
+            realises the task, so ``task_error`` is the least violation it found.
     """
 
     torque: np.ndarray
     joint_acceleration: np.ndarray
     jacobian_condition: float
+    task_error: float = 0.0
+    infeasible: bool = False
+
+
+#: A robot-bound step: ``(terms, task_acceleration) -> Resolution``.
+Step = Callable[[TaskTerms, np.ndarray], Resolution]
+
+#: The option every resolver accepts: the Jacobian's singular-value cutoff.
+SINGULAR_TOLERANCE_OPTION = Option(
+    name="singular_tolerance",
+    kind="number > 0",
+    unit="",
+    default=DEFAULT_SINGULAR_TOLERANCE,
+    meaning="relative singular-value cutoff: the task Jacobian counts as singular when σ_min/σ_max falls below it",
+    convert=number(0.0, strict=True),
+)
 
 
 class Resolver(ABC):
     """Maps a desired task acceleration to joint torques.
 
-    Subclasses set :attr:`name`, document their equation, and implement
-    :meth:`null_space_solver`.
+    Subclasses set :attr:`name`, declare their :attr:`options`, document their
+    equation, and implement :meth:`solver`. The constructor takes the declared
+    options as keywords, checks them, and sets each as an attribute of the same
+    name (the default when not given).
     """
 
     name: ClassVar[str]
+    #: The options this resolver declares (``singular_tolerance`` is added for every resolver).
+    options: ClassVar[tuple[Option, ...]] = ()
     #: True when the method is only defined with a null space (m < n).
     needs_redundancy: ClassVar[bool] = False
 
-    def __init__(self, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        self.singular_tolerance = singular_tolerance
+    def __init__(self, **options):
+        self.settings = validate_options(self.name, self.declared_options(), options)
+        for key, value in self.settings.items():
+            setattr(self, key, value)
+
+    @classmethod
+    def declared_options(cls) -> tuple[Option, ...]:
+        """This resolver's options, its own first, then ``singular_tolerance``."""
+        return (*cls.options, SINGULAR_TOLERANCE_OPTION)
+
+    @classmethod
+    def summary(cls) -> str:
+        """The first line of the class docstring: what the resolver does, in one line."""
+        return (cls.__doc__ or cls.name).strip().splitlines()[0]
+
+    @property
+    def needs_torque_limits(self) -> bool:
+        """True when, with these options, the resolver divides by torque ranges (so every joint needs a limit)."""
+        return False
+
+    def settings_for_file(self) -> dict:
+        """The option values as JSON-ready values (vectors as lists), for a result's metadata."""
+        return {key: value.tolist() if isinstance(value, np.ndarray) else value for key, value in self.settings.items()}
 
     def check(self, robot: Robot) -> None:
-        """Raise if this resolver cannot serve the robot's task."""
+        """Raise if this resolver cannot serve the robot's task (or an option does not fit the robot)."""
         if robot.m > robot.nv:
             raise NoRedundancy(
                 f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' moves it with only "
@@ -74,31 +139,53 @@ class Resolver(ABC):
     def resolve(self, robot: Robot, terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
         """Joint torques realising ``task_acceleration`` [m/s², rad/s²] at the state of ``terms``.
 
+        Builds a solver for this one call; a loop should call :meth:`solver` once.
+
         Raises:
             SingularJacobian: the task Jacobian is singular at this state.
         """
-        return Resolution(*self.solver(robot)(terms, task_acceleration))
+        return self.solver(robot)(terms, task_acceleration)
 
-    def solver(self, robot: Robot):
-        """:meth:`resolve` for one robot as a function ``(terms, ẍ) -> (τ, q̈, condition)``.
+    @abstractmethod
+    def solver(self, robot: Robot) -> Step:
+        """The robot-bound step ``(terms, ẍ) -> Resolution``.
 
-        What depends only on the robot (torque midpoint, weights, SVD
-        workspaces) is computed once here, so a simulation builds one solver
-        per run and each step pays only for what changes with the state;
-        nothing carries over from one run to the next.
+        What depends only on the robot (torque midpoint, weights, workspaces)
+        is computed once here, so a simulation builds one solver per run and
+        each step pays only for what changes with the state; nothing carries
+        over from one run to the next.
         """
+
+    def __repr__(self) -> str:
+        given = ", ".join(
+            f"{option.name}={format_value(self.settings[option.name])}"
+            for option in self.declared_options()
+            if self.settings[option.name] is not option.default
+        )
+        return f"{type(self).__name__}(name={self.name!r}{', ' if given else ''}{given})"
+
+
+class NullSpaceResolver(Resolver):
+    r"""The family :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y`, Eq. (26): a member chooses y.
+
+    Subclasses implement :meth:`null_space_solver`. Every member realises the
+    task exactly, so its resolutions have ``task_error`` 0 and are never
+    infeasible.
+    """
+
+    def solver(self, robot: Robot) -> Step:
         coordinates_at = self.null_space_solver(robot) if robot.nv > robot.m else None
         # None: y = 0 (pinv), or no null space to move in (m = n).
         decompose = JacobianSolver(robot.m, robot.nv, self.singular_tolerance, null_space=coordinates_at is not None)
 
-        def solve(terms: TaskTerms, task_acceleration: np.ndarray):
+        def solve(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
             particular, basis, condition = decompose(terms.jacobian, task_acceleration - terms.drift)
             if coordinates_at is None:
                 acceleration = particular
             else:
-                acceleration = particular + basis.dot(coordinates_at(terms, basis, particular))
-            torque = terms.inertia.dot(acceleration) + terms.bias_torque
-            return torque, acceleration, condition
+                acceleration = particular + basis.dot(coordinates_at(terms, basis, particular))  # Eq. (26)
+            torque = terms.inertia.dot(acceleration) + terms.bias_torque  # Eq. (20)
+            return Resolution(torque, acceleration, condition, 0.0, False)
 
         return solve
 
@@ -112,6 +199,3 @@ class Resolver(ABC):
         or None for :math:`y = 0` at every state. What depends only on the
         robot (torque midpoint, weights, workspaces) is computed here, once.
         """
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(name={self.name!r})"

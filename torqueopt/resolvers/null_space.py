@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInput, NoRedundancy
-from ..linalg import DEFAULT_SINGULAR_TOLERANCE, LeastSquares
+from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import Resolver
+from .base import NullSpaceResolver
+from .options import Option, vector_or_matrix
 
 __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
 
@@ -21,7 +22,7 @@ def torque_midpoint(robot: Robot) -> np.ndarray:
     return 0.5 * (upper + lower)
 
 
-class NullSpaceTorque(Resolver):
+class NullSpaceTorque(NullSpaceResolver):
     r"""Unweighted null-space torque optimisation, Eqs. (28)-(31), (36).
 
     With :math:`\tilde\tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q\cdot C\cdot\dot q + g`
@@ -54,7 +55,7 @@ class NullSpaceTorque(Resolver):
         return coordinates
 
 
-class WeightedNullSpaceTorque(Resolver):
+class WeightedNullSpaceTorque(NullSpaceResolver):
     r"""Null-space torque optimisation weighted by torque range, Eqs. (32), (33), (37).
 
     Minimises :math:`(\tau - \tau_{mid})^\top W (\tau - \tau_{mid})` over the
@@ -70,10 +71,21 @@ class WeightedNullSpaceTorque(Resolver):
 
     name = "weighted-null-space"
     needs_redundancy = True
+    options = (
+        Option(
+            name="weight",
+            kind="vector (n) or symmetric n×n matrix",
+            unit="1/(N·m)²",
+            default=None,
+            meaning="W of the criterion (τ − τ_mid)ᵀW(τ − τ_mid): its diagonal, or the whole matrix",
+            convert=vector_or_matrix,
+            default_text="1/(τ⁺−τ⁻)², Eq. (33)",
+        ),
+    )
 
-    def __init__(self, weight=None, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        super().__init__(singular_tolerance)
-        self.weight = None if weight is None else np.asarray(weight, dtype=float)
+    @property
+    def needs_torque_limits(self) -> bool:
+        return self.weight is None
 
     def check(self, robot: Robot) -> None:
         super().check(robot)

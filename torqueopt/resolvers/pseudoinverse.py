@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import Resolver
+from .base import NullSpaceResolver
 
 __all__ = ["PseudoInverse", "InertiaWeightedPseudoInverse"]
 
 
-class PseudoInverse(Resolver):
+class PseudoInverse(NullSpaceResolver):
     r"""Unweighted pseudoinverse, Eq. (34) of the paper.
 
     .. math::
@@ -25,7 +25,7 @@ class PseudoInverse(Resolver):
         return None
 
 
-class InertiaWeightedPseudoInverse(Resolver):
+class InertiaWeightedPseudoInverse(NullSpaceResolver):
     r"""Inertia-weighted pseudoinverse, Eqs. (16), (19), (35) of the paper.
 
     .. math::

@@ -1,0 +1,94 @@
+"""``torqueopt resolvers``: the registered resolvers and the options each declares.
+
+Also the shared CLI plumbing for resolver options: ``--option NAME=VALUE``
+(repeatable) and the ``--weight`` alias, read generically from each
+resolver's declaration, so no resolver is named here.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import InvalidInput
+from ..resolvers import RESOLVERS, Resolver, get_resolver
+from . import EXIT_OK
+
+__all__ = ["add_parser", "add_resolver_arguments", "resolver_from_args", "describe_resolvers", "options_help"]
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "resolvers",
+        help="list the resolvers and their options",
+        description=(
+            "List the registered resolvers, what each minimises, and the options each accepts "
+            "(give them to torqueopt run as --option NAME=VALUE, or as keywords of get_resolver, resolve "
+            "and simulate's resolver_options), with type, unit and default."
+        ),
+    )
+    parser.set_defaults(handler=resolvers_command)
+
+
+def resolvers_command(args: argparse.Namespace) -> int:
+    print(describe_resolvers())
+    return EXIT_OK
+
+
+def describe_resolvers() -> str:
+    """Every registered resolver with its one-line summary and a table of its declared options."""
+    lines = []
+    for name, cls in RESOLVERS.items():
+        lines.append(f"{name}: {cls.summary()}")
+        for option in cls.declared_options():
+            unit = f" [{option.unit}]" if option.unit else ""
+            lines.append(f"    {option.name}{unit}: {option.kind}, default {option.describe_default()}")
+            lines.append(f"        {option.meaning}")
+        lines.append("")
+    return "\n".join(lines).rstrip()
+
+
+def options_help() -> str:
+    """One short help line naming each resolver's own options, units and defaults (for ``--option``)."""
+    entries = []
+    for name, cls in RESOLVERS.items():
+        own = [
+            f"{option.name}" + (f" [{option.unit}]" if option.unit else "") + f" = {option.describe_default()}"
+            for option in cls.options
+        ]
+        if own:
+            entries.append(f"{name}: {'; '.join(own)}")
+    return (
+        "a resolver option, repeatable (e.g. --option damping=2). "
+        + ". ".join(entries)
+        + ". Every resolver also takes singular_tolerance. Details: torqueopt resolvers"
+    )
+
+
+def add_resolver_arguments(group) -> None:
+    """``--resolver``, ``--option NAME=VALUE`` (repeatable) and ``--weight`` (alias of ``--option weight=``)."""
+    group.add_argument("--resolver", required=True, help=f"resolver: {', '.join(RESOLVERS)}")
+    group.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", help=options_help())
+    group.add_argument(
+        "--weight",
+        metavar="W",
+        help="alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; "
+        "default 1/(τ⁺−τ⁻)²)",
+    )
+
+
+def resolver_from_args(args: argparse.Namespace) -> Resolver:
+    """The resolver named by ``--resolver`` with its ``--option`` values, checked against its declaration."""
+    options = {}
+    for text in args.option:
+        name, separator, value = text.partition("=")
+        name = name.strip()
+        if not separator or not name or not value.strip():
+            raise InvalidInput(f"--option '{text}' must be NAME=VALUE, e.g. --option damping=2")
+        if name in options:
+            raise InvalidInput(f"--option {name} is given twice; give it once")
+        options[name] = value.strip()
+    if args.weight is not None:
+        if "weight" in options:
+            raise InvalidInput("--weight and --option weight= are the same option; give one")
+        options["weight"] = args.weight
+    return get_resolver(args.resolver, **options)

@@ -1,0 +1,178 @@
+"""Declared resolver options: one declaration per option, read by the API, the CLI and the listing.
+
+A resolver lists its options as :class:`Option` objects in its class
+attribute ``options``. :func:`validate_options` turns the keyword arguments
+given to :func:`torqueopt.get_resolver` (Python values) or to
+``torqueopt run --option NAME=VALUE`` (text) into checked values, so the two
+entry points accept exactly the same things and fail with the same one-line
+messages. Checks that need the robot (a vector's length) are the resolver's,
+in its ``check``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+from ..errors import InvalidInput
+
+__all__ = [
+    "Option",
+    "OptionValueError",
+    "number",
+    "vector_or_matrix",
+    "choice_or_vector",
+    "validate_options",
+    "format_value",
+]
+
+
+class OptionValueError(ValueError):
+    """Raised by an option's converter; its text completes "option NAME=VALUE of resolver 'R' ..."."""
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option a resolver accepts.
+
+    Attributes:
+        name: the keyword (``get_resolver(name, kinematic_weight=1.0)``, ``--option kinematic_weight=1``).
+        kind: the accepted type in words, e.g. ``number >= 0`` or ``'unit' | 'range' | vector``.
+        unit: the unit of the value, e.g. ``1/s``; empty when it has none.
+        default: the value used when the option is not given (None: described by ``default_text``).
+        meaning: one sentence: what the option does.
+        convert: checks a value (a Python value or the CLI's text) and returns the normalised
+            value; raises :class:`OptionValueError` saying what it must be.
+        default_text: how the listing shows the default, when ``default`` alone does not say it.
+    """
+
+    name: str
+    kind: str
+    unit: str
+    default: object
+    meaning: str
+    convert: Callable[[object], object]
+    default_text: str | None = None
+
+    def describe_default(self) -> str:
+        return self.default_text if self.default_text is not None else format_value(self.default)
+
+
+def number(minimum: float = 0.0, strict: bool = False, unit: str = "") -> Callable[[object], float]:
+    """A converter accepting a finite real number >= ``minimum`` (> when ``strict``), or its text."""
+    relation = ">" if strict else ">="
+    unit_text = f" [{unit}]" if unit else ""
+
+    def convert(value) -> float:
+        if isinstance(value, str):
+            try:
+                value = float(value)
+            except ValueError:
+                raise OptionValueError(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}") from None
+        if isinstance(value, bool) or not isinstance(value, Real):
+            raise OptionValueError(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}")
+        value = float(value)
+        if not math.isfinite(value) or value < minimum or (strict and value == minimum):
+            raise OptionValueError(f"must be a finite number {relation} {minimum:g}{unit_text}")
+        return value
+
+    return convert
+
+
+def _numbers(value, what: str) -> np.ndarray:
+    """An array of finite floats from comma-separated text or array-like values."""
+    if isinstance(value, str):
+        parts = [part.strip() for part in value.split(",")]
+        try:
+            array = np.array([float(part) for part in parts])
+        except ValueError:
+            raise OptionValueError(f"is not {what}; give comma-separated numbers, e.g. 1,1,1") from None
+    else:
+        try:
+            array = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise OptionValueError(f"is not {what}") from None
+    if array.size == 0 or not np.isfinite(array).all():
+        raise OptionValueError(f"must be {what} of finite numbers")
+    return array
+
+
+def vector_or_matrix(value) -> np.ndarray:
+    """A converter accepting a vector (comma-separated on the CLI) or a square matrix of finite numbers."""
+    array = _numbers(value, "a vector or a matrix")
+    if array.ndim > 2 or (array.ndim == 2 and array.shape[0] != array.shape[1]):
+        raise OptionValueError(f"must be a vector or a square matrix, got shape {array.shape}")
+    return array
+
+
+def choice_or_vector(*choices: str) -> Callable[[object], object]:
+    """A converter accepting one of the named ``choices`` or a vector of finite numbers."""
+    listed = " | ".join(f"'{choice}'" for choice in choices)
+
+    def convert(value):
+        if isinstance(value, str) and value.strip() in choices:
+            return value.strip()
+        if isinstance(value, str) and not any(ch.isdigit() for ch in value):
+            raise OptionValueError(f"must be {listed} or a vector of numbers")
+        array = _numbers(value, f"{listed} or a vector")
+        if array.ndim != 1:
+            raise OptionValueError(f"must be {listed} or a vector, got shape {array.shape}")
+        return array
+
+    return convert
+
+
+def format_value(value) -> str:
+    """A value as the listing and the messages show it: numbers by ``%g``, vectors comma-separated."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            return str(value)
+        if array.ndim == 0:
+            return f"{float(array):g}"
+        if array.ndim == 1:
+            return ",".join(f"{x:g}" for x in array)
+        return "x".join(str(size) for size in array.shape) + " matrix"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def validate_options(resolver: str, declared: tuple[Option, ...], given: Mapping[str, object]) -> dict[str, object]:
+    """Every declared option's value: the given ones checked and converted, the rest their defaults.
+
+    Raises:
+        InvalidInput: an option that is not declared (naming the close match and every valid
+            one), or a value its converter refuses (naming the value and what it must be).
+    """
+    by_name = {option.name: option for option in declared}
+    for name in given:
+        if name not in by_name:
+            raise InvalidInput(unknown_option_message(resolver, name, list(by_name)))
+    values = {}
+    for option in declared:
+        if option.name not in given or given[option.name] is None:
+            values[option.name] = option.default
+            continue
+        raw = given[option.name]
+        try:
+            values[option.name] = option.convert(raw)
+        except OptionValueError as error:
+            shown = raw if isinstance(raw, str) else format_value(raw)
+            unit = f" [{option.unit}]" if option.unit and option.unit not in str(error) else ""
+            raise InvalidInput(f"option {option.name}={shown} of resolver '{resolver}' {error}{unit}") from None
+    return values
+
+
+def unknown_option_message(resolver: str, name: str, valid: list[str]) -> str:
+    """One line: the unknown option, the close match if any, and every valid option."""
+    close = difflib.get_close_matches(str(name), valid, n=1, cutoff=0.7)
+    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    listed = ", ".join(valid) if valid else "none"
+    return f"unknown option '{name}' for resolver '{resolver}'{hint}; valid options: {listed}"
