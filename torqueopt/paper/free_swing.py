@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import InvalidInput
-from ..resolvers import Resolver
+from ..resolvers import Resolution, Resolver
 from ..result import SimResult
 from ..robot import Robot, TaskTerms
 from ..simulate import simulate
@@ -45,12 +45,11 @@ class ZeroTorque(Resolver):
 
         def step(terms: TaskTerms, task_acceleration: np.ndarray):
             acceleration = pin.aba(model, data, terms.configuration, terms.joint_velocity, np.zeros(n), pin.Convention.WORLD)
-            return np.zeros(n), acceleration, float("nan")
+            # The swing does not try to realise the task: its shortfall is all of it that gravity misses.
+            shortfall = float(np.linalg.norm(terms.jacobian.dot(acceleration) + terms.drift - task_acceleration))
+            return Resolution(np.zeros(n), acceleration, float("nan"), shortfall, False)
 
         return step
-
-    def null_space_solver(self, robot: Robot):
-        return None
 
 
 def free_swing_gravity(robot: Robot, scenario: PaperScenario) -> np.ndarray:
