@@ -5,6 +5,7 @@ import numpy as np
 import pinocchio as pin
 
 import torqueopt
+from torqueopt.integrators import rk4_reference_step
 
 
 def integrate(robot, q, v, tau, dt, duration):
@@ -77,3 +78,58 @@ def test_continuous_joints_stay_on_their_circle():
         if joint.nq == 2:
             cos_sin = q1[joint.idx_q : joint.idx_q + 2]
             assert abs(np.hypot(*cos_sin) - 1.0) < 1e-12
+
+
+# -- the fast stepper against the textbook reference ------------------------------------
+
+
+def _random_states(robot, count, seed):
+    """Seeded states (q, v, τ) around the default configuration, drawn with numpy."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        q = robot.integrate(robot.default_configuration, rng.uniform(-1.0, 1.0, robot.nv))
+        yield q, rng.uniform(-2.0, 2.0, robot.nv), rng.uniform(-5.0, 5.0, robot.nv)
+
+
+def _robots():
+    return [
+        torqueopt.load_robot("planar3"),
+        torqueopt.load_robot("panda", task="position"),
+        torqueopt.load_robot("kinova", gravity=False),  # continuous joints: the integrate path
+    ]
+
+
+def test_fast_stepper_equals_the_reference_step_on_several_robots():
+    for robot in _robots():
+        for q, v, tau in _random_states(robot, 10, seed=7):
+            fast_q, fast_v = torqueopt.rk4_step(robot, q, v, tau, 1e-3)
+            ref_q, ref_v = rk4_reference_step(robot, q, v, tau, 1e-3)
+            scale = 1.0 + np.abs(ref_v).max()
+            np.testing.assert_allclose(fast_q, ref_q, rtol=0, atol=1e-12, err_msg=robot.name)
+            np.testing.assert_allclose(fast_v, ref_v, rtol=0, atol=1e-12 * scale, err_msg=robot.name)
+
+
+def test_every_step_of_a_run_is_the_reference_step():
+    """Each recorded step (q_k, v_k, τ_k) -> (q_k+1, v_k+1) of the paper's long null-space run."""
+    from torqueopt.paper import PAPER, run_movement
+
+    result = run_movement(PAPER, "long", "null-space")
+    robot = PAPER.load_robot()
+    data = robot.model.createData()
+    for k in range(0, len(result.t) - 1, 7):
+        q, v = rk4_reference_step(robot, result.q[k], result.v[k], result.tau[k], result.dt, data)
+        np.testing.assert_allclose(q, result.q[k + 1], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(v, result.v[k + 1], rtol=0, atol=1e-12 * (1.0 + np.abs(v).max()))
+
+
+def test_a_whole_run_replayed_by_the_reference_stays_on_the_simulated_one():
+    """The short movement's torques, replayed open loop by the reference RK4, give the same motion."""
+    from torqueopt.paper import PAPER, run_movement
+
+    result = run_movement(PAPER, "short", "null-space")
+    robot = PAPER.load_robot()
+    q, v = result.q[0], result.v[0]
+    for k in range(len(result.t) - 1):
+        q, v = rk4_reference_step(robot, q, v, result.tau[k], result.dt)
+    np.testing.assert_allclose(q, result.q[-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(v, result.v[-1], rtol=0, atol=1e-9)

@@ -272,3 +272,32 @@ def test_damaged_run_files_give_one_clear_error(tmp_path, short_pinv, damage, me
     broken_npz.write_bytes(b"PK\x03\x04 not really a zip")
     with pytest.raises(InvalidInput, match="run file '.*run.npz' is malformed"):
         torqueopt.load_result(broken_npz)
+
+
+def test_runs_in_threads_on_one_robot_give_the_serial_results():
+    """Each run computes in its own Pinocchio data, so two threads sharing a Robot cannot race."""
+    import threading
+
+    robot = torqueopt.load_robot("panda", task="position")
+    movements = [
+        ("null-space", StraightLine([1.0, 0.0, 0.0], accel=0.2, duration=0.3)),
+        ("inertia-pinv", StraightLine([0.0, 0.6, 0.8], accel=0.3, duration=0.3)),
+    ]
+    q0 = robot.default_configuration
+    serial = [torqueopt.simulate(robot, name, line, q0) for name, line in movements]
+    threaded = [None, None]
+    barrier = threading.Barrier(len(movements))
+
+    def run(index):
+        barrier.wait()
+        name, line = movements[index]
+        threaded[index] = torqueopt.simulate(robot, name, line, q0)
+
+    threads = [threading.Thread(target=run, args=(index,)) for index in range(len(movements))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for alone, together in zip(serial, threaded):
+        for field in ("q", "v", "tau", "x"):
+            np.testing.assert_array_equal(getattr(together, field), getattr(alone, field))

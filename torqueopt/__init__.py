@@ -18,10 +18,11 @@ from .errors import (
     TorqueoptError,
     UrdfError,
 )
+from .integrators import rk4_step
 from .resolvers import NullSpaceResolver, Option, Resolution, Resolver, get_resolver, resolver_names
 from .result import SimResult, load_result
 from .robot import Robot, TaskTerms, load_robot
-from .simulate import Feedback, resolve, rk4_step, simulate
+from .simulate import Feedback, resolve, simulate
 from .trajectory import Circle, MinimumJerkLine, Reference, StraightLine, Trajectory, WaypointPath
 
 __version__ = "0.1.0"

@@ -65,8 +65,8 @@ class TaskTerms(NamedTuple):
 
     The terms a resolver gets inside :func:`torqueopt.simulate` come from
     :meth:`Robot.terms_function`: there ``inertia`` and ``bias_torque`` are
-    views of the robot's Pinocchio data, valid for that step only; copy them
-    to keep them.
+    views of the run's own Pinocchio data, valid for that step only; copy
+    them to keep them.
     """
 
     inertia: np.ndarray
@@ -112,7 +112,6 @@ class Robot:
         if not model.existFrame(frame):
             raise FrameNotFound(f"robot '{name}' has no frame '{frame}': choose one of {_frame_hint(model)}")
         self.model = model
-        self.data = model.createData()
         self.name = name
         self.source = source
         self.frame = frame
@@ -260,20 +259,23 @@ class Robot:
 
     # -- dynamics -------------------------------------------------------------
     def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:
-        """Inertia, bias torques, task Jacobian and drift at (q, v), all from Pinocchio."""
+        """Inertia, bias torques, task Jacobian and drift at (q, v), all from Pinocchio, computed in a fresh data."""
         terms = self.terms_function()(q, v)
         return terms._replace(inertia=terms.inertia.copy(), bias_torque=terms.bias_torque.copy())
 
-    def terms_function(self):
+    def terms_function(self, data: pin.Data | None = None):
         """:meth:`terms` as a bare function ``(q, v) -> TaskTerms``, for inner loops.
 
-        Its ``inertia`` and ``bias_torque`` are views of Pinocchio's data, not
-        copies: they hold the latest call's values until this robot's data is
-        next written (by this function, :meth:`terms` or other Pinocchio
-        algorithms). A loop that uses them before its next call saves four
-        numpy calls per step; the other fields are fresh at each call.
+        It computes in ``data`` (a fresh Pinocchio data when None), which it
+        keeps: a run makes its own, so runs in threads never share one. Its
+        ``inertia`` and ``bias_torque`` are views of that data, not copies:
+        they hold the latest call's values until the data is next written
+        (by this function or by any Pinocchio algorithm given the same
+        data). A loop that uses them before its next call saves four numpy
+        calls per step; the other fields are fresh at each call.
         """
-        model, data, frame_id, rows = self.model, self.data, self.frame_id, self.task_rows
+        model, frame_id, rows = self.model, self.frame_id, self.task_rows
+        data = model.createData() if data is None else data
         # Eigen never reallocates these fixed-size members, so one view serves every call.
         inertia, bias_torque = data.M, data.nle
 
@@ -288,31 +290,32 @@ class Robot:
 
         return terms
 
-    def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """Joint acceleration from torque, by Pinocchio's ABA [rad/s²].
+    def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: pin.Data | None = None) -> np.ndarray:
+        """Joint acceleration from torque, by Pinocchio's ABA [rad/s²], computed in ``data`` (fresh when None).
 
         ABA runs in Pinocchio's WORLD convention: the same accelerations as
-        the default LOCAL one to round-off, in about 20 % fewer instructions
-        (11.4k against 14.3k per call on planar3, counted with callgrind).
+        the default LOCAL one to round-off, in fewer instructions (BENCHMARKS.md).
         """
-        return pin.aba(self.model, self.data, q, v, tau, _WORLD)
+        data = self.model.createData() if data is None else data
+        return pin.aba(self.model, data, q, v, tau, _WORLD)
 
-    def forward_dynamics_function(self):
-        """:meth:`forward_dynamics` as a bare callable ``(q, v, tau) -> q̈``, for inner loops.
+    def forward_dynamics_function(self, data: pin.Data | None = None):
+        """:meth:`forward_dynamics` as a bare callable ``(q, v, tau) -> q̈`` computing in ``data`` (fresh when None).
 
-        Calling it skips one Python frame per call (about 0.5 µs); it works on
-        this robot's model and data, so gravity set later still applies.
+        Calling it skips one Python frame per call, for inner loops.
         """
-        return partial(pin.aba, self.model, self.data, convention=_WORLD)
+        data = self.model.createData() if data is None else data
+        return partial(pin.aba, self.model, data, convention=_WORLD)
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Configuration reached from q by the joint displacement dq."""
         return pin.integrate(self.model, q, dq)
 
-    def frame_placement(self, q: np.ndarray) -> pin.SE3:
-        """World pose of the task frame at configuration q."""
-        pin.framesForwardKinematics(self.model, self.data, q)
-        return self.data.oMf[self.frame_id].copy()
+    def frame_placement(self, q: np.ndarray, data: pin.Data | None = None) -> pin.SE3:
+        """World pose of the task frame at configuration q, computed in ``data`` (fresh when None)."""
+        data = self.model.createData() if data is None else data
+        pin.framesForwardKinematics(self.model, data, q)
+        return data.oMf[self.frame_id].copy()
 
     def task_coordinates(self, placement: pin.SE3, reference_rotation: np.ndarray | None = None) -> np.ndarray:
         """Task coordinates x (m) of a frame placement; see the module docstring for ``pose``."""

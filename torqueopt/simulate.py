@@ -26,6 +26,7 @@ import numpy as np
 
 from .checks import finite_vector, positive_number
 from .errors import InvalidInput, SingularJacobian
+from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
@@ -52,109 +53,6 @@ class Feedback:
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InvalidInput(f"feedback gain {name}={value!r} must be a finite number >= 0")
-
-
-def rk4_step(robot: Robot, q, v, tau, dt: float, acceleration=None):
-    """One classical RK4 step of the forward dynamics with the torque held constant.
-
-    Configurations are advanced with Pinocchio's ``integrate`` so continuous
-    joints stay on their circle; for ordinary joints this is plain addition.
-
-    Args:
-        acceleration: ABA(q, v, tau) when the caller already has it.
-
-    Returns:
-        (q, v) after the step.
-    """
-    if acceleration is None:
-        acceleration = robot.forward_dynamics(q, v, tau)
-    return _rk4_stepper(robot, dt)(q, v, tau, acceleration)
-
-
-def _rk4_stepper(robot: Robot, dt: float):
-    r""":func:`rk4_step` for one robot and step as a function ``(q, v, τ, k1) -> (q, v)``.
-
-    With stage accelerations :math:`k_i` (ABA at each stage) and the torque
-    held, classical RK4 for :math:`\dot q = v,\ \dot v = a` is
-
-    .. math::
-
-        v_2 = v + \tfrac{h}{2} k_1,\quad v_3 = v + \tfrac{h}{2} k_2,\quad v_4 = v + h k_3,
-
-        k_2 = \mathrm{ABA}(q \oplus \tfrac{h}{2} v, v_2, \tau),\quad
-        k_3 = \mathrm{ABA}(q \oplus \tfrac{h}{2} v_2, v_3, \tau),\quad
-        k_4 = \mathrm{ABA}(q \oplus h v_3, v_4, \tau),
-
-        v^+ = v + \tfrac{h}{6}(k_1 + 2k_2 + 2k_3 + k_4),\qquad
-        q^+ = q \oplus \tfrac{h}{6}(v + 2v_2 + 2v_3 + v_4) = q \oplus \big(h v + \tfrac{h^2}{6}(k_1 + k_2 + k_3)\big).
-
-    Each stage's configuration increment (:math:`\tfrac{h}{2} v`,
-    :math:`\tfrac{h}{2} v_2 = \tfrac{h}{2} v + \tfrac{h^2}{4} k_1`,
-    :math:`h v_3 = h v + \tfrac{h^2}{2} k_2`) and velocity, and the final
-    update, are fixed linear combinations of :math:`v, k_1, \dots, k_4`:
-    the rows of one array allocated here. So each stage costs one small
-    matrix product, written into a buffer whose rows ABA reads, rather than
-    several elementwise numpy operations, whose call overhead, not
-    arithmetic, dominates at these sizes. Rows are filled through views
-    made once: ``row[...] = value`` takes half the time of
-    ``stages[i] = value``. When every joint is revolute or prismatic
-    (``robot.euclidean``), :math:`q \oplus \delta = q + \delta` and q joins
-    those rows, so no ``integrate`` call is needed at all.
-    """
-    h = float(dt)
-    n = robot.nv
-    # Weights of (v, k1, k2, k3, k4) in each stage's (configuration increment, velocity).
-    stage2 = [[h / 2, 0.0], [1.0, h / 2]]
-    stage3 = [[h / 2, h * h / 4, 0.0], [1.0, 0.0, h / 2]]
-    stage4 = [[h, 0.0, h * h / 2, 0.0], [1.0, 0.0, 0.0, h]]
-    update = [[h, h * h / 6, h * h / 6, h * h / 6, 0.0], [1.0, h / 6, h / 3, h / 3, h / 6]]
-    forward_dynamics = robot.forward_dynamics_function()
-    buffer = np.empty((2, n))
-    increment, velocity = buffer[0], buffer[1]  # views that every stage's product refills
-
-    if robot.euclidean:
-        # Rows q, v, k1..k4; q enters the configuration row with weight 1.
-        stages = np.zeros((6, n))
-        weights = [np.array([[1.0, *row0], [0.0, *row1]]) for row0, row1 in (stage2, stage3, stage4, update)]
-        weight2, weight3, weight4, weight_update = weights
-        rows3, rows4, rows5 = stages[:3], stages[:4], stages[:5]
-        q_row, v_row, k1_row, k2_row, k3_row, k4_row = stages
-
-        def rk4(q, v, tau, k1):
-            q_row[...] = q
-            v_row[...] = v
-            k1_row[...] = k1
-            weight2.dot(rows3, out=buffer)
-            k2_row[...] = forward_dynamics(increment, velocity, tau)
-            weight3.dot(rows4, out=buffer)
-            k3_row[...] = forward_dynamics(increment, velocity, tau)
-            weight4.dot(rows5, out=buffer)
-            k4_row[...] = forward_dynamics(increment, velocity, tau)
-            combination = weight_update.dot(stages)
-            return combination[0], combination[1]
-
-        return rk4
-
-    stages = np.zeros((5, n))  # rows: v, k1, k2, k3, k4
-    weight2, weight3, weight4, weight_update = (np.array(w) for w in (stage2, stage3, stage4, update))
-    rows2, rows3, rows4 = stages[:2], stages[:3], stages[:4]
-    integrate = robot.integrate
-
-    v_row, k1_row, k2_row, k3_row, k4_row = stages
-
-    def rk4(q, v, tau, k1):
-        v_row[...] = v
-        k1_row[...] = k1
-        weight2.dot(rows2, out=buffer)
-        k2_row[...] = forward_dynamics(integrate(q, increment), velocity, tau)
-        weight3.dot(rows3, out=buffer)
-        k3_row[...] = forward_dynamics(integrate(q, increment), velocity, tau)
-        weight4.dot(rows4, out=buffer)
-        k4_row[...] = forward_dynamics(integrate(q, increment), velocity, tau)
-        combination = weight_update.dot(stages)
-        return integrate(q, combination[0]), combination[1]
-
-    return rk4
 
 
 def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **options) -> Resolution:
@@ -249,8 +147,11 @@ def simulate(
     within = partial(map, operator.le)
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver(robot)
-    advance = _rk4_stepper(robot, dt)
-    terms_at = robot.terms_function()
+    # One Pinocchio data per run: runs in threads cannot race, and nothing
+    # outside this run writes into the views its terms hold.
+    data = robot.model.createData()
+    advance = rk4_stepper(robot, dt, data)
+    terms_at = robot.terms_function(data)
     task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
     # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
     position_rows = None if robot.task == "pose" else robot.task_rows

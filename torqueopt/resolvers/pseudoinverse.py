@@ -43,9 +43,8 @@ class InertiaWeightedPseudoInverse(NullSpaceResolver):
     def null_space_solver(self, robot: Robot):
         # Z^T H Z is symmetric positive definite (H is, Z has full column rank),
         # so the least-squares solution is its inverse applied. Eigen's SVD
-        # serves here rather than its Cholesky: measured in simulate, as fast
-        # on panda (n - m = 4) and 30 % faster per step on planar3 (n - m = 1),
-        # with no separate success check through eigenpy.
+        # serves here rather than its Cholesky: no slower per step, measured
+        # in simulate (BENCHMARKS.md), and no separate success check through eigenpy.
         solve = LeastSquares(robot.redundancy, robot.redundancy)
 
         def coordinates(terms: TaskTerms, null_space_basis, particular):

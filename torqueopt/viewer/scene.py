@@ -83,7 +83,8 @@ class Playback:
         self._geometry_data = self.geometry.createData()
 
         self.configurations = np.array([robot.configuration(angles) for angles in result.joint_angles])
-        self.tip_positions = np.array([robot.frame_placement(q).translation for q in self.configurations])
+        robot_data = robot.model.createData()
+        self.tip_positions = np.array([robot.frame_placement(q, robot_data).translation for q in self.configurations])
         self.reference_positions = reference_positions(result, self.tip_positions[0])
         self.joint_ids = [self.model.getJointId(name) for name in robot.joint_names]
 
