@@ -15,7 +15,7 @@ each of its runs to the matching ``simulate`` run to 1e-9:
   basis :math:`Z`, then each resolver's choice of the null-space
   coordinates :math:`y` is a batched solve (the formulas of
   :mod:`torqueopt.resolvers`, Eqs. (31), (33), (34)-(37));
-* RK4 with the torque held (:func:`torqueopt.simulate.rk4_step`) takes the
+* RK4 with the torque held (:func:`torqueopt.integrators.rk4_step`) takes the
   resolver's :math:`\ddot q` as its first stage and computes the other three
   stage accelerations of the whole batch with one ``pin.abaInParallel``
   call each, over a ``pin.ModelPool``.
