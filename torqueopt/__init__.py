@@ -5,6 +5,7 @@ manipulators through torque optimization" (IEEE J. Robotics and Automation,
 1987) on top of Pinocchio.
 """
 
+from .dexterity import Dexterity, dexterity, dexterity_along
 from .errors import (
     FrameNotFound,
     InvalidInput,
@@ -38,6 +39,9 @@ __all__ = [
     "Circle",
     "WaypointPath",
     "simulate",
+    "dexterity",
+    "dexterity_along",
+    "Dexterity",
     "rk4_step",
     "resolve",
     "Feedback",

@@ -17,6 +17,8 @@ __all__ = ["SimResult", "load_result"]
 
 #: The per-step columns after xref, in this order; files written before they existed lack them.
 _STEP_COLUMNS = ("task_error", "infeasible")
+#: Prefix of the dexterity arrays in a ``.npz`` run file.
+_DEXTERITY_KEY = "dexterity_"
 _ARRAY_FIELDS = (
     "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
     "jacobian_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
@@ -48,6 +50,9 @@ class SimResult:
             ‖J q̈ + J̇q̇ − ẍ‖ [m/s², rad/s²], (N,); zeros when not given.
         infeasible: per row, True where no admissible torque realised the task, (N,).
         resolver_options: the resolver's option values, JSON-ready (None when unknown).
+        dexterity: per-row dexterity measures keyed by name (each (N,)), as
+            :func:`torqueopt.dexterity.dexterity_along` gives them; None
+            unless asked for (``simulate(..., dexterity=True)``).
     """
 
     robot: str
@@ -74,6 +79,7 @@ class SimResult:
     task_error: np.ndarray | None = None
     infeasible: np.ndarray | None = None
     resolver_options: dict | None = None
+    dexterity: dict[str, np.ndarray] | None = None
 
     def __post_init__(self):
         # Runs written before these columns existed, and results built by hand, realised their task.
@@ -203,18 +209,23 @@ class SimResult:
         The CSV's q columns hold one angle per joint (see
         :meth:`Robot.joint_angles`). Beside a CSV, ``<path>.json`` keeps what
         the columns cannot (robot, limits, stop reason) so that
-        :func:`load_result` can read the run back. Files are written to a
+        :func:`load_result` can read the run back. A run with dexterity
+        measures has one more column per measure, named after it, after
+        the xref columns (arrays ``dexterity_<name>`` in the ``.npz``). Files are written to a
         temporary name and renamed, so they are never left half-written.
         """
         path = Path(path)
         if path.suffix.lower() == ".npz":
             arrays = {name: getattr(self, name) for name in _ARRAY_FIELDS}
+            arrays.update({_DEXTERITY_KEY + name: values for name, values in (self.dexterity or {}).items()})
             atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(self._metadata()), **arrays))
             return path
+        dexterity = self.dexterity or {}
         table = np.column_stack(
-            [self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref, self.task_error, self.infeasible]
+            [self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref, self.task_error, self.infeasible,
+             *dexterity.values()]
         )
-        header = ",".join(self.csv_columns())
+        header = ",".join([*self.csv_columns(), *dexterity])
         atomic_write(path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g"))
         sidecar = self._metadata()
         sidecar["torque_upper"] = [_json_number(x) for x in self.torque_upper]
@@ -224,7 +235,7 @@ class SimResult:
         return path
 
     def _metadata(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _ARRAY_FIELDS}
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in (*_ARRAY_FIELDS, "dexterity")}
 
     def __repr__(self) -> str:
         status = "completed" if self.completed else f"stopped: {self.stop_reason}"
@@ -260,7 +271,8 @@ def _load_npz(path: Path) -> SimResult:
         metadata = json.loads(str(archive["metadata"]))
         # Files written before the per-step task columns existed lack them: SimResult fills them in.
         arrays = {name: archive[name] for name in _ARRAY_FIELDS if name in archive.files or name not in _STEP_COLUMNS}
-    return SimResult(**metadata, **arrays)
+        dexterity = {key[len(_DEXTERITY_KEY):]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)}
+    return SimResult(**metadata, **arrays, dexterity=dexterity or None)
 
 
 def _load_csv(path: Path, robot) -> SimResult:
@@ -272,14 +284,17 @@ def _load_csv(path: Path, robot) -> SimResult:
         header = handle.readline().strip().split(",")
     table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     n = len(metadata["joint_names"])
-    has_step_columns = tuple(header[-len(_STEP_COLUMNS) :]) == _STEP_COLUMNS
-    vector_columns = len(header) - (len(_STEP_COLUMNS) if has_step_columns else 0)
-    m = (vector_columns - 1 - 3 * n) // 2
-    if table.shape[1] != len(header) or m < 1 or vector_columns != 1 + 3 * n + 2 * m:
+    m = sum(1 for name in header if name.startswith("x") and name[1:].isdigit())
+    vector_columns = 1 + 3 * n + 2 * m
+    has_step_columns = tuple(header[vector_columns : vector_columns + len(_STEP_COLUMNS)]) == _STEP_COLUMNS
+    standard = vector_columns + (len(_STEP_COLUMNS) if has_step_columns else 0)
+    if table.shape[1] != len(header) or m < 1 or len(header) < standard:
         raise ValueError(f"it has {table.shape[1]} columns, which do not fit its {n} joints")
-    t, angles, v, tau, x, x_ref, steps = np.split(table, np.cumsum([1, n, n, n, m, m]), axis=1)
+    t, angles, v, tau, x, x_ref, steps = np.split(table[:, :standard], np.cumsum([1, n, n, n, m, m]), axis=1)
     if has_step_columns:
         metadata["task_error"], metadata["infeasible"] = steps[:, 0], steps[:, 1] != 0
+    # Named columns after those (the dexterity measures) are kept by name.
+    dexterity = {name: table[:, column].copy() for column, name in enumerate(header) if column >= standard}
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
     return SimResult(
@@ -295,6 +310,7 @@ def _load_csv(path: Path, robot) -> SimResult:
         jacobian_condition=np.full(len(t), np.nan),
         torque_upper=upper,
         torque_lower=lower,
+        dexterity=dexterity or None,
     )
 
 

@@ -25,6 +25,7 @@ from functools import partial
 import numpy as np
 
 from .checks import finite_vector, positive_number
+from .dexterity import dexterity_along
 from .errors import InvalidInput, SingularJacobian
 from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
@@ -85,6 +86,7 @@ def simulate(
     max_joint_speed: float = DEFAULT_MAX_JOINT_SPEED,
     max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
     resolver_options: dict | None = None,
+    dexterity: bool = False,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -105,6 +107,9 @@ def simulate(
         max_torque_ratio: a torque beyond this multiple of its limit ends the run as diverged.
         resolver_options: the resolver's declared options, when ``resolver`` is a name
             (``simulate(robot, "damped-null-space", ..., resolver_options={"damping": 2.0})``).
+        dexterity: also record the dexterity measures of every row
+            (:func:`torqueopt.dexterity.dexterity_along`, computed after the
+            run from the stored configurations) as ``SimResult.dexterity``.
 
     Returns:
         SimResult with one row per step start, t = 0, dt, ..., duration.
@@ -232,6 +237,7 @@ def simulate(
         trajectory=describe(trajectory),
         task_error=task_error_log,
         infeasible=infeasible_log,
+        dexterity=dexterity_along(robot, q_log) if dexterity else None,
     )
 
 
