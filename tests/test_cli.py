@@ -23,7 +23,7 @@ def test_run_prints_a_summary_and_writes_the_run(tmp_path, capsys):
     assert "first limit violation: none" in printed and "status: completed" in printed
     assert out.is_file() and (tmp_path / "run.csv.json").is_file()
     table = np.loadtxt(out, delimiter=",", skiprows=1)
-    assert table.shape == (501, 16)  # t, 3 q, 3 v, 3 tau, 2 x, 2 xref, task_error, infeasible
+    assert table.shape == (501, 16 + 6)  # t, 3 q, 3 v, 3 tau, 2 x, 2 xref, task_error, infeasible, 6 dexterity
     # The summary's peak torque of joint 1 is the CSV's, to print precision.
     joint1 = [line for line in printed.splitlines() if line.startswith("joint1")][0]
     assert float(joint1.split()[1]) == pytest.approx(np.abs(table[:, 7]).max(), abs=1e-3)

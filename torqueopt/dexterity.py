@@ -262,3 +262,24 @@ def _configuration(robot: Robot, q) -> np.ndarray:
     if robot.nq != robot.nv and values.size == robot.nq:
         return finite_vector(values, robot.nq, "q")
     return robot.configuration(finite_vector(values, robot.nv, "q", names=robot.joint_names))
+
+
+def summarise_along(t, measures: dict[str, np.ndarray]) -> list[str]:
+    """Lines for a run's report: each headline measure at the start and at its lowest, with when [s]."""
+    t = np.asarray(t, dtype=float)
+    labels = {
+        "manipulability": "manipulability w, Eq. (6)",
+        "min_singular_value": "smallest singular value of J",
+        "dynamic_manipulability": "dynamic manipulability, Eq. (25)",
+    }
+    lines = []
+    for name, label in labels.items():
+        values = np.asarray(measures.get(name, ()), dtype=float)
+        finite = np.flatnonzero(np.isfinite(values))
+        if not finite.size:
+            if name == "dynamic_manipulability" and values.size:
+                lines.append(f"{label}: none (a joint has no torque limit)")
+            continue
+        lowest = finite[np.argmin(values[finite])]
+        lines.append(f"{label}: {values[finite[0]]:.4g} at the start, lowest {values[lowest]:.4g} at t = {t[lowest]:.3f} s")
+    return lines

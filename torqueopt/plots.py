@@ -32,6 +32,8 @@ __all__ = [
     "plot_stick_strip",
     "plot_run",
     "arm_points",
+    "draw_dexterity",
+    "dexterity_ellipses",
 ]
 
 #: One colour per resolver, the same in every figure.
@@ -158,6 +160,7 @@ def plot_stick_strip(
     title: str,
     snapshots: int = 8,
     events: Mapping[str, float] | None = None,
+    ellipse: str | None = None,
 ) -> Path:
     r"""A strip of stick-figure snapshots of the arm, over a plot of its joint speeds.
 
@@ -173,7 +176,14 @@ def plot_stick_strip(
         result: the run.
         snapshots: number of stick figures (2 to 24).
         events: labelled instants to mark on the speed plot [s].
+        ellipse: draw a dexterity ellipse at the tip of every snapshot:
+            ``"velocity"`` (tip velocities of unit joint speed, Eq. (6)) or
+            ``"acceleration"`` (Yoshikawa's dynamic manipulability ellipsoid,
+            Eq. (24)), projected on the drawing plane and scaled alike in
+            every panel (see :func:`dexterity_ellipses`); None draws none.
     """
+    if ellipse not in (None, *_ELLIPSES):
+        raise InvalidInput(f"ellipse={ellipse!r} is not one of {', '.join(_ELLIPSES)} (or None)")
     if not isinstance(snapshots, (int, np.integer)) or not 2 <= snapshots <= 24:
         raise InvalidInput(f"snapshots={snapshots!r} must be a whole number from 2 to 24")
     if not len(result.t):
@@ -190,6 +200,9 @@ def plot_stick_strip(
     reference_2d = _project_task(result.x_ref[:, :linear], basis, origin)
 
     drawn = np.vstack([arm.reshape(-1, 2), reference_2d[np.isfinite(reference_2d).all(axis=1)]])
+    if ellipse is not None:
+        outlines, ellipse_label = dexterity_ellipses(robot, result, rows, ellipse, basis, arm[:, -1], drawn)
+        drawn = np.vstack([drawn, *[outline for outline in outlines if outline is not None]])
     low, high = drawn.min(axis=0), drawn.max(axis=0)
     center, span = 0.5 * (low + high), 1.12 * (high - low) + 1e-3
     aspect = float(np.clip(span[1] / span[0], 0.35, 2.0))
@@ -219,6 +232,8 @@ def plot_stick_strip(
         ax.plot(tip_2d[: row + 1, 0], tip_2d[: row + 1, 1], color="tab:red", lw=1.0, label="tip path so far")
         ax.plot(arm[index, :, 0], arm[index, :, 1], "-o", color="k", lw=2.2, ms=3.5, label="arm (joints as dots)")
         ax.plot(arm[index, -1, 0], arm[index, -1, 1], "s", color="tab:red", ms=4, label="tip")
+        if ellipse is not None and outlines[index] is not None:
+            ax.fill(*outlines[index].T, color="tab:cyan", alpha=0.25, lw=1.0, ec="tab:blue", label=ellipse_label)
         ax.set_xlim(center[0] - span[0] / 2, center[0] + span[0] / 2)
         ax.set_ylim(center[1] - span[1] / 2, center[1] + span[1] / 2)
         ax.set_aspect("equal")
@@ -232,7 +247,7 @@ def plot_stick_strip(
         else:
             ax.set_yticklabels([])
         if index == 0:
-            fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=4, fontsize=8, frameon=False,
+            fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=5, fontsize=8, frameon=False,
                        bbox_to_anchor=(0.5, 1.0 - 0.62 / height))
         ax.set_xlabel(_axis_names(robot)[0] + " [m]", fontsize=8, labelpad=1)
     speed_ax = place(left, bottom, width - left - right, speed_height - 0.35)
@@ -255,7 +270,7 @@ def plot_stick_strip(
 def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = None) -> Path:
     """Overview of any saved run: torque of each joint with its limits, joint velocities, tip path and error."""
     n = result.n
-    fig = _figure(13.0, max(6.0, 1.0 + 1.7 * n))
+    fig = _figure(13.0, max(6.0, 1.0 + 1.7 * n) + (1.8 if result.dexterity else 0.0))
     grid = fig.add_gridspec(n, 2, width_ratios=(1.3, 1.0))
     torque_axes = [fig.add_subplot(grid[joint, 0]) for joint in range(n)]
     for joint, ax in enumerate(torque_axes):
@@ -275,7 +290,8 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
             ax.tick_params(labelbottom=False)
     torque_axes[-1].set_xlabel("time [s]")
     torque_axes[0].legend(loc="upper left", fontsize=7)
-    right = grid[:, 1].subgridspec(3, 1, height_ratios=(1.0, 1.3, 0.8))
+    panels = (1.0, 1.3, 0.8, 0.9) if result.dexterity else (1.0, 1.3, 0.8)
+    right = grid[:, 1].subgridspec(len(panels), 1, height_ratios=panels)
     speed_ax = fig.add_subplot(right[0])
     for joint, name in enumerate(result.joint_names):
         speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2,
@@ -296,6 +312,8 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
     error_ax.set_xlabel("time [s]")
     error_ax.set_ylabel("[mm]")
     error_ax.grid(alpha=0.3)
+    if result.dexterity:
+        draw_dexterity(fig.add_subplot(right[3]), result)
     default = f"{result.robot}: resolver {result.resolver}, task {result.task} at '{result.frame}', {result.duration:g} s"
     _suptitle(fig, title or default, [result])
     return _save(fig, path)
@@ -312,6 +330,81 @@ def arm_points(robot: Robot, joint_angles) -> np.ndarray:
     pin.updateFramePlacement(model, data, robot.frame_id)
     joints = [data.oMi[j].translation.copy() for j in range(1, model.njoints)]
     return np.array([*joints, data.oMf[robot.frame_id].translation.copy()])
+
+
+# -- dexterity ----------------------------------------------------------------
+_ELLIPSES = ("velocity", "acceleration")
+_DEXTERITY_LINES = (
+    ("manipulability", "w, Eq. (6)", "tab:blue"),
+    ("min_singular_value", "σ_min(J)", "tab:green"),
+    ("dynamic_manipulability", "dynamic w, Eq. (25)", "tab:red"),
+)
+
+
+def draw_dexterity(ax, result: SimResult) -> None:
+    """Draw a run's dexterity measures on ``ax``, each relative to its value at the start (1 = unchanged).
+
+    The legend gives each measure's start value, so the panel reads both how
+    dexterity changed and where it began.
+    """
+    highest = 1.0
+    for name, label, color in _DEXTERITY_LINES:
+        values = np.asarray(result.dexterity.get(name, ()), dtype=float)
+        if not values.size or not np.isfinite(values[0]) or values[0] == 0.0:
+            continue
+        ratio = values / values[0]
+        highest = max(highest, float(np.nanmax(ratio)))
+        ax.plot(result.t, ratio, color=color, lw=1.2, label=f"{label} (start {values[0]:.3g})")
+    ax.axhline(1.0, color="0.6", lw=0.8, ls=":")
+    _mark_stops(ax, [result])
+    # Head room above the curves for the legend.
+    ax.set_ylim(0.0, 1.9 * highest)
+    ax.set_title("dexterity, as a ratio to its start value", fontsize=9, loc="left")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("ratio to start", fontsize=8)
+    ax.legend(fontsize=7, loc="upper left", framealpha=0.85)
+    ax.grid(alpha=0.3)
+
+
+def dexterity_ellipses(robot: Robot, result: SimResult, rows, kind: str, basis, tips, drawn):
+    r"""Outlines (points × 2, drawing coordinates) of one dexterity ellipse per snapshot row, and a legend label.
+
+    ``kind`` ``"velocity"`` draws :math:`\{J\dot q : \|\dot q\| \le 1\}`, ``"acceleration"``
+    Yoshikawa's :math:`\{J\tilde H^{-1}\hat\tau : \|\hat\tau\| \le 1\}` (Eq. (24)), projected
+    on the drawing plane (``basis``, 2×3; the xy task is drawn as it is) and
+    centred at the tip. One scale serves every snapshot, chosen so that the
+    largest semi-axis is a quarter of the drawing's extent (``drawn``); the
+    label says how many drawing metres one unit [m/s or m/s²] is. An entry
+    is None where the ellipse is undefined (no torque limits).
+    """
+    from .dexterity import dexterity
+
+    mappings = []
+    for row in rows:
+        measured = dexterity(robot, result.joint_angles[row])
+        ellipsoid = measured.velocity_ellipsoid if kind == "velocity" else measured.acceleration_ellipsoid
+        if ellipsoid is None:
+            mappings.append(None)
+            continue
+        axes = ellipsoid.semi_axes
+        mappings.append(axes if axes.shape[0] == 2 else basis @ axes)
+    largest = max((float(np.linalg.svd(m, compute_uv=False)[0]) for m in mappings if m is not None), default=0.0)
+    extent = float(np.ptp(drawn, axis=0).max()) or 1.0
+    scale = 0.25 * extent / largest if largest > 0 else 0.0
+    angle = np.linspace(0.0, 2.0 * np.pi, 73)
+    circle = np.stack([np.cos(angle), np.sin(angle)])
+    outlines = []
+    for mapping, tip in zip(mappings, tips):
+        if mapping is None:
+            outlines.append(None)
+            continue
+        left, values, _ = np.linalg.svd(mapping, full_matrices=False)
+        outlines.append(tip + (scale * (left[:, :2] * values[:2]) @ circle).T)
+    if kind == "velocity":
+        label = f"velocity ellipse, ‖q̇‖ ≤ 1 rad/s (1 m/s drawn as {scale:.3g} m)"
+    else:
+        label = f"acceleration ellipse, Eq. (24) (1 m/s² drawn as {scale:.3g} m)"
+    return outlines, label
 
 
 # -- helpers ------------------------------------------------------------------

@@ -9,6 +9,7 @@ from ..io import writable_path
 from ..plots import plot_run
 from ..result import load_result
 from . import EXIT_OK
+from .stick import add_stick_options, stick_robot, write_stick_figures
 
 __all__ = ["add_parser"]
 
@@ -26,14 +27,18 @@ def add_parser(subparsers) -> None:
     parser.add_argument("run", metavar="RUN", help="run file: .csv (with its .csv.json sidecar) or .npz")
     parser.add_argument("--out", metavar="PNG", help="figure to write (default: RUN with the suffix .png)")
     parser.add_argument("--title", help="figure title (default: robot, resolver, task and duration)")
+    add_stick_options(parser)
     parser.set_defaults(handler=plot_command)
 
 
 def plot_command(args: argparse.Namespace) -> int:
     result = load_result(args.run)
     out = writable_path(args.out if args.out else Path(args.run).with_suffix(".png"))
+    robot = stick_robot(args, result) if args.stick_figures else None
     path = plot_run(result, out, title=args.title)
     status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
     print(f"wrote {path}{status}")
+    if robot is not None:
+        print(f"wrote {write_stick_figures(args, robot, result, path)}")
     return EXIT_OK
 

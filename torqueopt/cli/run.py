@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from ..dexterity import summarise_along
 from ..errors import InvalidInput
 from ..io import writable_path
 from ..resolvers import Resolver
@@ -57,6 +58,13 @@ def add_parser(subparsers) -> None:
         metavar="K",
         help="whiplash detector: unstable once a joint needs more than K times its torque limit (default 2)",
     )
+    group.add_argument(
+        "--dexterity",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="record the dexterity measures of every step (manipulability, Eq. (25), ...) in the summary and "
+        "the run file (default: on)",
+    )
     group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
     add_playback_options(parser)
     parser.set_defaults(handler=run_command)
@@ -79,7 +87,7 @@ def run_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
         writable_path(args.out)
-    result = simulate(robot, resolver, trajectory, q0, dt=dt, feedback=feedback)
+    result = simulate(robot, resolver, trajectory, q0, dt=dt, feedback=feedback, dexterity=args.dexterity)
     print(format_summary(robot, result, limit_factor))
     if args.out:
         path = result.to_csv(args.out)
@@ -141,6 +149,8 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         )
     if result.max_orientation_error is not None:
         lines.append(f"max orientation error: {math.degrees(result.max_orientation_error):.4f} deg")
+    if result.dexterity:
+        lines.extend(summarise_along(result.t, result.dexterity))
     lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")
     lines.append("status: completed" if result.completed else f"status: STOPPED EARLY: {result.stop_reason}")
     return "\n".join(lines)

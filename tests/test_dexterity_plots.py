@@ -1,0 +1,107 @@
+"""Dexterity in figures: the run panel, ellipses on stick figures (checked against the measures), ``torqueopt plot``."""
+
+import matplotlib.figure
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import plots
+from torqueopt.cli import main
+from torqueopt.dexterity import dexterity
+from torqueopt.errors import InvalidInput
+
+from .conftest import PAPER_Q0
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def run(planar3):
+    return torqueopt.simulate(planar3, "pinv", torqueopt.StraightLine((1.0, 1.0), duration=0.3), PAPER_Q0,
+                              dexterity=True)
+
+
+@pytest.fixture
+def axes_drawn(monkeypatch):
+    """Every Axes of every figure saved during the test."""
+    figures = []
+    original = matplotlib.figure.Figure.savefig
+
+    def spy(self, *args, **kwargs):
+        figures.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+    return figures
+
+
+def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path, run, axes_drawn):
+    plots.plot_run(run, tmp_path / "with.png")
+    plain = torqueopt.simulate(torqueopt.load_robot("planar3"), "pinv", torqueopt.StraightLine((1, 1), duration=0.3),
+                               PAPER_Q0)
+    plots.plot_run(plain, tmp_path / "without.png")
+    with_panel, without_panel = axes_drawn
+    assert len(with_panel.axes) == len(without_panel.axes) + 1
+    panel = with_panel.axes[-1]
+    assert panel.get_title(loc="left") == "dexterity, as a ratio to its start value"
+    lines = {line.get_label().split(" (start")[0]: line for line in panel.get_lines()}
+    manipulability = run.dexterity["manipulability"]
+    np.testing.assert_allclose(lines["w, Eq. (6)"].get_ydata(), manipulability / manipulability[0])
+    assert (tmp_path / "with.png").read_bytes()[:8] == PNG
+
+
+@pytest.mark.parametrize("kind", ["velocity", "acceleration"])
+def test_stick_figure_ellipses_are_the_dexterity_ellipses_at_the_tip(tmp_path, planar3, run, kind, axes_drawn):
+    plots.plot_stick_strip(planar3, run, tmp_path / "stick.png", title="t", snapshots=3, ellipse=kind)
+    figure = axes_drawn[-1]
+    rows = plots._snapshot_rows(run, 3)
+    patches = [patch for ax in figure.axes for patch in ax.patches]
+    assert len(patches) == len(rows)
+    shapes = []
+    for patch, row in zip(patches, rows):
+        outline = np.unique(patch.get_xy().round(12), axis=0)  # the closed polygon repeats its first point
+        tip = run.x[row]
+        np.testing.assert_allclose(outline.mean(axis=0), tip, atol=1e-3)
+        measured = dexterity(planar3, run.q[row])
+        ellipsoid = measured.velocity_ellipsoid if kind == "velocity" else measured.acceleration_ellipsoid
+        # Half the widest extent along the major axis is the scaled largest radius.
+        extent = np.abs((outline - tip) @ ellipsoid.axes[:, 0]).max()
+        shapes.append(extent / ellipsoid.radii[0])
+        minor = np.abs((outline - tip) @ ellipsoid.axes[:, 1]).max()
+        assert minor / extent == pytest.approx(ellipsoid.radii[1] / ellipsoid.radii[0], rel=1e-3)
+    # One scale for every snapshot.
+    np.testing.assert_allclose(shapes, shapes[0], rtol=1e-3)
+
+
+def test_a_bad_ellipse_kind_is_refused(tmp_path, planar3, run):
+    with pytest.raises(InvalidInput, match="^ellipse='force' is not one of velocity, acceleration"):
+        plots.plot_stick_strip(planar3, run, tmp_path / "x.png", title="x", ellipse="force")
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_command_draws_stick_figures_with_ellipses(tmp_path, run, capsys):
+    saved = run.to_csv(tmp_path / "run.csv")
+    assert main(["plot", str(saved), "--stick-figures", "--ellipse", "acceleration", "--snapshots", "4"]) == 0
+    assert capsys.readouterr().out == f"wrote {tmp_path / 'run.png'}\nwrote {tmp_path / 'run-stick.png'}\n"
+    assert (tmp_path / "run-stick.png").read_bytes()[:8] == PNG
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--snapshots", "30"], "argument --snapshots: 30 must be from 2 to 24"),
+        (["--ellipse", "force"], "argument --ellipse: invalid choice: 'force'"),
+        (["--robot", "nobot"], "unknown robot 'nobot'"),
+    ],
+)
+def test_plot_command_bad_stick_options_write_nothing(tmp_path, run, capsys, options, message):
+    saved = run.to_csv(tmp_path / "run.npz")
+    code = None
+    try:
+        code = main(["plot", str(saved), "--stick-figures", *options])
+    except SystemExit as stop:
+        code = stop.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+    assert not list(tmp_path.glob("*.png"))

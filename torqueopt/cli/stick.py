@@ -1,0 +1,78 @@
+"""``torqueopt plot --stick-figures``: stick figures of a saved run, with dexterity ellipses."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ..plots import plot_stick_strip
+from ..result import SimResult
+from ..robot import Robot, load_robot
+from .common import add_robot_options, parse_vector
+
+__all__ = ["add_stick_options", "stick_robot", "write_stick_figures"]
+
+ELLIPSES = ("velocity", "acceleration", "none")
+
+
+def add_stick_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("stick figures")
+    group.add_argument(
+        "--stick-figures",
+        action="store_true",
+        help="also draw stick figures of the arm with a dexterity ellipse at the tip, into OUT-stick.png",
+    )
+    group.add_argument(
+        "--ellipse",
+        choices=ELLIPSES,
+        default="velocity",
+        help="with --stick-figures: velocity (J q̇, ‖q̇‖ ≤ 1), acceleration (Eq. (24), torque-normalised) or none "
+        "(default velocity)",
+    )
+    group.add_argument(
+        "--snapshots", type=_snapshots, default=8, help="with --stick-figures: how many (2 to 24, default 8)"
+    )
+    add_robot_options(parser, required=False)
+    # The run records its robot: --robot and the options beside it only override.
+    for action in parser._actions:
+        if action.dest == "robot":
+            action.help = "robot the run was simulated with (default: the name the run records) " + action.help
+
+
+def write_stick_figures(args: argparse.Namespace, robot: Robot, result: SimResult, figure: Path) -> Path:
+    """Draw the stick figures of ``result`` beside ``figure`` (as ``<stem>-stick.png``)."""
+    path = figure.with_name(f"{figure.stem}-stick.png")
+    ellipse = None if args.ellipse == "none" else args.ellipse
+    title = f"{result.robot}: resolver {result.resolver}, {len(result.t)} rows" + (
+        f", {ellipse} ellipses" if ellipse else ""
+    )
+    return plot_stick_strip(robot, result, path, title=title, snapshots=args.snapshots, ellipse=ellipse)
+
+
+def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:
+    """The robot named on the command line, or else the one the run records, with the run's torque limits."""
+    if args.torque_limit is not None:
+        torque_limit = parse_vector(args.torque_limit, "torque-limit")
+    else:
+        torque_limit = result.torque_upper if np.isfinite(result.torque_upper).all() else None
+    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
+    return load_robot(
+        args.robot or result.robot,
+        frame=args.frame or result.frame,
+        task=args.task or result.task,
+        torque_limit=torque_limit,
+        gravity=args.gravity,
+        lock=lock,
+    )
+
+
+def _snapshots(text: str) -> int:
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if not 2 <= count <= 24:
+        raise argparse.ArgumentTypeError(f"{text} must be from 2 to 24")
+    return count
