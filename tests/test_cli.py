@@ -19,14 +19,16 @@ def test_run_prints_a_summary_and_writes_the_run(tmp_path, capsys):
     code = main(["run", *PAPER, "--resolver", "null-space", "--duration", "0.5", "--out", str(out)])
     printed = capsys.readouterr().out
     assert code == 0
-    assert "planar3: resolver null-space, task xy at frame 'tip' (n=3, m=2), 501 steps of 1 ms" in printed
+    assert "planar3: resolver null-space, task xy at frame 'tip' (n=3, m=2), 500 steps of 1 ms" in printed
     assert "first limit violation: none" in printed and "status: completed" in printed
     assert out.is_file() and (tmp_path / "run.csv.json").is_file()
     table = np.loadtxt(out, delimiter=",", skiprows=1)
     assert table.shape == (501, 16 + 6)  # t, 3 q, 3 v, 3 tau, 2 x, 2 xref, task_error, infeasible, 6 dexterity
     # The summary's peak torque of joint 1 is the CSV's, to print precision.
     joint1 = [line for line in printed.splitlines() if line.startswith("joint1")][0]
-    assert float(joint1.split()[1]) == pytest.approx(np.abs(table[:, 7]).max(), abs=1e-3)
+    assert float(joint1.split()[1]) == pytest.approx(np.nanmax(np.abs(table[:, 7])), abs=1e-3)
+    # The row at t = T is the final state, with no torque applied from it.
+    assert np.isnan(table[-1, 7:10]).all() and np.isfinite(table[:-1, 7:10]).all()
 
 
 def test_degrees_and_npz(tmp_path, capsys):
@@ -67,15 +69,27 @@ BAD_INPUTS = [
     (["--robot", "planar3", "--duration", "0"], "--duration: 0 must be a positive finite number"),
     (["--robot", "planar3", "--duration", "-1"], "--duration: -1 must be a positive finite number"),
     (["--robot", "planar3", "--dt", "0"], "--dt: 0 must be a positive finite number"),
-    (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "resolver 'null-space' needs redundancy but task 'position' (m=3) on robot 'planar3' (n=3) leaves none"),
+    (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "task 'position' (m=3) at frame 'tip' of robot 'planar3' can never be realised: its 3 joints move the frame in only 2 independent directions"),
+    (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "valid: task xy at this frame"),
+    (["--robot", "panda", "--frame", "panda_link3", "--direction", "1,1,0"], "task 'position' (m=3) at frame 'panda_link3' of robot 'panda' can never be realised"),
+    (["--robot", "planar3", "--resolver", "weighted-null-space", "--weight", "0,0,0"], "weight [0.0, 0.0, 0.0] is zero for every joint, which leaves no torque to minimise"),
+    (["--robot", "planar3", "--duration", "2", "--dt", "0.3"], "dt=0.3 s does not divide the duration 2 s (6.667 steps); give a dt that does, such as 0.333333 s (6 steps) or 0.285714 s (7 steps)"),
+    (["--robot", "planar3", "--duration", "1e9"], "duration 1e+09 s at dt 0.001 s needs 1e+12 steps, more than the limit of 1,000,000 steps (raise it with --max-steps)"),
+    (["--robot", "planar3", "--duration", "2", "--dt", "1e-9"], "needs 2e+09 steps, more than the limit of 1,000,000 steps"),
+    (["--robot", "planar3", "--duration", "1", "--max-steps", "999"], "duration 1 s at dt 0.001 s needs 1000 steps, more than the limit of 999 steps"),
+    (["--robot", "planar3", "--max-steps", "1.5"], "--max-steps: 1.5 must be a positive whole number"),
+    (["--robot", "planar3", "--html", "HTML", "--speed", "1e-9"], "needs 3e+09 frames, more than the limit of 100,000 frames (raise it with --max-frames)"),
+    (["--robot", "planar3", "--feedback=-100,1"], "feedback gain kp=-100.0 must be a finite number >= 0"),
     (["--robot", "planar3", "--torque-limit", "1,2"], "torque limit has 2 values; robot 'planar3' needs 1 or 3"),
-    (["--robot", "planar3", "--feedback", "1"], "--feedback has 1 values but needs 2"),
+    (["--robot", "planar3", "--feedback", "1"], "--feedback has 1 value but needs 2"),
+    (["--robot", "planar3", "--torque-limit", "nan"], "--torque-limit: 'nan' is not finite"),
 ]
 
 
 @pytest.mark.parametrize("arguments, message", BAD_INPUTS)
 def test_bad_input_is_one_line_exit_2_and_no_file(arguments, message, tmp_path, capsys):
     arguments = [broken_urdf(tmp_path) if a == "BROKEN" else a for a in arguments]
+    arguments = [str(tmp_path / "run.html") if a == "HTML" else a for a in arguments]
     defaults = {"--resolver": "null-space", "--direction": "1,1", "--duration": "0.1"}
     for option, value in defaults.items():
         if option not in arguments:
@@ -88,6 +102,35 @@ def test_bad_input_is_one_line_exit_2_and_no_file(arguments, message, tmp_path, 
     assert len(lines) == 1 and lines[0].startswith("torqueopt run: error: ")
     assert message in lines[0]
     assert "Traceback" not in captured.err and not out.exists()
+    # Refused before any work: no message uses numpy's repr or a plural for one value.
+    assert "np.float64" not in lines[0] and "has 1 values" not in lines[0]
+    assert not (tmp_path / "run.html").exists()
+
+
+def test_bad_work_is_refused_before_it_starts(capsys):
+    """A run of 1e12 steps must be refused at once, not after allocating: the
+    limit is checked on duration / dt before the robot is even loaded."""
+    code = main(["run", "--robot", "planar3", "--resolver", "pinv", "--direction", "1,1", "--duration", "1e300"])
+    assert code == 2 and "more than the limit of 1,000,000 steps" in capsys.readouterr().err
+    # Raising the limit lets a longer run through: 1001 steps at the paper's dt with --max-steps 1001 ...
+    assert main(["run", *PAPER, "--resolver", "pinv", "--duration", "1.001", "--max-steps", "1001"]) == 0
+    assert "1001 steps of 1 ms" in capsys.readouterr().out
+
+
+def test_an_infinite_torque_limit_means_unbounded(capsys):
+    code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.2", "--torque-limit", "54,inf,6"])
+    printed = capsys.readouterr().out
+    assert code == 0
+    joint2 = next(line for line in printed.splitlines() if line.startswith("joint2"))
+    assert joint2.split()[2] == "none"
+
+
+def test_an_unknown_option_points_at_the_subcommand_help(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["run", *PAPER, "--resolver", "pinv", "--bogus", "3"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["torqueopt run: error: unrecognized arguments: --bogus 3 (see torqueopt run --help)"]
 
 
 def test_usage_errors_are_one_line_too(capsys):
@@ -179,7 +222,7 @@ def test_weight_alias_and_generic_option_give_the_same_run(tmp_path, capsys):
     np.testing.assert_array_equal(alias.tau, option.tau)
     assert alias.resolver_options == {"weight": [1.0, 4.0, 9.0], "singular_tolerance": 1e-6}
     default = main([*base, "--out", str(tmp_path / "default.npz")])
-    assert default == 0 and np.abs(torqueopt.load_result(tmp_path / "default.npz").tau - alias.tau).max() > 1e-3
+    assert default == 0 and np.nanmax(np.abs(torqueopt.load_result(tmp_path / "default.npz").tau - alias.tau)) > 1e-3
 
 
 def test_resolvers_command_lists_every_resolver_and_option(capsys):

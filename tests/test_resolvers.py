@@ -252,9 +252,9 @@ def test_singular_jacobian_is_reported_not_hidden(name, planar3):
 
 
 def test_null_space_resolvers_need_redundancy(panda):
-    square = torqueopt.load_robot("planar3", task="position")  # m = 3 = n
+    square = torqueopt.load_robot("panda", task="pose", lock=["panda_joint7"])  # m = 6 = n
     for name in ("null-space", "weighted-null-space"):
-        with pytest.raises(NoRedundancy, match=r"needs redundancy but task 'position' \(m=3\) on robot 'planar3' \(n=3\)"):
+        with pytest.raises(NoRedundancy, match=r"needs redundancy but task 'pose' \(m=6\) on robot 'panda' \(n=6\)"):
             torqueopt.get_resolver(name).check(square)
     torqueopt.get_resolver("pinv").check(square)
     too_many = torqueopt.load_robot("planar3", task="pose")

@@ -8,6 +8,7 @@ import pytest
 import torqueopt
 from torqueopt import InvalidInput, StraightLine
 from torqueopt.io import atomic_write
+from torqueopt.whiplash import detect_whiplash
 
 from .conftest import PAPER_Q0
 
@@ -33,7 +34,9 @@ def test_rows_follow_the_steps_and_the_tip_tracks_open_loop(short_pinv):
 
 def test_summary_figures_agree_with_the_arrays(short_pinv):
     result = short_pinv
-    np.testing.assert_allclose(result.peak_torque, np.abs(result.tau).max(axis=0))
+    # The last row is the final state: no torque is applied from it.
+    assert np.isnan(result.tau[-1]).all() and np.isfinite(result.tau[:-1]).all()
+    np.testing.assert_allclose(result.peak_torque, np.abs(result.tau[:-1]).max(axis=0))
     np.testing.assert_allclose(result.peak_torque_ratio, result.peak_torque / np.array([54.0, 24.0, 6.0]))
     assert result.first_limit_violation is None
     summary = result.summary()
@@ -142,10 +145,16 @@ def test_explosion_stops_the_run_and_keeps_finite_rows(planar3):
     assert 0.5 < result.stop_time < 2.0
     assert result.stop_reason.startswith("torque of joint joint")
     assert f"at t = {result.stop_time:.4f} s" in result.stop_reason
-    assert len(result.t) == round(result.stop_time / 1e-3)
+    # The run keeps every row up to the stop, and the stop's own row holds the torque that ended it.
+    assert len(result.t) == round(result.stop_time / 1e-3) + 1 and result.t[-1] == pytest.approx(result.stop_time)
     for array in (result.q, result.v, result.tau, result.x):
         assert np.isfinite(array).all()
-    assert result.peak_torque_ratio.max() <= 20.0
+    last = result.torque_ratio[-1]
+    assert last.max() > 20.0 and (result.torque_ratio[:-1] <= 20.0).all()
+    # Peaks, the first violation and the whiplash verdict count that torque.
+    assert result.peak_torque_ratio.max() == last.max()
+    assert result.first_limit_violation is not None and result.first_limit_violation <= result.stop_time
+    assert detect_whiplash(result).unstable
 
 
 class _Overdriven(torqueopt.NullSpaceResolver):
@@ -162,10 +171,13 @@ class _Overdriven(torqueopt.NullSpaceResolver):
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
-def test_non_finite_torque_stops_the_run_before_its_first_row(planar3):
+def test_non_finite_torque_stops_the_run_at_its_first_row(planar3):
     result = torqueopt.simulate(planar3, _Overdriven(np.inf), StraightLine([1, 1]), PAPER_Q0, max_torque_ratio=np.inf)
     assert result.stop_reason == "torque became non-finite at t = 0.0000 s"
-    assert result.stop_time == 0.0 and len(result.t) == 0
+    # The start state is kept, with the torque that stopped the run.
+    assert result.stop_time == 0.0 and len(result.t) == 1
+    np.testing.assert_allclose(result.joint_angles[0], PAPER_Q0)
+    assert not np.isfinite(result.tau[0]).all()
 
 
 def test_non_finite_state_stops_the_run_at_the_step_that_made_it(planar3):
@@ -189,8 +201,11 @@ def test_singular_jacobian_stops_the_run(planar3):
     assert result.stop_reason.startswith("task Jacobian is singular: smallest/largest singular value")
     assert result.stop_reason.endswith(f"is below the cutoff 0.02 at t = {result.stop_time:.4f} s")
     assert 0.5 < result.stop_time < 1.0
-    assert result.jacobian_condition.min() >= 0.02 and result.jacobian_condition[0] > 0.1
-    assert np.isfinite(result.tau).all()
+    # Every row before the stop had a usable Jacobian and a torque; the stop's
+    # row keeps the singular state, with its condition and no torque.
+    assert result.jacobian_condition[:-1].min() >= 0.02 and result.jacobian_condition[0] > 0.1
+    assert result.jacobian_condition[-1] < 0.02 and result.t[-1] == pytest.approx(result.stop_time)
+    assert np.isfinite(result.tau[:-1]).all() and np.isnan(result.tau[-1]).all()
 
 
 @pytest.mark.parametrize("robot_name", ["panda", "xarm7"])

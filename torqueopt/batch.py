@@ -40,7 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from .checks import positive_number
+from .checks import positive_number, step_count
 from .errors import InvalidInput
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
@@ -48,7 +48,15 @@ from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torq
 from .resolvers.pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 from .result import SimResult
 from .robot import Robot
-from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, _configuration, _speed_stop, _torque_stop
+from .simulate import (
+    DEFAULT_MAX_JOINT_SPEED,
+    DEFAULT_MAX_STEPS,
+    DEFAULT_MAX_TORQUE_RATIO,
+    _configuration,
+    _speed_stop,
+    _torque_stop,
+    step_budget,
+)
 from .simulate import simulate as simulate_one
 from .trajectory import Trajectory, check_trajectory, describe
 
@@ -144,6 +152,7 @@ def simulate_batch(
     max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
     threads: int = 1,
     extras: bool = False,
+    max_steps: int = DEFAULT_MAX_STEPS,
 ):
     """Simulate every (trajectory, q0) pair with ``resolver``, all movements of one duration together.
 
@@ -159,6 +168,7 @@ def simulate_batch(
         threads: OpenMP threads for ``abaInParallel`` (1 inside a sweep
             worker, where the sweep's processes use the cores).
         extras: also return one :class:`BatchExtras` per movement.
+        max_steps: the most steps a movement may take, as in ``simulate``.
 
     Returns:
         One :class:`SimResult` per movement, equal to what ``simulate``
@@ -186,8 +196,7 @@ def simulate_batch(
     if len(durations) != 1:
         raise InvalidInput(f"a batch needs movements of one duration, got {sorted(durations)} s: use simulate_many")
     duration = durations.pop()
-    if dt > duration:
-        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    step_budget(duration, dt, max_steps)
     threads = int(threads)
 
     model = robot.model
@@ -195,7 +204,7 @@ def simulate_batch(
     pool = pin.ModelPool(model, max(threads, 1))
     n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
     linear_dimension = min(m, 3)
-    steps = round(duration / dt)
+    steps = step_count(duration, dt)
     times = dt * np.arange(steps + 1)
 
     q = np.array([_configuration(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
@@ -263,7 +272,14 @@ def simulate_batch(
         command = reference_acceleration[active, k]
         torque, joint_acceleration, condition, singular = step(H, b, J, Jd, command)
 
-        over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
+        if k == steps:
+            # The final state, as in simulate: no torque is applied from it.
+            singular = np.zeros(size, dtype=bool)
+            torque = np.full_like(torque, np.nan)
+            joint_acceleration = np.full_like(joint_acceleration, np.nan)
+            over = singular
+        else:
+            over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
         stopping = singular | over
         keep = ~stopping
         for row in np.flatnonzero(stopping).tolist():
@@ -273,19 +289,22 @@ def simulate_batch(
             else:
                 stop_reason[movement] = _torque_stop(robot, torque[row], max_torque_ratio, t)
             stop_time[movement] = t
-        # Record the rows that go on (simulate appends a row only after both checks).
+        # Every row is recorded, as in simulate: a singular one with its state and no
+        # torque, a runaway one with the torque that stopped it.
         going = active[keep]
-        q_log[going, k] = q[:size][keep]
-        v_log[going, k] = v[:size][keep]
-        acceleration_log[going, k] = joint_acceleration[keep]
-        torque_log[going, k] = torque[keep]
-        x_log[going, k] = tip[:size][keep]
-        condition_log[going, k] = condition[keep]
-        recorded[going] = k + 1
+        q_log[active, k] = q[:size]
+        v_log[active, k] = v[:size]
+        acceleration_log[active, k] = np.where(singular[:, None], np.nan, joint_acceleration)
+        torque_log[active, k] = np.where(singular[:, None], np.nan, torque)
+        x_log[active, k] = tip[:size]
+        condition_log[active, k] = condition
+        recorded[active] = k + 1
         if extras:
-            kinetic, self_motion = _energies(H[keep], J[keep], v[:size][keep])
-            energy_log[going, k] = kinetic
-            self_energy_log[going, k] = self_motion
+            regular = ~singular
+            energy_log[active, k] = 0.5 * np.einsum("bi,bij,bj->b", v[:size], H, v[:size])
+            self_energy_log[active, k] = np.nan
+            if regular.any():
+                self_energy_log[active[regular], k] = _energies(H[regular], J[regular], v[:size][regular])[1]
         if k == steps:
             break
         if stopping.any():

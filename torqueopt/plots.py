@@ -75,7 +75,7 @@ def plot_torques(
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     for joint, ax in enumerate(axes):
         limit = results[0].torque_upper[joint]
-        peak = max(float(np.abs(r.tau[:, joint]).max(initial=0.0)) for r in results)
+        peak = max(float(r.peak_torque[joint]) for r in results)
         for result in results:
             color = _color(result)
             ax.plot(result.t, result.tau[:, joint], color=color, lw=1.4, label=result.resolver)
@@ -278,7 +278,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
         ax.plot(result.t, result.tau[:, joint], color=color, lw=1.3, label="torque")
         _draw_limits(ax, result, joint)
         limit = result.torque_upper[joint]
-        peak = float(np.abs(result.tau[:, joint]).max(initial=0.0))
+        peak = float(result.peak_torque[joint])
         if np.isfinite(limit) and peak > _SYMLOG_ABOVE * limit:
             _symlog(ax, limit, peak)
         ax.set_ylabel("[N·m]", fontsize=8)

@@ -35,7 +35,10 @@ class SimResult:
         joint_angles: one coordinate per joint [rad or m], (N, n).
         v: joint velocities [rad/s], (N, n).
         acceleration: joint accelerations the resolver commanded [rad/s²], (N, n).
-        tau: joint torques held over each step [N·m], (N, n).
+        tau: joint torques held over each step [N·m], (N, n). The last row
+            of a completed run (t = duration) holds NaN: it is the final
+            state, from which no torque is applied. Peaks, ratios and
+            violations count only the torques the rows hold.
         x: task coordinates of the tip [m, rad], (N, m).
         x_ref: reference task coordinates [m, rad], (N, m).
         jacobian_condition: σ_min/σ_max of the task Jacobian, (N,).
@@ -104,7 +107,7 @@ class SimResult:
     @property
     def peak_torque(self) -> np.ndarray:
         """Per joint, the largest |τ| over the run [N·m]."""
-        return np.abs(self.tau).max(axis=0) if len(self.t) else np.zeros(self.n)
+        return _column_peak(np.abs(self.tau), self.n)
 
     @property
     def torque_ratio(self) -> np.ndarray:
@@ -116,7 +119,7 @@ class SimResult:
     @property
     def peak_torque_ratio(self) -> np.ndarray:
         """Per joint, the largest |τ|/limit over the run (above 1: the limit was exceeded)."""
-        return self.torque_ratio.max(axis=0) if len(self.t) else np.zeros(self.n)
+        return _column_peak(self.torque_ratio, self.n)
 
     @property
     def first_limit_violation(self) -> float | None:
@@ -312,6 +315,13 @@ def _load_csv(path: Path, robot) -> SimResult:
         torque_lower=lower,
         dexterity=dexterity or None,
     )
+
+
+def _column_peak(values: np.ndarray, n: int) -> np.ndarray:
+    """Per column, the largest value that is not NaN (0 for a column with none); inf counts."""
+    if not len(values):
+        return np.zeros(n)
+    return np.where(np.isnan(values), -np.inf, values).max(axis=0).clip(min=0.0)
 
 
 def _json_number(value: float) -> float | None:

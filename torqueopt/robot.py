@@ -32,7 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from .catalog import RobotSource, find_robot
-from .checks import finite_vector
+from .checks import check_task_rank, finite_vector
 from .errors import FrameNotFound, InvalidInput, TaskNotFound, UrdfError
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "load_robot"]
@@ -402,7 +402,7 @@ def load_robot(
         raise InvalidInput(f"frame '{frame}' of robot '{robot_source.name}' is not moved by any joint")
 
     default_configuration = _reduce_configuration(full_model, model, full_reference)
-    return Robot(
+    robot = Robot(
         model,
         frame,
         task,
@@ -415,6 +415,8 @@ def load_robot(
         locked_configuration=full_reference,
         default_configuration=default_configuration,
     )
+    check_task_rank(robot)  # a task the chain can never realise is an input mistake, not a failed run
+    return robot
 
 
 def _build_model(urdf: Path, mimic: bool) -> pin.Model:

@@ -24,7 +24,7 @@ from functools import partial
 
 import numpy as np
 
-from .checks import finite_vector, positive_number
+from .checks import bounded_count, finite_vector, positive_number, show_number, step_count
 from .dexterity import dexterity_along
 from .errors import InvalidInput, SingularJacobian
 from .integrators import rk4_step, rk4_stepper
@@ -33,12 +33,14 @@ from .result import SimResult
 from .robot import Robot
 from .trajectory import Trajectory, check_trajectory, describe
 
-__all__ = ["simulate", "rk4_step", "resolve", "Feedback"]
+__all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
 
 #: Joint speed [rad/s or m/s] beyond which a run is declared diverged.
 DEFAULT_MAX_JOINT_SPEED = 1.0e3
 #: Torque, as a multiple of its limit, beyond which a run is declared diverged.
 DEFAULT_MAX_TORQUE_RATIO = 1.0e3
+#: Most steps one run may take (1000 s at the paper's 1 ms); ``max_steps`` raises it.
+DEFAULT_MAX_STEPS = 1_000_000
 _LARGEST_FLOAT = sys.float_info.max
 
 
@@ -53,7 +55,7 @@ class Feedback:
         for name in ("kp", "kd"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
-                raise InvalidInput(f"feedback gain {name}={value!r} must be a finite number >= 0")
+                raise InvalidInput(f"feedback gain {name}={show_number(value)} must be a finite number >= 0")
 
 
 def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **options) -> Resolution:
@@ -87,6 +89,7 @@ def simulate(
     max_torque_ratio: float = DEFAULT_MAX_TORQUE_RATIO,
     resolver_options: dict | None = None,
     dexterity: bool = False,
+    max_steps: int = DEFAULT_MAX_STEPS,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -110,9 +113,22 @@ def simulate(
         dexterity: also record the dexterity measures of every row
             (:func:`torqueopt.dexterity.dexterity_along`, computed after the
             run from the stored configurations) as ``SimResult.dexterity``.
+        max_steps: the most steps the run may take (checked before it starts,
+            with the memory it would need), so that a mistyped duration or dt
+            fails at once.
 
     Returns:
         SimResult with one row per step start, t = 0, dt, ..., duration.
+        Row k holds the state at t_k and the torque held over [t_k, t_k + dt];
+        the last row, at t = duration, holds the final state and no torque
+        (NaN), since none is applied after the movement. A run that stopped
+        early ends with the row at which it stopped: the state there and the
+        torque that stopped it (NaN when the Jacobian went singular there).
+
+    Raises:
+        InvalidInput: a bad value, more than ``max_steps`` steps, or a dt that
+            does not divide the duration (the run would end before or after
+            the movement; the message offers the nearest dt that divides it).
     """
     resolver = get_resolver(resolver, **(resolver_options or {}))
     resolver.check(robot)
@@ -120,8 +136,7 @@ def simulate(
     dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
-    if dt > duration:
-        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    steps = step_budget(duration, dt, max_steps, row_bytes=_row_bytes(robot))
     if feedback is not None and not isinstance(feedback, Feedback):
         feedback = Feedback(*feedback)
 
@@ -138,7 +153,6 @@ def simulate(
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 
-    steps = int(round(duration / dt))
     times = dt * np.arange(steps + 1)
     reference = _task_reference(robot, trajectory, times)
 
@@ -173,10 +187,15 @@ def simulate(
     stop_time = None
     # A list of row views: indexing a list costs far less than indexing an array.
     command_rows = list(ref_acceleration)
+    not_applied = np.full(n, np.nan)
     for k, t in enumerate(times.tolist()):
         terms = terms_at(q, v)
         placement = terms.placement
         x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
+        if k == steps:
+            # The final state: the movement is over, so no torque is applied from it.
+            log.append((q, v, not_applied, not_applied, x, _jacobian_condition(terms.jacobian)))
+            break
         command = command_rows[k]
         if feedback is not None:
             command = (
@@ -190,14 +209,14 @@ def simulate(
             tau, joint_acceleration, condition, task_error, infeasible = solve(terms, command)
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
-            break
-        if not all(within(map(abs, tau.tolist()), torque_ceiling)):
-            stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
+            log.append((q, v, not_applied, not_applied, x, _jacobian_condition(terms.jacobian)))
             break
         if task_error or infeasible:
             shortfalls.append((len(log), task_error, infeasible))
         log.append((q, v, joint_acceleration, tau, x, condition))
-        if k == steps:
+        if not all(within(map(abs, tau.tolist()), torque_ceiling)):
+            # The torque that ends the run stays in the result: peaks and verdicts count it.
+            stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
             break
         q, v = advance(q, v, tau, joint_acceleration)
         # RK4 weighs every stage acceleration that moves q into v as well, so a
@@ -241,6 +260,32 @@ def simulate(
     )
 
 
+def step_budget(
+    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str = "max_steps", row_bytes=None
+) -> int:
+    """The steps of a run of ``duration`` [s] at ``dt`` [s], checked before any work starts.
+
+    Raises:
+        InvalidInput: dt longer than the duration, more than ``max_steps``
+            steps (the message names ``option``, the option that raises the
+            limit, and the memory the run would need when ``row_bytes``, the
+            bytes per recorded step, is given), or a dt that does not divide
+            the duration (see :func:`torqueopt.checks.step_count`).
+    """
+    if dt > duration:
+        raise InvalidInput(f"dt={show_number(dt)} s is longer than the duration {show_number(duration)} s")
+    bounded_count(
+        duration / dt,
+        max_steps,
+        f"duration {duration:g} s at dt {dt:g} s",
+        "steps",
+        option,
+        remedy="or give a larger dt or a shorter duration",
+        item_bytes=row_bytes,
+    )
+    return step_count(duration, dt)
+
+
 def _torque_stop(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:
     """Why torques that failed the ceiling test end the run at time t [s]."""
     if not np.isfinite(tau).all():
@@ -262,6 +307,18 @@ def _speed_stop(robot: Robot, v: np.ndarray, max_joint_speed: float, t: float, d
         f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
         f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
     )
+
+
+def _jacobian_condition(jacobian: np.ndarray) -> float:
+    """σ_min/σ_max of a task Jacobian (0 when it is zero), for rows at which no resolver runs."""
+    singular_values = np.linalg.svd(jacobian, compute_uv=False)
+    return float(singular_values[-1] / singular_values[0]) if singular_values[0] > 0 else 0.0
+
+
+def _row_bytes(robot: Robot) -> int:
+    """Memory one recorded step takes while a run is logged [bytes]: six arrays, their headers and a tuple."""
+    floats = robot.nq + 3 * robot.nv + robot.m + 2
+    return 8 * floats + 6 * 112 + 96
 
 
 def _columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:

@@ -118,7 +118,7 @@ def torque_demand(
     demand[:, limited] = result.torque_ratio[:, limited] / limit_factor
     if (~limited).any() and len(result.t):
         start = float(np.abs(result.tau[0, ~limited]).max())
-        if start > 0.0:
+        if start > 0.0:  # False for NaN too: a run with no torque at its start has no yardstick
             demand[:, ~limited] = np.abs(result.tau[:, ~limited]) / (growth_factor * start)
     return demand
 
@@ -141,16 +141,22 @@ def detect_whiplash(
     """
     demand = torque_demand(result, limit_factor, growth_factor)
     factors = {"limit_factor": float(limit_factor), "growth_factor": float(growth_factor)}
-    judged = ~np.isnan(demand[0]) if len(demand) else np.zeros(result.n, bool)
+    # A joint is judged when it has a yardstick; rows without a torque (the
+    # final state) are NaN in every column and never trip.
+    judged = ~np.isnan(demand).all(axis=0) if len(demand) else np.zeros(result.n, bool)
     stopped = "" if result.completed else f"; the run stopped early: {result.stop_reason}"
     if not len(result.t) or not judged.any():
-        why = "the run has no samples" if not len(result.t) else (
-            "no joint has a torque limit and the run applies no torque at its start, so there is no yardstick"
-        )
+        if not len(result.t):
+            why = "the run has no samples"
+        elif np.isnan(result.tau).all():
+            why = "the run applied no torque (it stopped at its first sample)"
+        else:
+            why = "no joint has a torque limit and the run applies no torque at its start, so there is no yardstick"
         return WhiplashReport(False, None, None, None, f"not judged: {why}{stopped}", math.nan, **factors)
 
     peak_demand = float(np.nanmax(demand))
-    tripped = np.nanmax(demand, axis=1) > 1.0
+    row_demand = np.where(np.isnan(demand), -np.inf, demand).max(axis=1)
+    tripped = row_demand > 1.0
     if not tripped.any():
         reason = (
             f"stable: the largest torque demand is {peak_demand:.2f} of the threshold "

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from ..errors import TorqueoptError
@@ -46,22 +47,73 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers.required = True
     for name in _COMMANDS:
         importlib.import_module(f"{__name__}.{name}").add_parser(subparsers)
+    for subparser in subparsers.choices.values():
+        subparser.set_defaults(parser=subparser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        # Name the subcommand's own help, where its options are listed.
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    # A reader that goes away (``torqueopt run ... | head -1``) must cost no
+    # result: commands write their files before they print, and a closed
+    # stdout only swallows the rest of what they print, so the command runs
+    # to its end and exits with its own code.
+    stdout = sys.stdout
+    sys.stdout = _ForgivingStdout(stdout)
     try:
         return args.handler(args)
     except TorqueoptError as error:
         print(f"torqueopt {args.command}: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except BrokenPipeError:
-        # The reader went away (``torqueopt robots | head``): nothing left to say.
-        sys.stderr.close()
-        return EXIT_OK
     except KeyboardInterrupt:
         print(f"torqueopt {args.command}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        sys.stdout.flush()
+        sys.stdout = stdout
+
+
+class _ForgivingStdout:
+    """A text stream that, once its reader has gone (EPIPE), drops what is written instead of raising."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self._reader_gone = False
+
+    def write(self, text: str) -> int:
+        if not self._reader_gone:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._reader_gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self._reader_gone = True
+        # What is still buffered goes to /dev/null at exit, so the interpreter's
+        # last flush cannot fail again (which would exit 120 with a message).
+        _silence_stdout()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _silence_stdout() -> None:
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass  # stdout is not a real file (a test's capture): nothing can fail at exit

@@ -7,14 +7,16 @@ import math
 
 import numpy as np
 
+from ..checks import count_values
 from ..errors import InvalidInput
 from ..robot import TASK_DIMENSIONS, Robot, load_robot
 
-__all__ = ["add_robot_options", "robot_from_args", "parse_vector", "parse_positive"]
+__all__ = ["add_robot_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
 
 
-def parse_vector(text: str, name: str, size: int | None = None) -> np.ndarray:
-    """Comma-separated numbers, e.g. ``-0.785,2.356,-2.356``; rejects text, NaN, inf and wrong sizes."""
+def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: bool = False) -> np.ndarray:
+    """Comma-separated numbers, e.g. ``-0.785,2.356,-2.356``; rejects text, NaN, wrong sizes and (unless
+    ``allow_infinite``) inf."""
     parts = [part.strip() for part in str(text).split(",")]
     values = []
     for part in parts:
@@ -22,11 +24,11 @@ def parse_vector(text: str, name: str, size: int | None = None) -> np.ndarray:
             value = float(part)
         except ValueError:
             raise InvalidInput(f"--{name}: '{part}' is not a number (give comma-separated numbers, e.g. 1,1)") from None
-        if not math.isfinite(value):
+        if math.isnan(value) or (math.isinf(value) and not allow_infinite):
             raise InvalidInput(f"--{name}: '{part}' is not finite; give finite numbers")
         values.append(value)
     if size is not None and len(values) != size:
-        raise InvalidInput(f"--{name} has {len(values)} values but needs {size}")
+        raise InvalidInput(f"--{name} has {count_values(len(values))} but needs {size}")
     return np.array(values)
 
 
@@ -38,6 +40,17 @@ def parse_positive(text: str, name: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise InvalidInput(f"--{name}: {text} must be a positive finite number")
     return value
+
+
+def parse_count(text: str, name: str) -> int:
+    """A positive whole number, e.g. ``--max-steps 2000000`` (``2e6`` is accepted too)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
+    if not (math.isfinite(value) and value >= 1 and value == int(value)):
+        raise InvalidInput(f"--{name}: {text} must be a positive whole number")
+    return int(value)
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
@@ -56,7 +69,8 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) ->
     group.add_argument(
         "--torque-limit",
         metavar="TAU",
-        help="symmetric torque limits [N·m], one value for all joints or one per joint (default: URDF effort limits)",
+        help="symmetric torque limits [N·m], one value for all joints or one per joint, inf for unbounded "
+        "(default: URDF effort limits)",
     )
     group.add_argument(
         "--gravity",
@@ -73,7 +87,9 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) ->
 
 
 def robot_from_args(args: argparse.Namespace) -> Robot:
-    torque_limit = None if args.torque_limit is None else parse_vector(args.torque_limit, "torque-limit")
+    torque_limit = (
+        None if args.torque_limit is None else parse_vector(args.torque_limit, "torque-limit", allow_infinite=True)
+    )
     lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
     return load_robot(
         args.robot,

@@ -11,13 +11,21 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..checks import count_values
 from ..io import writable_path
 from ..result import SimResult, load_result
 from ..robot import TASK_DIMENSIONS, Robot, load_robot
 from . import EXIT_OK
-from .common import parse_positive
+from .common import parse_count, parse_positive
 
-__all__ = ["PlaybackOptions", "add_parser", "add_playback_options", "playback_options", "show_playback"]
+__all__ = [
+    "PlaybackOptions",
+    "add_parser",
+    "add_playback_options",
+    "playback_options",
+    "prepare_playback",
+    "show_playback",
+]
 
 
 @dataclass(frozen=True)
@@ -29,12 +37,14 @@ class PlaybackOptions:
         html: path of the HTML file to write, or None.
         speed: simulated seconds per second of playback.
         fps: display frames per second of playback.
+        max_frames: the most display frames a playback may have.
     """
 
     live: bool
     html: Path | None
     speed: float
     fps: float
+    max_frames: int
 
     @property
     def wanted(self) -> bool:
@@ -65,6 +75,7 @@ def add_parser(subparsers) -> None:
 def add_playback_options(parser: argparse.ArgumentParser, play_flag: bool = True) -> None:
     """Options --speed, --fps, --html, and --play when ``play_flag`` (for ``torqueopt run``)."""
     from ..viewer import DEFAULT_FPS
+    from ..viewer.frames import DEFAULT_MAX_FRAMES
 
     group = parser.add_argument_group("playback in meshcat")
     if play_flag:
@@ -88,6 +99,12 @@ def add_playback_options(parser: argparse.ArgumentParser, play_flag: bool = True
         metavar="N",
         help=f"frames per second of playback; fewer frames make smaller HTML files (default {DEFAULT_FPS:g})",
     )
+    group.add_argument(
+        "--max-frames",
+        default=str(DEFAULT_MAX_FRAMES),
+        metavar="N",
+        help=f"refuse a playback of more than N display frames (duration / speed × fps; default {DEFAULT_MAX_FRAMES})",
+    )
 
 
 def playback_options(args: argparse.Namespace, live: bool) -> PlaybackOptions:
@@ -97,6 +114,7 @@ def playback_options(args: argparse.Namespace, live: bool) -> PlaybackOptions:
         html=None if args.html is None else writable_path(args.html),
         speed=parse_positive(args.speed, "speed"),
         fps=parse_positive(args.fps, "fps"),
+        max_frames=parse_count(args.max_frames, "max-frames"),
     )
     if options.wanted:
         from ..viewer import require_meshcat
@@ -105,9 +123,19 @@ def playback_options(args: argparse.Namespace, live: bool) -> PlaybackOptions:
     return options
 
 
+def check_frames(options: PlaybackOptions, simulated_time: float) -> None:
+    """Refuse, before any work, a playback of ``simulated_time`` [s] with more frames than ``--max-frames``."""
+    from ..viewer.frames import frame_count
+
+    if options.wanted:
+        frame_count(simulated_time, options.speed, options.fps, options.max_frames, option="--max-frames")
+
+
 def play_command(args: argparse.Namespace) -> int:
     options = playback_options(args, live=args.html is None)
     result = load_result(args.run)
+    if len(result.t):
+        check_frames(options, float(result.t[-1] - result.t[0]))
     robot = _robot_for_run(args, result)
     show_playback(options, robot, result)
     return EXIT_OK
@@ -125,23 +153,37 @@ def _robot_for_run(args: argparse.Namespace, result: SimResult) -> Robot:
     )
 
 
-def show_playback(options: PlaybackOptions, robot: Robot, result: SimResult) -> None:
-    """Write the HTML file and/or play live, as ``options`` say."""
+def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):
+    """Build the playback and write its HTML file when asked; returns the playback and the lines to print.
+
+    Nothing is printed here, so a command can write every file before it
+    prints (its files never depend on stdout).
+    """
     from ..viewer import Playback, export_html
 
-    playback = Playback(robot, result, speed=options.speed, fps=options.fps)
+    playback = Playback(robot, result, speed=options.speed, fps=options.fps, max_frames=options.max_frames)
     frames = playback.frames
+    lines = []
     if options.html is not None:
         path = export_html(playback, options.html)
-        print(
-            f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): {len(frames)} frames over "
+        lines.append(
+            f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): {count_values(len(frames), 'frame')} over "
             f"{frames.duration:.2f} s at speed {options.speed:g}"
         )
+    return playback, lines
+
+
+def show_playback(options: PlaybackOptions, robot: Robot, result: SimResult) -> None:
+    """Write the HTML file and/or play live, as ``options`` say."""
+    playback, lines = prepare_playback(options, robot, result)
+    for line in lines:
+        print(line)
     if options.live:
-        _play_live(playback)
+        play_live(playback)
 
 
-def _play_live(playback) -> None:
+def play_live(playback) -> None:
+    """Serve the playback on 127.0.0.1 and play it when a browser connects (again on Enter, when interactive)."""
     from ..viewer import LiveViewer
 
     with LiveViewer() as live:

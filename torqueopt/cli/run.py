@@ -14,12 +14,12 @@ from ..io import writable_path
 from ..resolvers import Resolver
 from ..result import SimResult
 from ..robot import Robot
-from ..simulate import Feedback, simulate
+from ..simulate import DEFAULT_MAX_STEPS, Feedback, simulate, step_budget
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
+from .common import add_robot_options, parse_count, parse_positive, parse_vector, robot_from_args
 from .paths import add_path_options, trajectory_from_args
-from .play import add_playback_options, playback_options, show_playback
+from .play import add_playback_options, check_frames, play_live, playback_options, prepare_playback
 from .resolvers import add_resolver_arguments, resolver_from_args
 
 __all__ = ["add_parser", "format_summary"]
@@ -46,7 +46,17 @@ def add_parser(subparsers) -> None:
     )
     group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
     add_path_options(group)
-    group.add_argument("--dt", default="0.001", help="integration step [s]; torque held over each (default 0.001)")
+    group.add_argument(
+        "--dt",
+        default="0.001",
+        help="integration step [s]; torque held over each; must divide the duration (default 0.001)",
+    )
+    group.add_argument(
+        "--max-steps",
+        default=str(DEFAULT_MAX_STEPS),
+        metavar="N",
+        help=f"refuse a run of more than N steps (duration / dt), checked before it starts (default {DEFAULT_MAX_STEPS})",
+    )
     group.add_argument(
         "--feedback",
         metavar="KP,KD",
@@ -73,9 +83,12 @@ def add_parser(subparsers) -> None:
 def run_command(args: argparse.Namespace) -> int:
     trajectory = trajectory_from_args(args)
     dt = parse_positive(args.dt, "dt")
+    max_steps = parse_count(args.max_steps, "max-steps")
+    step_budget(trajectory.duration, dt, max_steps, option="--max-steps")
     limit_factor = parse_positive(args.limit_factor, "limit-factor")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
     playback = playback_options(args, live=args.play)
+    check_frames(playback, trajectory.duration)
     resolver = resolver_from_args(args)
     robot = robot_from_args(args)
     resolver.check(robot)
@@ -87,14 +100,25 @@ def run_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
         writable_path(args.out)
-    result = simulate(robot, resolver, trajectory, q0, dt=dt, feedback=feedback, dexterity=args.dexterity)
-    print(format_summary(robot, result, limit_factor))
+    result = simulate(
+        robot, resolver, trajectory, q0, dt=dt, feedback=feedback, max_steps=max_steps,
+        dexterity=args.dexterity,
+    )
+    # Every file is written before anything is printed, so a closed stdout
+    # (``torqueopt run ... | head -1``) cannot cost a result.
+    lines = []
     if args.out:
         path = result.to_csv(args.out)
         extra = f" and {path}.json" if path.suffix.lower() != ".npz" else ""
-        print(f"wrote {path}{extra}")
+        lines.append(f"wrote {path}{extra}")
     if playback.wanted:
-        show_playback(playback, robot, result)
+        viewer, playback_lines = prepare_playback(playback, robot, result)
+        lines += playback_lines
+    print(format_summary(robot, result, limit_factor))
+    for line in lines:
+        print(line)
+    if playback.live:
+        play_live(viewer)
     return EXIT_OK if result.completed else EXIT_STOPPED
 
 
@@ -116,11 +140,17 @@ def check_torque_limits(robot: Robot, resolver: Resolver) -> None:
     )
 
 
+def _steps_taken(result: SimResult) -> int:
+    """Steps integrated: up to the last row, or up to the stop (which may follow the last row's step)."""
+    end = result.stop_time if result.stop_time is not None else (result.t[-1] if len(result.t) else 0.0)
+    return round(end / result.dt)
+
+
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
     """A short human-readable report of a run."""
     lines = [
         f"{result.robot}: resolver {result.resolver}, task {result.task} at frame '{result.frame}' "
-        f"(n={robot.nv}, m={robot.m}), {len(result.t)} steps of {result.dt * 1e3:g} ms",
+        f"(n={robot.nv}, m={robot.m}), {_steps_taken(result)} steps of {result.dt * 1e3:g} ms",
         f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
     ]
     for name, peak, limit, ratio in zip(

@@ -102,6 +102,12 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
             torque_range = robot.torque_upper - robot.torque_lower
             return np.where(np.isfinite(torque_range), 1.0 / torque_range, 0.0)
         weight, n = self.weight, robot.nv
+        if weight.size and np.isfinite(weight).all() and not weight.any():
+            # W = 0 leaves no criterion: every torque would be optimal, and the step would fall back to pinv.
+            raise InvalidInput(
+                f"weight {weight.tolist()} is zero for every joint, which leaves no torque to minimise; "
+                "give at least one positive weight"
+            )
         if weight.shape == (n,):
             if not np.isfinite(weight).all() or (weight < 0).any():
                 raise InvalidInput(f"weight {weight.tolist()} must be {n} finite non-negative numbers")

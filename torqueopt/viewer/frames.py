@@ -14,14 +14,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import positive_number
+from ..checks import bounded_count, positive_number, show_number
 from ..errors import InvalidInput
 from ..result import SimResult
 
-__all__ = ["DEFAULT_FPS", "PlaybackFrames", "over_limit", "sample_frames"]
+__all__ = ["DEFAULT_FPS", "DEFAULT_MAX_FRAMES", "PlaybackFrames", "frame_count", "over_limit", "sample_frames"]
 
 #: Display frames per second of playback (wall time), live and in HTML files.
 DEFAULT_FPS = 30.0
+#: Most display frames one playback may have (about 55 min at 30 fps); ``max_frames`` raises it.
+DEFAULT_MAX_FRAMES = 100_000
 
 
 @dataclass(frozen=True)
@@ -54,12 +56,38 @@ def over_limit(result: SimResult) -> np.ndarray:
     return result.torque_ratio > 1.0
 
 
-def sample_frames(result: SimResult, fps: float = DEFAULT_FPS, speed: float = 1.0) -> PlaybackFrames:
+def frame_count(
+    simulated_time: float, speed: float, fps: float, max_frames: int = DEFAULT_MAX_FRAMES, option: str = "max_frames"
+) -> int:
+    """Display frames of a playback of ``simulated_time`` [s] at ``speed`` and ``fps``, bounded by ``max_frames``.
+
+    Raises:
+        InvalidInput: not positive speed or fps, or more frames than
+            ``max_frames`` (the message names ``option``, the option that raises it).
+    """
+    fps = positive_number(fps, "fps")
+    speed = positive_number(speed, "speed")
+    count = math.floor(simulated_time / speed * fps + 1e-9) + 1
+    return bounded_count(
+        count,
+        max_frames,
+        f"playing {show_number(simulated_time)} s of simulated time at speed {show_number(speed)} and "
+        f"fps {show_number(fps)}",
+        "frames",
+        option,
+        remedy="or give a larger speed or a smaller fps",
+    )
+
+
+def sample_frames(
+    result: SimResult, fps: float = DEFAULT_FPS, speed: float = 1.0, max_frames: int = DEFAULT_MAX_FRAMES
+) -> PlaybackFrames:
     """Pick the rows of ``result`` to show at ``fps`` frames per wall-clock second.
 
     Args:
         fps: display frames per second of playback [1/s].
         speed: simulated seconds per wall-clock second (1 real time, 0.25 four times slower).
+        max_frames: the most display frames the playback may have (see :func:`frame_count`).
 
     The first and the last row are always shown; a row is never shown twice.
     """
@@ -69,8 +97,8 @@ def sample_frames(result: SimResult, fps: float = DEFAULT_FPS, speed: float = 1.
     if times.size == 0:
         raise InvalidInput("the run has no rows to play (it stopped before its first step)")
     elapsed = times - times[0]
-    frame_count = math.floor(elapsed[-1] / speed * fps + 1e-9) + 1
-    wanted = np.arange(frame_count) * (speed / fps)
+    frames = frame_count(float(elapsed[-1]), speed, fps, max_frames)
+    wanted = np.arange(frames) * (speed / fps)
     # The row at or just before each frame's simulated time.
     rows = np.searchsorted(elapsed, wanted + 1e-9 * max(1.0, elapsed[-1]), side="right") - 1
     rows = np.unique(np.append(np.clip(rows, 0, times.size - 1), times.size - 1))

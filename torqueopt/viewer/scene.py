@@ -25,7 +25,7 @@ from ..errors import InvalidInput
 from ..result import SimResult
 from ..robot import Robot
 from .dependency import require_meshcat
-from .frames import DEFAULT_FPS, sample_frames
+from .frames import DEFAULT_FPS, DEFAULT_MAX_FRAMES, sample_frames
 from .page import RecordingWindow
 from .shapes import decimate, quaternion, reach, reference_positions, scaled, translation, tube_mesh
 from .visual_model import visual_model
@@ -66,17 +66,26 @@ class Playback:
         result: the run, e.g. from :func:`torqueopt.simulate` or :func:`torqueopt.load_result`.
         speed: simulated seconds per wall-clock second (0.25: four times slower).
         fps: display frames per second of playback.
+        max_frames: the most display frames the playback may have.
 
     Raises:
         InvalidInput: the run's joints are not the robot's, or speed/fps are not positive.
     """
 
-    def __init__(self, robot: Robot, result: SimResult, *, speed: float = 1.0, fps: float = DEFAULT_FPS):
+    def __init__(
+        self,
+        robot: Robot,
+        result: SimResult,
+        *,
+        speed: float = 1.0,
+        fps: float = DEFAULT_FPS,
+        max_frames: int = DEFAULT_MAX_FRAMES,
+    ):
         check_run_matches(robot, result)
         self.robot = robot
         self.result = result
         self.speed = positive_number(speed, "speed")
-        self.frames = sample_frames(result, fps, speed)
+        self.frames = sample_frames(result, fps, speed, max_frames)
         self.fps = float(fps)
         self.model, self.geometry = visual_model(robot)
         self._data = self.model.createData()
