@@ -30,10 +30,11 @@ from .figures import write_figures
 from .free_swing import free_swing, free_swing_gravity
 from .report import format_summary_markdown, summary_entries, write_paper
 from .runner import PaperResults, run_movement, run_paper
-from .scenario import MOVEMENTS, PAPER, PaperScenario
+from .scenario import MOVEMENTS, PAPER, PAPER_RESOLVERS, PaperScenario
 
 __all__ = [
     "MOVEMENTS",
+    "PAPER_RESOLVERS",
     "PaperScenario",
     "PAPER",
     "PaperResults",

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..resolvers import resolver_names
 from ..result import SimResult
 from ..whiplash import WhiplashReport
 from .alignment import alignment_times
 from .claims import verdict_text
 from .runner import PaperResults
+from .scenario import PAPER_RESOLVERS
 
 __all__ = ["write_figures"]
 
@@ -60,7 +60,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
         snapshots=10,
         events=dict(zip(["links 2 and 3 in line"], alignment_times(swing))),
     ))
-    for name in resolver_names():
+    for name in PAPER_RESOLVERS:
         result = runs["long", name]
         verdict = judged["long", name]
         state = verdict_text(verdict)
@@ -71,7 +71,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
             events=_events(result, verdict),
         ))
     written.append(plots.plot_tip_path(
-        [runs["long", name] for name in resolver_names()], out / "tip_long.png",
+        [runs["long", name] for name in PAPER_RESOLVERS], out / "tip_long.png",
         title=f"Tip paths of the four resolvers, {movement_text('long')} (open loop)",
     ))
     return written

@@ -8,14 +8,13 @@ import numpy as np
 
 from ..errors import InvalidInput, SingularJacobian
 from ..linalg import JacobianSolver
-from ..resolvers import resolver_names
 from ..result import SimResult
 from ..robot import Robot
 from ..simulate import simulate
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR, WhiplashReport, detect_whiplash
 from .claims import Claim, check_claims
 from .free_swing import free_swing, free_swing_gravity
-from .scenario import MOVEMENTS, PAPER, PaperScenario
+from .scenario import MOVEMENTS, PAPER, PAPER_RESOLVERS, PaperScenario
 
 __all__ = ["PaperResults", "run_movement", "run_paper"]
 
@@ -73,7 +72,7 @@ def run_paper(
     runs = {
         (movement, name): run_movement(scenario, movement, name, robot)
         for movement in MOVEMENTS
-        for name in resolver_names()
+        for name in PAPER_RESOLVERS
     }
     whiplash = {key: detect_whiplash(result, limit_factor, growth_factor) for key, result in runs.items()}
     swing = free_swing(scenario, robot)

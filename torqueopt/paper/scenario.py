@@ -22,10 +22,12 @@ from ..errors import InvalidInput
 from ..robot import Robot, load_robot
 from ..trajectory import StraightLine
 
-__all__ = ["MOVEMENTS", "PAPER", "PaperScenario"]
+__all__ = ["MOVEMENTS", "PAPER", "PAPER_RESOLVERS", "PaperScenario"]
 
 #: Movement names, shortest first.
 MOVEMENTS = ("short", "medium", "long")
+#: The four methods the paper compares (Eqs. (34)-(37)); other registered resolvers are studied apart.
+PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
 
 
 def _finite_tuple(values, name: str) -> tuple[float, ...]:

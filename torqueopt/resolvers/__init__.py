@@ -7,6 +7,10 @@ name                   method (equation of the paper)
 ``inertia-pinv``       inertia-weighted pseudoinverse, Eqs. (16), (35)
 ``null-space``         null-space torque optimisation, Eqs. (28)-(31), (36)
 ``weighted-null-space`` the same weighted by torque range, Eqs. (33), (37)
+``damped-null-space``  the torque criterion plus a self-motion damping term (Discussion)
+``self-motion-damping`` y = −K_D Zᵀq̇, the kinematic limit of the blend
+``inverse-inertia-torque`` minimum τᵀH⁻¹τ (Gauss's principle)
+``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ
 ====================== ==========================================================
 """
 
@@ -16,6 +20,8 @@ import difflib
 
 from ..errors import InvalidInput, ResolverNotFound
 from .base import NullSpaceResolver, Resolution, Resolver, Step
+from .damping import DampedNullSpaceTorque, SelfMotionDamping
+from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
 from .options import Option
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
@@ -30,13 +36,27 @@ __all__ = [
     "InertiaWeightedPseudoInverse",
     "NullSpaceTorque",
     "WeightedNullSpaceTorque",
+    "DampedNullSpaceTorque",
+    "SelfMotionDamping",
+    "InverseInertiaTorque",
+    "InverseInertiaSquaredTorque",
     "RESOLVERS",
     "get_resolver",
     "resolver_names",
 ]
 
 RESOLVERS: dict[str, type[Resolver]] = {
-    cls.name: cls for cls in (PseudoInverse, InertiaWeightedPseudoInverse, NullSpaceTorque, WeightedNullSpaceTorque)
+    cls.name: cls
+    for cls in (
+        PseudoInverse,
+        InertiaWeightedPseudoInverse,
+        NullSpaceTorque,
+        WeightedNullSpaceTorque,
+        DampedNullSpaceTorque,
+        SelfMotionDamping,
+        InverseInertiaTorque,
+        InverseInertiaSquaredTorque,
+    )
 }
 
 
