@@ -1,0 +1,304 @@
+r"""The stability atlas: how often, where and why local resolvers go unstable.
+
+:func:`run_atlas` draws a seeded population of the paper's straight-line
+movements (:mod:`torqueopt.atlas.population`), runs every resolver on each
+(batched, on a Dask cluster, :mod:`torqueopt.atlas.sweep`), gives each run
+a verdict (:mod:`torqueopt.atlas.verdicts`: the 2x-limit rule and a runaway
+criterion that tells a whip from a path that is simply too demanding), and
+turns the table into the paper's claims with Wilson 95 % intervals
+(:mod:`torqueopt.atlas.stats`), a summary and figures
+(:mod:`torqueopt.atlas.report`).
+
+Files in the output folder:
+
+``results.parquet``
+    one row per (movement, resolver): ``path``, ``duration``, ``resolver``,
+    ``q0_1..q0_n``, ``direction_1..direction_d``, ``unstable``, ``verdict``,
+    ``instability_time``, ``peak_torque_ratio``, ``first_limit_violation``,
+    ``max_tip_error`` and more (see :func:`torqueopt.atlas.verdicts.run_row`).
+``atlas.md``, ``atlas.json``
+    the settings, the unstable fractions and the claims.
+``unstable_fraction.png``, ``workspace_map.png``, ``instability_time.png``, ``tradeoff.png``
+    the figures.
+``atlas-config.json``, ``chunks/``
+    the settings the sweep was started with, and each finished chunk: what
+    lets a killed sweep resume.
+
+The runs use :func:`torqueopt.simulate`'s acceleration profile, step and
+held-torque RK4 (the batched path is held to it at 1e-9).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidInput, OutputError
+from ..io import atomic_write, writable_path
+from ..resolvers import Resolver
+from ..robot import Robot
+from ..whiplash import DEFAULT_LIMIT_FACTOR
+from .population import Movement, PopulationSpec, draw_population
+from .stats import claims, proportion, unstable_fractions, wilson_interval
+from .sweep import (
+    CHUNK_FOLDER,
+    RobotSpec,
+    config_digest,
+    finished_chunks,
+    remove_partial_chunks,
+    require,
+    resolvers_from,
+    run_chunks,
+)
+from .verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR, VERDICTS, Thresholds
+
+__all__ = [
+    "run_atlas",
+    "AtlasResult",
+    "PopulationSpec",
+    "Thresholds",
+    "draw_population",
+    "wilson_interval",
+    "proportion",
+    "claims",
+    "unstable_fractions",
+    "VERDICTS",
+    "DEFAULT_MAX_STEPS",
+    "DEFAULT_CHUNK_SIZE",
+]
+
+#: Largest sweep (movements × resolvers × steps) run_atlas starts without being told otherwise.
+DEFAULT_MAX_STEPS = 10_000_000_000
+#: Movements per chunk of work.
+DEFAULT_CHUNK_SIZE = 64
+_FORMAT = 1
+_OUR_FILES = ("results.parquet", "atlas.md", "atlas.json", CHUNK_FOLDER)
+
+
+@dataclass
+class AtlasResult:
+    """What :func:`run_atlas` made: the table (a pandas DataFrame), the summary dict and the output folder."""
+
+    table: object
+    summary: dict
+    out: Path
+
+    def claims(self, criterion: str = "unstable") -> list[dict]:
+        return claims(self.table, criterion)
+
+
+def run_atlas(
+    robot: str | RobotSpec = "planar3",
+    paths: int = 100,
+    durations=(0.5, 1.0, 1.5, 2.0),
+    resolvers=("pinv", "inertia-pinv", "null-space", "weighted-null-space"),
+    out: str | os.PathLike = "atlas",
+    *,
+    seed: int = 0,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    mode: str = "random",
+    reach_fraction: float = 0.9,
+    min_condition: float = 0.05,
+    grid_spacing: float = 0.25,
+    grid_directions: int = 8,
+    accel: float = math.sqrt(2.0),
+    dt: float = 1e-3,
+    limit_factor: float = DEFAULT_LIMIT_FACTOR,
+    pinv_factor: float = DEFAULT_PINV_FACTOR,
+    energy_factor: float = DEFAULT_ENERGY_FACTOR,
+    batch: bool = True,
+    progress: bool = True,
+    figures: bool = True,
+    max_steps: int = DEFAULT_MAX_STEPS,
+) -> AtlasResult:
+    """Run the stability atlas and write its files into ``out``.
+
+    Args:
+        robot: a robot name or URDF (as :func:`torqueopt.load_robot`), or a
+            :class:`~torqueopt.atlas.sweep.RobotSpec` with frame, task, limits.
+        paths: movements per duration (random mode).
+        durations: movement durations T [s].
+        resolvers: names (or Resolver objects); ``pinv`` is always run, first,
+            as the baseline of the runaway criterion.
+        out: output folder; an existing atlas there with the same settings is
+            resumed, one with other settings is refused.
+        seed: seed of the population.
+        scheduler: address of an existing Dask scheduler (``tcp://host:port``);
+            None starts a LocalCluster with one worker process per core.
+        workers: LocalCluster worker processes (default: the machine's cores);
+            0 runs everything in this process, without Dask.
+        chunk_size: movements per chunk of work.
+        mode, reach_fraction, min_condition, grid_spacing, grid_directions:
+            the population, :class:`~torqueopt.atlas.population.PopulationSpec`.
+        accel: tangential acceleration of the lines [m/s²]; dt: step [s].
+        limit_factor, pinv_factor, energy_factor: the verdict thresholds,
+            :mod:`torqueopt.atlas.verdicts`.
+        batch: use the batched simulation path where it applies.
+        progress: show a progress bar (paths done, rate, time left) on stderr.
+        figures: draw the figures (needs matplotlib).
+        max_steps: refuse a sweep of more trajectory-steps than this.
+
+    Raises:
+        InvalidInput: bad settings, a sweep larger than ``max_steps``, or an
+            ``out`` folder that holds an atlas with other settings.
+        MissingDependency: pandas, pyarrow, dask[distributed] or tqdm missing.
+    """
+    pandas = require("pandas")
+    require("pyarrow")
+    require("tqdm")
+    spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
+    population = PopulationSpec(
+        mode=mode, paths=paths, durations=tuple(np.atleast_1d(np.asarray(durations, dtype=float)).tolist()), seed=seed,
+        accel=accel, reach_fraction=reach_fraction, min_condition=min_condition, grid_spacing=grid_spacing,
+        grid_directions=grid_directions,
+    )  # fmt: skip
+    thresholds = Thresholds(limit_factor, pinv_factor, energy_factor)
+    resolver_objects = resolvers_from(resolvers)
+    if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
+        raise InvalidInput(f"chunk_size={chunk_size!r} must be a whole number >= 1")
+    if workers is not None and not (isinstance(workers, (int, np.integer)) and 0 <= workers <= 1024):
+        raise InvalidInput(f"workers={workers!r} must be a whole number from 0 to 1024")
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0 < dt <= min(population.durations)):
+        raise InvalidInput(f"dt={dt!r} must be a positive number of seconds no longer than the shortest duration")
+    out = writable_path(out, directory=True)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"cannot write the atlas to '{out}': it is a file; give a folder")
+
+    # Bound the work before drawing anything: the population's size is known up front in random mode.
+    steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
+    if population.mode == "random":
+        _check_size(population.paths * sum(steps_per_run.values()) * len(resolver_objects), max_steps, population, resolver_objects)
+
+    loaded = spec.load()
+    for resolver in resolver_objects:
+        resolver.check(loaded)
+    movements = draw_population(loaded, population)
+    total_steps = sum(steps_per_run[m.duration] for m in movements) * len(resolver_objects)
+    _check_size(total_steps, max_steps, population, resolver_objects)
+
+    config = {
+        "format": _FORMAT,
+        "robot": spec.as_dict(),
+        "robot_name": loaded.name,
+        "task": loaded.task,
+        "joint_names": list(loaded.joint_names),
+        "torque_limit": [x if math.isfinite(x) else None for x in loaded.torque_upper.tolist()],
+        "population": population.as_dict(),
+        "resolvers": [_resolver_description(r) for r in resolver_objects],
+        "thresholds": thresholds.as_dict(),
+        "dt": float(dt),
+        "chunk_size": int(chunk_size),
+        "batch": bool(batch),
+        "movements": len(movements),
+    }
+    config = json.loads(json.dumps(config, default=_json_default))  # as atlas-config.json will read back
+    digest = config_digest(config)
+    _claim_folder(out, config)
+
+    chunks = _chunks(movements, chunk_size)
+    done = finished_chunks(out, len(chunks))
+    remove_partial_chunks(out)
+    jobs = {
+        index: {
+            "robot": spec,
+            "resolvers": resolver_objects,
+            "dt": float(dt),
+            "accel": float(accel),
+            "thresholds": thresholds.as_dict(),
+            "batch": bool(batch),
+            "digest": digest,
+            "movements": [(m.path, m.duration, m.q0, m.direction, m.start) for m in chunk],
+        }
+        for index, chunk in enumerate(chunks)
+        if index not in done
+    }
+    done_paths = sum(len(chunks[index]) for index in done)
+    if jobs:
+        run_chunks(jobs, out, scheduler=scheduler, workers=workers, progress=progress, total_paths=len(movements), done_paths=done_paths)
+
+    table = _collect(pandas, out, len(chunks), [r.name for r in resolver_objects])
+    atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
+    from .report import summarise, write_figures, write_markdown
+
+    summary = summarise(table, config)
+    summary["resumed_chunks"] = len(done)
+    text = json.dumps(summary, indent=2, default=_json_default, allow_nan=False).encode()
+    atomic_write(out / "atlas.json", lambda handle: handle.write(text))
+    markdown = write_markdown(summary).encode()
+    if figures:
+        summary["figures"] = write_figures(table, summary, out, loaded)
+        markdown = write_markdown(summary).encode()
+    atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
+    return AtlasResult(table=table, summary=summary, out=out)
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    raise TypeError(type(value).__name__)
+
+
+def _resolver_description(resolver: Resolver) -> dict:
+    options = {key: (value.tolist() if isinstance(value, np.ndarray) else value) for key, value in vars(resolver).items()}
+    return {"name": resolver.name, "class": type(resolver).__name__, "options": options}
+
+
+def _check_size(total_steps: int, max_steps: int, population: PopulationSpec, resolvers) -> None:
+    if total_steps > max_steps:
+        raise InvalidInput(
+            f"the atlas would simulate {total_steps:.3g} trajectory-steps ({population.paths} paths x "
+            f"{len(population.durations)} durations x {len(resolvers)} resolvers, pinv included), more than "
+            f"max_steps={max_steps:.3g}: fewer paths, durations or resolvers, a larger dt, or raise max_steps (--max-steps)"
+        )
+
+
+def _chunks(movements: list[Movement], size: int) -> list[list[Movement]]:
+    """Consecutive movements of one duration, at most ``size`` per chunk (independent of the workers)."""
+    chunks: list[list[Movement]] = []
+    for movement in movements:
+        if chunks and len(chunks[-1]) < size and chunks[-1][0].duration == movement.duration:
+            chunks[-1].append(movement)
+        else:
+            chunks.append([movement])
+    return chunks
+
+
+def _claim_folder(out: Path, config: dict) -> None:
+    """Write atlas-config.json, or check that the one there matches (resume); never adopt a folder not ours."""
+    path = out / "atlas-config.json"
+    if path.is_file():
+        try:
+            existing = json.loads(path.read_text())
+        except (OSError, ValueError):
+            raise InvalidInput(f"'{path}' is not an atlas configuration; choose another --out") from None
+        if existing != config:
+            changed = sorted(key for key in set(existing) | set(config) if existing.get(key) != config.get(key))
+            raise InvalidInput(
+                f"'{out}' holds an atlas with other settings ({', '.join(changed)} differ); give another --out to "
+                "start a new atlas, or the same settings to resume it"
+            )
+        return
+    clashes = [name for name in _OUR_FILES if (out / name).exists()]
+    if clashes:
+        raise InvalidInput(
+            f"'{out}' already has {', '.join(clashes)} but no atlas-config.json, so it is not an atlas this command "
+            "can resume: give another --out"
+        )
+    text = json.dumps(config, indent=2, sort_keys=True).encode()
+    atomic_write(path, lambda handle: handle.write(text))
+
+
+def _collect(pandas, out: Path, count: int, resolver_order: list[str]):
+    """Every chunk's rows, sorted by path and resolver (the order of the settings)."""
+    frames = [pandas.read_parquet(out / CHUNK_FOLDER / f"chunk-{index:06d}.parquet") for index in range(count)]
+    table = pandas.concat(frames, ignore_index=True)
+    rank = {name: i for i, name in enumerate(resolver_order)}
+    table = table.assign(_rank=table["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")
+    return table.drop(columns="_rank").reset_index(drop=True)

@@ -1,0 +1,216 @@
+"""The atlas's summary (atlas.json, atlas.md) and figures."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..io import atomic_write
+from .stats import CRITERIA, claims, proportion, unstable_fractions
+from .verdicts import VERDICTS
+
+__all__ = ["summarise", "write_markdown", "write_figures"]
+
+_PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
+
+
+def summarise(table, config: dict) -> dict:
+    """Settings, counts, unstable fractions and claims per criterion, verdicts and whip locations per resolver."""
+    resolvers = list(dict.fromkeys(table["resolver"]))
+    verdicts = {}
+    whips = {}
+    for resolver in resolvers:
+        rows = table[table["resolver"] == resolver]
+        verdicts[resolver] = {verdict: int((rows["verdict"] == verdict).sum()) for verdict in VERDICTS}
+        whipped = rows[rows["verdict"] == "whiplash"]
+        if len(whipped):
+            aligned = whipped["aligned_joint"].value_counts()
+            whips[resolver] = {
+                "count": len(whipped),
+                "aligned_joint": {str(k): int(v) for k, v in aligned.items()},
+                "median_aligned_angle_deg": float(np.degrees(np.median(np.abs(whipped["aligned_angle"])))),
+                "median_whip_speed": float(whipped["whip_speed"].median()),
+                "median_instability_time_fraction": float((whipped["instability_time"] / whipped["duration"]).median()),
+            }
+    torque = {}
+    for resolver in resolvers:
+        rows = table[table["resolver"] == resolver]
+        ratio = rows["torque_vs_pinv"].to_numpy(dtype=float)
+        ratio = ratio[np.isfinite(ratio)]
+        torque[resolver] = {
+            "median_torque_vs_pinv": float(np.median(ratio)) if ratio.size else math.nan,
+            "share_below_pinv": proportion(int((ratio < 1.0).sum()), int(ratio.size)).as_dict(),
+        }
+    return {
+        "config": config,
+        "rows": len(table),
+        "paths": int(table["path"].nunique()),
+        "resolvers": resolvers,
+        "durations": sorted(float(d) for d in set(table["duration"])),
+        "criteria": CRITERIA,
+        "unstable_fraction": {criterion: unstable_fractions(table, criterion) for criterion in CRITERIA},
+        "claims": {criterion: claims(table, criterion) for criterion in CRITERIA},
+        "verdicts": verdicts,
+        "whips": whips,
+        "torque": torque,
+    }
+
+
+def write_markdown(summary: dict) -> str:
+    config = summary["config"]
+    population = config["population"]
+    lines = [
+        f"# Stability atlas: {config['robot_name']} ({config['task']} task)",
+        "",
+        f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
+        f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
+        f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
+        f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
+        f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop.",
+        f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "
+        f"exceeds {config['thresholds']['pinv_factor']:g} x pinv's on the same path or the self-motion energy "
+        f"exceeds {config['thresholds']['energy_factor']:g} x the task's. Intervals: Wilson 95 %.",
+        "",
+    ]
+    for criterion, description in summary["criteria"].items():
+        lines += [f"## Unstable fraction by duration: {description}", ""]
+        durations = summary["durations"]
+        lines.append("| resolver | " + " | ".join(f"T = {d:g} s" for d in durations) + " |")
+        lines.append("|---|" + "---|" * len(durations))
+        by_resolver = {}
+        for item in summary["unstable_fraction"][criterion]:
+            by_resolver.setdefault(item["resolver"], {})[item["duration"]] = item
+        for resolver, cells in by_resolver.items():
+            texts = []
+            for d in durations:
+                cell = cells.get(d)
+                texts.append(
+                    "-" if cell is None or not cell["trials"]
+                    else f"{cell['fraction']:.0%} [{cell['low']:.0%}, {cell['high']:.0%}] ({cell['successes']}/{cell['trials']})"
+                )
+            lines.append(f"| {resolver} | " + " | ".join(texts) + " |")
+        lines += ["", f"### The paper's claims ({criterion})", "", "| the paper | the atlas | figure | holds? |", "|---|---|---|---|"]
+        for claim in summary["claims"][criterion]:
+            lines.append(
+                f"| \"{claim['paper']}\" | {claim['figure']} | {claim['text']} | "
+                f"{claim['holds']} ({claim['rule']}) |"
+            )
+        lines.append("")
+    lines += ["## Verdicts per resolver", "", "| resolver | " + " | ".join(VERDICTS) + " | median peak torque vs pinv |",
+              "|---|" + "---|" * (len(VERDICTS) + 1)]
+    for resolver, counts in summary["verdicts"].items():
+        median = summary["torque"][resolver]["median_torque_vs_pinv"]
+        lines.append(f"| {resolver} | " + " | ".join(str(counts[v]) for v in VERDICTS) + f" | {median:.3g} |")
+    if summary["whips"]:
+        lines += ["", "## Where the whips happened", ""]
+        for resolver, whip in summary["whips"].items():
+            joints = ", ".join(f"{joint} {count}" for joint, count in whip["aligned_joint"].items())
+            lines.append(
+                f"- {resolver}: {whip['count']} whips; joint nearest aligned at the instability: {joints}; median "
+                f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} rad/s, "
+                f"median instability at {whip['median_instability_time_fraction']:.0%} of the movement"
+            )
+    figures = summary.get("figures") or {}
+    if figures:
+        lines += ["", "## Figures", ""] + [f"- {title}: `{name}`" for title, name in figures.items()]
+    lines += ["", "Columns of `results.parquet`: see `torqueopt.atlas.verdicts` (docstring) and the README.", ""]
+    return "\n".join(lines)
+
+
+def write_figures(table, summary: dict, out: Path, robot) -> dict:
+    """Draw the figures into ``out``; returns {title: file name}."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    made = {}
+    resolvers = summary["resolvers"]
+    colours = {resolver: f"C{i}" for i, resolver in enumerate(resolvers)}
+
+    # 1. Unstable fraction against duration, per resolver, with Wilson intervals, for both criteria.
+    figure, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for axis, (criterion, description) in zip(axes, summary["criteria"].items()):
+        items = summary["unstable_fraction"][criterion]
+        for offset, resolver in enumerate(resolvers):
+            cells = [item for item in items if item["resolver"] == resolver and item["trials"]]
+            durations = np.array([c["duration"] for c in cells])
+            shift = (offset - (len(resolvers) - 1) / 2) * 0.012 * (max(summary["durations"]) or 1)
+            fraction = np.array([c["fraction"] for c in cells])
+            error = np.array([[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]])
+            axis.errorbar(durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver])
+        axis.set_title(description, fontsize=9)
+        axis.set_xlabel("movement duration T [s]")
+        axis.set_ylim(-0.02, 1.02)
+        axis.grid(alpha=0.3)
+    axes[0].set_ylabel("unstable fraction (Wilson 95 % interval)")
+    axes[0].legend(fontsize=8)
+    figure.tight_layout()
+    made["unstable fraction against duration"] = _save(figure, out / "unstable_fraction.png")
+
+    # 2. Workspace map: start points coloured by verdict, one panel per resolver (planar tasks).
+    if "start_2" in table.columns and "start_3" not in table.columns:
+        verdict_colours = {"stable": "#2ca02c", "whiplash": "#d62728", "too demanding": "#ff7f0e", "singular": "#7f7f7f"}
+        longest = max(summary["durations"])
+        figure, axes = plt.subplots(1, len(resolvers), figsize=(3.3 * len(resolvers), 3.6), squeeze=False)
+        for axis, resolver in zip(axes[0], resolvers):
+            rows = table[(table["resolver"] == resolver) & (table["duration"] == longest)]
+            for verdict, colour in verdict_colours.items():
+                chosen = rows[rows["verdict"] == verdict]
+                axis.scatter(chosen["start_1"], chosen["start_2"], s=9, color=colour, label=verdict, linewidths=0)
+            reach = 3.0 if robot.name == "planar3" else None
+            if reach:
+                axis.add_patch(plt.Circle((0, 0), reach, fill=False, lw=0.6, color="k"))
+            axis.set_aspect("equal")
+            axis.set_title(f"{resolver}, T = {longest:g} s", fontsize=9)
+            axis.set_xlabel("start x [m]")
+        axes[0][0].set_ylabel("start y [m]")
+        axes[0][0].legend(fontsize=7, loc="lower left", markerscale=2)
+        figure.tight_layout()
+        made["workspace map of start points by verdict"] = _save(figure, out / "workspace_map.png")
+
+    # 3. Histograms of the instability time (as a fraction of the duration), per resolver.
+    figure, axis = plt.subplots(figsize=(6.5, 4))
+    bins = np.linspace(0, 1, 21)
+    for resolver in resolvers:
+        rows = table[(table["resolver"] == resolver) & table["unstable"]]
+        if len(rows):
+            axis.hist(rows["instability_time"] / rows["duration"], bins=bins, histtype="step", lw=1.5,
+                      label=f"{resolver} ({len(rows)})", color=colours[resolver])
+    axis.set_xlabel("instability time / duration (2x-limit rule)")
+    axis.set_ylabel("runs")
+    axis.legend(fontsize=8)
+    axis.grid(alpha=0.3)
+    figure.tight_layout()
+    made["histogram of instability times"] = _save(figure, out / "instability_time.png")
+
+    # 4. Trade-off: torque reduction against instability rate (the remedies, when there are any).
+    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    for resolver in resolvers:
+        rows = table[table["resolver"] == resolver]
+        ratio = rows["torque_vs_pinv"].to_numpy(dtype=float)
+        ratio = ratio[np.isfinite(ratio)]
+        share = proportion(int(rows["unstable"].sum()), len(rows))
+        if ratio.size:
+            marker = "o" if resolver in _PAPER_RESOLVERS else "s"
+            axis.errorbar(np.median(ratio), share.fraction, yerr=[[share.fraction - share.low], [share.high - share.fraction]],
+                          marker=marker, capsize=3, color=colours[resolver], label=resolver)
+    axis.axvline(1.0, color="k", lw=0.6)
+    axis.set_xscale("log")
+    axis.set_xlabel("median peak |τ|/limit relative to pinv on the same path (left: less torque)")
+    axis.set_ylabel("unstable fraction, all durations (2x-limit rule)")
+    axis.legend(fontsize=8)
+    axis.grid(alpha=0.3, which="both")
+    figure.tight_layout()
+    made["torque reduction against instability rate"] = _save(figure, out / "tradeoff.png")
+    return made
+
+
+def _save(figure, path: Path) -> str:
+    import matplotlib.pyplot as plt
+
+    atomic_write(path, lambda handle: figure.savefig(handle, format="png", dpi=130))
+    plt.close(figure)
+    return path.name

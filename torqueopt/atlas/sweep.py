@@ -1,0 +1,268 @@
+"""Running the atlas: chunks of movements on a Dask cluster, each chunk's rows written as it lands.
+
+Work goes out in chunks of movements of one duration (``chunk_size``
+paths, default 64). A chunk runs every resolver on its movements (``pinv``
+first: it is the baseline of the runaway criterion), batched by
+:func:`torqueopt.batch.simulate_batch` where the resolver supports it, by
+:func:`torqueopt.simulate` otherwise. Each worker thread loads the robot once
+and keeps it; every run makes its own Pinocchio ``Data``.
+
+The client writes each finished chunk to ``chunks/chunk-NNNNNN.parquet``
+atomically (a temporary file renamed into place) as soon as Dask's
+``as_completed`` hands it over. Started again with the same settings, the
+sweep finds the chunks already written and sends only the others, so a
+sweep killed at any moment loses at most the chunks in flight, counts none
+twice, and ends with the same table as an uninterrupted run: the table is
+the chunks' rows sorted by path and resolver, and every chunk's rows are a
+deterministic function of the settings.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..batch import batch_supports, simulate_batch
+from ..errors import InvalidInput, MissingDependency
+from ..io import atomic_write
+from ..resolvers import Resolver, get_resolver
+from ..robot import Robot, load_robot
+from ..simulate import simulate
+from ..trajectory import StraightLine
+from .population import Movement
+from .verdicts import Thresholds, run_row, self_motion_energy
+
+__all__ = ["RobotSpec", "run_chunk", "chunk_path", "CHUNK_FOLDER"]
+
+CHUNK_FOLDER = "chunks"
+BASELINE = "pinv"
+
+
+def require(module: str, extra: str = "atlas"):
+    """Import an optional dependency of the atlas, or MissingDependency naming the package to install."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        package = {"distributed": "dask[distributed]", "pyarrow": "pyarrow"}.get(module, module)
+        raise MissingDependency(
+            f"the atlas needs '{package}', which is not installed: pip install 'torqueopt[{extra}]'"
+        ) from None
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """What a worker needs to load the robot (a Robot object is not sent: each worker loads its own)."""
+
+    source: str
+    frame: str | None = None
+    task: str | None = None
+    torque_limit: tuple[float, ...] | None = None
+    gravity: bool | tuple[float, ...] | None = None
+
+    def load(self) -> Robot:
+        return load_robot(self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity)
+
+    def as_dict(self) -> dict:
+        return {
+            "source": self.source,
+            "frame": self.frame,
+            "task": self.task,
+            "torque_limit": None if self.torque_limit is None else list(self.torque_limit),
+            "gravity": list(self.gravity) if isinstance(self.gravity, tuple) else self.gravity,
+        }
+
+
+_LOCAL = threading.local()
+
+
+def _worker_robot(spec: RobotSpec) -> Robot:
+    """The robot for ``spec``, loaded once per worker thread."""
+    robots = getattr(_LOCAL, "robots", None)
+    if robots is None:
+        robots = _LOCAL.robots = {}
+    if spec not in robots:
+        robots[spec] = spec.load()
+    return robots[spec]
+
+
+def chunk_path(out: Path, index: int) -> Path:
+    return out / CHUNK_FOLDER / f"chunk-{index:06d}.parquet"
+
+
+def run_chunk(job: dict) -> list[dict]:
+    """Every resolver on every movement of one chunk: the chunk's rows (plain dicts), pinv's first.
+
+    ``job`` holds the robot spec, the resolvers, dt, acceleration, thresholds,
+    whether to batch, and the movements as (path, duration, q0, direction,
+    start) tuples. Deterministic: the same job gives the same rows.
+    """
+    robot = _worker_robot(job["robot"])
+    thresholds = Thresholds(**job["thresholds"])
+    movements = [Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start))
+                 for path, duration, q0, direction, start in job["movements"]]
+    lines = [StraightLine(m.direction, accel=job["accel"], duration=m.duration, start=m.start) for m in movements]
+    q0s = [m.q0 for m in movements]
+    resolvers: list[Resolver] = job["resolvers"]
+    rows: list[dict] = []
+    pinv_peaks = None
+    for resolver in resolvers:
+        results, energies = _simulate_all(robot, resolver, lines, q0s, job["dt"], job["batch"])
+        if pinv_peaks is None:  # the first resolver is pinv, the baseline
+            pinv_peaks = [_peak_applied_ratio(result) for result in results]
+        for movement, result, (kinetic, self_energy), pinv_peak in zip(movements, results, energies, pinv_peaks):
+            row = _movement_columns(movement, resolver_label(resolver))
+            row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
+            row["pinv_peak_torque_ratio"] = pinv_peak
+            row["batched"] = bool(job["batch"] and batch_supports(robot, resolver))
+            rows.append(row)
+    return rows
+
+
+def resolver_label(resolver: Resolver) -> str:
+    """The resolver's name as the table writes it: its registered name (options are in atlas-config.json)."""
+    return resolver.name
+
+
+def _peak_applied_ratio(result) -> float:
+    from .verdicts import applied_rows
+
+    applied = applied_rows(result)[0]
+    limited = np.isfinite(applied.torque_upper)
+    if not len(applied.t) or not limited.any():
+        return math.nan
+    return float(applied.torque_ratio[:, limited].max())
+
+
+def _simulate_all(robot, resolver, lines, q0s, dt, batch):
+    """(results, [(kinetic energy, self-motion energy) per run]) for one resolver on a chunk's movements."""
+    if batch and batch_supports(robot, resolver):
+        results, extras = simulate_batch(robot, resolver, lines, q0s, dt, extras=True)
+        return results, [(extra.kinetic_energy, extra.self_motion_energy) for extra in extras]
+    results = [simulate(robot, resolver, line, q0, dt=dt) for line, q0 in zip(lines, q0s)]
+    return results, [self_motion_energy(robot, result) for result in results]
+
+
+def _movement_columns(movement: Movement, resolver: str) -> dict:
+    row = {"path": int(movement.path), "duration": float(movement.duration), "resolver": resolver}
+    for i, value in enumerate(movement.q0, start=1):
+        row[f"q0_{i}"] = float(value)
+    for i, value in enumerate(movement.direction, start=1):
+        row[f"direction_{i}"] = float(value)
+    for i, value in enumerate(movement.start, start=1):
+        row[f"start_{i}"] = float(value)
+    return row
+
+
+def config_digest(config: dict) -> str:
+    return hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def write_chunk(out: Path, index: int, rows: list[dict]) -> None:
+    """Write one chunk's rows atomically as Parquet."""
+    pandas = require("pandas")
+    require("pyarrow")
+    frame = pandas.DataFrame(rows)
+    atomic_write(chunk_path(out, index), lambda handle: frame.to_parquet(handle, index=False))
+
+
+def finished_chunks(out: Path, count: int) -> set[int]:
+    """Indices of the chunks already written (whole files only: partial ones never get their final name)."""
+    folder = out / CHUNK_FOLDER
+    if not folder.is_dir():
+        return set()
+    done = set()
+    for path in folder.glob("chunk-*.parquet"):
+        try:
+            index = int(path.stem.split("-")[1])
+        except (IndexError, ValueError):
+            continue
+        if 0 <= index < count:
+            done.add(index)
+    return done
+
+
+def remove_partial_chunks(out: Path) -> None:
+    """Delete temporary chunk files left by a killed run (ours: ``.chunk-*.part``)."""
+    folder = out / CHUNK_FOLDER
+    if folder.is_dir():
+        for path in folder.glob(".chunk-*.part"):
+            path.unlink(missing_ok=True)
+
+
+def run_chunks(jobs: dict[int, dict], out: Path, *, scheduler, workers, progress, total_paths, done_paths) -> None:
+    """Send the pending chunks to Dask (or run them here when ``workers == 0``), writing each as it finishes."""
+    bar = _progress_bar(total_paths, done_paths, progress)
+    try:
+        if workers == 0 and scheduler is None:
+            for index, job in jobs.items():
+                write_chunk(out, index, run_chunk(job))
+                bar.update(len(job["movements"]))
+            return
+        distributed = require("distributed")
+        client, cluster = _client(distributed, scheduler, workers)
+        try:
+            futures = {}
+            for index, job in jobs.items():
+                futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job['digest']}-{index}")] = index
+            for future in distributed.as_completed(list(futures)):
+                index = futures[future]
+                write_chunk(out, index, future.result())
+                bar.update(len(jobs[index]["movements"]))
+                future.release()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    finally:
+        bar.close()
+
+
+def _client(distributed, scheduler, workers):
+    """A Dask client: to ``scheduler`` when given, else to a new LocalCluster (one process per core)."""
+    if scheduler is not None:
+        try:
+            return distributed.Client(scheduler, timeout="20s"), None
+        except OSError as error:
+            raise InvalidInput(f"cannot reach the Dask scheduler at '{scheduler}': {error}") from None
+    import logging
+
+    count = workers if workers else (os.cpu_count() or 1)
+    cluster = distributed.LocalCluster(
+        n_workers=count,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    return distributed.Client(cluster), cluster
+
+
+def _progress_bar(total: int, done: int, enabled: bool):
+    tqdm = require("tqdm")
+    return tqdm.tqdm(
+        total=total, initial=done, unit="path", desc="atlas", disable=not enabled, file=sys.stderr, dynamic_ncols=True,
+        smoothing=0.1,
+    )
+
+
+def resolvers_from(names) -> list[Resolver]:
+    """Resolver objects from names or objects, pinv first (added when missing: it is the baseline), no repeats."""
+    resolvers = [get_resolver(name) for name in names]
+    labels = [resolver.name for resolver in resolvers]
+    if len(set(labels)) != len(labels):
+        raise InvalidInput(f"resolvers {labels} repeat a name; give each once")
+    if not resolvers:
+        raise InvalidInput("give at least one resolver")
+    baseline = [resolver for resolver in resolvers if resolver.name == BASELINE]
+    others = [resolver for resolver in resolvers if resolver.name != BASELINE]
+    return (baseline or [get_resolver(BASELINE)]) + others

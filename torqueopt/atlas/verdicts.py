@@ -1,0 +1,234 @@
+r"""Verdicts: whiplash, a path that is simply too demanding, or stable.
+
+Two criteria are computed for every (movement, resolver) run, and both are
+kept in the results table:
+
+The 2x-limit rule (column ``unstable``)
+    :func:`torqueopt.whiplash.detect_whiplash`: unstable from the first
+    sample where a joint needs more than ``limit_factor`` (default 2) times
+    its torque limit; ``instability_time`` is that sample [s]. It cannot tell
+    a whip from a path the arm cannot do: on a path where even ``pinv``
+    needs twice the limits, every resolver fails it.
+
+The runaway criterion (column ``runaway``)
+    What the whip is, measured directly, by two figures:
+
+    * ``torque_vs_pinv``: the run's peak :math:`|\tau|/\tau^+` over that of
+      ``pinv`` on the same path. Above ``pinv_factor`` (default 2) the
+      resolver needs much more torque than the plain pseudoinverse does for
+      the very same tip motion: the excess is the resolver's own doing.
+    * ``self_motion_energy_ratio``: the peak kinetic energy of the
+      self-motion over the peak kinetic energy the tip motion itself needs,
+
+      .. math::
+
+          \rho = \frac{\max_t E_N(t)}{\max_t E_x(t)},\qquad
+          E_x = \tfrac12\dot x^\top\Lambda\dot x,\quad
+          \Lambda = (J H^{-1} J^\top)^{-1},\quad
+          E_N = \tfrac12\dot q^\top H\dot q - E_x \ge 0,
+
+      where :math:`E_x` is the least kinetic energy of any joint motion
+      with the tip velocity :math:`\dot x = J\dot q`, so :math:`E_N` is the
+      energy in the part of the motion that does not move the tip: the
+      self-motion that builds up and whips. Above ``energy_factor`` (default
+      4) the self-motion carries four times the energy the task ever needs.
+      This figure does not need ``pinv``, so it judges ``pinv`` too.
+
+    ``runaway`` is true when either figure is above its threshold, and
+    ``runaway_time`` is the first sample at which the energy ratio (running
+    maximum of :math:`E_N` over that of :math:`E_x`) passes its threshold.
+
+The verdict (column ``verdict``)
+    * ``"whiplash"``: the 2x-limit rule fails and the runaway criterion fires;
+    * ``"too demanding"``: the 2x-limit rule fails but nothing ran away: the
+      torque is what ``pinv`` needs on the path too, and the self-motion is
+      small, so the path asks more than the arm has;
+    * ``"singular"``: the run reached a singular Jacobian (and stopped there)
+      before failing the 2x-limit rule;
+    * ``"stable"``: otherwise (the runaway figures are still in the row).
+
+The thresholds 2 and 4 were read off a first look at 60 random paths of the
+paper's arm (0.5 to 2 s) before the atlas was run, not fitted to it: there,
+``pinv`` runs that pass the 2x-limit rule stay below an energy ratio of
+about 3, and the null-space runs that whip pass 10 to 100.
+
+Where the whip happened: at ``whip_time`` (the instability time, else the
+time of the peak torque demand) the row keeps the joint nearest to aligned
+(``aligned_joint``, the joint beyond the first whose wrapped angle is
+nearest 0, so that its two links line up; ``aligned_angle`` [rad]) and the
+fastest joint with its speed (``whip_speed_joint``, ``whip_speed`` [rad/s]).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields, replace
+
+import numpy as np
+import pinocchio as pin
+
+from ..checks import positive_number
+from ..result import SimResult
+from ..robot import Robot
+from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
+
+__all__ = [
+    "DEFAULT_PINV_FACTOR",
+    "DEFAULT_ENERGY_FACTOR",
+    "VERDICTS",
+    "Thresholds",
+    "self_motion_energy",
+    "run_row",
+]
+
+#: runaway when a run needs more than this multiple of pinv's peak torque ratio on the same path.
+DEFAULT_PINV_FACTOR = 2.0
+#: runaway when the self-motion's peak kinetic energy exceeds this multiple of the task's.
+DEFAULT_ENERGY_FACTOR = 4.0
+VERDICTS = ("stable", "whiplash", "too demanding", "singular")
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_PER_JOINT_FIELDS = ("torque_upper", "torque_lower")
+
+
+class Thresholds:
+    """The verdict thresholds: ``limit_factor`` (2x-limit rule), ``pinv_factor`` and ``energy_factor`` (runaway)."""
+
+    def __init__(
+        self,
+        limit_factor: float = DEFAULT_LIMIT_FACTOR,
+        pinv_factor: float = DEFAULT_PINV_FACTOR,
+        energy_factor: float = DEFAULT_ENERGY_FACTOR,
+    ):
+        self.limit_factor = positive_number(limit_factor, "limit_factor", hint="a multiple of the torque limit, such as 2")
+        self.pinv_factor = positive_number(pinv_factor, "pinv_factor", hint="a multiple of pinv's torque, such as 2")
+        self.energy_factor = positive_number(energy_factor, "energy_factor", hint="a ratio of energies, such as 4")
+
+    def as_dict(self) -> dict:
+        return {"limit_factor": self.limit_factor, "pinv_factor": self.pinv_factor, "energy_factor": self.energy_factor}
+
+
+def self_motion_energy(robot: Robot, result: SimResult) -> tuple[np.ndarray, np.ndarray]:
+    r"""(kinetic energy :math:`\tfrac12\dot q^\top H\dot q`, self-motion energy :math:`E_N`) at every sample [J].
+
+    Computed from a finished run with Pinocchio's CRBA and frame Jacobian at
+    each recorded state (the batched path computes the same figures as it
+    goes, :class:`torqueopt.batch.BatchExtras`).
+    """
+    model, data = robot.model, robot.model.createData()
+    count = len(result.t)
+    kinetic, self_motion = np.empty(count), np.empty(count)
+    for row in range(count):
+        q, v = result.q[row], result.v[row]
+        inertia = pin.crba(model, data, q)
+        inertia = np.triu(inertia) + np.triu(inertia, 1).T
+        jacobian = pin.computeFrameJacobian(model, data, q, robot.frame_id, _LWA)[robot.task_rows]
+        tip_velocity = jacobian @ v
+        task_inverse_inertia = jacobian @ np.linalg.solve(inertia, jacobian.T)
+        kinetic[row] = 0.5 * v @ inertia @ v
+        task = 0.5 * tip_velocity @ np.linalg.solve(task_inverse_inertia, tip_velocity)
+        self_motion[row] = max(kinetic[row] - task, 0.0)
+    return kinetic, self_motion
+
+
+def applied_rows(result: SimResult, *per_sample):
+    """``result`` (and the per-sample arrays) without a final sample at t = T, whose torque is never applied."""
+    count = len(result.t)
+    if count and result.t[-1] > result.duration - 0.5 * result.dt:
+        keep = slice(0, count - 1)
+        arrays = {
+            item.name: getattr(result, item.name)[keep]
+            for item in fields(result)
+            if item.name not in _PER_JOINT_FIELDS and isinstance(getattr(result, item.name), np.ndarray)
+            and len(getattr(result, item.name)) == count
+        }
+        result = replace(result, **arrays)
+        per_sample = tuple(values[keep] for values in per_sample)
+    return (result, *per_sample)
+
+
+def _wrapped(angle: np.ndarray) -> np.ndarray:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def run_row(
+    result: SimResult,
+    kinetic_energy: np.ndarray,
+    self_energy: np.ndarray,
+    pinv_peak_ratio: float,
+    thresholds: Thresholds,
+) -> dict:
+    """The verdict columns of one run (see the module docstring); energies per sample [J].
+
+    Torque figures (the 2x-limit rule, peak ratio, first violation) read the
+    applied torques only: the sample at t = T is the state the run ends in,
+    its torque is never held over a step.
+    """
+    tip_error = float(result.max_tip_error)
+    result, kinetic_energy, self_energy = applied_rows(result, kinetic_energy, self_energy)
+    report = detect_whiplash(result, limit_factor=thresholds.limit_factor)
+    ratios = result.torque_ratio
+    limited = np.isfinite(result.torque_upper)
+    count = len(result.t)
+    peak_ratio = float(ratios[:, limited].max()) if count and limited.any() else math.nan
+    peak_joint = result.joint_names[int(np.argmax(ratios[:, limited].max(axis=0)))] if count and limited.any() else None
+    violation = result.first_limit_violation
+
+    task_energy = np.maximum(kinetic_energy - self_energy, 0.0)
+    running_self = np.maximum.accumulate(self_energy) if count else self_energy
+    running_task = np.maximum.accumulate(task_energy) if count else task_energy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        running_ratio = np.where(running_task > 0, running_self / running_task, np.where(running_self > 0, np.inf, 0.0))
+    energy_ratio = float(running_ratio[-1]) if count else math.nan
+    over_energy = running_ratio > thresholds.energy_factor
+    runaway_time = float(result.t[int(np.argmax(over_energy))]) if over_energy.any() else math.nan
+    torque_vs_pinv = peak_ratio / pinv_peak_ratio if pinv_peak_ratio > 0 else math.nan
+    runaway = bool(over_energy.any() or (math.isfinite(torque_vs_pinv) and torque_vs_pinv > thresholds.pinv_factor))
+
+    singular = result.stop_reason is not None and result.stop_reason.startswith("task Jacobian is singular")
+    if report.unstable:
+        verdict = "whiplash" if runaway else "too demanding"
+    elif singular:
+        verdict = "singular"
+    else:
+        verdict = "stable"
+
+    # Where the whip happened: at the instability, else at the peak demand.
+    if count:
+        whip_row = int(np.argmax(result.t >= report.time)) if report.unstable else int(np.argmax(ratios.max(axis=1)))
+        angles = _wrapped(result.joint_angles[whip_row])
+        candidates = np.arange(1, result.n) if result.n > 1 else np.arange(result.n)
+        aligned = int(candidates[np.argmin(np.abs(angles[candidates]))])
+        speeds = np.abs(result.v[whip_row])
+        fastest = int(np.argmax(speeds))
+        whip = {
+            "whip_time": float(result.t[whip_row]),
+            "aligned_joint": result.joint_names[aligned],
+            "aligned_angle": float(angles[aligned]),
+            "whip_speed_joint": result.joint_names[fastest],
+            "whip_speed": float(speeds[fastest]),
+        }
+    else:
+        whip = {"whip_time": math.nan, "aligned_joint": None, "aligned_angle": math.nan, "whip_speed_joint": None, "whip_speed": math.nan}
+
+    return {
+        "unstable": bool(report.unstable),
+        "verdict": verdict,
+        "instability_time": math.nan if report.time is None else float(report.time),
+        "instability_joint": report.joint,
+        "peak_torque_ratio": peak_ratio,
+        "peak_torque_joint": peak_joint,
+        "first_limit_violation": math.nan if violation is None else float(violation),
+        "first_limit_violation_joint": result.first_limit_violation_joint,
+        "max_tip_error": tip_error,
+        "runaway": runaway,
+        "runaway_time": runaway_time,
+        "torque_vs_pinv": torque_vs_pinv,
+        "self_motion_energy_ratio": energy_ratio,
+        "peak_self_motion_energy": float(self_energy.max()) if count else math.nan,
+        "peak_kinetic_energy": float(kinetic_energy.max()) if count else math.nan,
+        **whip,
+        "completed": bool(result.completed),
+        "stop_reason": result.stop_reason,
+        "simulated_time": float(result.t[-1]) if count else 0.0,
+        "steps": count,
+    }

@@ -1,0 +1,130 @@
+"""``torqueopt atlas``: the stability atlas, how often and where each resolver goes unstable."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+from ..errors import InvalidInput
+from ..resolvers import resolver_names
+from ..whiplash import DEFAULT_LIMIT_FACTOR
+from . import EXIT_OK
+from .common import parse_positive, parse_vector
+
+__all__ = ["add_parser"]
+
+_PAPER_RESOLVERS = "pinv,inertia-pinv,null-space,weighted-null-space"
+
+
+def add_parser(subparsers) -> None:
+    from ..atlas import DEFAULT_CHUNK_SIZE, DEFAULT_MAX_STEPS
+    from ..atlas.verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR
+
+    parser = subparsers.add_parser(
+        "atlas",
+        help="stability atlas: a seeded population of movements x resolvers, on a Dask cluster",
+        description=(
+            "Run every resolver on a seeded population of the paper's straight-line movements (random starts and "
+            "directions, or a grid over the workspace), judge each run (the 2x-limit rule and a runaway criterion "
+            "that separates whiplash from a path that is simply too demanding), and write results.parquet, "
+            "atlas.md, atlas.json and figures into DIR. Runs on a local Dask cluster (one worker per core) or on "
+            "--scheduler ADDRESS. Killed and started again with the same command, it resumes where it stopped."
+        ),
+    )
+    parser.add_argument("--robot", default="planar3", help="robot name or URDF (default planar3)")
+    parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
+    parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
+    parser.add_argument("--torque-limit", metavar="TAU", help="symmetric torque limits [N·m], one value or one per joint")
+    parser.add_argument("--paths", required=True, metavar="N", help="movements per duration (random mode)")
+    parser.add_argument("--durations", default="0.5,1,1.5,2", metavar="T,...", help="movement durations [s] (default 0.5,1,1.5,2)")
+    parser.add_argument(
+        "--resolvers", default=_PAPER_RESOLVERS, metavar="NAMES",
+        help=f"comma-separated resolvers, of {', '.join(resolver_names())} (default the paper's four; pinv is always run)",
+    )
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing; resumed if it holds this atlas)")
+    parser.add_argument("--seed", default="0", help="seed of the population (default 0)")
+    group = parser.add_argument_group("population")
+    group.add_argument("--mode", choices=("random", "grid"), default="random", help="random starts, or a grid of start points")
+    group.add_argument("--reach-fraction", default="0.9", metavar="F", help="the whole line within F of the arm's reach (default 0.9)")
+    group.add_argument("--min-condition", default="0.05", metavar="C", help="start Jacobian σmin/σmax at least C (default 0.05)")
+    group.add_argument("--grid-spacing", default="0.25", metavar="M", help="grid mode: start-point spacing [m] (default 0.25)")
+    group.add_argument("--grid-directions", default="8", metavar="K", help="grid mode: directions per start point (default 8)")
+    group.add_argument("--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)")
+    group.add_argument("--dt", default="0.001", help="integration step [s] (default 0.001)")
+    group = parser.add_argument_group("verdicts (see torqueopt.atlas.verdicts)")
+    group.add_argument("--limit-factor", default=repr(DEFAULT_LIMIT_FACTOR), metavar="K", help="2x-limit rule: unstable above K x the limit (default 2)")
+    group.add_argument("--pinv-factor", default=repr(DEFAULT_PINV_FACTOR), metavar="K", help=f"runaway above K x pinv's peak torque on the path (default {DEFAULT_PINV_FACTOR:g})")
+    group.add_argument("--energy-factor", default=repr(DEFAULT_ENERGY_FACTOR), metavar="K", help=f"runaway when self-motion energy exceeds K x the task's (default {DEFAULT_ENERGY_FACTOR:g})")
+    group = parser.add_argument_group("execution")
+    group.add_argument("--scheduler", metavar="ADDRESS", help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)")
+    group.add_argument("--workers", metavar="N", help="local cluster worker processes (default: the machine's cores; 0: no Dask)")
+    group.add_argument("--chunk-size", default=str(DEFAULT_CHUNK_SIZE), metavar="N", help=f"movements per chunk of work (default {DEFAULT_CHUNK_SIZE})")
+    group.add_argument("--max-steps", default=f"{DEFAULT_MAX_STEPS:.0e}", metavar="N", help="refuse sweeps of more trajectory-steps (default 1e10)")
+    group.add_argument("--no-batch", action="store_true", help="simulate each movement alone (the reference path)")
+    group.add_argument("--no-progress", action="store_true", help="no progress bar")
+    group.add_argument("--no-figures", action="store_true", help="skip the figures")
+    parser.set_defaults(handler=atlas_command)
+
+
+def _whole(text: str, name: str, low: int = 0) -> int:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
+    if not (math.isfinite(value) and value == int(value) and value >= low):
+        raise InvalidInput(f"--{name}: {text} must be a whole number >= {low}")
+    return int(value)
+
+
+def atlas_command(args: argparse.Namespace) -> int:
+    from ..atlas import run_atlas
+    from ..atlas.sweep import RobotSpec
+
+    started = time.perf_counter()
+    durations = tuple(parse_vector(args.durations, "durations").tolist())
+    resolvers = [name.strip() for name in args.resolvers.split(",") if name.strip()]
+    torque_limit = None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
+    spec = RobotSpec(args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit)
+    result = run_atlas(
+        spec,
+        paths=_whole(args.paths, "paths", 1),
+        durations=durations,
+        resolvers=resolvers,
+        out=args.out,
+        seed=_whole(args.seed, "seed"),
+        scheduler=args.scheduler,
+        workers=None if args.workers is None else _whole(args.workers, "workers"),
+        chunk_size=_whole(args.chunk_size, "chunk-size", 1),
+        mode=args.mode,
+        reach_fraction=parse_positive(args.reach_fraction, "reach-fraction"),
+        min_condition=float(parse_vector(args.min_condition, "min-condition", 1)[0]),
+        grid_spacing=parse_positive(args.grid_spacing, "grid-spacing"),
+        grid_directions=_whole(args.grid_directions, "grid-directions", 1),
+        accel=parse_positive(args.accel, "accel"),
+        dt=parse_positive(args.dt, "dt"),
+        limit_factor=parse_positive(args.limit_factor, "limit-factor"),
+        pinv_factor=parse_positive(args.pinv_factor, "pinv-factor"),
+        energy_factor=parse_positive(args.energy_factor, "energy-factor"),
+        batch=not args.no_batch,
+        progress=not args.no_progress,
+        figures=not args.no_figures,
+        max_steps=_whole(args.max_steps, "max-steps", 1),
+    )
+    summary = result.summary
+    print(f"{'resolver':<22}" + "".join(f"{f'T={d:g} s':>12}" for d in summary["durations"]) + "   (unstable by the 2x-limit rule / whiplash)")
+    for resolver in summary["resolvers"]:
+        cells = []
+        for duration in summary["durations"]:
+            parts = []
+            for criterion in ("unstable", "whiplash"):
+                item = next(i for i in summary["unstable_fraction"][criterion] if i["resolver"] == resolver and i["duration"] == duration)
+                parts.append(f"{item['fraction']:.0%}")
+            cells.append(f"{'/'.join(parts):>12}")
+        print(f"{resolver:<22}" + "".join(cells))
+    for claim in summary["claims"]["whiplash"]:
+        print(f"claim ({claim['holds']}): \"{claim['paper']}\": {claim['figure']}: {claim['text']}")
+    resumed = summary.get("resumed_chunks", 0)
+    note = f", {resumed} chunks resumed from an earlier run" if resumed else ""
+    print(f"wrote {result.out}/results.parquet, atlas.md, atlas.json and figures in {time.perf_counter() - started:.1f} s{note}")
+    return EXIT_OK
