@@ -41,7 +41,6 @@ import numpy as np
 from ..errors import InvalidInput, OutputError
 from ..io import atomic_write, writable_path
 from ..resolvers import Resolver
-from ..robot import Robot
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from .population import Movement, PopulationSpec, draw_population
 from .stats import claims, proportion, unstable_fractions, wilson_interval
@@ -58,18 +57,18 @@ from .sweep import (
 from .verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR, VERDICTS, Thresholds
 
 __all__ = [
-    "run_atlas",
+    "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_MAX_STEPS",
+    "VERDICTS",
     "AtlasResult",
     "PopulationSpec",
     "Thresholds",
-    "draw_population",
-    "wilson_interval",
-    "proportion",
     "claims",
+    "draw_population",
+    "proportion",
+    "run_atlas",
     "unstable_fractions",
-    "VERDICTS",
-    "DEFAULT_MAX_STEPS",
-    "DEFAULT_CHUNK_SIZE",
+    "wilson_interval",
 ]
 
 #: Largest sweep (movements × resolvers × steps) run_atlas starts without being told otherwise.
@@ -229,7 +228,7 @@ def run_atlas(
 
     summary = summarise(table, config)
     summary["resumed_chunks"] = len(done)
-    text = json.dumps(summary, indent=2, default=_json_default, allow_nan=False).encode()
+    text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
     atomic_write(out / "atlas.json", lambda handle: handle.write(text))
     markdown = write_markdown(summary).encode()
     if figures:
@@ -237,6 +236,17 @@ def run_atlas(
         markdown = write_markdown(summary).encode()
     atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
     return AtlasResult(table=table, summary=summary, out=out)
+
+
+def _finite(value):
+    """``value`` with every NaN or infinite float replaced by None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(item) for item in value]
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _json_default(value):

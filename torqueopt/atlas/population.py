@@ -47,7 +47,7 @@ import pinocchio as pin
 from ..errors import InvalidInput
 from ..robot import Robot
 
-__all__ = ["PopulationSpec", "Movement", "draw_population", "arm_reach", "path_length", "MAX_PATHS"]
+__all__ = ["MAX_PATHS", "Movement", "PopulationSpec", "arm_reach", "draw_population", "path_length"]
 
 #: Largest number of movements per duration the atlas accepts.
 MAX_PATHS = 1_000_000
@@ -242,7 +242,7 @@ def _inverse_kinematics(robot: Robot, data, target, posture, iterations: int = 2
 def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
     dimension = min(robot.m, 3)
     limit = spec.reach_fraction * reach
-    count = int(math.floor(limit / spec.grid_spacing))
+    count = math.floor(limit / spec.grid_spacing)
     axis = spec.grid_spacing * np.arange(-count, count + 1)
     mesh = np.stack(np.meshgrid(*([axis] * dimension), indexing="ij"), axis=-1).reshape(-1, dimension)
     points = base + mesh[np.linalg.norm(mesh, axis=1) <= limit]

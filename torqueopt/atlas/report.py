@@ -11,7 +11,7 @@ from ..io import atomic_write
 from .stats import CRITERIA, claims, proportion, unstable_fractions
 from .verdicts import VERDICTS
 
-__all__ = ["summarise", "write_markdown", "write_figures"]
+__all__ = ["summarise", "write_figures", "write_markdown"]
 
 _PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
 
@@ -64,14 +64,14 @@ def write_markdown(summary: dict) -> str:
     lines = [
         f"# Stability atlas: {config['robot_name']} ({config['task']} task)",
         "",
-        f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
+        (f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
         f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
         f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
         f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
-        f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop.",
-        f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "
+        f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop."),
+        (f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "
         f"exceeds {config['thresholds']['pinv_factor']:g} x pinv's on the same path or the self-motion energy "
-        f"exceeds {config['thresholds']['energy_factor']:g} x the task's. Intervals: Wilson 95 %.",
+        f"exceeds {config['thresholds']['energy_factor']:g} x the task's. Intervals: Wilson 95 %."),
         "",
     ]
     for criterion, description in summary["criteria"].items():
@@ -139,7 +139,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             durations = np.array([c["duration"] for c in cells])
             shift = (offset - (len(resolvers) - 1) / 2) * 0.012 * (max(summary["durations"]) or 1)
             fraction = np.array([c["fraction"] for c in cells])
-            error = np.array([[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]])
+            error = np.clip([[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]], 0.0, None)
             axis.errorbar(durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver])
         axis.set_title(description, fontsize=9)
         axis.set_xlabel("movement duration T [s]")
@@ -195,7 +195,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
         share = proportion(int(rows["unstable"].sum()), len(rows))
         if ratio.size:
             marker = "o" if resolver in _PAPER_RESOLVERS else "s"
-            axis.errorbar(np.median(ratio), share.fraction, yerr=[[share.fraction - share.low], [share.high - share.fraction]],
+            axis.errorbar(np.median(ratio), share.fraction, yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
                           marker=marker, capsize=3, color=colours[resolver], label=resolver)
     axis.axvline(1.0, color="k", lw=0.6)
     axis.set_xscale("log")

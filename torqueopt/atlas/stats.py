@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["wilson_interval", "Proportion", "proportion", "unstable_fractions", "claims", "CRITERIA", "Z_95"]
+__all__ = ["CRITERIA", "Z_95", "Proportion", "claims", "proportion", "unstable_fractions", "wilson_interval"]
 
 #: The 97.5 % quantile of the standard normal distribution.
 Z_95 = 1.959963984540054

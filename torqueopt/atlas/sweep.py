@@ -40,7 +40,7 @@ from ..trajectory import StraightLine
 from .population import Movement
 from .verdicts import Thresholds, run_row, self_motion_energy
 
-__all__ = ["RobotSpec", "run_chunk", "chunk_path", "CHUNK_FOLDER"]
+__all__ = ["CHUNK_FOLDER", "RobotSpec", "chunk_path", "run_chunk"]
 
 CHUNK_FOLDER = "chunks"
 BASELINE = "pinv"
@@ -122,6 +122,7 @@ def run_chunk(job: dict) -> list[dict]:
         for movement, result, (kinetic, self_energy), pinv_peak in zip(movements, results, energies, pinv_peaks):
             row = _movement_columns(movement, resolver_label(resolver))
             row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
+            row.update(_start_columns(movement))
             row["pinv_peak_torque_ratio"] = pinv_peak
             row["batched"] = bool(job["batch"] and batch_supports(robot, resolver))
             rows.append(row)
@@ -146,8 +147,13 @@ def _peak_applied_ratio(result) -> float:
 def _simulate_all(robot, resolver, lines, q0s, dt, batch):
     """(results, [(kinetic energy, self-motion energy) per run]) for one resolver on a chunk's movements."""
     if batch and batch_supports(robot, resolver):
-        results, extras = simulate_batch(robot, resolver, lines, q0s, dt, extras=True)
-        return results, [(extra.kinetic_energy, extra.self_motion_energy) for extra in extras]
+        results, energies = [None] * len(lines), [None] * len(lines)
+        for duration in sorted({line.duration for line in lines}):
+            members = [i for i, line in enumerate(lines) if line.duration == duration]
+            runs, extras = simulate_batch(robot, resolver, [lines[i] for i in members], [q0s[i] for i in members], dt, extras=True)
+            for i, run, extra in zip(members, runs, extras):
+                results[i], energies[i] = run, (extra.kinetic_energy, extra.self_motion_energy)
+        return results, energies
     results = [simulate(robot, resolver, line, q0, dt=dt) for line, q0 in zip(lines, q0s)]
     return results, [self_motion_energy(robot, result) for result in results]
 
@@ -158,9 +164,11 @@ def _movement_columns(movement: Movement, resolver: str) -> dict:
         row[f"q0_{i}"] = float(value)
     for i, value in enumerate(movement.direction, start=1):
         row[f"direction_{i}"] = float(value)
-    for i, value in enumerate(movement.start, start=1):
-        row[f"start_{i}"] = float(value)
     return row
+
+
+def _start_columns(movement: Movement) -> dict:
+    return {f"start_{i}": float(value) for i, value in enumerate(movement.start, start=1)}
 
 
 def config_digest(config: dict) -> str:

@@ -1,0 +1,405 @@
+"""The stability atlas: population, verdicts, statistics, the Dask sweep, resume after a kill, the CLI."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.atlas import PopulationSpec, draw_population, run_atlas
+from torqueopt.atlas.population import arm_reach, path_length
+from torqueopt.atlas.stats import claims, proportion, unstable_fractions, wilson_interval
+from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.verdicts import Thresholds, self_motion_energy
+from torqueopt.batch import simulate_batch
+from torqueopt.cli import main
+from torqueopt.errors import InvalidInput, MissingDependency
+
+from .conftest import PAPER_Q0
+
+PAPER_RESOLVERS = ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = {"paths": 6, "durations": (0.3, 1.8), "chunk_size": 4, "progress": False, "figures": False}
+
+
+# -- statistics ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("successes, trials", [(0, 10), (5, 10), (10, 10), (1, 3), (37, 200), (199, 200)])
+def test_wilson_interval_solves_the_score_equation(successes, trials):
+    """The interval's ends are the two p with |p̂ − p| = z √(p(1−p)/n), the
+    roots of (n + z²) p² − (2k + z²) p + k²/n = 0 (numpy.roots, independent)."""
+    z = 1.959963984540054
+    roots = np.sort(np.roots([trials + z * z, -(2 * successes + z * z), successes**2 / trials]).real)
+    low, high = wilson_interval(successes, trials)
+    assert low == pytest.approx(max(roots[0], 0.0), abs=1e-12)
+    assert high == pytest.approx(min(roots[1], 1.0), abs=1e-12)
+
+
+def test_wilson_interval_known_values():
+    # 0 of 10: upper end z²/(n + z²) = 0.27753; 5 of 10: 0.5 ± 0.26342 (Wilson 1927 / Agresti & Coull 1998 tables).
+    assert wilson_interval(0, 10) == pytest.approx((0.0, 0.2775328), abs=1e-6)
+    assert wilson_interval(5, 10) == pytest.approx((0.2365931, 0.7634069), abs=1e-6)
+    assert all(math.isnan(x) for x in wilson_interval(0, 0))
+
+
+def _synthetic_table(rng, paths=120):
+    rows = []
+    for path in range(paths):
+        duration = [0.5, 2.0][path % 2]
+        flags = rng.random(4) < [0.05, 0.3, 0.5, 0.6] if duration == 2.0 else rng.random(4) < 0.1
+        for resolver, flag in zip(PAPER_RESOLVERS, flags):
+            whip = bool(flag and rng.random() < 0.7)
+            rows.append({"path": path, "duration": duration, "resolver": resolver, "unstable": bool(flag),
+                         "verdict": "whiplash" if whip else ("too demanding" if flag else "stable")})
+    return pandas.DataFrame(rows)
+
+
+def test_claims_and_fractions_against_a_direct_count(rng):
+    table = _synthetic_table(rng)
+    records = table.to_dict("records")
+    for criterion, flag_of in (("unstable", lambda r: r["unstable"]), ("whiplash", lambda r: r["verdict"] == "whiplash")):
+        flag = {(r["path"], r["resolver"]): flag_of(r) for r in records}
+        fractions = unstable_fractions(table, criterion)
+        for item in fractions:
+            chosen = [r for r in records if r["resolver"] == item["resolver"] and r["duration"] == item["duration"]]
+            assert item["trials"] == len(chosen)
+            assert item["successes"] == sum(flag_of(r) for r in chosen)
+        paths = sorted({r["path"] for r in records})
+        long_paths = [p for p in paths if p % 2 == 1]
+        by_claim = {c["figure"].split(",")[0].split(" on the")[0]: c for c in claims(table, criterion)}
+        ns = by_claim["null-space unstable"]
+        assert (ns["successes"], ns["trials"]) == (sum(flag[p, "null-space"] for p in long_paths), len(long_paths))
+        pv = by_claim["pinv unstable"]
+        assert pv["successes"] == sum(flag[p, "pinv"] for p in long_paths)
+        only_w = by_claim["weighted-null-space unstable and null-space not"]
+        assert only_w["successes"] == sum(flag[p, "weighted-null-space"] and not flag[p, "null-space"] for p in paths)
+        assert only_w["trials"] == len(paths)
+        only_n = by_claim["null-space unstable and weighted-null-space not"]
+        assert only_n["successes"] == sum(flag[p, "null-space"] and not flag[p, "weighted-null-space"] for p in paths)
+        assert only_n["holds"] == ("yes" if only_n["successes"] == 0 else "no")
+        given = by_claim["P(inertia-pinv unstable | null-space unstable)"]
+        assert given["trials"] == sum(flag[p, "null-space"] for p in paths)
+        assert given["successes"] == sum(flag[p, "null-space"] and flag[p, "inertia-pinv"] for p in paths)
+        low, high = wilson_interval(given["successes"], given["trials"])
+        assert (given["low"], given["high"]) == (low, high)
+    assert proportion(3, 4).text() == "75.0% (3/4; 95% CI 30.1%-95.4%)"
+
+
+# -- population ------------------------------------------------------------------
+
+
+def test_population_is_seeded_and_obeys_its_acceptance_rules(planar3):
+    spec = PopulationSpec(paths=40, durations=(0.5, 2.0), seed=11, reach_fraction=0.8, min_condition=0.2)
+    movements = draw_population(planar3, spec)
+    again = draw_population(planar3, spec)
+    assert [m.path for m in movements] == list(range(80))
+    assert all(np.array_equal(a.q0, b.q0) and np.array_equal(a.direction, b.direction) for a, b in zip(movements, again))
+    data = planar3.model.createData()
+    for movement in movements:
+        q = planar3.configuration(movement.q0)
+        tip = planar3.task_position(q)
+        assert np.allclose(tip, movement.start)
+        end = tip + path_length(spec.accel, movement.duration) * movement.direction
+        assert np.linalg.norm(tip) <= 0.8 * 3.0 + 1e-12 and np.linalg.norm(end) <= 0.8 * 3.0 + 1e-12
+        assert np.linalg.norm(movement.direction) == pytest.approx(1.0)
+        jacobian = pin.computeFrameJacobian(planar3.model, data, q, planar3.frame_id, pin.LOCAL_WORLD_ALIGNED)[:2]
+        singular_values = np.linalg.svd(jacobian, compute_uv=False)
+        assert singular_values[-1] / singular_values[0] >= 0.2
+    # Another seed draws other movements; another list of durations keeps the 2 s ones.
+    other = draw_population(planar3, PopulationSpec(paths=40, durations=(0.5, 2.0), seed=12, reach_fraction=0.8, min_condition=0.2))
+    assert not np.allclose(other[0].q0, movements[0].q0)
+    only_long = draw_population(planar3, PopulationSpec(paths=40, durations=(2.0,), seed=11, reach_fraction=0.8, min_condition=0.2))
+    assert all(np.array_equal(a.q0, b.q0) for a, b in zip(only_long, movements[40:]))
+    # Directions are uniform on the circle: the mean resultant of 2000 draws is near zero.
+    many = draw_population(planar3, PopulationSpec(paths=2000, durations=(0.3,), seed=1))
+    resultant = np.linalg.norm(np.mean([m.direction for m in many], axis=0))
+    assert resultant < 4 / math.sqrt(2000)
+
+
+def test_reach_and_grid_mode(planar3):
+    base, reach = arm_reach(planar3)
+    assert np.allclose(base, 0.0) and reach == 3.0
+    spec = PopulationSpec(mode="grid", durations=(0.5,), grid_spacing=0.5, grid_directions=4, reach_fraction=0.9)
+    movements = draw_population(planar3, spec)
+    starts = {tuple(np.round(m.start, 9)) for m in movements}
+    assert len(starts) > 20
+    for movement in movements:
+        assert np.allclose(np.round(movement.start / 0.5), movement.start / 0.5)  # on the grid
+        assert np.allclose(planar3.task_position(planar3.configuration(movement.q0)), movement.start, atol=1e-9)
+    assert {tuple(np.round(m.direction, 12)) for m in movements} <= {(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)}
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"paths": 0}, "paths=0 must be a whole number from 1 to 1,000,000"),
+        ({"durations": (0.5, -1)}, r"durations \[0.5, -1.0\] must be 1 to 100 numbers of seconds in \(0, 600\]"),
+        ({"mode": "sobol"}, "unknown population mode 'sobol': choose one of random, grid"),
+        ({"reach_fraction": 1.5}, r"reach_fraction=1.5 must be in \(0, 1\]"),
+    ],
+)
+def test_bad_population_settings(kwargs, message):
+    with pytest.raises(InvalidInput, match=message):
+        PopulationSpec(**kwargs)
+
+
+def test_impossible_acceptance_rules_say_what_to_loosen(planar3):
+    with pytest.raises(InvalidInput, match="the acceptance rules kept only 0 of 2000 draws for duration 4 s"):
+        draw_population(planar3, PopulationSpec(paths=2, durations=(4.0,), max_draws_per_path=1000))
+
+
+# -- verdicts --------------------------------------------------------------------
+
+
+PAPER_ACCEL = math.sqrt(2.0)
+
+
+def _rows(movements, accel=PAPER_ACCEL, resolvers=PAPER_RESOLVERS, batch=True):
+    planar3 = torqueopt.load_robot("planar3")
+    job = {
+        "robot": RobotSpec("planar3"),
+        "resolvers": resolvers_from(resolvers),
+        "dt": 1e-3,
+        "accel": accel,
+        "thresholds": Thresholds().as_dict(),
+        "batch": batch,
+        "movements": [
+            (i, duration, np.asarray(q0, float), np.asarray(d, float) / np.linalg.norm(d),
+             planar3.task_position(planar3.configuration(q0)))
+            for i, (duration, q0, d) in enumerate(movements)
+        ],
+    }  # fmt: skip
+    return {(row["path"], row["resolver"]): row for row in run_chunk(job)}
+
+
+def test_verdicts_on_the_papers_three_movements():
+    """Short (0.5 s) and medium (1.25 s): every resolver stable. Long (2 s): the
+    three kinetic methods whip (the paper's Figs. 4 and 6), links 2 and 3 in line
+    (joint 3 nearest aligned), while pinv stays stable."""
+    rows = _rows([(0.5, PAPER_Q0, (1, 1)), (1.25, PAPER_Q0, (1, 1)), (2.0, PAPER_Q0, (1, 1))])
+    for path in (0, 1):
+        for name in PAPER_RESOLVERS:
+            assert rows[path, name]["verdict"] == "stable" and not rows[path, name]["unstable"]
+    assert rows[2, "pinv"]["verdict"] == "stable"
+    for name in ("inertia-pinv", "null-space", "weighted-null-space"):
+        row = rows[2, name]
+        assert row["verdict"] == "whiplash" and row["unstable"] and row["runaway"]
+        assert 0.5 < row["instability_time"] < 2.0
+        assert row["torque_vs_pinv"] > 2.0
+        assert row["aligned_joint"] == "joint3"
+    assert rows[2, "null-space"]["instability_time"] > 1.0  # "near the movement end"
+
+
+def test_a_path_too_demanding_for_pinv_is_not_called_whiplash():
+    """Eight times the paper's acceleration over 0.5 s: pinv itself needs more
+    than twice the limits, so every resolver fails the 2x-limit rule, and none
+    of it is whiplash."""
+    rows = _rows([(0.5, PAPER_Q0, (1, 1))], accel=8.0)
+    assert rows[0, "pinv"]["peak_torque_ratio"] > 2.0
+    for name in PAPER_RESOLVERS:
+        assert rows[0, name]["unstable"] and rows[0, name]["verdict"] == "too demanding"
+        assert rows[0, name]["torque_vs_pinv"] < 2.0
+    # Six times the acceleration over 0.6 s: weighted-null-space fails later than the
+    # first sample, but its torque stays near pinv's and its self-motion small.
+    rows = _rows([(0.6, PAPER_Q0, (1, 1))], accel=6.0, resolvers=["pinv", "weighted-null-space"])
+    assert rows[0, "weighted-null-space"]["instability_time"] > 0.1
+    assert rows[0, "weighted-null-space"]["verdict"] == "too demanding"
+
+
+def test_row_columns_and_first_violation_against_the_run(planar3):
+    rows = _rows([(2.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "null-space"])
+    row = rows[0, "null-space"]
+    run = torqueopt.simulate(planar3, "null-space", torqueopt.StraightLine([1, 1], duration=2.0), PAPER_Q0)
+    applied = run.torque_ratio[:-1]  # the sample at t = T is not an applied torque
+    assert row["peak_torque_ratio"] == pytest.approx(applied.max(), rel=1e-9)
+    first = np.argmax((applied > 1.0).any(axis=1))
+    assert row["first_limit_violation"] == pytest.approx(run.t[first])
+    over_two = np.argmax((applied > 2.0).any(axis=1))
+    assert row["instability_time"] == pytest.approx(run.t[over_two])
+    assert row["max_tip_error"] == pytest.approx(run.max_tip_error, rel=1e-6)
+    assert row["pinv_peak_torque_ratio"] == pytest.approx(rows[0, "pinv"]["peak_torque_ratio"])
+    assert row["torque_vs_pinv"] == pytest.approx(row["peak_torque_ratio"] / row["pinv_peak_torque_ratio"])
+    assert row["q0_1"] == PAPER_Q0[0] and row["direction_1"] == pytest.approx(2**-0.5)
+
+
+def test_post_hoc_energy_equals_the_batched_one(planar3):
+    lines = [torqueopt.StraightLine([1, 1], duration=1.5)]
+    (run,), (extra,) = simulate_batch(planar3, "null-space", lines, [PAPER_Q0], extras=True)
+    kinetic, self_motion = self_motion_energy(planar3, run)
+    assert np.allclose(kinetic, extra.kinetic_energy, rtol=1e-9, atol=1e-12)
+    assert np.allclose(self_motion, extra.self_motion_energy, rtol=1e-7, atol=1e-9)
+
+
+def test_unbatched_rows_equal_batched_rows():
+    movements = [(1.0, PAPER_Q0, (1, 1)), (1.0, [0.3, 1.2, -0.9], (-1, 0.4))]
+    batched, unbatched = _rows(movements, batch=True), _rows(movements, batch=False)
+    for key, row in batched.items():
+        other = unbatched[key]
+        assert row["verdict"] == other["verdict"] and row["unstable"] == other["unstable"]
+        for column in ("peak_torque_ratio", "self_motion_energy_ratio", "max_tip_error", "torque_vs_pinv"):
+            assert row[column] == pytest.approx(other[column], rel=1e-7), column
+
+
+# -- the sweep --------------------------------------------------------------------
+
+
+def _table(out):
+    return pandas.read_parquet(Path(out) / "results.parquet")
+
+
+@pytest.fixture(scope="module")
+def reference_atlas(tmp_path_factory):
+    """The small atlas run in this process, without Dask: what every other run must reproduce."""
+    out = tmp_path_factory.mktemp("reference")
+    run_atlas("planar3", out=out, workers=0, seed=5, **SMALL)
+    return _table(out)
+
+
+def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
+    table = reference_atlas
+    required = ["path", "duration", "resolver", "q0_1", "q0_2", "q0_3", "direction_1", "direction_2", "unstable",
+                "verdict", "instability_time", "peak_torque_ratio", "first_limit_violation", "max_tip_error"]
+    assert list(table.columns[: len(required)]) == required
+    assert len(table) == 12 * 4 and table["path"].nunique() == 12
+    assert list(table["resolver"][:4]) == PAPER_RESOLVERS
+    assert set(table["verdict"]) <= {"stable", "whiplash", "too demanding", "singular"}
+
+
+def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
+    result = run_atlas("planar3", out=tmp_path, workers=2, seed=5, **{**SMALL, "figures": True})
+    pandas.testing.assert_frame_equal(_table(tmp_path), reference_atlas)
+    summary = json.loads((tmp_path / "atlas.json").read_text())
+    assert summary["paths"] == 12 and set(summary["claims"]) == {"unstable", "whiplash"}
+    for name in ("atlas.md", "unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert "## The paper's claims" in (tmp_path / "atlas.md").read_text().replace("### ", "## ")
+    assert result.summary["verdicts"]["pinv"]["stable"] >= 1
+
+
+def test_scheduler_and_workers_in_separate_processes(reference_atlas, tmp_path):
+    """A real Dask scheduler and two workers started as processes on 127.0.0.1, reached by address."""
+    scheduler_file = tmp_path / "scheduler.json"
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    bin_dir = Path(sys.executable).parent
+    processes = [subprocess.Popen(
+        [str(bin_dir / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+         "--scheduler-file", str(scheduler_file)],
+        env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )]  # fmt: skip
+    try:
+        deadline = time.monotonic() + 30
+        while not scheduler_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        for _ in range(2):
+            processes.append(subprocess.Popen(
+                [str(bin_dir / "dask"), "worker", address, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"],
+                env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            ))  # fmt: skip
+        out = tmp_path / "atlas"
+        run_atlas("planar3", out=out, scheduler=address, seed=5, **SMALL)
+        pandas.testing.assert_frame_equal(_table(out), reference_atlas)
+    finally:
+        for process in reversed(processes):
+            process.terminate()
+        for process in processes:
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+def test_a_sweep_killed_midway_resumes_to_the_identical_table(reference_atlas, tmp_path):
+    """SIGKILL the CLI after two chunks landed, run the same command again:
+    the table equals the uninterrupted one, nothing lost or counted twice."""
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "6", "--durations", "0.3,1.8",
+               "--chunk-size", "4", "--seed", "5", "--workers", "0", "--no-progress", "--no-figures", "--out", str(out)]
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    chunks = out / "chunks"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and process.poll() is None:
+        if chunks.is_dir() and len(list(chunks.glob("chunk-*.parquet"))) >= 2:
+            break
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    landed = len(list(chunks.glob("chunk-*.parquet")))
+    assert 2 <= landed < 4 and not (out / "results.parquet").exists()  # 12 paths in 4 chunks of up to 4
+    finished = subprocess.run(command, env=environment, capture_output=True, text=True, timeout=120, check=False)
+    assert finished.returncode == 0, finished.stderr
+    assert f"{landed} chunks resumed from an earlier run" in finished.stdout
+    pandas.testing.assert_frame_equal(_table(out), reference_atlas)
+    assert not list(chunks.glob(".*.part"))
+
+
+def test_resume_refuses_other_settings_and_folders_not_ours(tmp_path):
+    tiny = {**SMALL, "paths": 1, "durations": (0.2,)}
+    run_atlas("planar3", out=tmp_path, workers=0, seed=5, **tiny)
+    with pytest.raises(InvalidInput, match=r"holds an atlas with other settings \(population differ\)"):
+        run_atlas("planar3", out=tmp_path, workers=0, seed=6, **tiny)
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "results.parquet").write_text("someone else's")
+    with pytest.raises(InvalidInput, match="already has results.parquet but no atlas-config.json"):
+        run_atlas("planar3", out=foreign, workers=0, **SMALL)
+    assert (foreign / "results.parquet").read_text() == "someone else's"
+
+
+# -- the CLI ------------------------------------------------------------------------
+
+
+def test_cli_runs_and_prints_the_claims(tmp_path, capsys):
+    code = main(["atlas", "--robot", "planar3", "--paths", "3", "--durations", "0.3", "--workers", "0",
+                 "--no-progress", "--no-figures", "--out", str(tmp_path)])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "null-space" in out and "wrote" in out and 'claim (' in out
+    assert len(_table(tmp_path)) == 12
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--paths", "1000000", "--durations", "2,2.5"], "the atlas would simulate 1.8e+10 trajectory-steps"),
+        (["--paths", "3", "--resolvers", "pinv,nope"], "unknown resolver 'nope': choose one of"),
+        (["--paths", "two"], "--paths: 'two' is not a number"),
+        (["--paths", "3", "--durations", "0.5,x"], "--durations: 'x' is not a number"),
+    ],
+)
+def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, arguments, message):
+    code = main(["atlas", "--workers", "0", "--no-progress", "--out", str(tmp_path / "a"), *arguments])
+    error = capsys.readouterr().err
+    assert code == 2 and message in error and error.count("\n") == 1
+    assert not (tmp_path / "a").exists()
+
+
+def test_missing_dask_names_the_package(monkeypatch, tmp_path):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_distributed(name, *args, **kwargs):
+        if name == "distributed":
+            raise ImportError("no distributed")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_distributed)
+    import importlib
+
+    monkeypatch.setattr(importlib, "import_module", lambda name: no_distributed(name))
+    with pytest.raises(MissingDependency, match=r"the atlas needs 'dask\[distributed\]'.*pip install 'torqueopt\[atlas\]'"):
+        run_atlas("planar3", out=tmp_path, **{**SMALL, "paths": 1, "durations": (0.2,)})
