@@ -20,6 +20,9 @@ def assert_same_run(batched, reference, tolerance=1e-9):
     assert batched.stop_reason == reference.stop_reason
     assert batched.stop_time == reference.stop_time
     assert batched.trajectory == reference.trajectory
+    assert batched.resolver_options == reference.resolver_options
+    assert np.array_equal(batched.task_error, reference.task_error)
+    assert np.array_equal(batched.infeasible, reference.infeasible)
     assert (batched.robot, batched.resolver, batched.duration, batched.dt) == (
         reference.robot, reference.resolver, reference.duration, reference.dt
     )  # fmt: skip

@@ -40,7 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from .checks import positive_number, step_count
+from .checks import positive_number
 from .errors import InvalidInput
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
@@ -204,7 +204,7 @@ def simulate_batch(
     pool = pin.ModelPool(model, max(threads, 1))
     n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
     linear_dimension = min(m, 3)
-    steps = step_count(duration, dt)
+    steps = step_budget(duration, dt)
     times = dt * np.arange(steps + 1)
 
     q = np.array([_configuration(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
@@ -235,8 +235,8 @@ def simulate_batch(
     # Logs: one row per recorded step and movement; rows past a movement's stop stay unused.
     q_log = np.empty((count, steps + 1, n))
     v_log = np.empty((count, steps + 1, n))
-    acceleration_log = np.empty((count, steps + 1, n))
-    torque_log = np.empty((count, steps + 1, n))
+    acceleration_log = np.full((count, steps + 1, n), np.nan)
+    torque_log = np.full((count, steps + 1, n), np.nan)
     x_log = np.empty((count, steps + 1, m))
     condition_log = np.empty((count, steps + 1))
     energy_log = np.empty((count, steps + 1)) if extras else None
@@ -269,19 +269,25 @@ def simulate_batch(
             drift[row] = classical_acceleration(model, data, frame_id, _LWA).vector[rows]
             tip[row] = frame_placement(model, data, frame_id).translation[rows]
         H, b, J, Jd = inertia[:size], bias[:size], jacobian[:size], drift[:size]
+        # Every state is recorded (q, v, x, condition); torque and q̈ only where the resolver ran.
+        q_log[active, k] = q
+        v_log[active, k] = v
+        x_log[active, k] = tip[:size]
+        recorded[active] = k + 1
+        if extras:
+            energy_log[active, k], self_energy_log[active, k] = _energies(H, J, v)
+        if k == steps:
+            # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
+            condition_log[active, k] = _condition(J)
+            break
         command = reference_acceleration[active, k]
         torque, joint_acceleration, condition, singular = step(H, b, J, Jd, command)
-
-        if k == steps:
-            # The final state, as in simulate: no torque is applied from it.
-            singular = np.zeros(size, dtype=bool)
-            torque = np.full_like(torque, np.nan)
-            joint_acceleration = np.full_like(joint_acceleration, np.nan)
-            over = singular
-        else:
-            over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
+        condition_log[active, k] = condition
+        resolved = ~singular
+        acceleration_log[active[resolved], k] = joint_acceleration[resolved]
+        torque_log[active[resolved], k] = torque[resolved]
+        over = resolved & ~(np.abs(torque) <= torque_ceiling).all(axis=1)
         stopping = singular | over
-        keep = ~stopping
         for row in np.flatnonzero(stopping).tolist():
             movement = int(active[row])
             if singular[row]:
@@ -289,35 +295,12 @@ def simulate_batch(
             else:
                 stop_reason[movement] = _torque_stop(robot, torque[row], max_torque_ratio, t)
             stop_time[movement] = t
-        # Every row is recorded, as in simulate: a singular one with its state and no
-        # torque, a runaway one with the torque that stopped it.
-        going = active[keep]
-        q_log[active, k] = q[:size]
-        v_log[active, k] = v[:size]
-        acceleration_log[active, k] = np.where(singular[:, None], np.nan, joint_acceleration)
-        torque_log[active, k] = np.where(singular[:, None], np.nan, torque)
-        x_log[active, k] = tip[:size]
-        condition_log[active, k] = condition
-        recorded[active] = k + 1
-        if extras:
-            regular = ~singular
-            energy_log[active, k] = 0.5 * np.einsum("bi,bij,bj->b", v[:size], H, v[:size])
-            self_energy_log[active, k] = np.nan
-            if regular.any():
-                self_energy_log[active[regular], k] = _energies(H[regular], J[regular], v[:size][regular])[1]
-        if k == steps:
-            break
         if stopping.any():
-            active = going
-            q = q[:size][keep]
-            v = v[:size][keep]
-            torque = torque[keep]
-            joint_acceleration = joint_acceleration[keep]
-            size = active.size
-            if size == 0:
+            keep = ~stopping
+            active, q, v = active[keep], q[keep], v[keep]
+            torque, joint_acceleration = torque[keep], joint_acceleration[keep]
+            if active.size == 0:
                 break
-        else:
-            q, v = q[:size], v[:size]
 
         # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
         k1 = joint_acceleration
@@ -337,6 +320,7 @@ def simulate_batch(
 
     results = []
     joint_names = list(robot.joint_names)
+    options = resolver.settings_for_file()
     for i in range(count):
         length = int(recorded[i])
         q_rows = q_log[i, :length].copy()
@@ -363,6 +347,9 @@ def simulate_batch(
                 stop_reason=stop_reason[i],
                 stop_time=stop_time[i],
                 trajectory=descriptions[i],
+                task_error=np.zeros(length),
+                infeasible=np.zeros(length, dtype=bool),
+                resolver_options=options,
             )
         )
     if not extras:
@@ -389,13 +376,28 @@ def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> n
     return out
 
 
+def _condition(jacobian: np.ndarray) -> np.ndarray:
+    """σ_min/σ_max per task Jacobian of the stack (0 for a zero one), for rows at which no resolver runs."""
+    singular_values = np.linalg.svd(jacobian, compute_uv=False)
+    largest = singular_values[:, 0]
+    return np.where(largest > 0, singular_values[:, -1] / np.where(largest > 0, largest, 1.0), 0.0)
+
+
+def _solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Batched solve; through the pseudoinverse when a matrix of the stack is exactly singular."""
+    try:
+        return np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(matrix) @ rhs
+
+
 def _energies(inertia: np.ndarray, jacobian: np.ndarray, velocity: np.ndarray):
     r"""Kinetic energy :math:`\tfrac12\dot q^\top H\dot q` and its self-motion part (see :class:`BatchExtras`), per row [J]."""
     kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, inertia, velocity)
     tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)
     inverse_inertia_jt = np.linalg.solve(inertia, np.swapaxes(jacobian, 1, 2))  # H⁻¹Jᵀ, (B, n, m)
     task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
-    task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, np.linalg.solve(task_inverse_inertia, tip_velocity[..., None])[..., 0])
+    task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity[..., None])[..., 0])
     return kinetic, np.maximum(kinetic - task_energy, 0.0)
 
 

@@ -139,9 +139,10 @@ def _peak_applied_ratio(result) -> float:
 
     applied = applied_rows(result)[0]
     limited = np.isfinite(applied.torque_upper)
-    if not len(applied.t) or not limited.any():
+    ratios = applied.torque_ratio[:, limited]
+    if not ratios.size or np.isnan(ratios).all():
         return math.nan
-    return float(applied.torque_ratio[:, limited].max())
+    return float(np.nanmax(ratios))
 
 
 def _simulate_all(robot, resolver, lines, q0s, dt, batch):

@@ -172,11 +172,14 @@ def run_row(
     tip_error = float(result.max_tip_error)
     result, kinetic_energy, self_energy = applied_rows(result, kinetic_energy, self_energy)
     report = detect_whiplash(result, limit_factor=thresholds.limit_factor)
-    ratios = result.torque_ratio
+    # Rows without an applied torque (a singular stop) hold NaN: they count as no demand.
+    ratios = np.nan_to_num(result.torque_ratio, nan=-np.inf)
     limited = np.isfinite(result.torque_upper)
     count = len(result.t)
-    peak_ratio = float(ratios[:, limited].max()) if count and limited.any() else math.nan
-    peak_joint = result.joint_names[int(np.argmax(ratios[:, limited].max(axis=0)))] if count and limited.any() else None
+    peak_ratio, peak_joint = math.nan, None
+    if count and limited.any() and np.isfinite(ratios[:, limited]).any():
+        peak_ratio = float(ratios[:, limited].max())
+        peak_joint = str(np.asarray(result.joint_names)[limited][int(np.argmax(ratios[:, limited].max(axis=0)))])
     violation = result.first_limit_violation
 
     task_energy = np.maximum(kinetic_energy - self_energy, 0.0)
