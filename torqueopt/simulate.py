@@ -131,6 +131,13 @@ def simulate(
             the movement; the message offers the nearest dt that divides it).
     """
     resolver = get_resolver(resolver, **(resolver_options or {}))
+    if getattr(resolver, "level", None) == "velocity":
+        from .kinematic import simulate_kinematic
+
+        return simulate_kinematic(
+            robot, resolver, trajectory, q0, v0, dt, duration=duration, feedback=feedback,
+            max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio,
+        )  # fmt: skip
     resolver.check(robot)
     check_trajectory(trajectory)
     dt = positive_number(dt, "dt", "s")

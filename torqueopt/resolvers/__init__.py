@@ -12,6 +12,11 @@ name                   method (equation of the paper)
 ``inverse-inertia-torque`` minimum τᵀH⁻¹τ (Gauss's principle)
 ``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ
 ====================== ==========================================================
+
+The velocity-level methods of Section 1.1 (``velocity-pinv``,
+``gradient-projection``, ``task-priority``, ``obstacle-avoidance``,
+``extended-jacobian``, ``kinetic-energy-pinv``) are registered too, from
+:mod:`torqueopt.resolvers.velocity`; their ``level`` is ``"velocity"``.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
 from .options import Option
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
+from .velocity import VELOCITY_RESOLVERS
 
 __all__ = [
     "Resolution",
@@ -58,6 +64,7 @@ RESOLVERS: dict[str, type[Resolver]] = {
         InverseInertiaSquaredTorque,
     )
 }
+RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)
 
 
 def resolver_names() -> list[str]:

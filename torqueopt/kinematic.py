@@ -1,0 +1,263 @@
+r"""The simulation loop of the velocity-level (kinematic) resolvers of Section 1.1.
+
+A velocity-level resolver gives the joint rates :math:`\dot q = f(q, t)`
+from the commanded task velocity :math:`c(t, q) = \dot x_{ref}(t) + K(x_{ref}(t) - x(q))`
+(K = 0, open loop, by default). The loop integrates this first-order system
+by classical RK4 with the reference sampled at the stage times,
+
+.. math::
+
+    k_1 = f(q, t),\ k_2 = f(q \oplus \tfrac h2 k_1, t + \tfrac h2),\
+    k_3 = f(q \oplus \tfrac h2 k_2, t + \tfrac h2),\ k_4 = f(q \oplus h k_3, t + h),\qquad
+    q^+ = q \oplus \tfrac h6(k_1 + 2k_2 + 2k_3 + k_4),
+
+and records at each step start the state :math:`(q, \dot q = k_1)`, the
+joint acceleration of the motion and the torques that produce it, by
+inverse dynamics (Pinocchio's RNEA), Eq. (20):
+:math:`\tau = H\ddot q + \dot q\cdot C\cdot\dot q + g`.
+
+The joint acceleration is the derivative of f along the motion,
+
+.. math::
+
+    \ddot q = \frac{d}{dt} f(q(t), t) = \frac{\partial f}{\partial q}\dot q + \frac{\partial f}{\partial c}\frac{\partial c}{\partial t},
+
+taken at the state itself, not from neighbouring steps: the first term by a
+central difference of f along :math:`\dot q` (step δ = 1e-6 rad along the
+unit direction, error O(δ²) plus round-off ≈ 1e-10 relative), the second
+exactly, since every Section 1.1 method is affine in the task velocity:
+:math:`\frac{\partial f}{\partial c} u = f(q, u) - f(q, 0)`, with
+:math:`\partial c/\partial t = \ddot x_{ref} + K\dot x_{ref}` taken from the
+reference sample of the step (the step that starts at T/2 decelerates). So
+q̈ is consistent with the integrated motion to integration accuracy, and
+the torque jumps where the reference acceleration jumps (t = 0 and T/2 on
+the paper's line) exactly as the torque resolvers' do.
+
+The recorded torque is the inverse-dynamics torque at the step start; the
+motion is the kinematic one. A run stops, keeping what it computed, where
+the method is undefined (a singular task Jacobian, an algorithmic
+singularity of the extended Jacobian), or where joint speeds or torques
+pass the same ceilings as :func:`torqueopt.simulate`.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pinocchio as pin
+
+from .checks import finite_vector, positive_number
+from .errors import InvalidInput, SingularJacobian
+from .result import SimResult
+from .robot import Robot
+from .tasks import FrameTask, Kinematics
+
+__all__ = ["simulate_kinematic", "joint_rates", "DIFFERENCE_STEP"]
+
+#: Step [rad] of the central difference of f along q̇.
+DIFFERENCE_STEP = 1.0e-6
+_LARGEST_FLOAT = sys.float_info.max
+
+
+def joint_rates(robot: Robot, resolver, q, task_velocity) -> np.ndarray:
+    """Joint rates q̇ [rad/s] that a velocity-level resolver gives for ``task_velocity`` (m values) at q."""
+    from .resolvers import get_resolver
+    from .simulate import _configuration
+
+    resolver = get_resolver(resolver)
+    _require_velocity_level(resolver)
+    resolver.check(robot)
+    q = _configuration(robot, q)
+    task_velocity = finite_vector(task_velocity, robot.m, f"task velocity for task '{robot.task}'")
+    task = FrameTask.of_robot(robot, reference_rotation=robot.frame_placement(q).rotation)
+    kinematics = Kinematics(robot).update(q)
+    return resolver.rate_function(robot, task)(kinematics, task_velocity)[0]
+
+
+def _require_velocity_level(resolver) -> None:
+    if getattr(resolver, "level", None) != "velocity":
+        raise InvalidInput(f"resolver '{resolver.name}' is not a velocity-level resolver")
+
+
+def simulate_kinematic(
+    robot: Robot,
+    resolver,
+    trajectory,
+    q0,
+    v0=None,
+    dt: float = 1e-3,
+    *,
+    duration: float | None = None,
+    feedback=None,
+    max_joint_speed: float,
+    max_torque_ratio: float,
+) -> SimResult:
+    """Run a velocity-level resolver along ``trajectory``; called by :func:`torqueopt.simulate`.
+
+    Same arguments and result as :func:`torqueopt.simulate`, except that
+    ``v0`` must be None or zero (the method itself sets q̇ = f(q0, 0)) and
+    ``feedback`` is refused (closed loop is the resolver's ``position_gain``).
+    """
+    from .simulate import _configuration, _task_reference
+
+    _require_velocity_level(resolver)
+    resolver.check(robot)
+    if feedback is not None:
+        raise InvalidInput(
+            f"resolver '{resolver.name}' works at the velocity level; task acceleration feedback does not apply: "
+            "give it position_gain= [1/s] instead"
+        )
+    dt = positive_number(dt, "dt", "s")
+    duration = trajectory.duration if duration is None else duration
+    duration = positive_number(duration, "duration", "s")
+    if dt > duration:
+        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    q = _configuration(robot, q0)
+    if v0 is not None and np.any(robot.check_velocity(v0) != 0.0):
+        raise InvalidInput(
+            f"resolver '{resolver.name}' sets the joint velocity itself (q̇ = f(q, t)); v0 must be None or zero"
+        )
+
+    placement = robot.frame_placement(q)
+    reference_rotation = placement.rotation.copy()
+    trajectory = _anchored(robot, trajectory, placement)
+    steps = int(round(duration / dt))
+    # Reference at every step start and mid-step: RK4 evaluates f at t, t + h/2 and t + h.
+    half_times = 0.5 * dt * np.arange(2 * steps + 1)
+    reference = _task_reference(robot, trajectory, half_times)
+    ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
+    times = half_times[::2]
+
+    task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
+    kinematics = Kinematics(robot)
+    rates = resolver.rate_function(robot, task)
+    gain = resolver.position_gain
+    model = robot.model
+    dynamics_data = model.createData()
+    integrate = robot.integrate
+    n = robot.nv
+    limit = robot.torque_upper
+    torque_ceiling = np.minimum(max_torque_ratio * limit, _LARGEST_FLOAT)
+    speed_ceiling = min(max_joint_speed, _LARGEST_FLOAT)
+
+    def command(index: int) -> np.ndarray:
+        """c(t, q) at the reference sample ``index`` (half steps), with kinematics at q."""
+        if gain == 0.0:
+            return ref_velocity[index]
+        return ref_velocity[index] + gain * (ref_position[index] - task.value(kinematics))
+
+    def f(configuration: np.ndarray, index: int):
+        kinematics.update(configuration)
+        return rates(kinematics, command(index))
+
+    log = []
+    stop_reason = stop_time = None
+    for k, t in enumerate(times.tolist()):
+        index = 2 * k
+        try:
+            velocity, condition = f(q, index)
+            x = task.value(kinematics)
+            # ∂f/∂c ∂c/∂t, exact for a map affine in c
+            time_rate = ref_acceleration[index] + gain * ref_velocity[index]
+            homogeneous = rates(kinematics, np.zeros(robot.m))[0]
+            acceleration = rates(kinematics, time_rate)[0] - homogeneous
+            speed = float(np.linalg.norm(velocity))
+            if speed > 0.0:
+                # ∂f/∂q q̇ by a central difference along q̇/|q̇|, at the same reference sample
+                direction = velocity / speed
+                forward = f(integrate(q, DIFFERENCE_STEP * direction), index)[0]
+                backward = f(integrate(q, -DIFFERENCE_STEP * direction), index)[0]
+                acceleration = acceleration + speed * (forward - backward) / (2.0 * DIFFERENCE_STEP)
+        except SingularJacobian as error:
+            stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
+            break
+        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
+            stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
+            break
+        torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
+        if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
+            stop_reason, stop_time = _torque_stop(robot, torque, max_torque_ratio, t), t
+            break
+        log.append((q, velocity, acceleration, torque, x, condition))
+        if k == steps:
+            break
+        h = dt
+        try:
+            k2 = f(integrate(q, 0.5 * h * velocity), index + 1)[0]
+            k3 = f(integrate(q, 0.5 * h * k2), index + 1)[0]
+            k4 = f(integrate(q, h * k3), index + 2)[0]
+        except SingularJacobian as error:
+            stop_reason, stop_time = f"{error} during the step from t = {t:.4f} s", t
+            break
+        q = integrate(q, (h / 6.0) * (velocity + 2.0 * k2 + 2.0 * k3 + k4))
+
+    return _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time)
+
+
+def _anchored(robot: Robot, trajectory, placement: pin.SE3):
+    """The trajectory anchored at the tip's position at q0 when it has no start (as simulate does)."""
+    linear_dimension = min(robot.m, 3)
+    dimension = getattr(trajectory, "dimension", None)
+    if dimension is None:
+        dimension = trajectory.direction.size
+    if dimension != linear_dimension:
+        raise InvalidInput(
+            f"the trajectory moves the tip in {dimension} dimensions but task '{robot.task}' moves it in "
+            f"{linear_dimension}"
+        )
+    if getattr(trajectory, "start", None) is None:
+        trajectory = trajectory.anchored(placement.translation[:linear_dimension])
+    return trajectory
+
+
+def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time) -> SimResult:
+    recorded = len(log)
+    n = robot.nv
+    if log:
+        q_log, v_log, a_log, tau_log, x_log, condition_log = (np.array(column) for column in zip(*log))
+    else:
+        q_log, v_log, a_log, tau_log, x_log = (np.empty((0, size)) for size in (robot.nq, n, n, n, robot.m))
+        condition_log = np.empty(0)
+    return SimResult(
+        robot=robot.name,
+        frame=robot.frame,
+        task=robot.task,
+        resolver=resolver.name,
+        joint_names=list(robot.joint_names),
+        dt=dt,
+        t=times[:recorded].copy(),
+        q=q_log.reshape(recorded, robot.nq),
+        joint_angles=robot.joint_angles(q_log).reshape(recorded, n),
+        v=v_log.reshape(recorded, n),
+        acceleration=a_log.reshape(recorded, n),
+        tau=tau_log.reshape(recorded, n),
+        x=x_log.reshape(recorded, robot.m),
+        x_ref=ref_position[::2][:recorded].copy(),
+        jacobian_condition=np.asarray(condition_log, dtype=float).reshape(recorded),
+        torque_upper=robot.torque_upper.copy(),
+        torque_lower=robot.torque_lower.copy(),
+        duration=duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+    )
+
+
+def _speed_stop(robot: Robot, velocity: np.ndarray, max_joint_speed: float, t: float) -> str:
+    if not np.isfinite(velocity).all():
+        return f"joint rates became non-finite at t = {t:.4f} s"
+    joint = int(np.argmax(np.abs(velocity)))
+    return (
+        f"speed of joint {robot.joint_names[joint]} reached {velocity[joint]:.4g} rad/s, beyond "
+        f"{max_joint_speed:g} rad/s, at t = {t:.4f} s"
+    )
+
+
+def _torque_stop(robot: Robot, torque: np.ndarray, max_torque_ratio: float, t: float) -> str:
+    if not np.isfinite(torque).all():
+        return f"torque became non-finite at t = {t:.4f} s"
+    joint = int(np.argmax(np.abs(torque) / robot.torque_upper))
+    return (
+        f"torque of joint {robot.joint_names[joint]} reached {torque[joint]:.4g} N·m, more than "
+        f"{max_torque_ratio:g} times its limit {robot.torque_upper[joint]:g} N·m, at t = {t:.4f} s"
+    )

@@ -1,0 +1,49 @@
+"""Velocity-level (kinematic) resolvers: the methods of Section 1.1 of the paper.
+
+====================== ==========================================================
+name                   method (equations of the paper)
+====================== ==========================================================
+``velocity-pinv``       resolved rate with the pseudoinverse, Eqs. (1)-(3)
+``gradient-projection`` Liégeois's gradient projection, Eq. (4), criteria (5), (6)
+``task-priority``       Hanafusa, Yoshikawa & Nakamura, Eqs. (7)-(11)
+``obstacle-avoidance``  Maciejewski & Klein, Eqs. (12)-(13)
+``extended-jacobian``   Baillieul, Eqs. (14)-(15), n − m = 1
+``kinetic-energy-pinv`` weighted pseudoinverse with W = H, Eqs. (16)-(17)
+====================== ==========================================================
+"""
+
+from .base import VelocityResolver
+from .criteria import CallableCriterion, Criterion, JointLimits, Manipulability, criterion_from, manipulability
+from .extended_jacobian import ExtendedJacobian, null_vector, null_vector_derivative
+from .gradient_projection import GradientProjection
+from .obstacle_avoidance import ObstacleAvoidance
+from .pseudoinverse import KineticEnergyPseudoInverse, VelocityPseudoInverse
+from .task_priority import TaskPriority
+
+__all__ = [
+    "VelocityResolver",
+    "VelocityPseudoInverse",
+    "GradientProjection",
+    "TaskPriority",
+    "ObstacleAvoidance",
+    "ExtendedJacobian",
+    "KineticEnergyPseudoInverse",
+    "Criterion",
+    "JointLimits",
+    "Manipulability",
+    "CallableCriterion",
+    "criterion_from",
+    "manipulability",
+    "null_vector",
+    "null_vector_derivative",
+    "VELOCITY_RESOLVERS",
+]
+
+VELOCITY_RESOLVERS = (
+    VelocityPseudoInverse,
+    GradientProjection,
+    TaskPriority,
+    ObstacleAvoidance,
+    ExtendedJacobian,
+    KineticEnergyPseudoInverse,
+)

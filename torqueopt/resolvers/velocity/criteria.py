@@ -1,0 +1,194 @@
+r"""Scalar criteria :math:`p(q)` to minimise through the null space (gradient projection, extended Jacobian).
+
+* :class:`JointLimits`, Eq. (5) (Liégeois): :math:`p = \sum_i \big((q_i - q_i^{mid})/(q_i^{mid} - q_i^{max})\big)^2`,
+  dimensionless, over the joints with finite limits.
+* :class:`Manipulability`, Eq. (6) (Yoshikawa): :math:`p = -w`, :math:`w = \sqrt{\det(JJ^\top)}`
+  of the task Jacobian, so minimising p keeps the arm away from singularities.
+  Its gradient is analytic, :math:`\partial w/\partial q_k = w\,\mathrm{tr}(J^\dagger\,\partial J/\partial q_k)`,
+  with :math:`\partial J/\partial q_k` from Pinocchio's kinematic Hessian.
+* :class:`CallableCriterion`: any function of the joint angles, gradient and
+  Hessian by central differences.
+
+Gradients are with respect to the joint velocity coordinates (the tangent
+space), n values.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ...errors import InvalidInput
+from ...tasks import FrameTask, Kinematics
+
+__all__ = ["Criterion", "JointLimits", "Manipulability", "CallableCriterion", "criterion_from", "CRITERIA"]
+
+#: Joint position limits beyond this magnitude [rad, m] are treated as absent.
+_NO_LIMIT = 1.0e10
+
+
+class Criterion(ABC):
+    """A scalar function p(q) of the configuration, with its gradient (and Hessian when known)."""
+
+    name: str
+
+    def check(self, robot) -> None:
+        """Raise if the criterion cannot be computed on ``robot``."""
+
+    @abstractmethod
+    def value(self, kinematics: Kinematics, task: FrameTask) -> float:
+        """p at the kinematics' configuration."""
+
+    @abstractmethod
+    def gradient(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
+        """∂p/∂q (n values)."""
+
+    def hessian(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
+        """∂²p/∂q² (n×n); needed by the extended Jacobian."""
+        raise InvalidInput(f"criterion '{self.name}' has no Hessian; the extended Jacobian needs one (use joint-limits or a callable)")
+
+
+class JointLimits(Criterion):
+    r"""Liégeois's joint-limit criterion, Eq. (5): squared distances from mid-range, scaled by half-range."""
+
+    name = "joint-limits"
+
+    def __init__(self):
+        self._key = None
+
+    def _limits(self, model):
+        if self._key != id(model):
+            index, middle, half_range = [], [], []
+            for joint in range(1, model.njoints):
+                joint_model = model.joints[joint]
+                if joint_model.nq != 1 or joint_model.nv != 1:
+                    continue  # continuous and multi-dof joints carry no Eq. (5) term
+                low, high = model.lowerPositionLimit[joint_model.idx_q], model.upperPositionLimit[joint_model.idx_q]
+                if not (abs(low) < _NO_LIMIT and abs(high) < _NO_LIMIT and high > low):
+                    continue
+                index.append((joint_model.idx_q, joint_model.idx_v))
+                middle.append(0.5 * (low + high))
+                half_range.append(0.5 * (high - low))
+            self._index = np.array(index, dtype=int).reshape(-1, 2)
+            self._middle = np.array(middle)
+            self._half_range = np.array(half_range)
+            self._key = id(model)
+        return self._index, self._middle, self._half_range
+
+    def check(self, robot) -> None:
+        if self._limits(robot.model)[0].size == 0:
+            raise InvalidInput(f"criterion 'joint-limits' needs finite joint limits; robot '{robot.name}' has none")
+
+    def normalised_distance(self, robot, q: np.ndarray) -> np.ndarray:
+        r""":math:`(q_i - q_i^{mid})/(q_i^{max} - q_i^{mid})` for each joint with limits (−1 and 1 at the limits)."""
+        index, middle, half_range = self._limits(robot.model)
+        return (q[index[:, 0]] - middle) / half_range
+
+    def value(self, kinematics, task=None) -> float:
+        index, middle, half_range = self._limits(kinematics.model)
+        # Eq. (5), with θ_mid − θ_max = −half range (squared, so the sign drops)
+        return float(np.sum(((kinematics.q[index[:, 0]] - middle) / half_range) ** 2))
+
+    def gradient(self, kinematics, task=None) -> np.ndarray:
+        index, middle, half_range = self._limits(kinematics.model)
+        gradient = np.zeros(kinematics.nv)
+        gradient[index[:, 1]] = 2.0 * (kinematics.q[index[:, 0]] - middle) / half_range**2  # ∂/∂θ of Eq. (5)
+        return gradient
+
+    def hessian(self, kinematics, task=None) -> np.ndarray:
+        index, _, half_range = self._limits(kinematics.model)
+        hessian = np.zeros((kinematics.nv, kinematics.nv))
+        hessian[index[:, 1], index[:, 1]] = 2.0 / half_range**2
+        return hessian
+
+
+class Manipulability(Criterion):
+    r"""Minus Yoshikawa's manipulability, :math:`p = -w = -\sqrt{\det(JJ^\top)}` (Eq. (6)), of the task Jacobian."""
+
+    name = "manipulability"
+
+    def value(self, kinematics, task) -> float:
+        jacobian = task.jacobian(kinematics)
+        return -manipulability(jacobian)
+
+    def gradient(self, kinematics, task) -> np.ndarray:
+        jacobian = task.jacobian(kinematics)
+        w = manipulability(jacobian)
+        derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
+        pseudo = np.linalg.pinv(jacobian)
+        # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k), from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
+        return -w * np.einsum("ij,jik->k", pseudo, derivative)
+
+
+def manipulability(jacobian: np.ndarray) -> float:
+    r"""Yoshikawa's :math:`w = \sqrt{\det(JJ^\top)}`, Eq. (6), as the product of J's singular values."""
+    return float(np.prod(np.linalg.svd(jacobian, compute_uv=False)))
+
+
+class CallableCriterion(Criterion):
+    """A user function ``p(joint_angles) -> float``; gradient and Hessian by central differences.
+
+    Args:
+        function: of one coordinate per joint [rad, m] (as :meth:`Robot.joint_angles`).
+        step: difference step [rad, m].
+    """
+
+    def __init__(self, function, step: float = 1e-6, name: str | None = None):
+        if not callable(function):
+            raise InvalidInput(f"criterion {function!r} is not callable")
+        self.function = function
+        self.step = float(step)
+        self.name = name or getattr(function, "__name__", "callable")
+
+    def _call(self, robot, q) -> float:
+        value = float(self.function(robot.joint_angles(q)))
+        if not np.isfinite(value):
+            raise InvalidInput(f"criterion '{self.name}' returned {value} at q = {q.tolist()}; it must be finite")
+        return value
+
+    def value(self, kinematics, task=None) -> float:
+        return self._call(kinematics.robot, kinematics.q)
+
+    def gradient(self, kinematics, task=None) -> np.ndarray:
+        robot, q, h = kinematics.robot, kinematics.q, self.step
+        gradient = np.empty(robot.nv)
+        for k in range(robot.nv):
+            step = np.zeros(robot.nv)
+            step[k] = h
+            gradient[k] = (self._call(robot, robot.integrate(q, step)) - self._call(robot, robot.integrate(q, -step))) / (2 * h)
+        return gradient
+
+    def hessian(self, kinematics, task=None) -> np.ndarray:
+        robot, q, n = kinematics.robot, kinematics.q, kinematics.robot.nv
+        h = self.step**0.5 * 1e-1  # a larger step: second differences lose twice the digits
+        hessian = np.empty((n, n))
+        for i in range(n):
+            for k in range(n):
+                values = []
+                for si, sk in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                    step = np.zeros(n)
+                    step[i] += si * h
+                    step[k] += sk * h
+                    values.append(self._call(robot, robot.integrate(q, step)))
+                hessian[i, k] = (values[0] - values[1] - values[2] + values[3]) / (4 * h * h)
+        return hessian
+
+
+CRITERIA = {"joint-limits": JointLimits, "manipulability": Manipulability}
+
+
+def criterion_from(spec) -> Criterion:
+    """A Criterion from its name (``joint-limits``, ``manipulability``), a Criterion, or a callable."""
+    if isinstance(spec, Criterion):
+        return spec
+    if isinstance(spec, str):
+        try:
+            return CRITERIA[spec]()
+        except KeyError:
+            raise InvalidInput(
+                f"unknown criterion '{spec}': choose one of {', '.join(CRITERIA)}, or give a callable p(joint_angles)"
+            ) from None
+    if callable(spec):
+        return CallableCriterion(spec)
+    raise InvalidInput(f"criterion {spec!r} is neither a name ({', '.join(CRITERIA)}) nor a callable")

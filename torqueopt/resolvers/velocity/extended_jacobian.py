@@ -1,0 +1,135 @@
+r"""Baillieul's extended Jacobian (1985), Eqs. (14)-(15), for one degree of redundancy."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InvalidInput, NoRedundancy, SingularJacobian
+from ...linalg import DEFAULT_SINGULAR_TOLERANCE
+from ...robot import Robot
+from ...tasks import FrameTask, Kinematics
+from .base import VelocityResolver, pseudoinverse_solver
+from .criteria import criterion_from
+
+__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative"]
+
+
+def null_vector(jacobian: np.ndarray) -> np.ndarray:
+    r"""The generalised cross product of the rows of an m×(m+1) Jacobian: :math:`n_i = (-1)^i \det J_{\setminus i}`.
+
+    It spans the one-dimensional null space of J (:math:`J n = 0`, each row's
+    product is the determinant of a matrix with a repeated row) and is what the
+    paper calls "taking cross products of columns of J"; for m = 2 it is the
+    cross product of J's two rows.
+    """
+    n = jacobian.shape[1]
+    minors = jacobian[:, _minor_columns(n)].transpose(1, 0, 2)  # minor i: J without column i
+    return (-1.0) ** np.arange(n) * np.linalg.det(minors)
+
+
+def _minor_columns(n: int) -> np.ndarray:
+    """(n, n − 1) indices: row i lists every column but i."""
+    return np.array([[j for j in range(n) if j != i] for i in range(n)])
+
+
+def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
+    r""":math:`\partial n_i / \partial q_k` (n×n) of :func:`null_vector`, from :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
+
+    Each minor's derivative is the sum over its columns of the determinants
+    with that column replaced by its derivative (the multilinearity of det),
+    which stays exact where a minor itself is singular.
+    """
+    m, n = jacobian.shape
+    columns = _minor_columns(n)
+    minors = jacobian[:, columns].transpose(1, 0, 2)  # (n, m, m): minor i is J without column i
+    minor_derivatives = derivative[:, columns, :].transpose(1, 3, 0, 2)  # (n, n, m, m): [i, k] = ∂(minor i)/∂q_k
+    replaced = np.broadcast_to(minors[:, None, None], (n, n, m, m, m)).copy()  # [i, k, c]: minor i ...
+    for c in range(m):
+        replaced[:, :, c, :, c] = minor_derivatives[:, :, :, c]  # ... with its column c differentiated
+    signs = (-1.0) ** np.arange(n)
+    return signs[:, None] * np.linalg.det(replaced).sum(axis=2)
+
+
+class ExtendedJacobian(VelocityResolver):
+    r"""Baillieul's extended Jacobian for n − m = 1, Eqs. (14)-(15).
+
+    With :math:`n_J` spanning the null space of J and p(q) a criterion,
+
+    .. math::
+
+        G(q) = \frac{\partial p}{\partial q}\cdot n_J \quad\text{(Eq. 14)},\qquad
+        J_{ex}\dot q = \begin{bmatrix}\dot x\\ 0\end{bmatrix},\quad
+        J_{ex} = \begin{bmatrix} J \\ \partial G/\partial q\end{bmatrix} \quad\text{(Eq. 15)},
+
+    solved for :math:`\dot q` directly. The rates keep G constant along the
+    motion, so the arm stays on the surface :math:`G(q) = G(q_0)` (the
+    stationary points of p over the self-motion when :math:`G(q_0) = 0`):
+    the configuration is a function of the tip position, and a closed tip
+    path brings the joints back (the method is repeatable, unlike the
+    pseudoinverse). :math:`\partial G/\partial q` is analytic: the
+    criterion's Hessian and the derivative of :math:`n_J` through the
+    kinematic Hessian (:func:`null_vector_derivative`).
+
+    The method has singularities of its own where :math:`J_{ex}` loses rank
+    while J does not: where :math:`\partial G/\partial q` becomes orthogonal
+    to :math:`n_J`. There the rates are unbounded; the run stops, saying so,
+    when :math:`|\partial G/\partial q \cdot n_J| / (\|\partial G/\partial q\|\,\|n_J\|)`
+    falls below ``singular_tolerance``.
+
+    Args:
+        criterion: ``joint-limits`` (Eq. (5), the default), a Criterion with
+            a Hessian, or a callable ``p(joint_angles)`` (derivatives by differences).
+    """
+
+    name = "extended-jacobian"
+    needs_redundancy = True
+
+    def __init__(self, criterion="joint-limits", position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        super().__init__(position_gain, singular_tolerance)
+        self.criterion = criterion_from(criterion)
+        if self.criterion.name == "manipulability":
+            raise InvalidInput(
+                "extended-jacobian needs the criterion's Hessian: use joint-limits or a callable, not manipulability"
+            )
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        if robot.redundancy != 1:
+            raise NoRedundancy(
+                f"resolver 'extended-jacobian' needs exactly one degree of redundancy (n − m = 1); task "
+                f"'{robot.task}' on robot '{robot.name}' leaves {robot.redundancy}: choose a task with m = {robot.nv - 1}"
+            )
+        self.criterion.check(robot)
+
+    def extended_row(self, kinematics: Kinematics, task: FrameTask):
+        r"""(G, ∂G/∂q, n_J) at the kinematics' configuration, Eq. (14)."""
+        jacobian = task.jacobian(kinematics)
+        normal = null_vector(jacobian)
+        gradient = self.criterion.gradient(kinematics, task)
+        hessian = self.criterion.hessian(kinematics, task)
+        normal_derivative = null_vector_derivative(jacobian, task.jacobian_derivative(kinematics))
+        g_value = float(gradient.dot(normal))  # Eq. (14): G = ∂g/∂θ · n_J
+        g_row = normal.dot(hessian) + gradient.dot(normal_derivative)  # ∂G/∂θ, the last row of J_ex in Eq. (15)
+        return g_value, g_row, normal
+
+    def rate_function(self, robot: Robot, task: FrameTask):
+        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        tolerance = self.singular_tolerance
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            jacobian = task.jacobian(kinematics)
+            _, _, condition = decompose(jacobian, task_velocity)  # J itself must keep full rank
+            _, g_row, normal = self.extended_row(kinematics, task)
+            scale = np.linalg.norm(g_row) * np.linalg.norm(normal)
+            alignment = abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
+            if not alignment >= tolerance:
+                raise SingularJacobian(
+                    f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
+                    f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
+                    f"is below the cutoff {tolerance:.3g}"
+                )
+            extended = np.vstack([jacobian, g_row])  # J_ex of Eq. (15)
+            # Eq. (15): J_ex q̇ = [ẋ; 0], inverted directly
+            return np.linalg.solve(extended, np.append(task_velocity, 0.0)), condition
+
+        return rates

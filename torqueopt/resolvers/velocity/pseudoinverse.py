@@ -1,0 +1,96 @@
+r"""Resolved rate with the pseudoinverse and with the kinetic-energy-weighted pseudoinverse."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ...errors import InvalidInput
+from ...linalg import DEFAULT_SINGULAR_TOLERANCE
+from ...robot import Robot
+from ...tasks import FrameTask, Kinematics
+from .base import VelocityResolver, pseudoinverse_solver
+
+__all__ = ["VelocityPseudoInverse", "KineticEnergyPseudoInverse"]
+
+
+class VelocityPseudoInverse(VelocityResolver):
+    r"""Resolved rate (Whitney) with the Moore-Penrose pseudoinverse, Eqs. (1)-(3).
+
+    .. math::
+
+        \dot q = J^\dagger \dot x + (I - J^\dagger J)\dot\phi \quad\text{(Eq. 2)},\qquad
+        J^\dagger = J^\top (J J^\top)^{-1} \quad\text{(Eq. 3)}
+
+    With :math:`\dot\phi = 0` (the default) the joint rates minimise
+    :math:`\dot q^\top \dot q` among those realising :math:`\dot x = J\dot q`
+    (Eq. 1). The null-space projection :math:`I - J^\dagger J = ZZ^\top` is
+    applied through an orthonormal basis Z of the null space of J.
+
+    Args:
+        self_motion: :math:`\dot\phi` [rad/s]: n values, or a callable
+            ``phi(joint_angles) -> n values``; zero by default.
+    """
+
+    name = "velocity-pinv"
+
+    def __init__(self, self_motion=None, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        super().__init__(position_gain, singular_tolerance)
+        if self_motion is not None and not callable(self_motion):
+            try:
+                self_motion = np.asarray(self_motion, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                raise InvalidInput(f"self_motion {self_motion!r} is neither n numbers [rad/s] nor a callable") from None
+        self.self_motion = self_motion
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        if isinstance(self.self_motion, np.ndarray) and (
+            self.self_motion.size != robot.nv or not np.isfinite(self.self_motion).all()
+        ):
+            raise InvalidInput(f"self_motion {self.self_motion.tolist()} must be {robot.nv} finite joint rates [rad/s]")
+
+    def rate_function(self, robot: Robot, task: FrameTask):
+        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=self.self_motion is not None)
+        self_motion = self.self_motion
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            # Eq. (3) by SVD: J⁺ẋ, the null-space basis Z, and σmin/σmax
+            particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)
+            if self_motion is None or basis is None:
+                return particular, condition  # Eq. (2) with φ̇ = 0
+            phi = self_motion(robot.joint_angles(kinematics.q)) if callable(self_motion) else self_motion
+            return particular + basis.dot(basis.T.dot(phi)), condition  # Eq. (2): (I − J⁺J)φ̇ = Z Zᵀφ̇
+
+        return rates
+
+
+class KineticEnergyPseudoInverse(VelocityResolver):
+    r"""Weighted pseudoinverse with :math:`W = H`: minimum kinetic energy, Eqs. (16)-(17).
+
+    .. math::
+
+        \dot q = J_H^\dagger \dot x,\qquad
+        J_W^\dagger = W^{-1} J^\top (J W^{-1} J^\top)^{-1} \quad\text{(Eq. 16)}
+
+    which minimises :math:`T = \tfrac12 \dot q^\top H \dot q` (Eq. 17, [J])
+    among the joint rates with :math:`J\dot q = \dot x` (Whitney). H is
+    Pinocchio's CRBA at q. This is the velocity-level twin of the
+    acceleration-level ``inertia-pinv`` (Eq. 19).
+    """
+
+    name = "kinetic-energy-pinv"
+
+    def rate_function(self, robot: Robot, task: FrameTask):
+        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            jacobian = task.jacobian(kinematics)
+            _, _, condition = decompose(jacobian, task_velocity)  # raises SingularJacobian when J loses rank
+            inertia = pin.crba(kinematics.model, kinematics.data, kinematics.q)
+            inertia = np.triu(inertia) + np.triu(inertia, 1).T  # CRBA fills the upper triangle
+            inverse_inertia_jt = np.linalg.solve(inertia, jacobian.T)  # W⁻¹Jᵀ with W = H
+            # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ
+            return inverse_inertia_jt.dot(np.linalg.solve(jacobian.dot(inverse_inertia_jt), task_velocity)), condition
+
+        return rates

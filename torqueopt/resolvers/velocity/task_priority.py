@@ -1,0 +1,66 @@
+r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eqs. (7)-(11)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InvalidInput
+from ...linalg import DEFAULT_SINGULAR_TOLERANCE
+from ...robot import Robot
+from ...tasks import FrameTask, Kinematics, TaskStack, prioritised_rates
+from .base import VelocityResolver, pseudoinverse_solver
+
+__all__ = ["TaskPriority"]
+
+
+class TaskPriority(VelocityResolver):
+    r"""The robot's task first; lower-priority tasks in what freedom is left, Eq. (11).
+
+    .. math::
+
+        \dot q = J_h^\dagger \dot x_h + [J_l(I - J_h^\dagger J_h)]^\dagger(\dot x_l - J_l J_h^\dagger\dot x_h)
+
+    with :math:`\dot x_h` the commanded velocity of the robot's task (the
+    trajectory) and :math:`\dot x_l` the desired velocity of each secondary
+    task (:math:`k(x^* - x)` toward its target). The high-priority task is
+    realised exactly; the low-priority one in the least-squares sense (Eq. 10).
+    Several secondary tasks are stacked by the recursion of
+    :mod:`torqueopt.tasks.stack`.
+
+    Args:
+        secondary: a Task (with a target), a TaskStack, or a sequence of them, highest priority first.
+        damping: damped-least-squares λ for the secondary inverses, 0 for the plain pseudoinverse;
+            λ > 0 bounds the rates near the algorithmic singularities where :math:`J_l(I - J_h^\dagger J_h)` loses rank.
+    """
+
+    name = "task-priority"
+    needs_redundancy = True
+
+    def __init__(self, secondary=None, damping: float = 0.0, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        super().__init__(position_gain, singular_tolerance)
+        if secondary is None:
+            raise InvalidInput("resolver 'task-priority' needs secondary= a Task with a target (or a TaskStack)")
+        self.secondary = TaskStack.of(secondary)
+        damping = float(damping)
+        if not (np.isfinite(damping) and damping >= 0):
+            raise InvalidInput(f"damping={damping!r} must be a finite number >= 0")
+        self.damping = damping
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        self.secondary.check(robot)
+
+    def rate_function(self, robot: Robot, task: FrameTask):
+        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        secondary, damping = self.secondary, self.damping
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            jacobian = task.jacobian(kinematics)
+            _, _, condition = decompose(jacobian, task_velocity)  # the high-priority task must keep full rank
+            jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
+            velocities = [task_velocity] + [lower.desired_velocity(kinematics) for lower in secondary]
+            # Eq. (11) (and its recursion for deeper stacks), Eqs. (7)-(10) in the docstring
+            joint_rates, _ = prioritised_rates(jacobians, velocities, damping=damping)
+            return joint_rates, condition
+
+        return rates

@@ -1,0 +1,22 @@
+"""Task objects: a frame task, a stack of prioritised tasks, the arm's closest point to an obstacle.
+
+As pink's ``pink.tasks``: one concept per module behind the small base
+class :class:`Task`, all reading one :class:`Kinematics` per configuration.
+"""
+
+from .frame_task import FRAME_TASK_KINDS, FrameTask
+from .obstacle import ClosestPoint, ObstacleTask
+from .stack import TaskStack, prioritised_rates, pseudoinverse
+from .task import Kinematics, Task
+
+__all__ = [
+    "Task",
+    "Kinematics",
+    "FrameTask",
+    "FRAME_TASK_KINDS",
+    "TaskStack",
+    "prioritised_rates",
+    "pseudoinverse",
+    "ObstacleTask",
+    "ClosestPoint",
+]

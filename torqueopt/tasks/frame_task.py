@@ -1,0 +1,100 @@
+r"""A frame task: the planar position, the position or the pose of a named frame.
+
+Kinds (the same as a :class:`torqueopt.Robot`'s task string):
+
+``xy``
+    the frame origin's x and y in world axes (m = 2), the paper's task;
+``position``
+    the frame origin in world axes (m = 3);
+``pose``
+    position and orientation (m = 6); the orientation coordinates are the
+    rotation vector :math:`\log(R R_0^\top)` relative to a reference rotation
+    :math:`R_0` (world axes), whose rates are taken as the world angular
+    velocity, as in :mod:`torqueopt.robot`.
+
+The Jacobian is Pinocchio's frame Jacobian at the frame origin with
+world-aligned axes, the drift its classical acceleration at zero q̈.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import FrameNotFound, TaskNotFound
+from .task import Kinematics, Task
+
+__all__ = ["FrameTask", "FRAME_TASK_KINDS"]
+
+#: Rows of Pinocchio's 6-D frame Jacobian (linear first) that each kind uses.
+FRAME_TASK_KINDS = {"xy": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
+
+
+class FrameTask(Task):
+    """Planar position (``xy``), position or pose of the frame ``frame``.
+
+    Args:
+        frame: a frame name of the robot's model (``tip`` for planar3).
+        kind: ``xy``, ``position`` or ``pose``.
+        target: task coordinates to regulate to, or None.
+        gain: regulation gain [1/s].
+        reference_rotation: :math:`R_0` for ``pose`` (3×3, world axes); identity by default.
+    """
+
+    def __init__(self, frame: str, kind: str = "position", *, target=None, gain: float = 1.0, reference_rotation=None):
+        if kind not in FRAME_TASK_KINDS:
+            raise TaskNotFound(f"unknown task kind '{kind}': choose one of {', '.join(FRAME_TASK_KINDS)}")
+        self.frame = frame
+        self.kind = kind
+        self.rows = FRAME_TASK_KINDS[kind]
+        self.dimension = self.rows.stop
+        self.reference_rotation = np.eye(3) if reference_rotation is None else np.asarray(reference_rotation, float)
+        self._frame_id: int | None = None
+        self._model_id: int | None = None
+        super().__init__(target, gain)
+
+    @classmethod
+    def of_robot(cls, robot, **options) -> FrameTask:
+        """The robot's own task (its frame and task string) as a task object."""
+        return cls(robot.frame, robot.task, **options)
+
+    def check(self, robot) -> None:
+        if not robot.model.existFrame(self.frame):
+            names = [f.name for f in robot.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
+            raise FrameNotFound(f"robot '{robot.name}' has no frame '{self.frame}': choose one of {', '.join(names)}")
+
+    def frame_id(self, kinematics: Kinematics) -> int:
+        """The frame's index in the kinematics' model (looked up once per model)."""
+        if self._model_id != id(kinematics.model):
+            self._frame_id = kinematics.model.getFrameId(self.frame)
+            self._model_id = id(kinematics.model)
+        return self._frame_id
+
+    def value(self, kinematics: Kinematics) -> np.ndarray:
+        placement = kinematics.data.oMf[self.frame_id(kinematics)]
+        if self.kind == "pose":
+            return np.concatenate([placement.translation, pin.log3(placement.rotation.dot(self.reference_rotation.T))])
+        return placement.translation[self.rows].copy()
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.frame_jacobian(self.frame_id(kinematics))[self.rows]
+
+    def drift(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.frame_drift(self.frame_id(kinematics))[self.rows].copy()
+
+    def jacobian_derivative(self, kinematics: Kinematics) -> np.ndarray:
+        r"""(m, n, n) array D with :math:`D[:, i, k] = \partial J_{:,i}/\partial q_k` (kinematic Hessian)."""
+        return kinematics.frame_jacobian_derivative(self.frame_id(kinematics))[self.rows]
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        """Target minus value; for ``pose`` the orientation rows are the rotation vector from R to the target's."""
+        if self.kind != "pose" or self.target is None:
+            return super().error(kinematics)
+        placement = kinematics.data.oMf[self.frame_id(kinematics)]
+        target_rotation = pin.exp3(self.target[3:]).dot(self.reference_rotation)
+        return np.concatenate(
+            [self.target[:3] - placement.translation, pin.log3(target_rotation.dot(placement.rotation.T))]
+        )
+
+    def __repr__(self) -> str:
+        return f"FrameTask({self.frame!r}, {self.kind!r})"

@@ -1,0 +1,168 @@
+r"""The point of the arm closest to an obstacle, for obstacle avoidance (Maciejewski & Klein, Eqs. (12)-(13)).
+
+The arm is modelled as a chain of segments: from each joint origin of the
+chain that carries the task frame to the next, and from the last joint to
+the task frame's origin. Each segment is rigid in the body of the joint it
+starts at. For a point obstacle at :math:`c` or a sphere of radius
+:math:`r` about it, the closest point :math:`x_o` of the arm is the closest
+point over the segments; its clearance is :math:`d = \|x_o - c\| - r` [m]
+and its outward normal :math:`\hat n = (x_o - c)/\|x_o - c\|`.
+
+The Jacobian :math:`J_o` with :math:`\dot x_o = J_o\dot q` is Pinocchio's
+Jacobian of a frame placed at :math:`x_o` on that segment's body
+(``getFrameJacobian(model, data, joint, placement, LOCAL_WORLD_ALIGNED)``),
+the velocity of the material point that is closest at this instant, as in
+Maciejewski & Klein. The repulsive velocity is :math:`\dot x_o = v_o \hat n`
+with a speed :math:`v_o` [m/s].
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InvalidInput
+from .task import Kinematics, Task
+
+__all__ = ["ObstacleTask", "ClosestPoint"]
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class ClosestPoint(NamedTuple):
+    """The point of the arm closest to the obstacle.
+
+    Attributes:
+        point: its world position :math:`x_o` [m].
+        normal: unit vector from the obstacle centre to it.
+        clearance: distance to the obstacle's surface [m] (negative inside).
+        joint_id: the joint whose body carries it.
+        segment: index of the segment along the chain (0 at the base).
+    """
+
+    point: np.ndarray
+    normal: np.ndarray
+    clearance: float
+    joint_id: int
+    segment: int
+
+
+class ObstacleTask(Task):
+    r"""The closest point of the arm to a point or sphere obstacle (dimension 3).
+
+    Args:
+        center: obstacle centre in world axes [m]: 3 values, or 2 (z = 0) for planar arms.
+        radius: sphere radius [m]; 0 for a point obstacle.
+        speed: repulsive speed :math:`v_o` [m/s] of :meth:`desired_velocity`.
+        frame: the frame that ends the chain; the robot's task frame by default.
+    """
+
+    dimension = 3
+
+    def __init__(self, center, radius: float = 0.0, *, speed: float = 0.5, frame: str | None = None):
+        try:
+            values = np.asarray(center, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"obstacle centre {center!r} is not a vector of numbers") from None
+        if values.size not in (2, 3) or not np.isfinite(values).all():
+            raise InvalidInput(f"obstacle centre {values.tolist()} must be 2 or 3 finite numbers [m]")
+        self.center = np.concatenate([values, np.zeros(3 - values.size)])
+        for name, value in (("radius", radius), ("speed", speed)):
+            if not (np.isfinite(float(value)) and float(value) >= 0):
+                raise InvalidInput(f"obstacle {name}={value!r} must be a finite number >= 0 [m, m/s]")
+        self.radius = float(radius)
+        self.speed = float(speed)
+        self.frame = frame
+        self._chain_key = None
+        self._chain: list[tuple[int, int | None]] = []
+        super().__init__(None, 1.0)
+
+    @classmethod
+    def from_spec(cls, spec) -> ObstacleTask:
+        """An obstacle from an ObstacleTask, or from numbers: (x, y), (x, y, z) or (x, y, z, radius) [m]."""
+        if isinstance(spec, ObstacleTask):
+            return spec
+        try:
+            values = np.asarray(spec, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"obstacle {spec!r} is not an ObstacleTask or 2-4 numbers (x, y[, z[, radius]])") from None
+        if values.size == 4:
+            return cls(values[:3], values[3])
+        return cls(values)
+
+    def check(self, robot) -> None:
+        frame = self.frame or robot.frame
+        if not robot.model.existFrame(frame):
+            raise InvalidInput(f"obstacle task: robot '{robot.name}' has no frame '{frame}'")
+
+    def _segments(self, kinematics: Kinematics):
+        """(joint id, next joint id or None for the end frame) along the chain, built once per model."""
+        model = kinematics.model
+        key = id(model)
+        if self._chain_key != key:
+            frame_id = model.getFrameId(self.frame or kinematics.robot.frame)
+            self._end_frame = frame_id
+            joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0]
+            self._chain = [(j, joints[i + 1] if i + 1 < len(joints) else None) for i, j in enumerate(joints)]
+            self._chain_key = key
+        return self._chain
+
+    def closest_point(self, kinematics: Kinematics) -> ClosestPoint:
+        """The closest point of the arm's segments to the obstacle, with its clearance [m]."""
+        best = None
+        for index, (joint, following) in enumerate(self._segments(kinematics)):
+            start = kinematics.data.oMi[joint].translation
+            end = (
+                kinematics.data.oMf[self._end_frame].translation
+                if following is None
+                else kinematics.data.oMi[following].translation
+            )
+            axis = end - start
+            length_squared = float(axis.dot(axis))
+            fraction = 0.0 if length_squared == 0.0 else min(1.0, max(0.0, float((self.center - start).dot(axis)) / length_squared))
+            point = start + fraction * axis
+            distance = float(np.linalg.norm(point - self.center))
+            if best is None or distance < best[0]:
+                best = (distance, point, joint, index)
+        distance, point, joint, index = best
+        offset = point - self.center
+        normal = offset / distance if distance > 0 else np.array([1.0, 0.0, 0.0])
+        return ClosestPoint(point.copy(), normal, distance - self.radius, joint, index)
+
+    def clearance(self, kinematics: Kinematics) -> float:
+        """Distance from the arm to the obstacle's surface [m]."""
+        return self.closest_point(kinematics).clearance
+
+    def _placement(self, kinematics: Kinematics, closest: ClosestPoint) -> pin.SE3:
+        joint_placement = kinematics.data.oMi[closest.joint_id]
+        local_point = joint_placement.rotation.T.dot(closest.point - joint_placement.translation)
+        return pin.SE3(np.eye(3), local_point)
+
+    def value(self, kinematics: Kinematics) -> np.ndarray:
+        return self.closest_point(kinematics).point
+
+    def point_jacobian(self, kinematics: Kinematics, closest: ClosestPoint) -> np.ndarray:
+        r"""3×n Jacobian :math:`J_o` of the material point at ``closest`` (world axes)."""
+        placement = self._placement(kinematics, closest)
+        return pin.getFrameJacobian(kinematics.model, kinematics.data, closest.joint_id, placement, _LWA)[:3]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return self.point_jacobian(kinematics, self.closest_point(kinematics))
+
+    def drift(self, kinematics: Kinematics) -> np.ndarray:
+        if kinematics.v is None:
+            raise InvalidInput("a task drift J̇q̇ needs the joint velocity: call Kinematics.update(q, v)")
+        closest = self.closest_point(kinematics)
+        placement = self._placement(kinematics, closest)
+        return pin.getFrameClassicalAcceleration(
+            kinematics.model, kinematics.data, closest.joint_id, placement, _LWA
+        ).linear.copy()
+
+    def desired_velocity(self, kinematics: Kinematics) -> np.ndarray:
+        r"""The repulsive velocity :math:`\dot x_o = v_o \hat n` [m/s], away from the obstacle."""
+        return self.speed * self.closest_point(kinematics).normal
+
+    def __repr__(self) -> str:
+        return f"ObstacleTask(center={self.center.tolist()}, radius={self.radius:g})"

@@ -1,0 +1,116 @@
+r"""A stack of prioritised tasks (Hanafusa, Yoshikawa & Nakamura, Eqs. (7)-(11)).
+
+For a high-priority task :math:`\dot x_h = J_h\dot q` (Eq. 7) and a
+low-priority one :math:`\dot x_l = J_l \dot q` (Eq. 8), the joint rates
+
+.. math::
+
+    \dot q = J_h^\dagger \dot x_h + [J_l(I - J_h^\dagger J_h)]^\dagger
+             (\dot x_l - J_l J_h^\dagger \dot x_h) \qquad \text{(Eq. 11)}
+
+realise :math:`\dot x_h` exactly and :math:`\dot x_l` as well as the
+remaining freedom allows (least squares). Eq. (11) is Eq. (9) with the
+null-space vector of Eq. (10); the projector :math:`B = I - J_h^\dagger J_h`
+drops out by the identity :math:`B[CB]^\dagger = [CB]^\dagger` (B Hermitian
+and idempotent). A deeper stack repeats the step, each task in the null
+space of all above it (the recursion of Siciliano & Slotine, 1991):
+
+.. math::
+
+    \dot q_k = \dot q_{k-1} + (J_k P_{k-1})^\dagger(\dot x_k - J_k \dot q_{k-1}),\qquad
+    P_k = P_{k-1} - (J_k P_{k-1})^\dagger J_k P_{k-1},
+
+with :math:`\dot q_0 = 0`, :math:`P_0 = I`; for two tasks it is Eq. (11).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import InvalidInput
+from .task import Task
+
+__all__ = ["TaskStack", "prioritised_rates", "pseudoinverse"]
+
+
+def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float = 0.0) -> np.ndarray:
+    r"""Moore-Penrose pseudoinverse by SVD (Eq. (3) for full row rank), singular values below
+    ``tolerance`` × the largest dropped; with ``damping`` λ > 0 the damped least-squares inverse
+    :math:`A^\top(AA^\top + \lambda^2 I)^{-1}` instead."""
+    if matrix.size == 0:
+        return np.zeros(matrix.T.shape)
+    u, singular, vt = np.linalg.svd(matrix, full_matrices=False)
+    if damping > 0.0:
+        inverse_values = singular / (singular**2 + damping**2)
+    else:
+        largest = singular[0] if singular.size else 0.0
+        keep = singular > tolerance * largest
+        inverse_values = np.where(keep, 1.0 / np.where(keep, singular, 1.0), 0.0)
+    return (vt.T * inverse_values).dot(u.T)
+
+
+def prioritised_rates(jacobians: Sequence[np.ndarray], velocities: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0):
+    r"""Joint rates realising the task velocities in priority order, Eq. (11) and its recursion.
+
+    Args:
+        jacobians: :math:`J_1, J_2, \dots` (each m_k × n), highest priority first.
+        velocities: the desired :math:`\dot x_k` (m_k values each).
+        tolerance: relative singular-value cutoff of every pseudoinverse.
+        damping: damped least squares λ for the lower-priority inverses (0: none).
+
+    Returns:
+        (q̇, projector): the joint rates [rad/s] and :math:`P_K`, the projector
+        onto the freedom left after every task.
+    """
+    n = jacobians[0].shape[1]
+    rates = np.zeros(n)
+    projector = np.eye(n)
+    for level, (jacobian, velocity) in enumerate(zip(jacobians, velocities)):
+        projected = jacobian.dot(projector)  # J_k P_{k-1}; for k = 2, J_l(I - J_h⁺J_h) of Eq. (10)
+        inverse = pseudoinverse(projected, tolerance, damping if level > 0 else 0.0)
+        # Eq. (11): the task's shortfall left by the tasks above it, through [J_k P_{k-1}]⁺.
+        rates = rates + inverse.dot(velocity - jacobian.dot(rates))
+        projector = projector - inverse.dot(projected)
+    return rates, projector
+
+
+class TaskStack:
+    """Tasks in priority order, highest first; the lower ones act in the null space of those above.
+
+    Args:
+        tasks: Task objects (each with a target, or whose desired velocity is given by the resolver).
+    """
+
+    def __init__(self, tasks: Sequence[Task]):
+        tasks = list(tasks.tasks if isinstance(tasks, TaskStack) else tasks)
+        if not tasks or not all(isinstance(task, Task) for task in tasks):
+            raise InvalidInput(f"a task stack needs one or more Task objects, got {tasks!r}")
+        self.tasks = tasks
+
+    @classmethod
+    def of(cls, tasks) -> TaskStack:
+        """A stack from a TaskStack, one Task, or a sequence of Tasks."""
+        if isinstance(tasks, TaskStack):
+            return tasks
+        if isinstance(tasks, Task):
+            return cls([tasks])
+        return cls(tasks)
+
+    def check(self, robot) -> None:
+        for task in self.tasks:
+            task.check(robot)
+
+    @property
+    def dimension(self) -> int:
+        return sum(task.dimension for task in self.tasks)
+
+    def __iter__(self):
+        return iter(self.tasks)
+
+    def __len__(self) -> int:
+        return len(self.tasks)
+
+    def __repr__(self) -> str:
+        return f"TaskStack({self.tasks!r})"

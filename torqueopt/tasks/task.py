@@ -1,0 +1,154 @@
+r"""The base of every task: something of the arm whose coordinates, Jacobian and drift Pinocchio gives.
+
+A task of dimension :math:`m` has coordinates :math:`x(q)` (m values), a
+Jacobian :math:`J(q) = \partial x / \partial q` in world-aligned axes, so that
+:math:`\dot x = J \dot q` (Eq. (1) of the paper), and a drift
+:math:`\dot J \dot q`, so that :math:`\ddot x = J\ddot q + \dot J\dot q`
+(Eq. (18)). A task may carry a target and a gain [1/s]; its desired rate is
+then :math:`\dot x_d = k\,(x^* - x)` [m/s, rad/s], the low-priority
+:math:`\dot x_l` of Eq. (8) or a regulation task.
+
+Tasks read a :class:`Kinematics`, which runs Pinocchio's kinematics once per
+configuration for all of them (as pink's tasks read one ``Configuration``).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InvalidInput
+
+__all__ = ["Kinematics", "Task"]
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class Kinematics:
+    """Pinocchio kinematics of one robot at one configuration, computed once and read by every task.
+
+    It owns its own Pinocchio ``Data``, so it never disturbs the robot's.
+    Call :meth:`update` with a configuration (and, for drifts, a velocity)
+    before reading.
+    """
+
+    def __init__(self, robot):
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.q: np.ndarray | None = None
+        self.v: np.ndarray | None = None
+        self._hessians_ready = False
+        self._zero = np.zeros(robot.model.nv)
+
+    def update(self, q: np.ndarray, v: np.ndarray | None = None) -> Kinematics:
+        """Placements and joint Jacobians at q; with v, also the velocities that drifts need."""
+        model, data = self.model, self.data
+        if v is not None:
+            # Accelerations at zero q̈, so a frame's classical acceleration is J̇q̇.
+            pin.forwardKinematics(model, data, q, v, self._zero)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        self.q, self.v = q, v
+        self._hessians_ready = False
+        return self
+
+    @property
+    def nv(self) -> int:
+        return self.model.nv
+
+    def frame_placement(self, frame_id: int) -> pin.SE3:
+        """World pose of a frame (a copy)."""
+        return self.data.oMf[frame_id].copy()
+
+    def frame_jacobian(self, frame_id: int) -> np.ndarray:
+        """6×n Jacobian of a frame at its origin, world-aligned axes (linear rows first)."""
+        return pin.getFrameJacobian(self.model, self.data, frame_id, _LWA)
+
+    def frame_drift(self, frame_id: int) -> np.ndarray:
+        r""":math:`\dot J\dot q` of a frame (6 values, classical acceleration at zero q̈, world-aligned)."""
+        if self.v is None:
+            raise InvalidInput("a task drift J̇q̇ needs the joint velocity: call Kinematics.update(q, v)")
+        return pin.getFrameClassicalAcceleration(self.model, self.data, frame_id, _LWA).vector
+
+    def frame_jacobian_derivative(self, frame_id: int) -> np.ndarray:
+        r"""Derivatives of the frame Jacobian: array D (6, n, n) with
+        :math:`D[:, i, k] = \partial J_{:,i} / \partial q_k`, from Pinocchio's kinematic Hessian.
+
+        ``pin.getFrameKinematicHessian`` returns Eigen's column-major tensor
+        through a row-major view; it is read here in Fortran order, which
+        the tests hold to central differences of :meth:`frame_jacobian`.
+        """
+        if not self._hessians_ready:
+            pin.computeJointKinematicHessians(self.model, self.data)
+            self._hessians_ready = True
+        n = self.nv
+        hessian = np.asarray(pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA))
+        return hessian.reshape(-1).reshape((6, n, n), order="F")
+
+    def joint_jacobian(self, joint_id: int) -> np.ndarray:
+        """6×n Jacobian of a joint frame at its origin, world-aligned axes."""
+        return pin.getJointJacobian(self.model, self.data, joint_id, _LWA)
+
+    def joint_position(self, joint_id: int) -> np.ndarray:
+        """World position of a joint's origin [m] (a copy)."""
+        return self.data.oMi[joint_id].translation.copy()
+
+
+class Task(ABC):
+    r"""A task: coordinates :math:`x(q)`, Jacobian :math:`J`, drift :math:`\dot J\dot q`, optional target.
+
+    Subclasses set :attr:`dimension` and implement :meth:`value`,
+    :meth:`jacobian` and :meth:`drift`.
+
+    Args:
+        target: task coordinates to reach (``dimension`` values), or None.
+        gain: rate of convergence to the target, :math:`\dot x_d = k(x^* - x)` [1/s].
+    """
+
+    dimension: int
+
+    def __init__(self, target=None, gain: float = 1.0):
+        self.target = None if target is None else self._check_target(target)
+        gain = float(gain)
+        if not (np.isfinite(gain) and gain >= 0):
+            raise InvalidInput(f"task gain={gain!r} must be a finite number >= 0 [1/s]")
+        self.gain = gain
+
+    def _check_target(self, target) -> np.ndarray:
+        try:
+            values = np.asarray(target, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"task target {target!r} is not a vector of numbers") from None
+        if values.size != self.dimension or not np.isfinite(values).all():
+            raise InvalidInput(f"task target {values.tolist()} must be {self.dimension} finite numbers for {self!r}")
+        return values
+
+    def check(self, robot) -> None:
+        """Raise if this task cannot be computed on ``robot`` (a missing frame, a wrong size)."""
+
+    @abstractmethod
+    def value(self, kinematics: Kinematics) -> np.ndarray:
+        """Task coordinates x (``dimension`` values) [m, rad]."""
+
+    @abstractmethod
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        """Task Jacobian J (dimension × n), world-aligned, Eq. (1)."""
+
+    @abstractmethod
+    def drift(self, kinematics: Kinematics) -> np.ndarray:
+        r""":math:`\dot J\dot q` (dimension values), Eq. (18); needs ``kinematics.update(q, v)``."""
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        """Target minus value (``dimension`` values); needs a target."""
+        if self.target is None:
+            raise InvalidInput(f"{self!r} has no target; give target= to use it as a regulation task")
+        return self.target - self.value(kinematics)
+
+    def desired_velocity(self, kinematics: Kinematics) -> np.ndarray:
+        r""":math:`\dot x_d = k (x^* - x)` [m/s, rad/s], zero without a target."""
+        if self.target is None:
+            return np.zeros(self.dimension)
+        return self.gain * self.error(kinematics)
