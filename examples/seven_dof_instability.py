@@ -33,7 +33,7 @@ def main() -> None:
     print("-" * len(header))
     for robot_name in args.robots.split(","):
         robot = torqueopt.load_robot(robot_name, task="position")
-        for name in torqueopt.resolver_names():
+        for name in torqueopt.resolver_names("torque"):
             result = torqueopt.simulate(robot, name, line, robot.default_configuration)
             whiplash = detect_whiplash(result)
             if whiplash.unstable:

@@ -67,7 +67,7 @@ def default_weight(robot):
 
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
-@pytest.mark.parametrize("name", torqueopt.resolver_names())
+@pytest.mark.parametrize("name", torqueopt.resolver_names("torque"))
 def test_every_resolver_meets_the_contract(name, robot_name, request, rng):
     """The step solver(robot)(terms, ẍ) returns a Resolution whose torque produces its joint
     acceleration (Pinocchio's ABA from the torque alone), whose task_error is the true shortfall
@@ -187,7 +187,7 @@ def test_weighted_resolver_accepts_a_user_weight(planar3):
 
 def test_resolve_api_matches_resolver_object(planar3):
     q, v, xdd = np.array([0.4, 1.2, -0.9]), np.array([0.1, 0.2, 0.3]), np.array([1.0, -0.5])
-    for name in torqueopt.resolver_names():
+    for name in torqueopt.resolver_names("torque"):
         expected = torqueopt.get_resolver(name).resolve(planar3, planar3.terms(q, v), xdd)
         got = torqueopt.resolve(planar3, name, q, v, xdd)
         np.testing.assert_allclose(got.torque, expected.torque)

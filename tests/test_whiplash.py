@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import torqueopt
+from torqueopt.resolvers import PAPER_RESOLVERS
 from torqueopt.errors import InvalidInput
 from torqueopt.result import SimResult
 from torqueopt.whiplash import (
@@ -175,7 +176,7 @@ def planar3_unbounded():
 def paper_runs(planar3):
     line = {duration: torqueopt.StraightLine((1.0, 1.0), duration=duration) for duration in (0.5, 1.25, 2.0)}
     runs = {}
-    for name in torqueopt.resolver_names():
+    for name in PAPER_RESOLVERS:
         for duration in (0.5, 2.0):
             runs[name, duration] = torqueopt.simulate(planar3, name, line[duration], PAPER_Q0)
     for name in ("pinv", "null-space"):

@@ -52,6 +52,7 @@ from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
 from .tasks import FrameTask, Kinematics
+from .trajectory import check_trajectory, describe
 
 __all__ = ["simulate_kinematic", "joint_rates", "DIFFERENCE_STEP"]
 
@@ -103,6 +104,7 @@ def simulate_kinematic(
 
     _require_velocity_level(resolver)
     resolver.check(robot)
+    check_trajectory(trajectory)
     if feedback is not None:
         raise InvalidInput(
             f"resolver '{resolver.name}' works at the velocity level; task acceleration feedback does not apply: "
@@ -174,10 +176,12 @@ def simulate_kinematic(
             break
         if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
             stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
+            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
         if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
             stop_reason, stop_time = _torque_stop(robot, torque, max_torque_ratio, t), t
+            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         log.append((q, velocity, acceleration, torque, x, condition))
         if k == steps:
@@ -192,21 +196,20 @@ def simulate_kinematic(
             break
         q = integrate(q, (h / 6.0) * (velocity + 2.0 * k2 + 2.0 * k3 + k4))
 
-    return _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time)
+    result = _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time)
+    result.trajectory = describe(trajectory)
+    return result
 
 
 def _anchored(robot: Robot, trajectory, placement: pin.SE3):
-    """The trajectory anchored at the tip's position at q0 when it has no start (as simulate does)."""
+    """The trajectory anchored at the tip's position at q0 when it has no start, as :func:`torqueopt.simulate` does."""
     linear_dimension = min(robot.m, 3)
-    dimension = getattr(trajectory, "dimension", None)
-    if dimension is None:
-        dimension = trajectory.direction.size
-    if dimension != linear_dimension:
+    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
         raise InvalidInput(
-            f"the trajectory moves the tip in {dimension} dimensions but task '{robot.task}' moves it in "
-            f"{linear_dimension}"
+            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
+            f"'{robot.task}' moves the tip in {linear_dimension}"
         )
-    if getattr(trajectory, "start", None) is None:
+    if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
     return trajectory
 
@@ -241,6 +244,12 @@ def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason
         stop_reason=stop_reason,
         stop_time=stop_time,
     )
+
+
+def _with_diagnosis(reason: str, resolver, kinematics: Kinematics, task: FrameTask) -> str:
+    """The stop reason, followed by what the method says of its own state there (if anything)."""
+    diagnosis = resolver.stop_diagnosis(kinematics, task)
+    return reason if diagnosis is None else f"{reason}; {diagnosis}"
 
 
 def _speed_stop(robot: Robot, velocity: np.ndarray, max_joint_speed: float, t: float) -> str:

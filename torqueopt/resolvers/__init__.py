@@ -47,6 +47,7 @@ __all__ = [
     "InverseInertiaTorque",
     "InverseInertiaSquaredTorque",
     "RESOLVERS",
+    "PAPER_RESOLVERS",
     "get_resolver",
     "resolver_names",
 ]
@@ -67,9 +68,23 @@ RESOLVERS: dict[str, type[Resolver]] = {
 RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)
 
 
-def resolver_names() -> list[str]:
-    """Names of the registered resolvers, in the paper's order."""
-    return list(RESOLVERS)
+#: The four resolvers of the paper's Section 3, in its order.
+PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
+
+
+def resolver_names(level: str | None = None) -> list[str]:
+    """Names of the registered resolvers, the paper's first.
+
+    Args:
+        level: ``"torque"`` for those that map a task acceleration to torques
+            (a step of :func:`torqueopt.resolve`), ``"velocity"`` for the
+            kinematic ones of Section 1.1; None for all.
+    """
+    if level is None:
+        return list(RESOLVERS)
+    if level not in ("torque", "velocity"):
+        raise InvalidInput(f"unknown resolver level '{level}': choose torque or velocity")
+    return [name for name, cls in RESOLVERS.items() if getattr(cls, "level", "torque") == level]
 
 
 def get_resolver(resolver: str | Resolver, **options) -> Resolver:

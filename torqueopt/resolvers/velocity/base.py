@@ -60,6 +60,10 @@ class VelocityResolver(Resolver):
         """
         raise NotImplementedError
 
+    def stop_diagnosis(self, kinematics, task: FrameTask) -> str | None:
+        """What the method's own state says at a configuration where a run had to stop, or None."""
+        return None
+
     def null_space_solver(self, robot: Robot):
         raise InvalidInput(self._torque_message())
 

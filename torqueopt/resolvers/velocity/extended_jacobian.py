@@ -72,20 +72,34 @@ class ExtendedJacobian(VelocityResolver):
 
     The method has singularities of its own where :math:`J_{ex}` loses rank
     while J does not: where :math:`\partial G/\partial q` becomes orthogonal
-    to :math:`n_J`. There the rates are unbounded; the run stops, saying so,
-    when :math:`|\partial G/\partial q \cdot n_J| / (\|\partial G/\partial q\|\,\|n_J\|)`
-    falls below ``singular_tolerance``.
+    to :math:`n_J`, i.e. where the surface G = G(q_0) folds over the tip
+    path. Near one the rates grow without bound; the run stops, saying so,
+    when the alignment :math:`|\partial G/\partial q \cdot n_J| / (\|\partial G/\partial q\|\,\|n_J\|)`
+    (1 far from it, 0 at it) falls below ``algorithmic_tolerance``, and a
+    run stopped earlier by the speed or torque ceilings reports the
+    alignment where it stopped.
 
     Args:
         criterion: ``joint-limits`` (Eq. (5), the default), a Criterion with
             a Hessian, or a callable ``p(joint_angles)`` (derivatives by differences).
+        algorithmic_tolerance: the alignment below which the run stops as singular.
     """
 
     name = "extended-jacobian"
     needs_redundancy = True
 
-    def __init__(self, criterion="joint-limits", position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+    def __init__(
+        self,
+        criterion="joint-limits",
+        algorithmic_tolerance: float = 1e-3,
+        position_gain: float = 0.0,
+        singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE,
+    ):
         super().__init__(position_gain, singular_tolerance)
+        algorithmic_tolerance = float(algorithmic_tolerance)
+        if not (0 <= algorithmic_tolerance < 1):
+            raise InvalidInput(f"algorithmic_tolerance={algorithmic_tolerance!r} must be in [0, 1)")
+        self.algorithmic_tolerance = algorithmic_tolerance
         self.criterion = criterion_from(criterion)
         if self.criterion.name == "manipulability":
             raise InvalidInput(
@@ -112,16 +126,26 @@ class ExtendedJacobian(VelocityResolver):
         g_row = normal.dot(hessian) + gradient.dot(normal_derivative)  # ∂G/∂θ, the last row of J_ex in Eq. (15)
         return g_value, g_row, normal
 
+    def alignment(self, kinematics: Kinematics, task: FrameTask) -> float:
+        r""":math:`|\partial G/\partial q\cdot n_J|/(\|\partial G/\partial q\|\,\|n_J\|)`: 1 far from, 0 at an algorithmic singularity."""
+        _, g_row, normal = self.extended_row(kinematics, task)
+        return _alignment(g_row, normal)
+
+    def stop_diagnosis(self, kinematics: Kinematics, task: FrameTask) -> str:
+        return (
+            f"the extended Jacobian's alignment |∂G/∂q·n|/(|∂G/∂q| |n|) there is {self.alignment(kinematics, task):.3g} "
+            "(0 at its algorithmic singularity)"
+        )
+
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        tolerance = self.singular_tolerance
+        tolerance = self.algorithmic_tolerance
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
             _, _, condition = decompose(jacobian, task_velocity)  # J itself must keep full rank
             _, g_row, normal = self.extended_row(kinematics, task)
-            scale = np.linalg.norm(g_row) * np.linalg.norm(normal)
-            alignment = abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
+            alignment = _alignment(g_row, normal)
             if not alignment >= tolerance:
                 raise SingularJacobian(
                     f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
@@ -133,3 +157,8 @@ class ExtendedJacobian(VelocityResolver):
             return np.linalg.solve(extended, np.append(task_velocity, 0.0)), condition
 
         return rates
+
+
+def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
+    scale = float(np.linalg.norm(g_row) * np.linalg.norm(normal))
+    return abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
