@@ -1,0 +1,202 @@
+"""Task objects against closed-form planar kinematics and central differences."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.errors import FrameNotFound, InvalidInput, TaskNotFound
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, TaskStack, prioritised_rates, pseudoinverse
+
+
+def planar_points(q):
+    """Joint origins and tip of the paper's arm (unit links), closed form."""
+    angles = np.cumsum(q)
+    steps = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    return np.vstack([np.zeros(2), np.cumsum(steps, axis=0)])
+
+
+def planar_jacobian(q):
+    """Closed-form 2×3 Jacobian of the paper's arm tip."""
+    angles = np.cumsum(q)
+    jacobian = np.zeros((2, 3))
+    for i in range(3):
+        jacobian[0, i] = -np.sin(angles[i:]).sum()
+        jacobian[1, i] = np.cos(angles[i:]).sum()
+    return jacobian
+
+
+def central(function, q, step=1e-6):
+    columns = []
+    for k in range(q.size):
+        e = np.zeros(q.size)
+        e[k] = step
+        columns.append((np.asarray(function(q + e)) - np.asarray(function(q - e))) / (2 * step))
+    return np.stack(columns, axis=-1)
+
+
+def test_frame_task_matches_closed_form_planar_kinematics(planar3, rng):
+    task, kinematics = FrameTask("tip", "xy"), Kinematics(planar3)
+    for _ in range(5):
+        q = rng.uniform(-np.pi, np.pi, 3)
+        kinematics.update(q)
+        np.testing.assert_allclose(task.value(kinematics), planar_points(q)[-1], atol=1e-12)
+        np.testing.assert_allclose(task.jacobian(kinematics), planar_jacobian(q), atol=1e-12)
+
+
+@pytest.mark.parametrize("robot_name, kind", [("planar3", "xy"), ("panda", "position"), ("panda", "pose")])
+def test_frame_task_jacobian_drift_and_hessian_match_central_differences(robot_name, kind, request, rng):
+    robot = request.getfixturevalue(robot_name)
+    task = FrameTask(robot.frame, kind)
+    kinematics = Kinematics(robot)
+
+    def jacobian_at(q):
+        return task.jacobian(Kinematics(robot).update(q)).copy()
+
+    for _ in range(3):
+        q = pin.randomConfiguration(robot.model) if robot_name == "panda" else rng.uniform(-np.pi, np.pi, 3)
+        v = rng.normal(size=robot.nv)
+        kinematics.update(q, v)
+        derivative = task.jacobian_derivative(kinematics)
+        np.testing.assert_allclose(derivative, central(jacobian_at, q), atol=1e-7)
+        # J̇q̇ = Σ_k ∂J/∂q_k v_k v: the drift against the Hessian and against differences along v
+        np.testing.assert_allclose(task.drift(kinematics), np.einsum("aik,i,k->a", derivative, v, v), atol=1e-9)
+        along = (jacobian_at(q + 1e-6 * v) - jacobian_at(q - 1e-6 * v)) / 2e-6
+        np.testing.assert_allclose(task.drift(kinematics), along.dot(v), atol=1e-7)
+        if kind != "pose":
+            np.testing.assert_allclose(task.jacobian(kinematics), central(lambda x: task.value(Kinematics(robot).update(x)), q), atol=1e-7)
+
+
+def test_frame_task_regulates_to_its_target(planar3):
+    q = np.array([0.3, 1.0, -0.5])
+    task = FrameTask("tip", "xy", target=[1.0, 1.0], gain=2.0)
+    kinematics = Kinematics(planar3).update(q)
+    np.testing.assert_allclose(task.desired_velocity(kinematics), 2.0 * (np.array([1.0, 1.0]) - planar_points(q)[-1]))
+    assert np.all(FrameTask("tip", "xy").desired_velocity(kinematics) == 0.0)
+
+
+def test_frame_task_errors_name_the_bad_value(planar3):
+    with pytest.raises(TaskNotFound, match="unknown task kind 'orientation': choose one of xy, position, pose"):
+        FrameTask("tip", "orientation")
+    with pytest.raises(FrameNotFound, match="robot 'planar3' has no frame 'hand': choose one of"):
+        FrameTask("hand", "xy").check(planar3)
+    with pytest.raises(InvalidInput, match=r"task target \[1.0\] must be 2 finite numbers"):
+        FrameTask("tip", "xy", target=[1.0])
+
+
+def closest_by_sampling(q, center, radius):
+    points = planar_points(q)
+    fractions = np.linspace(0.0, 1.0, 20001)[:, None]
+    samples = np.vstack([a + fractions * (b - a) for a, b in zip(points[:-1], points[1:])])
+    distances = np.linalg.norm(samples - center, axis=1)
+    best = int(np.argmin(distances))
+    return samples[best], distances[best] - radius
+
+
+def test_obstacle_closest_point_matches_dense_sampling(planar3, rng):
+    kinematics = Kinematics(planar3)
+    for _ in range(8):
+        q = rng.uniform(-np.pi, np.pi, 3)
+        center = rng.uniform(-2.0, 2.0, 2)
+        obstacle = ObstacleTask(center, radius=0.1)
+        closest = obstacle.closest_point(kinematics.update(q))
+        point, clearance = closest_by_sampling(q, center, 0.1)
+        assert abs(closest.clearance - clearance) < 1e-6
+        np.testing.assert_allclose(closest.point[:2], point, atol=2e-4)
+        assert closest.point[2] == 0.0
+        np.testing.assert_allclose(np.linalg.norm(closest.normal), 1.0)
+
+
+@pytest.mark.parametrize("robot_name", ["planar3", "panda"])
+def test_obstacle_point_jacobian_is_the_velocity_of_the_material_point(robot_name, request, rng):
+    """J_o q̇ equals the central difference of the world position of the point fixed on its link."""
+    robot = request.getfixturevalue(robot_name)
+    kinematics = Kinematics(robot)
+    for _ in range(3):
+        q = pin.randomConfiguration(robot.model) if robot_name == "panda" else rng.uniform(-np.pi, np.pi, 3)
+        kinematics.update(q)
+        placement = robot.frame_placement(q)
+        obstacle = ObstacleTask(placement.translation + rng.normal(scale=0.3, size=3), 0.05)
+        closest = obstacle.closest_point(kinematics)
+        local = kinematics.data.oMi[closest.joint_id].actInv(closest.point)
+
+        def material_point(x, joint=closest.joint_id, local=local):
+            data = robot.model.createData()
+            pin.forwardKinematics(robot.model, data, x)
+            return data.oMi[joint].act(local)
+
+        jacobian = obstacle.point_jacobian(kinematics, closest)
+        np.testing.assert_allclose(jacobian, central(material_point, q), atol=1e-7)
+        v = rng.normal(size=robot.nv)
+        kinematics.update(q, v)
+        along = (central(material_point, q + 1e-5 * v) - central(material_point, q - 1e-5 * v)) / 2e-5
+        np.testing.assert_allclose(obstacle.drift(kinematics), along.dot(v), atol=1e-4)
+
+
+def test_obstacle_from_numbers_and_bad_numbers():
+    assert ObstacleTask.from_spec([1.0, 2.0, 0.0, 0.3]).radius == 0.3
+    np.testing.assert_allclose(ObstacleTask.from_spec([1.0, 2.0]).center, [1.0, 2.0, 0.0])
+    with pytest.raises(InvalidInput, match=r"obstacle centre \[1.0\] must be 2 or 3 finite numbers"):
+        ObstacleTask([1.0])
+    with pytest.raises(InvalidInput, match="obstacle radius=-1 must be a finite number >= 0"):
+        ObstacleTask([1.0, 2.0], radius=-1)
+
+
+def test_the_identity_b_cb_pinv_is_cb_pinv(rng):
+    """B[CB]⁺ = [CB]⁺ for B = I − J_h⁺J_h, Hermitian and idempotent (Maciejewski & Klein), used by Eq. (11)."""
+    for rows_h, rows_l, n in ((2, 1, 3), (3, 2, 7), (3, 3, 7), (2, 3, 4)):
+        high, low = rng.normal(size=(rows_h, n)), rng.normal(size=(rows_l, n))
+        projector = np.eye(n) - np.linalg.pinv(high).dot(high)
+        np.testing.assert_allclose(projector, projector.T, atol=1e-12)
+        np.testing.assert_allclose(projector.dot(projector), projector, atol=1e-12)
+        projected_inverse = np.linalg.pinv(low.dot(projector))
+        np.testing.assert_allclose(projector.dot(projected_inverse), projected_inverse, atol=1e-10)
+
+
+def test_prioritised_rates_are_eq_11_built_from_eqs_9_and_10(rng):
+    for n in (3, 5, 7):
+        high, low = rng.normal(size=(2, n)), rng.normal(size=(2, n))
+        x_high, x_low = rng.normal(size=2), rng.normal(size=2)
+        high_pinv = np.linalg.pinv(high)
+        projector = np.eye(n) - high_pinv.dot(high)
+        phi = np.linalg.pinv(low.dot(projector)).dot(x_low - low.dot(high_pinv).dot(x_high))  # Eq. (10)
+        expected = high_pinv.dot(x_high) + projector.dot(phi)  # Eq. (9)
+        rates, _ = prioritised_rates([high, low], [x_high, x_low])
+        np.testing.assert_allclose(rates, expected, atol=1e-10)
+        np.testing.assert_allclose(high.dot(rates), x_high, atol=1e-10)  # the high-priority task exactly
+        if n >= 4:  # room for both: the low-priority task exactly too
+            np.testing.assert_allclose(low.dot(rates), x_low, atol=1e-9)
+
+
+def test_a_three_level_stack_keeps_each_task_out_of_the_ones_above(rng):
+    jacobians = [rng.normal(size=(2, 6)), rng.normal(size=(2, 6)), rng.normal(size=(3, 6))]
+    velocities = [rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)]
+    rates, projector = prioritised_rates(jacobians, velocities)
+    np.testing.assert_allclose(jacobians[0].dot(rates), velocities[0], atol=1e-10)
+    np.testing.assert_allclose(jacobians[1].dot(rates), velocities[1], atol=1e-10)
+    # the third gets the least-squares best within the 2 remaining freedoms
+    top = np.vstack(jacobians[:2])
+    basis = np.linalg.svd(top)[2][4:].T
+    best = np.linalg.lstsq(jacobians[2].dot(basis), velocities[2] - jacobians[2].dot(np.linalg.pinv(top).dot(np.concatenate(velocities[:2]))), rcond=None)[0]
+    np.testing.assert_allclose(rates, np.linalg.pinv(top).dot(np.concatenate(velocities[:2])) + basis.dot(best), atol=1e-9)
+    np.testing.assert_allclose(projector, np.zeros((6, 6)), atol=1e-9)  # 2 + 2 + 3 rows use all 6 freedoms
+
+
+def test_pseudoinverse_cutoff_and_damping(rng):
+    matrix = rng.normal(size=(3, 5))
+    np.testing.assert_allclose(pseudoinverse(matrix), np.linalg.pinv(matrix), atol=1e-12)
+    damping = 0.3
+    np.testing.assert_allclose(
+        pseudoinverse(matrix, damping=damping), matrix.T.dot(np.linalg.inv(matrix.dot(matrix.T) + damping**2 * np.eye(3))), atol=1e-12
+    )
+    rank_one = np.outer([1.0, 2.0], [1.0, 0.0, 1.0])
+    np.testing.assert_allclose(pseudoinverse(rank_one), np.linalg.pinv(rank_one), atol=1e-12)
+
+
+def test_task_stack_takes_tasks_and_refuses_the_rest():
+    task = FrameTask("tip", "xy", target=[1, 1])
+    assert len(TaskStack.of(task)) == 1 and TaskStack.of([task, task]).dimension == 4
+    with pytest.raises(InvalidInput, match="a task stack needs one or more Task objects"):
+        TaskStack([])
+    with pytest.raises(InvalidInput, match="a task stack needs one or more Task objects"):
+        TaskStack(["tip"])
