@@ -4,7 +4,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import torqueopt
 from torqueopt.errors import FrameNotFound, InvalidInput, TaskNotFound
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, TaskStack, prioritised_rates, pseudoinverse
 
@@ -64,7 +63,9 @@ def test_frame_task_jacobian_drift_and_hessian_match_central_differences(robot_n
         along = (jacobian_at(q + 1e-6 * v) - jacobian_at(q - 1e-6 * v)) / 2e-6
         np.testing.assert_allclose(task.drift(kinematics), along.dot(v), atol=1e-7)
         if kind != "pose":
-            np.testing.assert_allclose(task.jacobian(kinematics), central(lambda x: task.value(Kinematics(robot).update(x)), q), atol=1e-7)
+            np.testing.assert_allclose(
+                task.jacobian(kinematics), central(lambda x: task.value(Kinematics(robot).update(x)), q), atol=1e-7
+            )
 
 
 def test_frame_task_regulates_to_its_target(planar3):
@@ -149,7 +150,7 @@ def test_the_identity_b_cb_pinv_is_cb_pinv(rng):
         projector = np.eye(n) - np.linalg.pinv(high).dot(high)
         np.testing.assert_allclose(projector, projector.T, atol=1e-12)
         np.testing.assert_allclose(projector.dot(projector), projector, atol=1e-12)
-        projected_inverse = np.linalg.pinv(low.dot(projector))
+        projected_inverse = np.linalg.pinv(low.dot(projector), rcond=1e-10)
         np.testing.assert_allclose(projector.dot(projected_inverse), projected_inverse, atol=1e-10)
 
 
@@ -159,7 +160,8 @@ def test_prioritised_rates_are_eq_11_built_from_eqs_9_and_10(rng):
         x_high, x_low = rng.normal(size=2), rng.normal(size=2)
         high_pinv = np.linalg.pinv(high)
         projector = np.eye(n) - high_pinv.dot(high)
-        phi = np.linalg.pinv(low.dot(projector)).dot(x_low - low.dot(high_pinv).dot(x_high))  # Eq. (10)
+        # J_l(I − J_h⁺J_h) has rank min(2, n − 2): the cutoff drops the round-off singular values
+        phi = np.linalg.pinv(low.dot(projector), rcond=1e-10).dot(x_low - low.dot(high_pinv).dot(x_high))  # Eq. (10)
         expected = high_pinv.dot(x_high) + projector.dot(phi)  # Eq. (9)
         rates, _ = prioritised_rates([high, low], [x_high, x_low])
         np.testing.assert_allclose(rates, expected, atol=1e-10)
@@ -177,8 +179,14 @@ def test_a_three_level_stack_keeps_each_task_out_of_the_ones_above(rng):
     # the third gets the least-squares best within the 2 remaining freedoms
     top = np.vstack(jacobians[:2])
     basis = np.linalg.svd(top)[2][4:].T
-    best = np.linalg.lstsq(jacobians[2].dot(basis), velocities[2] - jacobians[2].dot(np.linalg.pinv(top).dot(np.concatenate(velocities[:2]))), rcond=None)[0]
-    np.testing.assert_allclose(rates, np.linalg.pinv(top).dot(np.concatenate(velocities[:2])) + basis.dot(best), atol=1e-9)
+    best = np.linalg.lstsq(
+        jacobians[2].dot(basis),
+        velocities[2] - jacobians[2].dot(np.linalg.pinv(top).dot(np.concatenate(velocities[:2]))),
+        rcond=None,
+    )[0]
+    np.testing.assert_allclose(
+        rates, np.linalg.pinv(top).dot(np.concatenate(velocities[:2])) + basis.dot(best), atol=1e-9
+    )
     np.testing.assert_allclose(projector, np.zeros((6, 6)), atol=1e-9)  # 2 + 2 + 3 rows use all 6 freedoms
 
 
@@ -187,7 +195,9 @@ def test_pseudoinverse_cutoff_and_damping(rng):
     np.testing.assert_allclose(pseudoinverse(matrix), np.linalg.pinv(matrix), atol=1e-12)
     damping = 0.3
     np.testing.assert_allclose(
-        pseudoinverse(matrix, damping=damping), matrix.T.dot(np.linalg.inv(matrix.dot(matrix.T) + damping**2 * np.eye(3))), atol=1e-12
+        pseudoinverse(matrix, damping=damping),
+        matrix.T.dot(np.linalg.inv(matrix.dot(matrix.T) + damping**2 * np.eye(3))),
+        atol=1e-12,
     )
     rank_one = np.outer([1.0, 2.0], [1.0, 0.0, 1.0])
     np.testing.assert_allclose(pseudoinverse(rank_one), np.linalg.pinv(rank_one), atol=1e-12)

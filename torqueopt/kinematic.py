@@ -124,7 +124,7 @@ def simulate_kinematic(
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
     trajectory = _anchored(robot, trajectory, placement)
-    steps = int(round(duration / dt))
+    steps = round(duration / dt)
     # Reference at every step start and mid-step: RK4 evaluates f at t, t + h/2 and t + h.
     half_times = 0.5 * dt * np.arange(2 * steps + 1)
     reference = _task_reference(robot, trajectory, half_times)
@@ -138,7 +138,6 @@ def simulate_kinematic(
     model = robot.model
     dynamics_data = model.createData()
     integrate = robot.integrate
-    n = robot.nv
     limit = robot.torque_upper
     torque_ceiling = np.minimum(max_torque_ratio * limit, _LARGEST_FLOAT)
     speed_ceiling = min(max_joint_speed, _LARGEST_FLOAT)
@@ -179,11 +178,17 @@ def simulate_kinematic(
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
+        # The task acceleration the motion misses, ‖J q̈ + J̇q̇ − ẍ_cmd‖ (Eq. 18): integration and difference error only.
+        kinematics.update(q, velocity)
+        commanded = ref_acceleration[index] + gain * (ref_velocity[index] - task.jacobian(kinematics).dot(velocity))
+        task_error = float(
+            np.linalg.norm(task.jacobian(kinematics).dot(acceleration) + task.drift(kinematics) - commanded)
+        )
         if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
             stop_reason, stop_time = _torque_stop(robot, torque, max_torque_ratio, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
-        log.append((q, velocity, acceleration, torque, x, condition))
+        log.append((q, velocity, acceleration, torque, x, condition, task_error))
         if k == steps:
             break
         h = dt
@@ -218,15 +223,16 @@ def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason
     recorded = len(log)
     n = robot.nv
     if log:
-        q_log, v_log, a_log, tau_log, x_log, condition_log = (np.array(column) for column in zip(*log))
+        q_log, v_log, a_log, tau_log, x_log, condition_log, error_log = (np.array(column) for column in zip(*log))
     else:
         q_log, v_log, a_log, tau_log, x_log = (np.empty((0, size)) for size in (robot.nq, n, n, n, robot.m))
-        condition_log = np.empty(0)
+        condition_log = error_log = np.empty(0)
     return SimResult(
         robot=robot.name,
         frame=robot.frame,
         task=robot.task,
         resolver=resolver.name,
+        resolver_options=resolver.settings_for_file(),
         joint_names=list(robot.joint_names),
         dt=dt,
         t=times[:recorded].copy(),
@@ -243,6 +249,8 @@ def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason
         duration=duration,
         stop_reason=stop_reason,
         stop_time=stop_time,
+        task_error=np.asarray(error_log, dtype=float).reshape(recorded),
+        infeasible=np.zeros(recorded, dtype=bool),
     )
 
 

@@ -87,7 +87,9 @@ class ObstacleTask(Task):
         try:
             values = np.asarray(spec, dtype=float).reshape(-1)
         except (TypeError, ValueError):
-            raise InvalidInput(f"obstacle {spec!r} is not an ObstacleTask or 2-4 numbers (x, y[, z[, radius]])") from None
+            raise InvalidInput(
+                f"obstacle {spec!r} is not an ObstacleTask or 2-4 numbers (x, y[, z[, radius]])"
+            ) from None
         if values.size == 4:
             return cls(values[:3], values[3])
         return cls(values)
@@ -121,7 +123,11 @@ class ObstacleTask(Task):
             )
             axis = end - start
             length_squared = float(axis.dot(axis))
-            fraction = 0.0 if length_squared == 0.0 else min(1.0, max(0.0, float((self.center - start).dot(axis)) / length_squared))
+            fraction = (
+                0.0
+                if length_squared == 0.0
+                else min(1.0, max(0.0, float((self.center - start).dot(axis)) / length_squared))
+            )
             point = start + fraction * axis
             distance = float(np.linalg.norm(point - self.center))
             if best is None or distance < best[0]:

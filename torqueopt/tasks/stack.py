@@ -35,10 +35,18 @@ from .task import Task
 __all__ = ["TaskStack", "prioritised_rates", "pseudoinverse"]
 
 
+#: Singular values below this are round-off whatever the scale (a task point that the null space cannot move).
+ABSOLUTE_TOLERANCE = 1e-10
+
+
 def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float = 0.0) -> np.ndarray:
     r"""Moore-Penrose pseudoinverse by SVD (Eq. (3) for full row rank), singular values below
-    ``tolerance`` × the largest dropped; with ``damping`` λ > 0 the damped least-squares inverse
-    :math:`A^\top(AA^\top + \lambda^2 I)^{-1}` instead."""
+    ``tolerance`` × the largest, or below :data:`ABSOLUTE_TOLERANCE`, dropped; with ``damping``
+    λ > 0 the damped least-squares inverse :math:`A^\top(AA^\top + \lambda^2 I)^{-1}` instead.
+
+    The absolute floor matters for projected Jacobians such as :math:`J_o(I - J^\dagger J)`
+    of a point the null space cannot move (the tip itself): all their singular values are
+    round-off, which a relative cutoff alone would invert."""
     if matrix.size == 0:
         return np.zeros(matrix.T.shape)
     u, singular, vt = np.linalg.svd(matrix, full_matrices=False)
@@ -46,12 +54,14 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
         inverse_values = singular / (singular**2 + damping**2)
     else:
         largest = singular[0] if singular.size else 0.0
-        keep = singular > tolerance * largest
+        keep = singular > max(tolerance * largest, ABSOLUTE_TOLERANCE)
         inverse_values = np.where(keep, 1.0 / np.where(keep, singular, 1.0), 0.0)
     return (vt.T * inverse_values).dot(u.T)
 
 
-def prioritised_rates(jacobians: Sequence[np.ndarray], velocities: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0):
+def prioritised_rates(
+    jacobians: Sequence[np.ndarray], velocities: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0
+):
     r"""Joint rates realising the task velocities in priority order, Eq. (11) and its recursion.
 
     Args:

@@ -18,33 +18,36 @@ from typing import ClassVar
 import numpy as np
 
 from ...errors import InvalidInput
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
+from ...linalg import JacobianSolver
 from ...robot import Robot
 from ...tasks import FrameTask
 from ..base import Resolver
+from ..options import Option, number
 
-__all__ = ["VelocityResolver", "pseudoinverse_solver"]
+__all__ = ["VelocityResolver", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
+
+#: The option every velocity-level resolver accepts: closed-loop inverse kinematics.
+POSITION_GAIN_OPTION = Option(
+    name="position_gain",
+    kind="number >= 0",
+    unit="1/s",
+    default=0.0,
+    meaning="closed-loop inverse kinematics: commanded task velocity ẋ_ref + K(x_ref − x); 0 is the paper's open loop",
+    convert=number(0.0, unit="1/s"),
+)
 
 
 class VelocityResolver(Resolver):
     """Maps a task velocity to joint velocities; run through :func:`torqueopt.simulate`.
 
-    Args:
-        position_gain: closed-loop inverse kinematics gain K [1/s]: the
-            commanded task velocity is :math:`\\dot x_{ref} + K(x_{ref} - x)`;
-            0 (the default) is the paper's open loop.
-        singular_tolerance: relative singular-value cutoff of the task Jacobian.
+    Every velocity-level resolver declares ``position_gain`` (K [1/s]: the
+    commanded task velocity is :math:`\\dot x_{ref} + K(x_{ref} - x)`, 0 the
+    paper's open loop) after its own options, and ``singular_tolerance``.
     """
 
     #: The simulation loop that runs this resolver: joint rates integrated, torques by inverse dynamics.
     level: ClassVar[str] = "velocity"
-
-    def __init__(self, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        super().__init__(singular_tolerance)
-        position_gain = float(position_gain)
-        if not (np.isfinite(position_gain) and position_gain >= 0):
-            raise InvalidInput(f"position_gain={position_gain!r} must be a finite number >= 0 [1/s]")
-        self.position_gain = position_gain
+    options: ClassVar[tuple[Option, ...]] = (POSITION_GAIN_OPTION,)
 
     def rate_function(self, robot: Robot, task: FrameTask):
         r"""How this resolver maps task velocity to joint rates on ``robot``.
@@ -59,6 +62,18 @@ class VelocityResolver(Resolver):
         SingularJacobian where the method is undefined.
         """
         raise NotImplementedError
+
+    def settings_for_file(self) -> dict:
+        """The option values as JSON-ready values: vectors as lists, task objects and callables by their repr."""
+        settings = {}
+        for key, value in self.settings.items():
+            if isinstance(value, np.ndarray):
+                settings[key] = value.tolist()
+            elif value is None or isinstance(value, (bool, int, float, str)):
+                settings[key] = value
+            else:
+                settings[key] = repr(value)
+        return settings
 
     def stop_diagnosis(self, kinematics, task: FrameTask) -> str | None:
         """What the method's own state says at a configuration where a run had to stop, or None."""

@@ -46,7 +46,9 @@ class Criterion(ABC):
 
     def hessian(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
         """∂²p/∂q² (n×n); needed by the extended Jacobian."""
-        raise InvalidInput(f"criterion '{self.name}' has no Hessian; the extended Jacobian needs one (use joint-limits or a callable)")
+        raise InvalidInput(
+            f"criterion '{self.name}' has no Hessian; the extended Jacobian needs one (use joint-limits or a callable)"
+        )
 
 
 class JointLimits(Criterion):
@@ -156,7 +158,9 @@ class CallableCriterion(Criterion):
         for k in range(robot.nv):
             step = np.zeros(robot.nv)
             step[k] = h
-            gradient[k] = (self._call(robot, robot.integrate(q, step)) - self._call(robot, robot.integrate(q, -step))) / (2 * h)
+            gradient[k] = (
+                self._call(robot, robot.integrate(q, step)) - self._call(robot, robot.integrate(q, -step))
+            ) / (2 * h)
         return gradient
 
     def hessian(self, kinematics, task=None) -> np.ndarray:

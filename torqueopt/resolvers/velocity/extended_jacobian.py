@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InvalidInput, NoRedundancy, SingularJacobian
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE
+from ...errors import NoRedundancy, SingularJacobian
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
-from .base import VelocityResolver, pseudoinverse_solver
+from ..options import Option, OptionValueError, number
+from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import criterion_from
+from .options import criterion_spec
 
 __all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative"]
 
@@ -87,24 +88,29 @@ class ExtendedJacobian(VelocityResolver):
 
     name = "extended-jacobian"
     needs_redundancy = True
+    options = (
+        Option(
+            name="criterion",
+            kind="'joint-limits' | callable p(joint_angles)",
+            unit="",
+            default="joint-limits",
+            meaning="the criterion p whose gradient along the null space, G of Eq. (14), is held",
+            convert=lambda value: _hessian_criterion(criterion_spec(value)),
+        ),
+        Option(
+            name="algorithmic_tolerance",
+            kind="number in [0, 1)",
+            unit="",
+            default=1e-3,
+            meaning="the alignment |∂G/∂q·n|/(|∂G/∂q| |n|) below which the run stops at an algorithmic singularity",
+            convert=lambda value: _fraction(number(0.0)(value)),
+        ),
+        POSITION_GAIN_OPTION,
+    )
 
-    def __init__(
-        self,
-        criterion="joint-limits",
-        algorithmic_tolerance: float = 1e-3,
-        position_gain: float = 0.0,
-        singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE,
-    ):
-        super().__init__(position_gain, singular_tolerance)
-        algorithmic_tolerance = float(algorithmic_tolerance)
-        if not (0 <= algorithmic_tolerance < 1):
-            raise InvalidInput(f"algorithmic_tolerance={algorithmic_tolerance!r} must be in [0, 1)")
-        self.algorithmic_tolerance = algorithmic_tolerance
-        self.criterion = criterion_from(criterion)
-        if self.criterion.name == "manipulability":
-            raise InvalidInput(
-                "extended-jacobian needs the criterion's Hessian: use joint-limits or a callable, not manipulability"
-            )
+    def __init__(self, **options):
+        super().__init__(**options)
+        self.objective = criterion_from(self.criterion)
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
@@ -113,14 +119,14 @@ class ExtendedJacobian(VelocityResolver):
                 f"resolver 'extended-jacobian' needs exactly one degree of redundancy (n − m = 1); task "
                 f"'{robot.task}' on robot '{robot.name}' leaves {robot.redundancy}: choose a task with m = {robot.nv - 1}"
             )
-        self.criterion.check(robot)
+        self.objective.check(robot)
 
     def extended_row(self, kinematics: Kinematics, task: FrameTask):
         r"""(G, ∂G/∂q, n_J) at the kinematics' configuration, Eq. (14)."""
         jacobian = task.jacobian(kinematics)
         normal = null_vector(jacobian)
-        gradient = self.criterion.gradient(kinematics, task)
-        hessian = self.criterion.hessian(kinematics, task)
+        gradient = self.objective.gradient(kinematics, task)
+        hessian = self.objective.hessian(kinematics, task)
         normal_derivative = null_vector_derivative(jacobian, task.jacobian_derivative(kinematics))
         g_value = float(gradient.dot(normal))  # Eq. (14): G = ∂g/∂θ · n_J
         g_row = normal.dot(hessian) + gradient.dot(normal_derivative)  # ∂G/∂θ, the last row of J_ex in Eq. (15)
@@ -162,3 +168,15 @@ class ExtendedJacobian(VelocityResolver):
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
     scale = float(np.linalg.norm(g_row) * np.linalg.norm(normal))
     return abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
+
+
+def _hessian_criterion(value):
+    if value == "manipulability":
+        raise OptionValueError("has no Hessian here; the extended Jacobian needs one: use joint-limits or a callable")
+    return value
+
+
+def _fraction(value: float) -> float:
+    if not value < 1.0:
+        raise OptionValueError("must be a number in [0, 1)")
+    return value

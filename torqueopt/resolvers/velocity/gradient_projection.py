@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InvalidInput
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
-from .base import VelocityResolver, pseudoinverse_solver
+from ..options import Option, number
+from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import criterion_from
+from .options import criterion_spec
 
 __all__ = ["GradientProjection", "DEFAULT_GAINS"]
 
@@ -40,26 +40,39 @@ class GradientProjection(VelocityResolver):
 
     name = "gradient-projection"
     needs_redundancy = True
+    options = (
+        Option(
+            name="criterion",
+            kind="'joint-limits' | 'manipulability' | callable p(joint_angles)",
+            unit="",
+            default="joint-limits",
+            meaning="the criterion p to minimise: Eq. (5), or p = −w of Eq. (6), or your own",
+            convert=criterion_spec,
+        ),
+        Option(
+            name="k",
+            kind="number >= 0",
+            unit="rad²/s per unit of p",
+            default=None,
+            meaning="gain of the projected gradient, q̇ = J⁺ẋ − k(I − J⁺J)∂p/∂q",
+            convert=number(0.0),
+            default_text="10 for joint-limits, 1 for manipulability and callables",
+        ),
+        POSITION_GAIN_OPTION,
+    )
 
-    def __init__(self, criterion="joint-limits", k: float | None = None, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        super().__init__(position_gain, singular_tolerance)
-        self.criterion = criterion_from(criterion)
-        k = DEFAULT_GAINS.get(getattr(self.criterion, "name", ""), 1.0) if k is None else k
-        try:
-            k = float(k)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"gradient-projection gain k={k!r} is not a number") from None
-        if not (np.isfinite(k) and k >= 0):
-            raise InvalidInput(f"gradient-projection gain k={k!r} must be a finite number >= 0")
-        self.k = k
+    def __init__(self, **options):
+        super().__init__(**options)
+        self.objective = criterion_from(self.criterion)
+        self.gain = DEFAULT_GAINS.get(getattr(self.objective, "name", ""), 1.0) if self.k is None else self.k
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
-        self.criterion.check(robot)
+        self.objective.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance)
-        criterion, k = self.criterion, self.k
+        criterion, k = self.objective, self.gain
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)

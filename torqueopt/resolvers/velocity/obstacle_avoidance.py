@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InvalidInput
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, ObstacleTask, pseudoinverse
-from .base import VelocityResolver, pseudoinverse_solver
+from ...tasks import FrameTask, Kinematics, pseudoinverse
+from ..options import Option, number
+from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .options import obstacle as obstacle_option
 
 __all__ = ["ObstacleAvoidance", "activation"]
 
@@ -48,34 +49,63 @@ class ObstacleAvoidance(VelocityResolver):
 
     name = "obstacle-avoidance"
     needs_redundancy = True
+    options = (
+        Option(
+            name="obstacle",
+            kind="ObstacleTask | x,y | x,y,z | x,y,z,radius",
+            unit="m",
+            default=None,
+            meaning="the point or sphere obstacle (centre in world axes, radius)",
+            convert=obstacle_option,
+            default_text="none (required)",
+        ),
+        Option(
+            name="speed",
+            kind="number >= 0",
+            unit="m/s",
+            default=None,
+            meaning="repulsive speed v_o of the closest point, ẋ_o = v_o n̂",
+            convert=number(0.0, unit="m/s"),
+            default_text="the obstacle task's (0.5)",
+        ),
+        Option(
+            name="influence",
+            kind="number > 0",
+            unit="m",
+            default=0.5,
+            meaning="clearance beyond which the obstacle is ignored (α_h = 0)",
+            convert=number(0.0, strict=True, unit="m"),
+        ),
+        Option(
+            name="critical",
+            kind="number >= 0",
+            unit="m",
+            default=0.1,
+            meaning="clearance within which the avoidance acts fully (α_h = 1); below influence",
+            convert=number(0.0, unit="m"),
+        ),
+        POSITION_GAIN_OPTION,
+    )
 
-    def __init__(
-        self,
-        obstacle=None,
-        speed: float | None = None,
-        influence: float = 0.5,
-        critical: float = 0.1,
-        position_gain: float = 0.0,
-        singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE,
-    ):
-        super().__init__(position_gain, singular_tolerance)
-        if obstacle is None:
-            raise InvalidInput("resolver 'obstacle-avoidance' needs obstacle= an ObstacleTask or x,y[,z[,radius]] [m]")
-        self.obstacle = ObstacleTask.from_spec(obstacle)
-        if speed is not None:
-            self.obstacle = ObstacleTask(self.obstacle.center, self.obstacle.radius, speed=speed, frame=self.obstacle.frame)
-        influence, critical = float(influence), float(critical)
-        if not (np.isfinite(influence) and np.isfinite(critical) and 0 <= critical < influence):
-            raise InvalidInput(f"need 0 <= critical < influence [m], got critical={critical!r}, influence={influence!r}")
-        self.influence, self.critical = influence, critical
+    def __init__(self, **options):
+        super().__init__(**options)
+        if not self.critical < self.influence:
+            raise InvalidInput(
+                f"option critical={self.critical:g} of resolver 'obstacle-avoidance' must be below influence={self.influence:g} [m]"
+            )
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
+        if self.obstacle is None:
+            raise InvalidInput(
+                "resolver 'obstacle-avoidance' needs the option obstacle: an ObstacleTask or x,y[,z[,radius]] [m]"
+            )
         self.obstacle.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance)
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
+        speed = obstacle.speed if self.speed is None else self.speed
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)
@@ -84,7 +114,7 @@ class ObstacleAvoidance(VelocityResolver):
             if gain == 0.0:
                 return particular, condition
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
-            repulsion = obstacle.speed * closest.normal  # ẋ_o
+            repulsion = speed * closest.normal  # ẋ_o
             # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ), with I − J⁺J = Z Zᵀ
             projector = basis.dot(basis.T)
             phi = pseudoinverse(point_jacobian.dot(projector)).dot(repulsion - point_jacobian.dot(particular))

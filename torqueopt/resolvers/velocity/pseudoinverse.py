@@ -6,10 +6,11 @@ import numpy as np
 import pinocchio as pin
 
 from ...errors import InvalidInput
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
-from .base import VelocityResolver, pseudoinverse_solver
+from ..options import Option
+from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .options import vector_or_callable
 
 __all__ = ["VelocityPseudoInverse", "KineticEnergyPseudoInverse"]
 
@@ -33,15 +34,18 @@ class VelocityPseudoInverse(VelocityResolver):
     """
 
     name = "velocity-pinv"
-
-    def __init__(self, self_motion=None, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        super().__init__(position_gain, singular_tolerance)
-        if self_motion is not None and not callable(self_motion):
-            try:
-                self_motion = np.asarray(self_motion, dtype=float).reshape(-1)
-            except (TypeError, ValueError):
-                raise InvalidInput(f"self_motion {self_motion!r} is neither n numbers [rad/s] nor a callable") from None
-        self.self_motion = self_motion
+    options = (
+        Option(
+            name="self_motion",
+            kind="vector (n values) | callable phi(joint_angles)",
+            unit="rad/s",
+            default=None,
+            meaning="the arbitrary joint velocity φ̇ of Eq. (2), projected into the null space of J",
+            convert=vector_or_callable,
+            default_text="none (φ̇ = 0)",
+        ),
+        POSITION_GAIN_OPTION,
+    )
 
     def check(self, robot: Robot) -> None:
         super().check(robot)

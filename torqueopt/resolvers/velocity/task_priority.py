@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InvalidInput
-from ...linalg import DEFAULT_SINGULAR_TOLERANCE
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, TaskStack, prioritised_rates
-from .base import VelocityResolver, pseudoinverse_solver
+from ...tasks import FrameTask, Kinematics, prioritised_rates
+from ..options import Option, number
+from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .options import task_stack
 
 __all__ = ["TaskPriority"]
 
@@ -35,19 +36,34 @@ class TaskPriority(VelocityResolver):
 
     name = "task-priority"
     needs_redundancy = True
-
-    def __init__(self, secondary=None, damping: float = 0.0, position_gain: float = 0.0, singular_tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
-        super().__init__(position_gain, singular_tolerance)
-        if secondary is None:
-            raise InvalidInput("resolver 'task-priority' needs secondary= a Task with a target (or a TaskStack)")
-        self.secondary = TaskStack.of(secondary)
-        damping = float(damping)
-        if not (np.isfinite(damping) and damping >= 0):
-            raise InvalidInput(f"damping={damping!r} must be a finite number >= 0")
-        self.damping = damping
+    options = (
+        Option(
+            name="secondary",
+            kind="Task | TaskStack | list of Tasks | FRAME:x,y[,z] (';' between tasks)",
+            unit="m",
+            default=None,
+            meaning="the lower-priority task(s), each regulated to its target: ẋ_l = k(x* − x_l)",
+            convert=task_stack,
+            default_text="none (required)",
+        ),
+        Option(
+            name="damping",
+            kind="number >= 0",
+            unit="",
+            default=0.0,
+            meaning="damped least squares λ of the lower-priority inverses (0: the plain pseudoinverse of Eq. (11))",
+            convert=number(0.0),
+        ),
+        POSITION_GAIN_OPTION,
+    )
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
+        if self.secondary is None:
+            raise InvalidInput(
+                "resolver 'task-priority' needs the option secondary: a Task with a target, a TaskStack, "
+                "or FRAME:x,y on the command line"
+            )
         self.secondary.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):

@@ -1,0 +1,404 @@
+"""The velocity-level methods of Section 1.1: each equation against an independent computation,
+and the known results on the paper's arm (repeatability, joint limits, manipulability, priority,
+obstacle clearance)."""
+
+import re
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.cli import main
+from torqueopt.errors import InvalidInput, NoRedundancy
+from torqueopt.kinematic import joint_rates
+from torqueopt.resolvers.velocity import JointLimits, manipulability
+from torqueopt.resolvers.velocity.obstacle_avoidance import activation
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask
+from torqueopt.whiplash import detect_whiplash
+
+from .conftest import PAPER_Q0
+from .test_tasks import central, planar_jacobian, planar_points
+
+LONG = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
+#: A circle the paper's arm can go round from q0 on both branches (centre along +x of the start).
+LOOP = torqueopt.Circle(0.5, 4.0, centre_direction=[1.0, 0.0])
+ELBOW_TARGET = [0.5, -0.5]
+OBSTACLE = [1.2, 0.3, 0.0, 0.1]
+
+
+def closed_form_manipulability(q):
+    jacobian = planar_jacobian(q)
+    return np.sqrt(np.linalg.det(jacobian.dot(jacobian.T)))  # Eq. (6)
+
+
+def closed_form_joint_limits(q, lower, upper):
+    middle = 0.5 * (lower + upper)
+    return np.sum(((q - middle) / (middle - upper)) ** 2)  # Eq. (5)
+
+
+# -- each equation at single states ---------------------------------------------------------
+
+
+def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng):
+    for _ in range(5):
+        q, xdot, phi = rng.uniform(-2, 2, 3), rng.normal(size=2), rng.normal(size=3)
+        jacobian = planar_jacobian(q)
+        pinv = jacobian.T.dot(np.linalg.inv(jacobian.dot(jacobian.T)))  # Eq. (3)
+        np.testing.assert_allclose(joint_rates(planar3, "velocity-pinv", q, xdot), pinv.dot(xdot), atol=1e-12)
+        with_self_motion = torqueopt.get_resolver("velocity-pinv", self_motion=phi)
+        expected = pinv.dot(xdot) + (np.eye(3) - pinv.dot(jacobian)).dot(phi)  # Eq. (2)
+        np.testing.assert_allclose(joint_rates(planar3, with_self_motion, q, xdot), expected, atol=1e-12)
+
+
+def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, panda, rng):
+    for robot in (planar3, panda):
+        for _ in range(3):
+            q = pin.randomConfiguration(robot.model) if robot is panda else rng.uniform(-2, 2, 3)
+            xdot = rng.normal(size=robot.m)
+            rates = joint_rates(robot, "kinetic-energy-pinv", q, xdot)
+            inertia = pin.crba(robot.model, robot.model.createData(), q)
+            inertia = np.triu(inertia) + np.triu(inertia, 1).T
+            jacobian = FrameTask(robot.frame, robot.task).jacobian(Kinematics(robot).update(q))
+            # min ½ q̇ᵀHq̇ subject to J q̇ = ẋ: [H Jᵀ; J 0][q̇; λ] = [0; ẋ]
+            n, m = robot.nv, robot.m
+            kkt = np.block([[inertia, jacobian.T], [jacobian, np.zeros((m, m))]])
+            expected = np.linalg.solve(kkt, np.concatenate([np.zeros(n), xdot]))[:n]
+            np.testing.assert_allclose(rates, expected, atol=1e-9)
+            basis = np.linalg.svd(jacobian)[2][m:].T
+            energy = 0.5 * rates.dot(inertia).dot(rates)  # Eq. (17)
+            for _ in range(5):
+                other = rates + basis.dot(rng.normal(size=n - m))
+                assert 0.5 * other.dot(inertia).dot(other) > energy
+
+
+def test_joint_limit_gradient_is_that_of_eq_5(panda, rng):
+    criterion = JointLimits()
+    lower, upper = panda.model.lowerPositionLimit, panda.model.upperPositionLimit
+    for _ in range(3):
+        q = pin.randomConfiguration(panda.model)
+        kinematics = Kinematics(panda).update(q)
+        assert criterion.value(kinematics) == pytest.approx(closed_form_joint_limits(q, lower, upper), rel=1e-12)
+        np.testing.assert_allclose(
+            criterion.gradient(kinematics), central(lambda x: closed_form_joint_limits(x, lower, upper), q), atol=1e-7
+        )
+        np.testing.assert_allclose(
+            criterion.hessian(kinematics), central(criterion_gradient_at(panda, criterion), q), atol=1e-6
+        )
+
+
+def criterion_gradient_at(robot, criterion, task=None):
+    return lambda x: criterion.gradient(Kinematics(robot).update(x), task)
+
+
+def test_manipulability_gradient_from_the_kinematic_hessian_matches_differences(planar3, panda, rng):
+    """∂w/∂q from Pinocchio's kinematic Hessian against central differences of w: the closed-form
+    planar w of Eq. (6) for the paper's arm, w of Pinocchio's Jacobian for panda."""
+    criterion = torqueopt.resolvers.velocity.Manipulability()
+    for robot, w_of in ((planar3, closed_form_manipulability), (panda, None)):
+        task = FrameTask(robot.frame, robot.task)
+        if w_of is None:
+
+            def w_of(x, robot=robot, task=task):
+                return manipulability(task.jacobian(Kinematics(robot).update(x)))
+
+        for _ in range(3):
+            q = pin.randomConfiguration(robot.model) if robot is panda else rng.uniform(-2, 2, 3)
+            kinematics = Kinematics(robot).update(q)
+            assert -criterion.value(kinematics, task) == pytest.approx(w_of(q), rel=1e-10)
+            np.testing.assert_allclose(-criterion.gradient(kinematics, task), central(w_of, q), atol=1e-7)
+
+
+def test_gradient_projection_is_eq_4_and_descends_its_criterion(planar3, panda, rng):
+    for robot, criterion, k in (
+        (planar3, "manipulability", 2.0),
+        (panda, "joint-limits", 3.0),
+        (panda, "manipulability", 1.0),
+    ):
+        resolver = torqueopt.get_resolver("gradient-projection", criterion=criterion, k=k)
+        task = FrameTask(robot.frame, robot.task)
+        for _ in range(3):
+            q = pin.randomConfiguration(robot.model) if robot is panda else rng.uniform(-2, 2, 3)
+            xdot = rng.normal(size=robot.m)
+            kinematics = Kinematics(robot).update(q)
+            jacobian = task.jacobian(kinematics)
+            gradient = resolver.objective.gradient(kinematics, task)
+            pinv = np.linalg.pinv(jacobian)
+            expected = pinv.dot(xdot) - k * (np.eye(robot.nv) - pinv.dot(jacobian)).dot(gradient)  # Eq. (4)
+            rates = joint_rates(robot, resolver, q, xdot)
+            np.testing.assert_allclose(rates, expected, atol=1e-9)
+            np.testing.assert_allclose(jacobian.dot(rates), xdot, atol=1e-9)
+            # with the tip at rest the criterion can only fall: ṗ = −k‖(I − J⁺J)∇p‖² ≤ 0
+            assert gradient.dot(joint_rates(robot, resolver, q, np.zeros(robot.m))) <= 1e-12
+
+
+def test_a_callable_criterion_gets_its_gradient_by_differences(planar3):
+    resolver = torqueopt.get_resolver(
+        "gradient-projection", criterion=lambda angles: float(np.sum(np.sin(angles) ** 2)), k=1.0
+    )
+    q = np.array([0.3, 1.1, -0.7])
+    kinematics = Kinematics(planar3).update(q)
+    np.testing.assert_allclose(resolver.objective.gradient(kinematics), np.sin(2 * q), atol=1e-8)
+    np.testing.assert_allclose(resolver.objective.hessian(kinematics), np.diag(2 * np.cos(2 * q)), atol=1e-4)
+
+
+def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
+    resolver = torqueopt.get_resolver("extended-jacobian")
+    task = FrameTask("tip", "xy")
+
+    def g_at(x):
+        return resolver.extended_row(Kinematics(planar3).update(x), task)[0]
+
+    for _ in range(4):
+        q, xdot = rng.uniform(-2, 2, 3), rng.normal(size=2)
+        kinematics = Kinematics(planar3).update(q)
+        g_value, g_row, normal = resolver.extended_row(kinematics, task)
+        jacobian = planar_jacobian(q)
+        np.testing.assert_allclose(jacobian.dot(normal), 0.0, atol=1e-12)
+        np.testing.assert_allclose(
+            normal, np.cross(jacobian[0], jacobian[1]), atol=1e-12
+        )  # "cross products of columns"
+        gradient = 2 * q / (2 * np.pi) ** 2  # Eq. (5) with the URDF's ±2π limits
+        assert g_value == pytest.approx(gradient.dot(normal), abs=1e-12)  # Eq. (14)
+        np.testing.assert_allclose(g_row, central(g_at, q), atol=1e-7)
+        rates = joint_rates(planar3, resolver, q, xdot)
+        np.testing.assert_allclose(
+            np.vstack([jacobian, g_row]).dot(rates), np.append(xdot, 0.0), atol=1e-10
+        )  # Eq. (15)
+
+
+def test_task_priority_realises_the_high_priority_task_exactly_and_is_eqs_9_and_10(planar3, rng):
+    elbow = FrameTask("link3", "xy", target=ELBOW_TARGET, gain=2.0)
+    resolver = torqueopt.get_resolver("task-priority", secondary=elbow)
+    for _ in range(5):
+        q, xdot = rng.uniform(-2, 2, 3), rng.normal(size=2)
+        rates = joint_rates(planar3, resolver, q, xdot)
+        high = planar_jacobian(q)
+        angles = np.cumsum(q)
+        low = np.array([[-np.sin(angles[0]) - np.sin(angles[1]), -np.sin(angles[1]), 0.0],
+                        [np.cos(angles[0]) + np.cos(angles[1]), np.cos(angles[1]), 0.0]])  # fmt: skip
+        x_low = 2.0 * (np.array(ELBOW_TARGET) - planar_points(q)[2])
+        high_pinv = np.linalg.pinv(high)
+        projector = np.eye(3) - high_pinv.dot(high)
+        phi = np.linalg.pinv(low.dot(projector), rcond=1e-10).dot(x_low - low.dot(high_pinv).dot(xdot))  # Eq. (10)
+        np.testing.assert_allclose(rates, high_pinv.dot(xdot) + projector.dot(phi), atol=1e-10)  # Eq. (9)
+        np.testing.assert_allclose(high.dot(rates), xdot, atol=1e-12)  # Eq. (7) realised exactly
+
+
+def test_obstacle_avoidance_is_eqs_12_and_13(planar3, rng):
+    obstacle = ObstacleTask(OBSTACLE[:3], OBSTACLE[3], speed=0.4)
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle, influence=10.0, critical=5.0)
+    for _ in range(4):
+        q, xdot = rng.uniform(-2, 2, 3), rng.normal(size=2)
+        kinematics = Kinematics(planar3).update(q)
+        closest = obstacle.closest_point(kinematics)
+        point_jacobian = obstacle.point_jacobian(kinematics, closest)
+        jacobian = planar_jacobian(q)
+        pinv = np.linalg.pinv(jacobian)
+        projector = np.eye(3) - pinv.dot(jacobian)
+        phi = np.linalg.pinv(point_jacobian.dot(projector), rcond=1e-10).dot(
+            0.4 * closest.normal - point_jacobian.dot(pinv).dot(xdot)
+        )  # Eq. (12)
+        rates = joint_rates(planar3, resolver, q, xdot)
+        np.testing.assert_allclose(rates, pinv.dot(xdot) + phi, atol=1e-9)  # Eq. (13) with α_h = 1
+        np.testing.assert_allclose(jacobian.dot(rates), xdot, atol=1e-10)
+
+
+def test_the_avoidance_switches_on_smoothly():
+    assert activation(0.6, 0.5, 0.1) == 0.0 and activation(0.05, 0.5, 0.1) == 1.0
+    assert activation(0.3, 0.5, 0.1) == pytest.approx(0.5)
+    assert 0.0 < activation(0.45, 0.5, 0.1) < 0.1
+
+
+# -- runs: torques by inverse dynamics on the motion ----------------------------------------
+
+
+@pytest.fixture(scope="module")
+def long_runs(planar3):
+    """The paper's long movement with every velocity-level method (and the torque methods beside)."""
+    cases = {
+        "velocity-pinv": {},
+        "gradient-projection": {"k": 30.0},
+        "manipulability": {"criterion": "manipulability", "k": 1.0},
+        "kinetic-energy-pinv": {},
+        "extended-jacobian": {},
+        "task-priority": {"secondary": FrameTask("link3", "xy", target=ELBOW_TARGET)},
+        "obstacle-avoidance": {"obstacle": OBSTACLE},
+    }
+    runs = {}
+    for key, options in cases.items():
+        name = "gradient-projection" if key == "manipulability" else key
+        runs[key] = torqueopt.simulate(planar3, name, LONG, PAPER_Q0, resolver_options=options)
+    for name in ("pinv", "null-space"):
+        runs[name] = torqueopt.simulate(planar3, name, LONG, PAPER_Q0)
+    return runs
+
+
+def test_every_kinematic_run_tracks_the_line_and_records_consistent_torques(long_runs, planar3):
+    """q̈ of the record matches differences of its q̇ (away from the reference's jumps at 0 and T/2),
+    the task acceleration is met, and the power τ·q̇ equals dT/dt (no gravity on the paper's arm)."""
+    data = planar3.model.createData()
+    for key, result in long_runs.items():
+        if key in ("pinv", "null-space"):
+            continue
+        assert result.completed, key
+        assert result.max_tip_error < 1e-9, key
+        assert result.max_task_error < 1e-6, key
+        differences = np.gradient(result.v, result.dt, axis=0)
+        smooth = np.ones(len(result.t), bool)
+        smooth[[0, 999, 1000, 1001, -1]] = False
+        scale = 1 + np.abs(result.acceleration).max()
+        mismatch = np.abs(result.acceleration - differences)[smooth].max(axis=1)
+        # the closest point of obstacle-avoidance jumps between links, a kink in q̇ at a few steps
+        share = 0.99 if key == "obstacle-avoidance" else 1.0
+        assert np.quantile(mismatch, share) < 1e-4 * scale, key
+        energy = np.array([0.5 * v.dot(pin.crba(planar3.model, data, q)).dot(v) for q, v in zip(result.q, result.v)])
+        power = np.einsum("ij,ij->i", result.tau, result.v)
+        power_mismatch = np.abs(np.gradient(energy, result.dt) - power)[smooth]
+        assert np.quantile(power_mismatch, share) < 1e-4 * scale * (1 + np.abs(power).max()), key
+
+
+def test_joint_limit_gradient_projection_keeps_joints_nearer_mid_range(long_runs, planar3):
+    criterion = JointLimits()
+    mean_p = {
+        key: np.mean([criterion.value(Kinematics(planar3).update(q)) for q in long_runs[key].q])
+        for key in ("velocity-pinv", "gradient-projection")
+    }
+    assert mean_p["gradient-projection"] < 0.9 * mean_p["velocity-pinv"]
+
+
+def test_manipulability_gradient_projection_keeps_w_higher(long_runs, planar3):
+    mean_w = {
+        key: np.mean([closed_form_manipulability(q) for q in long_runs[key].q])
+        for key in ("velocity-pinv", "manipulability")
+    }
+    assert mean_w["manipulability"] > 1.02 * mean_w["velocity-pinv"]
+    assert closed_form_manipulability(long_runs["manipulability"].q[-1]) > closed_form_manipulability(
+        long_runs["velocity-pinv"].q[-1]
+    )
+
+
+def test_the_secondary_task_moves_the_elbow_to_its_target_without_touching_the_tip(long_runs):
+    """The elbow lies on the unit circle about the tip, so the best it can do is |x_tip − target| − 1:
+    the low-priority task reaches that insofar-as-possible optimum while the tip stays on its path."""
+
+    def elbow_miss(result):
+        return np.array([np.linalg.norm(planar_points(q)[2] - ELBOW_TARGET) for q in result.q])
+
+    priority, plain = long_runs["task-priority"], long_runs["velocity-pinv"]
+    assert priority.max_tip_error < 1e-9
+    assert elbow_miss(priority).mean() < 0.75 * elbow_miss(plain).mean()
+    best = np.linalg.norm(priority.x[-1] - ELBOW_TARGET) - 1.0
+    assert elbow_miss(priority)[-1] == pytest.approx(best, abs=2e-3) and elbow_miss(plain)[-1] > best + 0.2
+
+
+def test_obstacle_avoidance_increases_the_clearance(long_runs, planar3):
+    obstacle = ObstacleTask.from_spec(OBSTACLE)
+
+    def clearance(result):
+        kinematics = Kinematics(planar3)
+        return min(obstacle.clearance(kinematics.update(q)) for q in result.q)
+
+    assert clearance(long_runs["velocity-pinv"]) < 0.0  # the plain pseudoinverse runs the arm through it
+    assert clearance(long_runs["obstacle-avoidance"]) > 0.2
+
+
+def test_the_kinematic_pseudoinverse_does_not_whip_where_the_null_space_method_does(long_runs):
+    """The paper's contrast, on the velocity-level resolved rate: no whiplash on the long movement."""
+    assert detect_whiplash(long_runs["null-space"]).unstable
+    for key in ("velocity-pinv", "kinetic-energy-pinv", "extended-jacobian"):
+        assert not detect_whiplash(long_runs[key]).unstable, key
+
+
+# -- repeatability (Klein & Huang) ------------------------------------------------------------
+
+
+def test_pinv_drifts_after_one_loop_and_the_extended_jacobian_does_not(planar3):
+    drift = {}
+    for name in ("velocity-pinv", "extended-jacobian"):
+        result = torqueopt.simulate(planar3, name, LOOP, PAPER_Q0, dt=0.005)
+        assert result.completed and np.linalg.norm(result.x[-1] - result.x[0]) < 1e-9
+        drift[name] = np.abs(result.joint_angles[-1] - result.joint_angles[0]).max()
+    assert drift["velocity-pinv"] > 0.2  # rad: Klein & Huang's non-repeatability
+    assert drift["extended-jacobian"] < 1e-6
+
+
+def test_the_extended_jacobian_stops_cleanly_at_its_algorithmic_singularity(planar3):
+    """On the circle centred toward the base the surface G = G(q0) folds: the run stops, saying where it stood."""
+    result = torqueopt.simulate(planar3, "extended-jacobian", torqueopt.Circle(0.3, 4.0), PAPER_Q0, dt=0.005)
+    assert not result.completed and 1.0 < result.stop_time < 2.0
+    assert (
+        "the extended Jacobian's alignment" in result.stop_reason
+        and "0 at its algorithmic singularity" in result.stop_reason
+    )
+    alignment = float(
+        re.search(r"alignment \|∂G/∂q·n\|/\(\|∂G/∂q\| \|n\|\) there is ([0-9.e+-]+)", result.stop_reason).group(1)
+    )
+    assert alignment < 0.1  # against 0.65 at q0: the fold, reached within one step
+    # the rates run away as the fold nears: the last speeds are several times those a quarter of the way
+    speed = np.abs(result.v).max(axis=1)
+    assert speed[-1] > 3 * speed[len(speed) // 4]
+
+
+# -- every method on a 7-joint arm, and the errors ---------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "name, options",
+    [
+        ("velocity-pinv", {}),
+        ("gradient-projection", {"k": 3.0}),
+        ("gradient-projection", {"criterion": "manipulability"}),
+        ("kinetic-energy-pinv", {}),
+        ("task-priority", {"secondary": FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6])}),
+        ("obstacle-avoidance", {"obstacle": [0.4, 0.2, 0.5, 0.05]}),
+    ],
+)
+def test_every_velocity_method_tracks_a_line_on_panda(name, options, panda):
+    line = torqueopt.StraightLine([0, 1, 0], accel=0.5, duration=0.6)
+    result = torqueopt.simulate(panda, name, line, panda.default_configuration, dt=0.005, resolver_options=options)
+    assert result.completed and result.max_tip_error < 1e-8 and np.isfinite(result.tau).all()
+
+
+def test_kinematic_resolvers_refuse_what_does_not_apply(planar3, panda):
+    with pytest.raises(InvalidInput, match="resolver 'velocity-pinv' resolves joint velocities, not torques"):
+        torqueopt.resolve(planar3, "velocity-pinv", PAPER_Q0, np.zeros(3), [1.0, 0.0])
+    with pytest.raises(InvalidInput, match="v0 must be None or zero"):
+        torqueopt.simulate(planar3, "velocity-pinv", LONG, PAPER_Q0, v0=[0.1, 0, 0])
+    with pytest.raises(InvalidInput, match="give it position_gain= \\[1/s\\] instead"):
+        torqueopt.simulate(planar3, "velocity-pinv", LONG, PAPER_Q0, feedback=(1.0, 1.0))
+    with pytest.raises(
+        NoRedundancy,
+        match=r"needs exactly one degree of redundancy \(n − m = 1\); task 'position' on robot 'panda' leaves 4",
+    ):
+        torqueopt.simulate(panda, "extended-jacobian", LONG, panda.default_configuration)
+    with pytest.raises(InvalidInput, match="needs the option secondary"):
+        torqueopt.simulate(planar3, "task-priority", LONG, PAPER_Q0)
+    with pytest.raises(InvalidInput, match="needs the option obstacle"):
+        torqueopt.simulate(planar3, "obstacle-avoidance", LONG, PAPER_Q0)
+    with pytest.raises(InvalidInput) as error:
+        torqueopt.get_resolver("gradient-projection", criterion="dexterity")
+    assert str(error.value) == (
+        "option criterion=dexterity of resolver 'gradient-projection' must be one of joint-limits, manipulability, "
+        "a Criterion or a callable p(joint_angles)"
+    )
+    with pytest.raises(
+        InvalidInput, match="option criterion=manipulability of resolver 'extended-jacobian' has no Hessian here"
+    ):
+        torqueopt.get_resolver("extended-jacobian", criterion="manipulability")
+    with pytest.raises(InvalidInput, match="must be below influence=0.5"):
+        torqueopt.get_resolver("obstacle-avoidance", obstacle=OBSTACLE, critical=0.7)
+
+
+def test_the_cli_runs_a_kinematic_method_with_its_options(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    code = main(["run", "--robot", "planar3", "--q0=-45,135,-135", "--degrees", "--direction", "1,1", "--duration", "0.5",
+                 "--resolver", "obstacle-avoidance", "--option", "obstacle=1.2,0.3,0,0.1", "--out", str(out)])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert code == 0 and "resolver obstacle-avoidance" in printed and "status: completed" in printed
+    assert np.loadtxt(out, delimiter=",", skiprows=1).shape[0] == 501
+    code = main(["run", "--robot", "planar3", "--direction", "1,1", "--resolver", "task-priority",
+                 "--option", "secondary=link3:0.5,-0.5", "--duration", "0.2"])  # fmt: skip
+    assert code == 0
+    assert main(["run", "--robot", "planar3", "--direction", "1,1", "--resolver", "obstacle-avoidance"]) == 2
+    assert "needs the option obstacle" in capsys.readouterr().err

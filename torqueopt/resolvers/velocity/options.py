@@ -1,0 +1,75 @@
+"""Converters for the options of the velocity-level resolvers (API values or the CLI's text)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...tasks import FrameTask, ObstacleTask, Task, TaskStack
+from ..options import OptionValueError
+
+__all__ = ["vector_or_callable", "task_stack", "obstacle", "criterion_spec"]
+
+
+def _vector(value) -> np.ndarray:
+    if isinstance(value, str):
+        try:
+            return np.array([float(part) for part in value.split(",")])
+        except ValueError:
+            raise OptionValueError("is not a vector; give comma-separated numbers, e.g. 0,0.1,0") from None
+    try:
+        array = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise OptionValueError("is neither a vector of numbers nor a callable") from None
+    if array.size == 0 or not np.isfinite(array).all():
+        raise OptionValueError("must be a vector of finite numbers")
+    return array
+
+
+def vector_or_callable(value):
+    """A callable as it is, else a vector of finite numbers (comma-separated on the CLI)."""
+    return value if callable(value) else _vector(value)
+
+
+def task_stack(value) -> TaskStack:
+    """A TaskStack from a Task, a sequence of Tasks, or the CLI's ``FRAME:x,y[,z]`` (an xy or position target)."""
+    if isinstance(value, str):
+        items = []
+        for spec in value.split(";"):
+            frame, separator, numbers = spec.partition(":")
+            if not separator or not frame.strip():
+                raise OptionValueError(
+                    "must be FRAME:x,y (xy target) or FRAME:x,y,z (position target), ';' between tasks"
+                )
+            target = _vector(numbers)
+            if target.size not in (2, 3):
+                raise OptionValueError(f"target of frame '{frame.strip()}' must have 2 (xy) or 3 (position) values")
+            items.append(FrameTask(frame.strip(), "xy" if target.size == 2 else "position", target=target))
+        return TaskStack(items)
+    if isinstance(value, (Task, TaskStack)) or (
+        isinstance(value, (list, tuple)) and value and all(isinstance(item, Task) for item in value)
+    ):
+        return TaskStack.of(value)
+    raise OptionValueError("must be a Task with a target, a TaskStack, a list of Tasks, or FRAME:x,y")
+
+
+def obstacle(value) -> ObstacleTask:
+    """An ObstacleTask, or numbers x,y | x,y,z | x,y,z,radius [m]."""
+    if isinstance(value, ObstacleTask):
+        return value
+    numbers = _vector(value)
+    if numbers.size not in (2, 3, 4):
+        raise OptionValueError("must be an ObstacleTask or 2-4 numbers: x,y[,z[,radius]] [m]")
+    return ObstacleTask.from_spec(numbers)
+
+
+def criterion_spec(value):
+    """A criterion name, a Criterion object, or a callable p(joint_angles)."""
+    from .criteria import CRITERIA, Criterion
+
+    if isinstance(value, str):
+        if value.strip() not in CRITERIA:
+            raise OptionValueError(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
+        return value.strip()
+    if isinstance(value, Criterion) or callable(value):
+        return value
+    raise OptionValueError(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
