@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import torqueopt
-from torqueopt.resolvers import PAPER_RESOLVERS
+from torqueopt.paper import PAPER_RESOLVERS
 from torqueopt.errors import InvalidInput
 from torqueopt.result import SimResult
 from torqueopt.whiplash import (

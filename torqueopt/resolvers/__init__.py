@@ -47,7 +47,6 @@ __all__ = [
     "InverseInertiaTorque",
     "InverseInertiaSquaredTorque",
     "RESOLVERS",
-    "PAPER_RESOLVERS",
     "get_resolver",
     "resolver_names",
 ]
@@ -66,10 +65,6 @@ RESOLVERS: dict[str, type[Resolver]] = {
     )
 }
 RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)
-
-
-#: The four resolvers of the paper's Section 3, in its order.
-PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
 
 
 def resolver_names(level: str | None = None) -> list[str]:
