@@ -1,17 +1,31 @@
-"""Shared fixtures: robots are loaded once per session (loading parses URDFs)."""
+"""Shared fixtures: robots are loaded once per session (loading parses URDFs).
+
+Session robots are shared by every test that asks for them: a test that
+changes a robot (torque limits, gravity) loads its own. Random draws are
+seeded: numpy generators from :func:`rng`, Pinocchio's ``randomConfiguration``
+after ``pin.seed``.
+"""
 
 import numpy as np
 import pytest
 
 import torqueopt
+from torqueopt.paper import PAPER, run_paper
 
-#: The paper's start configuration, q0 = (-45°, 135°, -135°).
-PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
+#: The paper's start configuration, q0 = (-45°, 135°, -135°) [rad].
+PAPER_Q0 = np.array(PAPER.q0)
 
 
 @pytest.fixture(scope="session")
 def planar3():
+    """The paper's arm as the catalogue loads it: limits 54, 24, 6 N·m from its URDF, gravity off."""
     return torqueopt.load_robot("planar3")
+
+
+@pytest.fixture(scope="session")
+def paper():
+    """Every run of the paper's experiment (:func:`torqueopt.paper.run_paper` on :data:`PAPER`), computed once."""
+    return run_paper()
 
 
 @pytest.fixture(scope="session")

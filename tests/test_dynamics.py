@@ -142,6 +142,7 @@ def test_planar3_arm_parameters(planar3):
 def test_drift_matches_finite_differences_on_7dof_arms(robot_name, request, rng):
     robot = request.getfixturevalue(robot_name)
     step = 1e-6
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     for _ in range(5):
         q = pin.randomConfiguration(robot.model)
         v = rng.uniform(-1.5, 1.5, robot.nv)
@@ -160,6 +161,7 @@ def test_drift_matches_finite_differences_on_7dof_arms(robot_name, request, rng)
 
 def test_jacobian_matches_finite_differences_of_task_position(panda_pose, rng):
     robot = panda_pose
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     q = pin.randomConfiguration(robot.model)
     rotation = robot.frame_placement(q).rotation
     jacobian = robot.terms(q, np.zeros(robot.nv)).jacobian

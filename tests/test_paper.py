@@ -1,4 +1,10 @@
-"""The paper's scenario and its six claims, each checked on the numbers; the files and CLI of ``torqueopt paper``."""
+"""The paper's scenario and its six claims, each checked on the numbers; the files and CLI of ``torqueopt paper``.
+
+The claims are checked as the paper states them (comparisons between
+resolvers and against the limits). The numbers torqueopt itself computed
+(peak torques, instability times, alignment times) are regression pins,
+kept in test_regression.py with their golden file.
+"""
 
 import contextlib
 import io
@@ -18,11 +24,6 @@ SUMMARY_FIELDS = {
     "movement", "resolver", "duration", "peak_torque", "torque_limit", "first_limit_violation", "unstable",
     "instability_time", "max_tip_error",
 }  # fmt: skip
-
-
-@pytest.fixture(scope="module")
-def paper():
-    return run_paper()
 
 
 def peaks(paper, movement, resolver):
@@ -82,8 +83,6 @@ def test_a_singular_start_is_refused_before_simulating():
 # -- the claims ----------------------------------------------------------------
 def test_claim_1_short_null_space_cuts_joint_1_and_pulls_joint_3_from_its_limit(paper):
     pinv, null = peaks(paper, "short", "pinv"), peaks(paper, "short", "null-space")
-    np.testing.assert_allclose(pinv, [13.04, 3.54, 5.61], atol=0.01)
-    np.testing.assert_allclose(null, [0.73, 3.19, 4.25], atol=0.01)
     assert null[0] < 0.06 * pinv[0]  # a twentieth
     assert pinv[2] / 6.0 > 0.93 and null[2] / 6.0 < 0.71  # 94 % of the limit down to 71 %
     assert paper.claims[0].holds
@@ -91,8 +90,6 @@ def test_claim_1_short_null_space_cuts_joint_1_and_pulls_joint_3_from_its_limit(
 
 def test_claim_2_medium_null_space_still_lower_at_joints_1_and_3_within_limits(paper):
     pinv, null = peaks(paper, "medium", "pinv"), peaks(paper, "medium", "null-space")
-    np.testing.assert_allclose(pinv, [13.68, 6.25, 5.89], atol=0.01)
-    np.testing.assert_allclose(null, [2.28, 10.60, 4.64], atol=0.01)
     assert null[0] < pinv[0] and null[2] < pinv[2]
     assert null[1] > pinv[1]  # joint 2 is larger ...
     assert paper.runs["medium", "null-space"].first_limit_violation is None  # ... but within its 24 N·m
@@ -102,27 +99,24 @@ def test_claim_2_medium_null_space_still_lower_at_joints_1_and_3_within_limits(p
 
 def test_claim_3_long_pinv_within_limits_null_space_unstable_late_through_alignment(paper):
     pinv, null = paper.runs["long", "pinv"], paper.runs["long", "null-space"]
-    np.testing.assert_allclose(pinv.peak_torque, [22.00, 9.24, 5.89], atol=0.01)
     assert pinv.first_limit_violation is None and not paper.whiplash["long", "pinv"].unstable
-    np.testing.assert_allclose(null.peak_torque, [509.8, 331.9, 75.7], rtol=2e-3)
+    assert (pinv.peak_torque_ratio < 1.0).all() and (null.peak_torque_ratio > 2.0).any()
     verdict = paper.whiplash["long", "null-space"]
-    assert verdict.unstable and verdict.time == pytest.approx(1.389) and verdict.time > 0.5 * null.duration
-    # Links 2 and 3 pass through line (joint 3 at 0) once, at 1.334 s, as the whip builds up ...
-    assert alignment_times(null) == pytest.approx([1.334], abs=1e-3)
-    row = int(np.searchsorted(null.t, 1.334))
+    assert verdict.unstable and verdict.time > 0.5 * null.duration
+    # Links 2 and 3 pass through line (joint 3 at 0) once, shortly before the verdict, as the whip builds up ...
+    (aligned,) = alignment_times(null)
+    assert verdict.time - 0.1 < aligned < verdict.time
+    row = int(np.searchsorted(null.t, aligned))
     pinv_fastest = np.abs(pinv.v).max()
-    assert pinv_fastest == pytest.approx(1.23, abs=0.01)
-    # ... with joint 3 at 3.85 rad/s, 3.1 times the fastest joint of pinv over the whole movement,
-    assert np.abs(null.v[row]).max() == pytest.approx(3.85, abs=0.02)
-    # and all three joints peak (4.0, 8.2, 7.35 rad/s) some 0.17 s later, with the torque.
-    np.testing.assert_allclose(np.abs(null.v).max(axis=0), [4.00, 8.20, 7.35], atol=0.01)
-    assert null.t[np.argmax(np.abs(null.v[:, 1]))] == pytest.approx(1.50, abs=0.01)
+    # ... with a joint three times faster than the fastest joint of pinv over the whole movement,
+    assert np.abs(null.v[row]).max() > 3.0 * pinv_fastest
+    # and every joint peaks later still, after the alignment.
+    assert (null.t[np.argmax(np.abs(null.v), axis=0)] > aligned).all()
     assert paper.claims[2].holds
 
 
 def test_claim_4_short_weighted_shrinks_joint_3_at_the_expense_of_joints_1_and_2(paper):
     weighted, null = peaks(paper, "short", "weighted-null-space"), peaks(paper, "short", "null-space")
-    np.testing.assert_allclose(weighted, [18.82, 8.15, 2.62], atol=0.01)
     assert weighted[2] < 0.62 * null[2]
     assert weighted[0] > 20 * null[0] and weighted[1] > 2 * null[1]
     assert (weighted / np.array([54.0, 24.0, 6.0])).max() < 0.45  # well within the limits
@@ -130,11 +124,10 @@ def test_claim_4_short_weighted_shrinks_joint_3_at_the_expense_of_joints_1_and_2
 
 
 def test_claim_5_weighted_and_inertia_pinv_unstable_too_inertia_pinv_in_between(paper):
-    for name, when in (("weighted-null-space", 0.730), ("inertia-pinv", 1.152)):
+    for name in ("weighted-null-space", "inertia-pinv"):
         verdict = paper.whiplash["long", name]
-        assert verdict.unstable and verdict.time == pytest.approx(when)
+        assert verdict.unstable and 0.0 < verdict.time < paper.runs["long", name].duration
     inertia, pinv, null = (peaks(paper, "short", name) for name in ("inertia-pinv", "pinv", "null-space"))
-    np.testing.assert_allclose(inertia, [5.43, 1.16, 4.65], atol=0.01)
     between = [min(p, z) < i < max(p, z) for i, p, z in zip(inertia, pinv, null)]
     # Joints 1 and 3 lie between; joint 2 (1.16 N·m) is below both (3.54 and 3.20): "most joints" is 2 of 3.
     assert between == [True, False, True]
@@ -153,9 +146,9 @@ def test_claim_6_the_free_swing_whips_as_links_2_and_3_straighten(paper):
     speed = np.abs(swing.v)
     peak_row = int(np.argmax(speed.max(axis=1)))
     assert np.argmax(speed[peak_row]) == 2  # joint 3
-    assert speed[peak_row, 2] == pytest.approx(9.86, abs=0.01) and swing.t[peak_row] == pytest.approx(1.431)
-    assert alignment_times(swing) == pytest.approx([1.463], abs=1e-3)
-    assert abs(swing.t[peak_row] - 1.463) < 0.05
+    # The speed peaks within 0.05 s of links 2 and 3 coming into line, once.
+    (aligned,) = alignment_times(swing)
+    assert abs(swing.t[peak_row] - aligned) < 0.05
     assert paper.claims[5].holds
 
 

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 import torqueopt
-from torqueopt.paper import PAPER_RESOLVERS
 from torqueopt.errors import InvalidInput
 from torqueopt.result import SimResult
 from torqueopt.whiplash import (
@@ -22,7 +21,7 @@ from torqueopt.whiplash import (
     torque_demand,
 )
 
-PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
+from .conftest import PAPER_Q0
 
 
 def make_run(tau, limit, dt=0.01, speed=None, tip_error=0.0):
@@ -163,25 +162,14 @@ def test_defaults_are_documented_values():
 
 # -- the paper's runs ----------------------------------------------------------
 @pytest.fixture(scope="module")
-def planar3():
-    return torqueopt.load_robot("planar3")
-
-
-@pytest.fixture(scope="module")
 def planar3_unbounded():
     return torqueopt.load_robot("planar3", torque_limit=np.inf)
 
 
 @pytest.fixture(scope="module")
-def paper_runs(planar3):
-    line = {duration: torqueopt.StraightLine((1.0, 1.0), duration=duration) for duration in (0.5, 1.25, 2.0)}
-    runs = {}
-    for name in PAPER_RESOLVERS:
-        for duration in (0.5, 2.0):
-            runs[name, duration] = torqueopt.simulate(planar3, name, line[duration], PAPER_Q0)
-    for name in ("pinv", "null-space"):
-        runs[name, 1.25] = torqueopt.simulate(planar3, name, line[1.25], PAPER_Q0)
-    return runs
+def paper_runs(paper):
+    """The paper's runs by (resolver, duration [s])."""
+    return {(name, result.duration): result for (_, name), result in paper.runs.items()}
 
 
 STABLE_IN_PAPER = [
@@ -213,11 +201,6 @@ def test_runs_the_paper_calls_unstable_exceed_four_times_a_limit(paper_runs, key
     assert report.time >= result.first_limit_violation > 0.0
 
 
-def test_paper_instability_times(paper_runs):
-    times = {name: detect_whiplash(paper_runs[name, 2.0]).time for name, _ in UNSTABLE_IN_PAPER}
-    assert times == pytest.approx({"null-space": 1.389, "weighted-null-space": 0.730, "inertia-pinv": 1.152}, abs=1e-9)
-
-
 def test_the_whip_trips_with_the_joints_far_faster_than_pinv_needs(paper_runs):
     pinv_fastest = np.abs(paper_runs["pinv", 2.0].v).max()
     for name, duration in UNSTABLE_IN_PAPER:
@@ -227,27 +210,29 @@ def test_the_whip_trips_with_the_joints_far_faster_than_pinv_needs(paper_runs):
 
 
 # -- other start points, directions and durations ------------------------------
-# (q0 [deg], direction [deg], duration [s], resolver, peak torque/limit); the
-# first three start points were drawn at random among those whose line stays
-# 0.5 to 2.6 m from the base; ratios far from the threshold of 2 on purpose.
+# (q0 [deg], direction [deg], duration [s], resolver); the first three start
+# points were drawn at random among those whose line stays 0.5 to 2.6 m from
+# the base; chosen with peak torque/limit far from the threshold of 2 on
+# purpose (at most 1.5 for the stable, at least 4 for the unstable; the exact
+# ratios are pinned in test_regression.py).
 OTHER_STABLE = [
-    ((-47, -85, 53), 50, 2.0, "pinv", 1.03),
-    ((104, -106, 125), 198, 2.0, "pinv", 0.84),
-    ((-141, -109, 78), 286, 2.0, "pinv", 0.95),
-    ((-47, -85, 53), 50, 0.3, "null-space", 0.49),
-    ((104, -106, 125), 198, 0.5, "null-space", 0.56),
-    ((-141, -109, 78), 286, 1.25, "null-space", 1.03),
-    ((-152, 108, -108), 29, 2.0, "null-space", 1.22),
+    ((-47, -85, 53), 50, 2.0, "pinv"),
+    ((104, -106, 125), 198, 2.0, "pinv"),
+    ((-141, -109, 78), 286, 2.0, "pinv"),
+    ((-47, -85, 53), 50, 0.3, "null-space"),
+    ((104, -106, 125), 198, 0.5, "null-space"),
+    ((-141, -109, 78), 286, 1.25, "null-space"),
+    ((-152, 108, -108), 29, 2.0, "null-space"),
 ]
 OTHER_UNSTABLE = [
-    ((-47, -85, 53), 50, 2.0, "null-space", 7.59),
-    ((104, -106, 125), 198, 1.25, "null-space", 7.69),
-    ((-141, -109, 78), 286, 2.0, "null-space", 19.5),
+    ((-47, -85, 53), 50, 2.0, "null-space"),
+    ((104, -106, 125), 198, 1.25, "null-space"),
+    ((-141, -109, 78), 286, 2.0, "null-space"),
 ]
 
 
 def simulate_case(robot, case):
-    q0, angle, duration, name, _ = case
+    q0, angle, duration, name = case
     direction = (math.cos(math.radians(angle)), math.sin(math.radians(angle)))
     return torqueopt.simulate(robot, name, torqueopt.StraightLine(direction, duration=duration), np.radians(q0))
 
@@ -263,7 +248,7 @@ def other_runs(planar3, planar3_unbounded):
 @pytest.mark.parametrize("case", OTHER_STABLE, ids=lambda c: f"{c[3]}-{c[2]}s-from-{c[0]}")
 def test_other_stable_runs(other_runs, case):
     limited, unbounded = other_runs[case]
-    assert limited.peak_torque_ratio.max() == pytest.approx(case[4], abs=0.01)
+    assert limited.peak_torque_ratio.max() < 1.5
     assert not detect_whiplash(limited).unstable
     assert not detect_whiplash(unbounded).unstable
 
@@ -271,7 +256,7 @@ def test_other_stable_runs(other_runs, case):
 @pytest.mark.parametrize("case", OTHER_UNSTABLE, ids=lambda c: f"{c[3]}-{c[2]}s-from-{c[0]}")
 def test_other_unstable_runs(other_runs, case):
     limited, unbounded = other_runs[case]
-    assert limited.peak_torque_ratio.max() == pytest.approx(case[4], rel=0.01)
+    assert limited.peak_torque_ratio.max() > 4.0
     report = detect_whiplash(limited)
     assert report.unstable and 0.0 < report.time < limited.duration
     # Without limits the starting-torque yardstick reaches the same verdict.
