@@ -204,6 +204,7 @@ def paper_command(tmp_path_factory):
     return code, out, printed.getvalue()
 
 
+@pytest.mark.slow
 def test_paper_command_writes_every_figure_and_both_summaries(paper_command):
     code, out, printed = paper_command
     assert code == 0

@@ -177,6 +177,7 @@ def test_html_of_a_2s_planar3_run_is_small_and_subsampling_shrinks_it(planar3, w
     assert "<script src" not in text and "<link" not in text  # self-contained: nothing to fetch
 
 
+@pytest.mark.slow
 def test_html_of_a_2s_panda_run_stays_under_30_mb(panda, tmp_path):
     run = synthetic_run(panda, violations=((3, 200, 400, 1.5),))
     path = viewer.export_html(viewer.Playback(panda, run), tmp_path / "panda.html")
@@ -340,6 +341,7 @@ def chromium():
         pytest.skip(f"headless browser test needs Chromium: {missing}")
 
 
+@pytest.mark.browser
 def test_html_export_draws_the_arm_in_headless_chromium(chromium, planar3, whiplash, tmp_path):
     html = viewer.export_html(viewer.Playback(planar3, whiplash), tmp_path / "whiplash.html")
     # At 1.5 s all three joints are over their limits (the paper's whiplash).
@@ -358,6 +360,7 @@ def test_html_export_draws_the_arm_in_headless_chromium(chromium, planar3, whipl
     assert grey_pixels.mean() > 0.5, "background missing"
 
 
+@pytest.mark.browser
 def test_a_blank_page_fails_the_check(chromium, tmp_path):
     blank = tmp_path / "blank.html"
     blank.write_text("<!DOCTYPE html><html><body style='background:#eee'></body></html>")
