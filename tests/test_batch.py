@@ -12,7 +12,7 @@ from torqueopt.errors import InvalidInput
 from .conftest import PAPER_Q0
 
 PAPER_RESOLVERS = ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
-_ARRAYS = ("t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition")
+_ARRAYS = ("t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref", "jacobian_inverse_condition")
 
 
 def assert_same_run(batched, reference, tolerance=1e-9):

@@ -31,7 +31,7 @@ def peaks(paper, movement, resolver):
 
 
 # -- the scenario --------------------------------------------------------------
-def test_the_scenario_is_the_issues(paper):
+def test_the_scenario_is_the_papers_section_3(paper):
     assert np.degrees(PAPER.q0) == pytest.approx([-45.0, 135.0, -135.0])
     assert PAPER.direction == (1.0, 1.0) and PAPER.accel == pytest.approx(math.sqrt(2.0))
     assert PAPER.durations == (0.5, 1.25, 2.0) and PAPER.dt == 1e-3
@@ -180,7 +180,7 @@ def test_every_claim_holds(paper):
     assert [(claim.number, claim.holds) for claim in paper.claims] == [(n, True) for n in range(1, 7)]
 
 
-def test_summary_entries_have_exactly_the_issues_fields(paper):
+def test_summary_entries_have_exactly_the_summary_fields(paper):
     entries = summary_entries(paper)
     assert len(entries) == 12
     for entry in entries:

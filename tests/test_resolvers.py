@@ -4,7 +4,7 @@ states on the planar arm and on 7-DOF arms:
 * the torque realises the task exactly: with q̈ = ABA(q, q̇, τ) computed by
   Pinocchio from the torque alone, J q̈ + J̇q̇ = ẍ;
 * each resolver is the optimum of its own criterion, checked against the
-  paper's closed formulas (Eqs. 16, 31, 33), computed independently with
+  paper's closed formulas (Eq. (16), Eq. (31), Eq. (33)), computed independently with
   numpy's pseudoinverse truncated to the known rank, and against the
   first-order optimality conditions.
 """
@@ -41,7 +41,7 @@ def truncated_pinv(matrix, rank):
 
 
 def paper_torque(robot, name, terms, xdd):
-    """τ from the paper's formulas, Eqs. (34)-(37), written literally."""
+    """τ from the paper's formulas, Eq. (34), Eq. (35), Eq. (36), Eq. (37), written literally."""
     H, b, J = terms.inertia, terms.bias_torque, terms.jacobian
     n, m = robot.nv, robot.m
     J_pinv = truncated_pinv(J, m)
@@ -122,7 +122,7 @@ def test_every_paper_resolver_matches_the_papers_formula(name, robot_name, reque
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
 def test_null_space_resolvers_are_least_squares_optima(robot_name, request, rng):
-    """First-order conditions of Eqs. (29) and (32): the residual τ − τ_mid is
+    """First-order conditions of Eq. (29) and Eq. (32): the residual τ − τ_mid is
     (W-)orthogonal to every torque change H Z y the null space allows, and no
     random null-space change lowers the cost."""
     robot = request.getfixturevalue(robot_name)
@@ -270,14 +270,14 @@ def test_unknown_resolver_lists_the_registered_names():
     assert str(error.value) == f"unknown resolver 'quadratic': choose one of {', '.join(torqueopt.resolver_names())}"
 
 
-def test_a_user_resolver_plugs_in_through_null_space_solver(planar3):
+def test_a_user_resolver_plugs_in_through_null_space_function(planar3):
     """A resolver object works wherever a name does; this one damps the
     self-motion velocity, y = −k Zᵀq̇, and still realises the task exactly."""
 
     class DampedSelfMotion(torqueopt.NullSpaceResolver):
         name = "damped-self-motion"
 
-        def null_space_solver(self, robot):
+        def null_space_function(self, robot):
             def coordinates(terms, null_space_basis, particular):
                 return -5.0 * null_space_basis.T.dot(terms.joint_velocity)
 

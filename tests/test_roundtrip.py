@@ -20,7 +20,7 @@ def test_a_run_stopped_at_its_first_sample_keeps_that_state(stopped_at_start):
     assert not result.completed and result.stop_time == 0.0
     assert len(result.t) == 1 and np.isnan(result.tau).all()
     np.testing.assert_allclose(result.x[0], [3.0, 0.0], atol=1e-12)
-    assert result.jacobian_condition[0] == pytest.approx(0.0, abs=1e-12)
+    assert result.jacobian_inverse_condition[0] == pytest.approx(0.0, abs=1e-12)
     report = detect_whiplash(result)
     assert not report.unstable and "applied no torque" in report.reason
 

@@ -64,8 +64,8 @@ def test_csv_has_the_named_columns_and_reads_back(tmp_path, short_pinv):
 
 
 def test_files_written_before_the_task_columns_still_read_back(tmp_path, short_pinv):
-    """A CSV without the task_error and infeasible columns, and an .npz without those arrays,
-    read back as runs that realised their task at every step."""
+    """A CSV without the task_error and infeasible columns, and an .npz without those arrays (and
+    with the inverse condition under its old name), read back as runs that realised their task at every step."""
     path = short_pinv.to_csv(tmp_path / "run.csv")
     lines = path.read_text().splitlines()
     path.write_text("\n".join(line.rsplit(",", 2)[0] for line in lines) + "\n")
@@ -74,13 +74,15 @@ def test_files_written_before_the_task_columns_still_read_back(tmp_path, short_p
     assert back.task_error.shape == (501,) and not back.task_error.any() and not back.infeasible.any()
     archive = tmp_path / "old.npz"
     arrays = {name: getattr(short_pinv, name) for name in ("t", "q", "joint_angles", "v", "acceleration", "tau", "x",
-                                                            "x_ref", "jacobian_condition", "torque_upper", "torque_lower")}  # fmt: skip
+                                                            "x_ref", "torque_upper", "torque_lower")}  # fmt: skip
+    arrays["jacobian_condition"] = short_pinv.jacobian_inverse_condition
     metadata = {key: value for key, value in short_pinv.summary().items() if key in ("robot", "frame", "task", "resolver",
                                                                                        "joint_names", "duration")}  # fmt: skip
     metadata.update(dt=short_pinv.dt, stop_reason=None, stop_time=None)
     np.savez_compressed(archive, metadata=json.dumps(metadata), **arrays)
     old = torqueopt.load_result(archive)
     assert old.max_task_error == 0.0 and old.infeasible_steps == 0 and old.resolver_options is None
+    np.testing.assert_array_equal(old.jacobian_inverse_condition, short_pinv.jacobian_inverse_condition)
 
 
 def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar3):
@@ -117,7 +119,7 @@ def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar
 
 def test_npz_keeps_everything(tmp_path, short_pinv):
     back = torqueopt.load_result(short_pinv.to_csv(tmp_path / "run.npz"))
-    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_condition", "task_error", "infeasible"):
+    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_inverse_condition", "task_error", "infeasible"):
         np.testing.assert_array_equal(getattr(back, name), getattr(short_pinv, name))
     assert back.summary() == short_pinv.summary()
 
@@ -166,7 +168,7 @@ class _Overdriven(torqueopt.NullSpaceResolver):
         super().__init__()
         self.size = size
 
-    def null_space_solver(self, robot):
+    def null_space_function(self, robot):
         return lambda terms, basis, particular: np.full(robot.redundancy, self.size)
 
 
@@ -203,8 +205,8 @@ def test_singular_jacobian_stops_the_run(planar3):
     assert 0.5 < result.stop_time < 1.0
     # Every row before the stop had a usable Jacobian and a torque; the stop's
     # row keeps the singular state, with its condition and no torque.
-    assert result.jacobian_condition[:-1].min() >= 0.02 and result.jacobian_condition[0] > 0.1
-    assert result.jacobian_condition[-1] < 0.02 and result.t[-1] == pytest.approx(result.stop_time)
+    assert result.jacobian_inverse_condition[:-1].min() >= 0.02 and result.jacobian_inverse_condition[0] > 0.1
+    assert result.jacobian_inverse_condition[-1] < 0.02 and result.t[-1] == pytest.approx(result.stop_time)
     assert np.isfinite(result.tau[:-1]).all() and np.isnan(result.tau[-1]).all()
 
 

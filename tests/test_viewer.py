@@ -43,7 +43,7 @@ def synthetic_run(robot, duration=2.0, dt=1e-3, violations=()):
         robot=robot.name, frame=robot.frame, task=robot.task, resolver="pinv",
         joint_names=list(robot.joint_names), dt=dt, t=t, q=np.array([robot.configuration(a) for a in angles]),
         joint_angles=angles, v=np.zeros_like(angles), acceleration=np.zeros_like(angles), tau=tau, x=x,
-        x_ref=x.copy(), jacobian_condition=np.ones(len(t)), torque_upper=robot.torque_upper.copy(),
+        x_ref=x.copy(), jacobian_inverse_condition=np.ones(len(t)), torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(), duration=duration,
     )  # fmt: skip
 

@@ -46,7 +46,7 @@ def make_run(tau, limit, dt=0.01, speed=None, tip_error=0.0):
         tau=tau,
         x=x_ref + np.column_stack([np.zeros(rows), np.full(rows, tip_error)]),
         x_ref=x_ref,
-        jacobian_condition=np.ones(rows),
+        jacobian_inverse_condition=np.ones(rows),
         torque_upper=limit,
         torque_lower=-limit,
         duration=t[-1] if rows else 0.0,

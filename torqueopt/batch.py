@@ -14,7 +14,7 @@ each of its runs to the matching ``simulate`` run to 1e-9:
   batched SVD of the task Jacobians gives :math:`J^\dagger r` and a null-space
   basis :math:`Z`, then each resolver's choice of the null-space
   coordinates :math:`y` is a batched solve (the formulas of
-  :mod:`torqueopt.resolvers`, Eqs. (31), (33), (34)-(37));
+  :mod:`torqueopt.resolvers`, Eq. (31), Eq. (33), Eq. (34), Eq. (35), Eq. (36), Eq. (37));
 * RK4 with the torque held (:func:`torqueopt.integrators.rk4_step`) takes the
   resolver's :math:`\ddot q` as its first stage and computes the other three
   stage accelerations of the whole batch with one ``pin.abaInParallel``
@@ -340,7 +340,7 @@ def simulate_batch(
                 tau=torque_log[i, :length].copy(),
                 x=x_log[i, :length].copy(),
                 x_ref=reference_position[i, :length].copy(),
-                jacobian_condition=condition_log[i, :length].copy(),
+                jacobian_inverse_condition=condition_log[i, :length].copy(),
                 torque_upper=robot.torque_upper.copy(),
                 torque_lower=robot.torque_lower.copy(),
                 duration=duration,
@@ -361,7 +361,7 @@ def simulate_batch(
 
 
 def resolver_singular_message(condition: float, resolver: Resolver) -> str:
-    """The message of :class:`~torqueopt.errors.SingularJacobian` that ``simulate`` records (see linalg._condition)."""
+    """The message of :class:`~torqueopt.errors.SingularJacobian` that ``simulate`` records (see linalg._inverse_condition)."""
     return (
         f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "
         f"is below the cutoff {resolver.singular_tolerance:.3g}"
@@ -450,12 +450,12 @@ def _batched_step(robot: Robot, resolver: Resolver):
             basis = orthogonal[:, :, m:]  # Z, (B, n, n − m), orthonormal
             inertia_basis = H @ basis  # H Z
             if kind is InertiaWeightedPseudoInverse:
-                # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eqs. (16), (35); ZᵀHZ is positive definite
+                # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eq. (16), Eq. (35); ZᵀHZ is positive definite
                 reduced = np.swapaxes(basis, 1, 2) @ inertia_basis
                 rhs = np.einsum("bji,bj->bi", inertia_basis, particular)
                 y = -np.linalg.solve(reduced, rhs[..., None])[..., 0]
             else:
-                # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖W½ (H Z y − offset)‖, Eqs. (31), (33)
+                # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖W½ (H Z y − offset)‖, Eq. (31), Eq. (33)
                 offset = midpoint - np.einsum("bij,bj->bi", H, particular) - b
                 if root is None:
                     y = least_squares(inertia_basis, offset)

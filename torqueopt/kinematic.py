@@ -243,7 +243,7 @@ def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason
         tau=tau_log.reshape(recorded, n),
         x=x_log.reshape(recorded, robot.m),
         x_ref=ref_position[::2][:recorded].copy(),
-        jacobian_condition=np.asarray(condition_log, dtype=float).reshape(recorded),
+        jacobian_inverse_condition=np.asarray(condition_log, dtype=float).reshape(recorded),
         torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(),
         duration=duration,

@@ -53,15 +53,15 @@ class JacobianSolver:
 
     def __call__(self, jacobian: np.ndarray, vector: np.ndarray):
         svd = self._svd.compute(jacobian)
-        condition = _condition(svd.singularValues().tolist(), self._tolerance)
+        inverse_condition = _inverse_condition(svd.singularValues().tolist(), self._tolerance)
         particular = svd.solve(vector)
         if self._flatten:
             particular = particular.reshape(-1)
         basis = svd.matrixV()[:, self._rows :] if self._null_space else None
-        return particular, basis, condition
+        return particular, basis, inverse_condition
 
 
-def _condition(singular_values, tolerance: float) -> float:
+def _inverse_condition(singular_values, tolerance: float) -> float:
     r"""σ_min/σ_max of singular values sorted largest first, or SingularJacobian below ``tolerance``.
 
     Above the cutoff every singular value is far above Eigen's own rank
@@ -69,13 +69,13 @@ def _condition(singular_values, tolerance: float) -> float:
     :math:`V_m \Sigma^{-1} U^\top r`.
     """
     largest = singular_values[0]
-    condition = singular_values[-1] / largest if largest > 0 else 0.0
-    if not condition >= tolerance:
+    inverse_condition = singular_values[-1] / largest if largest > 0 else 0.0
+    if not inverse_condition >= tolerance:
         raise SingularJacobian(
-            f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "
+            f"task Jacobian is singular: smallest/largest singular value {inverse_condition:.3g} "
             f"is below the cutoff {tolerance:.3g}"
         )
-    return condition
+    return inverse_condition
 
 
 class LeastSquares:

@@ -19,9 +19,11 @@ __all__ = ["SimResult", "load_result"]
 _STEP_COLUMNS = ("task_error", "infeasible")
 #: Prefix of the dexterity arrays in a ``.npz`` run file.
 _DEXTERITY_KEY = "dexterity_"
+#: Fields renamed since files were first written: new name -> the name older .npz files use.
+_RENAMED = {"jacobian_inverse_condition": "jacobian_condition"}
 _ARRAY_FIELDS = (
     "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
-    "jacobian_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
+    "jacobian_inverse_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
 )  # fmt: skip
 
 
@@ -41,7 +43,10 @@ class SimResult:
             violations count only the torques the rows hold.
         x: task coordinates of the tip [m, rad], (N, m).
         x_ref: reference task coordinates [m, rad], (N, m).
-        jacobian_condition: σ_min/σ_max of the task Jacobian, (N,).
+        jacobian_inverse_condition: σ_min/σ_max of the task Jacobian, the reciprocal of its
+            condition number, in (0, 1], (N,); 0 near a singularity. (Called
+            ``jacobian_condition`` in .npz files written before it was renamed;
+            :func:`load_result` reads both.)
         torque_upper, torque_lower: torque limits τ⁺, τ⁻ [N·m] (±inf: unbounded).
         duration: the requested simulated time [s].
         stop_reason: why the run ended early, None when it completed.
@@ -72,7 +77,7 @@ class SimResult:
     tau: np.ndarray
     x: np.ndarray
     x_ref: np.ndarray
-    jacobian_condition: np.ndarray
+    jacobian_inverse_condition: np.ndarray
     torque_upper: np.ndarray
     torque_lower: np.ndarray
     duration: float
@@ -272,8 +277,11 @@ def load_result(path: str | os.PathLike, robot=None) -> SimResult:
 def _load_npz(path: Path) -> SimResult:
     with np.load(path, allow_pickle=False) as archive:
         metadata = json.loads(str(archive["metadata"]))
+        # Files written before a field was renamed keep its old name.
+        stored = {new: old for new, old in _RENAMED.items() if old in archive.files and new not in archive.files}
+        names = {stored.get(name, name): name for name in _ARRAY_FIELDS}
         # Files written before the per-step task columns existed lack them: SimResult fills them in.
-        arrays = {name: archive[name] for name in _ARRAY_FIELDS if name in archive.files or name not in _STEP_COLUMNS}
+        arrays = {name: archive[key] for key, name in names.items() if key in archive.files or name not in _STEP_COLUMNS}
         dexterity = {key[len(_DEXTERITY_KEY):]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)}
     return SimResult(**metadata, **arrays, dexterity=dexterity or None)
 
@@ -310,7 +318,7 @@ def _load_csv(path: Path, robot) -> SimResult:
         tau=tau,
         x=x,
         x_ref=x_ref,
-        jacobian_condition=np.full(len(t), np.nan),
+        jacobian_inverse_condition=np.full(len(t), np.nan),
         torque_upper=upper,
         torque_lower=lower,
         dexterity=dexterity or None,

@@ -280,11 +280,11 @@ class Robot:
         inertia, bias_torque = data.M, data.nle
 
         def terms(q: np.ndarray, v: np.ndarray) -> TaskTerms:
-            pin.computeAllTerms(model, data, q, v)
+            pin.computeAllTerms(model, data, q, v)  # H and b of Eq. (20)
             placement = pin.updateFramePlacement(model, data, frame_id)
             jacobian6 = pin.getFrameJacobian(model, data, frame_id, _LWA)
             # computeAllTerms leaves the kinematics at zero joint acceleration, so
-            # the classical acceleration of the frame is exactly J̇q̇.
+            # the classical acceleration of the frame is exactly J̇q̇ of Eq. (18).
             drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
             return TaskTerms(inertia, bias_torque, jacobian6[rows], drift6[rows], placement, v, q)
 

@@ -183,7 +183,7 @@ def simulate(
     position_rows = None if robot.task == "pose" else robot.task_rows
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
 
-    # One tuple per recorded step (q, v, q̈, τ, x, condition): appending is far
+    # One tuple per recorded step (q, v, q̈, τ, x, σmin/σmax): appending is far
     # cheaper than writing six rows into preallocated arrays, and every array
     # in it is fresh at each step, so nothing is overwritten later.
     log = []
@@ -201,7 +201,7 @@ def simulate(
         x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
         if k == steps:
             # The final state: the movement is over, so no torque is applied from it.
-            log.append((q, v, not_applied, not_applied, x, _jacobian_condition(terms.jacobian)))
+            log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
             break
         command = command_rows[k]
         if feedback is not None:
@@ -213,14 +213,14 @@ def simulate(
                 + feedback.kp * (ref_position[k] - x)
             )
         try:
-            tau, joint_acceleration, condition, task_error, infeasible = solve(terms, command)
+            tau, joint_acceleration, inverse_condition, task_error, infeasible = solve(terms, command)
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
-            log.append((q, v, not_applied, not_applied, x, _jacobian_condition(terms.jacobian)))
+            log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
             break
         if task_error or infeasible:
             shortfalls.append((len(log), task_error, infeasible))
-        log.append((q, v, joint_acceleration, tau, x, condition))
+        log.append((q, v, joint_acceleration, tau, x, inverse_condition))
         if not all(within(map(abs, tau.tolist()), torque_ceiling)):
             # The torque that ends the run stays in the result: peaks and verdicts count it.
             stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
@@ -233,7 +233,7 @@ def simulate(
             break
 
     recorded = len(log)
-    q_log, v_log, acceleration_log, torque_log, x_log, condition_log = _columns(log, (robot.nq, n, n, n, robot.m))
+    q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = _columns(log, (robot.nq, n, n, n, robot.m))
     task_error_log = np.zeros(recorded)
     infeasible_log = np.zeros(recorded, dtype=bool)
     for row, task_error, infeasible in shortfalls:
@@ -254,7 +254,7 @@ def simulate(
         tau=torque_log,
         x=x_log,
         x_ref=ref_position[:recorded].copy(),
-        jacobian_condition=condition_log,
+        jacobian_inverse_condition=inverse_condition_log,
         torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(),
         duration=duration,
@@ -316,7 +316,7 @@ def _speed_stop(robot: Robot, v: np.ndarray, max_joint_speed: float, t: float, d
     )
 
 
-def _jacobian_condition(jacobian: np.ndarray) -> float:
+def _jacobian_inverse_condition(jacobian: np.ndarray) -> float:
     """σ_min/σ_max of a task Jacobian (0 when it is zero), for rows at which no resolver runs."""
     singular_values = np.linalg.svd(jacobian, compute_uv=False)
     return float(singular_values[-1] / singular_values[0]) if singular_values[0] > 0 else 0.0

@@ -1,17 +1,23 @@
 """The registry of resolvers, by name.
 
-====================== ==========================================================
-name                   method (equation of the paper)
-====================== ==========================================================
-``pinv``               unweighted pseudoinverse, Eq. (34)
-``inertia-pinv``       inertia-weighted pseudoinverse, Eqs. (16), (35)
-``null-space``         null-space torque optimisation, Eqs. (28)-(31), (36)
-``weighted-null-space`` the same weighted by torque range, Eqs. (33), (37)
-``damped-null-space``  the torque criterion plus a self-motion damping term (Discussion)
-``self-motion-damping`` y = −K_D Zᵀq̇, the kinematic limit of the blend
-``inverse-inertia-torque`` minimum τᵀH⁻¹τ (Gauss's principle)
-``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ
-====================== ==========================================================
+Each resolver's equations of the paper, cited the same way in its module
+docstring, at the lines that compute them, and in the README's table:
+
+================================== ============================================================ =================================================
+name                               method                                                       equations of the paper
+================================== ============================================================ =================================================
+``pinv``                           unweighted pseudoinverse                                     Eq. (34)
+``inertia-pinv``                   inertia-weighted pseudoinverse                               Eq. (16), Eq. (19), Eq. (35)
+``null-space``                     null-space torque optimisation                               Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36)
+``weighted-null-space``            the same, weighted by torque range                           Eq. (32), Eq. (33), Eq. (37)
+``damped-null-space``              the torque criterion plus a self-motion damping term         the Discussion; S of Eq. (33)
+``self-motion-damping``            y = −K_D Zᵀq̇, the kinematic limit of the blend               (not in the paper)
+``inverse-inertia-torque``         minimum τᵀH⁻¹τ (Gauss's principle)                           (not in the paper)
+``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ                                               (not in the paper)
+================================== ============================================================ =================================================
+
+All of them write the joint acceleration as Eq. (26) and the torque as
+Eq. (20) (:class:`~torqueopt.resolvers.base.NullSpaceResolver`).
 
 The velocity-level methods of Section 1.1 (``velocity-pinv``,
 ``gradient-projection``, ``task-priority``, ``obstacle-avoidance``,

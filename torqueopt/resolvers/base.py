@@ -6,7 +6,7 @@ returns a robot-bound function
 
 .. math::
 
-    (\text{terms}, \ddot x) \mapsto \text{Resolution}(\tau, \ddot q, \text{condition},
+    (\text{terms}, \ddot x) \mapsto \text{Resolution}(\tau, \ddot q, \sigma_{min}/\sigma_{max},
     \text{task error}, \text{infeasible})
 
 where the terms (:class:`~torqueopt.robot.TaskTerms`) carry :math:`H`, the
@@ -47,7 +47,7 @@ from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
 from ..robot import Robot, TaskTerms
 from .options import Option, format_value, number, validate_options
 
-__all__ = ["Resolution", "Resolver", "NullSpaceResolver", "Step", "SINGULAR_TOLERANCE_OPTION"]
+__all__ = ["NullSpaceFunction", "NullSpaceResolver", "Resolution", "Resolver", "SINGULAR_TOLERANCE_OPTION", "Step"]
 
 
 class Resolution(NamedTuple):
@@ -56,7 +56,8 @@ class Resolution(NamedTuple):
     Attributes:
         torque: joint torques τ [N·m].
         joint_acceleration: the joint acceleration q̈ these torques produce [rad/s²].
-        jacobian_condition: σ_min/σ_max of the task Jacobian at this state.
+        jacobian_inverse_condition: σ_min/σ_max of the task Jacobian at this state, the
+            reciprocal of its condition number (1: isotropic, toward 0: singular).
         task_error: :math:`\|J\ddot q + \dot J\dot q - \ddot x\|` [m/s², rad/s²], the part of the
             task acceleration the resolver gave up; 0 when it realised the task exactly.
         infeasible: True when no admissible torque (within the resolver's constraints)
@@ -65,13 +66,15 @@ class Resolution(NamedTuple):
 
     torque: np.ndarray
     joint_acceleration: np.ndarray
-    jacobian_condition: float
+    jacobian_inverse_condition: float
     task_error: float = 0.0
     infeasible: bool = False
 
 
 #: A robot-bound step: ``(terms, task_acceleration) -> Resolution``.
 Step = Callable[[TaskTerms, np.ndarray], Resolution]
+#: A robot-bound choice of the null-space coordinates: ``(terms, Z, particular) -> y``.
+NullSpaceFunction = Callable[[TaskTerms, np.ndarray, np.ndarray], np.ndarray]
 
 #: The option every resolver accepts: the Jacobian's singular-value cutoff.
 SINGULAR_TOLERANCE_OPTION = Option(
@@ -168,29 +171,30 @@ class Resolver(ABC):
 class NullSpaceResolver(Resolver):
     r"""The family :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y`, Eq. (26): a member chooses y.
 
-    Subclasses implement :meth:`null_space_solver`. Every member realises the
+    Subclasses implement :meth:`null_space_function`. Every member realises the
     task exactly, so its resolutions have ``task_error`` 0 and are never
     infeasible.
     """
 
     def solver(self, robot: Robot) -> Step:
-        coordinates_at = self.null_space_solver(robot) if robot.nv > robot.m else None
+        coordinates_at = self.null_space_function(robot) if robot.nv > robot.m else None
         # None: y = 0 (pinv), or no null space to move in (m = n).
         decompose = JacobianSolver(robot.m, robot.nv, self.singular_tolerance, null_space=coordinates_at is not None)
 
         def solve(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
-            particular, basis, condition = decompose(terms.jacobian, task_acceleration - terms.drift)
+            particular, basis, inverse_condition = decompose(terms.jacobian, task_acceleration - terms.drift)
             if coordinates_at is None:
                 acceleration = particular
             else:
                 acceleration = particular + basis.dot(coordinates_at(terms, basis, particular))  # Eq. (26)
-            torque = terms.inertia.dot(acceleration) + terms.bias_torque  # Eq. (20)
-            return Resolution(torque, acceleration, condition, 0.0, False)
+            # Eq. (20); with the choice of y this is Eq. (34), Eq. (35), Eq. (36) or Eq. (37).
+            torque = terms.inertia.dot(acceleration) + terms.bias_torque
+            return Resolution(torque, acceleration, inverse_condition, 0.0, False)
 
         return solve
 
     @abstractmethod
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         r"""How this resolver picks the null-space coordinates on ``robot``.
 
         Returns a function ``(terms, Z, particular) -> y`` (n − m values),

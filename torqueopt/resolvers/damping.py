@@ -62,7 +62,7 @@ import numpy as np
 from ..errors import InvalidInput, NoRedundancy
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver
 from .null_space import torque_midpoint
 from .options import Option, choice_or_vector, number
 
@@ -108,7 +108,7 @@ class SelfMotionDamping(NullSpaceResolver):
     name = "self-motion-damping"
     options = (_DAMPING_OPTION,)
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         damping = self.damping
 
         def coordinates(terms: TaskTerms, null_space_basis, particular):
@@ -188,7 +188,7 @@ class DampedNullSpaceTorque(NullSpaceResolver):
             )
         return np.sqrt(weight)
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)
         root = self.weight_root(robot)
         root_column = root[:, None]

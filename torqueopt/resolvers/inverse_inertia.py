@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver
 
 __all__ = ["InverseInertiaTorque", "InverseInertiaSquaredTorque"]
 
@@ -53,7 +53,7 @@ class InverseInertiaTorque(NullSpaceResolver):
 
     name = "inverse-inertia-torque"
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         # Z^T H Z is symmetric positive definite; the SVD solve is as in inertia-pinv.
         solve = LeastSquares(robot.redundancy, robot.redundancy)
 
@@ -77,7 +77,7 @@ class InverseInertiaSquaredTorque(NullSpaceResolver):
 
     name = "inverse-inertia-squared-torque"
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         solve = LeastSquares(robot.nv, robot.nv)
 
         def coordinates(terms: TaskTerms, null_space_basis, particular):

@@ -8,7 +8,7 @@ import numpy as np
 from ..errors import InvalidInput, NoRedundancy
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, vector_or_matrix
 
 __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
@@ -23,43 +23,46 @@ def torque_midpoint(robot: Robot) -> np.ndarray:
 
 
 class NullSpaceTorque(NullSpaceResolver):
-    r"""Unweighted null-space torque optimisation, Eqs. (28)-(31), (36).
+    r"""Unweighted null-space torque optimisation, Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36).
 
-    With :math:`\tilde\tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q\cdot C\cdot\dot q + g`
-    (Eq. 28), it picks the null-space motion that minimises
+    With :math:`\tilde\tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q\cdot C\cdot\dot q + g`,
+    Eq. (28), it picks the null-space motion that minimises Eq. (29),
 
     .. math::
 
         \Big\|\tau - \frac{\tau^+ + \tau^-}{2}\Big\|^2, \qquad
-        \tau = \tilde\tau + H Z y \quad\text{(Eqs. 27, 29)}
+        \tau = \tilde\tau + H Z y,
 
-    a least-squares problem in :math:`y` whose matrix :math:`HZ` has full
-    column rank n − m. This is Eq. (31) without forming
+    that is Eq. (30), :math:`\|H Z y - (\hat\tau^+ + \hat\tau^-)/2\|^2` with
+    :math:`(\hat\tau^+ + \hat\tau^-)/2 = (\tau^+ + \tau^-)/2 - \tilde\tau`: a
+    least-squares problem in :math:`y` whose matrix :math:`HZ` has full
+    column rank n − m. Its solution is Eq. (31), computed without forming
     :math:`[H(I - J^\dagger J)]^\dagger`, whose rank n − m a loose
-    pseudoinverse cutoff would get wrong.
+    pseudoinverse cutoff would get wrong; the torque is then Eq. (36).
     """
 
     name = "null-space"
     needs_redundancy = True
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)
         least_squares = LeastSquares(robot.nv, robot.redundancy)
 
         def coordinates(terms: TaskTerms, null_space_basis, particular):
             inertia = terms.inertia
             inertia_basis = inertia.dot(null_space_basis)
+            # Eq. (28), Eq. (30): (τ̂⁺ + τ̂⁻)/2 = (τ⁺ + τ⁻)/2 − τ̃.
             torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque
-            return least_squares(inertia_basis, torque_offset)
+            return least_squares(inertia_basis, torque_offset)  # Eq. (31)
 
         return coordinates
 
 
 class WeightedNullSpaceTorque(NullSpaceResolver):
-    r"""Null-space torque optimisation weighted by torque range, Eqs. (32), (33), (37).
+    r"""Null-space torque optimisation weighted by torque range, Eq. (32), Eq. (33), Eq. (37).
 
-    Minimises :math:`(\tau - \tau_{mid})^\top W (\tau - \tau_{mid})` over the
-    torques that realise the task, with by default
+    Minimises Eq. (32), :math:`(\tau - \tau_{mid})^\top W (\tau - \tau_{mid})`, over the
+    torques that realise the task (solution Eq. (33), torque Eq. (37)), with by default
 
     .. math::
 
@@ -119,7 +122,7 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
             raise InvalidInput(f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}")
         return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)
         root = self.weight_root(robot)
         least_squares = LeastSquares(root.shape[0], robot.redundancy)
@@ -129,7 +132,8 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
         def coordinates(terms: TaskTerms, null_space_basis, particular):
             inertia = terms.inertia
             inertia_basis = inertia.dot(null_space_basis)
-            torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque
+            torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque  # Eq. (28), Eq. (30)
+            # Eq. (33): y = [W½ H Z]⁺ W½ (τ̂⁺ + τ̂⁻)/2.
             if diagonal:
                 return least_squares(root_column * inertia_basis, root * torque_offset)
             return least_squares(root.dot(inertia_basis), root.dot(torque_offset))

@@ -4,43 +4,47 @@ from __future__ import annotations
 
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver
 
 __all__ = ["PseudoInverse", "InertiaWeightedPseudoInverse"]
 
 
 class PseudoInverse(NullSpaceResolver):
-    r"""Unweighted pseudoinverse, Eq. (34) of the paper.
+    r"""Unweighted pseudoinverse, Eq. (34).
 
     .. math::
 
-        \tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q \cdot C \cdot \dot q + g
+        \tau = H J^\dagger(\ddot x - \dot J\dot q) + \dot q \cdot C \cdot \dot q + g \qquad \text{Eq. (34)}
 
-    The joint acceleration is the minimum-norm one, :math:`\min \|\ddot q\|^2`.
+    The joint acceleration is the minimum-norm one, :math:`\min \|\ddot q\|^2`:
+    the null-space coordinates are :math:`y = 0`, so the torque line of
+    :class:`~torqueopt.resolvers.base.NullSpaceResolver` computes Eq. (34).
     """
 
     name = "pinv"
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         return None
 
 
 class InertiaWeightedPseudoInverse(NullSpaceResolver):
-    r"""Inertia-weighted pseudoinverse, Eqs. (16), (19), (35) of the paper.
+    r"""Inertia-weighted pseudoinverse, Eq. (16), Eq. (19), Eq. (35).
 
     .. math::
 
-        \ddot q = J_H^\dagger(\ddot x - \dot J\dot q), \qquad
-        J_H^\dagger = H^{-1}J^\top(J H^{-1} J^\top)^{-1}
+        \ddot q = J_H^\dagger(\ddot x - \dot J\dot q) \quad \text{Eq. (19)}, \qquad
+        J_H^\dagger = H^{-1}J^\top(J H^{-1} J^\top)^{-1} \quad \text{Eq. (16) with } W = H,
 
-    which minimises :math:`\ddot q^\top H \ddot q` over the joint
+    and the torque :math:`\tau = H\ddot q + \dot q\cdot C\cdot\dot q + g`, Eq. (35),
+
+    where :math:`\ddot q` minimises :math:`\ddot q^\top H \ddot q` over the joint
     accelerations that realise the task. In null-space coordinates,
     :math:`y = -(Z^\top H Z)^{-1} Z^\top H\, J^\dagger(\ddot x - \dot J\dot q)`.
     """
 
     name = "inertia-pinv"
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         # Z^T H Z is symmetric positive definite (H is, Z has full column rank),
         # so the least-squares solution is its inverse applied. Eigen's SVD
         # serves here rather than its Cholesky: no slower per step, measured
@@ -50,6 +54,7 @@ class InertiaWeightedPseudoInverse(NullSpaceResolver):
         def coordinates(terms: TaskTerms, null_space_basis, particular):
             inertia_basis = terms.inertia.dot(null_space_basis)
             reduced_inertia = null_space_basis.T.dot(inertia_basis)
+            # Eq. (16), Eq. (19) with W = H, in null-space coordinates.
             return -solve(reduced_inertia, inertia_basis.T.dot(particular))
 
         return coordinates

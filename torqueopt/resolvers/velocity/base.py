@@ -21,7 +21,7 @@ from ...errors import InvalidInput
 from ...linalg import JacobianSolver
 from ...robot import Robot
 from ...tasks import FrameTask
-from ..base import Resolver
+from ..base import NullSpaceFunction, Resolver
 from ..options import Option, number
 
 __all__ = ["VelocityResolver", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
@@ -79,7 +79,7 @@ class VelocityResolver(Resolver):
         """What the method's own state says at a configuration where a run had to stop, or None."""
         return None
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         raise InvalidInput(self._torque_message())
 
     def solver(self, robot: Robot):
