@@ -1,0 +1,327 @@
+r"""The whole movement as one nonlinear program: a direct transcription.
+
+Grid and variables
+    N intervals of length :math:`h = T/N` (N even, so the paper's switch from
+    acceleration to deceleration at :math:`T/2` falls on a node). At each node
+    :math:`t_k = kh` the joint positions :math:`q_k` and velocities :math:`v_k`;
+    over each interval a constant joint acceleration :math:`a_k`. The
+    decision vector is :math:`w = (q_0, v_0, a_0, q_1, v_1, a_1, \dots, q_N, v_N)`,
+    :math:`3nN + 2n` numbers.
+
+Integration (exact for a held acceleration, linear constraints)
+    .. math::
+
+        q_{k+1} = q_k + h v_k + \tfrac{h^2}{2} a_k, \qquad v_{k+1} = v_k + h a_k,
+
+    so the motion :math:`q(t)` is piecewise quadratic and continuously
+    differentiable; it is the held-acceleration analogue of the simulation's
+    held torque.
+
+Task (equality constraints at every node but the first)
+    .. math:: p(q_k) = x_{ref}(t_k), \qquad k = 1, \dots, N,
+
+    the task frame's origin (xy rows for planar arms, the 3-D position
+    otherwise) on the reference path. Only positions are constrained: the
+    task velocity follows from the integration (imposing it too would ask
+    2m conditions of n joints per interval, infeasible for the paper's n = 3,
+    m = 2).
+
+Torque (Pinocchio's RNEA at each interval's midpoint)
+    .. math::
+
+        \tau_k = \mathrm{RNEA}\big(q_k + \tfrac h2 v_k + \tfrac{h^2}{8} a_k,\;
+                 v_k + \tfrac h2 a_k,\; a_k\big),
+
+    the inverse dynamics of the planned motion at :math:`t_k + h/2`, whose
+    value is the interval's mean torque to :math:`O(h^2)`.
+
+Cost (midpoint rule, second order in h)
+    .. math:: f(w) = \sum_{k=0}^{N-1} h\, \|S(\tau_k - \tau_{mid})\|^2 .
+
+Options
+    start at rest at :math:`q_0` (bounds :math:`q_0 = q^0, v_0 = 0`); end at
+    rest (:math:`v_N = 0`) or free; hard torque bounds
+    :math:`\tau^- \le \tau_k \le \tau^+` as nonlinear inequalities; joint
+    position and velocity limits of the URDF as bounds on every
+    :math:`q_k, v_k`.
+
+Derivatives are Pinocchio's analytical ones: ``computeRNEADerivatives``
+(:math:`\partial\tau/\partial q, \partial\tau/\partial v, M`) chained through
+the midpoint map, and the frame Jacobian (LOCAL_WORLD_ALIGNED, whose linear
+rows are :math:`\partial p/\partial q`). The Hessian of the Lagrangian is the
+Gauss-Newton matrix of the least-squares cost,
+:math:`2h\sum_k J_k^\top S^\top S J_k` with :math:`J_k = \partial\tau_k/\partial(q_k, v_k, a_k)`,
+without the constraints' curvature: positive semi-definite, block diagonal,
+one 3n×3n block per interval.
+
+Only revolute and prismatic joints (``robot.euclidean``), whose
+configurations add, are supported: a continuous joint's (cos, sin) would
+need manifold variables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InvalidInput
+from ..robot import Robot
+
+__all__ = ["Evaluation", "Transcription"]
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@dataclass
+class Evaluation:
+    """Every model quantity at one decision vector (computed once, shared by f, g and their derivatives).
+
+    Attributes:
+        torque: τ_k (N×n) [N·m]. torque_jacobian: ∂τ_k/∂(q_k, v_k, a_k) (N×n×3n).
+        task: p(q_k) for k = 1..N (N×m) [m]. task_jacobian: ∂p/∂q_k (N×m×n).
+    """
+
+    torque: np.ndarray
+    torque_jacobian: np.ndarray
+    task: np.ndarray
+    task_jacobian: np.ndarray
+
+
+class Transcription:
+    """The nonlinear program of the module docstring, for one robot, grid and reference.
+
+    Args:
+        robot: a robot with only revolute and prismatic joints and task ``xy`` or ``position``.
+        duration: T [s]. intervals: N (even, > 0).
+        reference: x_ref(t_k) for k = 0..N, (N+1)×m [m].
+        q0: start configuration. root: S (n×n). midpoint: τ_mid (n) [N·m].
+        end_at_rest: add v_N = 0. torque_bounds: add τ⁻ ≤ τ_k ≤ τ⁺ (finite limits only).
+        joint_limits: bound q_k and v_k by the URDF's position and velocity limits.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        duration: float,
+        intervals: int,
+        reference: np.ndarray,
+        q0: np.ndarray,
+        root: np.ndarray,
+        midpoint: np.ndarray,
+        *,
+        end_at_rest: bool = True,
+        torque_bounds: bool = False,
+        joint_limits: bool = False,
+    ):
+        if not robot.euclidean:
+            raise InvalidInput(
+                f"optimize needs revolute or prismatic joints only; robot '{robot.name}' has continuous or "
+                "multi-coordinate joints: lock them (--lock) or use a URDF with limits on them"
+            )
+        if robot.task not in ("xy", "position"):
+            raise InvalidInput(f"optimize supports tasks xy and position, not '{robot.task}'")
+        self.robot = robot
+        self.model, self.data = robot.model, robot.model.createData()
+        self.n, self.m = robot.nv, robot.m
+        self.intervals = int(intervals)
+        self.h = float(duration) / self.intervals
+        self.times = self.h * np.arange(self.intervals + 1)
+        self.reference = np.asarray(reference, float)
+        self.q0 = np.asarray(q0, float)
+        self.root = np.asarray(root, float)
+        self.midpoint = np.asarray(midpoint, float)
+        self.end_at_rest = end_at_rest
+        self.joint_limits = joint_limits
+        bounded = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
+        self.torque_bounds = bool(torque_bounds)
+        if self.torque_bounds and not bounded.any():
+            raise InvalidInput(f"robot '{robot.name}' has no finite torque limit to bound the torques by; give torque limits")
+        self.bounded_joints = np.flatnonzero(bounded) if self.torque_bounds else np.zeros(0, int)
+        n, N = self.n, self.intervals
+        self.size = 3 * n * N + 2 * n
+        self._last_w = None
+        self._last = None
+        self._build_patterns()
+
+    # -- layout ----------------------------------------------------------------
+    def q_index(self, k: int) -> np.ndarray:
+        return 3 * self.n * k + np.arange(self.n)
+
+    def v_index(self, k: int) -> np.ndarray:
+        return 3 * self.n * k + self.n + np.arange(self.n)
+
+    def a_index(self, k: int) -> np.ndarray:
+        return 3 * self.n * k + 2 * self.n + np.arange(self.n)
+
+    def split(self, w) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, v, a) of a decision vector: (N+1)×n, (N+1)×n, N×n."""
+        w = np.asarray(w, float).reshape(-1)
+        n, N = self.n, self.intervals
+        blocks = w[: 3 * n * N].reshape(N, 3, n)
+        q = np.vstack([blocks[:, 0], w[3 * n * N : 3 * n * N + n]])
+        v = np.vstack([blocks[:, 1], w[3 * n * N + n :]])
+        return q, v, blocks[:, 2].copy()
+
+    def join(self, q, v, a) -> np.ndarray:
+        """The decision vector of (q, v, a) as returned by :meth:`split`."""
+        N = self.intervals
+        blocks = np.stack([np.asarray(q)[:N], np.asarray(v)[:N], np.asarray(a)], axis=1)
+        return np.concatenate([blocks.reshape(-1), np.asarray(q)[N], np.asarray(v)[N]])
+
+    @property
+    def constraint_count(self) -> int:
+        return 2 * self.n * self.intervals + self.m * self.intervals + len(self.bounded_joints) * self.intervals
+
+    # -- bounds ----------------------------------------------------------------
+    def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) bounds on w: the fixed start, the end at rest, and the joint limits when asked."""
+        lower, upper = np.full(self.size, -np.inf), np.full(self.size, np.inf)
+        if self.joint_limits:
+            model = self.model
+            q_low, q_high = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
+            speed = np.array(model.velocityLimit)
+            q_low[~np.isfinite(q_low)] = -np.inf
+            q_high[~np.isfinite(q_high)] = np.inf
+            speed = np.where(np.isfinite(speed) & (speed > 0), speed, np.inf)
+            for k in range(self.intervals + 1):
+                lower[self.q_index(k)], upper[self.q_index(k)] = q_low, q_high
+                lower[self.v_index(k)], upper[self.v_index(k)] = -speed, speed
+        lower[self.q_index(0)] = upper[self.q_index(0)] = self.q0
+        lower[self.v_index(0)] = upper[self.v_index(0)] = 0.0
+        if self.end_at_rest:
+            lower[self.v_index(self.intervals)] = upper[self.v_index(self.intervals)] = 0.0
+        return lower, upper
+
+    def constraint_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) bounds on g: zero for the equalities, τ⁻, τ⁺ for the torque rows."""
+        lower, upper = np.zeros(self.constraint_count), np.zeros(self.constraint_count)
+        if self.torque_bounds:
+            start = (2 * self.n + self.m) * self.intervals
+            joints = self.bounded_joints
+            lower[start:] = np.tile(self.robot.torque_lower[joints], self.intervals)
+            upper[start:] = np.tile(self.robot.torque_upper[joints], self.intervals)
+        return lower, upper
+
+    # -- model evaluation ----------------------------------------------------------
+    def evaluate(self, w) -> Evaluation:
+        """Torques, task positions and their Jacobians at ``w`` (cached for the last w)."""
+        w = np.asarray(w, float).reshape(-1)
+        if self._last is not None and np.array_equal(w, self._last_w):
+            return self._last
+        model, data, h, n, N = self.model, self.data, self.h, self.n, self.intervals
+        q, v, a = self.split(w)
+        torque = np.empty((N, n))
+        torque_jacobian = np.empty((N, n, 3 * n))
+        for k in range(N):
+            q_mid = q[k] + 0.5 * h * v[k] + 0.125 * h * h * a[k]
+            v_mid = v[k] + 0.5 * h * a[k]
+            d_q, d_v, inertia = pin.computeRNEADerivatives(model, data, q_mid, v_mid, a[k])
+            torque[k] = data.tau
+            # Chain rule through the midpoint map (q_k, v_k, a_k) -> (q_mid, v_mid, a_k).
+            torque_jacobian[k, :, :n] = d_q
+            torque_jacobian[k, :, n : 2 * n] = 0.5 * h * d_q + d_v
+            torque_jacobian[k, :, 2 * n :] = 0.125 * h * h * d_q + 0.5 * h * d_v + inertia
+        task = np.empty((N, self.m))
+        task_jacobian = np.empty((N, self.m, n))
+        frame, rows = self.robot.frame_id, self.robot.task_rows
+        for k in range(1, N + 1):
+            pin.computeJointJacobians(model, data, q[k])
+            task[k - 1] = pin.updateFramePlacement(model, data, frame).translation[rows]
+            task_jacobian[k - 1] = pin.getFrameJacobian(model, data, frame, _LWA)[rows]
+        self._last_w, self._last = w.copy(), Evaluation(torque, torque_jacobian, task, task_jacobian)
+        return self._last
+
+    # -- the NLP's functions -----------------------------------------------------
+    def objective(self, w) -> float:
+        r""":math:`f = \sum_k h\|S(\tau_k - \tau_{mid})\|^2` on the transcription grid."""
+        residual = (self.evaluate(w).torque - self.midpoint).dot(self.root.T)
+        return float(self.h * np.sum(residual * residual))
+
+    def gradient(self, w) -> np.ndarray:
+        r""":math:`\nabla f = 2h\sum_k J_k^\top S^\top S(\tau_k - \tau_{mid})`."""
+        evaluation = self.evaluate(w)
+        weighted = (evaluation.torque - self.midpoint).dot(self.root.T).dot(self.root)  # SᵀS(τ − τmid), row-wise
+        blocks = 2.0 * self.h * np.einsum("kij,ki->kj", evaluation.torque_jacobian, weighted)
+        gradient = np.zeros(self.size)
+        gradient[: 3 * self.n * self.intervals] = blocks.reshape(-1)
+        return gradient
+
+    def constraints(self, w) -> np.ndarray:
+        """g(w): integration defects (2n per interval), task errors (m per node k ≥ 1), then torques (bounded joints)."""
+        evaluation = self.evaluate(w)
+        q, v, a = self.split(w)
+        h = self.h
+        defect_q = q[1:] - q[:-1] - h * v[:-1] - 0.5 * h * h * a
+        defect_v = v[1:] - v[:-1] - h * a
+        integration = np.concatenate([defect_q, defect_v], axis=1).reshape(-1)
+        task = (evaluation.task - self.reference[1:]).reshape(-1)
+        parts = [integration, task]
+        if self.torque_bounds:
+            parts.append(evaluation.torque[:, self.bounded_joints].reshape(-1))
+        return np.concatenate(parts)
+
+    def jacobian_values(self, w) -> np.ndarray:
+        """Values of ∂g/∂w in the order of :attr:`jacobian_rows`, :attr:`jacobian_cols`."""
+        evaluation = self.evaluate(w)
+        parts = [self._integration_values, evaluation.task_jacobian.reshape(-1)]
+        if self.torque_bounds:
+            parts.append(evaluation.torque_jacobian[:, self.bounded_joints, :].reshape(-1))
+        return np.concatenate(parts)
+
+    def jacobian(self, w) -> np.ndarray:
+        """∂g/∂w as a dense array (for tests and small problems)."""
+        dense = np.zeros((self.constraint_count, self.size))
+        np.add.at(dense, (self.jacobian_rows, self.jacobian_cols), self.jacobian_values(w))
+        return dense
+
+    def hessian_values(self, w, objective_factor: float) -> np.ndarray:
+        r"""Gauss-Newton Hessian of the Lagrangian, :math:`\sigma\, 2h\sum_k J_k^\top S^\top S J_k`, upper triangles.
+
+        In the order of :attr:`hessian_rows`, :attr:`hessian_cols`; the
+        constraint multipliers do not enter (constraint curvature is neglected).
+        """
+        evaluation = self.evaluate(w)
+        weighted_jacobian = np.einsum("ij,kjl->kil", self.root, evaluation.torque_jacobian)  # S J_k
+        blocks = 2.0 * self.h * objective_factor * np.einsum("kil,kim->klm", weighted_jacobian, weighted_jacobian)
+        return blocks[:, self._upper_rows, self._upper_cols].reshape(-1)
+
+    # -- sparsity patterns --------------------------------------------------------
+    def _build_patterns(self) -> None:
+        n, m, N, h = self.n, self.m, self.intervals, self.h
+        rows, cols, values = [], [], []
+        identity = np.arange(n)
+        for k in range(N):
+            row_q = 2 * n * k + identity
+            row_v = row_q + n
+            for target, column_block, coefficient in (
+                (row_q, self.q_index(k + 1), 1.0),
+                (row_q, self.q_index(k), -1.0),
+                (row_q, self.v_index(k), -h),
+                (row_q, self.a_index(k), -0.5 * h * h),
+                (row_v, self.v_index(k + 1), 1.0),
+                (row_v, self.v_index(k), -1.0),
+                (row_v, self.a_index(k), -h),
+            ):
+                rows.append(target)
+                cols.append(column_block)
+                values.append(np.full(n, coefficient))
+        self._integration_values = np.concatenate(values)
+        task_start = 2 * n * N
+        for k in range(1, N + 1):
+            block_rows = task_start + m * (k - 1) + np.arange(m)
+            rows.append(np.repeat(block_rows, n))
+            cols.append(np.tile(self.q_index(k), m))
+        if self.torque_bounds:
+            torque_start = task_start + m * N
+            b = len(self.bounded_joints)
+            for k in range(N):
+                block_rows = torque_start + b * k + np.arange(b)
+                rows.append(np.repeat(block_rows, 3 * n))
+                cols.append(np.tile(3 * n * k + np.arange(3 * n), b))
+        self.jacobian_rows = np.concatenate(rows)
+        self.jacobian_cols = np.concatenate(cols)
+        self._upper_rows, self._upper_cols = np.triu_indices(3 * n)
+        self.hessian_rows = np.concatenate([3 * n * k + self._upper_rows for k in range(N)])
+        self.hessian_cols = np.concatenate([3 * n * k + self._upper_cols for k in range(N)])
