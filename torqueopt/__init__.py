@@ -25,6 +25,7 @@ from .result import SimResult, load_result
 from .robot import Robot, TaskTerms, load_robot
 from .simulate import Feedback, resolve, simulate
 from .trajectory import Circle, MinimumJerkLine, Reference, StraightLine, Trajectory, WaypointPath
+from .optimal import OptimalResult, optimize
 
 __version__ = "0.1.0"
 
@@ -38,6 +39,8 @@ __all__ = [
     "MinimumJerkLine",
     "Circle",
     "WaypointPath",
+    "optimize",
+    "OptimalResult",
     "simulate",
     "dexterity",
     "dexterity_along",

@@ -1,0 +1,407 @@
+r"""``torqueopt.optimize``: the torque-optimal joint motion for a whole movement.
+
+It finds the joint trajectory that keeps the task frame on the reference
+path and minimises
+
+.. math:: \int_0^T \|S(\tau - \tau_{mid})\|^2\, dt
+
+starting at rest at :math:`q_0` (the global counterpart of the paper's
+local, instant-by-instant criterion, Eqs. (29)-(33)). Steps:
+
+1. a local resolver's run (``pinv`` by default) on the simulation grid,
+   sampled at the nodes, is the warm start;
+2. the direct transcription of :mod:`torqueopt.optimal.transcription`
+   (held acceleration over intervals of ``grid_step``, ≤ 10 ms by default) is
+   solved by IPOPT (:mod:`torqueopt.optimal.ipopt`);
+3. the planned motion (piecewise quadratic, exactly as transcribed) is
+   mapped to the simulation grid: the torque held over each step
+   :math:`[t_j, t_j + \Delta t]` is the inverse dynamics (RNEA) of the plan
+   at the step's midpoint, which equals the step's mean torque to
+   :math:`O(\Delta t^2)`;
+4. those torques are replayed open loop through the simulation's RK4
+   (:func:`torqueopt.optimal.replay.replay_torques`): the largest tip
+   deviation is ``replay_tip_error``; the cost is recomputed on the
+   simulation grid (:func:`torqueopt.optimal.cost.torque_cost`), exactly as
+   :func:`torqueopt.optimal.run_cost` charges a local run.
+
+The result says how the solve ended (``status``): only ``converged`` is an
+optimum; anything else is the last iterate, reported as such.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..checks import positive_number
+from ..errors import InvalidInput
+from ..resolvers import Resolver, get_resolver
+from ..resolvers.null_space import torque_midpoint
+from ..result import SimResult
+from ..robot import Robot
+from ..simulate import _configuration, simulate
+from .cost import torque_cost, weight_root
+from .ipopt import solve_transcription
+from .replay import replay_torques
+from .transcription import Transcription
+
+__all__ = ["DEFAULT_GRID_STEP", "ENDS", "HESSIANS", "OptimalResult", "optimize"]
+
+#: How the movement may end: at rest (v(T) = 0) or with any joint velocity.
+ENDS = ("rest", "free")
+#: Hessians of the Lagrangian IPOPT can use.
+HESSIANS = ("limited-memory", "gauss-newton")
+#: Longest interval of the transcription grid [s].
+DEFAULT_GRID_STEP = 0.01
+
+
+@dataclass
+class OptimalResult:
+    """A whole-movement torque optimisation, on the simulation grid t_0 = 0, dt, ..., T.
+
+    Attributes:
+        t: times [s], (M+1,). q: configurations, (M+1, nq). joint_angles: (M+1, n) [rad].
+        v: joint velocities [rad/s]. acceleration: planned joint accelerations [rad/s²].
+        tau: torque held over each step [N·m], (M+1, n); the last row (t = T)
+            repeats the last applied torque and is not counted in ``cost``.
+        x: the planned tip (task coordinates) [m]. x_ref: the reference [m].
+        replay_x: the tip of the open-loop replay [m] (NaN after a non-finite state).
+        cost: the sum over applied torques of dt·‖S(τ_j − τ_mid)‖² on this grid
+            ([N²·m²·s] for S = I). grid_cost: the same on the transcription grid (the NLP's objective).
+        status: one of ``converged``, ``acceptable``, ``iteration limit``,
+            ``time limit``, ``infeasible``, ``failed``. solver_message: IPOPT's return status.
+        replay_tip_error: largest tip deviation of the replay from the reference [m].
+        plan_tip_error: largest tip deviation of the planned motion between nodes [m].
+        constraint_violation: largest violation of the NLP's constraints at the returned point.
+        warm_start: the resolver whose run started the solve; warm_start_cost: its cost on this grid.
+    """
+
+    robot: str
+    frame: str
+    task: str
+    joint_names: list[str]
+    dt: float
+    t: np.ndarray
+    q: np.ndarray
+    joint_angles: np.ndarray
+    v: np.ndarray
+    acceleration: np.ndarray
+    tau: np.ndarray
+    x: np.ndarray
+    x_ref: np.ndarray
+    replay_x: np.ndarray
+    torque_upper: np.ndarray
+    torque_lower: np.ndarray
+    duration: float
+    cost: float
+    grid_cost: float
+    weight: str
+    status: str
+    solver_message: str
+    iterations: int
+    solve_seconds: float
+    replay_tip_error: float
+    plan_tip_error: float
+    constraint_violation: float
+    grid_step: float
+    grid_intervals: int
+    end: str
+    torque_bounds: bool
+    joint_limits: bool
+    hessian: str
+    warm_start: str
+    warm_start_cost: float
+    #: The solver's multipliers and the transcription, for checks (not written to files).
+    solution: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def optimal(self) -> bool:
+        """True only when IPOPT converged to its tolerance."""
+        return self.status == "converged"
+
+    @property
+    def peak_torque(self) -> np.ndarray:
+        """Per joint, the largest applied |τ| [N·m]."""
+        return np.abs(self.tau[:-1]).max(axis=0)
+
+    @property
+    def peak_torque_ratio(self) -> np.ndarray:
+        """Per joint, the largest applied |τ| / limit (0 where unbounded)."""
+        upper = np.where(np.isfinite(self.torque_upper), self.torque_upper, np.inf)
+        lower = np.where(np.isfinite(self.torque_lower), self.torque_lower, -np.inf)
+        applied = self.tau[:-1]
+        return np.where(applied >= 0, applied / upper, applied / lower).max(axis=0)
+
+    def as_sim_result(self) -> SimResult:
+        """The planned motion and its torques as a :class:`SimResult` (resolver ``optimal``), for plots and files."""
+        return SimResult(
+            robot=self.robot,
+            frame=self.frame,
+            task=self.task,
+            resolver="optimal",
+            joint_names=list(self.joint_names),
+            dt=self.dt,
+            t=self.t,
+            q=self.q,
+            joint_angles=self.joint_angles,
+            v=self.v,
+            acceleration=self.acceleration,
+            tau=self.tau,
+            x=self.x,
+            x_ref=self.x_ref,
+            jacobian_condition=np.full(len(self.t), np.nan),
+            torque_upper=self.torque_upper,
+            torque_lower=self.torque_lower,
+            duration=self.duration,
+        )
+
+    def summary(self) -> dict:
+        """The optimisation's figures as plain JSON-ready values."""
+        return {
+            "robot": self.robot,
+            "frame": self.frame,
+            "task": self.task,
+            "duration": self.duration,
+            "status": self.status,
+            "optimal": self.optimal,
+            "solver_message": self.solver_message,
+            "iterations": self.iterations,
+            "solve_seconds": self.solve_seconds,
+            "cost": self.cost,
+            "cost_unit": "N^2 m^2 s" if self.weight == "identity" else "weighted",
+            "grid_cost": self.grid_cost,
+            "weight": self.weight,
+            "end": self.end,
+            "torque_bounds": self.torque_bounds,
+            "joint_limits": self.joint_limits,
+            "hessian": self.hessian,
+            "grid_step": self.grid_step,
+            "grid_intervals": self.grid_intervals,
+            "dt": self.dt,
+            "joint_names": list(self.joint_names),
+            "peak_torque": self.peak_torque.tolist(),
+            "torque_limit": [float(x) if np.isfinite(x) else None for x in self.torque_upper],
+            "peak_torque_ratio": self.peak_torque_ratio.tolist(),
+            "replay_tip_error": self.replay_tip_error,
+            "plan_tip_error": self.plan_tip_error,
+            "constraint_violation": self.constraint_violation,
+            "warm_start": self.warm_start,
+            "warm_start_cost": self.warm_start_cost,
+        }
+
+    def to_csv(self, path):
+        """Write the planned run like ``torqueopt run --out`` (CSV + sidecar, or .npz), plus ``<path>.optimal.json``.
+
+        The run file is readable by :func:`torqueopt.load_result` and
+        ``torqueopt plot``/``play``; the ``.optimal.json`` file holds
+        :meth:`summary`. Every file is written atomically.
+        """
+        import json
+        from pathlib import Path
+
+        from ..result import atomic_write
+
+        path = self.as_sim_result().to_csv(path)
+        text = json.dumps(self.summary(), indent=2).encode()
+        atomic_write(Path(f"{path}.optimal.json"), lambda handle: handle.write(text))
+        return path
+
+    def __repr__(self) -> str:
+        return (
+            f"OptimalResult({self.robot}, {self.status}, cost={self.cost:.6g}, "
+            f"replay_tip_error={self.replay_tip_error:.3g} m, {len(self.t)} rows)"
+        )
+
+
+def optimize(
+    robot: Robot,
+    trajectory,
+    q0,
+    *,
+    weight=None,
+    end: str = "rest",
+    torque_bounds: bool = False,
+    joint_limits: bool = False,
+    dt: float = 1e-3,
+    grid_step: float = DEFAULT_GRID_STEP,
+    warm_start: str | Resolver | SimResult = "pinv",
+    hessian: str = "gauss-newton",
+    tolerance: float = 1e-8,
+    max_iterations: int = 500,
+    max_time: float | None = None,
+    verbose: bool = False,
+) -> OptimalResult:
+    r"""The joint motion that tracks ``trajectory`` and minimises :math:`\int\|S(\tau - \tau_{mid})\|^2 dt`.
+
+    Args:
+        robot: from :func:`torqueopt.load_robot`; revolute/prismatic joints,
+            task ``xy`` or ``position``.
+        trajectory: the tip reference (anchored at the tip's position at q0
+            when it has no start), e.g. :class:`torqueopt.StraightLine`.
+        q0: start configuration (configuration vector or one angle per joint); the arm starts at rest.
+        weight: ``None``/``"identity"`` (S = I), ``"range"`` (Eq. (33),
+            S = diag(2/(τ⁺ − τ⁻))), a vector (diagonal of W) or a matrix W;
+            see :func:`torqueopt.optimal.weight_root`.
+        end: ``rest`` (v(T) = 0) or ``free``.
+        torque_bounds: impose τ⁻ ≤ τ ≤ τ⁺ at every interval (joints with finite limits).
+        joint_limits: impose the URDF's position and velocity limits at every node.
+        dt: the simulation grid [s] on which the result, its cost and the replay are given.
+        grid_step: the longest transcription interval [s]; the grid has an even number N of
+            intervals, h = T/N ≤ grid_step.
+        warm_start: a resolver (name or object) whose simulated run starts the solve, or a SimResult.
+        hessian: ``gauss-newton`` (the default: the block Gauss-Newton matrix of the cost) or ``limited-memory`` (IPOPT's L-BFGS).
+        tolerance: IPOPT's tolerance on the scaled KKT error.
+        max_iterations, max_time: bounds on the work (iterations; wall time [s]).
+        verbose: print IPOPT's log.
+
+    Raises:
+        InvalidInput: a bad option, robot or task (one line naming the value and the valid ones).
+    """
+    if end not in ENDS:
+        raise InvalidInput(f"end '{end}' is not one of {', '.join(ENDS)}")
+    if hessian not in HESSIANS:
+        raise InvalidInput(f"hessian '{hessian}' is not one of {', '.join(HESSIANS)}")
+    dt = positive_number(dt, "dt", "s")
+    grid_step = positive_number(grid_step, "grid_step", "s")
+    tolerance = positive_number(tolerance, "tolerance")
+    if max_time is not None:
+        max_time = positive_number(max_time, "max_time", "s")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
+        raise InvalidInput(f"max_iterations={max_iterations!r} must be a whole number >= 1")
+    if robot.m > robot.nv:
+        raise InvalidInput(f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints")
+    duration = positive_number(trajectory.duration, "duration", "s")
+    if dt > duration or grid_step > duration:
+        raise InvalidInput(f"dt={dt} s and grid_step={grid_step} s must not exceed the duration {duration} s")
+    steps = round(duration / dt)
+    if not math.isclose(steps * dt, duration, rel_tol=1e-9, abs_tol=1e-12):
+        raise InvalidInput(f"dt={dt} s does not divide the duration {duration} s into whole steps")
+    root = weight_root(robot, weight)
+    weight_name = weight if isinstance(weight, str) else ("identity" if weight is None else "user")
+    midpoint = torque_midpoint(robot)
+    q_start = _configuration(robot, q0)
+    if getattr(trajectory, "start", None) is None:
+        trajectory = trajectory.anchored(robot.task_position(q_start)[: min(robot.m, 3)])
+
+    intervals = 2 * math.ceil(duration / (2.0 * grid_step) - 1e-9)
+    nodes = np.linspace(0.0, duration, intervals + 1)
+    problem = Transcription(
+        robot,
+        duration,
+        intervals,
+        trajectory.sample(nodes).position,
+        q_start,
+        root,
+        midpoint,
+        end_at_rest=end == "rest",
+        torque_bounds=torque_bounds,
+        joint_limits=joint_limits,
+    )
+    times = dt * np.arange(steps + 1)
+    if isinstance(warm_start, SimResult):
+        start_run, start_name = warm_start, warm_start.resolver
+    else:
+        resolver = get_resolver(warm_start)
+        start_run, start_name = simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
+    w0 = _warm_start(problem, start_run)
+    solved = solve_transcription(
+        problem,
+        w0,
+        hessian=hessian,
+        tolerance=tolerance,
+        max_iterations=max_iterations,
+        max_time=max_time,
+        verbose=verbose,
+    )
+    plan = _on_grid(problem, solved.w, times)
+    applied = plan["tau"]
+    replay = replay_torques(robot, q_start, np.zeros(robot.nv), applied, dt)
+    reference = trajectory.sample(times).position
+    linear = min(robot.m, 3)
+    replay_x = replay.tip[:, robot.task_rows]
+    replay_error = np.linalg.norm(replay_x[:, :linear] - reference[:, :linear], axis=1)
+    plan_error = np.linalg.norm(plan["x"][:, :linear] - reference[:, :linear], axis=1)
+    start_cost = (
+        torque_cost(start_run.tau[:steps], dt, root, midpoint)
+        if start_run.completed and len(start_run.t) == steps + 1 and math.isclose(start_run.dt, dt)
+        else float("nan")
+    )
+    return OptimalResult(
+        robot=robot.name,
+        frame=robot.frame,
+        task=robot.task,
+        joint_names=list(robot.joint_names),
+        dt=dt,
+        t=times,
+        q=plan["q"],
+        joint_angles=robot.joint_angles(plan["q"]).reshape(len(times), robot.nv),
+        v=plan["v"],
+        acceleration=plan["a"],
+        tau=np.vstack([applied, applied[-1:]]),
+        x=plan["x"],
+        x_ref=reference,
+        replay_x=replay_x,
+        torque_upper=robot.torque_upper.copy(),
+        torque_lower=robot.torque_lower.copy(),
+        duration=duration,
+        cost=torque_cost(applied, dt, root, midpoint),
+        grid_cost=solved.objective,
+        weight=weight_name,
+        status=solved.status,
+        solver_message=solved.message,
+        iterations=solved.iterations,
+        solve_seconds=solved.seconds,
+        replay_tip_error=float(np.nanmax(replay_error)) if replay.completed else float("inf"),
+        plan_tip_error=float(plan_error.max()),
+        constraint_violation=solved.constraint_violation,
+        grid_step=problem.h,
+        grid_intervals=intervals,
+        end=end,
+        torque_bounds=bool(torque_bounds),
+        joint_limits=bool(joint_limits),
+        hessian=hessian,
+        warm_start=start_name,
+        warm_start_cost=start_cost,
+        solution={"problem": problem, "w": solved.w, "lam_g": solved.lam_g, "lam_x": solved.lam_x},
+    )
+
+
+def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
+    """A decision vector from a run: its q and v interpolated at the nodes, a from successive v.
+
+    A run that stopped early is held at its last state for the rest of the movement.
+    """
+    if not len(run.t):
+        raise InvalidInput("the warm-start run has no rows")
+    nodes = problem.times
+    q = np.column_stack([np.interp(nodes, run.t, column) for column in run.q.T])
+    v = np.column_stack([np.interp(nodes, run.t, column) for column in run.v.T])
+    beyond = nodes > run.t[-1]
+    v[beyond] = 0.0
+    acceleration = (v[1:] - v[:-1]) / problem.h
+    return problem.join(q, v, acceleration)
+
+
+def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
+    """The planned motion at ``times`` and the RNEA torque at each step's midpoint (Eq. of the module docstring)."""
+    q_nodes, v_nodes, a_nodes = problem.split(w)
+    model, data, robot = problem.model, problem.data, problem.robot
+    h, last = problem.h, problem.intervals - 1
+
+    def state(t):
+        k = min(int(t // h), last)
+        s = t - k * h
+        return q_nodes[k] + s * v_nodes[k] + 0.5 * s * s * a_nodes[k], v_nodes[k] + s * a_nodes[k], a_nodes[k]
+
+    rows = [state(t) for t in times]
+    q = np.array([row[0] for row in rows])
+    v = np.array([row[1] for row in rows])
+    a = np.array([row[2] for row in rows])
+    step = times[1] - times[0]
+    torques = np.array([pin.rnea(model, data, *state(t + 0.5 * step)).copy() for t in times[:-1]])
+    tips = np.array([robot.frame_placement(row).translation[robot.task_rows] for row in q])
+    return {"q": q, "v": v, "a": a, "tau": torques, "x": tips}
+
