@@ -24,7 +24,7 @@ EXIT_STOPPED = 3
 
 # One module per subcommand, each with ``add_parser(subparsers)`` that sets
 # ``handler`` (a function of the parsed arguments returning an exit code).
-_COMMANDS = ("run", "robots", "resolvers", "play", "paper", "plot", "atlas")
+_COMMANDS = ("run", "robots", "resolvers", "play", "paper", "plot", "atlas", "optimize")
 
 
 class _Parser(argparse.ArgumentParser):
