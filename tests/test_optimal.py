@@ -1,0 +1,348 @@
+"""Whole-path torque optimisation (torqueopt.optimal), checked against independent references:
+finite differences of the transcription's analytical derivatives, the KKT conditions at IPOPT's
+answer, a QP solved here by a plain KKT solve, the inverse dynamics of an arm without redundancy,
+every feasible local run on the same movement, and mesh refinement."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.errors import InvalidInput
+from torqueopt.optimal import Transcription, optimize, replay_torques, run_cost, torque_cost, weight_root
+from torqueopt.paper import PAPER
+from torqueopt.resolvers.null_space import torque_midpoint
+
+from .conftest import PAPER_Q0
+
+
+@pytest.fixture(scope="module")
+def paper_arm():
+    return PAPER.load_robot()
+
+
+def small_problem(robot, q0, duration=0.2, intervals=4, torque_bounds=False, weight=None, end_at_rest=True):
+    line = torqueopt.StraightLine([1.0, 1.0] if robot.m == 2 else [0.0, 1.0, 0.0], duration=duration)
+    line = line.anchored(robot.task_position(q0)[: robot.m])
+    nodes = np.linspace(0.0, duration, intervals + 1)
+    return Transcription(
+        robot, duration, intervals, line.sample(nodes).position, q0, weight_root(robot, weight), torque_midpoint(robot),
+        torque_bounds=torque_bounds, end_at_rest=end_at_rest,
+    )
+
+
+def central_difference(function, w, step=1e-6):
+    columns = []
+    for i in range(w.size):
+        e = np.zeros(w.size)
+        e[i] = step
+        columns.append((np.asarray(function(w + e)) - np.asarray(function(w - e))) / (2 * step))
+    return np.array(columns).T
+
+
+# -- derivatives -------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["planar3", "panda"])
+def test_analytical_derivatives_match_finite_differences(name, rng, paper_arm):
+    robot = paper_arm if name == "planar3" else torqueopt.load_robot("panda")
+    q0 = robot.configuration(PAPER_Q0) if name == "planar3" else robot.default_configuration
+    problem = small_problem(robot, q0, torque_bounds=True, weight="range" if name == "planar3" else None)
+    w = rng.normal(scale=0.5, size=problem.size)
+    w[problem.q_index(0)] = q0
+    gradient = problem.gradient(w)
+    numeric_gradient = central_difference(lambda x: [problem.objective(x)], w)[0]
+    np.testing.assert_allclose(gradient, numeric_gradient, rtol=1e-5, atol=1e-5 * np.abs(numeric_gradient).max())
+    jacobian = problem.jacobian(w)
+    numeric_jacobian = central_difference(problem.constraints, w)
+    np.testing.assert_allclose(jacobian, numeric_jacobian, rtol=1e-5, atol=1e-6 * np.abs(numeric_jacobian).max())
+    # Gauss-Newton Hessian 2h Σ (S ∂τ)ᵀ(S ∂τ), with ∂τ by finite differences of the torques.
+    torque_rows = slice(problem.constraint_count - problem.intervals * robot.nv, None)
+    torque_jacobian = numeric_jacobian[torque_rows]
+    root = problem.root
+    expected = np.zeros((problem.size, problem.size))
+    for k in range(problem.intervals):
+        block = root.dot(torque_jacobian[k * robot.nv : (k + 1) * robot.nv])
+        expected += 2 * problem.h * block.T.dot(block)
+    hessian = np.zeros((problem.size, problem.size))
+    hessian[problem.hessian_rows, problem.hessian_cols] = problem.hessian_values(w, 1.0)
+    upper = np.triu(expected)
+    np.testing.assert_allclose(hessian, upper, rtol=1e-5, atol=1e-6 * np.abs(upper).max())
+
+
+# -- optimality ------------------------------------------------------------------------
+
+def test_kkt_conditions_hold_at_the_solution(paper_arm):
+    result = optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=0.05, weight="range", torque_bounds=True)
+    assert result.status == "converged" and result.optimal
+    problem, w = result.solution["problem"], result.solution["w"]
+    lam_g, lam_x = result.solution["lam_g"], result.solution["lam_x"]
+    lower_g, upper_g = problem.constraint_bounds()
+    g = problem.constraints(w)
+    assert np.all(g >= lower_g - 1e-8) and np.all(g <= upper_g + 1e-8)
+    equality = lower_g == upper_g
+    assert np.abs(g[equality] - lower_g[equality]).max() < 1e-8
+    # Stationarity of the Lagrangian: ∇f + ∂gᵀλ_g + λ_x = 0 (IPOPT's sign convention).
+    gradient = problem.gradient(w)
+    stationarity = gradient + problem.jacobian(w).T.dot(lam_g) + lam_x
+    assert np.abs(stationarity).max() < 1e-6 * max(1.0, np.abs(gradient).max())
+    # Complementarity on the torque rows: a multiplier pushes only at an active bound
+    # (within IPOPT's compl_inf_tol, 1e-4 by default; the products here are ~1e-6).
+    inequality = ~equality
+    slack = np.minimum(g[inequality] - lower_g[inequality], upper_g[inequality] - g[inequality])
+    assert np.all(np.abs(lam_g[inequality]) * slack < 1e-4)
+
+
+def test_global_cost_is_never_above_any_feasible_local_run(paper_arm):
+    line = PAPER.line("medium")
+    result = optimize(paper_arm, line, PAPER.q0, end="free")
+    assert result.optimal
+    compared = 0
+    for name in torqueopt.resolver_names():
+        options = {"weight": PAPER.weight} if name == "weighted-null-space" else {}
+        run = torqueopt.simulate(paper_arm, torqueopt.get_resolver(name, **options), line, PAPER.q0)
+        if not run.completed or run.max_tip_error > 1e-3:
+            continue
+        compared += 1
+        assert result.cost <= run_cost(run, paper_arm), name
+    assert compared >= 3
+
+
+def path_inverse_dynamics(arm, line, q0, times):
+    """τ(t) of the only motion that keeps a non-redundant arm on the path: IK by Newton, then q̇, q̈, RNEA."""
+    q, torques = np.array(q0, float), []
+    data = arm.model.createData()
+    for t in times:
+        reference = line.sample(t)
+        for _ in range(20):
+            error = reference.position - arm.task_position(q)
+            q = q + np.linalg.solve(arm.terms(q, np.zeros(2)).jacobian, error)
+        jacobian = arm.terms(q, np.zeros(2)).jacobian
+        v = np.linalg.solve(jacobian, reference.velocity)
+        terms = arm.terms(q, v)
+        a = np.linalg.solve(terms.jacobian, reference.acceleration - terms.drift)
+        torques.append(pin.rnea(arm.model, data, q, v, a).copy())
+    return np.array(torques)
+
+
+def test_without_redundancy_the_optimum_is_the_inverse_dynamics_of_the_path():
+    """Joint 3 locked: n = m = 2, the path fixes the motion, so the optimum is its inverse dynamics."""
+    arm = torqueopt.load_robot("planar3", lock=["joint3"], torque_limit=[54.0, 24.0])
+    q0 = np.radians([-45.0, 135.0])
+    line = torqueopt.StraightLine([1.0, 1.0], duration=0.5).anchored(arm.task_position(arm.configuration(q0)))
+    result = optimize(arm, line, q0, end="free", grid_step=0.005)
+    assert result.optimal
+    midpoints = result.t[:-1] + 0.5 * result.dt
+    expected = path_inverse_dynamics(arm, line, arm.configuration(q0), midpoints)
+    np.testing.assert_allclose(result.tau[:-1], expected, atol=5e-3 * np.abs(expected).max())
+    expected_cost = result.dt * np.sum(expected**2)
+    assert result.cost == pytest.approx(expected_cost, rel=1e-4)
+
+
+def prismatic_arm() -> torqueopt.Robot:
+    """Three prismatic joints (x, y and along (1, 1)/√2) carrying point-like masses: H constant, no Coriolis."""
+    model = pin.Model()
+    parent = 0
+    axes = [np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)]
+    for index, (axis, mass) in enumerate(zip(axes, (3.0, 2.0, 1.0))):
+        joint = pin.JointModelPrismaticUnaligned(axis)
+        parent = model.addJoint(parent, joint, pin.SE3.Identity(), f"slider{index + 1}")
+        model.appendBodyToJoint(parent, pin.Inertia(mass, np.zeros(3), 0.01 * np.eye(3)), pin.SE3.Identity())
+    model.addFrame(pin.Frame("tip", parent, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
+    model.effortLimit = np.full(3, 100.0)
+    return torqueopt.Robot(model, "tip", "xy", name="sliders", gravity=False)
+
+
+def test_linear_arm_matches_a_qp_solved_independently():
+    """With constant H, no Coriolis and a linear tip map the transcription is a QP: solve its KKT system here."""
+    arm = prismatic_arm()
+    q0 = np.zeros(3)
+    duration, intervals = 0.4, 8
+    line = torqueopt.StraightLine([1.0, 0.5], duration=duration).anchored([0.0, 0.0])
+    result = optimize(arm, line, q0, grid_step=duration / intervals, end="rest")
+    assert result.optimal
+    h, n = duration / intervals, 3
+    inertia = pin.crba(arm.model, arm.model.createData(), q0)
+    tip_map = np.column_stack([axis[:2] for axis in (np.eye(3)[0], np.eye(3)[1], np.array([1, 1, 0]) / np.sqrt(2))])
+    size = 3 * n * intervals + 2 * n
+
+    def index(kind, k):
+        return 3 * n * k + {"q": 0, "v": n, "a": 2 * n}[kind] + np.arange(n)
+
+    equations, values = [], []
+    for k in range(intervals):
+        for i in range(n):
+            row = np.zeros(size)
+            row[index("q", k + 1)[i]] = 1
+            row[index("q", k)[i]] = -1
+            row[index("v", k)[i]] = -h
+            row[index("a", k)[i]] = -h * h / 2
+            equations.append(row)
+            values.append(0.0)
+            row = np.zeros(size)
+            row[index("v", k + 1)[i]] = 1
+            row[index("v", k)[i]] = -1
+            row[index("a", k)[i]] = -h
+            equations.append(row)
+            values.append(0.0)
+    reference = line.sample(np.linspace(0, duration, intervals + 1)).position
+    for k in range(1, intervals + 1):
+        for r in range(2):
+            row = np.zeros(size)
+            row[index("q", k)] = tip_map[r]
+            equations.append(row)
+            values.append(reference[k, r])
+    for kind, k, target in [("q", 0, q0), ("v", 0, np.zeros(n)), ("v", intervals, np.zeros(n))]:
+        for i in range(n):
+            row = np.zeros(size)
+            row[index(kind, k)[i]] = 1
+            equations.append(row)
+            values.append(target[i])
+    constraints, targets = np.array(equations), np.array(values)
+    # Cost Σ h ‖H a_k‖² (no bias torques: no gravity, no Coriolis).
+    hessian = np.zeros((size, size))
+    for k in range(intervals):
+        a = index("a", k)
+        hessian[np.ix_(a, a)] = 2 * h * inertia.T.dot(inertia)
+    kkt = np.block([[hessian, constraints.T], [constraints, np.zeros((len(targets), len(targets)))]])
+    solution = np.linalg.lstsq(kkt, np.concatenate([np.zeros(size), targets]), rcond=None)[0][:size]
+    qp_cost = 0.5 * solution.dot(hessian).dot(solution)
+    assert result.grid_cost == pytest.approx(qp_cost, rel=1e-6)
+    np.testing.assert_allclose(result.solution["w"], solution, atol=1e-6)
+
+
+def test_mesh_refinement_converges_at_second_order(paper_arm):
+    """Halving h divides the change in cost by about four: the midpoint rule and the held acceleration are O(h²)."""
+    costs = [optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=step).cost for step in (0.02, 0.01, 0.005)]
+    assert costs[0] > costs[1] > costs[2]
+    ratio = (costs[1] - costs[2]) / (costs[0] - costs[1])
+    assert 0.2 < ratio < 0.35
+    extrapolated = costs[2] - (costs[1] - costs[2]) / 3.0  # Richardson, second order
+    assert abs(costs[2] - extrapolated) < 0.02 * extrapolated
+
+
+# -- validation by replay, the cost of runs ------------------------------------------
+
+def test_replay_of_a_runs_torques_reproduces_the_run(paper_arm):
+    run = torqueopt.simulate(paper_arm, "pinv", PAPER.line("short"), PAPER.q0)
+    replay = replay_torques(paper_arm, run.q[0], run.v[0], run.tau[:-1], run.dt)
+    assert replay.completed
+    np.testing.assert_allclose(replay.q, run.q, atol=1e-12)
+    np.testing.assert_allclose(replay.v, run.v, atol=1e-10)
+
+
+def test_run_cost_sums_the_applied_torques(paper_arm):
+    run = torqueopt.simulate(paper_arm, "pinv", PAPER.line("short"), PAPER.q0)
+    applied = run.tau[:-1]
+    assert run_cost(run, paper_arm) == pytest.approx(run.dt * np.sum(applied**2), rel=1e-12)
+    limits = np.array(PAPER.torque_limit)
+    assert run_cost(run, paper_arm, "range") == pytest.approx(run.dt * np.sum((applied / limits) ** 2), rel=1e-12)
+    assert torque_cost(np.ones((4, 3)), 0.5, np.eye(3), np.zeros(3)) == pytest.approx(6.0)
+
+
+def test_solution_replays_on_the_path_and_beats_its_warm_start(paper_arm):
+    result = optimize(paper_arm, PAPER.line("long"), PAPER.q0)
+    assert result.optimal
+    assert result.replay_tip_error < 1e-5
+    assert result.plan_tip_error < 1e-5
+    assert result.cost < result.warm_start_cost
+    assert result.tau.shape == (len(result.t), 3) and result.t[-1] == pytest.approx(2.0)
+
+
+def test_torque_bounds_hold_on_the_transcription_grid(paper_arm):
+    free = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range")
+    bounded = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range", torque_bounds=True)
+    assert free.optimal and bounded.optimal
+    assert free.peak_torque_ratio.max() > 1.02  # the unbounded optimum exceeds joint 2's limit
+    problem = bounded.solution["problem"]
+    torques = problem.evaluate(bounded.solution["w"]).torque
+    assert np.all(np.abs(torques) <= np.array(PAPER.torque_limit) * (1 + 1e-6))
+    assert bounded.cost >= free.cost * (1 - 1e-6)
+
+
+def test_unconverged_solve_says_so(paper_arm):
+    result = optimize(paper_arm, PAPER.line("short"), PAPER.q0, max_iterations=2)
+    assert result.status == "iteration limit"
+    assert not result.optimal
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"end": "stop"}, "end 'stop' is not one of rest, free"),
+        ({"hessian": "exact"}, "hessian 'exact' is not one of"),
+        ({"weight": "heavy"}, "unknown weight 'heavy': choose one of identity, range"),
+        ({"grid_step": 0.0}, "grid_step=0.0 must be a positive finite number"),
+        ({"max_iterations": 0}, "max_iterations=0 must be a whole number >= 1"),
+        ({"dt": 0.0007}, "does not divide the duration"),
+    ],
+)
+def test_bad_options_are_refused(paper_arm, options, message):
+    with pytest.raises(InvalidInput, match=message.replace("(", r"\(")):
+        optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
+
+
+def test_pose_task_is_refused():
+    robot = torqueopt.load_robot("panda", task="pose")
+    with pytest.raises(InvalidInput, match="optimize supports tasks xy and position, not 'pose'"):
+        optimize(robot, torqueopt.StraightLine([0, 1, 0], duration=0.2), robot.default_configuration)
+
+
+# -- the CLI -------------------------------------------------------------------------
+
+PAPER_CLI = ["optimize", "--robot", "planar3", "--q0=-45,135,-135", "--degrees", "--direction", "1,1", "--torque-limit", "54,24,6"]
+
+
+def test_cli_writes_the_run_and_its_summary(tmp_path, capsys):
+    import json
+
+    from torqueopt.cli import main
+
+    out = tmp_path / "global.csv"
+    assert main([*PAPER_CLI, "--duration", "0.5", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "status: optimal (IPOPT converged)" in printed
+    run = torqueopt.load_result(out)
+    assert run.resolver == "optimal" and len(run.t) == 501
+    summary = json.loads((tmp_path / "global.csv.optimal.json").read_text())
+    assert summary["status"] == "converged" and summary["cost"] == pytest.approx(run.dt * np.sum(run.tau[:-1] ** 2))
+
+
+def test_cli_exits_3_when_the_solver_stops_short(capsys):
+    from torqueopt.cli import main
+
+    assert main([*PAPER_CLI, "--duration", "0.5", "--max-iterations", "1"]) == 3
+    assert "NOT OPTIMAL: iteration limit" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--end", "stop"], "invalid choice: 'stop'"),
+        (["--weight", "1,2"], "--weight has 2 values but needs 3"),
+        (["--grid-step", "0"], "--grid-step: 0 must be a positive finite number"),
+        (["--max-iterations", "many"], "--max-iterations: 'many' is not a whole number"),
+        (["--warm-start", "psychic"], "unknown resolver 'psychic': choose one of"),
+        (["--direction", "1,1,0"], "--direction has 3 values but task 'xy' moves the tip in 2 dimensions"),
+    ],
+)
+def test_cli_bad_input_exits_2_with_one_line(extra, message, capsys):
+    from torqueopt.cli import main
+
+    arguments = [*PAPER_CLI, "--duration", "0.5"]
+    if extra[0] == "--direction":
+        arguments[arguments.index("--direction") + 1] = extra[1]
+        extra = []
+    with pytest.raises(SystemExit) if extra[:1] == ["--end"] else _no_exit() as caught:
+        code = main([*arguments, *extra])
+    code = caught.value.code if extra[:1] == ["--end"] else code
+    assert code == 2
+    error = capsys.readouterr().err
+    assert message in error and error.count("\n") == 1
+
+
+class _no_exit:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
