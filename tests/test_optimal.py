@@ -322,7 +322,7 @@ def test_cli_exits_3_when_the_solver_stops_short(capsys):
         (["--grid-step", "0"], "--grid-step: 0 must be a positive finite number"),
         (["--max-iterations", "many"], "--max-iterations: 'many' is not a whole number"),
         (["--warm-start", "psychic"], "unknown resolver 'psychic': choose one of"),
-        (["--direction", "1,1,0"], "--direction has 3 values but task 'xy' moves the tip in 2 dimensions"),
+        (["--direction", "1,1,0"], "trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"),
     ],
 )
 def test_cli_bad_input_exits_2_with_one_line(extra, message, capsys):

@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
 from ..errors import InvalidInput
+from ..io import writable_path
 from ..optimal import DEFAULT_GRID_STEP, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
 from ..resolvers import resolver_names
-from ..result import writable_path
 from ..robot import Robot
-from ..trajectory import StraightLine
 from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
+from .paths import add_path_options, trajectory_from_args
 
 __all__ = ["add_parser", "format_optimal_summary"]
 
@@ -24,7 +23,8 @@ def add_parser(subparsers) -> None:
         "optimize",
         help="whole-movement torque optimisation (direct transcription, IPOPT)",
         description=(
-            "Find the joint motion that keeps the task frame on the paper's straight line and minimises "
+            "Find the joint motion that keeps the task frame on a tip path (the paper's straight line by "
+            "default; --path as for run) and minimises "
             "the integral of |S(tau - tau_mid)|^2 over the whole movement, starting at rest at q0 "
             "(direct transcription, Pinocchio's analytical derivatives, IPOPT from casadi). The torques are "
             "replayed open loop through the simulation's RK4 and the cost is evaluated on the simulation "
@@ -41,12 +41,12 @@ def add_parser(subparsers) -> None:
         help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
     )
     group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
-    group.add_argument("--direction", required=True, metavar="D", help="line direction in world axes: 2 values for xy, 3 otherwise")
-    group.add_argument("--duration", default="2.0", metavar="T", help="movement duration [s] (default 2.0)")
+    add_path_options(group)
     group.add_argument(
-        "--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)"
+        "--dt",
+        default="0.001",
+        help="simulation grid of the result, its cost and the replay [s]; must divide the duration (default 0.001)",
     )
-    group.add_argument("--dt", default="0.001", help="simulation grid of the result and the replay [s] (default 0.001)")
     group = parser.add_argument_group("optimisation")
     group.add_argument(
         "--weight",
@@ -89,14 +89,12 @@ def _whole_number(text: str, name: str) -> int:
 
 
 def optimize_command(args: argparse.Namespace) -> int:
-    duration = parse_positive(args.duration, "duration")
-    accel = parse_positive(args.accel, "accel")
+    trajectory = trajectory_from_args(args)
     dt = parse_positive(args.dt, "dt")
     grid_step = parse_positive(args.grid_step, "grid-step")
     tolerance = parse_positive(args.tolerance, "tolerance")
     max_iterations = _whole_number(args.max_iterations, "max-iterations")
     max_time = None if args.max_time is None else parse_positive(args.max_time, "max-time")
-    direction = parse_vector(args.direction, "direction")
     robot = robot_from_args(args)
     weight = args.weight if args.weight in WEIGHTS else parse_vector(args.weight, "weight", robot.nv)
     if args.q0 is None:
@@ -106,14 +104,9 @@ def optimize_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
         writable_path(args.out)
-    line = StraightLine(direction, accel=accel, duration=duration)
-    if line.direction.size != min(robot.m, 3):
-        raise InvalidInput(
-            f"--direction has {line.direction.size} values but task '{robot.task}' moves the tip in {min(robot.m, 3)} dimensions"
-        )
     result = optimize(
         robot,
-        line,
+        trajectory,
         q0,
         weight=weight,
         end=args.end,
@@ -128,11 +121,15 @@ def optimize_command(args: argparse.Namespace) -> int:
         max_time=max_time,
         verbose=args.verbose,
     )
-    print(format_optimal_summary(robot, result))
+    # Files first, then the summary, so that a closed stdout cannot cost a result.
+    lines = []
     if args.out:
         path = result.to_csv(args.out)
         extra = f", {path}.json" if path.suffix.lower() != ".npz" else ""
-        print(f"wrote {path}{extra} and {path}.optimal.json")
+        lines.append(f"wrote {path}{extra} and {path}.optimal.json")
+    print(format_optimal_summary(robot, result))
+    for line in lines:
+        print(line)
     return EXIT_OK if result.optimal else EXIT_STOPPED
 
 

@@ -80,10 +80,9 @@ def torque_cost(tau, dt: float, root: np.ndarray, midpoint: np.ndarray) -> float
 def run_cost(result: SimResult, robot: Robot, weight=None) -> float:
     """The cost of a simulated run on its own grid: every applied torque, not the sample at t = T.
 
-    A completed run's last row (t = T) is not applied. A run that stopped
-    early applied every row it recorded and is charged only for those:
-    compare completed runs only.
+    A completed run's last row (t = T, NaN torque) is not applied. A run
+    that stopped early is charged for the finite torques it recorded (the
+    one that stopped it included): compare completed runs only.
     """
-    rows = len(result.t)
-    applied = result.tau[: rows - 1] if result.completed else result.tau
+    applied = result.tau[:-1] if result.completed else result.tau[np.isfinite(result.tau).all(axis=1)]
     return torque_cost(applied, result.dt, weight_root(robot, weight), torque_midpoint(robot))

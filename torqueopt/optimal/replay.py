@@ -2,7 +2,7 @@ r"""Open-loop replay of given torques through the simulation's RK4 stepper.
 
 The torque :math:`\tau_j` is held over :math:`[t_j, t_j + \Delta t]` and the
 forward dynamics (Pinocchio's ABA) are integrated by the same classical RK4
-step as :func:`torqueopt.simulate` (:func:`torqueopt.simulate._rk4_stepper`,
+step as :func:`torqueopt.simulate` (:func:`torqueopt.integrators.rk4_stepper`,
 not a second RK4 loop), without any feedback: what a robot would do if the
 torques were played back to it.
 """
@@ -13,8 +13,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..integrators import rk4_stepper
 from ..robot import Robot
-from ..simulate import _rk4_stepper
 
 __all__ = ["Replay", "replay_torques"]
 
@@ -38,8 +38,9 @@ def replay_torques(robot: Robot, q0, v0, torques, dt: float) -> Replay:
     """Integrate ``torques`` (M×n, each held for ``dt`` [s]) from (q0, v0), open loop."""
     torques = np.asarray(torques, float)
     steps = len(torques)
-    advance = _rk4_stepper(robot, dt)
-    forward_dynamics = robot.forward_dynamics_function()
+    data = robot.model.createData()
+    advance = rk4_stepper(robot, dt, data)
+    forward_dynamics = robot.forward_dynamics_function(data)
     q_rows = np.full((steps + 1, robot.nq), np.nan)
     v_rows = np.full((steps + 1, robot.nv), np.nan)
     q, v = np.array(q0, float), np.array(v0, float)
@@ -54,5 +55,5 @@ def replay_torques(robot: Robot, q0, v0, torques, dt: float) -> Replay:
     tip = np.full((steps + 1, 3), np.nan)
     for j in range(steps + 1):
         if np.isfinite(q_rows[j]).all():
-            tip[j] = robot.frame_placement(q_rows[j]).translation
+            tip[j] = robot.frame_placement(q_rows[j], data).translation
     return Replay(q_rows, v_rows, tip, completed)

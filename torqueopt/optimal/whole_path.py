@@ -43,6 +43,7 @@ from ..resolvers.null_space import torque_midpoint
 from ..result import SimResult
 from ..robot import Robot
 from ..simulate import _configuration, simulate
+from ..trajectory import check_trajectory, describe
 from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
 from .replay import replay_torques
@@ -66,7 +67,7 @@ class OptimalResult:
         t: times [s], (M+1,). q: configurations, (M+1, nq). joint_angles: (M+1, n) [rad].
         v: joint velocities [rad/s]. acceleration: planned joint accelerations [rad/s²].
         tau: torque held over each step [N·m], (M+1, n); the last row (t = T)
-            repeats the last applied torque and is not counted in ``cost``.
+            is NaN, as in a SimResult: no torque is applied after the movement.
         x: the planned tip (task coordinates) [m]. x_ref: the reference [m].
         replay_x: the tip of the open-loop replay [m] (NaN after a non-finite state).
         cost: the sum over applied torques of dt·‖S(τ_j − τ_mid)‖² on this grid
@@ -111,6 +112,7 @@ class OptimalResult:
     end: str
     torque_bounds: bool
     joint_limits: bool
+    trajectory: dict
     hessian: str
     warm_start: str
     warm_start_cost: float
@@ -156,6 +158,7 @@ class OptimalResult:
             torque_upper=self.torque_upper,
             torque_lower=self.torque_lower,
             duration=self.duration,
+            trajectory=self.trajectory,
         )
 
     def summary(self) -> dict:
@@ -177,6 +180,7 @@ class OptimalResult:
             "end": self.end,
             "torque_bounds": self.torque_bounds,
             "joint_limits": self.joint_limits,
+            "trajectory": self.trajectory,
             "hessian": self.hessian,
             "grid_step": self.grid_step,
             "grid_intervals": self.grid_intervals,
@@ -202,7 +206,7 @@ class OptimalResult:
         import json
         from pathlib import Path
 
-        from ..result import atomic_write
+        from ..io import atomic_write
 
         path = self.as_sim_result().to_csv(path)
         text = json.dumps(self.summary(), indent=2).encode()
@@ -273,6 +277,7 @@ def optimize(
         raise InvalidInput(f"max_iterations={max_iterations!r} must be a whole number >= 1")
     if robot.m > robot.nv:
         raise InvalidInput(f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints")
+    check_trajectory(trajectory)
     duration = positive_number(trajectory.duration, "duration", "s")
     if dt > duration or grid_step > duration:
         raise InvalidInput(f"dt={dt} s and grid_step={grid_step} s must not exceed the duration {duration} s")
@@ -283,8 +288,14 @@ def optimize(
     weight_name = weight if isinstance(weight, str) else ("identity" if weight is None else "user")
     midpoint = torque_midpoint(robot)
     q_start = _configuration(robot, q0)
-    if getattr(trajectory, "start", None) is None:
-        trajectory = trajectory.anchored(robot.task_position(q_start)[: min(robot.m, 3)])
+    linear_dimension = min(robot.m, 3)
+    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
+        raise InvalidInput(
+            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
+            f"'{robot.task}' moves the tip in {linear_dimension}"
+        )
+    if trajectory.start is None:
+        trajectory = trajectory.anchored(robot.task_position(q_start)[:linear_dimension])
 
     intervals = 2 * math.ceil(duration / (2.0 * grid_step) - 1e-9)
     nodes = np.linspace(0.0, duration, intervals + 1)
@@ -325,7 +336,7 @@ def optimize(
     replay_error = np.linalg.norm(replay_x[:, :linear] - reference[:, :linear], axis=1)
     plan_error = np.linalg.norm(plan["x"][:, :linear] - reference[:, :linear], axis=1)
     start_cost = (
-        torque_cost(start_run.tau[:steps], dt, root, midpoint)
+        torque_cost(start_run.tau[:steps], dt, root, midpoint)  # rows 0..M-1: every applied torque
         if start_run.completed and len(start_run.t) == steps + 1 and math.isclose(start_run.dt, dt)
         else float("nan")
     )
@@ -340,7 +351,7 @@ def optimize(
         joint_angles=robot.joint_angles(plan["q"]).reshape(len(times), robot.nv),
         v=plan["v"],
         acceleration=plan["a"],
-        tau=np.vstack([applied, applied[-1:]]),
+        tau=np.vstack([applied, np.full((1, robot.nv), np.nan)]),
         x=plan["x"],
         x_ref=reference,
         replay_x=replay_x,
@@ -362,6 +373,7 @@ def optimize(
         end=end,
         torque_bounds=bool(torque_bounds),
         joint_limits=bool(joint_limits),
+        trajectory=describe(trajectory),
         hessian=hessian,
         warm_start=start_name,
         warm_start_cost=start_cost,
@@ -402,6 +414,6 @@ def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
     a = np.array([row[2] for row in rows])
     step = times[1] - times[0]
     torques = np.array([pin.rnea(model, data, *state(t + 0.5 * step)).copy() for t in times[:-1]])
-    tips = np.array([robot.frame_placement(row).translation[robot.task_rows] for row in q])
+    tips = np.array([robot.frame_placement(row, data).translation[robot.task_rows] for row in q])
     return {"q": q, "v": v, "a": a, "tau": torques, "x": tips}
 
