@@ -9,6 +9,7 @@ import numpy as np
 
 from ..io import writable_path
 from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
+from ..studies.remedies import RemediesStudy, _percent, run_remedies
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector
@@ -23,9 +24,11 @@ def add_parser(subparsers) -> None:
         help="reproduce Hollerbach & Suh 1987: Figures 2-7, stick figures, summary.json and summary.md",
         description=(
             "Simulate the paper's scenario: the 3-link planar arm (no gravity, limits 54/24/6 N·m) from "
-            "q0 = (-45°, 135°, -135°) along (1, 1) with √2 m/s², short, medium and long movements, every resolver, "
-            "and the free-swinging arm of Fig. 7. Writes fig2.png ... fig7.png, arm_long_<resolver>.png, "
-            "tip_long.png, summary.json and summary.md into DIR, and checks the paper's six claims. "
+            "q0 = (-45°, 135°, -135°) along (1, 1) with √2 m/s², short, medium and long movements, the paper's four resolvers, "
+            "and the free-swinging arm of Fig. 7; then the remedies study (every registered remedy on the three "
+            "movements, a sweep of damped-null-space over μ and K_D). Writes fig2.png ... fig7.png, "
+            "arm_long_<resolver>.png, tip_long.png, remedies_long.png, remedies_tradeoff.png, summary.json and "
+            "summary.md into DIR, checks the paper's six claims and answers the Discussion's questions. "
             "Give negative vectors as --q0=-0.78,..."
         ),
     )
@@ -44,6 +47,18 @@ def add_parser(subparsers) -> None:
         default=repr(DEFAULT_LIMIT_FACTOR),
         help=f"unstable once a joint needs more than K times its torque limit (default {DEFAULT_LIMIT_FACTOR:g})",
     )
+    group = parser.add_argument_group("remedies study (see torqueopt.studies.remedies)")
+    group.add_argument(
+        "--no-remedies",
+        action="store_true",
+        help="skip the remedies study (every registered remedy on the three movements, remedies_*.png, and the "
+        "summary's answers to the Discussion's questions)",
+    )
+    group.add_argument(
+        "--no-remedy-sweep",
+        action="store_true",
+        help="run the remedies but not the sweep of damped-null-space over μ and K_D (and no remedies_tradeoff.png)",
+    )
     group.add_argument(
         "--growth-factor",
         metavar="K",
@@ -59,7 +74,8 @@ def paper_command(args: argparse.Namespace) -> int:
     scenario, limit_factor, growth_factor = scenario_from_args(args)
     writable_path(args.out, directory=True)
     results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor)
-    written = write_paper(results, args.out)
+    studies = [] if args.no_remedies else [run_remedies(results, sweep=not args.no_remedy_sweep)]
+    written = write_paper(results, args.out, studies)
 
     print(f"{'movement':<9}{'resolver':<21}{'peak |tau|/limit':>18}{'limit exceeded':>16}  verdict")
     for (movement, name), result in results.runs.items():
@@ -73,12 +89,27 @@ def paper_command(args: argparse.Namespace) -> int:
             verdict += f" (stopped early: {result.stop_reason})"
         violation_text = f"t = {violation:.3f} s" if violation is not None else "no"
         print(f"{movement:<9}{name:<21}{result.peak_torque_ratio.max():18.2f}{violation_text:>16}  {verdict}")
+    for study in studies:
+        print_remedies(study)
     if scenario != PAPER:
         print("the claims below are the paper's, checked on this changed scenario:")
     for claim in results.claims:
         print(f"claim {claim.number}: {'holds' if claim.holds else 'DOES NOT HOLD'}: {claim.statement}")
     print(f"wrote {len(written)} files to {args.out} in {time.perf_counter() - started:.1f} s")
     return EXIT_STOPPED if results.stopped_early else EXIT_OK
+
+
+def print_remedies(study: RemediesStudy) -> None:
+    """The remedies' runs, one line each, and the answers to the Discussion's questions."""
+    print(f"remedies ({', '.join(study.remedies)}" + (f"; not registered: {', '.join(study.skipped)})" if study.skipped else ")"))
+    for row in study.entries():
+        if row["resolver"] not in study.remedies:
+            continue
+        when = "stable" if row["instability_time"] is None else f"UNSTABLE from t = {row['instability_time']:.3f} s"
+        kept = "" if row["null_space_cut_kept"] is None else f", keeps {_percent(row['null_space_cut_kept'])} of null-space's cut"
+        print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
+    for key, answer in study.summary()["answers"].items():
+        print(f"{key.replace('_', ' ')}: " + " ".join(answer["sentences"]))
 
 
 def scenario_from_args(args: argparse.Namespace) -> tuple[PaperScenario, float, float]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -38,13 +39,18 @@ def summary_entries(results: PaperResults) -> list[dict]:
     return entries
 
 
-def write_paper(results: PaperResults, out_dir: str | os.PathLike) -> list[Path]:
-    """Write Figures 2-7, the long-movement stick-figure strips, summary.json and summary.md into ``out_dir``."""
+def write_paper(results: PaperResults, out_dir: str | os.PathLike, studies: Sequence = ()) -> list[Path]:
+    """Write Figures 2-7, the long-movement stick-figure strips, summary.json and summary.md into ``out_dir``.
+
+    ``studies`` (see :class:`torqueopt.studies.Study`) add their figures, a
+    key of ``summary.json`` each and a section of ``summary.md`` each.
+    """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InvalidInput(f"output '{out}' exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
     written = write_figures(results, out)
+    study_figures = [study.write_figures(out) for study in studies]
     scenario, swing = results.scenario, results.free_swing
 
     summary = {
@@ -67,13 +73,18 @@ def write_paper(results: PaperResults, out_dir: str | os.PathLike) -> list[Path]
             "links_2_3_aligned": alignment_times(swing),
         },
         "claims": [dataclasses.asdict(claim) for claim in results.claims],
-        "figures": [path.name for path in written],
+        **{study.key: study.summary() for study in studies},
+        "figures": [path.name for path in (*written, *(path for paths in study_figures for path in paths))],
     }
     summary_json = (json.dumps(summary, indent=2) + "\n").encode()
     atomic_write(out / "summary.json", lambda handle: handle.write(summary_json))
-    markdown = format_summary_markdown(results, [path.name for path in written]).encode()
-    atomic_write(out / "summary.md", lambda handle: handle.write(markdown))
-    return [*written, out / "summary.json", out / "summary.md"]
+    markdown = format_summary_markdown(results, [path.name for path in written])
+    for study, paths in zip(studies, study_figures):
+        markdown += "\n" + study.markdown([path.name for path in paths])
+    encoded = markdown.encode()
+    atomic_write(out / "summary.md", lambda handle: handle.write(encoded))
+    study_paths = [path for paths in study_figures for path in paths]
+    return [*written, *study_paths, out / "summary.json", out / "summary.md"]
 
 
 def format_summary_markdown(results: PaperResults, figures: list[str]) -> str:

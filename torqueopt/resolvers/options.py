@@ -73,7 +73,9 @@ def number(minimum: float = 0.0, strict: bool = False, unit: str = "") -> Callab
             try:
                 value = float(value)
             except ValueError:
-                raise OptionValueError(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}") from None
+                raise OptionValueError(
+                    f"is not a number; give a finite number {relation} {minimum:g}{unit_text}"
+                ) from None
         if isinstance(value, bool) or not isinstance(value, Real):
             raise OptionValueError(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}")
         value = float(value)

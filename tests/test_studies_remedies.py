@@ -1,0 +1,139 @@
+"""The remedies study: its runs, its sweep, and the sentences it writes, held to the runs they describe.
+
+The sentences are generated from the numbers; these tests recompute the
+numbers from the SimResults (torque cost, whiplash verdicts) and check that
+each sentence says what they say, and that a remedy missing from the
+registry is skipped and reported rather than failing the study.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt.cli import main
+from torqueopt.paper import run_paper
+from torqueopt.resolvers import RESOLVERS
+from torqueopt.studies import remedies as study_module
+from torqueopt.studies.remedies import REMEDIES, run_remedies, torque_cost
+
+
+@pytest.fixture(scope="module")
+def paper():
+    return run_paper()
+
+
+@pytest.fixture(scope="module")
+def study(paper):
+    return run_remedies(paper, kinematic_weights=(0.0, 0.5, 5.0), dampings=(2.0, 10.0))
+
+
+def test_torque_cost_is_the_integral_of_the_held_torques(paper):
+    """∫‖τ‖²dt with τ held over each step: a rectangle sum over every row but the last (t = T)."""
+    run = paper.runs["short", "pinv"]
+    expected = sum(float(np.dot(row, row)) for row in run.tau[:-1]) * run.dt
+    assert torque_cost(run) == pytest.approx(expected, rel=1e-12)
+    assert torque_cost(run) > torque_cost(paper.runs["short", "null-space"])
+
+
+def test_every_registered_remedy_runs_on_every_movement(study):
+    registered = [name for name in REMEDIES if name in RESOLVERS]
+    assert list(study.remedies) == registered
+    assert list(study.skipped) == [name for name in REMEDIES if name not in RESOLVERS]
+    assert set(study.runs) == {(m, name) for m in ("short", "medium", "long") for name in registered}
+    for (movement, name), result in study.runs.items():
+        assert result.resolver == name and len(result.t) > 1
+
+
+def test_the_sweep_at_zero_weight_is_null_space_and_large_weight_approaches_self_motion_damping(study, paper):
+    points = {(p.kinematic_weight, p.damping): p for p in study.sweep}
+    assert len(points) == 6
+    for damping in (2.0, 10.0):
+        zero = points[0.0, damping]
+        assert zero.short_kept == pytest.approx(1.0, abs=1e-9)  # it is null-space
+        assert zero.long_peak_ratio == pytest.approx(paper.runs["long", "null-space"].peak_torque_ratio.max(), rel=1e-9)
+        assert not zero.long_stable
+    # μ = 5 is near the kinematic limit: little of the cut left, and stable like self-motion damping.
+    assert points[5.0, 10.0].short_kept < 0.1 and points[5.0, 10.0].long_stable
+
+
+def test_the_kinematic_term_answer_says_what_the_sweep_shows(study):
+    answer = study.kinematic_term_answer()
+    text = " ".join(answer["sentences"])
+    swept = [p for p in study.sweep if p.kinematic_weight > 0]
+    within = [p for p in swept if p.long_stable and p.long_peak_ratio <= 1 + 1e-6]
+    assert answer["settings"] == len(swept) == 4
+    assert answer["stable_settings"] == sum(p.long_stable for p in swept)
+    assert answer["within_limit_settings"] == len(within)
+    assert text.startswith("Without a kinematic term (μ = 0, null-space) the long movement is unstable from t = 1.389 s")
+    if within:
+        best = max(within, key=lambda p: p.short_kept)
+        assert answer["best"]["kinematic_weight"] == best.kinematic_weight
+        assert f"Yes on this arm: with μ = {best.kinematic_weight:g} and K_D = {best.damping:g} 1/s" in text
+        assert f"keeps {round(100 * best.short_kept)}% of the cut" in text
+    else:
+        assert "Yes" not in text
+
+
+def test_the_default_blend_row_matches_its_run(study, paper):
+    row = next(r for r in study.entries() if r["movement"] == "short" and r["resolver"] == "damped-null-space")
+    run = study.runs["short", "damped-null-space"]
+    pinv, null = (torque_cost(paper.runs["short", name]) for name in ("pinv", "null-space"))
+    assert row["null_space_cut_kept"] == pytest.approx((pinv - torque_cost(run)) / (pinv - null), rel=1e-12)
+    assert row["options"] == {"kinematic_weight": 0.5, "damping": 10.0, "torque_weight": "unit", "singular_tolerance": 1e-6}
+    long_row = next(r for r in study.entries() if r["movement"] == "long" and r["resolver"] == "damped-null-space")
+    assert long_row["unstable"] == study.whiplash["long", "damped-null-space"].unstable
+    assert math.isclose(long_row["peak_torque_ratio"], study.runs["long", "damped-null-space"].peak_torque_ratio.max())
+
+
+def test_the_lp_answer_is_honest_about_what_was_run(study):
+    answer = study.linear_programming_answer()
+    if "minmax-torque" not in study.remedies:
+        assert answer == {
+            "answered": False,
+            "sentences": ["Not answered in this build: the LP resolver minmax-torque is not registered."],
+        }
+        return
+    assert answer["answered"]
+    lp = answer["minmax-torque"]
+    for movement, peak in lp["peak_torque_ratio"].items():
+        assert peak == pytest.approx(study.runs[movement, "minmax-torque"].peak_torque_ratio.max())
+    assert f"stays within the torque limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
+
+
+def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper, monkeypatch):
+    monkeypatch.delitem(RESOLVERS, "damped-null-space")
+    missing = run_remedies(paper, sweep=False)
+    assert "damped-null-space" in missing.skipped and "damped-null-space" not in missing.remedies
+    assert missing.sweep == []
+    markdown = missing.markdown([])
+    assert "Not registered in this build, so not run: damped-null-space" in markdown
+    assert "The (μ, K_D) sweep was not run." in markdown
+
+
+def test_bad_sweep_grids_are_refused(paper):
+    with pytest.raises(torqueopt.InvalidInput, match=r"sweep dampings \[-1\] must be finite numbers >= 0"):
+        run_remedies(paper, dampings=[-1])
+
+
+def test_paper_command_writes_the_remedies_section_and_figures(tmp_path, capsys):
+    # Short movements keep it quick: the wiring is under test here, the numbers above.
+    code = main(["paper", "--out", str(tmp_path), "--no-remedy-sweep", "--durations", "0.1,0.2,0.3"])
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert (tmp_path / "remedies_long.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (tmp_path / "remedies_tradeoff.png").exists()  # no sweep, no trade-off figure
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    remedies = summary["remedies"]
+    assert remedies["remedies"] == [name for name in REMEDIES if name in RESOLVERS]
+    assert remedies["sweep"]["points"] == []
+    assert set(remedies["answers"]) == {"kinematic_term", "linear_programming"}
+    assert "remedies_long.png" in summary["figures"]
+    markdown = (tmp_path / "summary.md").read_text()
+    assert "## Remedies for the whiplash (the Discussion's questions)" in markdown
+    assert "### Can the local criterion be weighted with a kinematic term to avoid high velocity buildup?" in markdown
+    assert "### Would linear programming rather than least squares be more satisfactory?" in markdown
+    assert "kinematic term: Without a kinematic term" in printed and "linear programming: " in printed
+    assert study_module.SWEPT_RESOLVER == "damped-null-space"

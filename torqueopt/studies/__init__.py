@@ -1,0 +1,32 @@
+"""Studies beside the paper's reproduction, each answering one of the questions the paper leaves open.
+
+A study runs on the paper's results and is written into the same folder by
+:func:`torqueopt.paper.write_paper`: it is an object with
+
+* ``key``: its entry in ``summary.json``;
+* ``write_figures(out_dir) -> list[Path]``: its figures;
+* ``summary() -> dict``: JSON-ready numbers and the sentences they support;
+* ``markdown(figures) -> str``: its section of ``summary.md``.
+
+Modules: :mod:`torqueopt.studies.remedies` (the Discussion's remedies for the
+whiplash: a kinematic term in the criterion, linear programming).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+__all__ = ["Study"]
+
+
+class Study(Protocol):
+    """What :func:`torqueopt.paper.write_paper` needs of a study to write it beside the paper."""
+
+    key: str
+
+    def write_figures(self, out_dir: Path) -> list[Path]: ...
+
+    def summary(self) -> dict: ...
+
+    def markdown(self, figures: list[str]) -> str: ...
