@@ -1,7 +1,7 @@
 """Do the paper's resolvers go unstable on 7-DOF arms too?
 
 The paper conjectured about 7-DOF arms but only simulated a planar 3-link
-arm. This script runs the four resolvers on panda and xarm7 (3-D position
+arm. This script runs every registered resolver on panda and xarm7 (3-D position
 task, n − m = 4, gravity on, open loop as in the paper) over a long
 straight-line movement from each arm's default configuration, and reports
 which runs stay within the torque limits, which exceed them, which the
@@ -25,8 +25,9 @@ def main() -> None:
 
     line = torqueopt.StraightLine(direction=[0.0, 1.0, 0.0], accel=0.2, duration=args.duration)
     print(f"straight line along +y, {line.length:.3f} m in {args.duration} s (0.2 m/s²), open loop, gravity on\n")
+    width = max(len(name) for name in torqueopt.resolver_names()) + 2
     header = (
-        f"{'robot':<8}{'resolver':<21}{'verdict':<12}{'from [s]':>9}{'diverged [s]':>14}"
+        f"{'robot':<8}{'resolver':<{width}}{'verdict':<12}{'from [s]':>9}{'diverged [s]':>14}"
         f"{'peak |τ|/limit':>16}{'tip error [mm]':>16}"
     )
     print(header)
@@ -45,7 +46,7 @@ def main() -> None:
             when_text = f"{when:9.3f}" if when is not None else f"{'-':>9}"
             diverged = f"{result.stop_time:14.3f}" if not result.completed else f"{'-':>14}"
             print(
-                f"{robot_name:<8}{name:<21}{verdict:<12}{when_text}{diverged}{result.peak_torque_ratio.max():16.2f}"
+                f"{robot_name:<8}{name:<{width}}{verdict:<12}{when_text}{diverged}{result.peak_torque_ratio.max():16.2f}"
                 f"{result.max_tip_error * 1e3:16.2f}"
             )
             if whiplash.unstable:

@@ -26,3 +26,13 @@ def test_seven_dof_example_flags_the_null_space_resolver_on_xarm7():
     rows = {line.split()[1]: line.split() for line in printed.splitlines() if line.startswith("xarm7")}
     assert rows["pinv"][2] == "ok" and rows["inertia-pinv"][2] == "ok"
     assert rows["null-space"][2] == "UNSTABLE" and float(rows["null-space"][3]) < 0.5
+
+
+def test_remedies_random_lines_prints_one_row_per_case():
+    printed = run_example("remedies_random_lines.py", "--lines", "2", "--duration", "0.3")
+    lines = printed.splitlines()
+    rows = lines[lines.index(next(line for line in lines if line.startswith("---"))) + 1 :]
+    assert [row.split()[0] for row in rows[:3]] == ["pinv", "null-space", "damped-null-space"] and len(rows) == 8
+    for row in rows:
+        stopped, unstable = (int(value) for value in row.split()[-3:-1])
+        assert 0 <= unstable <= 2 - stopped
