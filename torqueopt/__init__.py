@@ -17,6 +17,7 @@ from .errors import (
     SingularJacobian,
     TaskNotFound,
     TorqueoptError,
+    TorqueoptWarning,
     UrdfError,
 )
 from .integrators import rk4_step
@@ -57,6 +58,7 @@ __all__ = [
     "SimResult",
     "load_result",
     "TorqueoptError",
+    "TorqueoptWarning",
     "InvalidInput",
     "RobotNotFound",
     "UrdfError",

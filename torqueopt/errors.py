@@ -17,6 +17,7 @@ __all__ = [
     "SingularJacobian",
     "MissingDependency",
     "OutputError",
+    "TorqueoptWarning",
 ]
 
 
@@ -62,3 +63,10 @@ class MissingDependency(TorqueoptError, ImportError):
 
 class OutputError(TorqueoptError, OSError):
     """A result file cannot be written where the user asked for it."""
+
+
+class TorqueoptWarning(UserWarning):
+    """Something the user should know that does not stop the work (a near-singular start, an odd inertia).
+
+    The CLI prints each as one line, ``torqueopt <command>: note: ...``.
+    """

@@ -33,6 +33,7 @@ import pinocchio as pin
 
 from .catalog import RobotSource, find_robot
 from .checks import check_task_rank, finite_vector
+from .urdf_checks import build_model, check_chain_moves_mass, checked_urdf_text
 from .errors import FrameNotFound, InvalidInput, TaskNotFound, UrdfError
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "load_robot"]
@@ -400,6 +401,7 @@ def load_robot(
         model = full_model.copy()
     if model.nv == 0:
         raise InvalidInput(f"frame '{frame}' of robot '{robot_source.name}' is not moved by any joint")
+    check_chain_moves_mass(robot_source.urdf, [model.names[j] for j in range(1, model.njoints)])
 
     default_configuration = _reduce_configuration(full_model, model, full_reference)
     robot = Robot(
@@ -420,10 +422,8 @@ def load_robot(
 
 
 def _build_model(urdf: Path, mimic: bool) -> pin.Model:
-    try:
-        return pin.buildModelFromUrdf(str(urdf), mimic=mimic)
-    except (RuntimeError, ValueError) as error:
-        raise UrdfError(f"Pinocchio cannot build a model from '{urdf}': {error}") from None
+    # From the physically checked text, with urdfdom's stderr captured (see urdf_checks).
+    return build_model(urdf, mimic=mimic)
 
 
 # Attributes that must hold numbers, by tag: checked before yourdfpy, whose
@@ -484,6 +484,7 @@ def _validate_urdf(path: Path, with_yourdfpy: bool = True) -> set[str]:
                         f"<{owner.tag} name=\"{owner.get('name')}\"> is not a number"
                     ) from None
 
+    checked_urdf_text(path)  # every physical quantity, one line naming the link or joint
     mimic_joints = {joint.get("name") for joint in root.findall("joint") if joint.find("mimic") is not None}
     if not with_yourdfpy:
         return mimic_joints

@@ -13,8 +13,10 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
+from functools import partial
 
-from ..errors import TorqueoptError
+from ..errors import TorqueoptError, TorqueoptWarning
 
 __all__ = ["main", "EXIT_OK", "EXIT_BAD_INPUT", "EXIT_STOPPED"]
 
@@ -65,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     # to its end and exits with its own code.
     stdout = sys.stdout
     sys.stdout = _ForgivingStdout(stdout)
+    show_warning = warnings.showwarning
+    warnings.showwarning = partial(_note, args.command, show_warning)
     try:
         return args.handler(args)
     except TorqueoptError as error:
@@ -74,8 +78,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"torqueopt {args.command}: interrupted", file=sys.stderr)
         return 130
     finally:
+        warnings.showwarning = show_warning
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+def _note(command: str, fallback, message, category, *args, **kwargs) -> None:
+    """Print torqueopt's own warnings as one line, ``torqueopt <command>: note: ...``; others as Python does."""
+    if issubclass(category, TorqueoptWarning):
+        print(f"torqueopt {command}: note: {message}", file=sys.stderr)
+    else:
+        fallback(message, category, *args, **kwargs)
 
 
 class _ForgivingStdout:

@@ -6,6 +6,7 @@ import pinocchio as pin
 
 from ..errors import InvalidInput, TorqueoptError
 from ..robot import Robot
+from ..urdf_checks import checked_urdf_text, quiet_stderr
 
 __all__ = ["visual_model"]
 
@@ -23,10 +24,13 @@ def visual_model(robot: Robot) -> tuple[pin.Model, pin.GeometryModel]:
         raise InvalidInput(f"robot '{robot.name}' was not loaded from a URDF, so it has no visuals to show")
     full_model = robot.full_model
     package_dirs = [str(path) for path in robot.source.package_dirs]
+    # The same checked text the dynamic model was built from, with urdfdom's stderr captured.
+    text = checked_urdf_text(robot.source.urdf)
     try:
-        geometry = pin.buildGeomFromUrdf(
-            full_model, str(robot.source.urdf), pin.GeometryType.VISUAL, package_dirs=package_dirs
-        )
+        with quiet_stderr():
+            geometry = pin.buildGeomFromUrdfString(
+                full_model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs
+            )
     except (RuntimeError, ValueError) as error:
         raise TorqueoptError(f"cannot load the visuals of '{robot.source.urdf}': {error}") from None
     locked_ids = [full_model.getJointId(name) for name in robot.locked_joints]

@@ -1,0 +1,117 @@
+"""Physical checks of a user URDF: every impossible quantity is refused in one line naming its link or joint."""
+
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import TorqueoptWarning, UrdfError
+from torqueopt.catalog import find_robot
+from torqueopt.urdf_checks import build_model
+
+ROOT = Path(__file__).resolve().parent.parent
+PLANAR3 = find_robot("planar3").urdf.read_text()
+FIRST_INERTIA = 'ixx="0.0" ixy="0" ixz="0" iyy="0.8333333333333334" iyz="0" izz="0.8333333333333334"'
+
+
+def variant(tmp_path, old, new, name="arm"):
+    assert old in PLANAR3, old
+    path = tmp_path / f"{name}.urdf"
+    path.write_text(PLANAR3.replace(old, new, 1))
+    return path
+
+
+BROKEN = [
+    ('<mass value="10.0"/>', '<mass value="nan"/>', "link 'link1': <mass> has value=\"nan\"; it must be a finite number"),
+    ('<mass value="10.0"/>', '<mass value="-1"/>', "link 'link1' has mass -1; a mass must be a finite number >= 0 [kg]"),
+    (FIRST_INERTIA, FIRST_INERTIA.replace('ixx="0.0"', 'ixx="-1"'), "link 'link1' has an inertia that is not positive semi-definite"),
+    (FIRST_INERTIA, FIRST_INERTIA.replace('ixy="0"', 'ixy="5"'), "link 'link1' has an inertia that is not positive semi-definite"),
+    (FIRST_INERTIA, FIRST_INERTIA.replace('iyz="0"', 'iyz="inf"'), "link 'link1': <inertia> has iyz=\"inf\"; it must be a finite number"),
+    ('effort="24.0"', 'effort="-5"', "joint 'joint2' has effort limit -5; give a number >= 0 [N·m or N] (0 or inf: unbounded)"),
+    ('effort="24.0"', 'effort="nan"', "joint 'joint2' has effort limit nan"),
+    ('velocity="100.0"', 'velocity="-1"', "joint 'joint1' has velocity limit -1; give a number >= 0"),
+    ('lower="-6.283185307179586" upper="6.283185307179586" effort="54.0"', 'lower="1" upper="-1" effort="54.0"', "joint 'joint1' has lower position limit 1 above its upper limit -1"),
+    ('lower="-6.283185307179586"', 'lower="-inf"', "joint 'joint1' has lower position limit -inf; give a finite number (a revolute joint without position limits is type=\"continuous\")"),
+    ('<child link="link2"/>', '<child link="link3"/>', "link 'link3' is the child of both joint 'joint2' and joint 'joint3', which closes a kinematic loop"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("old, new, message", BROKEN)
+def test_impossible_physics_is_refused_naming_the_link_or_joint(tmp_path, old, new, message):
+    path = variant(tmp_path, old, new)
+    with pytest.raises(UrdfError) as error:
+        torqueopt.load_robot(str(path), frame="tip", task="xy")
+    text = str(error.value)
+    assert message in text and "\n" not in text
+
+
+@pytest.mark.parametrize("old, new, message", BROKEN[:2] + BROKEN[5:6] + BROKEN[-1:])
+def test_the_cli_prints_one_line_and_nothing_from_urdfdom(tmp_path, old, new, message):
+    """Run as a process, so that anything the C++ parser writes to fd 2 would show."""
+    path = variant(tmp_path, old, new)
+    process = subprocess.run(
+        [sys.executable, "-m", "torqueopt", "run", "--robot", str(path), "--frame", "tip", "--task", "xy",
+         "--resolver", "pinv", "--direction", "1,1", "--duration", "0.1"],
+        capture_output=True, text=True, cwd=tmp_path, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
+        timeout=120, check=False,
+    )  # fmt: skip
+    assert process.returncode == 2
+    lines = process.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("torqueopt run: error: URDF ") and message in lines[0], lines
+
+
+def test_a_urdfdom_failure_is_one_line_too(tmp_path, capfd):
+    """A file our checks pass but urdfdom rejects (a revolute joint without <limit>):
+    its multi-line C++ message never reaches fd 2, and its first error becomes our one line."""
+    limit = '<limit lower="-6.283185307179586" upper="6.283185307179586" effort="54.0" velocity="100.0"/>'
+    path = variant(tmp_path, limit, "")
+    with pytest.raises(UrdfError) as error:
+        build_model(path, mimic=False)  # Pinocchio's parse alone (load_robot asks yourdfpy first)
+    assert "\n" not in str(error.value) and "joint1" in str(error.value)
+    assert capfd.readouterr().err == ""
+
+
+def test_an_infinite_effort_means_unbounded_with_the_same_dynamics(tmp_path):
+    path = variant(tmp_path, 'effort="54.0"', 'effort="inf"')
+    robot = torqueopt.load_robot(str(path), frame="tip", task="xy", gravity=False)
+    reference = torqueopt.load_robot("planar3")
+    assert robot.joints_without_torque_limit == ["joint1"]
+    np.testing.assert_array_equal(robot.torque_upper[1:], reference.torque_upper[1:])
+    rng = np.random.default_rng(3)
+    q, v = reference.configuration(rng.uniform(-3, 3, 3)), rng.uniform(-1, 1, 3)
+    ours, theirs = robot.terms(q, v), reference.terms(q, v)
+    np.testing.assert_allclose(ours.inertia, theirs.inertia, atol=1e-12)
+    np.testing.assert_allclose(ours.bias_torque, theirs.bias_torque, atol=1e-12)
+
+
+def test_a_joint_that_moves_no_mass_is_refused_when_the_task_moves_it(tmp_path):
+    massless = PLANAR3
+    for _ in range(3):
+        massless = massless.replace('<mass value="10.0"/>', '<mass value="0"/>', 1)
+        massless = massless.replace(FIRST_INERTIA, FIRST_INERTIA.replace("0.8333333333333334", "0"), 1)
+    path = tmp_path / "massless.urdf"
+    path.write_text(massless)
+    with pytest.raises(UrdfError, match="joint 'joint1' moves no mass: link 'link1' and every link below it"):
+        torqueopt.load_robot(str(path), frame="tip", task="xy")
+
+
+def test_an_inertia_beyond_the_triangle_inequality_is_a_note(tmp_path):
+    """Impossible for a body, harmless to the dynamics, common in shipped files: a warning, not a refusal."""
+    path = variant(tmp_path, FIRST_INERTIA, FIRST_INERTIA.replace('izz="0.8333333333333334"', 'izz="5"'))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = torqueopt.load_robot(str(path), frame="tip", task="xy")
+    assert robot.nv == 3
+    notes = [str(w.message) for w in caught if issubclass(w.category, TorqueoptWarning)]
+    assert len(notes) == 1 and "link 'link1' has an inertia that no body can have" in notes[0]
+
+
+def test_every_catalogue_arm_passes_the_checks():
+    for name in ("planar3", "panda", "xarm7", "baxter", "tiago", "kinova"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", TorqueoptWarning)
+            assert torqueopt.load_robot(name).nv >= 3
