@@ -99,7 +99,10 @@ def test_global_cost_is_never_above_any_feasible_local_run(paper_arm):
     compared = 0
     for name in torqueopt.resolver_names():
         options = {"weight": PAPER.weight} if name == "weighted-null-space" else {}
-        run = torqueopt.simulate(paper_arm, torqueopt.get_resolver(name, **options), line, PAPER.q0)
+        try:
+            run = torqueopt.simulate(paper_arm, torqueopt.get_resolver(name, **options), line, PAPER.q0)
+        except InvalidInput:  # a resolver that cannot run without options (a secondary task)
+            continue
         if not run.completed or run.max_tip_error > 1e-3:
             continue
         compared += 1

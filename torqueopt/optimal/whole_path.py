@@ -154,7 +154,7 @@ class OptimalResult:
             tau=self.tau,
             x=self.x,
             x_ref=self.x_ref,
-            jacobian_condition=np.full(len(self.t), np.nan),
+            jacobian_inverse_condition=np.full(len(self.t), np.nan),
             torque_upper=self.torque_upper,
             torque_lower=self.torque_lower,
             duration=self.duration,
