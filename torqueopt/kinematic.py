@@ -93,14 +93,21 @@ def simulate_kinematic(
     feedback=None,
     max_joint_speed: float,
     max_torque_ratio: float,
+    dexterity: bool = False,
+    max_steps: int | None = None,
 ) -> SimResult:
     """Run a velocity-level resolver along ``trajectory``; called by :func:`torqueopt.simulate`.
 
     Same arguments and result as :func:`torqueopt.simulate`, except that
     ``v0`` must be None or zero (the method itself sets q̇ = f(q0, 0)) and
     ``feedback`` is refused (closed loop is the resolver's ``position_gain``).
+    Every row, the last included, holds the inverse-dynamics torque of the
+    motion at its instant (nothing is held over a step here); a run stopped
+    by a ceiling ends with the row that passed it, one stopped where the
+    method is undefined with the last row where it was.
     """
-    from .simulate import _configuration, _task_reference
+    from .dexterity import dexterity_along
+    from .simulate import DEFAULT_MAX_STEPS, _configuration, _row_bytes, _task_reference, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)
@@ -113,8 +120,7 @@ def simulate_kinematic(
     dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
-    if dt > duration:
-        raise InvalidInput(f"dt={dt} s is longer than the duration {duration} s")
+    steps = step_budget(duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot))
     q = _configuration(robot, q0)
     if v0 is not None and np.any(robot.check_velocity(v0) != 0.0):
         raise InvalidInput(
@@ -124,7 +130,6 @@ def simulate_kinematic(
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
     trajectory = _anchored(robot, trajectory, placement)
-    steps = round(duration / dt)
     # Reference at every step start and mid-step: RK4 evaluates f at t, t + h/2 and t + h.
     half_times = 0.5 * dt * np.arange(2 * steps + 1)
     reference = _task_reference(robot, trajectory, half_times)
@@ -173,10 +178,6 @@ def simulate_kinematic(
         except SingularJacobian as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             break
-        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
-            stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
-            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
-            break
         torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
         # The task acceleration the motion misses, ‖J q̈ + J̇q̇ − ẍ_cmd‖ (Eq. 18): integration and difference error only.
         kinematics.update(q, velocity)
@@ -184,11 +185,16 @@ def simulate_kinematic(
         task_error = float(
             np.linalg.norm(task.jacobian(kinematics).dot(acceleration) + task.drift(kinematics) - commanded)
         )
+        # The row that passes a ceiling stays in the result: peaks and verdicts count it.
+        log.append((q, velocity, acceleration, torque, x, condition, task_error))
+        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
+            stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
+            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
+            break
         if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
             stop_reason, stop_time = _torque_stop(robot, torque, max_torque_ratio, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
-        log.append((q, velocity, acceleration, torque, x, condition, task_error))
         if k == steps:
             break
         h = dt
