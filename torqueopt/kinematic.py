@@ -209,6 +209,8 @@ def simulate_kinematic(
 
     result = _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time)
     result.trajectory = describe(trajectory)
+    if dexterity:
+        result.dexterity = dexterity_along(robot, result.q)
     return result
 
 

@@ -136,7 +136,7 @@ def simulate(
 
         return simulate_kinematic(
             robot, resolver, trajectory, q0, v0, dt, duration=duration, feedback=feedback,
-            max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio,
+            max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio, dexterity=dexterity, max_steps=max_steps,
         )  # fmt: skip
     resolver.check(robot)
     check_trajectory(trajectory)
