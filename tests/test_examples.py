@@ -36,3 +36,16 @@ def test_remedies_random_lines_prints_one_row_per_case():
     for row in rows:
         stopped, unstable = (int(value) for value in row.split()[-3:-1])
         assert 0 <= unstable <= 2 - stopped
+
+
+def test_kinematic_vs_kinetic_example_shows_the_contrast_and_the_repeatability():
+    printed = run_example("kinematic_vs_kinetic.py")
+    table, loop = printed.split("One loop")
+    rows = {line.split()[0]: line for line in table.splitlines()[3:] if line.strip()}
+    assert "WHIPS" in rows["null-space"] and "WHIPS" in rows["inertia-pinv"]
+    for label in ("velocity-pinv", "gradient-projection(5)", "extended-jacobian", "kinetic-energy-pinv"):
+        assert "no whiplash" in rows[label], label
+    drift = {line.split()[0]: line for line in loop.splitlines() if "drift per joint" in line}
+    extended = [float(value) for value in drift["extended-jacobian"].split("(")[1].split(")")[0].split(",")]
+    pinv = [float(value) for value in drift["velocity-pinv"].split("(")[1].split(")")[0].split(",")]
+    assert max(extended) < 1e-6 and max(pinv) > 0.1

@@ -372,8 +372,6 @@ def test_kinematic_resolvers_refuse_what_does_not_apply(planar3, panda):
         match=r"needs exactly one degree of redundancy \(n − m = 1\); task 'position' on robot 'panda' leaves 4",
     ):
         torqueopt.simulate(panda, "extended-jacobian", LONG, panda.default_configuration)
-    with pytest.raises(InvalidInput, match="needs the option secondary"):
-        torqueopt.simulate(planar3, "task-priority", LONG, PAPER_Q0)
     with pytest.raises(InvalidInput, match="needs the option obstacle"):
         torqueopt.simulate(planar3, "obstacle-avoidance", LONG, PAPER_Q0)
     with pytest.raises(InvalidInput) as error:
@@ -402,3 +400,53 @@ def test_the_cli_runs_a_kinematic_method_with_its_options(tmp_path, capsys):
     assert code == 0
     assert main(["run", "--robot", "planar3", "--direction", "1,1", "--resolver", "obstacle-avoidance"]) == 2
     assert "needs the option obstacle" in capsys.readouterr().err
+
+
+def test_task_priority_defaults_to_a_posture_task_toward_the_default_configuration(planar3, rng):
+    """Without a secondary task the lower priority is every joint toward the robot's default
+    configuration: [P]⁺(k(q* − q) − J⁺ẋ) = P k (q* − q), the projected posture error."""
+    resolver = torqueopt.get_resolver("task-priority")
+    target = planar3.joint_angles(planar3.default_configuration)
+    for _ in range(3):
+        q, xdot = rng.uniform(-2, 2, 3), rng.normal(size=2)
+        jacobian = planar_jacobian(q)
+        pinv = np.linalg.pinv(jacobian)
+        projector = np.eye(3) - pinv.dot(jacobian)
+        np.testing.assert_allclose(
+            joint_rates(planar3, resolver, q, xdot), pinv.dot(xdot) + projector.dot(target - q), atol=1e-10
+        )
+
+
+def test_gradient_projection_at_the_acceleration_level(planar3, rng):
+    """q̈ = J⁺(ẍ − J̇q̇) − (I − J⁺J)(k ∂p/∂q + k_d q̇), with the closed-form planar J and Eq. (5)'s gradient."""
+    resolver = torqueopt.get_resolver("gradient-projection-acceleration", k=3.0, damping=2.0)
+    for _ in range(4):
+        q, v, xdd = rng.uniform(-2, 2, 3), rng.normal(size=3), rng.normal(size=2)
+        terms = planar3.terms(q, v)
+        resolution = resolver.resolve(planar3, terms, xdd)
+        jacobian = planar_jacobian(q)
+        pinv = np.linalg.pinv(jacobian)
+        gradient = 2 * q / (2 * np.pi) ** 2
+        expected = pinv.dot(xdd - terms.drift) - (np.eye(3) - pinv.dot(jacobian)).dot(3.0 * gradient + 2.0 * v)
+        np.testing.assert_allclose(resolution.joint_acceleration, expected, atol=1e-10)
+
+
+def test_task_priority_at_the_acceleration_level_is_eq_11_differentiated(panda, rng):
+    """q̈ = p + [J_l P]⁺(ẍ_l − J̇_l q̇ − J_l p), p = J⁺(ẍ − J̇q̇), P = I − J⁺J, against the resolver's null-space form."""
+    elbow = FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6])
+    resolver = torqueopt.get_resolver("task-priority-acceleration", secondary=elbow, stiffness=16.0, damping=8.0)
+    for _ in range(3):
+        q, v, xdd = pin.randomConfiguration(panda.model), rng.normal(size=7), rng.normal(size=3)
+        terms = panda.terms(q, v)
+        resolution = resolver.resolve(panda, terms, xdd)
+        pinv = np.linalg.pinv(terms.jacobian)
+        particular = pinv.dot(xdd - terms.drift)
+        projector = np.eye(7) - pinv.dot(terms.jacobian)
+        kinematics = Kinematics(panda).update(q, v)
+        low = elbow.jacobian(kinematics)
+        desired = 16.0 * (np.array([0.3, 0.0, 0.6]) - elbow.value(kinematics)) - 8.0 * low.dot(v)
+        expected = particular + np.linalg.pinv(low.dot(projector), rcond=1e-10).dot(
+            desired - elbow.drift(kinematics) - low.dot(particular)
+        )
+        np.testing.assert_allclose(resolution.joint_acceleration, expected, atol=1e-8)
+        np.testing.assert_allclose(terms.jacobian.dot(resolution.joint_acceleration) + terms.drift, xdd, atol=1e-9)

@@ -120,7 +120,9 @@ def simulate_kinematic(
     dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
-    steps = step_budget(duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot))
+    steps = step_budget(
+        duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot)
+    )
     q = _configuration(robot, q0)
     if v0 is not None and np.any(robot.check_velocity(v0) != 0.0):
         raise InvalidInput(

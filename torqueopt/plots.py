@@ -42,6 +42,13 @@ RESOLVER_COLORS = {
     "inertia-pinv": "tab:orange",
     "null-space": "tab:red",
     "weighted-null-space": "tab:green",
+    # the velocity-level methods of Section 1.1
+    "velocity-pinv": "tab:cyan",
+    "gradient-projection": "tab:purple",
+    "task-priority": "tab:olive",
+    "obstacle-avoidance": "tab:brown",
+    "extended-jacobian": "tab:pink",
+    "kinetic-energy-pinv": "tab:gray",
 }
 _JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
 _EVENT_COLORS = ("tab:purple", "0.25", "tab:olive")

@@ -22,7 +22,10 @@ Eq. (20) (:class:`~torqueopt.resolvers.base.NullSpaceResolver`).
 The velocity-level methods of Section 1.1 (``velocity-pinv``,
 ``gradient-projection``, ``task-priority``, ``obstacle-avoidance``,
 ``extended-jacobian``, ``kinetic-energy-pinv``) are registered too, from
-:mod:`torqueopt.resolvers.velocity`; their ``level`` is ``"velocity"``.
+:mod:`torqueopt.resolvers.velocity`; their ``level`` is ``"velocity"``. Their
+acceleration-level forms ``gradient-projection-acceleration`` and
+``task-priority-acceleration`` are torque resolvers, from
+:mod:`torqueopt.resolvers.second_order`.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
 from .options import Option
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
+from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
 from .velocity import VELOCITY_RESOLVERS
 
 __all__ = [
@@ -71,6 +75,7 @@ RESOLVERS: dict[str, type[Resolver]] = {
     )
 }
 RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)
+RESOLVERS.update((cls.name, cls) for cls in (GradientProjectionAcceleration, TaskPriorityAcceleration))
 
 
 def resolver_names(level: str | None = None) -> list[str]:

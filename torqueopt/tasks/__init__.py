@@ -6,6 +6,7 @@ class :class:`Task`, all reading one :class:`Kinematics` per configuration.
 
 from .frame_task import FRAME_TASK_KINDS, FrameTask
 from .obstacle import ClosestPoint, ObstacleTask
+from .posture_task import PostureTask
 from .stack import TaskStack, prioritised_rates, pseudoinverse
 from .task import Kinematics, Task
 
@@ -14,6 +15,7 @@ __all__ = [
     "Kinematics",
     "FrameTask",
     "FRAME_TASK_KINDS",
+    "PostureTask",
     "TaskStack",
     "prioritised_rates",
     "pseudoinverse",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...tasks import FrameTask, ObstacleTask, Task, TaskStack
+from ...tasks import FrameTask, ObstacleTask, PostureTask, Task, TaskStack
 from ..options import OptionValueError
 
 __all__ = ["vector_or_callable", "task_stack", "obstacle", "criterion_spec"]
@@ -32,6 +32,8 @@ def vector_or_callable(value):
 
 def task_stack(value) -> TaskStack:
     """A TaskStack from a Task, a sequence of Tasks, or the CLI's ``FRAME:x,y[,z]`` (an xy or position target)."""
+    if isinstance(value, str) and value.strip() == "posture":
+        return TaskStack([PostureTask()])
     if isinstance(value, str):
         items = []
         for spec in value.split(";"):

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InvalidInput
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, prioritised_rates
+from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_rates
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import task_stack
@@ -29,7 +28,8 @@ class TaskPriority(VelocityResolver):
     :mod:`torqueopt.tasks.stack`.
 
     Args:
-        secondary: a Task (with a target), a TaskStack, or a sequence of them, highest priority first.
+        secondary: a Task (with a target), a TaskStack, or a sequence of them, highest priority first;
+            by default a :class:`~torqueopt.tasks.PostureTask` toward the robot's default configuration.
         damping: damped-least-squares λ for the secondary inverses, 0 for the plain pseudoinverse;
             λ > 0 bounds the rates near the algorithmic singularities where :math:`J_l(I - J_h^\dagger J_h)` loses rank.
     """
@@ -39,12 +39,12 @@ class TaskPriority(VelocityResolver):
     options = (
         Option(
             name="secondary",
-            kind="Task | TaskStack | list of Tasks | FRAME:x,y[,z] (';' between tasks)",
+            kind="Task | TaskStack | list of Tasks | FRAME:x,y[,z] (';' between tasks) | 'posture'",
             unit="m",
             default=None,
             meaning="the lower-priority task(s), each regulated to its target: ẋ_l = k(x* − x_l)",
             convert=task_stack,
-            default_text="none (required)",
+            default_text="posture: every joint toward the robot's default configuration, gain 1/s",
         ),
         Option(
             name="damping",
@@ -57,18 +57,18 @@ class TaskPriority(VelocityResolver):
         POSITION_GAIN_OPTION,
     )
 
+    def __init__(self, **options):
+        super().__init__(**options)
+        self.stack = TaskStack([PostureTask()]) if self.secondary is None else self.secondary
+
     def check(self, robot: Robot) -> None:
         super().check(robot)
-        if self.secondary is None:
-            raise InvalidInput(
-                "resolver 'task-priority' needs the option secondary: a Task with a target, a TaskStack, "
-                "or FRAME:x,y on the command line"
-            )
-        self.secondary.check(robot)
+        self.stack.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
+        self.stack.check(robot)
         decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        secondary, damping = self.secondary, self.damping
+        secondary, damping = self.stack, self.damping
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
