@@ -35,7 +35,7 @@ import numpy as np
 
 from ..robot import Robot, TaskTerms
 from ..tasks import FrameTask, Kinematics, PostureTask, TaskStack, pseudoinverse
-from .base import NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, number
 from .velocity.criteria import criterion_from
 from .velocity.gradient_projection import DEFAULT_GAINS
@@ -94,7 +94,7 @@ class GradientProjectionAcceleration(NullSpaceResolver):
         super().check(robot)
         self.objective.check(robot)
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         kinematics = Kinematics(robot)
         task = FrameTask.of_robot(robot)
         criterion, k, damping = self.objective, self.gain, self.damping
@@ -155,7 +155,7 @@ class TaskPriorityAcceleration(NullSpaceResolver):
         super().check(robot)
         self.stack.check(robot)
 
-    def null_space_solver(self, robot: Robot):
+    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         self.stack.check(robot)
         kinematics = Kinematics(robot)
         tasks = list(self.stack)
