@@ -115,6 +115,11 @@ def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar
         back = torqueopt.load_result(result.to_csv(tmp_path / name))
         np.testing.assert_array_equal(back.infeasible, result.infeasible)
         np.testing.assert_allclose(back.task_error, result.task_error, rtol=1e-9)
+    # The overview figure draws the shortfall on a second axis of the tip-error panel.
+    from torqueopt import plots
+
+    figure = plots.plot_run(result, tmp_path / "run.png")
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_npz_keeps_everything(tmp_path, short_pinv):

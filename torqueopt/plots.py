@@ -319,11 +319,27 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
     error_ax.set_xlabel("time [s]")
     error_ax.set_ylabel("[mm]")
     error_ax.grid(alpha=0.3)
+    if result.max_task_error > 0 or result.infeasible_steps:
+        _draw_task_shortfall(error_ax, result)
     if result.dexterity:
         draw_dexterity(fig.add_subplot(right[3]), result)
     default = f"{result.robot}: resolver {result.resolver}, task {result.task} at '{result.frame}', {result.duration:g} s"
     _suptitle(fig, title or default, [result])
     return _save(fig, path)
+
+
+def _draw_task_shortfall(ax, result: SimResult) -> None:
+    """On a right-hand axis: the task acceleration the resolver gave up per step, infeasible steps marked."""
+    shortfall_ax = ax.twinx()
+    shortfall_ax.plot(result.t, result.task_error, color="tab:purple", lw=1.0, label="task shortfall")
+    infeasible = result.infeasible
+    if infeasible.any():
+        shortfall_ax.plot(result.t[infeasible], result.task_error[infeasible], "|", color="tab:purple", ms=6,
+                          label=f"{result.infeasible_steps} infeasible steps")  # fmt: skip
+    shortfall_ax.set_ylabel("‖Jq̈ + J̇q̇ − ẍ‖ [m/s²]", fontsize=8, color="tab:purple")
+    shortfall_ax.tick_params(labelsize=8, colors="tab:purple")
+    shortfall_ax.legend(fontsize=7, loc="upper right")
+    ax.set_title("tip distance from reference; task acceleration given up (right)", fontsize=9, loc="left")
 
 
 def arm_points(robot: Robot, joint_angles) -> np.ndarray:
