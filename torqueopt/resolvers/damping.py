@@ -57,6 +57,8 @@ arm (see :data:`DEFAULT_DAMPING`); the remedies study of ``torqueopt paper``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import InvalidInput, NoRedundancy
@@ -208,19 +210,23 @@ class DampedNullSpaceTorque(NullSpaceResolver):
             return torque_only
 
         least_squares = LeastSquares(torque_rows + redundancy, redundancy)
+        # One stacked system [SHZ; μ̄I] y ≈ [S(τ_mid − τ̃); −μ̄K_D Zᵀq̇], refilled in place at each step
+        # through views made once (the diagonal of the lower block is a strided view).
         matrix = np.zeros((torque_rows + redundancy, redundancy))
         rhs = np.zeros(torque_rows + redundancy)
-        torque_block, kinematic_block = matrix[:torque_rows], matrix[torque_rows:]
+        torque_block = matrix[:torque_rows]
+        torque_entries = torque_block.reshape(-1)
+        kinematic_diagonal = matrix[torque_rows:].reshape(-1)[:: redundancy + 1]
         torque_rhs, kinematic_rhs = rhs[:torque_rows], rhs[torque_rows:]
-        identity = np.eye(redundancy)
+        multiply, sqrt = np.multiply, math.sqrt
 
         def coordinates(terms: TaskTerms, null_space_basis, particular):
             inertia = terms.inertia
-            torque_block[...] = root_column * inertia.dot(null_space_basis)  # S H Z
-            torque_rhs[...] = root * (midpoint - inertia.dot(particular) - terms.bias_torque)  # S(τ_mid − τ̃)
-            weight = relative_weight * np.linalg.norm(torque_block)  # μ̄ = μ ‖S H Z‖_F
-            kinematic_block[...] = weight * identity
-            kinematic_rhs[...] = -weight * damping * null_space_basis.T.dot(terms.joint_velocity)  # −μ̄ K_D Zᵀq̇
+            multiply(root_column, inertia.dot(null_space_basis), out=torque_block)  # S H Z
+            multiply(root, midpoint - inertia.dot(particular) - terms.bias_torque, out=torque_rhs)  # S(τ_mid − τ̃)
+            weight = relative_weight * sqrt(torque_entries.dot(torque_entries))  # μ̄ = μ ‖S H Z‖_F
+            kinematic_diagonal[...] = weight
+            multiply(null_space_basis.T.dot(terms.joint_velocity), -weight * damping, out=kinematic_rhs)  # −μ̄ K_D Zᵀq̇
             return least_squares(matrix, rhs)
 
         return coordinates
