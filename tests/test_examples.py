@@ -49,3 +49,14 @@ def test_kinematic_vs_kinetic_example_shows_the_contrast_and_the_repeatability()
     extended = [float(value) for value in drift["extended-jacobian"].split("(")[1].split(")")[0].split(",")]
     pinv = [float(value) for value in drift["velocity-pinv"].split("(")[1].split(")")[0].split(",")]
     assert max(extended) < 1e-6 and max(pinv) > 0.1
+
+
+def test_paths_and_dexterity_example_shows_the_papers_long_movement_verdicts():
+    printed = run_example("paths_and_dexterity.py")
+    rows = {tuple(line.split()[:3]): line.split() for line in printed.splitlines()}
+    # The paper's claims for its long movement: pinv stays within its limits, null-space whips.
+    assert rows[("paper", "line", "pinv")][4] == "stable" and float(rows[("paper", "line", "pinv")][3]) < 1.0
+    assert rows[("paper", "line", "null-space")][4] == "unstable"
+    # The circle brings the tip back to the start; each row reports how far the joints end from q0.
+    assert {("circle", "r=0.1", name) for name in ("pinv", "inertia-pinv", "null-space")} <= set(rows)
+    assert printed.startswith("at q0: w = 1.2247, dynamic w = 5.7427")

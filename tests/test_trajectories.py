@@ -319,3 +319,15 @@ def test_cli_bad_paths_are_one_line_exit_2(options, message, tmp_path, capsys, m
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("torqueopt run: error: ") and message in err[0]
     assert not out.exists()
+
+
+def test_cli_absolute_waypoints_are_world_coordinates(tmp_path, capsys):
+    tip = (math.sqrt(2.0), 1.0 - math.sqrt(2.0))
+    waypoints = tmp_path / "w.csv"
+    waypoints.write_text(f"t,x,y\n0,{tip[0]!r},{tip[1]!r}\n0.2,{tip[0] + 0.01!r},{tip[1]!r}\n")
+    out = tmp_path / "run.npz"
+    assert main([*RUN, "--path", f"csv:{waypoints}", "--absolute", "--out", str(out)]) == 0
+    result = torqueopt.load_result(out)
+    np.testing.assert_allclose(result.x_ref[-1], [tip[0] + 0.01, tip[1]], atol=1e-12)
+    assert result.trajectory["start"] == pytest.approx(list(tip))
+    capsys.readouterr()

@@ -426,7 +426,7 @@ def dexterity_ellipses(robot: Robot, result: SimResult, rows, kind: str, basis, 
     if kind == "velocity":
         label = f"velocity ellipse, ‖q̇‖ ≤ 1 rad/s (1 m/s drawn as {scale:.3g} m)"
     else:
-        label = f"acceleration ellipse, Eq. (24) (1 m/s² drawn as {scale:.3g} m)"
+        label = f"acceleration ellipse at rest, Eq. (24) (1 m/s² drawn as {scale:.3g} m)"
     return outlines, label
 
 
