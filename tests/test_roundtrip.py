@@ -35,3 +35,53 @@ def test_it_writes_a_file_that_plot_and_play_read_back(stopped_at_start, tmp_pat
     assert (tmp_path / "fig.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["play", str(path), "--html", str(tmp_path / "run.html")]) == 0
     assert "1 frame over" in capsys.readouterr().out
+
+
+@pytest.fixture(scope="module")
+def short_run(planar3):
+    return torqueopt.simulate(planar3, "pinv", StraightLine([1, 1], duration=0.05), np.radians([-45.0, 135.0, -135.0]))
+
+
+def _rewrite_columns(path, order=None, rename=None):
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:]]
+    if order is not None:
+        header = [header[i] for i in order]
+        rows = [[row[i] for i in order] for row in rows]
+    if rename is not None:
+        header = [rename.get(name, name) for name in header]
+    path.write_text("\n".join(",".join(row) for row in [header, *rows]) + "\n")
+
+
+def test_the_csv_loader_reads_columns_by_name(short_run, tmp_path):
+    path = short_run.to_csv(tmp_path / "run.csv")
+    columns = path.read_text().splitlines()[0].split(",")
+    _rewrite_columns(path, order=list(reversed(range(len(columns)))))
+    back = torqueopt.load_result(path)
+    np.testing.assert_allclose(back.tau, short_run.tau, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(back.joint_angles, short_run.joint_angles, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(back.x_ref, short_run.x_ref, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "rename, message",
+    [
+        ({"tau2": "torque2"}, "has no column tau2; a run of 3 joints has t, q1..q3"),
+        ({"tau2": "tau1"}, "names column 'tau1' twice"),
+        ({"xref2": "x3"}, "has no column xref2"),
+    ],
+)
+def test_the_csv_loader_refuses_a_header_off_the_contract(short_run, tmp_path, rename, message):
+    path = short_run.to_csv(tmp_path / "run.csv")
+    _rewrite_columns(path, rename=rename)
+    with pytest.raises(torqueopt.InvalidInput, match=f"run file '.*run.csv' is malformed \\(its header {message}"):
+        torqueopt.load_result(path)
+
+
+def test_the_csv_loader_refuses_an_unknown_column(short_run, tmp_path):
+    path = short_run.to_csv(tmp_path / "run.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0] + ",bonus", *(line + ",1" for line in lines[1:])]) + "\n")
+    with pytest.raises(torqueopt.InvalidInput, match="its header has unknown column 'bonus'"):
+        torqueopt.load_result(path)

@@ -2,8 +2,9 @@
 
 Every function draws one figure with matplotlib's object API on the Agg
 canvas (no pyplot, no global backend switch, no window) and writes it as a
-PNG through :func:`torqueopt.io.atomic_write`, so a figure file is either
-complete or absent. A run that stopped early is drawn up to where it stopped,
+file in the format its suffix names (PNG at :data:`DEFAULT_DPI`, or vector
+PDF and SVG) through :func:`torqueopt.io.atomic_write`, so a figure file is
+either complete or absent. A run that stopped early is drawn up to where it stopped,
 with a dashed line there and a note saying why.
 
 matplotlib is imported inside the functions; without it they raise
@@ -52,7 +53,12 @@ RESOLVER_COLORS = {
 }
 _JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
 _EVENT_COLORS = ("tab:purple", "0.25", "tab:olive")
-_DPI = 90
+#: Resolution of raster (PNG) figures [dots per inch]; PDF and SVG are vector output.
+DEFAULT_DPI = 170
+#: The figure formats, by file suffix: the suffix of the path names the format.
+FIGURE_FORMATS = ("png", "pdf", "svg")
+#: No tick label is smaller than this [pt], so a figure stays readable when printed at its size.
+_MIN_TICK_POINTS = 8.0
 # Above this multiple of its limit a torque panel switches to a scale that is
 # linear within ±limit and logarithmic beyond, so a runaway of 100 times the
 # limit and the limit itself are both readable.
@@ -274,8 +280,11 @@ def plot_stick_strip(
     return _save(fig, path)
 
 
-def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = None) -> Path:
-    """Overview of any saved run: torque of each joint with its limits, joint velocities, tip path and error."""
+def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = None, dpi: float | None = None) -> Path:
+    """Overview of any saved run: torque of each joint with its limits, joint velocities, tip path and error.
+
+    ``path`` ends in .png, .pdf or .svg; ``dpi`` sets a PNG's resolution (default :data:`DEFAULT_DPI`).
+    """
     n = result.n
     fig = _figure(13.0, max(6.0, 1.0 + 1.7 * n) + (1.8 if result.dexterity else 0.0))
     grid = fig.add_gridspec(n, 2, width_ratios=(1.3, 1.0))
@@ -325,7 +334,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
         draw_dexterity(fig.add_subplot(right[3]), result)
     default = f"{result.robot}: resolver {result.resolver}, task {result.task} at '{result.frame}', {result.duration:g} s"
     _suptitle(fig, title or default, [result])
-    return _save(fig, path)
+    return _save(fig, path, dpi)
 
 
 def _draw_task_shortfall(ax, result: SimResult) -> None:
@@ -457,9 +466,27 @@ def _symlog(ax, linthresh: float, peak: float) -> None:
     ax.yaxis.set_minor_locator(NullLocator())
 
 
-def _save(fig, path: str | os.PathLike) -> Path:
+def figure_format(path: str | os.PathLike) -> str:
+    """The format a figure path names by its suffix (``png``, ``pdf`` or ``svg``), or InvalidInput."""
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in FIGURE_FORMATS:
+        shown = f"'.{suffix}'" if suffix else "no suffix"
+        raise InvalidInput(
+            f"figure '{path}' has {shown}; give a name ending in {', '.join('.' + f for f in FIGURE_FORMATS)}"
+        )
+    return suffix
+
+
+def _save(fig, path: str | os.PathLike, dpi: float | None = None) -> Path:
+    """Write ``fig`` in the format its suffix names (PNG at ``dpi``, default :data:`DEFAULT_DPI`; PDF, SVG)."""
     path = Path(path)
-    atomic_write(path, lambda handle: fig.savefig(handle, format="png", dpi=_DPI))
+    fmt = figure_format(path)
+    for ax in fig.axes:
+        for label in (*ax.get_xticklabels(), *ax.get_yticklabels()):
+            if label.get_fontsize() < _MIN_TICK_POINTS:
+                label.set_fontsize(_MIN_TICK_POINTS)
+    resolution = DEFAULT_DPI if dpi is None else dpi
+    atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=resolution))
     return path
 
 

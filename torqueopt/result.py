@@ -292,20 +292,18 @@ def _load_csv(path: Path, robot) -> SimResult:
         raise InvalidInput(f"run file '{path}' has no sidecar '{sidecar}'; write runs with torqueopt run --out")
     metadata = json.loads(sidecar.read_text())
     with open(path) as handle:
-        header = handle.readline().strip().split(",")
+        header = [name.strip() for name in handle.readline().strip().split(",")]
     table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    n = len(metadata["joint_names"])
-    m = sum(1 for name in header if name.startswith("x") and name[1:].isdigit())
-    vector_columns = 1 + 3 * n + 2 * m
-    has_step_columns = tuple(header[vector_columns : vector_columns + len(_STEP_COLUMNS)]) == _STEP_COLUMNS
-    standard = vector_columns + (len(_STEP_COLUMNS) if has_step_columns else 0)
-    if table.shape[1] != len(header) or m < 1 or len(header) < standard:
-        raise ValueError(f"it has {table.shape[1]} columns, which do not fit its {n} joints")
-    t, angles, v, tau, x, x_ref, steps = np.split(table[:, :standard], np.cumsum([1, n, n, n, m, m]), axis=1)
-    if has_step_columns:
-        metadata["task_error"], metadata["infeasible"] = steps[:, 0], steps[:, 1] != 0
-    # Named columns after those (the dexterity measures) are kept by name.
-    dexterity = {name: table[:, column].copy() for column, name in enumerate(header) if column >= standard}
+    if table.size == 0:
+        table = np.empty((0, len(header)))
+    if table.shape[1] != len(header):
+        raise ValueError(f"its rows have {table.shape[1]} values but its header names {len(header)} columns")
+    columns = _csv_columns_by_name(header, len(metadata["joint_names"]), metadata["task"])
+    t, angles, v, tau, x, x_ref = (table[:, columns[group]] for group in ("t", "q", "v", "tau", "x", "xref"))
+    if "task_error" in columns:
+        metadata["task_error"] = table[:, columns["task_error"]][:, 0]
+        metadata["infeasible"] = table[:, columns["infeasible"]][:, 0] != 0
+    dexterity = {name: table[:, index[0]].copy() for name, index in columns.items() if name in _dexterity_names()}
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
     return SimResult(
@@ -323,6 +321,54 @@ def _load_csv(path: Path, robot) -> SimResult:
         torque_lower=lower,
         dexterity=dexterity or None,
     )
+
+
+def _dexterity_names() -> tuple[str, ...]:
+    from .dexterity import DEXTERITY_COLUMNS
+
+    return DEXTERITY_COLUMNS
+
+
+def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list[int]]:
+    """Column indices of each group of a run CSV's header, read by name, in any order.
+
+    The contract: ``t``, ``q1..qn``, ``v1..vn``, ``tau1..taun``, ``x1..xm``,
+    ``xref1..xrefm`` (m from the task), optionally ``task_error`` and
+    ``infeasible`` together, and the dexterity measures by their names.
+
+    Raises:
+        InvalidInput: a missing, repeated or unknown column, naming it and the contract.
+    """
+    from .robot import TASK_DIMENSIONS
+
+    m = TASK_DIMENSIONS.get(task)
+    if m is None:
+        raise ValueError(f"its sidecar names the task '{task}', not one of {', '.join(TASK_DIMENSIONS)}")
+    where = {}
+    for index, name in enumerate(header):
+        if name in where:
+            raise ValueError(f"its header names column '{name}' twice")
+        where[name] = index
+    groups = {
+        "t": ["t"],
+        "q": [f"q{i}" for i in range(1, n + 1)],
+        "v": [f"v{i}" for i in range(1, n + 1)],
+        "tau": [f"tau{i}" for i in range(1, n + 1)],
+        "x": [f"x{i}" for i in range(1, m + 1)],
+        "xref": [f"xref{i}" for i in range(1, m + 1)],
+    }
+    optional = {name: [name] for name in (*_STEP_COLUMNS, *_dexterity_names()) if name in where}
+    if ("task_error" in optional) != ("infeasible" in optional):
+        groups.update(task_error=["task_error"], infeasible=["infeasible"])
+    contract = f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m} (then task_error, infeasible, dexterity)"
+    missing = [name for names in groups.values() for name in names if name not in where]
+    if missing:
+        raise ValueError(f"its header has no column {', '.join(missing)}; a run of {n} joints has {contract}")
+    known = {name for names in (*groups.values(), *optional.values()) for name in names}
+    unknown = [name for name in header if name not in known]
+    if unknown:
+        raise ValueError(f"its header has unknown column {', '.join(repr(u) for u in unknown)}; a run of {n} joints has {contract}")
+    return {key: [where[name] for name in names] for key, names in {**groups, **optional}.items()}
 
 
 def _column_peak(values: np.ndarray, n: int) -> np.ndarray:

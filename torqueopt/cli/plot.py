@@ -6,9 +6,10 @@ import argparse
 from pathlib import Path
 
 from ..io import writable_path
-from ..plots import plot_run
+from ..plots import DEFAULT_DPI, figure_format, plot_run
 from ..result import load_result
 from . import EXIT_OK
+from .common import parse_positive
 from .stick import add_stick_options, stick_robot, write_stick_figures
 
 __all__ = ["add_parser"]
@@ -25,17 +26,27 @@ def add_parser(subparsers) -> None:
         ),
     )
     parser.add_argument("run", metavar="RUN", help="run file: .csv (with its .csv.json sidecar) or .npz")
-    parser.add_argument("--out", metavar="PNG", help="figure to write (default: RUN with the suffix .png)")
+    parser.add_argument(
+        "--out",
+        metavar="FIGURE",
+        help="figure to write, in the format its suffix names: .png, .pdf or .svg (default: RUN with the suffix .png)",
+    )
+    parser.add_argument(
+        "--dpi", default=str(DEFAULT_DPI), help=f"resolution of a PNG figure [dots per inch] (default {DEFAULT_DPI})"
+    )
     parser.add_argument("--title", help="figure title (default: robot, resolver, task and duration)")
     add_stick_options(parser)
     parser.set_defaults(handler=plot_command)
 
 
 def plot_command(args: argparse.Namespace) -> int:
+    out = args.out if args.out else Path(args.run).with_suffix(".png")
+    figure_format(out)
+    dpi = parse_positive(args.dpi, "dpi")
+    out = writable_path(out)
     result = load_result(args.run)
-    out = writable_path(args.out if args.out else Path(args.run).with_suffix(".png"))
     robot = stick_robot(args, result) if args.stick_figures else None
-    path = plot_run(result, out, title=args.title)
+    path = plot_run(result, out, title=args.title, dpi=dpi)
     status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
     print(f"wrote {path}{status}")
     if robot is not None:
