@@ -15,6 +15,8 @@ __all__ = [
     "TaskNotFound",
     "NoRedundancy",
     "SingularJacobian",
+    "TorqueBoundsInfeasible",
+    "SolverFailure",
     "MissingDependency",
     "OutputError",
     "TorqueoptWarning",
@@ -55,6 +57,14 @@ class NoRedundancy(TorqueoptError):
 
 class SingularJacobian(TorqueoptError):
     """The task Jacobian lost rank, so the task acceleration cannot be realised."""
+
+
+class TorqueBoundsInfeasible(TorqueoptError):
+    """No torque within the torque bounds realises the task, and the resolver was told to stop."""
+
+
+class SolverFailure(TorqueoptError):
+    """A QP/LP solver returned no answer that passes its optimality checks."""
 
 
 class MissingDependency(TorqueoptError, ImportError):

@@ -26,7 +26,7 @@ import numpy as np
 
 from .checks import bounded_count, finite_vector, positive_number, show_number, step_count
 from .dexterity import dexterity_along
-from .errors import InvalidInput, SingularJacobian
+from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible
 from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
@@ -214,7 +214,7 @@ def simulate(
             )
         try:
             tau, joint_acceleration, inverse_condition, task_error, infeasible = solve(terms, command)
-        except SingularJacobian as error:
+        except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
             break

@@ -14,6 +14,8 @@ name                               method                                       
 ``self-motion-damping``            y = −K_D Zᵀq̇, the kinematic limit of the blend               (not in the paper)
 ``inverse-inertia-torque``         minimum τᵀH⁻¹τ (Gauss's principle)                           (not in the paper)
 ``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ                                               (not in the paper)
+``bounded-torque``                 the torque criterion under hard bounds τ⁻ <= τ <= τ⁺ (a QP)   Eq. (26), Eq. (29), Eq. (33), the Discussion
+``minmax-torque``                  the least largest normalised torque (an LP)                  Eq. (26), Eq. (28), the Discussion
 ================================== ============================================================ =================================================
 
 All of them write the joint acceleration as Eq. (26) and the torque as
@@ -34,6 +36,7 @@ import difflib
 
 from ..errors import InvalidInput, ResolverNotFound
 from .base import NullSpaceResolver, Resolution, Resolver, Step
+from .bounded import BoundedTorque, MinMaxTorque
 from .damping import DampedNullSpaceTorque, SelfMotionDamping
 from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
@@ -56,6 +59,8 @@ __all__ = [
     "SelfMotionDamping",
     "InverseInertiaTorque",
     "InverseInertiaSquaredTorque",
+    "BoundedTorque",
+    "MinMaxTorque",
     "RESOLVERS",
     "get_resolver",
     "resolver_names",
@@ -72,6 +77,8 @@ RESOLVERS: dict[str, type[Resolver]] = {
         SelfMotionDamping,
         InverseInertiaTorque,
         InverseInertiaSquaredTorque,
+        BoundedTorque,
+        MinMaxTorque,
     )
 }
 RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)

@@ -1,0 +1,434 @@
+"""The bounded resolvers (``bounded-torque`` QP, ``minmax-torque`` LP) against independent solves.
+
+Every reference here is built from H, the bias torques, J and J̇q̇ alone,
+with its own null-space basis (scipy.linalg.null_space) and pseudoinverse
+(numpy): closed-form interval solutions for planar3's single null-space
+coordinate, SLSQP for the 7-joint arm, HiGHS (scipy.optimize.linprog) for
+the LPs and the feasibility checks, bounded least squares
+(scipy.optimize.lsq_linear) for the least task error, and KKT multipliers
+recovered by non-negative least squares on the active set.
+"""
+
+import re
+
+import numpy as np
+import pytest
+from scipy.linalg import null_space
+from scipy.optimize import linprog, lsq_linear, minimize, nnls
+
+import torqueopt
+from torqueopt.errors import InvalidInput, NoRedundancy, TorqueBoundsInfeasible
+from torqueopt.resolvers import get_resolver
+from torqueopt.resolvers.bounded import BOUND_MARGIN, torque_utilisation
+
+from .conftest import PAPER_Q0
+
+#: Bounds hold exactly: the resolvers pull the bounds DAQP sees in by its tolerance.
+BOUND_SLACK = 0.0
+
+
+@pytest.fixture(scope="module")
+def tight_planar3():
+    """The paper's arm with its own limits (54, 24, 6) N·m: random states hit them often."""
+    return torqueopt.load_robot("planar3")
+
+
+@pytest.fixture(scope="module")
+def tight_panda():
+    """Panda position task with a third of its URDF limits (29 and 4 N·m), gravity on."""
+    robot = torqueopt.load_robot("panda", task="position")
+    robot.set_torque_limit(robot.urdf_effort_limit / 3.0)
+    return robot
+
+
+def _step(name, robot, **options):
+    resolver = get_resolver(name, **options)
+    resolver.check(robot)
+    return resolver.solver(robot)
+
+
+def _states(robot, count, seed, speed, accel):
+    """Seeded random (q, v, ẍ) away from singular Jacobians."""
+    rng = np.random.default_rng(seed)
+    states = []
+    while len(states) < count:
+        if robot.name == "planar3":
+            angles = rng.uniform(-2.5, 2.5, robot.nv)
+        else:
+            angles = rng.uniform(robot.model.lowerPositionLimit, robot.model.upperPositionLimit)
+        q = robot.configuration(angles)
+        terms = robot.terms(q, speed * rng.normal(size=robot.nv))
+        singular = np.linalg.svd(terms.jacobian, compute_uv=False)
+        if singular[-1] < 1e-2 * singular[0]:
+            continue
+        states.append((terms, accel * rng.normal(size=robot.m)))
+    return states
+
+
+class Reference:
+    """The problem at one state, from scratch: τ = τ̃ + G y with G = H Z."""
+
+    def __init__(self, robot, terms, task_acceleration):
+        self.robot = robot
+        self.H, self.b, self.J = terms.inertia, terms.bias_torque, terms.jacobian
+        self.drift, self.v = terms.drift, terms.joint_velocity
+        self.xdd = np.asarray(task_acceleration, float)
+        self.pinv = np.linalg.pinv(self.J)
+        self.Z = null_space(self.J)
+        self.G = self.H @ self.Z
+        self.lower, self.upper = robot.torque_lower, robot.torque_upper
+        self.spread = self.upper - self.lower
+        finite = np.isfinite(self.spread)
+        self.mid = 0.5 * (np.where(finite, self.upper, 0.0) + np.where(finite, self.lower, 0.0))
+
+    def tilde(self, task_acceleration=None):
+        xdd = self.xdd if task_acceleration is None else task_acceleration
+        return self.H @ self.pinv @ (xdd - self.drift) + self.b  # Eq. (28)
+
+    def feasible(self, task_acceleration) -> bool:
+        """Is there a y with τ̃ + G y within bounds? (HiGHS, zero objective.)"""
+        tilde = self.tilde(task_acceleration)
+        rows = np.vstack([self.G, -self.G]) / np.r_[self.spread, self.spread][:, None]
+        rhs = np.r_[self.upper - tilde, tilde - self.lower] / np.r_[self.spread, self.spread]
+        found = linprog(
+            np.zeros(self.Z.shape[1]), A_ub=rows, b_ub=rhs, bounds=[(None, None)] * self.Z.shape[1], method="highs"
+        )
+        return found.status == 0
+
+    def coordinates(self, resolution, task_acceleration=None):
+        """y of a resolution in this basis: q̈ = J⁺(ẍ − J̇q̇) + Z y."""
+        xdd = self.xdd if task_acceleration is None else task_acceleration
+        return self.Z.T @ (resolution.joint_acceleration - self.pinv @ (xdd - self.drift))
+
+
+def _qp_pieces(ref, root, mu, damping):
+    """½‖S(τ − τ_mid)‖² + ½μ²‖y + K_D Zᵀq̇‖² and its gradient, as functions of y."""
+
+    def gradient(y):
+        tau = ref.tilde() + ref.G @ y
+        return ref.G.T @ (root**2 * (tau - ref.mid)) + mu**2 * (y + damping * ref.Z.T @ ref.v)
+
+    def cost(y):
+        tau = ref.tilde() + ref.G @ y
+        return 0.5 * np.sum((root * (tau - ref.mid)) ** 2) + 0.5 * mu**2 * np.sum((y + damping * ref.Z.T @ ref.v) ** 2)
+
+    return cost, gradient
+
+
+def _slsqp(ref, cost, gradient, start):
+    """SLSQP on the same criterion and bounds, from ``start``."""
+    tilde = ref.tilde()
+    rows = ref.G / ref.spread[:, None]
+    constraints = [
+        {"type": "ineq", "fun": lambda z: (ref.upper - tilde - ref.G @ z) / ref.spread, "jac": lambda z: -rows},
+        {"type": "ineq", "fun": lambda z: (tilde + ref.G @ z - ref.lower) / ref.spread, "jac": lambda z: rows},
+    ]
+    options = {"ftol": 1e-14, "maxiter": 500}
+    return minimize(cost, start, jac=gradient, constraints=constraints, method="SLSQP", options=options)
+
+
+def _assert_kkt_qp(ref, y, gradient):
+    """Primal feasibility, and multipliers λ ≥ 0 on the active rows only (NNLS) that make the Lagrangian stationary."""
+    tau = ref.tilde() + ref.G @ y
+    assert np.all(tau <= ref.upper + BOUND_SLACK * ref.spread)
+    assert np.all(tau >= ref.lower - BOUND_SLACK * ref.spread)
+    at_upper = np.flatnonzero(tau >= ref.upper - 1e-7 * ref.spread)
+    at_lower = np.flatnonzero(tau <= ref.lower + 1e-7 * ref.spread)
+    g = gradient(y)
+    # Stationarity: ∇f + Σ λ⁺ G_i − Σ λ⁻ G_i = 0 with λ ≥ 0; complementary slackness: λ = 0 off the active set.
+    columns = np.hstack([ref.G[at_upper].T, -ref.G[at_lower].T])
+    if columns.shape[1] == 0:
+        residual = np.linalg.norm(g)
+    else:
+        _, residual = nnls(columns, -g)
+    scale = np.linalg.norm(ref.G.T @ np.abs(tau - ref.mid)) + 1.0
+    assert residual <= 1e-7 * scale, (residual, scale, at_upper, at_lower)
+    return at_upper.size + at_lower.size
+
+
+# -- the QP -----------------------------------------------------------------------------------
+
+
+def test_bounded_torque_equals_null_space_when_bounds_are_inactive():
+    for name, task in (("planar3", "xy"), ("panda", "position")):
+        wide = torqueopt.load_robot(name, task=task, torque_limit=1e5)
+        for weight, reference in (("unit", "null-space"), ("range", "weighted-null-space")):
+            bounded = _step("bounded-torque", wide, torque_weight=weight)
+            plain = get_resolver(reference).solver(wide)
+            for terms, xdd in _states(wide, 5, 11, 0.5, 2.0):
+                expected = plain(terms, xdd)[0]
+                found = bounded(terms, xdd)
+                assert not found.infeasible and found.task_error == 0.0
+                np.testing.assert_allclose(found.torque, expected, rtol=0, atol=1e-8 * max(1.0, np.abs(expected).max()))
+
+
+def test_bounded_torque_on_planar3_is_the_clipped_interval_optimum(tight_planar3):
+    """One null-space coordinate: the feasible y form an interval, and the QP's optimum is the unconstrained one clipped to it."""
+    robot = tight_planar3
+    step = _step("bounded-torque", robot)
+    active = 0
+    checked = 0
+    for terms, xdd in _states(robot, 40, 3, 0.3, 2.0):
+        ref = Reference(robot, terms, xdd)
+        g = ref.G[:, 0]
+        tilde = ref.tilde()
+        # g_i y within [τ⁻_i − τ̃_i, τ⁺_i − τ̃_i] for each joint i.
+        ends = np.sort(np.vstack([(ref.lower - tilde) / g, (ref.upper - tilde) / g]), axis=0)
+        low, high = ends[0].max(), ends[1].min()
+        if low > high:
+            continue
+        unconstrained = -g @ (tilde - ref.mid) / (g @ g)
+        expected_y = np.clip(unconstrained, low, high)
+        found = step(terms, xdd)
+        assert not found.infeasible
+        checked += 1
+        active += not (low < unconstrained < high)
+        # The resolver keeps BOUND_MARGIN of each range inside the limits: an active bound moves y by that much.
+        margin = 2 * BOUND_MARGIN * np.max(ref.spread / np.abs(g))
+        np.testing.assert_allclose(ref.coordinates(found)[0], expected_y, rtol=1e-9, atol=margin)
+        np.testing.assert_allclose(found.torque, tilde + g * expected_y, rtol=1e-9, atol=margin * np.abs(g).max())
+    assert checked >= 10 and active >= 3, (checked, active)
+
+
+@pytest.mark.parametrize(
+    "options, accel",
+    # The range weight keeps torques well inside their ranges (as the paper found): it needs harder tasks to hit them.
+    [({}, 3.0), ({"torque_weight": "range"}, 8.0), ({"kinematic_weight": 0.3, "damping": 2.0}, 3.0)],
+)
+def test_bounded_torque_meets_kkt_and_agrees_with_slsqp_on_panda(tight_panda, options, accel):
+    robot = tight_panda
+    step = _step("bounded-torque", robot, **options)
+    resolver = get_resolver("bounded-torque", **options)
+    root = resolver.weight_root(robot)
+    mu, damping = options.get("kinematic_weight", 0.0), options.get("damping", 0.0)
+    active_states = 0
+    for terms, xdd in _states(robot, 12, 7, 0.5, accel):
+        ref = Reference(robot, terms, xdd)
+        if not ref.feasible(xdd):
+            continue
+        found = step(terms, xdd)
+        assert not found.infeasible and found.task_error == 0.0
+        # The task is realised: J q̈ + J̇q̇ = ẍ, and τ = H q̈ + b.
+        np.testing.assert_allclose(ref.J @ found.joint_acceleration + ref.drift, xdd, atol=1e-9)
+        np.testing.assert_allclose(ref.H @ found.joint_acceleration + ref.b, found.torque, atol=1e-9)
+        cost, gradient = _qp_pieces(ref, root, mu, damping)
+        y = ref.coordinates(found)
+        active_states += _assert_kkt_qp(ref, y, gradient) > 0
+        # An independent general-purpose solve reaches the same cost.
+        other = _slsqp(ref, cost, gradient, np.zeros_like(y))
+        assert cost(y) <= cost(other.x) + 1e-7 * max(1.0, abs(cost(other.x)))
+        np.testing.assert_allclose(y, other.x, atol=1e-4 * max(1.0, np.abs(y).max()))
+    assert active_states >= 2, active_states
+
+
+# -- the LP -----------------------------------------------------------------------------------
+
+
+def _minmax_reference(ref):
+    """HiGHS on min t s.t. ±(τ̃ + G y − τ_mid)/(τ⁺ − τ⁻) ≤ t."""
+    r = ref.G.shape[1]
+    normalised = ref.G / ref.spread[:, None]
+    offset = (ref.tilde() - ref.mid) / ref.spread
+    rows = np.vstack(
+        [np.hstack([normalised, -np.ones((len(offset), 1))]), np.hstack([-normalised, -np.ones((len(offset), 1))])]
+    )
+    found = linprog(
+        np.r_[np.zeros(r), 1.0], A_ub=rows, b_ub=np.r_[-offset, offset], bounds=[(None, None)] * (r + 1), method="highs"
+    )
+    assert found.status == 0
+    return found.x[-1]
+
+
+@pytest.mark.parametrize("robot_name", ["tight_planar3", "tight_panda"])
+def test_minmax_torque_is_the_lp_optimum_with_kkt_multipliers(robot_name, request):
+    robot = request.getfixturevalue(robot_name)
+    step = _step("minmax-torque", robot, infeasible="exceed")
+    for terms, xdd in _states(robot, 12, 5, 0.3, 2.0):
+        ref = Reference(robot, terms, xdd)
+        found = step(terms, xdd)
+        np.testing.assert_allclose(ref.J @ found.joint_acceleration + ref.drift, xdd, atol=1e-9)
+        utilisation = torque_utilisation(found.torque, ref.lower, ref.upper)
+        expected = _minmax_reference(ref)
+        np.testing.assert_allclose(utilisation, expected, rtol=1e-7, atol=1e-9)
+        assert found.infeasible == (expected > 0.5 + 1e-6) or abs(expected - 0.5) < 1e-6
+        # KKT of min t: multipliers λ ≥ 0 on the rows at |u_i| = t with Σλ = 1 and Σ ±λ_i G_i/R_i = 0.
+        normalised = ref.G / ref.spread[:, None]
+        u = (found.torque - ref.mid) / ref.spread
+        plus = np.flatnonzero(u >= utilisation - 1e-7)
+        minus = np.flatnonzero(-u >= utilisation - 1e-7)
+        columns = np.vstack(
+            [
+                np.hstack([normalised[plus].T, -normalised[minus].T]),
+                np.hstack([-np.ones(plus.size), -np.ones(minus.size)]),
+            ]
+        )
+        target = np.r_[np.zeros(ref.G.shape[1]), -1.0]
+        _, residual = nnls(columns, target)
+        assert residual <= 1e-7, (residual, plus, minus)
+
+
+def test_minmax_torque_within_bounds_when_a_feasible_torque_exists(tight_panda):
+    step = _step("minmax-torque", tight_panda)
+    for terms, xdd in _states(tight_panda, 12, 9, 0.5, 3.0):
+        ref = Reference(tight_panda, terms, xdd)
+        found = step(terms, xdd)
+        if ref.feasible(xdd):
+            assert not found.infeasible and found.task_error == 0.0
+        assert torque_utilisation(found.torque, ref.lower, ref.upper) <= 0.5 + BOUND_SLACK
+
+
+# -- infeasible tasks ---------------------------------------------------------------------------
+
+
+def _largest_scaling(ref, tolerance=1e-10):
+    """Bisection on s with the independent feasibility LP: the largest s in [0, 1] with a torque within bounds."""
+    low, high = 0.0, 1.0
+    assert ref.feasible(0.0 * ref.xdd)
+    if ref.feasible(ref.xdd):
+        return 1.0
+    while high - low > tolerance:
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if ref.feasible(middle * ref.xdd) else (low, middle)
+    return low
+
+
+@pytest.mark.parametrize("name", ["bounded-torque", "minmax-torque"])
+@pytest.mark.parametrize("robot_name", ["tight_planar3", "tight_panda"])
+def test_scale_reports_the_true_largest_feasible_scaling(name, robot_name, request):
+    robot = request.getfixturevalue(robot_name)
+    step = _step(name, robot, infeasible="scale")
+    seen = 0
+    for terms, xdd in _states(robot, 10, 13, 0.2, 40.0):
+        ref = Reference(robot, terms, xdd)
+        if not ref.feasible(0.0 * xdd):
+            continue
+        expected = _largest_scaling(ref)
+        found = step(terms, xdd)
+        assert found.infeasible == (expected < 1.0)
+        scaling = 1.0 - found.task_error / np.linalg.norm(xdd)
+        np.testing.assert_allclose(scaling, expected, atol=1e-7)
+        # The realised task acceleration is s ẍ, and the torque is within bounds.
+        np.testing.assert_allclose(
+            ref.J @ found.joint_acceleration + ref.drift, scaling * xdd, atol=1e-7 * np.abs(xdd).max()
+        )
+        assert torque_utilisation(found.torque, ref.lower, ref.upper) <= 0.5 + BOUND_SLACK
+        seen += found.infeasible
+    assert seen >= 3
+
+
+@pytest.mark.parametrize("robot_name", ["tight_planar3", "tight_panda"])
+def test_least_error_is_the_bounded_least_squares_task_acceleration(robot_name, request):
+    robot = request.getfixturevalue(robot_name)
+    step = _step("bounded-torque", robot, infeasible="least-error")
+    seen = 0
+    for terms, xdd in _states(robot, 8, 17, 0.2, 40.0):
+        ref = Reference(robot, terms, xdd)
+        # Independent: over torques in the box, min ‖J H⁻¹(τ − b) + J̇q̇ − ẍ‖ (bounded least squares).
+        task_map = ref.J @ np.linalg.inv(ref.H)
+        best = lsq_linear(
+            task_map, xdd - ref.drift + task_map @ ref.b, bounds=(ref.lower, ref.upper), tol=1e-12, method="bvls"
+        )
+        least_error = np.linalg.norm(task_map @ best.x - (xdd - ref.drift + task_map @ ref.b))
+        found = step(terms, xdd)
+        realised = ref.J @ found.joint_acceleration + ref.drift
+        np.testing.assert_allclose(found.task_error, np.linalg.norm(realised - xdd), rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(found.task_error, least_error, rtol=1e-5, atol=1e-7)
+        assert found.infeasible == (least_error > 1e-6)
+        assert torque_utilisation(found.torque, ref.lower, ref.upper) <= 0.5 + BOUND_SLACK
+        seen += found.infeasible
+    assert seen >= 3
+
+
+def test_exceed_realises_the_task_with_the_least_largest_excess(tight_planar3):
+    step = _step("bounded-torque", tight_planar3, infeasible="exceed")
+    terms = tight_planar3.terms(PAPER_Q0, np.zeros(3))
+    xdd = np.array([40.0, 40.0])
+    ref = Reference(tight_planar3, terms, xdd)
+    found = step(terms, xdd)
+    assert found.infeasible and found.task_error == 0.0
+    np.testing.assert_allclose(ref.J @ found.joint_acceleration + ref.drift, xdd, atol=1e-9)
+    np.testing.assert_allclose(
+        torque_utilisation(found.torque, ref.lower, ref.upper), _minmax_reference(ref), rtol=1e-8
+    )
+    assert torque_utilisation(found.torque, ref.lower, ref.upper) > 0.5
+
+
+def test_stop_policy_raises_with_a_reason(tight_planar3):
+    step = _step("bounded-torque", tight_planar3, infeasible="stop")
+    terms = tight_planar3.terms(PAPER_Q0, np.zeros(3))
+    with pytest.raises(TorqueBoundsInfeasible, match=r"infeasible='stop'.*no torque within bounds"):
+        step(terms, np.array([40.0, 40.0]))
+    assert not step(terms, np.array([1.0, 1.0])).infeasible
+
+
+def test_scale_gives_the_least_error_when_even_zero_task_acceleration_has_no_torque_within_bounds(tight_planar3):
+    """Fast joints: the velocity torques alone exceed the limits while the tip is held on its path (s = 0)."""
+    terms = tight_planar3.terms(PAPER_Q0, np.array([4.0, -6.0, 8.0]))
+    xdd = np.array([1.0, 1.0])
+    ref = Reference(tight_planar3, terms, xdd)
+    assert not ref.feasible(np.zeros(2))
+    task_map = ref.J @ np.linalg.inv(ref.H)
+    target = xdd - ref.drift + task_map @ ref.b
+    best = lsq_linear(task_map, target, bounds=(ref.lower, ref.upper), tol=1e-12, method="bvls")
+    least_error = np.linalg.norm(task_map @ best.x - target)
+    for name in ("bounded-torque", "minmax-torque"):
+        for policy in ("scale", "least-error"):
+            found = _step(name, tight_planar3, infeasible=policy)(terms, xdd)
+            assert found.infeasible
+            np.testing.assert_allclose(found.task_error, least_error, rtol=1e-6)
+            assert torque_utilisation(found.torque, ref.lower, ref.upper) <= 0.5 + BOUND_SLACK
+
+
+# -- in simulate, and the interface ------------------------------------------------------------------
+
+
+def test_simulation_records_infeasible_steps_and_task_error():
+    robot = torqueopt.load_robot("planar3", torque_limit=[20.0, 10.0, 2.0])
+    line = torqueopt.StraightLine(direction=(1.0, 1.0), duration=0.5)
+    run = torqueopt.simulate(robot, "bounded-torque", line, PAPER_Q0)
+    assert run.completed
+    assert run.infeasible.any() and not run.infeasible.all()
+    assert np.all(run.task_error[~run.infeasible] == 0.0) and np.all(run.task_error[run.infeasible] > 0)
+    assert np.all(torque_utilisation(run.tau, run.torque_lower, run.torque_upper) <= 0.5 + BOUND_SLACK)
+
+
+def test_simulation_stops_with_the_reason_under_the_stop_policy():
+    robot = torqueopt.load_robot("planar3", torque_limit=[20.0, 10.0, 2.0])
+    line = torqueopt.StraightLine(direction=(1.0, 1.0), duration=0.5)
+    run = torqueopt.simulate(robot, get_resolver("bounded-torque", infeasible="stop"), line, PAPER_Q0)
+    assert not run.completed
+    assert "no torque within bounds" in run.stop_reason and "at t = " in run.stop_reason
+
+
+def test_bad_options_and_robots_without_limits_are_refused(planar3):
+    message = "option infeasible=clip of resolver 'minmax-torque' must be one of scale, least-error, exceed, stop"
+    with pytest.raises(InvalidInput, match=message):
+        get_resolver("minmax-torque", infeasible="clip")
+    with pytest.raises(
+        InvalidInput,
+        match=re.escape("option torque_weight=ranges of resolver 'bounded-torque' must be 'unit' | 'range'"),
+    ):
+        get_resolver("bounded-torque", torque_weight="ranges")
+    with pytest.raises(
+        InvalidInput, match="option damping=-1 of resolver 'bounded-torque' must be a finite number >= 0"
+    ):
+        get_resolver("bounded-torque", damping=-1)
+    message = "option torque_weight=1,1 of resolver 'bounded-torque' must be 3 non-negative numbers, one per joint"
+    with pytest.raises(InvalidInput, match=message):
+        get_resolver("bounded-torque", torque_weight=[1.0, 1.0]).check(planar3)
+    with pytest.raises(InvalidInput, match="unknown option 'kinematic_weight' for resolver 'minmax-torque'"):
+        get_resolver("minmax-torque", kinematic_weight=1.0)
+    unbounded = torqueopt.load_robot("planar3", torque_limit=np.inf)
+    for name in ("bounded-torque", "minmax-torque"):
+        with pytest.raises(NoRedundancy, match=f"resolver '{name}' bounds torques, but robot 'planar3' has no finite"):
+            get_resolver(name).check(unbounded)
+
+
+def test_unbounded_joints_are_left_out_of_the_max(planar3):
+    robot = torqueopt.load_robot("planar3", torque_limit=[54.0, np.inf, 6.0])
+    terms = robot.terms(PAPER_Q0, np.zeros(3))
+    found = _step("minmax-torque", robot)(terms, np.array([1.0, 1.0]))
+    ref = Reference(robot, terms, np.array([1.0, 1.0]))
+    u = np.abs(found.torque - ref.mid) / ref.spread
+    assert u[1] == 0.0  # infinite range
+    np.testing.assert_allclose(torque_utilisation(found.torque, ref.lower, ref.upper), max(u[0], u[2]))
