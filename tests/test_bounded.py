@@ -102,7 +102,8 @@ class Reference:
 
 
 def _qp_pieces(ref, root, mu, damping):
-    """½‖S(τ − τ_mid)‖² + ½μ²‖y + K_D Zᵀq̇‖² and its gradient, as functions of y."""
+    """½‖S(τ − τ_mid)‖² + ½μ̄²‖y + K_D Zᵀq̇‖² with μ̄ = μ‖SHZ‖_F, and its gradient, as functions of y."""
+    mu = mu * np.linalg.norm(root[:, None] * ref.G)
 
     def gradient(y):
         tau = ref.tilde() + ref.G @ y
@@ -149,12 +150,22 @@ def _assert_kkt_qp(ref, y, gradient):
 # -- the QP -----------------------------------------------------------------------------------
 
 
-def test_bounded_torque_equals_null_space_when_bounds_are_inactive():
+def test_bounded_torque_equals_the_unbounded_resolvers_when_bounds_are_inactive():
     for name, task in (("planar3", "xy"), ("panda", "position")):
         wide = torqueopt.load_robot(name, task=task, torque_limit=1e5)
-        for weight, reference in (("unit", "null-space"), ("range", "weighted-null-space")):
-            bounded = _step("bounded-torque", wide, torque_weight=weight)
-            plain = get_resolver(reference).solver(wide)
+        pairs = [
+            ({"kinematic_weight": 0.0}, "null-space", {}),
+            ({"kinematic_weight": 0.0, "torque_weight": "range"}, "weighted-null-space", {}),
+            ({}, "damped-null-space", {}),
+            (
+                {"torque_weight": "range", "damping": 3.0},
+                "damped-null-space",
+                {"torque_weight": "range", "damping": 3.0},
+            ),
+        ]
+        for options, reference, reference_options in pairs:
+            bounded = _step("bounded-torque", wide, **options)
+            plain = get_resolver(reference, **reference_options).solver(wide)
             for terms, xdd in _states(wide, 5, 11, 0.5, 2.0):
                 expected = plain(terms, xdd)[0]
                 found = bounded(terms, xdd)
@@ -165,7 +176,7 @@ def test_bounded_torque_equals_null_space_when_bounds_are_inactive():
 def test_bounded_torque_on_planar3_is_the_clipped_interval_optimum(tight_planar3):
     """One null-space coordinate: the feasible y form an interval, and the QP's optimum is the unconstrained one clipped to it."""
     robot = tight_planar3
-    step = _step("bounded-torque", robot)
+    step = _step("bounded-torque", robot, kinematic_weight=0.0)
     active = 0
     checked = 0
     for terms, xdd in _states(robot, 40, 3, 0.3, 2.0):
@@ -193,14 +204,19 @@ def test_bounded_torque_on_planar3_is_the_clipped_interval_optimum(tight_planar3
 @pytest.mark.parametrize(
     "options, accel",
     # The range weight keeps torques well inside their ranges (as the paper found): it needs harder tasks to hit them.
-    [({}, 3.0), ({"torque_weight": "range"}, 8.0), ({"kinematic_weight": 0.3, "damping": 2.0}, 3.0)],
+    [
+        ({"kinematic_weight": 0.0}, 3.0),
+        ({"kinematic_weight": 0.0, "torque_weight": "range"}, 8.0),
+        ({}, 3.0),
+        ({"kinematic_weight": 0.3, "damping": 2.0, "torque_weight": "range"}, 8.0),
+    ],
 )
 def test_bounded_torque_meets_kkt_and_agrees_with_slsqp_on_panda(tight_panda, options, accel):
     robot = tight_panda
     step = _step("bounded-torque", robot, **options)
     resolver = get_resolver("bounded-torque", **options)
     root = resolver.weight_root(robot)
-    mu, damping = options.get("kinematic_weight", 0.0), options.get("damping", 0.0)
+    mu, damping = resolver.kinematic_weight, resolver.damping
     active_states = 0
     for terms, xdd in _states(robot, 12, 7, 0.5, accel):
         ref = Reference(robot, terms, xdd)
@@ -389,7 +405,15 @@ def test_simulation_records_infeasible_steps_and_task_error():
     assert run.completed
     assert run.infeasible.any() and not run.infeasible.all()
     assert np.all(run.task_error[~run.infeasible] == 0.0) and np.all(run.task_error[run.infeasible] > 0)
-    assert np.all(torque_utilisation(run.tau, run.torque_lower, run.torque_upper) <= 0.5 + BOUND_SLACK)
+    applied = np.isfinite(run.tau).all(axis=1)  # the last row, at t = T, applies no torque
+    assert applied[:-1].all()
+    assert np.all(torque_utilisation(run.tau[applied], run.torque_lower, run.torque_upper) <= 0.5 + BOUND_SLACK)
+    # Each recorded step's task error is the true shortfall ‖J q̈ + J̇q̇ − ẍ_ref‖ of its joint acceleration.
+    for k in np.flatnonzero(run.infeasible)[::25]:
+        terms = robot.terms(run.q[k], run.v[k])
+        command = line.anchored(run.x_ref[0]).sample(run.t[k : k + 1]).acceleration[0]
+        shortfall = np.linalg.norm(terms.jacobian @ run.acceleration[k] + terms.drift - command)
+        np.testing.assert_allclose(run.task_error[k], shortfall, rtol=1e-6)
 
 
 def test_simulation_stops_with_the_reason_under_the_stop_policy():

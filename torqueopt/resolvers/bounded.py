@@ -8,7 +8,7 @@ solution :math:`p = J^\dagger(\ddot x - \dot J\dot q)`, an orthonormal basis
 
     \ddot q = p + Z y, \qquad
     \tau = \tilde\tau + H Z y, \qquad
-    \tilde\tau = H p + \dot q\cdot C\cdot\dot q + g \quad\text{(Eqs. 27, 28)},
+    \tilde\tau = H p + \dot q\cdot C\cdot\dot q + g \quad\text{(Eqs. (27), (28))},
 
 so every :math:`y` realises the task and the bounds
 :math:`\tau^- \le \tau \le \tau^+` are :math:`2\,n_b` general inequalities
@@ -70,6 +70,7 @@ from ..errors import InvalidInput, MissingDependency, NoRedundancy, SolverFailur
 from ..linalg import JacobianSolver
 from ..robot import Robot, TaskTerms
 from .base import Resolution, Resolver, Step
+from .damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT
 from .null_space import torque_midpoint
 from .options import Option, OptionValueError, choice_or_vector, number
 
@@ -87,9 +88,6 @@ INFEASIBLE_POLICIES = ("scale", "least-error", "exceed", "stop")
 FEASIBILITY_TOLERANCE = 1e-9
 #: How far inside each torque range [fraction of τ⁺ − τ⁻] the bounds given to DAQP lie.
 BOUND_MARGIN = 10 * FEASIBILITY_TOLERANCE
-#: Defaults of the kinematic term (off by default: the paper's criterion under bounds).
-DEFAULT_KINEMATIC_WEIGHT = 0.0
-DEFAULT_DAMPING = 0.0
 #: ``torque_weight`` names: the identity, or the torque-range weight of Eq. (33).
 TORQUE_WEIGHTS = ("unit", "range")
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
@@ -403,22 +401,24 @@ class BoundedTorque(_BoundedResolver):
 
     .. math::
 
-        \min_y\ \|S(\tau - \tau_{mid})\|^2 + \mu^2\|y + K_D Z^\top\dot q\|^2
+        \min_y\ \|S(\tau - \tau_{mid})\|^2 + \bar\mu^2\|y + K_D Z^\top\dot q\|^2
         \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y,\quad \tau^- \le \tau \le \tau^+
 
-    with :math:`\tau_{mid} = (\tau^+ + \tau^-)/2` (Eq. 29), :math:`S = I`
-    (``torque_weight='unit'``: the criterion of ``null-space``, Eqs. 29-31),
+    with :math:`\tau_{mid} = (\tau^+ + \tau^-)/2` (Eq. (29)), :math:`S = I`
+    (``torque_weight='unit'``: the criterion of ``null-space``, Eqs. (29)-(31)),
     the torque-range weight :math:`S = \mathrm{diag}(1/(\tau^+_i - \tau^-_i))`
     of Eq. (33) (``'range'``: that of ``weighted-null-space``; zero for an
     unbounded joint), or :math:`S^2 = \mathrm{diag}(w)` for a user vector
-    :math:`w` (the diagonal of the weight matrix W of Eq. 32).
-    The kinematic term, weighted by ``kinematic_weight`` :math:`\mu`
-    [N·m·s² for ``unit``, s² for ``range``] with the self-motion damping
-    ``damping`` :math:`K_D` [1/s], is the one of ``damped-null-space``;
-    :math:`\mu = 0` (the default) leaves the paper's criterion. When the
-    bounds are inactive the answer is that of ``null-space`` /
-    ``weighted-null-space``. The Hessian :math:`(SHZ)^\top SHZ + \mu^2 I`
-    is positive definite whenever S has no zero entry or :math:`\mu > 0`.
+    :math:`w` (the diagonal of the weight matrix W of Eq. (32)).
+    The kinematic term is that of ``damped-null-space``, with the same
+    options and defaults: :math:`\bar\mu = \mu\|SHZ\|_F` with the
+    dimensionless ``kinematic_weight`` :math:`\mu` (default 0.5) and the
+    self-motion damping ``damping`` :math:`K_D` (default 10 1/s). With the
+    bounds inactive the answer is that of ``damped-null-space``, and with
+    :math:`\mu = 0` that of ``null-space`` / ``weighted-null-space``: the
+    paper's criterion under hard bounds. The Hessian
+    :math:`(SHZ)^\top SHZ + \bar\mu^2 I` is positive definite whenever S
+    has no zero entry or :math:`\mu > 0`.
     """
 
     name = "bounded-torque"
@@ -438,9 +438,12 @@ class BoundedTorque(_BoundedResolver):
         Option(
             name="kinematic_weight",
             kind="number >= 0",
-            unit="N·m·s² (unit weight), s² (range weight)",
+            unit="",
             default=DEFAULT_KINEMATIC_WEIGHT,
-            meaning="μ of the kinematic term μ²‖y + K_D Zᵀq̇‖² (0: the paper's torque criterion alone)",
+            meaning=(
+                "μ of the kinematic term μ̄²‖y + K_D Zᵀq̇‖², μ̄ = μ‖SHZ‖_F, as in damped-null-space "
+                "(0: the paper's torque criterion alone)"
+            ),
             convert=number(0.0),
         ),
         Option(
@@ -448,7 +451,7 @@ class BoundedTorque(_BoundedResolver):
             kind="number >= 0",
             unit="1/s",
             default=DEFAULT_DAMPING,
-            meaning="K_D of the kinematic term: the self-motion it favours is q̈ = −K_D ZZᵀq̇",
+            meaning="K_D of the kinematic term, as in damped-null-space: the self-motion velocity Zᵀq̇ is driven to 0",
             convert=number(0.0, unit="1/s"),
         ),
         INFEASIBLE_OPTION,
@@ -477,20 +480,22 @@ class BoundedTorque(_BoundedResolver):
         r = robot.redundancy
         nb = bounded.size
         root = self.weight_root(robot)[:, None]
-        mu2 = self.kinematic_weight**2
+        relative_weight2 = self.kinematic_weight**2
         damping = self.damping
         upper, lower, _ = _solver_bounds(robot, bounded)
         program = _Program(np.eye(r), np.zeros(r), np.zeros((nb, r)), np.ones(nb), -np.ones(nb))
-        regularisation = mu2 * np.eye(r)
+        identity = np.eye(r)
         inverse_spread = (1.0 / spread)[:, None]
 
         def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque):
             weighted_basis = root * inertia_basis
-            offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eq. (29)/(32)
+            offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eqs. (29), (32)
             hessian = weighted_basis.T.dot(weighted_basis)
             cost = weighted_basis.T.dot(offset).reshape(-1)
-            if mu2:
-                hessian = hessian + regularisation
+            if relative_weight2:
+                # μ̄² = μ²‖SHZ‖_F² = μ² trace((SHZ)ᵀSHZ), damped-null-space's normalisation.
+                mu2 = relative_weight2 * hessian.trace()
+                hessian = hessian + mu2 * identity
                 cost = cost + mu2 * damping * basis.T.dot(terms.joint_velocity)
             # DAQP's pivot and zero tolerances are absolute: scale the criterion to a unit Hessian
             # trace (the minimiser is the same), so that range weights on large limits stay well above them.
@@ -517,7 +522,7 @@ class MinMaxTorque(_BoundedResolver):
     .. math::
 
         \min_y\ \max_i \frac{|\tau_i - \tau_{mid,i}|}{\tau^+_i - \tau^-_i}
-        \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y \quad\text{(Eqs. 27, 28)}
+        \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y \quad\text{(Eqs. (27), (28))}
 
     as the LP :math:`\min_{y,t} t` with :math:`\pm(\tau_i - \tau_{mid,i}) \le t(\tau^+_i - \tau^-_i)`
     over the joints with finite limits (an unbounded joint has no range to
