@@ -131,7 +131,7 @@ def _sense(size):
 def daqp_fresh(problems):
     out = []
     for p in problems:
-        x, _, flag, _ = daqp.solve(p.hessian, p.cost, p.rows, p.upper, p.lower, _sense(p.n))
+        x = daqp.solve(p.hessian, p.cost, p.rows, p.upper, p.lower, _sense(p.n))[0]
         out.append(x)
     return out
 
