@@ -268,14 +268,14 @@ class _BoundedResolver(Resolver):
 
         def step(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
             command = task_acceleration
-            particular, basis, condition = decompose(terms.jacobian, command - terms.drift)
+            particular, basis, inverse_condition = decompose(terms.jacobian, command - terms.drift)
             inertia = terms.inertia
             inertia_basis = inertia.dot(basis)
             tilde_torque = inertia.dot(particular) + terms.bias_torque  # Eq. (28)
             found = optimum(terms, basis, inertia_basis, tilde_torque)
             if found is not None:
                 y, torque = found
-                return Resolution(torque, particular + basis.dot(y), condition, 0.0, False)  # Eq. (26)
+                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, False)  # Eq. (26)
             if policy == "stop":
                 raise TorqueBoundsInfeasible(
                     f"resolver '{name}' (infeasible='stop'): no torque within bounds realises the task "
@@ -286,7 +286,7 @@ class _BoundedResolver(Resolver):
                 z, _ = minmax(range_rows, tilde_torque)
                 y = range_basis.coordinates(range_rows.dot(z))
                 torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
-                return Resolution(torque, particular + basis.dot(y), condition, 0.0, True)
+                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, True)
             # τ = rest + H J⁺ a + U z realises the task acceleration a (J q̈ + J̇q̇ = a).
             pseudo_inverse = np.linalg.pinv(terms.jacobian)
             task_torque = inertia.dot(pseudo_inverse)  # H J⁺, n × m
@@ -316,7 +316,7 @@ class _BoundedResolver(Resolver):
                 found = y, shifted_tilde + inertia_basis.dot(y)
             y, torque = found
             error = float(np.linalg.norm(achieved - command))
-            return Resolution(torque, shifted_particular + basis.dot(y), condition, error, True)
+            return Resolution(torque, shifted_particular + basis.dot(y), inverse_condition, error, True)
 
         return step
 
