@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 import torqueopt
-
 from torqueopt.catalog import find_robot
 from torqueopt.cli import main
 

@@ -10,6 +10,7 @@ import torqueopt
 from torqueopt import Circle, InvalidInput, MinimumJerkLine, StraightLine, WaypointPath
 from torqueopt.cli import main
 
+
 def cross2(a, b):
     """z component of the cross product of planar vectors (rows)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

@@ -40,7 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from .checks import positive_number
+from .checks import configuration_vector, positive_number
 from .errors import InvalidInput
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
@@ -52,7 +52,6 @@ from .simulate import (
     DEFAULT_MAX_JOINT_SPEED,
     DEFAULT_MAX_STEPS,
     DEFAULT_MAX_TORQUE_RATIO,
-    _configuration,
     _speed_stop,
     _torque_stop,
     step_budget,
@@ -207,7 +206,7 @@ def simulate_batch(
     steps = step_budget(duration, dt)
     times = dt * np.arange(steps + 1)
 
-    q = np.array([_configuration(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
+    q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
     v = np.zeros((count, n))
     reference_position = np.empty((count, steps + 1, m))
     reference_acceleration = np.empty((count, steps + 1, m))

@@ -1,4 +1,12 @@
-"""Checks of values that enter the API, with messages that name the value and what would be valid."""
+"""Checks of values that enter torqueopt, with messages that name the value and what would be valid.
+
+The one set of validators: the Python API, the CLI and every module use
+these. Values from the API (:func:`positive_number`, :func:`finite_vector`,
+...) are named ``name=value``; text from the command line
+(:func:`parse_vector`, :func:`parse_positive`, :func:`parse_count`) is named
+by its option, ``--name: text``. Each rule (positive and finite, finite,
+whole) is written once and shared by both forms.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +17,13 @@ import numpy as np
 from .errors import InvalidInput
 
 __all__ = [
+    "configuration_vector",
+    "finite_values",
     "finite_vector",
+    "non_negative_number",
+    "parse_count",
+    "parse_positive",
+    "parse_vector",
     "positive_number",
     "bounded_count",
     "step_count",
@@ -21,6 +35,14 @@ __all__ = [
 
 #: Random configurations at which :func:`check_task_rank` looks for a full-rank task Jacobian.
 RANK_SAMPLES = 8
+
+
+def _positive_finite(number: float) -> bool:
+    return math.isfinite(number) and number > 0
+
+
+def _whole_count(number: float) -> bool:
+    return math.isfinite(number) and number >= 1 and number == int(number)
 
 
 def positive_number(value, name: str, unit: str | None = None, hint: str | None = None) -> float:
@@ -36,9 +58,32 @@ def positive_number(value, name: str, unit: str | None = None, hint: str | None 
         number = float(value)
     except (TypeError, ValueError):
         raise InvalidInput(f"{name}={show_number(value)} is not a number{suffix}") from None
-    if not (math.isfinite(number) and number > 0):
+    if not _positive_finite(number):
         raise InvalidInput(f"{name}={show_number(value)} must be a positive finite number{suffix}")
     return number
+
+
+def non_negative_number(value, name: str, unit: str | None = None) -> float:
+    """``value`` as a float, or InvalidInput unless it is a finite number >= 0 (a gain, a clearance)."""
+    suffix = f" [{unit}]" if unit else ""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}={show_number(value)} is not a number{suffix}") from None
+    if not (math.isfinite(number) and number >= 0):
+        raise InvalidInput(f"{name}={show_number(value)} must be a finite number >= 0{suffix}")
+    return number
+
+
+def finite_values(values, name: str) -> tuple[float, ...]:
+    """One or more finite numbers as a tuple of floats (any count), or InvalidInput naming ``name``."""
+    try:
+        array = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a list of numbers") from None
+    if not array.size or not np.isfinite(array).all():
+        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers")
+    return tuple(array.tolist())
 
 
 def finite_vector(values, size: int, name: str, names=None) -> np.ndarray:
@@ -53,6 +98,57 @@ def finite_vector(values, size: int, name: str, names=None) -> np.ndarray:
     if not np.isfinite(vector).all():
         raise InvalidInput(f"{name} {vector.tolist()} has a non-finite value; all {size} values must be finite")
     return vector
+
+
+def configuration_vector(robot, values, name: str = "q0") -> np.ndarray:
+    """A configuration vector of ``robot`` from either its nq configuration values or one angle per joint [rad]."""
+    try:
+        array = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a vector of numbers") from None
+    if robot.nq != robot.nv and array.size == robot.nq:
+        return finite_vector(array, robot.nq, name)
+    return robot.configuration(finite_vector(array, robot.nv, name, names=robot.joint_names))
+
+
+def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: bool = False) -> np.ndarray:
+    """The numbers of option ``--name``, comma-separated (``-0.785,2.356,-2.356``); rejects text, NaN,
+    wrong sizes and (unless ``allow_infinite``) inf."""
+    values = []
+    for part in (part.strip() for part in str(text).split(",")):
+        try:
+            value = float(part)
+        except ValueError:
+            raise InvalidInput(f"--{name}: '{part}' is not a number (give comma-separated numbers, e.g. 1,1)") from None
+        if math.isnan(value) or (math.isinf(value) and not allow_infinite):
+            raise InvalidInput(f"--{name}: '{part}' is not finite; give finite numbers")
+        values.append(value)
+    if size is not None and len(values) != size:
+        raise InvalidInput(f"--{name} has {count_values(len(values))} but needs {size}")
+    return np.array(values)
+
+
+def _parse_number(text: str, name: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
+
+
+def parse_positive(text: str, name: str) -> float:
+    """The positive finite number of option ``--name``."""
+    value = _parse_number(text, name)
+    if not _positive_finite(value):
+        raise InvalidInput(f"--{name}: {text} must be a positive finite number")
+    return value
+
+
+def parse_count(text: str, name: str) -> int:
+    """The positive whole number of option ``--name``, e.g. ``--max-steps 2000000`` (``2e6`` is accepted too)."""
+    value = _parse_number(text, name)
+    if not _whole_count(value):
+        raise InvalidInput(f"--{name}: {text} must be a positive whole number")
+    return int(value)
 
 
 def show_number(value) -> str:

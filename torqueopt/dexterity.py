@@ -64,8 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .checks import finite_vector
-from .errors import InvalidInput
+from .checks import configuration_vector
 from .robot import Robot
 
 __all__ = ["DEXTERITY_COLUMNS", "Dexterity", "Ellipsoid", "dexterity", "dexterity_along"]
@@ -152,7 +151,7 @@ def dexterity(robot: Robot, q) -> Dexterity:
             gravity and torque limits are used.
         q: a configuration vector (nq) or one angle per joint (n) [rad].
     """
-    jacobian, inertia, gravity = _terms_function(robot)(_configuration(robot, q))
+    jacobian, inertia, gravity = _terms_function(robot)(configuration_vector(robot, q, "q"))
     measures, singular_values, torque_range, khatib_range, yoshikawa = _measures(
         jacobian[None], inertia[None], gravity[None], robot.torque_upper, robot.torque_lower
     )
@@ -251,17 +250,6 @@ def _ellipsoid(mapping: np.ndarray) -> Ellipsoid:
     """The image of the unit ball under ``mapping`` (k×n): left singular vectors scaled by the singular values."""
     left, values, _ = np.linalg.svd(mapping, full_matrices=False)
     return Ellipsoid(radii=values, axes=left)
-
-
-def _configuration(robot: Robot, q) -> np.ndarray:
-    """A configuration vector from either nq configuration values or n joint angles [rad]."""
-    try:
-        values = np.asarray(q, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"q {q!r} is not a vector of numbers") from None
-    if robot.nq != robot.nv and values.size == robot.nq:
-        return finite_vector(values, robot.nq, "q")
-    return robot.configuration(finite_vector(values, robot.nv, "q", names=robot.joint_names))
 
 
 def summarise_along(t, measures: dict[str, np.ndarray]) -> list[str]:

@@ -63,13 +63,13 @@ _LARGEST_FLOAT = sys.float_info.max
 
 def joint_rates(robot: Robot, resolver, q, task_velocity) -> np.ndarray:
     """Joint rates q̇ [rad/s] that a velocity-level resolver gives for ``task_velocity`` (m values) at q."""
+    from .checks import configuration_vector
     from .resolvers import get_resolver
-    from .simulate import _configuration
 
     resolver = get_resolver(resolver)
     _require_velocity_level(resolver)
     resolver.check(robot)
-    q = _configuration(robot, q)
+    q = configuration_vector(robot, q)
     task_velocity = finite_vector(task_velocity, robot.m, f"task velocity for task '{robot.task}'")
     task = FrameTask.of_robot(robot, reference_rotation=robot.frame_placement(q).rotation)
     kinematics = Kinematics(robot).update(q)
@@ -107,7 +107,8 @@ def simulate_kinematic(
     method is undefined with the last row where it was.
     """
     from .dexterity import dexterity_along
-    from .simulate import DEFAULT_MAX_STEPS, _configuration, _row_bytes, _task_reference, step_budget
+    from .checks import configuration_vector
+    from .simulate import DEFAULT_MAX_STEPS, _row_bytes, _task_reference, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)
@@ -123,7 +124,7 @@ def simulate_kinematic(
     steps = step_budget(
         duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot)
     )
-    q = _configuration(robot, q0)
+    q = configuration_vector(robot, q0)
     if v0 is not None and np.any(robot.check_velocity(v0) != 0.0):
         raise InvalidInput(
             f"resolver '{resolver.name}' sets the joint velocity itself (q̇ = f(q, t)); v0 must be None or zero"

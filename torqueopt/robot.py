@@ -108,10 +108,7 @@ class Robot:
         locked_configuration: np.ndarray | None = None,
         default_configuration: np.ndarray | None = None,
     ):
-        if task not in TASK_DIMENSIONS:
-            raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
-        if not model.existFrame(frame):
-            raise FrameNotFound(f"robot '{name}' has no frame '{frame}': choose one of {_frame_hint(model)}")
+        _check_task_and_frame(model, frame, task, name)
         self.model = model
         self.name = name
         self.source = source
@@ -374,10 +371,7 @@ def load_robot(
 
     frame = frame or robot_source.frame or _single_leaf_frame(full_model, robot_source.urdf)
     task = task or robot_source.task or "position"
-    if task not in TASK_DIMENSIONS:
-        raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
-    if not full_model.existFrame(frame):
-        raise FrameNotFound(f"robot '{robot_source.name}' has no frame '{frame}': choose one of {_frame_hint(full_model)}")
+    _check_task_and_frame(full_model, frame, task, robot_source.name)
 
     chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
     if any(full_model.names[j] in mimic_joints for j in chain):
@@ -517,6 +511,14 @@ def _single_leaf_frame(model: pin.Model, urdf: Path) -> str:
     if len(leaves) == 1:
         return leaves[0]
     raise FrameNotFound(f"URDF '{urdf}' has several end links; name the task frame with --frame, one of {', '.join(leaves)}")
+
+
+def _check_task_and_frame(model: pin.Model, frame: str, task: str, robot_name: str) -> None:
+    """TaskNotFound or FrameNotFound, naming the valid choices, unless ``task`` is known and ``model`` has ``frame``."""
+    if task not in TASK_DIMENSIONS:
+        raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
+    if not model.existFrame(frame):
+        raise FrameNotFound(f"robot '{robot_name}' has no frame '{frame}': choose one of {_frame_hint(model)}")
 
 
 def _frame_hint(model: pin.Model) -> str:

@@ -24,7 +24,15 @@ from functools import partial
 
 import numpy as np
 
-from .checks import bounded_count, finite_vector, positive_number, show_number, step_count
+from .checks import (
+    bounded_count,
+    configuration_vector,
+    finite_vector,
+    non_negative_number,
+    positive_number,
+    show_number,
+    step_count,
+)
 from .dexterity import dexterity_along
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible
 from .integrators import rk4_step, rk4_stepper
@@ -53,9 +61,7 @@ class Feedback:
 
     def __post_init__(self):
         for name in ("kp", "kd"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidInput(f"feedback gain {name}={show_number(value)} must be a finite number >= 0")
+            object.__setattr__(self, name, non_negative_number(getattr(self, name), f"feedback gain {name}"))
 
 
 def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **options) -> Resolution:
@@ -69,7 +75,7 @@ def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **o
     """
     resolver = get_resolver(resolver, **options)
     resolver.check(robot)
-    q = _configuration(robot, q)
+    q = configuration_vector(robot, q)
     v = robot.check_velocity(v)
     task_acceleration = finite_vector(task_acceleration, robot.m, f"task acceleration for task '{robot.task}'")
     return resolver.resolve(robot, robot.terms(q, v), task_acceleration)
@@ -147,7 +153,7 @@ def simulate(
     if feedback is not None and not isinstance(feedback, Feedback):
         feedback = Feedback(*feedback)
 
-    q = _configuration(robot, q0)
+    q = configuration_vector(robot, q0)
     v = np.zeros(robot.nv) if v0 is None else robot.check_velocity(v0)
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
@@ -352,14 +358,3 @@ def _task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray):
         velocity=np.hstack([sample.velocity, pad]),
         acceleration=np.hstack([sample.acceleration, pad]),
     )
-
-
-def _configuration(robot: Robot, q) -> np.ndarray:
-    """A configuration vector from either nq configuration values or n joint angles."""
-    try:
-        values = np.asarray(q, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"q0 {q!r} is not a vector of numbers") from None
-    if robot.nq != robot.nv and values.size == robot.nq:
-        return finite_vector(values, robot.nq, "q0")
-    return robot.configuration(values)

@@ -1,56 +1,13 @@
-"""Options and parsing shared by the subcommands."""
+"""Options shared by the subcommands; the parsers of option text are those of :mod:`torqueopt.checks`."""
 
 from __future__ import annotations
 
 import argparse
-import math
 
-import numpy as np
-
-from ..checks import count_values
-from ..errors import InvalidInput
+from ..checks import parse_count, parse_positive, parse_vector
 from ..robot import TASK_DIMENSIONS, Robot, load_robot
 
 __all__ = ["add_robot_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
-
-
-def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: bool = False) -> np.ndarray:
-    """Comma-separated numbers, e.g. ``-0.785,2.356,-2.356``; rejects text, NaN, wrong sizes and (unless
-    ``allow_infinite``) inf."""
-    parts = [part.strip() for part in str(text).split(",")]
-    values = []
-    for part in parts:
-        try:
-            value = float(part)
-        except ValueError:
-            raise InvalidInput(f"--{name}: '{part}' is not a number (give comma-separated numbers, e.g. 1,1)") from None
-        if math.isnan(value) or (math.isinf(value) and not allow_infinite):
-            raise InvalidInput(f"--{name}: '{part}' is not finite; give finite numbers")
-        values.append(value)
-    if size is not None and len(values) != size:
-        raise InvalidInput(f"--{name} has {count_values(len(values))} but needs {size}")
-    return np.array(values)
-
-
-def parse_positive(text: str, name: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise InvalidInput(f"--{name}: {text} must be a positive finite number")
-    return value
-
-
-def parse_count(text: str, name: str) -> int:
-    """A positive whole number, e.g. ``--max-steps 2000000`` (``2e6`` is accepted too)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
-    if not (math.isfinite(value) and value >= 1 and value == int(value)):
-        raise InvalidInput(f"--{name}: {text} must be a positive whole number")
-    return int(value)
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:

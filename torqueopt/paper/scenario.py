@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import finite_values, positive_number
 from ..errors import InvalidInput
 from ..robot import Robot, load_robot
 from ..trajectory import StraightLine
@@ -26,18 +27,8 @@ __all__ = ["MOVEMENTS", "PAPER", "PAPER_RESOLVERS", "PaperScenario"]
 
 #: Movement names, shortest first.
 MOVEMENTS = ("short", "medium", "long")
-#: The four methods the paper compares (Eqs. (34)-(37)); other registered resolvers are studied apart.
+#: The four methods the paper compares (Eq. (34), Eq. (35), Eq. (36), Eq. (37)); other registered resolvers are studied apart.
 PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
-
-
-def _finite_tuple(values, name: str) -> tuple[float, ...]:
-    try:
-        array = np.asarray(values, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} {values!r} is not a list of numbers") from None
-    if not array.size or not np.isfinite(array).all():
-        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers")
-    return tuple(array.tolist())
 
 
 @dataclass(frozen=True)
@@ -63,23 +54,21 @@ class PaperScenario:
     robot: str = "planar3"
 
     def __post_init__(self):
-        object.__setattr__(self, "q0", _finite_tuple(self.q0, "q0"))
-        object.__setattr__(self, "direction", _finite_tuple(self.direction, "direction"))
-        durations = _finite_tuple(self.durations, "durations")
+        object.__setattr__(self, "q0", finite_values(self.q0, "q0"))
+        object.__setattr__(self, "direction", finite_values(self.direction, "direction"))
+        durations = finite_values(self.durations, "durations")
         if len(durations) != len(MOVEMENTS) or min(durations) <= 0:
             raise InvalidInput(
                 f"durations {list(durations)} must be {len(MOVEMENTS)} positive numbers of seconds "
                 f"({', '.join(MOVEMENTS)})"
             )
         object.__setattr__(self, "durations", durations)
-        limits = _finite_tuple(self.torque_limit, "torque_limit")
+        limits = finite_values(self.torque_limit, "torque_limit")
         if min(limits) <= 0:
             raise InvalidInput(f"torque_limit {list(limits)} must be positive numbers [N·m]")
         object.__setattr__(self, "torque_limit", limits)
         for name in ("accel", "dt"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise InvalidInput(f"{name}={value!r} must be a positive finite number")
+            object.__setattr__(self, name, positive_number(getattr(self, name), name))
         if self.dt > min(durations):
             raise InvalidInput(f"dt={self.dt} s is longer than the shortest movement, {min(durations)} s")
 

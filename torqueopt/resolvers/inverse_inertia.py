@@ -33,7 +33,6 @@ first is the inertia-weighted pseudoinverse (Eq. (35)) and the second is
 
 from __future__ import annotations
 
-
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver

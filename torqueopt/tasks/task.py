@@ -19,6 +19,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 import pinocchio as pin
 
+from ..checks import non_negative_number
 from ..errors import InvalidInput
 
 __all__ = ["Kinematics", "Task"]
@@ -112,10 +113,7 @@ class Task(ABC):
 
     def __init__(self, target=None, gain: float = 1.0):
         self.target = None if target is None else self._check_target(target)
-        gain = float(gain)
-        if not (np.isfinite(gain) and gain >= 0):
-            raise InvalidInput(f"task gain={gain!r} must be a finite number >= 0 [1/s]")
-        self.gain = gain
+        self.gain = non_negative_number(gain, "task gain", "1/s")
 
     def _check_target(self, target) -> np.ndarray:
         try:
