@@ -10,9 +10,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas
 import pinocchio as pin
 import pytest
+
+# The atlas is an extra (pip install torqueopt[atlas]): without it these tests skip, saying so.
+pandas = pytest.importorskip("pandas")
+pytest.importorskip("dask.distributed")
+pytest.importorskip("pyarrow")
+pytest.importorskip("tqdm")
 
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population, run_atlas

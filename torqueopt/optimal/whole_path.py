@@ -36,13 +36,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..checks import positive_number
+from ..checks import configuration_vector, positive_number
 from ..errors import InvalidInput
 from ..resolvers import Resolver, get_resolver
 from ..resolvers.null_space import torque_midpoint
 from ..result import SimResult
 from ..robot import Robot
-from ..simulate import _configuration, simulate
+from ..simulate import simulate
 from ..trajectory import check_trajectory, describe
 from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
@@ -287,7 +287,7 @@ def optimize(
     root = weight_root(robot, weight)
     weight_name = weight if isinstance(weight, str) else ("identity" if weight is None else "user")
     midpoint = torque_midpoint(robot)
-    q_start = _configuration(robot, q0)
+    q_start = configuration_vector(robot, q0)
     linear_dimension = min(robot.m, 3)
     if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
         raise InvalidInput(
