@@ -26,6 +26,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse
 import statistics
 import time
+from functools import partial
 
 import numpy as np
 
@@ -40,6 +41,10 @@ def cases():
     yield "panda", panda, torqueopt.StraightLine([1, 0, 0], accel=0.5, duration=0.5), panda.default_configuration
 
 
+def pointwise(robot, rows):
+    return [torqueopt.dexterity(robot, q) for q in rows]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
@@ -49,10 +54,10 @@ def main() -> None:
         result = torqueopt.simulate(robot, "pinv", line, q0)
         rows = len(result.t)
         work = {
-            "simulate": lambda: torqueopt.simulate(robot, "pinv", line, q0),
-            "simulate+dexterity": lambda: torqueopt.simulate(robot, "pinv", line, q0, dexterity=True),
-            "dexterity_along": lambda: dexterity_along(robot, result.q),
-            "pointwise": lambda: [torqueopt.dexterity(robot, q) for q in result.q],
+            "simulate": partial(torqueopt.simulate, robot, "pinv", line, q0),
+            "simulate+dexterity": partial(torqueopt.simulate, robot, "pinv", line, q0, dexterity=True),
+            "dexterity_along": partial(dexterity_along, robot, result.q),
+            "pointwise": partial(pointwise, robot, result.q),
         }
         for job in work.values():
             job()

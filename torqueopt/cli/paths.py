@@ -9,7 +9,7 @@ from ..errors import InvalidInput
 from ..trajectory import Circle, MinimumJerkLine, StraightLine, Trajectory, WaypointPath
 from .common import parse_positive, parse_vector
 
-__all__ = ["add_path_options", "trajectory_from_args", "PATHS"]
+__all__ = ["PATHS", "add_path_options", "trajectory_from_args"]
 
 PATHS = ("line", "min-jerk", "circle", "csv:FILE")
 DEFAULT_DURATION = 2.0

@@ -16,11 +16,11 @@ from .lines import MinimumJerkLine, StraightLine
 from .waypoints import WaypointPath
 
 __all__ = [
-    "Trajectory",
+    "Circle",
+    "MinimumJerkLine",
     "Reference",
     "StraightLine",
-    "MinimumJerkLine",
-    "Circle",
+    "Trajectory",
     "WaypointPath",
     "check_trajectory",
     "describe",

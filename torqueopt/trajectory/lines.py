@@ -29,7 +29,7 @@ from ..checks import positive_number
 from ..errors import InvalidInput
 from .base import Reference, Trajectory, minimum_jerk, point
 
-__all__ = ["StraightLine", "MinimumJerkLine"]
+__all__ = ["MinimumJerkLine", "StraightLine"]
 
 
 def _unit_direction(direction) -> np.ndarray:
