@@ -69,6 +69,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
             title=f"{name}: the arm during the {movement_text('long')}: {state}",
             snapshots=10,
             events=_events(result, verdict),
+            ellipse="velocity",
         ))
     written.append(plots.plot_tip_path(
         [runs["long", name] for name in PAPER_RESOLVERS], out / "tip_long.png",
