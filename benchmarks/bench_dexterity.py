@@ -49,7 +49,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
-    print(f"{'robot':<9}{'rows':>6}{'simulate':>11}{'sim+dext':>11}{'batched':>11}{'pointwise':>11}   [µs per row, median]")
+    print(
+        f"{'robot':<9}{'rows':>6}{'simulate':>11}{'sim+dext':>11}{'batched':>11}{'pointwise':>11}   [µs per row, median]"
+    )
     for name, robot, line, q0 in cases():
         result = torqueopt.simulate(robot, "pinv", line, q0)
         rows = len(result.t)

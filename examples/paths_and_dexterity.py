@@ -35,21 +35,33 @@ paths = {
 }
 
 start = torqueopt.dexterity(robot, q0)
-print(f"at q0: w = {start.manipulability:.4f}, dynamic w = {start.dynamic_manipulability:.4f} (m/s²)², "
-      f"acceleration ellipse radii {np.round(start.acceleration_ellipsoid.radii, 3)} m/s²")
-print(f"{'path':<15}{'resolver':<21}{'peak/limit':>11}  {'whiplash':<10}{'lowest w':>9}{'lowest dyn w':>13}"
-      f"{'|q(T)-q0|':>11}")
+print(
+    f"at q0: w = {start.manipulability:.4f}, dynamic w = {start.dynamic_manipulability:.4f} (m/s²)², "
+    f"acceleration ellipse radii {np.round(start.acceleration_ellipsoid.radii, 3)} m/s²"
+)
+print(
+    f"{'path':<15}{'resolver':<21}{'peak/limit':>11}  {'whiplash':<10}{'lowest w':>9}{'lowest dyn w':>13}"
+    f"{'|q(T)-q0|':>11}"
+)
 for path_name, path in paths.items():
     for resolver in ("pinv", "inertia-pinv", "null-space", "weighted-null-space"):  # the paper's four
         result = torqueopt.simulate(robot, resolver, path, q0, dexterity=True)
         verdict = detect_whiplash(result)
         drift = np.linalg.norm(result.joint_angles[-1] - result.joint_angles[0])
         status = "unstable" if verdict.unstable else "stable"
-        print(f"{path_name:<15}{resolver:<21}{result.peak_torque_ratio.max():11.2f}  {status:<10}"
-              f"{np.nanmin(result.dexterity['manipulability']):9.3f}"
-              f"{np.nanmin(result.dexterity['dynamic_manipulability']):13.3f}{drift:11.3f}")
+        print(
+            f"{path_name:<15}{resolver:<21}{result.peak_torque_ratio.max():11.2f}  {status:<10}"
+            f"{np.nanmin(result.dexterity['manipulability']):9.3f}"
+            f"{np.nanmin(result.dexterity['dynamic_manipulability']):13.3f}{drift:11.3f}"
+        )
         if args.out and resolver == "null-space":
             name = path_name.replace(" ", "-").replace("=", "")
-            figure = plots.plot_stick_strip(robot, result, args.out / f"{name}-null-space.png",
-                                            title=f"null-space, {path_name}", snapshots=8, ellipse="velocity")
+            figure = plots.plot_stick_strip(
+                robot,
+                result,
+                args.out / f"{name}-null-space.png",
+                title=f"null-space, {path_name}",
+                snapshots=8,
+                ellipse="velocity",
+            )
             print(f"{'':<15}wrote {figure}")

@@ -173,8 +173,9 @@ def test_joint_angles_or_configuration_vectors(planar3):
 
 
 def test_result_files_keep_the_measures(planar3, tmp_path):
-    result = torqueopt.simulate(planar3, "null-space", torqueopt.StraightLine([1, 1], duration=0.1), PAPER_Q0,
-                                dexterity=True)
+    result = torqueopt.simulate(
+        planar3, "null-space", torqueopt.StraightLine([1, 1], duration=0.1), PAPER_Q0, dexterity=True
+    )
     for name in ("run.npz", "run.csv"):
         loaded = torqueopt.load_result(result.to_csv(tmp_path / name))
         assert list(loaded.dexterity) == list(DEXTERITY_COLUMNS)
@@ -192,13 +193,25 @@ def test_result_files_keep_the_measures(planar3, tmp_path):
 def test_run_command_reports_and_records_the_measures_unless_told_not_to(tmp_path, capsys):
     from torqueopt.cli import main
 
-    base = ["run", "--robot", "planar3", "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--resolver", "pinv",
-            "--direction", "1,1", "--duration", "0.1"]
+    base = [
+        "run",
+        "--robot",
+        "planar3",
+        "--q0=-0.7853981634,2.3561944902,-2.3561944902",
+        "--resolver",
+        "pinv",
+        "--direction",
+        "1,1",
+        "--duration",
+        "0.1",
+    ]
     assert main([*base, "--out", str(tmp_path / "with.npz")]) == 0
     printed = capsys.readouterr().out
     assert "manipulability w, Eq. (6): 1.225 at the start, lowest " in printed
     assert "dynamic manipulability, Eq. (25): 5.743 at the start" in printed
-    assert torqueopt.load_result(tmp_path / "with.npz").dexterity["manipulability"][0] == pytest.approx(1.2247449, rel=1e-6)
+    assert torqueopt.load_result(tmp_path / "with.npz").dexterity["manipulability"][0] == pytest.approx(
+        1.2247449, rel=1e-6
+    )
     assert main([*base, "--no-dexterity", "--out", str(tmp_path / "without.npz")]) == 0
     assert "manipulability" not in capsys.readouterr().out
     assert torqueopt.load_result(tmp_path / "without.npz").dexterity is None

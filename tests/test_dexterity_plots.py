@@ -17,8 +17,9 @@ PNG = b"\x89PNG\r\n\x1a\n"
 
 @pytest.fixture(scope="module")
 def run(planar3):
-    return torqueopt.simulate(planar3, "pinv", torqueopt.StraightLine((1.0, 1.0), duration=0.3), PAPER_Q0,
-                              dexterity=True)
+    return torqueopt.simulate(
+        planar3, "pinv", torqueopt.StraightLine((1.0, 1.0), duration=0.3), PAPER_Q0, dexterity=True
+    )
 
 
 @pytest.fixture
@@ -37,8 +38,9 @@ def axes_drawn(monkeypatch):
 
 def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path, run, axes_drawn):
     plots.plot_run(run, tmp_path / "with.png")
-    plain = torqueopt.simulate(torqueopt.load_robot("planar3"), "pinv", torqueopt.StraightLine((1, 1), duration=0.3),
-                               PAPER_Q0)
+    plain = torqueopt.simulate(
+        torqueopt.load_robot("planar3"), "pinv", torqueopt.StraightLine((1, 1), duration=0.3), PAPER_Q0
+    )
     plots.plot_run(plain, tmp_path / "without.png")
     with_panel, without_panel = axes_drawn
     assert len(with_panel.axes) == len(without_panel.axes) + 1

@@ -133,7 +133,7 @@ def test_default_centre_of_a_horizontal_circle_is_towards_the_vertical_axis():
 def test_waypoint_path_passes_through_its_waypoints():
     times, points = WAYPOINTS_2D
     path = WaypointPath(times, points).anchored([1.0, 2.0])
-    np.testing.assert_allclose(path.sample(times).position, points + [1.0, 2.0], atol=1e-12)
+    np.testing.assert_allclose(path.sample(times).position, points + np.array([1.0, 2.0]), atol=1e-12)
     world = WaypointPath(*WAYPOINTS_3D, start=WAYPOINTS_3D[1][0])
     np.testing.assert_allclose(world.sample(WAYPOINTS_3D[0]).position, WAYPOINTS_3D[1], atol=1e-12)
     assert path.duration == 1.5 and path.dimension == 2
@@ -167,7 +167,10 @@ def test_waypoints_from_a_csv_file(tmp_path):
         ("t,x,y\n0,0,0\n1,1\n", "row 3: 2 values, the header has 3"),
         ("t,x,y\n0,0,0\n1,abc,0\n", "row 3: '1,abc,0' is not all numbers"),
         ("t,x,y\n0,0,0\n1,nan,0\n", "row 3: '1,nan,0' has a non-finite value"),
-        ("t,x,y\n0,0,0\n1,1,1\n1,2,2\n", "row 4: time 1 s is not after the previous row's 1 s; times must increase strictly"),
+        (
+            "t,x,y\n0,0,0\n1,1,1\n1,2,2\n",
+            "row 4: time 1 s is not after the previous row's 1 s; times must increase strictly",
+        ),
         ("t,x,y\n0.5,0,0\n1,1,1\n", "row 2: the first time is 0.5 s, not 0"),
         ("t,x,y\n0,0,0\n", "has 1 waypoint rows; give at least 2"),
     ],
@@ -198,11 +201,17 @@ def test_a_missing_waypoint_file_is_named(tmp_path):
         (lambda: Circle(0.1, 1, normal=[0, 0]), r"normal \[0.0, 0.0\] must be 3 finite numbers"),
         (lambda: Circle(0.1, 1, normal=[0, 0, 0]), "normal .* is zero"),
         (lambda: Circle(0.1, 1, centre_direction=[0, 0, 2]), "is zero or along the normal"),
-        (lambda: Circle(0.1, 1, normal=[0, 0, 1], centre_direction=[1, 0]), "has 2 values but the normal makes the circle 3-D"),
+        (
+            lambda: Circle(0.1, 1, normal=[0, 0, 1], centre_direction=[1, 0]),
+            "has 2 values but the normal makes the circle 3-D",
+        ),
         (lambda: Circle(0.1, 1, centre_direction=[1, 0], start=[0, 0, 0]), "has 3 values but the circle is 2-D"),
         (lambda: WaypointPath([0, 1], [[0, 0, 0, 0], [1, 1, 1, 1]]), r"waypoints have shape \(2, 4\)"),
         (lambda: WaypointPath([0, 1, 2], [[0, 0], [1, 1]]), "3 waypoint times but 2 waypoints"),
-        (lambda: WaypointPath([0, 2, 1], [[0, 0], [1, 1], [2, 2]]), "waypoint 3 time 1 s is not after the previous one, 2 s; times must increase strictly"),
+        (
+            lambda: WaypointPath([0, 2, 1], [[0, 0], [1, 1], [2, 2]]),
+            "waypoint 3 time 1 s is not after the previous one, 2 s; times must increase strictly",
+        ),
         (lambda: WaypointPath([1, 2], [[0, 0], [1, 1]]), "the first waypoint time is 1 s; times count from 0"),
         (lambda: Circle(0.1, 1).sample(0.5), "this Circle has no start point; use anchored"),
     ],
@@ -290,7 +299,10 @@ def test_cli_runs_each_path_and_records_it(tmp_path, capsys):
 
 def test_cli_min_jerk_line_defaults_to_the_lines_length(tmp_path):
     out = tmp_path / "run.npz"
-    assert main([*RUN, "--path", "min-jerk", "--direction", "1,1", "--duration", "0.1", "--accel", "2", "--out", str(out)]) == 0
+    assert (
+        main([*RUN, "--path", "min-jerk", "--direction", "1,1", "--duration", "0.1", "--accel", "2", "--out", str(out)])
+        == 0
+    )
     assert torqueopt.load_result(out).trajectory["length"] == pytest.approx(2 * 0.1**2 / 4)
 
 
@@ -301,14 +313,26 @@ def test_cli_min_jerk_line_defaults_to_the_lines_length(tmp_path):
         (["--path", "csv:"], "--path: 'csv:' is not a path"),
         (["--path", "line:x", "--direction", "1,1"], "--path: 'line:x' is not a path"),
         ([], "--path line needs --direction (e.g. --direction 1,1)"),
-        (["--path", "circle", "--direction", "1,1"], "--direction applies to --path line or min-jerk, not to --path circle"),
+        (
+            ["--path", "circle", "--direction", "1,1"],
+            "--direction applies to --path line or min-jerk, not to --path circle",
+        ),
         (["--direction", "1,1", "--radius", "0.1"], "--radius applies to --path circle, not to --path line"),
-        (["--path", "csv:w.csv", "--duration", "1"], "--duration applies to --path line or min-jerk or circle, not to --path csv"),
+        (
+            ["--path", "csv:w.csv", "--duration", "1"],
+            "--duration applies to --path line or min-jerk or circle, not to --path csv",
+        ),
         (["--path", "circle", "--radius", "-1"], "--radius: -1 must be a positive finite number"),
         (["--path", "circle", "--turns", "2.5"], "--turns: '2.5' is not a whole number"),
         (["--path", "circle", "--turns", "0"], "--turns: 0 must be a whole number >= 1"),
-        (["--path", "circle", "--normal", "0,0,1"], "trajectory Circle moves in 3 dimensions but task 'xy' moves the tip in 2"),
-        (["--path", "min-jerk", "--direction", "1,1", "--length", "1", "--accel", "1"], "--length and --accel both set"),
+        (
+            ["--path", "circle", "--normal", "0,0,1"],
+            "trajectory Circle moves in 3 dimensions but task 'xy' moves the tip in 2",
+        ),
+        (
+            ["--path", "min-jerk", "--direction", "1,1", "--length", "1", "--accel", "1"],
+            "--length and --accel both set",
+        ),
         (["--path", "csv:nowhere.csv"], "waypoint file 'nowhere.csv' does not exist"),
     ],
 )

@@ -269,5 +269,7 @@ def summarise_along(t, measures: dict[str, np.ndarray]) -> list[str]:
                 lines.append(f"{label}: none (a joint has no torque limit)")
             continue
         lowest = finite[np.argmin(values[finite])]
-        lines.append(f"{label}: {values[finite[0]]:.4g} at the start, lowest {values[lowest]:.4g} at t = {t[lowest]:.3f} s")
+        lines.append(
+            f"{label}: {values[finite[0]]:.4g} at the start, lowest {values[lowest]:.4g} at t = {t[lowest]:.3f} s"
+        )
     return lines

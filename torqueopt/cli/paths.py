@@ -69,8 +69,10 @@ def trajectory_from_args(args: argparse.Namespace) -> Trajectory:
     """The trajectory ``--path`` and its options describe; InvalidInput names a bad or misplaced option."""
     text = str(args.path)
     kind, colon, file_name = text.partition(":")
-    if kind not in ("line", "min-jerk", "circle", "csv") or (kind == "csv") != bool(file_name) or (
-        kind != "csv" and colon
+    if (
+        kind not in ("line", "min-jerk", "circle", "csv")
+        or (kind == "csv") != bool(file_name)
+        or (kind != "csv" and colon)
     ):
         raise InvalidInput(f"--path: '{text}' is not a path; choose one of {', '.join(PATHS)}")
     for option, kinds in _APPLIES.items():

@@ -117,7 +117,9 @@ class WaypointPath(Trajectory):
             raise InvalidInput(f"waypoint file '{path}' does not exist")
         try:
             with open(path, newline="") as handle:
-                rows = [(number, row) for number, row in enumerate(csv.reader(handle), 1) if any(c.strip() for c in row)]
+                rows = [
+                    (number, row) for number, row in enumerate(csv.reader(handle), 1) if any(c.strip() for c in row)
+                ]
         except (OSError, UnicodeDecodeError, csv.Error) as error:
             raise InvalidInput(f"waypoint file '{path}' cannot be read ({error})") from None
         if not rows:
@@ -137,7 +139,9 @@ class WaypointPath(Trajectory):
             try:
                 numbers = [float(cell) for cell in row]
             except ValueError:
-                raise InvalidInput(f"waypoint file '{path}' row {number}: {','.join(row)!r} is not all numbers") from None
+                raise InvalidInput(
+                    f"waypoint file '{path}' row {number}: {','.join(row)!r} is not all numbers"
+                ) from None
             if not all(math.isfinite(x) for x in numbers):
                 raise InvalidInput(f"waypoint file '{path}' row {number}: {','.join(row)!r} has a non-finite value")
             if values and not numbers[0] > values[-1][1][0]:
