@@ -56,12 +56,14 @@ def test_analytical_derivatives_match_finite_differences(name, rng, paper_arm):
     numeric_jacobian = central_difference(problem.constraints, w)
     np.testing.assert_allclose(jacobian, numeric_jacobian, rtol=1e-5, atol=1e-6 * np.abs(numeric_jacobian).max())
     # Gauss-Newton Hessian 2h Σ (S ∂τ)ᵀ(S ∂τ), with ∂τ by finite differences of the torques.
-    torque_rows = slice(problem.constraint_count - problem.intervals * robot.nv, None)
-    torque_jacobian = numeric_jacobian[torque_rows]
+    # The bounded torques come last, per interval at the start, midpoint and end; the cost uses the midpoint.
+    samples = len(problem.fractions)
+    torque_jacobian = numeric_jacobian[problem.constraint_count - problem.intervals * samples * robot.nv :]
     root = problem.root
     expected = np.zeros((problem.size, problem.size))
     for k in range(problem.intervals):
-        block = root.dot(torque_jacobian[k * robot.nv : (k + 1) * robot.nv])
+        first = (k * samples + problem.fractions.index(0.5)) * robot.nv
+        block = root.dot(torque_jacobian[first : first + robot.nv])
         expected += 2 * problem.h * block.T.dot(block)
     hessian = np.zeros((problem.size, problem.size))
     hessian[problem.hessian_rows, problem.hessian_cols] = problem.hessian_values(w, 1.0)
@@ -251,14 +253,16 @@ def test_solution_replays_on_the_path_and_beats_its_warm_start(paper_arm):
     assert result.tau.shape == (len(result.t), 3) and result.t[-1] == pytest.approx(2.0)
 
 
-def test_torque_bounds_hold_on_the_transcription_grid(paper_arm):
+def test_torque_bounds_hold(paper_arm):
     free = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range")
     bounded = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range", torque_bounds=True)
     assert free.optimal and bounded.optimal
     assert free.peak_torque_ratio.max() > 1.02  # the unbounded optimum exceeds joint 2's limit
     problem = bounded.solution["problem"]
-    torques = problem.evaluate(bounded.solution["w"]).torque
+    torques = problem.evaluate(bounded.solution["w"]).bound_torque
     assert np.all(np.abs(torques) <= np.array(PAPER.torque_limit) * (1 + 1e-6))
+    # Between the bounded samples, on the 1 ms grid, the torque stays within a hair of the limits.
+    assert bounded.peak_torque_ratio.max() <= 1.0 + 1e-4
     assert bounded.cost >= free.cost * (1 - 1e-6)
 
 
@@ -349,3 +353,36 @@ class _no_exit:
 
     def __exit__(self, *exc):
         return False
+
+
+# -- the local-against-global study --------------------------------------------------
+
+def test_local_global_study_on_short_movements(tmp_path):
+    import json
+
+    from torqueopt.studies.local_global import GLOBAL_VARIANTS, LOCAL, run_local_global, write_local_global
+
+    scenario = PAPER.replace(durations=(0.2, 0.3, 0.4))
+    study = run_local_global(scenario, grid_step=0.02)
+    assert study.all_optimal
+    for movement in ("short", "medium", "long"):
+        optimum = study.row(movement, "global")
+        for row in study.rows:
+            if row.movement == movement and row.kind == "local" and row.problem_free:
+                # 10-20 intervals per movement here: the grid's O(h²) error (~0.3 %) can exceed a gap as
+                # small as null-space's on a 0.2 s movement; test_global_cost_is_never_above... holds it exactly.
+                assert optimum.cost <= row.cost * (1 + 1e-2), (movement, row.method)
+        assert study.row(movement, "global, bounded").peak_ratio <= 1 + 1e-3
+    assert {row.method for row in study.rows} >= set(LOCAL) | {label for label, _, _ in GLOBAL_VARIANTS}
+    paths = write_local_global(study, tmp_path)
+    assert {path.name for path in paths} == {"global.md", "global.json", "global_torques_long.png", "global_arm_long.png"}
+    summary = json.loads((tmp_path / "global.json").read_text())
+    assert len(summary["rows"]) == len(study.rows) and summary["answer"] == study.answer()
+    assert f"{study.row('long', 'global').cost:.1f}" in study.answer()
+
+
+def test_cli_paper_study_needs_a_folder(capsys):
+    from torqueopt.cli import main
+
+    assert main(["optimize", "--paper"]) == 2
+    assert "--paper needs --out DIR" in capsys.readouterr().err

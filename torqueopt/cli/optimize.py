@@ -28,12 +28,13 @@ def add_parser(subparsers) -> None:
             "the integral of |S(tau - tau_mid)|^2 over the whole movement, starting at rest at q0 "
             "(direct transcription, Pinocchio's analytical derivatives, IPOPT from casadi). The torques are "
             "replayed open loop through the simulation's RK4 and the cost is evaluated on the simulation "
-            "grid. Exit 0 when IPOPT converged, 3 when it "
+            "grid. With --paper, run the local-against-global study on the paper's arm instead and write "
+            "global.md, global.json and figures into --out DIR. Exit 0 when IPOPT converged, 3 when it "
             "stopped short (iteration or time limit, infeasible, failed): the last iterate is still "
             "written and labelled as such."
         ),
     )
-    add_robot_options(parser)
+    add_robot_options(parser, required=False)  # --paper needs none
     group = parser.add_argument_group("movement")
     group.add_argument(
         "--q0",
@@ -74,7 +75,17 @@ def add_parser(subparsers) -> None:
     group.add_argument("--max-iterations", default="500", metavar="N", help="IPOPT iteration limit (default 500)")
     group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
     group.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
-    group.add_argument("--out", metavar="PATH", help="write the run: .csv (with .csv.json and .csv.optimal.json) or .npz")
+    group.add_argument(
+        "--out",
+        metavar="PATH",
+        help="write the run: .csv (with .csv.json and .csv.optimal.json) or .npz; with --paper, the study's folder",
+    )
+    group.add_argument(
+        "--paper",
+        action="store_true",
+        help="run the local-against-global study on the paper's arm and movements instead; needs --out DIR "
+        "(writes global.md, global.json and figures)",
+    )
     parser.set_defaults(handler=optimize_command)
 
 
@@ -89,6 +100,10 @@ def _whole_number(text: str, name: str) -> int:
 
 
 def optimize_command(args: argparse.Namespace) -> int:
+    if args.paper:
+        return _paper_study(args)
+    if args.robot is None:
+        raise InvalidInput("give --robot (or --paper --out DIR for the local-against-global study)")
     trajectory = trajectory_from_args(args)
     dt = parse_positive(args.dt, "dt")
     grid_step = parse_positive(args.grid_step, "grid-step")
@@ -131,6 +146,20 @@ def optimize_command(args: argparse.Namespace) -> int:
     for line in lines:
         print(line)
     return EXIT_OK if result.optimal else EXIT_STOPPED
+
+
+def _paper_study(args: argparse.Namespace) -> int:
+    from ..studies.local_global import run_local_global, write_local_global
+
+    if not args.out:
+        raise InvalidInput("--paper needs --out DIR, the folder for global.md, global.json and the figures")
+    out = writable_path(args.out, directory=True)
+    if out.exists() and not out.is_dir():
+        raise InvalidInput(f"--out '{out}' exists and is not a folder")
+    study = run_local_global(progress=True)
+    for path in write_local_global(study, out):
+        print(f"wrote {path}")
+    return EXIT_OK if study.all_optimal else EXIT_STOPPED
 
 
 def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:

@@ -41,7 +41,10 @@ Cost (midpoint rule, second order in h)
 Options
     start at rest at :math:`q_0` (bounds :math:`q_0 = q^0, v_0 = 0`); end at
     rest (:math:`v_N = 0`) or free; hard torque bounds
-    :math:`\tau^- \le \tau_k \le \tau^+` as nonlinear inequalities; joint
+    :math:`\tau^- \le \tau \le \tau^+` as nonlinear inequalities on the
+    inverse dynamics at the start, the midpoint and the end of every
+    interval (:data:`BOUND_FRACTIONS`; bounding the midpoint alone let the
+    torque between midpoints pass a limit by 0.1 % on the 1 ms grid); joint
     position and velocity limits of the URDF as bounds on every
     :math:`q_k, v_k`.
 
@@ -69,7 +72,10 @@ import pinocchio as pin
 from ..errors import InvalidInput
 from ..robot import Robot
 
-__all__ = ["Evaluation", "Transcription"]
+__all__ = ["BOUND_FRACTIONS", "Evaluation", "Transcription"]
+
+#: Where in each interval, as a fraction of h, the torque bounds are imposed.
+BOUND_FRACTIONS = (0.0, 0.5, 1.0)
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -81,12 +87,16 @@ class Evaluation:
     Attributes:
         torque: τ_k (N×n) [N·m]. torque_jacobian: ∂τ_k/∂(q_k, v_k, a_k) (N×n×3n).
         task: p(q_k) for k = 1..N (N×m) [m]. task_jacobian: ∂p/∂q_k (N×m×n).
+        bound_torque, bound_jacobian: the torque and its Jacobian at each of
+            :data:`BOUND_FRACTIONS` of every interval (N×F×n, N×F×n×3n); empty without bounds.
     """
 
     torque: np.ndarray
     torque_jacobian: np.ndarray
     task: np.ndarray
     task_jacobian: np.ndarray
+    bound_torque: np.ndarray
+    bound_jacobian: np.ndarray
 
 
 class Transcription:
@@ -139,6 +149,7 @@ class Transcription:
         if self.torque_bounds and not bounded.any():
             raise InvalidInput(f"robot '{robot.name}' has no finite torque limit to bound the torques by; give torque limits")
         self.bounded_joints = np.flatnonzero(bounded) if self.torque_bounds else np.zeros(0, int)
+        self.fractions = BOUND_FRACTIONS if self.torque_bounds else ()
         n, N = self.n, self.intervals
         self.size = 3 * n * N + 2 * n
         self._last_w = None
@@ -172,7 +183,7 @@ class Transcription:
 
     @property
     def constraint_count(self) -> int:
-        return 2 * self.n * self.intervals + self.m * self.intervals + len(self.bounded_joints) * self.intervals
+        return (2 * self.n + self.m + len(self.bounded_joints) * len(self.fractions)) * self.intervals
 
     # -- bounds ----------------------------------------------------------------
     def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -200,8 +211,9 @@ class Transcription:
         if self.torque_bounds:
             start = (2 * self.n + self.m) * self.intervals
             joints = self.bounded_joints
-            lower[start:] = np.tile(self.robot.torque_lower[joints], self.intervals)
-            upper[start:] = np.tile(self.robot.torque_upper[joints], self.intervals)
+            repeats = self.intervals * len(self.fractions)
+            lower[start:] = np.tile(self.robot.torque_lower[joints], repeats)
+            upper[start:] = np.tile(self.robot.torque_upper[joints], repeats)
         return lower, upper
 
     # -- model evaluation ----------------------------------------------------------
@@ -214,15 +226,16 @@ class Transcription:
         q, v, a = self.split(w)
         torque = np.empty((N, n))
         torque_jacobian = np.empty((N, n, 3 * n))
+        fractions = self.fractions
+        bound_torque = np.empty((N, len(fractions), n))
+        bound_jacobian = np.empty((N, len(fractions), n, 3 * n))
         for k in range(N):
-            q_mid = q[k] + 0.5 * h * v[k] + 0.125 * h * h * a[k]
-            v_mid = v[k] + 0.5 * h * a[k]
-            d_q, d_v, inertia = pin.computeRNEADerivatives(model, data, q_mid, v_mid, a[k])
-            torque[k] = data.tau
-            # Chain rule through the midpoint map (q_k, v_k, a_k) -> (q_mid, v_mid, a_k).
-            torque_jacobian[k, :, :n] = d_q
-            torque_jacobian[k, :, n : 2 * n] = 0.5 * h * d_q + d_v
-            torque_jacobian[k, :, 2 * n :] = 0.125 * h * h * d_q + 0.5 * h * d_v + inertia
+            self._inverse_dynamics(q[k], v[k], a[k], 0.5 * h, torque[k], torque_jacobian[k])
+            for index, fraction in enumerate(fractions):
+                if fraction == 0.5:
+                    bound_torque[k, index], bound_jacobian[k, index] = torque[k], torque_jacobian[k]
+                else:
+                    self._inverse_dynamics(q[k], v[k], a[k], fraction * h, bound_torque[k, index], bound_jacobian[k, index])
         task = np.empty((N, self.m))
         task_jacobian = np.empty((N, self.m, n))
         frame, rows = self.robot.frame_id, self.robot.task_rows
@@ -230,8 +243,21 @@ class Transcription:
             pin.computeJointJacobians(model, data, q[k])
             task[k - 1] = pin.updateFramePlacement(model, data, frame).translation[rows]
             task_jacobian[k - 1] = pin.getFrameJacobian(model, data, frame, _LWA)[rows]
-        self._last_w, self._last = w.copy(), Evaluation(torque, torque_jacobian, task, task_jacobian)
+        self._last_w, self._last = w.copy(), Evaluation(torque, torque_jacobian, task, task_jacobian, bound_torque, bound_jacobian)
         return self._last
+
+    def _inverse_dynamics(self, q, v, a, s: float, torque_out: np.ndarray, jacobian_out: np.ndarray) -> None:
+        r"""RNEA at time s [s] into an interval, :math:`(q + s v + \tfrac{s^2}{2} a,\ v + s a,\ a)`, and its Jacobian.
+
+        The Jacobian is Pinocchio's :math:`(\partial\tau/\partial q, \partial\tau/\partial v, M)`
+        chained through that map to the interval's (q_k, v_k, a_k).
+        """
+        n = self.n
+        d_q, d_v, inertia = pin.computeRNEADerivatives(self.model, self.data, q + s * v + 0.5 * s * s * a, v + s * a, a)
+        torque_out[...] = self.data.tau
+        jacobian_out[:, :n] = d_q
+        jacobian_out[:, n : 2 * n] = s * d_q + d_v
+        jacobian_out[:, 2 * n :] = 0.5 * s * s * d_q + s * d_v + inertia
 
     # -- the NLP's functions -----------------------------------------------------
     def objective(self, w) -> float:
@@ -249,7 +275,8 @@ class Transcription:
         return gradient
 
     def constraints(self, w) -> np.ndarray:
-        """g(w): integration defects (2n per interval), task errors (m per node k ≥ 1), then torques (bounded joints)."""
+        """g(w): integration defects (2n per interval), task errors (m per node k ≥ 1), then the torques of the
+        bounded joints at each of :data:`BOUND_FRACTIONS` of every interval."""
         evaluation = self.evaluate(w)
         q, v, a = self.split(w)
         h = self.h
@@ -259,7 +286,7 @@ class Transcription:
         task = (evaluation.task - self.reference[1:]).reshape(-1)
         parts = [integration, task]
         if self.torque_bounds:
-            parts.append(evaluation.torque[:, self.bounded_joints].reshape(-1))
+            parts.append(evaluation.bound_torque[:, :, self.bounded_joints].reshape(-1))
         return np.concatenate(parts)
 
     def jacobian_values(self, w) -> np.ndarray:
@@ -267,7 +294,7 @@ class Transcription:
         evaluation = self.evaluate(w)
         parts = [self._integration_values, evaluation.task_jacobian.reshape(-1)]
         if self.torque_bounds:
-            parts.append(evaluation.torque_jacobian[:, self.bounded_joints, :].reshape(-1))
+            parts.append(evaluation.bound_jacobian[:, :, self.bounded_joints, :].reshape(-1))
         return np.concatenate(parts)
 
     def jacobian(self, w) -> np.ndarray:
@@ -315,7 +342,7 @@ class Transcription:
             cols.append(np.tile(self.q_index(k), m))
         if self.torque_bounds:
             torque_start = task_start + m * N
-            b = len(self.bounded_joints)
+            b = len(self.bounded_joints) * len(self.fractions)
             for k in range(N):
                 block_rows = torque_start + b * k + np.arange(b)
                 rows.append(np.repeat(block_rows, 3 * n))
