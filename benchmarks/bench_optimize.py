@@ -1,0 +1,117 @@
+"""Wall time of the whole-path torque optimisation (torqueopt.optimize), and of the solvers it was chosen over.
+
+Cases (interleaved round by round, so a noisy neighbour hits every case alike):
+
+* planar3, the paper's long movement (2 s), grids of 10 and 5 ms, Gauss-Newton and L-BFGS Hessians,
+  with and without torque bounds;
+* panda, a 0.5 s straight line along +y from its default configuration (position task, gravity on),
+  10 ms grid, with the URDF's joint limits (and once without, to show why they are needed);
+* the same transcription of the short planar movement solved by scipy's SLSQP and trust-constr
+  (--scipy), the alternatives to IPOPT.
+
+Run on one core: taskset -c 0 python benchmarks/bench_optimize.py [--rounds 3] [--scipy]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+import torqueopt
+from torqueopt.optimal import Transcription, optimize, weight_root
+from torqueopt.paper import PAPER
+from torqueopt.resolvers.null_space import torque_midpoint
+
+
+def planar_case(grid_step, hessian, bounds):
+    robot = PAPER.load_robot()
+
+    def run():
+        return optimize(robot, PAPER.line("long"), PAPER.q0, grid_step=grid_step, hessian=hessian, torque_bounds=bounds)
+
+    return f"planar3 long, {grid_step * 1e3:g} ms, {hessian}{', bounds' if bounds else ''}", run
+
+
+def panda_case(hessian, limits):
+    robot = torqueopt.load_robot("panda", task="position")
+    line = torqueopt.StraightLine([0.0, 1.0, 0.0], duration=0.5)
+
+    def run():
+        return optimize(robot, line, robot.default_configuration, hessian=hessian, joint_limits=limits)
+
+    return f"panda 0.5 s, 10 ms, {hessian}{', joint limits' if limits else ', no joint limits'}", run
+
+
+def scipy_case(method):
+    from scipy.optimize import NonlinearConstraint, minimize
+
+    robot = PAPER.load_robot()
+    q0 = robot.configuration(PAPER.q0)
+    line = PAPER.line("short").anchored(robot.task_position(q0))
+    intervals = 50
+    nodes = np.linspace(0.0, line.duration, intervals + 1)
+    problem = Transcription(
+        robot, line.duration, intervals, line.sample(nodes).position, q0, weight_root(robot), torque_midpoint(robot)
+    )
+    run_pinv = torqueopt.simulate(robot, "pinv", line, q0)
+
+    def run():
+        from torqueopt.optimal.whole_path import _warm_start
+
+        w0 = _warm_start(problem, run_pinv)
+        lower, upper = problem.variable_bounds()
+        constraint = NonlinearConstraint(problem.constraints, 0.0, 0.0, jac=problem.jacobian)
+        began = time.perf_counter()
+        answer = minimize(
+            problem.objective, w0, jac=problem.gradient, method=method, constraints=[constraint],
+            bounds=list(zip(lower, upper)), options={"maxiter": 500},
+        )
+        return answer, problem.objective(answer.x), time.perf_counter() - began
+
+    return f"planar3 short, 10 ms, scipy {method}", run
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--scipy", action="store_true", help="also time scipy's SLSQP and trust-constr (slow)")
+    args = parser.parse_args()
+    cases = [
+        planar_case(0.01, "gauss-newton", False),
+        planar_case(0.01, "limited-memory", False),
+        planar_case(0.005, "gauss-newton", False),
+        planar_case(0.005, "limited-memory", False),
+        planar_case(0.01, "gauss-newton", True),
+        panda_case("gauss-newton", True),
+        panda_case("limited-memory", True),
+        panda_case("gauss-newton", False),
+    ]
+    times = {name: [] for name, _ in cases}
+    outcomes = {}
+    for _ in range(args.rounds):
+        for name, run in cases:
+            began = time.perf_counter()
+            result = run()
+            times[name].append(time.perf_counter() - began)
+            outcomes[name] = result
+    print(f"{'case':<52}{'median [s]':>11}{'min [s]':>9}{'status':>17}{'iters':>7}{'cost':>12}")
+    for name, _ in cases:
+        result = outcomes[name]
+        print(
+            f"{name:<52}{statistics.median(times[name]):11.2f}{min(times[name]):9.2f}{result.status:>17}"
+            f"{result.iterations:7d}{result.cost:12.4f}"
+        )
+    if args.scipy:
+        optimum = optimize(PAPER.load_robot(), PAPER.line("short"), PAPER.q0, grid_step=0.01)
+        print(f"\nIPOPT on the same short-movement transcription: {optimum.solve_seconds:.2f} s, grid cost {optimum.grid_cost:.4f}")
+        for method in ("SLSQP", "trust-constr"):
+            name, run = scipy_case(method)
+            answer, cost, seconds = run()
+            print(f"{name:<52}{seconds:11.2f}  success={answer.success} ({answer.message}) cost {cost:.4f}")
+
+
+if __name__ == "__main__":
+    main()
