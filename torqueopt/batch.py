@@ -46,7 +46,7 @@ from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
 from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
 from .resolvers.pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
-from .result import SimResult
+from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .simulate import (
     DEFAULT_MAX_JOINT_SPEED,
@@ -319,6 +319,7 @@ def simulate_batch(
 
     results = []
     joint_names = list(robot.joint_names)
+    limits = joint_limits_record(*robot.joint_limits)
     options = resolver.settings_for_file()
     for i in range(count):
         length = int(recorded[i])
@@ -346,6 +347,7 @@ def simulate_batch(
                 stop_reason=stop_reason[i],
                 stop_time=stop_time[i],
                 trajectory=descriptions[i],
+                joint_limits=limits,
                 task_error=np.zeros(length),
                 infeasible=np.zeros(length, dtype=bool),
                 resolver_options=options,

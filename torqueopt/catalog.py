@@ -40,6 +40,7 @@ class RobotSource:
     locked_joints: tuple[str, ...] = ()
     gravity: bool = True
     vetted: bool = False
+    start: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,8 @@ class _KnownArm:
     srdf_configuration: str | None = None
     task: str = "position"
     locked_joints: tuple[str, ...] = field(default=())
+    #: Joint angles [rad] set on top of the SRDF (or neutral) configuration for the default start.
+    start: tuple[tuple[str, float], ...] = ()
 
 
 # Defaults for the example-robot-data arms with seven joints in a chain (and
@@ -70,17 +73,36 @@ _KNOWN_ARMS = {
         frame="right_gripper",
         srdf="baxter_description/srdf/baxter_manipulation.srdf",
         srdf_configuration="neutral",
+        # The SRDF's all-zero "neutral" pose is stretched (σmin/σmax of the
+        # position Jacobian 0.029) and needs 1.13 times joint s1's limit to hold
+        # against gravity. Shoulder, elbow and wrist bent (chosen on a 9³ grid of
+        # s1, e1, w1 for the largest σmin/σmax with gravity at most half of
+        # every limit, 0.2 rad from the joint limits, and the README's 1 s line
+        # along z completing within all limits): σmin/σmax 0.52, gravity 0.23
+        # of the limits; the same for both arms.
+        start=tuple(
+            (f"{side}_{joint}", angle)
+            for side in ("left", "right")
+            for joint, angle in (("s1", 0.85), ("e1", 1.28), ("w1", 1.49))
+        ),
     ),
     "tiago": _KnownArm(
         "tiago_description/robots/tiago.urdf",
         frame="arm_tool_link",
         locked_joints=("torso_lift_joint",),
+        # All-zero is stretched (σmin/σmax 0.022) and sits on arm_1's lower
+        # limit; chosen as baxter's (grid of arm_1, arm_2, arm_4): σmin/σmax
+        # 0.175, gravity 0.47 of the limits, a 1 s line along z within all limits.
+        start=(("arm_1_joint", 0.57), ("arm_2_joint", -0.5), ("arm_4_joint", 0.98)),
     ),
     "kinova": _KnownArm(
         "kinova_description/robots/kinova.urdf",
         frame="j2s6s200_end_effector",
         srdf="kinova_description/srdf/kinova.srdf",
         srdf_configuration="arm_up",
+        # The SRDF has joint 3 at -1.5707, outside the URDF's [0.33, 5.95]; the
+        # same pose one turn on is inside.
+        start=(("j2s6s200_joint_3", -1.5707 + 2 * 3.141592653589793),),
     ),
 }
 
@@ -182,6 +204,7 @@ def find_robot(source: str | Path) -> RobotSource:
             task=arm.task,
             locked_joints=arm.locked_joints,
             vetted=True,
+            start=arm.start,
         )
 
     names = available_robots()

@@ -61,6 +61,11 @@ class SimResult:
         dexterity: per-row dexterity measures keyed by name (each (N,)), as
             :func:`torqueopt.dexterity.dexterity_along` gives them; None
             unless asked for (``simulate(..., dexterity=True)``).
+        joint_limits: the URDF's joint position and velocity limits, as
+            :func:`joint_limits_record` keeps them (``position_lower``,
+            ``position_upper``, ``velocity``: one value per joint, None where
+            unbounded); None when unknown. :attr:`first_position_violation` and
+            :attr:`first_velocity_violation` say when a run first left them.
     """
 
     robot: str
@@ -88,12 +93,61 @@ class SimResult:
     infeasible: np.ndarray | None = None
     resolver_options: dict | None = None
     dexterity: dict[str, np.ndarray] | None = None
+    joint_limits: dict | None = None
 
     def __post_init__(self):
         # Runs written before these columns existed, and results built by hand, realised their task.
         rows = len(self.t)
         self.task_error = np.zeros(rows) if self.task_error is None else np.asarray(self.task_error, dtype=float)
         self.infeasible = np.zeros(rows, dtype=bool) if self.infeasible is None else np.asarray(self.infeasible, dtype=bool)
+
+    # -- joint position and velocity limits --------------------------------------
+    def _joint_limit(self, key: str, fill: float) -> np.ndarray:
+        values = (self.joint_limits or {}).get(key)
+        if values is None:
+            return np.full(self.n, fill)
+        return np.array([fill if value is None else value for value in values], dtype=float)
+
+    @property
+    def position_lower(self) -> np.ndarray:
+        """Per joint, the URDF's lower position limit [rad or m]; -inf where there is none."""
+        return self._joint_limit("position_lower", -np.inf)
+
+    @property
+    def position_upper(self) -> np.ndarray:
+        """Per joint, the URDF's upper position limit [rad or m]; inf where there is none."""
+        return self._joint_limit("position_upper", np.inf)
+
+    @property
+    def velocity_limit(self) -> np.ndarray:
+        """Per joint, the URDF's velocity limit [rad/s or m/s]; inf where there is none."""
+        return self._joint_limit("velocity", np.inf)
+
+    def _first_outside(self, values: np.ndarray, lower: np.ndarray, upper: np.ndarray):
+        """(time, joint, value, the limit it crossed) of the first row where a value leaves [lower, upper], or None."""
+        if not len(self.t):
+            return None
+        # A relative 1e-9 of slack: a joint that starts exactly at its limit has not left it.
+        slack = 1e-9 * np.maximum(1.0, np.abs(np.where(np.isfinite(upper), upper, 0.0)))
+        outside = (values < lower - slack) | (values > upper + slack)
+        rows = outside.any(axis=1)
+        if not rows.any():
+            return None
+        row = int(np.argmax(rows))
+        joint = int(np.argmax(outside[row]))
+        value = float(values[row, joint])
+        limit = float(lower[joint] if value < lower[joint] else upper[joint])
+        return float(self.t[row]), self.joint_names[joint], value, limit
+
+    @property
+    def first_position_violation(self):
+        """(time [s], joint, angle, limit) when a joint first leaves its URDF position limits, or None."""
+        return self._first_outside(self.joint_angles, self.position_lower, self.position_upper)
+
+    @property
+    def first_velocity_violation(self):
+        """(time [s], joint, velocity, ±limit) when a joint first exceeds its URDF velocity limit, or None."""
+        return self._first_outside(self.v, -self.velocity_limit, self.velocity_limit)
 
     # -- summary ---------------------------------------------------------------
     @property
@@ -195,6 +249,8 @@ class SimResult:
             "max_task_error": self.max_task_error,
             "infeasible_steps": self.infeasible_steps,
             "resolver_options": self.resolver_options,
+            "first_position_violation": _violation_json(self.first_position_violation),
+            "first_velocity_violation": _violation_json(self.first_velocity_violation),
         }
 
     # -- files -----------------------------------------------------------------
@@ -376,6 +432,22 @@ def _column_peak(values: np.ndarray, n: int) -> np.ndarray:
     if not len(values):
         return np.zeros(n)
     return np.where(np.isnan(values), -np.inf, values).max(axis=0).clip(min=0.0)
+
+
+def _violation_json(violation) -> dict | None:
+    if violation is None:
+        return None
+    time, joint, value, limit = violation
+    return {"time": time, "joint": joint, "value": value, "limit": limit}
+
+
+def joint_limits_record(lower, upper, velocity) -> dict:
+    """Joint limits as a :class:`SimResult` records them: JSON-ready lists, None where unbounded."""
+    return {
+        "position_lower": [_json_number(x) for x in lower],
+        "position_upper": [_json_number(x) for x in upper],
+        "velocity": [_json_number(x) for x in velocity],
+    }
 
 
 def _json_number(value: float) -> float | None:

@@ -226,6 +226,27 @@ class Robot:
         """Joints whose torque is unbounded (no usable limit in the URDF, or set so)."""
         return [name for name, hi in zip(self.joint_names, self.torque_upper) if not np.isfinite(hi)]
 
+    @property
+    def joint_limits(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per joint, the URDF's (lower, upper) position limits [rad or m] and velocity limit [rad/s or m/s].
+
+        ``±inf`` where there is none: continuous joints have no position
+        limits, and a velocity limit of 0 (URDF's unspecified, or ``inf``) or
+        beyond 1e300 (Pinocchio's "unset") means unbounded.
+        """
+        model = self.model
+        lower, upper = np.full(self.nv, -np.inf), np.full(self.nv, np.inf)
+        velocity = np.array(model.velocityLimit, dtype=float)
+        velocity[~(velocity > 0) | (velocity > 1e300)] = np.inf
+        for joint in range(1, model.njoints):
+            description = model.joints[joint]
+            if description.nq == description.nv == 1:
+                lower[description.idx_v] = model.lowerPositionLimit[description.idx_q]
+                upper[description.idx_v] = model.upperPositionLimit[description.idx_q]
+        lower[lower < -1e300] = -np.inf
+        upper[upper > 1e300] = np.inf
+        return lower, upper, velocity
+
     # -- configurations -------------------------------------------------------
     @property
     def default_configuration(self) -> np.ndarray:
@@ -530,11 +551,16 @@ def _frame_hint(model: pin.Model) -> str:
 def _full_reference_configuration(full_model, robot_source: RobotSource, reference_configuration) -> np.ndarray:
     if reference_configuration is not None:
         return finite_vector(reference_configuration, full_model.nq, "reference configuration")
+    configuration = pin.neutral(full_model)
     if robot_source.srdf is not None and robot_source.srdf_configuration:
         pin.loadReferenceConfigurations(full_model, str(robot_source.srdf), False)
         if robot_source.srdf_configuration in full_model.referenceConfigurations:
-            return np.array(full_model.referenceConfigurations[robot_source.srdf_configuration])
-    return pin.neutral(full_model)
+            configuration = np.array(full_model.referenceConfigurations[robot_source.srdf_configuration])
+    # The catalogue's measured start (see catalog._KNOWN_ARMS), on top of the SRDF state.
+    for joint_name, angle in robot_source.start:
+        joint = full_model.joints[full_model.getJointId(joint_name)]
+        configuration[joint.idx_q] = angle
+    return configuration
 
 
 def _reduce_configuration(full_model, model, full_configuration) -> np.ndarray:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import operator
 import sys
+import warnings
 from dataclasses import dataclass
 from functools import partial
 
@@ -34,10 +35,10 @@ from .checks import (
     step_count,
 )
 from .dexterity import dexterity_along
-from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible
+from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
 from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
-from .result import SimResult
+from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .trajectory import Trajectory, check_trajectory, describe
 
@@ -155,6 +156,8 @@ def simulate(
 
     q = configuration_vector(robot, q0)
     v = np.zeros(robot.nv) if v0 is None else robot.check_velocity(v0)
+    for note in start_notes(robot, q):
+        warnings.warn(note, TorqueoptWarning, stacklevel=2)
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
     linear_dimension = min(robot.m, 3)
@@ -270,7 +273,47 @@ def simulate(
         task_error=task_error_log,
         infeasible=infeasible_log,
         dexterity=dexterity_along(robot, q_log) if dexterity else None,
+        joint_limits=joint_limits_record(*robot.joint_limits),
     )
+
+
+#: Below this σmin/σmax of the task Jacobian a start is called near-singular.
+NEAR_SINGULAR = 0.05
+
+
+def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
+    """What is wrong with starting at configuration ``q`` at rest, one sentence each (empty when nothing).
+
+    A start is questioned when its task Jacobian is near-singular
+    (σmin/σmax below :data:`NEAR_SINGULAR`), when holding it against
+    gravity alone needs more than a joint's torque limit, or when a joint is
+    outside its URDF position limits.
+    """
+    notes = []
+    terms = robot.terms(q, np.zeros(robot.nv))
+    condition = _jacobian_inverse_condition(terms.jacobian)
+    if condition < NEAR_SINGULAR:
+        notes.append(
+            f"the start is near-singular: σmin/σmax of the task Jacobian is {condition:.3g} (below {NEAR_SINGULAR:g}); "
+            "give another --q0"
+        )
+    rest = np.abs(terms.bias_torque) / np.where(terms.bias_torque >= 0, robot.torque_upper, -robot.torque_lower)
+    if (rest > 1.0).any():
+        joint = int(np.argmax(rest))
+        notes.append(
+            f"holding the start against gravity needs {terms.bias_torque[joint]:.4g} N·m at joint "
+            f"{robot.joint_names[joint]}, {rest[joint]:.3g} times its torque limit, before any movement"
+        )
+    lower, upper, _ = robot.joint_limits
+    angles = robot.joint_angles(q)
+    outside = (angles < lower - 1e-9) | (angles > upper + 1e-9)
+    if outside.any():
+        joint = int(np.argmax(outside))
+        notes.append(
+            f"the start has joint {robot.joint_names[joint]} at {angles[joint]:.4g}, outside its URDF limits "
+            f"[{lower[joint]:.4g}, {upper[joint]:.4g}]"
+        )
+    return notes
 
 
 def step_budget(

@@ -171,6 +171,18 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         if violation is None
         else f"first limit violation: t = {violation:.3f} s at joint {result.first_limit_violation_joint}"
     )
+    for kind, violation, unit in (
+        ("position", result.first_position_violation, "rad"),
+        ("velocity", result.first_velocity_violation, "rad/s"),
+    ):
+        if violation is None:
+            lines.append(f"first joint {kind} limit exceeded: none")
+        else:
+            time, joint, value, limit = violation
+            lines.append(
+                f"first joint {kind} limit exceeded: t = {time:.3f} s at joint {joint} "
+                f"({value:.4g} {unit}, limit {limit:.4g} {unit})"
+            )
     lines.append(f"max tip error: {result.max_tip_error * 1e3:.3f} mm")
     if result.max_task_error > 0 or result.infeasible_steps:
         lines.append(
