@@ -43,7 +43,9 @@ def add_path_options(group: argparse._ArgumentGroup) -> None:
         "--direction", metavar="D", help="line and min-jerk: direction in world axes, 2 values for xy, 3 otherwise"
     )
     group.add_argument(
-        "--duration", metavar="T", help=f"movement duration [s] (default {DEFAULT_DURATION}; csv: the last time)"
+        "--duration",
+        metavar="T",
+        help=f"line, min-jerk and circle: movement duration [s] (default {DEFAULT_DURATION}); a csv path lasts until its last time",
     )
     group.add_argument(
         "--accel", metavar="A", help="line: tangential acceleration [m/s²] (default √2); min-jerk: length a·T²/4"
