@@ -119,7 +119,13 @@ def torque_utilisation(torque, torque_lower, torque_upper) -> np.ndarray:
     return (np.abs(torque[..., bounded] - middle) / spread).max(axis=-1)
 
 
-def _solver_bounds(robot: Robot, bounded: np.ndarray):
+def _bounded_joints(robot: Robot):
+    """The joints with finite limits: their indices, or ``slice(None)`` (a view, no copy) when every joint has them."""
+    finite = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
+    return slice(None) if finite.all() else np.flatnonzero(finite)
+
+
+def _solver_bounds(robot: Robot, bounded):
     """(τ⁺, τ⁻) of the bounded joints as given to DAQP, and their ranges τ⁺ − τ⁻ [N·m].
 
     DAQP accepts a row that exceeds its bound by about ``primal_tol``
@@ -232,12 +238,12 @@ class _BoundedResolver(Resolver):
         self.check(robot)
         n, m = robot.nv, robot.m
         r = n - m
-        bounded = np.flatnonzero(np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower))
+        bounded = _bounded_joints(robot)
         upper, lower, spread = _solver_bounds(robot, bounded)
         midpoint = torque_midpoint(robot)
         decompose = JacobianSolver(m, n, self.singular_tolerance)
         optimum = self._optimum(robot, bounded, spread, midpoint)
-        nb = bounded.size
+        nb = spread.size
         # Largest scaling: max s over (s, y), 0 <= s <= 1 a simple bound on the first variable.
         scaling = _Program(
             np.zeros((1 + r, 1 + r)),
@@ -359,21 +365,22 @@ class _MinMax:
     r"""The LP :math:`\min_{z,t} t` s.t. :math:`|\tilde\tau_i + (Uz)_i - \tau_{mid,i}| \le t\,(\tau^+_i - \tau^-_i)`."""
 
     def __init__(self, bounded, spread, midpoint, redundancy: int):
-        nb = bounded.size
-        self._bounded, self._spread, self._midpoint = bounded, spread, midpoint
+        nb = spread.size
+        self._bounded = bounded
+        self._midpoint = midpoint[bounded]
+        self._inverse_spread = 1.0 / spread
+        self._inverse_spread_column = self._inverse_spread[:, None]
         self._r = redundancy
         sign = np.r_[-np.ones(nb), np.ones(nb)][:, None]
-        self._rows = np.hstack([np.zeros((2 * nb, redundancy)), sign])
-        self._upper = np.r_[np.zeros(nb), np.full(nb, np.inf)]
-        self._lower = np.r_[np.full(nb, -np.inf), np.zeros(nb)]
-        self._nb = nb
+        rows = np.hstack([np.zeros((2 * nb, redundancy)), sign])
+        upper = np.r_[np.zeros(nb), np.full(nb, np.inf)]
+        lower = np.r_[np.full(nb, -np.inf), np.zeros(nb)]
+        self._rows, self._upper, self._lower = rows, upper, lower
+        # Views made once: each call writes the numbers into them in place.
+        self._rows_plus, self._rows_minus = rows[:nb, :redundancy], rows[nb:, :redundancy]
+        self._upper_plus, self._lower_minus = upper[:nb], lower[nb:]
         self.program = _Program(
-            np.zeros((redundancy + 1, redundancy + 1)),
-            np.r_[np.zeros(redundancy), 1.0],
-            self._rows,
-            self._upper,
-            self._lower,
-            linear=True,
+            np.zeros((redundancy + 1, redundancy + 1)), np.r_[np.zeros(redundancy), 1.0], rows, upper, lower, linear=True
         )
 
     def __call__(self, range_basis, tilde_torque):
@@ -381,16 +388,12 @@ class _MinMax:
 
         Row i: (U_i z − t) ≤ −c_i and (U_i z + t) ≥ −c_i, with U_i and c_i = τ̃_i − τ_mid,i divided by the range.
         """
-        nb, bounded = self._nb, self._bounded
-        normalised = range_basis[bounded] / self._spread[:, None]
-        offset = (tilde_torque[bounded] - self._midpoint[bounded]) / self._spread
-        rows = self._rows
-        rows[:nb, : self._r] = normalised
-        rows[nb:, : self._r] = normalised
-        upper, lower = self._upper, self._lower
-        upper[:nb] = -offset
-        lower[nb:] = -offset
-        x, flag, _ = self.program.solve(A=rows, bupper=upper, blower=lower)
+        bounded = self._bounded
+        np.multiply(range_basis[bounded], self._inverse_spread_column, out=self._rows_plus)
+        self._rows_minus[...] = self._rows_plus
+        np.multiply(self._midpoint - tilde_torque[bounded], self._inverse_spread, out=self._upper_plus)
+        self._lower_minus[...] = self._upper_plus
+        x, flag, _ = self.program.solve(A=self._rows, bupper=self._upper, blower=self._lower)
         if flag != _EXIT_OPTIMAL:  # pragma: no cover - t large enough is always feasible
             raise SolverFailure("the min-max torque LP failed")
         return x[: self._r], x[self._r]
@@ -478,7 +481,7 @@ class BoundedTorque(_BoundedResolver):
 
     def _optimum(self, robot: Robot, bounded, spread, midpoint):
         r = robot.redundancy
-        nb = bounded.size
+        nb = spread.size
         root = self.weight_root(robot)[:, None]
         relative_weight2 = self.kinematic_weight**2
         damping = self.damping
