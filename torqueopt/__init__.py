@@ -5,6 +5,7 @@ manipulators through torque optimization" (IEEE J. Robotics and Automation,
 1987) on top of Pinocchio.
 """
 
+from . import atlas  # the subpackage (torqueopt.atlas.run_atlas); pandas and Dask load only when it runs
 from .dexterity import Dexterity, dexterity, dexterity_along
 from .errors import (
     FrameNotFound,
@@ -69,4 +70,5 @@ __all__ = [
     "SingularJacobian",
     "MissingDependency",
     "OutputError",
+    "atlas",
 ]

@@ -246,10 +246,12 @@ def _client(distributed, scheduler, workers):
     import logging
 
     count = workers if workers else (os.cpu_count() or 1)
+    # Everything on the loopback interface: the embedded cluster serves no one else.
     cluster = distributed.LocalCluster(
         n_workers=count,
         threads_per_worker=1,
         processes=True,
+        host="127.0.0.1",
         dashboard_address=None,
         silence_logs=logging.ERROR,
     )

@@ -1,0 +1,241 @@
+"""Time the atlas: trajectory-steps per second of one simulate run, the batched path, and Dask sweeps.
+
+A trajectory-step is one RK4 step of one movement with one resolver
+(resolver evaluation, three ABA stages, the step's records). Cases, timed
+interleaved round by round so the shared machine's load hits all alike:
+
+* ``simulate``: one :func:`torqueopt.simulate` run, planar3, null-space, the
+  paper's long movement (2 s, 2001 rows);
+* ``batch``: :func:`torqueopt.batch.simulate_batch` in this process, 64
+  movements of 2 s from the atlas's population (seed 1), null-space, with the
+  energy extras the atlas uses;
+* ``sweep 1 worker`` / ``sweep 2 workers``: the atlas's chunks (``run_chunk``:
+  batch, verdicts, rows; pinv and null-space on 4 x 64 movements of 2 s)
+  through ``distributed.as_completed`` on a LocalCluster of 1 and of 2
+  worker processes started before the rounds (startup is not timed);
+  trajectory-steps counted from the rows.
+
+Also measured once: how H is best obtained for a batch (CRBA inside
+``computeAllTerms`` per movement, or n + 1 batched ``rneaInParallel`` calls
+beside a per-movement Jacobian), and the batch against simulate on panda
+(n = 7) to show how the cost grows with the number of joints.
+
+Run::
+
+    python benchmarks/bench_atlas.py [--rounds 3] [--write BENCHMARKS.md]
+
+``--write`` replaces only the block between the ``bench_atlas:begin`` and
+``bench_atlas:end`` markers.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_variable] = "1"
+
+import argparse
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+import torqueopt
+from torqueopt.atlas import PopulationSpec, draw_population
+from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.verdicts import Thresholds
+from torqueopt.batch import simulate_batch
+
+BEGIN, END = "<!-- bench_atlas:begin -->", "<!-- bench_atlas:end -->"
+PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def _cpu_ticks():
+    try:
+        fields = [int(x) for x in Path("/proc/stat").read_text().splitlines()[0].split()[1:9]]
+    except (OSError, ValueError):
+        return None
+    return fields[7], sum(fields)
+
+
+def _jobs(robot_name, movements, resolvers, chunk):
+    return [
+        {
+            "robot": RobotSpec(robot_name),
+            "resolvers": resolvers_from(resolvers),
+            "dt": 1e-3,
+            "accel": float(np.sqrt(2.0)),
+            "thresholds": Thresholds().as_dict(),
+            "batch": True,
+            "digest": "bench",
+            "movements": [(m.path, m.duration, m.q0, m.direction, m.start) for m in movements[i : i + chunk]],
+        }
+        for i in range(0, len(movements), chunk)
+    ]
+
+
+def _sweep(client, jobs, distributed):
+    started = time.perf_counter()
+    futures = [client.submit(run_chunk, job, pure=False) for job in jobs]
+    steps = 0
+    for future in distributed.as_completed(futures):
+        steps += sum(row["steps"] - 1 for row in future.result())
+    return steps / (time.perf_counter() - started)
+
+
+def _terms_comparison(robot, count=64, repeats=30):
+    """µs per movement to get H, b, J, J̇q̇ and the tip: computeAllTerms (CRBA) vs n + 1 rneaInParallel for H, b."""
+    model, data = robot.model, robot.model.createData()
+    rng = np.random.default_rng(0)
+    q = np.array([robot.configuration(rng.uniform(-1, 1, robot.nv)) for _ in range(count)])
+    v = rng.normal(size=(count, robot.nv))
+    n, rows, frame_id = robot.nv, robot.task_rows, robot.frame_id
+    pool = pin.ModelPool(model, 1)
+    inertia, bias = np.empty((count, n, n)), np.empty((count, n))
+    jacobian, drift = np.empty((count, robot.m, n)), np.empty((count, robot.m))
+
+    def with_crba():
+        for row in range(count):
+            pin.computeAllTerms(model, data, q[row], v[row])
+            inertia[row] = data.M
+            bias[row] = data.nle
+            jacobian[row] = pin.getFrameJacobian(model, data, frame_id, _LWA)[rows]
+            drift[row] = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector[rows]
+            pin.updateFramePlacement(model, data, frame_id)
+
+    zeros, unit = np.zeros((count, n)), np.zeros((count, n))
+    out = np.empty((count, n))
+
+    def with_rnea():
+        pin.rneaInParallel(1, pool, q.T, v.T, zeros.T, out.T)
+        bias[:] = out
+        for column in range(n):
+            unit[:] = 0.0
+            unit[:, column] = 1.0
+            pin.rneaInParallel(1, pool, q.T, v.T, unit.T, out.T)  # H e_i + b
+            inertia[:, :, column] = out - bias
+        for row in range(count):
+            pin.forwardKinematics(model, data, q[row], v[row], zeros[row])
+            drift[row] = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector[rows]
+            jacobian[row] = pin.computeFrameJacobian(model, data, q[row], frame_id, _LWA)[rows]
+
+    timings = {"crba": [], "rnea": []}
+    for _ in range(repeats):
+        for name, function in (("crba", with_crba), ("rnea", with_rnea)):
+            started = time.perf_counter()
+            function()
+            timings[name].append((time.perf_counter() - started) / count * 1e6)
+    return {name: statistics.median(values) for name, values in timings.items()}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--write", metavar="FILE")
+    args = parser.parse_args(argv)
+
+    import distributed
+
+    planar3 = torqueopt.load_robot("planar3")
+    movements = draw_population(planar3, PopulationSpec(paths=256, durations=(2.0,), seed=1))
+    lines = [torqueopt.StraightLine(m.direction, duration=2.0, start=m.start) for m in movements[:64]]
+    q0s = [m.q0 for m in movements[:64]]
+    jobs = _jobs("planar3", movements, ["pinv", "null-space"], 64)
+    paper_line = torqueopt.StraightLine([1, 1], duration=2.0)
+
+    clusters = {}
+    for workers in (1, 2):
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
+        client = distributed.Client(cluster)
+        client.gather([client.submit(run_chunk, job, pure=False) for job in _jobs("planar3", movements[:8], ["pinv"], 4)])
+        clusters[workers] = (cluster, client)
+
+    results = {"simulate": [], "batch": [], "sweep 1 worker": [], "sweep 2 workers": []}
+    loads = []
+    ticks_before = _cpu_ticks()
+    torqueopt.simulate(planar3, "null-space", paper_line, PAPER_Q0)  # warm-up
+    for _ in range(args.rounds):
+        loads.append(os.getloadavg()[0])
+        started = time.perf_counter()
+        run = torqueopt.simulate(planar3, "null-space", paper_line, PAPER_Q0)
+        results["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
+        started = time.perf_counter()
+        runs, _ = simulate_batch(planar3, "null-space", lines, q0s, extras=True)
+        results["batch"].append(sum(len(r.t) - 1 for r in runs) / (time.perf_counter() - started))
+        for workers in (1, 2):
+            results[f"sweep {workers} worker{'s' if workers > 1 else ''}"].append(_sweep(clusters[workers][1], jobs, distributed))
+    ticks_after = _cpu_ticks()
+    for cluster, client in clusters.values():
+        client.close()
+        cluster.close()
+
+    steal = "n/a"
+    if ticks_before and ticks_after and ticks_after[1] > ticks_before[1]:
+        steal = f"{100 * (ticks_after[0] - ticks_before[0]) / (ticks_after[1] - ticks_before[1]):.1f} %"
+    terms = {name: _terms_comparison(torqueopt.load_robot(name)) for name in ("planar3", "panda")}
+
+    panda = torqueopt.load_robot("panda")
+    rng = np.random.default_rng(2)
+    panda_q0s = [panda.default_configuration + rng.normal(scale=0.2, size=panda.nv) for _ in range(32)]
+    panda_lines = [torqueopt.StraightLine(rng.normal(size=3), accel=0.5, duration=0.5) for _ in panda_q0s]
+    panda_rates = {"simulate": [], "batch": []}
+    for _ in range(args.rounds):
+        started = time.perf_counter()
+        run = torqueopt.simulate(panda, "null-space", panda_lines[0], panda_q0s[0])
+        panda_rates["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
+        started = time.perf_counter()
+        runs, _ = simulate_batch(panda, "null-space", panda_lines, panda_q0s, extras=True)
+        panda_rates["batch"].append(sum(len(r.t) - 1 for r in runs) / (time.perf_counter() - started))
+
+    def cell(values):
+        return f"{statistics.median(values):,.0f} (range {min(values):,.0f}-{max(values):,.0f})"
+
+    simulate_median = statistics.median(results["simulate"])
+    lines_out = [
+        BEGIN,
+        f"`python benchmarks/bench_atlas.py --rounds {args.rounds}` on {platform.node()} ({os.cpu_count()} cores), "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; 1-minute load average at the rounds' starts "
+        f"{', '.join(f'{x:.1f}' for x in loads)}; CPU time stolen by the hypervisor during the rounds {steal}.",
+        "",
+        "| planar3, null-space, 2 s movements | trajectory-steps/s, median of rounds | vs one simulate run |",
+        "|---|---|---|",
+    ]
+    for name, values in results.items():
+        lines_out.append(f"| {name} | {cell(values)} | {statistics.median(values) / simulate_median:.2f}x |")
+    one, two = statistics.median(results["sweep 1 worker"]), statistics.median(results["sweep 2 workers"])
+    lines_out += [
+        "",
+        f"Scaling from 1 to 2 workers: {two / one:.2f}x.",
+        "",
+        "| robot | H, b, J, J̇q̇ per movement: computeAllTerms (CRBA) | n + 1 rneaInParallel + per-movement J, J̇q̇ |",
+        "|---|---|---|",
+    ]
+    for name, timing in terms.items():
+        lines_out.append(f"| {name} | {timing['crba']:.2f} µs | {timing['rnea']:.2f} µs |")
+    lines_out += [
+        "",
+        "| panda (n = 7, position task), null-space, 0.5 s | trajectory-steps/s |",
+        "|---|---|",
+        f"| simulate | {cell(panda_rates['simulate'])} |",
+        f"| batch (32 movements) | {cell(panda_rates['batch'])} |",
+        END,
+    ]
+    text = "\n".join(lines_out)
+    print(text)
+    if args.write:
+        path = Path(args.write)
+        content = path.read_text() if path.exists() else ""
+        if BEGIN in content and END in content:
+            content = content[: content.index(BEGIN)] + text + content[content.index(END) + len(END) :]
+        else:
+            content = content.rstrip() + "\n\n## The atlas: batched path and sweeps\n\n" + text + "\n"
+        path.write_text(content)
+
+
+if __name__ == "__main__":
+    main()
