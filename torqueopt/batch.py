@@ -247,9 +247,10 @@ def simulate_batch(
     active = np.arange(count)  # movement index of each batch row
     inertia = np.empty((count, n, n))
     bias = np.empty((count, n))
-    jacobian = np.empty((count, m, n))
-    drift = np.empty((count, m))
-    tip = np.empty((count, m))
+    # Whole 6-row frame quantities: the task rows are sliced once per step, not once per movement.
+    jacobian = np.empty((count, 6, n))
+    drift = np.empty((count, 6))
+    tip = np.empty((count, 3))
     h = dt
     # Bound once: attribute look-ups cost as much as the calls at this size.
     all_terms, frame_jacobian = pin.computeAllTerms, pin.getFrameJacobian
@@ -264,23 +265,29 @@ def simulate_batch(
             all_terms(model, data, q_row, v_row)
             inertia[row] = data_inertia
             bias[row] = data_bias
-            jacobian[row] = frame_jacobian(model, data, frame_id, _LWA)[rows]
-            drift[row] = classical_acceleration(model, data, frame_id, _LWA).vector[rows]
-            tip[row] = frame_placement(model, data, frame_id).translation[rows]
-        H, b, J, Jd = inertia[:size], bias[:size], jacobian[:size], drift[:size]
+            jacobian[row] = frame_jacobian(model, data, frame_id, _LWA)
+            drift[row] = classical_acceleration(model, data, frame_id, _LWA).vector
+            tip[row] = frame_placement(model, data, frame_id).translation
+        H, b = inertia[:size], bias[:size]
+        J, Jd = jacobian[:size, rows], drift[:size, rows]
         # Every state is recorded (q, v, x, condition); torque and q̈ only where the resolver ran.
         q_log[active, k] = q
         v_log[active, k] = v
-        x_log[active, k] = tip[:size]
+        x_log[active, k] = tip[:size, rows]
         recorded[active] = k + 1
-        if extras:
-            energy_log[active, k], self_energy_log[active, k] = _energies(H, J, v)
         if k == steps:
             # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
             condition_log[active, k] = _condition(J)
+            if extras:
+                energy_log[active, k], self_energy_log[active, k] = _energies(H, J, v)
             break
         command = reference_acceleration[active, k]
-        torque, joint_acceleration, condition, singular = step(H, b, J, Jd, command)
+        torque, joint_acceleration, condition, singular, basis = step(H, b, J, Jd, command)
+        if extras:
+            kinetic, self_motion = _null_space_energies(H, basis, v)
+            if singular.any():  # the QR basis of a singular J is not its null space
+                kinetic[singular], self_motion[singular] = _energies(H[singular], J[singular], v[singular])
+            energy_log[active, k], self_energy_log[active, k] = kinetic, self_motion
         condition_log[active, k] = condition
         resolved = ~singular
         acceleration_log[active[resolved], k] = joint_acceleration[resolved]
@@ -402,8 +409,28 @@ def _energies(inertia: np.ndarray, jacobian: np.ndarray, velocity: np.ndarray):
     return kinetic, np.maximum(kinetic - task_energy, 0.0)
 
 
+def _null_space_energies(inertia: np.ndarray, basis: np.ndarray | None, velocity: np.ndarray):
+    r"""The energies of :func:`_energies` from a null-space basis Z of J, without inverting H.
+
+    The least kinetic energy with the tip velocity :math:`J\dot q` is reached
+    at :math:`\dot q - Z\alpha`, :math:`\alpha = (Z^\top HZ)^{-1}Z^\top H\dot q`, so
+    :math:`E_N = \tfrac12 w^\top (Z^\top H Z)^{-1} w` with :math:`w = Z^\top H\dot q`.
+    """
+    momentum = np.einsum("bij,bj->bi", inertia, velocity)  # H q̇
+    kinetic = 0.5 * np.einsum("bi,bi->b", velocity, momentum)
+    if basis is None:
+        return kinetic, np.zeros_like(kinetic)
+    projected = np.einsum("bji,bj->bi", basis, momentum)  # w = Zᵀ H q̇
+    reduced = np.swapaxes(basis, 1, 2) @ inertia @ basis  # Zᵀ H Z
+    if reduced.shape[1] == 1:
+        self_motion = 0.5 * projected[:, 0] ** 2 / reduced[:, 0, 0]
+    else:
+        self_motion = 0.5 * np.einsum("bi,bi->b", projected, _solve(reduced, projected[..., None])[..., 0])
+    return kinetic, np.clip(self_motion, 0.0, kinetic)
+
+
 def _batched_step(robot: Robot, resolver: Resolver):
-    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, condition, singular)``.
+    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, condition, singular, Z)``.
 
     Same equations as the resolver's own step (:meth:`Resolver.solver`):
     :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y` (Eq. (26)),
@@ -447,8 +474,8 @@ def _batched_step(robot: Robot, resolver: Resolver):
         # J⁺ r = Q_m R⁻ᵀ r, the minimum-norm solution of J q̈ = r: Eq. (26)'s particular solution.
         particular = np.einsum("bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0])
         acceleration = particular
+        basis = orthogonal[:, :, m:] if redundant else None  # Z, (B, n, n − m), orthonormal
         if redundant and kind is not PseudoInverse:
-            basis = orthogonal[:, :, m:]  # Z, (B, n, n − m), orthonormal
             inertia_basis = H @ basis  # H Z
             if kind is InertiaWeightedPseudoInverse:
                 # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eq. (16), Eq. (35); ZᵀHZ is positive definite
@@ -466,6 +493,6 @@ def _batched_step(robot: Robot, resolver: Resolver):
                     y = least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
             acceleration = particular + np.einsum("bij,bj->bi", basis, y)
         torque = np.einsum("bij,bj->bi", H, acceleration) + b  # Eq. (20)
-        return torque, acceleration, condition, singular
+        return torque, acceleration, condition, singular, basis
 
     return step

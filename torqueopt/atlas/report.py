@@ -14,6 +14,7 @@ from .verdicts import VERDICTS
 __all__ = ["summarise", "write_figures", "write_markdown"]
 
 _PAPER_RESOLVERS = ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
+_SHORT_CRITERIA = {"unstable": "2x-limit rule", "whiplash": "whiplash verdict (2x-limit rule and a runaway)"}
 
 
 def summarise(table, config: dict) -> dict:
@@ -141,7 +142,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             fraction = np.array([c["fraction"] for c in cells])
             error = np.clip([[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]], 0.0, None)
             axis.errorbar(durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver])
-        axis.set_title(description, fontsize=9)
+        axis.set_title(_SHORT_CRITERIA.get(criterion, criterion), fontsize=9)
         axis.set_xlabel("movement duration T [s]")
         axis.set_ylim(-0.02, 1.02)
         axis.grid(alpha=0.3)
@@ -154,20 +155,24 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     if "start_2" in table.columns and "start_3" not in table.columns:
         verdict_colours = {"stable": "#2ca02c", "whiplash": "#d62728", "too demanding": "#ff7f0e", "singular": "#7f7f7f"}
         longest = max(summary["durations"])
-        figure, axes = plt.subplots(1, len(resolvers), figsize=(3.3 * len(resolvers), 3.6), squeeze=False)
-        for axis, resolver in zip(axes[0], resolvers):
+        columns = min(len(resolvers), 4)
+        rows_of_panels = -(-len(resolvers) // columns)
+        figure, axes = plt.subplots(rows_of_panels, columns, figsize=(3.4 * columns, 3.5 * rows_of_panels), squeeze=False)
+        for axis in axes.flat[len(resolvers):]:
+            axis.set_visible(False)
+        for axis, resolver in zip(axes.flat, resolvers):
             rows = table[(table["resolver"] == resolver) & (table["duration"] == longest)]
             for verdict, colour in verdict_colours.items():
                 chosen = rows[rows["verdict"] == verdict]
-                axis.scatter(chosen["start_1"], chosen["start_2"], s=9, color=colour, label=verdict, linewidths=0)
-            reach = 3.0 if robot.name == "planar3" else None
-            if reach:
-                axis.add_patch(plt.Circle((0, 0), reach, fill=False, lw=0.6, color="k"))
+                axis.scatter(chosen["start_1"], chosen["start_2"], s=10, color=colour, label=f"{verdict} ({len(chosen)})",
+                             linewidths=0)
+            if robot.name == "planar3":
+                axis.add_patch(plt.Circle((0, 0), 3.0, fill=False, lw=0.6, color="k"))  # the arm's reach
             axis.set_aspect("equal")
             axis.set_title(f"{resolver}, T = {longest:g} s", fontsize=9)
-            axis.set_xlabel("start x [m]")
-        axes[0][0].set_ylabel("start y [m]")
-        axes[0][0].legend(fontsize=7, loc="lower left", markerscale=2)
+            axis.set_xlabel("start x [m]", fontsize=8)
+            axis.set_ylabel("start y [m]", fontsize=8)
+            axis.legend(fontsize=6, loc="lower left", markerscale=1.5, handletextpad=0.2, borderpad=0.3)
         figure.tight_layout()
         made["workspace map of start points by verdict"] = _save(figure, out / "workspace_map.png")
 
@@ -186,23 +191,25 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     figure.tight_layout()
     made["histogram of instability times"] = _save(figure, out / "instability_time.png")
 
-    # 4. Trade-off: torque reduction against instability rate (the remedies, when there are any).
+    # 4. Trade-off: torque reduction (on the paths where the method and pinv are both stable) against instability rate.
     figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    pinv_stable = set(table.loc[(table["resolver"] == "pinv") & (table["verdict"] == "stable"), "path"])
     for resolver in resolvers:
         rows = table[table["resolver"] == resolver]
-        ratio = rows["torque_vs_pinv"].to_numpy(dtype=float)
+        calm = rows[(rows["verdict"] == "stable") & rows["path"].isin(pinv_stable)]
+        ratio = calm["torque_vs_pinv"].to_numpy(dtype=float)
         ratio = ratio[np.isfinite(ratio)]
-        share = proportion(int(rows["unstable"].sum()), len(rows))
+        share = proportion(int((rows["verdict"] == "whiplash").sum()), len(rows))
         if ratio.size:
             marker = "o" if resolver in _PAPER_RESOLVERS else "s"
-            axis.errorbar(np.median(ratio), share.fraction, yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
-                          marker=marker, capsize=3, color=colours[resolver], label=resolver)
+            axis.errorbar(np.median(ratio), share.fraction,
+                          yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
+                          marker=marker, capsize=3, color=colours[resolver], label=resolver, linestyle="none")
     axis.axvline(1.0, color="k", lw=0.6)
-    axis.set_xscale("log")
-    axis.set_xlabel("median peak |τ|/limit relative to pinv on the same path (left: less torque)")
-    axis.set_ylabel("unstable fraction, all durations (2x-limit rule)")
+    axis.set_xlabel("median peak |τ|/limit relative to pinv, paths where both are stable (left: less torque)")
+    axis.set_ylabel("whiplash fraction, all durations")
     axis.legend(fontsize=8)
-    axis.grid(alpha=0.3, which="both")
+    axis.grid(alpha=0.3)
     figure.tight_layout()
     made["torque reduction against instability rate"] = _save(figure, out / "tradeoff.png")
     return made
