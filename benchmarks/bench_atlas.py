@@ -20,9 +20,16 @@ Also measured once: how H is best obtained for a batch (CRBA inside
 beside a per-movement Jacobian), and the batch against simulate on panda
 (n = 7) to show how the cost grows with the number of joints.
 
+``--count`` instead counts instructions with valgrind's callgrind (figures
+that do not move with the host's load): one process per case and length,
+the difference between a 150-step and a 50-step run divided by the
+trajectory-steps between them, for the batch (64 movements, null-space,
+with the energy extras) and for one ``simulate`` run (null-space).
+
 Run::
 
     python benchmarks/bench_atlas.py [--rounds 3] [--write BENCHMARKS.md]
+    python benchmarks/bench_atlas.py --count
 
 ``--write`` replaces only the block between the ``bench_atlas:begin`` and
 ``bench_atlas:end`` markers.
@@ -133,11 +140,57 @@ def _terms_comparison(robot, count=64, repeats=30):
     return {name: statistics.median(values) for name, values in timings.items()}
 
 
+_COUNT_RUN = """
+import os, sys
+os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import torqueopt
+from torqueopt.atlas import PopulationSpec, draw_population
+from torqueopt.batch import simulate_batch
+mode, steps, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+robot = torqueopt.load_robot("planar3")
+movements = draw_population(robot, PopulationSpec(paths=count, durations=(2.0,), seed=1))
+lines = [torqueopt.StraightLine(m.direction, duration=steps * 1e-3, start=m.start) for m in movements]
+if mode == "batch":
+    simulate_batch(robot, "null-space", lines, [m.q0 for m in movements], extras=True)
+else:
+    torqueopt.simulate(robot, "null-space", lines[0], movements[0].q0)
+"""
+
+
+def count_instructions() -> dict:
+    """Instructions per trajectory-step of the batch (64 movements) and of one simulate run, by callgrind."""
+    import re
+    import subprocess
+    import sys
+    import tempfile
+
+    def total(mode, steps, count):
+        with tempfile.TemporaryDirectory() as folder:
+            script = Path(folder) / "run.py"
+            script.write_text(_COUNT_RUN)
+            done = subprocess.run(
+                ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, str(script),
+                 mode, str(steps), str(count)],
+                capture_output=True, text=True, check=True,
+            )  # fmt: skip
+        return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
+
+    batch = (total("batch", 150, 64) - total("batch", 50, 64)) / (100 * 64)
+    single = (total("simulate", 150, 1) - total("simulate", 50, 1)) / 100
+    return {"batch": batch, "simulate": single}
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--write", metavar="FILE")
+    parser.add_argument("--count", action="store_true", help="count instructions with callgrind instead of timing")
     args = parser.parse_args(argv)
+    if args.count:
+        counts = count_instructions()
+        print(f"instructions per trajectory-step (planar3, null-space): batch of 64 {counts['batch']:,.0f}, "
+              f"one simulate run {counts['simulate']:,.0f} ({counts['simulate'] / counts['batch']:.2f}x)")
+        return
 
     import distributed
 
@@ -198,9 +251,11 @@ def main(argv=None):
     simulate_median = statistics.median(results["simulate"])
     lines_out = [
         BEGIN,
-        f"`python benchmarks/bench_atlas.py --rounds {args.rounds}` on {platform.node()} ({os.cpu_count()} cores), "
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; 1-minute load average at the rounds' starts "
-        f"{', '.join(f'{x:.1f}' for x in loads)}; CPU time stolen by the hypervisor during the rounds {steal}.",
+        (
+            f"`python benchmarks/bench_atlas.py --rounds {args.rounds}` on {platform.node()} ({os.cpu_count()} cores), "
+            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; 1-minute load average at the rounds' starts "
+            f"{', '.join(f'{x:.1f}' for x in loads)}; CPU time stolen by the hypervisor during the rounds {steal}."
+        ),
         "",
         "| planar3, null-space, 2 s movements | trajectory-steps/s, median of rounds | vs one simulate run |",
         "|---|---|---|",

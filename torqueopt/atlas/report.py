@@ -160,19 +160,30 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
         figure, axes = plt.subplots(rows_of_panels, columns, figsize=(3.4 * columns, 3.5 * rows_of_panels), squeeze=False)
         for axis in axes.flat[len(resolvers):]:
             axis.set_visible(False)
+        # A grid repeats each start point with several directions: there, colour by the share that whips.
+        longest_rows = table[table["duration"] == longest]
+        repeated = longest_rows.groupby(["resolver", "start_1", "start_2"]).size().max() > 1
         for axis, resolver in zip(axes.flat, resolvers):
             rows = table[(table["resolver"] == resolver) & (table["duration"] == longest)]
-            for verdict, colour in verdict_colours.items():
-                chosen = rows[rows["verdict"] == verdict]
-                axis.scatter(chosen["start_1"], chosen["start_2"], s=10, color=colour, label=f"{verdict} ({len(chosen)})",
-                             linewidths=0)
+            if repeated:
+                shares = rows.assign(whip=rows["verdict"] == "whiplash").groupby(["start_1", "start_2"])["whip"].mean()
+                starts = shares.index.to_frame(index=False)
+                points = axis.scatter(starts["start_1"], starts["start_2"], c=shares.to_numpy(), cmap="Reds", vmin=0, vmax=1,
+                                      s=22, edgecolors="k", linewidths=0.3)
+                figure.colorbar(points, ax=axis, fraction=0.046, pad=0.04, label="share of directions that whip")
+            else:
+                for verdict, colour in verdict_colours.items():
+                    chosen = rows[rows["verdict"] == verdict]
+                    axis.scatter(chosen["start_1"], chosen["start_2"], s=10, color=colour,
+                                 label=f"{verdict} ({len(chosen)})", linewidths=0)
             if robot.name == "planar3":
                 axis.add_patch(plt.Circle((0, 0), 3.0, fill=False, lw=0.6, color="k"))  # the arm's reach
             axis.set_aspect("equal")
             axis.set_title(f"{resolver}, T = {longest:g} s", fontsize=9)
             axis.set_xlabel("start x [m]", fontsize=8)
             axis.set_ylabel("start y [m]", fontsize=8)
-            axis.legend(fontsize=6, loc="lower left", markerscale=1.5, handletextpad=0.2, borderpad=0.3)
+            if not repeated:
+                axis.legend(fontsize=6, loc="lower left", markerscale=1.5, handletextpad=0.2, borderpad=0.3)
         figure.tight_layout()
         made["workspace map of start points by verdict"] = _save(figure, out / "workspace_map.png")
 
