@@ -356,3 +356,9 @@ def test_cli_absolute_waypoints_are_world_coordinates(tmp_path, capsys):
     np.testing.assert_allclose(result.x_ref[-1], [tip[0] + 0.01, tip[1]], atol=1e-12)
     assert result.trajectory["start"] == pytest.approx(list(tip))
     capsys.readouterr()
+
+
+def test_a_spreadsheets_byte_order_mark_is_not_part_of_the_header(tmp_path):
+    path = tmp_path / "excel.csv"
+    path.write_bytes("t,x,y\r\n0,0,0\r\n1,0.1,0.2\r\n".encode("utf-8-sig"))
+    np.testing.assert_allclose(WaypointPath.from_csv(path, absolute=True).end, [0.1, 0.2], atol=1e-12)

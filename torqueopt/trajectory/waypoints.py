@@ -116,7 +116,8 @@ class WaypointPath(Trajectory):
         if not path.is_file():
             raise InvalidInput(f"waypoint file '{path}' does not exist")
         try:
-            with open(path, newline="") as handle:
+            # utf-8-sig: spreadsheets often start the file with a byte-order mark.
+            with open(path, newline="", encoding="utf-8-sig") as handle:
                 rows = [
                     (number, row) for number, row in enumerate(csv.reader(handle), 1) if any(c.strip() for c in row)
                 ]
