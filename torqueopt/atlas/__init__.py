@@ -256,8 +256,8 @@ def _json_default(value):
 
 
 def _resolver_description(resolver: Resolver) -> dict:
-    options = {key: (value.tolist() if isinstance(value, np.ndarray) else value) for key, value in vars(resolver).items()}
-    return {"name": resolver.name, "class": type(resolver).__name__, "options": options}
+    # The declared options as JSON values (a resolver's other attributes may be objects: task stacks, criteria).
+    return {"name": resolver.name, "class": type(resolver).__name__, "options": resolver.settings_for_file()}
 
 
 def _check_size(total_steps: int, max_steps: int, population: PopulationSpec, resolvers) -> None:
