@@ -456,3 +456,24 @@ def test_unbounded_joints_are_left_out_of_the_max(planar3):
     u = np.abs(found.torque - ref.mid) / ref.spread
     assert u[1] == 0.0  # infinite range
     np.testing.assert_allclose(torque_utilisation(found.torque, ref.lower, ref.upper), max(u[0], u[2]))
+
+
+def test_cli_reports_steps_whose_torques_exceed_the_limits_and_refuses_a_bad_policy(capsys):
+    from torqueopt.cli import main
+
+    assert main(["run", "--robot", "planar3", "--resolver", "minmax-torque", "--option", "infeasible=exceed",
+                 "--direction", "1,1", "--duration", "1.25"]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    robot = torqueopt.load_robot("planar3")
+    line = torqueopt.StraightLine((1.0, 1.0), duration=1.25)
+    run = torqueopt.simulate(robot, get_resolver("minmax-torque", infeasible="exceed"), line, PAPER_Q0)
+    assert run.infeasible_steps > 0 and run.max_task_error == 0.0
+    expected = f"task realised, but {run.infeasible_steps} steps found no torque within the limits that realises it"
+    assert expected in printed
+    assert main(["run", "--robot", "planar3", "--resolver", "bounded-torque", "--option", "infeasible=clip",
+                 "--direction", "1,1"]) == 2  # fmt: skip
+    message = capsys.readouterr().err.strip().splitlines()
+    assert message == [
+        "torqueopt run: error: option infeasible=clip of resolver 'bounded-torque' must be one of "
+        "scale, least-error, exceed, stop"
+    ]

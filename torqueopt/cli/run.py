@@ -184,7 +184,14 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
                 f"({value:.4g} {unit}, limit {limit:.4g} {unit})"
             )
     lines.append(f"max tip error: {result.max_tip_error * 1e3:.3f} mm")
-    if result.max_task_error > 0 or result.infeasible_steps:
+    if result.max_task_error == 0 and result.infeasible_steps:
+        # A bounded resolver with infeasible=exceed: the task held, the bounds gave way.
+        steps = result.infeasible_steps
+        lines.append(
+            f"task realised, but {steps} step{'s' if steps != 1 else ''} found no torque within the limits "
+            "that realises it: the torques exceed the limits there"
+        )
+    elif result.max_task_error > 0 or result.infeasible_steps:
         lines.append(
             f"task not realised: largest task-acceleration shortfall {result.max_task_error:.4g} m/s², "
             f"{result.infeasible_steps} infeasible step{'s' if result.infeasible_steps != 1 else ''}"
