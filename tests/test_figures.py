@@ -75,3 +75,53 @@ def test_no_tick_label_is_below_8_points(saved_run, tmp_path, monkeypatch):
     plot_run(torqueopt.load_result(saved_run), tmp_path / "fig.png")
     sizes = [label.get_fontsize() for ax in saved[0].axes for label in (*ax.get_xticklabels(), *ax.get_yticklabels())]
     assert sizes and min(sizes) >= 8.0
+
+
+def test_symlog_torque_ticks_do_not_overlap_and_come_more_than_once_a_decade():
+    """Fig. 4's joint 1: limit 54 N·m, peak 510 N·m, on a panel of the paper's size."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from torqueopt.plots import _symlog
+
+    fig = Figure(figsize=(9.0, 2.3), dpi=DEFAULT_DPI)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot([0, 1, 2], [0, 510, -40])
+    _symlog(ax, 54.0, 510.0)
+    fig.canvas.draw()
+    ticks = sorted(ax.get_yticks())
+    beyond = [tick for tick in ticks if tick > 54.0]
+    assert len(beyond) >= 2 and ticks.count(54.0) == 1
+    renderer = fig.canvas.get_renderer()
+    boxes = sorted(
+        (label.get_window_extent(renderer) for label in ax.get_yticklabels() if label.get_text()), key=lambda b: b.y0
+    )
+    for lower, upper in zip(boxes, boxes[1:]):
+        assert upper.y0 >= lower.y1 - 0.5, "tick labels overlap"
+
+
+def test_the_tip_panel_of_a_straight_3d_line_shows_the_deviation_in_mm():
+    """A synthetic run: 0.3 m along z, with a known sideways drift of 2 mm · (t/T)²."""
+    from matplotlib.figure import Figure
+
+    from torqueopt.plots import _draw_tip_path
+    from torqueopt.result import SimResult
+
+    t = np.linspace(0.0, 1.0, 101)
+    start = np.array([0.3, 0.0, 0.5])
+    x_ref = start + np.outer(0.3 * t, [0.0, 0.0, 1.0])
+    x = x_ref + np.outer(2e-3 * t**2, [1.0, 0.0, 0.0])
+    n = 2
+    result = SimResult(
+        robot="synthetic", frame="tip", task="position", resolver="pinv", joint_names=["a", "b"], dt=0.01,
+        t=t, q=np.zeros((101, n)), joint_angles=np.zeros((101, n)), v=np.zeros((101, n)),
+        acceleration=np.zeros((101, n)), tau=np.zeros((101, n)), x=x, x_ref=x_ref,
+        jacobian_inverse_condition=np.ones(101), torque_upper=np.ones(n), torque_lower=-np.ones(n), duration=1.0,
+    )  # fmt: skip
+    ax = Figure().add_subplot()
+    _draw_tip_path(ax, [result], single=True)
+    tip = next(line for line in ax.get_lines() if line.get_label() == "tip")
+    np.testing.assert_allclose(tip.get_xdata(), 0.3 * t, atol=1e-12)  # along the line [m], from 0
+    np.testing.assert_allclose(tip.get_ydata(), 2.0 * t**2, atol=1e-9)  # off it [mm]
+    assert "[mm]" in ax.get_ylabel()

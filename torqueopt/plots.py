@@ -313,7 +313,8 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
         speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2,
                       label=name)
     _mark_stops(speed_ax, [result])
-    speed_ax.set_title("joint velocities", fontsize=9, loc="left")
+    velocity_title = _draw_joint_limits(speed_ax, result)
+    speed_ax.set_title("joint velocities" + velocity_title, fontsize=9, loc="left")
     speed_ax.set_xlabel("time [s]")
     speed_ax.set_ylabel("[rad/s]")
     speed_ax.legend(fontsize=7, ncol=2)
@@ -455,12 +456,27 @@ def _few_ticks():
 
 
 def _symlog(ax, linthresh: float, peak: float) -> None:
-    """Linear within ±linthresh, logarithmic beyond, ticked at 0, ±linthresh and the decades up to ``peak``."""
+    """Linear within ±linthresh (the limit), logarithmic beyond, with ticks a reader can tell apart.
+
+    Ticks at 0, ±limit and, beyond it, at 1, 2 and 5 times each decade up to
+    the peak; a tick less than a factor 1.95 above the limit (or above the
+    tick below it) is left out, so that no two labels overlap (100 over 54).
+    """
     from matplotlib.ticker import FixedLocator, NullLocator, StrMethodFormatter
 
-    ax.set_yscale("symlog", linthresh=linthresh, linscale=1.5)
-    decades = [10.0**k for k in range(int(np.ceil(np.log10(1.2 * linthresh))), int(np.floor(np.log10(peak))) + 1)]
-    ticks = sorted({0.0, linthresh, -linthresh, *decades, *(-d for d in decades)})
+    ax.set_yscale("symlog", linthresh=linthresh, linscale=1.0)
+    candidates = [
+        step * 10.0**k
+        for k in range(int(np.floor(np.log10(linthresh))), int(np.floor(np.log10(peak))) + 2)
+        for step in (1.0, 2.0, 5.0)
+    ]
+    beyond = []
+    last = linthresh
+    for value in sorted(candidates):
+        if value >= 1.95 * last and value <= 1.3 * peak:
+            beyond.append(value)
+            last = value
+    ticks = sorted({0.0, linthresh, -linthresh, *beyond, *(-v for v in beyond)})
     ax.yaxis.set_major_locator(FixedLocator(ticks))
     ax.yaxis.set_major_formatter(StrMethodFormatter("{x:g}"))
     ax.yaxis.set_minor_locator(NullLocator())
@@ -523,6 +539,32 @@ def _mark_events(ax, events: Mapping[str, float] | None) -> None:
         ax.axvline(when, color=_EVENT_COLORS[index % len(_EVENT_COLORS)], ls="--", lw=1.1, label=f"{label} ({when:.3f} s)")
 
 
+def _draw_joint_limits(ax, result: SimResult) -> str:
+    """On a joint-velocity panel: the ±velocity limit of each joint that came within half of it (dotted, in its
+    colour), and a line where a joint first left its position or velocity limits; returns a title suffix."""
+    peaks = np.nanmax(np.abs(result.v), axis=0) if len(result.t) else np.zeros(result.n)
+    limits = result.velocity_limit
+    drawn = False
+    for joint, (peak, limit) in enumerate(zip(peaks, limits)):
+        if np.isfinite(limit) and peak > 0.5 * limit:
+            color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
+            for sign in (1.0, -1.0):
+                ax.axhline(sign * limit, color=color, ls=":", lw=1.2)
+            drawn = True
+    if drawn:
+        ax.plot([], [], color="0.3", ls=":", lw=1.2, label="± velocity limit")
+    notes = []
+    for kind, violation, color in (
+        ("position", result.first_position_violation, "tab:purple"),
+        ("velocity", result.first_velocity_violation, "tab:olive"),
+    ):
+        if violation is not None:
+            time, joint, _, _ = violation
+            ax.axvline(time, color=color, ls="--", lw=1.1, label=f"{joint} leaves its {kind} limit")
+            notes.append(f"{kind} limit left at {time:.3f} s ({joint})")
+    return "\n" + "; ".join(notes) if notes else ""
+
+
 def _mark_stops(ax, results: Sequence[SimResult]) -> None:
     for result in results:
         if not result.completed and result.stop_time is not None:
@@ -553,20 +595,68 @@ def _suptitle(fig, title: str, results: Sequence[SimResult], y: float | None = N
 
 
 def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> None:
-    reference = results[0].x_ref
-    ax.plot(reference[:, 0], reference[:, 1], color="0.5", ls="--", lw=1.5, label="reference path")
-    for result in results:
-        label = "tip path" if single else f"{result.resolver} tip"
-        ax.plot(result.x[:, 0], result.x[:, 1], color=_color(result) if not single else "tab:red", lw=1.2, label=label)
-        if len(result.t):
-            ax.plot(*result.x[0, :2], "o", color="k", ms=4)
-            ax.plot(*result.x[-1, :2], "x", color=_color(result) if not single else "tab:red", ms=7)
+    r"""Where the tip went, drawn so that millimetres of deviation show beside metres of movement.
+
+    A straight reference (its points span one direction :math:`u`): the
+    deviation across the line [mm] against the distance along it [m], the
+    reference being the zero line; signed (to the left of :math:`u`) for
+    planar tasks, the distance from the line for 3-D ones. A curved reference
+    (a circle, waypoints): tip and reference projected onto the plane of the
+    movement (the two principal directions of the reference points; x-y for
+    planar tasks), which for a 3-D task is the view that shows the motion.
+    """
+    linear = min(results[0].m, 3)
+    reference = results[0].x_ref[:, :linear]
+    origin = reference[0]
+    _, spread, axes = np.linalg.svd(reference - origin, full_matrices=True)
+    straight = spread.size < 2 or spread[1] <= 1e-9 * max(spread[0], 1e-300)
+    if straight:
+        direction = axes[0] if spread.size and spread[0] > 0 else np.eye(linear)[0]
+        if (reference[-1] - origin) @ direction < 0:
+            direction = -direction  # distances along the line grow from its start
+        normal = np.array([-direction[1], direction[0]]) if linear == 2 else None
+        ax.axhline(0.0, color="0.5", ls="--", lw=1.5, label="reference path")
+        for result in results:
+            offset = result.x[:, :linear] - origin
+            along = offset @ direction
+            if normal is not None:
+                across = offset @ normal
+            else:
+                across = np.linalg.norm(offset - np.outer(along, direction), axis=1)
+            color = "tab:red" if single else _color(result)
+            label = "tip" if single else f"{result.resolver} tip"
+            ax.plot(along, across * 1e3, color=color, lw=1.2, label=label)
+            if len(result.t):
+                ax.plot(along[0], across[0] * 1e3, "o", color="k", ms=4)
+                ax.plot(along[-1], across[-1] * 1e3, "x", color=color, ms=7)
+        ax.set_xlabel("distance along the reference line [m]")
+        ax.set_ylabel("deviation across it [mm]" if normal is not None else "distance from it [mm]")
+        ax.set_title(
+            "tip deviation from the straight reference path" + (" (signed, + to its left)" if normal is not None else ""),
+            fontsize=9,
+            loc="left",
+        )
+    else:
+        basis = np.eye(linear)[:2] if linear == 2 else axes[:2]
+        names = ("x", "y") if linear == 2 else ("first", "second")
+        projected = (reference - origin) @ basis.T
+        ax.plot(projected[:, 0], projected[:, 1], color="0.5", ls="--", lw=1.5, label="reference path")
+        for result in results:
+            tip = (result.x[:, :linear] - origin) @ basis.T
+            color = "tab:red" if single else _color(result)
+            ax.plot(tip[:, 0], tip[:, 1], color=color, lw=1.2, label="tip" if single else f"{result.resolver} tip")
+            if len(result.t):
+                ax.plot(*tip[0], "o", color="k", ms=4)
+                ax.plot(*tip[-1], "x", color=color, ms=7)
+        ax.set_aspect("equal", adjustable="datalim")
+        unit = "[m]" if linear == 2 else "direction of the movement's plane [m]"
+        ax.set_xlabel(f"tip {names[0]} {unit}".replace("tip first", "tip, first"))
+        ax.set_ylabel(f"tip {names[1]} {unit}".replace("tip second", "tip, second"))
+        ax.set_title(
+            "tip path" if linear == 2 else "tip path in the plane of the movement", fontsize=9, loc="left"
+        )
     ax.plot([], [], "o", color="k", ms=4, label="start")
     ax.plot([], [], "x", color="0.3", ms=7, label="end of run")
-    ax.set_xlabel("tip x [m]")
-    ax.set_ylabel("tip y [m]")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title("tip path (first two task coordinates)", fontsize=9, loc="left")
     ax.grid(alpha=0.3)
 
 
