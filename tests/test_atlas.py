@@ -418,3 +418,15 @@ def test_a_resolver_the_batch_does_not_cover_runs_through_simulate():
     planar3 = torqueopt.load_robot("planar3")
     run = torqueopt.simulate(planar3, "damped-null-space", torqueopt.StraightLine([1, 1], duration=1.0), PAPER_Q0)
     assert rows[0, "damped-null-space"]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio))
+
+
+def test_bounded_resolver_rows_keep_the_task_it_gave_up(planar3):
+    """bounded-torque holds the limits on the paper's long movement and gives up
+    task acceleration instead: the row says how much, as the run does."""
+    rows = _rows([(2.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "bounded-torque"])
+    row = rows[0, "bounded-torque"]
+    run = torqueopt.simulate(planar3, "bounded-torque", torqueopt.StraightLine([1, 1], duration=2.0), PAPER_Q0)
+    assert row["max_task_error"] == pytest.approx(run.max_task_error)
+    assert row["infeasible_steps"] == run.infeasible_steps
+    assert row["peak_torque_ratio"] <= 1.0 + 1e-9 and not row["unstable"]
+    assert rows[0, "pinv"]["max_task_error"] == 0.0 and rows[0, "pinv"]["infeasible_steps"] == 0

@@ -58,6 +58,11 @@ null-space runs that whip reach 10 to 100; the paper's long movement needs
 14 (null-space), 83 (weighted) and 4.2 (inertia-pinv) times pinv's peak
 torque.
 
+A resolver under hard torque bounds (``bounded-torque``, ``minmax-torque``)
+cannot fail the 2x-limit rule: it gives up task acceleration instead, and
+the row keeps ``max_task_error`` [m/s²] and ``infeasible_steps`` beside
+``max_tip_error`` [m], which show where such a resolver lost the path.
+
 Where the whip happened: at ``whip_time`` (the instability time, else the
 time of the peak torque demand) the row keeps the joint nearest to aligned
 (``aligned_joint``, the joint beyond the first whose wrapped angle is
@@ -237,6 +242,9 @@ def run_row(
         "peak_self_motion_energy": float(self_energy.max()) if count else math.nan,
         "peak_kinetic_energy": float(kinetic_energy.max()) if count else math.nan,
         **whip,
+        # Resolvers under torque bounds give up task acceleration instead of exceeding a limit.
+        "max_task_error": float(np.nanmax(result.task_error)) if count else 0.0,
+        "infeasible_steps": int(np.count_nonzero(result.infeasible)),
         "completed": bool(result.completed),
         "stop_reason": result.stop_reason,
         "simulated_time": float(result.t[-1]) if count else 0.0,
