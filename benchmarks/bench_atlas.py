@@ -203,7 +203,7 @@ def main(argv=None):
 
     clusters = {}
     for workers in (1, 2):
-        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0")
         client = distributed.Client(cluster)
         client.gather([client.submit(run_chunk, job, pure=False) for job in _jobs("planar3", movements[:8], ["pinv"], 4)])
         clusters[workers] = (cluster, client)

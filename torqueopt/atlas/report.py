@@ -133,7 +133,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
 
     # 1. Unstable fraction against duration, per resolver, with Wilson intervals, for both criteria.
     figure, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
-    for axis, (criterion, description) in zip(axes, summary["criteria"].items()):
+    for axis, criterion in zip(axes, summary["criteria"]):
         items = summary["unstable_fraction"][criterion]
         for offset, resolver in enumerate(resolvers):
             cells = [item for item in items if item["resolver"] == resolver and item["trials"]]

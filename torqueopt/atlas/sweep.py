@@ -252,7 +252,7 @@ def _client(distributed, scheduler, workers):
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address="127.0.0.1:0",  # its HTTP server (health, metrics) on a free loopback port
         silence_logs=logging.ERROR,
     )
     return distributed.Client(cluster), cluster
