@@ -187,6 +187,7 @@ def _rows(movements, accel=PAPER_ACCEL, resolvers=PAPER_RESOLVERS, batch=True):
     return {(row["path"], row["resolver"]): row for row in run_chunk(job)}
 
 
+@pytest.mark.slow
 def test_verdicts_on_the_papers_three_movements():
     """Short (0.5 s) and medium (1.25 s): every resolver stable. Long (2 s): the
     three kinetic methods whip (the paper's Figs. 4 and 6), links 2 and 3 in line
@@ -280,6 +281,7 @@ def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
     assert set(table["verdict"]) <= {"stable", "whiplash", "too demanding", "singular"}
 
 
+@pytest.mark.slow
 def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
     result = run_atlas("planar3", out=tmp_path, workers=2, seed=5, **{**SMALL, "figures": True})
     pandas.testing.assert_frame_equal(_table(tmp_path), reference_atlas)
@@ -291,6 +293,7 @@ def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
     assert result.summary["verdicts"]["pinv"]["stable"] >= 1
 
 
+@pytest.mark.slow
 def test_scheduler_and_workers_in_separate_processes(reference_atlas, tmp_path):
     """A real Dask scheduler and two workers started as processes on 127.0.0.1, reached by address."""
     scheduler_file = tmp_path / "scheduler.json"
@@ -326,6 +329,7 @@ def test_scheduler_and_workers_in_separate_processes(reference_atlas, tmp_path):
                 process.wait()
 
 
+@pytest.mark.slow
 def test_a_sweep_killed_midway_resumes_to_the_identical_table(reference_atlas, tmp_path):
     """SIGKILL the CLI after two chunks landed, run the same command again:
     the table equals the uninterrupted one, nothing lost or counted twice."""

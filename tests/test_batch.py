@@ -74,6 +74,7 @@ def test_batch_equals_simulate_on_panda(panda, name):
         assert_same_run(run, torqueopt.simulate(panda, name, line, q0))
 
 
+@pytest.mark.slow
 def test_weighted_with_a_user_weight_and_a_singular_stop(planar3):
     """A user weight vector and a matrix go through the batch as through the
     resolver; a run that straightens the arm stops at the singular cutoff with

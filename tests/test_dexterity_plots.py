@@ -36,6 +36,7 @@ def axes_drawn(monkeypatch):
     return figures
 
 
+@pytest.mark.slow
 def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path, run, axes_drawn):
     plots.plot_run(run, tmp_path / "with.png")
     plain = torqueopt.simulate(
@@ -81,6 +82,7 @@ def test_a_bad_ellipse_kind_is_refused(tmp_path, planar3, run):
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.slow
 def test_plot_command_draws_stick_figures_with_ellipses(tmp_path, run, capsys):
     saved = run.to_csv(tmp_path / "run.csv")
     assert main(["plot", str(saved), "--stick-figures", "--ellipse", "acceleration", "--snapshots", "4"]) == 0

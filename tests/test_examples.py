@@ -4,6 +4,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
@@ -38,6 +40,7 @@ def test_remedies_random_lines_prints_one_row_per_case():
         assert 0 <= unstable <= 2 - stopped
 
 
+@pytest.mark.slow
 def test_kinematic_vs_kinetic_example_shows_the_contrast_and_the_repeatability():
     printed = run_example("kinematic_vs_kinetic.py")
     table, loop = printed.split("One loop")
@@ -51,6 +54,7 @@ def test_kinematic_vs_kinetic_example_shows_the_contrast_and_the_repeatability()
     assert max(extended) < 1e-6 and max(pinv) > 0.1
 
 
+@pytest.mark.slow
 def test_paths_and_dexterity_example_shows_the_papers_long_movement_verdicts():
     printed = run_example("paths_and_dexterity.py")
     rows = {tuple(line.split()[:3]): line.split() for line in printed.splitlines()}

@@ -34,6 +34,7 @@ def test_plot_writes_the_format_its_suffix_names(saved_run, tmp_path, suffix, ma
         assert b"<svg" in content[:2000]
 
 
+@pytest.mark.slow
 def test_dpi_sets_the_png_resolution(saved_run, tmp_path):
     low, high = tmp_path / "low.png", tmp_path / "high.png"
     assert main(["plot", str(saved_run), "--out", str(low), "--dpi", "50"]) == 0

@@ -94,6 +94,7 @@ def test_kkt_conditions_hold_at_the_solution(paper_arm):
     assert np.all(np.abs(lam_g[inequality]) * slack < 1e-4)
 
 
+@pytest.mark.slow
 def test_global_cost_is_never_above_any_feasible_local_run(paper_arm):
     line = PAPER.line("medium")
     result = optimize(paper_arm, line, PAPER.q0, end="free")
@@ -253,6 +254,7 @@ def test_solution_replays_on_the_path_and_beats_its_warm_start(paper_arm):
     assert result.tau.shape == (len(result.t), 3) and result.t[-1] == pytest.approx(2.0)
 
 
+@pytest.mark.slow
 def test_torque_bounds_hold(paper_arm):
     free = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range")
     bounded = optimize(paper_arm, PAPER.line("long"), PAPER.q0, weight="range", torque_bounds=True)

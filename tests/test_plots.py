@@ -68,6 +68,7 @@ def test_arm_points_end_at_the_task_frame_of_a_3d_arm(panda):
     np.testing.assert_allclose(points[-1], panda.frame_placement(q).translation, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_torque_motion_and_tip_figures(tmp_path, short_runs, titles):
     torques = plots.plot_torques(short_runs, tmp_path / "torques.png", title="short", instability_times={"pinv": 0.2})
     motion = plots.plot_motion(short_runs[1], tmp_path / "motion.png", title="motion", events={"event": 0.25})
@@ -119,6 +120,7 @@ def saved_runs(tmp_path_factory, short_runs, stopped_run):
     return folder
 
 
+@pytest.mark.slow
 def test_plot_command_writes_the_figure_beside_the_run(saved_runs, capsys):
     assert main(["plot", str(saved_runs / "short.csv")]) == 0
     assert capsys.readouterr().out == f"wrote {saved_runs / 'short.png'}\n"

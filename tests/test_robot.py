@@ -120,7 +120,7 @@ def test_vetted_urdfs_pass_yourdfpy_and_agree_on_mimic_joints(name):
     mimic joints read off the XML must be the ones yourdfpy finds."""
     import yourdfpy
 
-    from torqueopt.robot import _validate_urdf
+    from torqueopt.loading import _validate_urdf
 
     path = find_robot(name).urdf
     urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)

@@ -25,6 +25,7 @@ def test_a_run_stopped_at_its_first_sample_keeps_that_state(stopped_at_start):
     assert not report.unstable and "applied no torque" in report.reason
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("suffix", [".csv", ".npz"])
 def test_it_writes_a_file_that_plot_and_play_read_back(stopped_at_start, tmp_path, suffix, capsys):
     path = stopped_at_start.to_csv(tmp_path / f"run{suffix}")

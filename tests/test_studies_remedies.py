@@ -103,6 +103,7 @@ def test_the_lp_answer_is_honest_about_what_was_run(study):
     assert f"stays within the torque limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
 
 
+@pytest.mark.slow
 def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper, monkeypatch):
     monkeypatch.delitem(RESOLVERS, "damped-null-space")
     missing = run_remedies(paper, sweep=False)
@@ -118,6 +119,7 @@ def test_bad_sweep_grids_are_refused(paper):
         run_remedies(paper, dampings=[-1])
 
 
+@pytest.mark.slow
 def test_paper_command_writes_the_remedies_section_and_figures(tmp_path, capsys):
     # Short movements keep it quick: the wiring is under test here, the numbers above.
     code = main(["paper", "--out", str(tmp_path), "--no-remedy-sweep", "--durations", "0.1,0.2,0.3"])

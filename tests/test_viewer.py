@@ -166,6 +166,7 @@ def test_the_run_must_move_the_robots_joints(panda, violating_run):
 # -- the HTML file -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_html_of_a_2s_planar3_run_is_small_and_subsampling_shrinks_it(planar3, whiplash, tmp_path):
     path = viewer.export_html(viewer.Playback(planar3, whiplash), tmp_path / "whiplash.html")
     size = path.stat().st_size
@@ -207,6 +208,7 @@ def test_html_is_written_atomically(planar3, violating_run, tmp_path, monkeypatc
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.html"]
 
 
+@pytest.mark.slow
 def test_visual_model_is_reduced_like_the_dynamic_model(panda, planar3):
     model, geometry = viewer.visual_model(panda)
     assert list(model.names) == list(panda.model.names)
@@ -298,6 +300,7 @@ def listening_addresses(pid: int) -> list[str]:
     return addresses
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads listening sockets from Linux /proc")
 def test_live_server_listens_on_localhost_only_and_plays_to_a_browser(planar3, whiplash):
     from tornado.websocket import websocket_connect
@@ -341,6 +344,7 @@ def chromium():
         pytest.skip(f"headless browser test needs Chromium: {missing}")
 
 
+@pytest.mark.slow
 @pytest.mark.browser
 def test_html_export_draws_the_arm_in_headless_chromium(chromium, planar3, whiplash, tmp_path):
     html = viewer.export_html(viewer.Playback(planar3, whiplash), tmp_path / "whiplash.html")
@@ -360,6 +364,7 @@ def test_html_export_draws_the_arm_in_headless_chromium(chromium, planar3, whipl
     assert grey_pixels.mean() > 0.5, "background missing"
 
 
+@pytest.mark.slow
 @pytest.mark.browser
 def test_a_blank_page_fails_the_check(chromium, tmp_path):
     blank = tmp_path / "blank.html"

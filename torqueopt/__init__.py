@@ -22,12 +22,13 @@ from .errors import (
     UrdfError,
 )
 from .integrators import rk4_step
+from .loading import load_robot
+from .optimal import OptimalResult, optimize
 from .resolvers import NullSpaceResolver, Option, Resolution, Resolver, get_resolver, resolver_names
 from .result import SimResult, load_result
-from .robot import Robot, TaskTerms, load_robot
+from .robot import Robot, TaskTerms
 from .simulate import Feedback, resolve, simulate
 from .trajectory import Circle, MinimumJerkLine, Reference, StraightLine, Trajectory, WaypointPath
-from .optimal import OptimalResult, optimize
 
 __version__ = "0.1.0"
 

@@ -106,8 +106,8 @@ def simulate_kinematic(
     by a ceiling ends with the row that passed it, one stopped where the
     method is undefined with the last row where it was.
     """
-    from .dexterity import dexterity_along
     from .checks import configuration_vector
+    from .dexterity import dexterity_along
     from .simulate import DEFAULT_MAX_STEPS, _row_bytes, _task_reference, step_budget
 
     _require_velocity_level(resolver)

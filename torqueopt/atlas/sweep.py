@@ -33,8 +33,9 @@ import numpy as np
 from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
+from ..loading import load_robot
 from ..resolvers import Resolver, get_resolver
-from ..robot import Robot, load_robot
+from ..robot import Robot
 from ..simulate import simulate
 from ..trajectory import StraightLine
 from .population import Movement

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from ..checks import parse_count, parse_positive, parse_vector
-from ..robot import TASK_DIMENSIONS, Robot, load_robot
+from ..loading import load_robot
+from ..robot import TASK_DIMENSIONS, Robot
 
 __all__ = ["add_robot_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
 

@@ -13,8 +13,9 @@ from pathlib import Path
 
 from ..checks import count_values
 from ..io import writable_path
+from ..loading import load_robot
 from ..result import SimResult, load_result
-from ..robot import TASK_DIMENSIONS, Robot, load_robot
+from ..robot import TASK_DIMENSIONS, Robot
 from . import EXIT_OK
 from .common import parse_count, parse_positive
 

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..loading import load_robot
 from ..plots import plot_stick_strip
 from ..result import SimResult
-from ..robot import Robot, load_robot
+from ..robot import Robot
 from .common import add_robot_options, parse_vector
 
 __all__ = ["add_stick_options", "stick_robot", "write_stick_figures"]

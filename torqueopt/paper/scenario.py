@@ -20,7 +20,8 @@ import numpy as np
 
 from ..checks import finite_values, positive_number
 from ..errors import InvalidInput
-from ..robot import Robot, load_robot
+from ..loading import load_robot
+from ..robot import Robot
 from ..trajectory import StraightLine
 
 __all__ = ["MOVEMENTS", "PAPER", "PAPER_RESOLVERS", "PaperScenario"]
