@@ -105,7 +105,7 @@ def collect(robot_name: str, count: int, seed: int):
                 problems.append(problem)
         return problems[:count]
     robot = torqueopt.load_robot("panda", task="position")
-    robot.set_torque_limit(robot.urdf_effort_limit / 3.0)
+    robot = robot.with_torque_limit(robot.urdf_effort_limit / 3.0)
     rng = np.random.default_rng(seed)
     problems = []
     while len(problems) < count:

@@ -37,8 +37,7 @@ def tight_planar3():
 def tight_panda():
     """Panda position task with a third of its URDF limits (29 and 4 N·m), gravity on."""
     robot = torqueopt.load_robot("panda", task="position")
-    robot.set_torque_limit(robot.urdf_effort_limit / 3.0)
-    return robot
+    return robot.with_torque_limit(robot.urdf_effort_limit / 3.0)
 
 
 def _step(name, robot, **options):

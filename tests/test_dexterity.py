@@ -126,8 +126,7 @@ def test_a_joint_that_cannot_hold_gravity_gives_no_range(planar3):
 
 
 def test_a_joint_without_torque_limit_makes_the_normalised_measures_nan(planar3):
-    unlimited = planar3.with_gravity(False)
-    unlimited.set_torque_limit(np.array([54.0, np.inf, 6.0]))
+    unlimited = planar3.with_torque_limit(np.array([54.0, np.inf, 6.0]))
     measured = dexterity(unlimited, PAPER_Q0)
     assert np.isnan(measured.dynamic_manipulability) and np.isnan(measured.khatib_manipulability)
     assert measured.acceleration_ellipsoid is None

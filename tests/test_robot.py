@@ -50,12 +50,12 @@ def test_torque_limit_override_and_missing_limits(tmp_path):
     robot = torqueopt.load_robot(str(no_limit), frame="tip", task="xy")
     assert robot.joints_without_torque_limit == ["joint2"]
     assert np.isinf(robot.torque_limit[1])
-    robot.set_torque_limit([54, 24, 6])
-    assert robot.joints_without_torque_limit == []
+    limited = robot.with_torque_limit([54, 24, 6])
+    assert limited.joints_without_torque_limit == [] and robot.joints_without_torque_limit == ["joint2"]
     with pytest.raises(InvalidInput, match=r"torque limit has 2 values; robot 'nolimit' needs 1 or 3"):
-        robot.set_torque_limit([1, 2])
+        robot.with_torque_limit([1, 2])
     with pytest.raises(InvalidInput, match="must be positive numbers"):
-        robot.set_torque_limit([1, -2, 3])
+        robot.with_torque_limit([1, -2, 3])
 
 
 def test_configuration_from_angles_round_trips_for_continuous_joints():

@@ -43,7 +43,7 @@ def load_robot(
         task: ``xy``, ``position`` or ``pose``; defaults to ``xy`` for
             planar3 and ``position`` otherwise.
         torque_limit: override of the URDF effort limits [N·m], see
-            :meth:`Robot.set_torque_limit`.
+            :meth:`Robot.with_torque_limit`.
         gravity: ``True`` (−9.81 m/s² along z), ``False`` or a 3-vector;
             defaults to off for the paper's arm and on otherwise.
         lock: joints of the task chain to lock as well (the joints outside

@@ -126,9 +126,9 @@ class Robot:
         self._default_configuration = (
             self._neutral.copy() if default_configuration is None else np.asarray(default_configuration, float)
         )
-        self.set_gravity(gravity)
+        self._set_gravity(gravity)
         self.urdf_effort_limit = np.array(model.effortLimit, dtype=float)
-        self.set_torque_limit(torque_limit)
+        self._set_torque_limit(torque_limit)
 
     # -- sizes --------------------------------------------------------------
     @property
@@ -151,9 +151,9 @@ class Robot:
         """Degree of redundancy n - m."""
         return self.nv - self.m
 
-    # -- settings -------------------------------------------------------------
-    def set_gravity(self, gravity) -> None:
-        """Switch gravity on (``True``: -9.81 m/s² along world z), off, or set its vector [m/s²]."""
+    # -- settings (a Robot is not changed after it is made: with_* give changed copies) --
+    def _set_gravity(self, gravity) -> None:
+        """Gravity on (``True``: -9.81 m/s² along world z), off, or its vector [m/s²]; only while the robot is made."""
         if gravity is True:
             vector = np.array([0.0, 0.0, -9.81])
         elif gravity is False or gravity is None:
@@ -170,16 +170,30 @@ class Robot:
     def with_gravity(self, gravity) -> Robot:
         """A copy of this robot (its own Pinocchio model) under ``gravity``; this robot is left as it is.
 
-        ``gravity`` is as for :meth:`set_gravity`: ``True``, ``False`` or a
-        3-vector [m/s²]. The torque limits are this robot's.
+        ``gravity``: ``True`` (−9.81 m/s² along z), ``False`` or a 3-vector
+        [m/s²]. The torque limits are this robot's.
         """
+        copy = self._copy(self.model.copy(), self.torque_upper.copy(), gravity)
+        copy.torque_lower = self.torque_lower.copy()
+        return copy
+
+    def with_torque_limit(self, torque_limit=None) -> Robot:
+        """A copy of this robot with symmetric torque limits τ⁺ = −τ⁻ [N·m]; this robot is left as it is.
+
+        ``None`` takes the URDF's effort limits; a scalar applies to every
+        joint; a vector gives one limit per joint; ``inf`` marks a joint as
+        unbounded. The copy shares this robot's Pinocchio model.
+        """
+        return self._copy(self.model, torque_limit, self.gravity)
+
+    def _copy(self, model: pin.Model, torque_limit, gravity) -> Robot:
         return Robot(
-            self.model.copy(),
+            model,
             self.frame,
             self.task,
             name=self.name,
             source=self.source,
-            torque_limit=self.torque_upper.copy(),
+            torque_limit=torque_limit,
             gravity=gravity,
             locked_joints=self.locked_joints,
             full_model=self.full_model,
@@ -187,8 +201,8 @@ class Robot:
             default_configuration=self._default_configuration,
         )
 
-    def set_torque_limit(self, torque_limit=None) -> None:
-        r"""Set symmetric torque limits :math:`\tau^+ = -\tau^-` [N·m].
+    def _set_torque_limit(self, torque_limit=None) -> None:
+        r"""Symmetric torque limits :math:`\tau^+ = -\tau^-` [N·m]; only while the robot is made.
 
         ``None`` takes the URDF's effort limits; a scalar applies to every
         joint; a vector gives one limit per joint. A URDF limit that is zero,
