@@ -24,7 +24,7 @@ def test_run_prints_a_summary_and_writes_the_run(tmp_path, capsys):
     table = np.loadtxt(out, delimiter=",", skiprows=1)
     assert table.shape == (501, 16 + 6)  # t, 3 q, 3 v, 3 tau, 2 x, 2 xref, task_error, infeasible, 6 dexterity
     # The summary's peak torque of joint 1 is the CSV's, to print precision.
-    joint1 = [line for line in printed.splitlines() if line.startswith("joint1")][0]
+    joint1 = next(line for line in printed.splitlines() if line.startswith("joint1"))
     assert float(joint1.split()[1]) == pytest.approx(np.nanmax(np.abs(table[:, 7])), abs=1e-3)
     # The row at t = T is the final state, with no torque applied from it.
     assert np.isnan(table[-1, 7:10]).all() and np.isfinite(table[:-1, 7:10]).all()

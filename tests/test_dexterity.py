@@ -1,4 +1,4 @@
-"""Dexterity measures against closed-form planar kinematics and dynamics, SVD and the paper's Eqs. (6), (22)-(25)."""
+"""Dexterity measures against closed-form planar kinematics and dynamics, SVD and the paper's Eq. (6), Eq. (22), Eq. (23), Eq. (24), Eq. (25)."""
 
 import numpy as np
 import pytest

@@ -9,7 +9,7 @@ from torqueopt.integrators import rk4_reference_step
 
 
 def integrate(robot, q, v, tau, dt, duration):
-    for _ in range(int(round(duration / dt))):
+    for _ in range(round(duration / dt)):
         q, v = torqueopt.rk4_step(robot, q, v, tau, dt)
     return q, v
 

@@ -13,7 +13,7 @@ from Pinocchio at zero velocity:
     :math:`\sigma_{min}(J)` (Klein & Blaho): the smallest tip speed a unit
     joint speed can give in the worst direction [m/rad]; zero at a singularity.
 ``dynamic_manipulability``
-    Yoshikawa's dynamic manipulability, Eqs. (22)-(25): at zero velocity the
+    Yoshikawa's dynamic manipulability, Eq. (22), Eq. (23), Eq. (24), Eq. (25): at zero velocity the
     pseudo-torque :math:`\tilde\tau = \tau - g` gives the acceleration
     :math:`\ddot x - \dot J\dot\theta = J H^{-1}\tilde\tau` (Eq. (22)); with each
     torque normalised by the range left after gravity,

@@ -129,7 +129,8 @@ def atomic_write(path: Path, write) -> None:
     target = _replaceable(path)  # again, at the moment of writing
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        handle = tempfile.NamedTemporaryFile(dir=target.parent, prefix=f".{target.name}.", suffix=".part", delete=False)
+        # Not a with-block: the file must outlive the handle, to be renamed into place or removed below.
+        handle = tempfile.NamedTemporaryFile(dir=target.parent, prefix=f".{target.name}.", suffix=".part", delete=False)  # noqa: SIM115
     except OSError as error:
         raise OutputError(f"cannot write '{path}': {error.strerror or error}") from None
     try:

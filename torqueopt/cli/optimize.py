@@ -53,7 +53,7 @@ def add_parser(subparsers) -> None:
         "--weight",
         default="identity",
         metavar="W",
-        help=f"torque weight: {', '.join(WEIGHTS)} (S = diag(2/(τ⁺−τ⁻)), Eq. 33) or the diagonal of W, one value "
+        help=f"torque weight: {', '.join(WEIGHTS)} (S = diag(2/(τ⁺−τ⁻)), Eq. (33)) or the diagonal of W, one value "
         "per joint (default identity)",
     )
     group.add_argument("--end", default="rest", choices=ENDS, help="end at rest (v(T) = 0) or free (default rest)")

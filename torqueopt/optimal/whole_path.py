@@ -6,7 +6,7 @@ path and minimises
 .. math:: \int_0^T \|S(\tau - \tau_{mid})\|^2\, dt
 
 starting at rest at :math:`q_0` (the global counterpart of the paper's
-local, instant-by-instant criterion, Eqs. (29)-(33)). Steps:
+local, instant-by-instant criterion, Eq. (29), Eq. (30), Eq. (31), Eq. (32), Eq. (33)). Steps:
 
 1. a local resolver's run (``pinv`` by default) on the simulation grid,
    sampled at the nodes, is the warm start;

@@ -8,7 +8,7 @@ solution :math:`p = J^\dagger(\ddot x - \dot J\dot q)`, an orthonormal basis
 
     \ddot q = p + Z y, \qquad
     \tau = \tilde\tau + H Z y, \qquad
-    \tilde\tau = H p + \dot q\cdot C\cdot\dot q + g \quad\text{(Eqs. (27), (28))},
+    \tilde\tau = H p + \dot q\cdot C\cdot\dot q + g \quad\text{(Eq. (27), Eq. (28))},
 
 so every :math:`y` realises the task and the bounds
 :math:`\tau^- \le \tau \le \tau^+` are :math:`2\,n_b` general inequalities
@@ -408,7 +408,7 @@ class BoundedTorque(_BoundedResolver):
         \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y,\quad \tau^- \le \tau \le \tau^+
 
     with :math:`\tau_{mid} = (\tau^+ + \tau^-)/2` (Eq. (29)), :math:`S = I`
-    (``torque_weight='unit'``: the criterion of ``null-space``, Eqs. (29)-(31)),
+    (``torque_weight='unit'``: the criterion of ``null-space``, Eq. (29), Eq. (30), Eq. (31)),
     the torque-range weight :math:`S = \mathrm{diag}(1/(\tau^+_i - \tau^-_i))`
     of Eq. (33) (``'range'``: that of ``weighted-null-space``; zero for an
     unbounded joint), or :math:`S^2 = \mathrm{diag}(w)` for a user vector
@@ -492,7 +492,7 @@ class BoundedTorque(_BoundedResolver):
 
         def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque):
             weighted_basis = root * inertia_basis
-            offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eqs. (29), (32)
+            offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eq. (29), Eq. (32)
             hessian = weighted_basis.T.dot(weighted_basis)
             cost = weighted_basis.T.dot(offset).reshape(-1)
             if relative_weight2:
@@ -525,7 +525,7 @@ class MinMaxTorque(_BoundedResolver):
     .. math::
 
         \min_y\ \max_i \frac{|\tau_i - \tau_{mid,i}|}{\tau^+_i - \tau^-_i}
-        \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y \quad\text{(Eqs. (27), (28))}
+        \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y \quad\text{(Eq. (27), Eq. (28))}
 
     as the LP :math:`\min_{y,t} t` with :math:`\pm(\tau_i - \tau_{mid,i}) \le t(\tau^+_i - \tau^-_i)`
     over the joints with finite limits (an unbounded joint has no range to

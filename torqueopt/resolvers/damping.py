@@ -25,7 +25,7 @@ resolvers answer it, both members of the null-space family
     .. math::
 
         \min_y\ \|S(\tau - \tau_{mid})\|^2 + \bar\mu^2\,\|y + K_D Z^\top\dot q\|^2,
-        \qquad \tau = \tilde\tau + H Z y \quad\text{(Eqs. (27)-(29))},
+        \qquad \tau = \tilde\tau + H Z y \quad\text{(Eq. (27), Eq. (28), Eq. (29))},
 
     with :math:`S` the identity (``null-space``, Eq. (29)) or the torque-range
     weight :math:`S = \mathrm{diag}(1/(\tau^+_i - \tau^-_i))` of Eq. (33), or a
@@ -198,7 +198,7 @@ class DampedNullSpaceTorque(NullSpaceResolver):
         relative_weight, damping = self.kinematic_weight, self.damping
         torque_rows = robot.nv
         if relative_weight == 0.0:
-            # Exactly the paper's least squares (Eqs. (31), (33)): no kinematic rows at all.
+            # Exactly the paper's least squares (Eq. (31), Eq. (33)): no kinematic rows at all.
             least_squares = LeastSquares(torque_rows, redundancy)
 
             def torque_only(terms: TaskTerms, null_space_basis, particular):

@@ -7,7 +7,7 @@ Oriolo & Siciliano 1992; Hsu, Hauser & Sastry 1989):
 .. math::
 
     \ddot q = J^\dagger(\ddot x - \dot J\dot q) + (I - J^\dagger J)\,\ddot\phi,
-    \qquad \tau = H\ddot q + \dot q\cdot C\cdot\dot q + g \quad\text{(Eqs. 26, 20)},
+    \qquad \tau = H\ddot q + \dot q\cdot C\cdot\dot q + g \quad\text{Eq. (26), Eq. (20)},
 
 with a null-space acceleration :math:`\ddot\phi` that, unlike Eq. (2)'s
 velocity, must also damp the self-motion it builds up, since nothing else
@@ -15,7 +15,7 @@ does at this level.
 
 ``gradient-projection-acceleration``
     :math:`\ddot\phi = -k\,\partial p/\partial q - k_d\dot q`: Liégeois's
-    gradient (Eq. (4), criteria Eqs. (5), (6)) as a null-space acceleration,
+    gradient (Eq. (4), criteria Eq. (5), Eq. (6)) as a null-space acceleration,
     with self-motion damping :math:`k_d` [1/s].
 ``task-priority-acceleration``
     Eq. (11) at the acceleration level: the lower-priority task's
@@ -24,7 +24,7 @@ does at this level.
     :math:`\ddot\phi = [J_l Z]^\dagger(\ddot x_l - \dot J_l\dot q - J_l J^\dagger(\ddot x - \dot J\dot q))`,
     in the coordinates of an orthonormal null-space basis Z.
 
-The inertia-weighted acceleration form of ``kinetic-energy-pinv`` (Eq. 16,
+The inertia-weighted acceleration form of ``kinetic-energy-pinv`` (Eq. (16),
 W = H) is Khatib's Eq. (19), the existing ``inertia-pinv``. Both resolvers
 here realise the robot's task exactly.
 """

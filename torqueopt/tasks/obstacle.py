@@ -1,4 +1,4 @@
-r"""The point of the arm closest to an obstacle, for obstacle avoidance (Maciejewski & Klein, Eqs. (12)-(13)).
+r"""The point of the arm closest to an obstacle, for obstacle avoidance (Maciejewski & Klein, Eq. (12), Eq. (13)).
 
 The arm is modelled as a chain of segments: from each joint origin of the
 chain that carries the task frame to the next, and from the last joint to

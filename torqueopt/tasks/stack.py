@@ -1,12 +1,12 @@
-r"""A stack of prioritised tasks (Hanafusa, Yoshikawa & Nakamura, Eqs. (7)-(11)).
+r"""A stack of prioritised tasks (Hanafusa, Yoshikawa & Nakamura, Eq. (7), Eq. (8), Eq. (9), Eq. (10), Eq. (11)).
 
-For a high-priority task :math:`\dot x_h = J_h\dot q` (Eq. 7) and a
-low-priority one :math:`\dot x_l = J_l \dot q` (Eq. 8), the joint rates
+For a high-priority task :math:`\dot x_h = J_h\dot q` Eq. (7) and a
+low-priority one :math:`\dot x_l = J_l \dot q` Eq. (8), the joint rates
 
 .. math::
 
     \dot q = J_h^\dagger \dot x_h + [J_l(I - J_h^\dagger J_h)]^\dagger
-             (\dot x_l - J_l J_h^\dagger \dot x_h) \qquad \text{(Eq. 11)}
+             (\dot x_l - J_l J_h^\dagger \dot x_h) \qquad \text{Eq. (11)}
 
 realise :math:`\dot x_h` exactly and :math:`\dot x_l` as well as the
 remaining freedom allows (least squares). Eq. (11) is Eq. (9) with the

@@ -3,12 +3,12 @@
 ====================== ==========================================================
 name                   method (equations of the paper)
 ====================== ==========================================================
-``velocity-pinv``       resolved rate with the pseudoinverse, Eqs. (1)-(3)
+``velocity-pinv``       resolved rate with the pseudoinverse, Eq. (1), Eq. (2), Eq. (3)
 ``gradient-projection`` Liégeois's gradient projection, Eq. (4), criteria (5), (6)
-``task-priority``       Hanafusa, Yoshikawa & Nakamura, Eqs. (7)-(11)
-``obstacle-avoidance``  Maciejewski & Klein, Eqs. (12)-(13)
-``extended-jacobian``   Baillieul, Eqs. (14)-(15), n − m = 1
-``kinetic-energy-pinv`` weighted pseudoinverse with W = H, Eqs. (16)-(17)
+``task-priority``       Hanafusa, Yoshikawa & Nakamura, Eq. (7), Eq. (8), Eq. (9), Eq. (10), Eq. (11)
+``obstacle-avoidance``  Maciejewski & Klein, Eq. (12), Eq. (13)
+``extended-jacobian``   Baillieul, Eq. (14), Eq. (15), n − m = 1
+``kinetic-energy-pinv`` weighted pseudoinverse with W = H, Eq. (16), Eq. (17)
 ====================== ==========================================================
 """
 

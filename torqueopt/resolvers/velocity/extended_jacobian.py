@@ -1,4 +1,4 @@
-r"""Baillieul's extended Jacobian (1985), Eqs. (14)-(15), for one degree of redundancy."""
+r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of redundancy."""
 
 from __future__ import annotations
 
@@ -52,15 +52,15 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
 
 
 class ExtendedJacobian(VelocityResolver):
-    r"""Baillieul's extended Jacobian for n − m = 1, Eqs. (14)-(15).
+    r"""Baillieul's extended Jacobian for n − m = 1, Eq. (14), Eq. (15).
 
     With :math:`n_J` spanning the null space of J and p(q) a criterion,
 
     .. math::
 
-        G(q) = \frac{\partial p}{\partial q}\cdot n_J \quad\text{(Eq. 14)},\qquad
+        G(q) = \frac{\partial p}{\partial q}\cdot n_J \quad\text{Eq. (14)},\qquad
         J_{ex}\dot q = \begin{bmatrix}\dot x\\ 0\end{bmatrix},\quad
-        J_{ex} = \begin{bmatrix} J \\ \partial G/\partial q\end{bmatrix} \quad\text{(Eq. 15)},
+        J_{ex} = \begin{bmatrix} J \\ \partial G/\partial q\end{bmatrix} \quad\text{Eq. (15)},
 
     solved for :math:`\dot q` directly. The rates keep G constant along the
     motion, so the arm stays on the surface :math:`G(q) = G(q_0)` (the

@@ -1,4 +1,4 @@
-r"""Obstacle avoidance through the null space (Maciejewski & Klein, 1985), Eqs. (12)-(13)."""
+r"""Obstacle avoidance through the null space (Maciejewski & Klein, 1985), Eq. (12), Eq. (13)."""
 
 from __future__ import annotations
 

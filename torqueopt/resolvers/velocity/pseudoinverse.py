@@ -16,16 +16,16 @@ __all__ = ["VelocityPseudoInverse", "KineticEnergyPseudoInverse"]
 
 
 class VelocityPseudoInverse(VelocityResolver):
-    r"""Resolved rate (Whitney) with the Moore-Penrose pseudoinverse, Eqs. (1)-(3).
+    r"""Resolved rate (Whitney) with the Moore-Penrose pseudoinverse, Eq. (1), Eq. (2), Eq. (3).
 
     .. math::
 
-        \dot q = J^\dagger \dot x + (I - J^\dagger J)\dot\phi \quad\text{(Eq. 2)},\qquad
-        J^\dagger = J^\top (J J^\top)^{-1} \quad\text{(Eq. 3)}
+        \dot q = J^\dagger \dot x + (I - J^\dagger J)\dot\phi \quad\text{Eq. (2)},\qquad
+        J^\dagger = J^\top (J J^\top)^{-1} \quad\text{Eq. (3)}
 
     With :math:`\dot\phi = 0` (the default) the joint rates minimise
     :math:`\dot q^\top \dot q` among those realising :math:`\dot x = J\dot q`
-    (Eq. 1). The null-space projection :math:`I - J^\dagger J = ZZ^\top` is
+    Eq. (1). The null-space projection :math:`I - J^\dagger J = ZZ^\top` is
     applied through an orthonormal basis Z of the null space of J.
 
     Args:
@@ -70,17 +70,17 @@ class VelocityPseudoInverse(VelocityResolver):
 
 
 class KineticEnergyPseudoInverse(VelocityResolver):
-    r"""Weighted pseudoinverse with :math:`W = H`: minimum kinetic energy, Eqs. (16)-(17).
+    r"""Weighted pseudoinverse with :math:`W = H`: minimum kinetic energy, Eq. (16), Eq. (17).
 
     .. math::
 
         \dot q = J_H^\dagger \dot x,\qquad
-        J_W^\dagger = W^{-1} J^\top (J W^{-1} J^\top)^{-1} \quad\text{(Eq. 16)}
+        J_W^\dagger = W^{-1} J^\top (J W^{-1} J^\top)^{-1} \quad\text{Eq. (16)}
 
-    which minimises :math:`T = \tfrac12 \dot q^\top H \dot q` (Eq. 17, [J])
+    which minimises :math:`T = \tfrac12 \dot q^\top H \dot q` (Eq. (17), [J])
     among the joint rates with :math:`J\dot q = \dot x` (Whitney). H is
     Pinocchio's CRBA at q. This is the velocity-level twin of the
-    acceleration-level ``inertia-pinv`` (Eq. 19).
+    acceleration-level ``inertia-pinv`` Eq. (19).
     """
 
     name = "kinetic-energy-pinv"

@@ -1,4 +1,4 @@
-r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eqs. (7)-(11)."""
+r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eq. (7), Eq. (8), Eq. (9), Eq. (10), Eq. (11)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ class TaskPriority(VelocityResolver):
     with :math:`\dot x_h` the commanded velocity of the robot's task (the
     trajectory) and :math:`\dot x_l` the desired velocity of each secondary
     task (:math:`k(x^* - x)` toward its target). The high-priority task is
-    realised exactly; the low-priority one in the least-squares sense (Eq. 10).
+    realised exactly; the low-priority one in the least-squares sense Eq. (10).
     Several secondary tasks are stacked by the recursion of
     :mod:`torqueopt.tasks.stack`.
 
@@ -75,7 +75,7 @@ class TaskPriority(VelocityResolver):
             _, _, condition = decompose(jacobian, task_velocity)  # the high-priority task must keep full rank
             jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
             velocities = [task_velocity] + [lower.desired_velocity(kinematics) for lower in secondary]
-            # Eq. (11) (and its recursion for deeper stacks), Eqs. (7)-(10) in the docstring
+            # Eq. (11) (and its recursion for deeper stacks), Eq. (7), Eq. (8), Eq. (9), Eq. (10) in the docstring
             joint_rates, _ = prioritised_rates(jacobians, velocities, damping=damping)
             return joint_rates, condition
 
