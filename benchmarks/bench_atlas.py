@@ -188,8 +188,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.count:
         counts = count_instructions()
-        print(f"instructions per trajectory-step (planar3, null-space): batch of 64 {counts['batch']:,.0f}, "
-              f"one simulate run {counts['simulate']:,.0f} ({counts['simulate'] / counts['batch']:.2f}x)")
+        print(
+            f"instructions per trajectory-step (planar3, null-space): batch of 64 {counts['batch']:,.0f}, "
+            f"one simulate run {counts['simulate']:,.0f} ({counts['simulate'] / counts['batch']:.2f}x)"
+        )
         return
 
     import distributed
@@ -203,9 +205,13 @@ def main(argv=None):
 
     clusters = {}
     for workers in (1, 2):
-        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0")
+        cluster = distributed.LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
+        )
         client = distributed.Client(cluster)
-        client.gather([client.submit(run_chunk, job, pure=False) for job in _jobs("planar3", movements[:8], ["pinv"], 4)])
+        client.gather(
+            [client.submit(run_chunk, job, pure=False) for job in _jobs("planar3", movements[:8], ["pinv"], 4)]
+        )
         clusters[workers] = (cluster, client)
 
     results = {"simulate": [], "batch": [], "sweep 1 worker": [], "sweep 2 workers": []}
@@ -221,7 +227,9 @@ def main(argv=None):
         runs, _ = simulate_batch(planar3, "null-space", lines, q0s, extras=True)
         results["batch"].append(sum(len(r.t) - 1 for r in runs) / (time.perf_counter() - started))
         for workers in (1, 2):
-            results[f"sweep {workers} worker{'s' if workers > 1 else ''}"].append(_sweep(clusters[workers][1], jobs, distributed))
+            results[f"sweep {workers} worker{'s' if workers > 1 else ''}"].append(
+                _sweep(clusters[workers][1], jobs, distributed)
+            )
     ticks_after = _cpu_ticks()
     for cluster, client in clusters.values():
         client.close()

@@ -66,8 +66,13 @@ def scipy_case(method):
         constraint = NonlinearConstraint(problem.constraints, 0.0, 0.0, jac=problem.jacobian)
         began = time.perf_counter()
         answer = minimize(
-            problem.objective, w0, jac=problem.gradient, method=method, constraints=[constraint],
-            bounds=list(zip(lower, upper)), options={"maxiter": 500},
+            problem.objective,
+            w0,
+            jac=problem.gradient,
+            method=method,
+            constraints=[constraint],
+            bounds=list(zip(lower, upper)),
+            options={"maxiter": 500},
         )
         return answer, problem.objective(answer.x), time.perf_counter() - began
 
@@ -106,7 +111,9 @@ def main() -> None:
         )
     if args.scipy:
         optimum = optimize(PAPER.load_robot(), PAPER.line("short"), PAPER.q0, grid_step=0.01)
-        print(f"\nIPOPT on the same short-movement transcription: {optimum.solve_seconds:.2f} s, grid cost {optimum.grid_cost:.4f}")
+        print(
+            f"\nIPOPT on the same short-movement transcription: {optimum.solve_seconds:.2f} s, grid cost {optimum.grid_cost:.4f}"
+        )
         for method in ("SLSQP", "trust-constr"):
             name, run = scipy_case(method)
             answer, cost, seconds = run()

@@ -155,8 +155,16 @@ def run(repeats: int, panda_tasks) -> dict:
             result = torqueopt.simulate(robot, resolver, trajectory, q0)  # warm-up, and the step count
             if not result.completed:
                 raise RuntimeError(f"{robot.name} / {resolver} stopped early: {result.stop_reason}")
-            jobs.append({"case": label, "resolver": resolver, "steps": result.t.size - 1,
-                         "arguments": (robot, resolver, trajectory, q0), "wall": [], "cpu": []})
+            jobs.append(
+                {
+                    "case": label,
+                    "resolver": resolver,
+                    "steps": result.t.size - 1,
+                    "arguments": (robot, resolver, trajectory, q0),
+                    "wall": [],
+                    "cpu": [],
+                }
+            )
     yardstick = []
     ticks_before = cpu_ticks()
     for _ in range(repeats):

@@ -53,9 +53,20 @@ def instructions(robot: str, task: str, resolver: str, steps: int) -> int:
         with open(script, "w") as handle:
             handle.write(RUN)
         completed = subprocess.run(
-            ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, script,
-             robot, task, resolver, str(steps)],
-            capture_output=True, text=True, check=False,
+            [
+                "valgrind",
+                "--tool=callgrind",
+                f"--callgrind-out-file={folder}/out",
+                sys.executable,
+                script,
+                robot,
+                task,
+                resolver,
+                str(steps),
+            ],
+            capture_output=True,
+            text=True,
+            check=False,
             env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
         )
     match = re.search(r"Collected\s*:\s*(\d+)", completed.stderr)

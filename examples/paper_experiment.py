@@ -24,8 +24,10 @@ print(f"long null-space: peak |tau| = {np.round(result.peak_torque, 1)} N·m; {r
 other = PAPER.replace(direction=(1.0, 0.3), durations=(0.4, 1.0, 1.6))
 for name in ("pinv", "null-space"):
     run = run_movement(other, "long", name)
-    print(f"direction (1, 0.3), 1.6 s, {name:>10}: peak |tau|/limit {run.peak_torque_ratio.max():.2f}, "
-          f"{'unstable' if detect_whiplash(run).unstable else 'stable'}")
+    print(
+        f"direction (1, 0.3), 1.6 s, {name:>10}: peak |tau|/limit {run.peak_torque_ratio.max():.2f}, "
+        f"{'unstable' if detect_whiplash(run).unstable else 'stable'}"
+    )
 
 # Everything: every resolver on every movement, the free swing, the six claims, the figures.
 results = run_paper()

@@ -14,7 +14,9 @@ line = torqueopt.StraightLine(direction=[1.0, 1.0], accel=np.sqrt(2.0), duration
 for name in ("pinv", "null-space"):
     result = torqueopt.simulate(robot, name, line, q0)
     peaks = ", ".join(f"{peak:6.2f}" for peak in result.peak_torque)
-    print(f"{name:>12}: peak |tau| = [{peaks}] N·m (limits 54, 24, 6), max tip error {result.max_tip_error * 1e3:.2f} mm")
+    print(
+        f"{name:>12}: peak |tau| = [{peaks}] N·m (limits 54, 24, 6), max tip error {result.max_tip_error * 1e3:.2f} mm"
+    )
 
 # The torque at one state, without simulating:
 tau = torqueopt.resolve(robot, "null-space", q0, np.zeros(3), task_acceleration=[1.0, 1.0]).torque

@@ -52,5 +52,6 @@ def main() -> None:
             if whiplash.unstable:
                 print(f"{'':<8}  {whiplash.reason}")
 
+
 if __name__ == "__main__":
     main()

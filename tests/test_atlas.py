@@ -64,15 +64,25 @@ def _synthetic_table(rng, paths=120):
         flags = rng.random(4) < [0.05, 0.3, 0.5, 0.6] if duration == 2.0 else rng.random(4) < 0.1
         for resolver, flag in zip(PAPER_RESOLVERS, flags):
             whip = bool(flag and rng.random() < 0.7)
-            rows.append({"path": path, "duration": duration, "resolver": resolver, "unstable": bool(flag),
-                         "verdict": "whiplash" if whip else ("too demanding" if flag else "stable")})
+            rows.append(
+                {
+                    "path": path,
+                    "duration": duration,
+                    "resolver": resolver,
+                    "unstable": bool(flag),
+                    "verdict": "whiplash" if whip else ("too demanding" if flag else "stable"),
+                }
+            )
     return pandas.DataFrame(rows)
 
 
 def test_claims_and_fractions_against_a_direct_count(rng):
     table = _synthetic_table(rng)
     records = table.to_dict("records")
-    for criterion, flag_of in (("unstable", lambda r: r["unstable"]), ("whiplash", lambda r: r["verdict"] == "whiplash")):
+    for criterion, flag_of in (
+        ("unstable", lambda r: r["unstable"]),
+        ("whiplash", lambda r: r["verdict"] == "whiplash"),
+    ):
         flag = {(r["path"], r["resolver"]): flag_of(r) for r in records}
         fractions = unstable_fractions(table, criterion)
         for item in fractions:
@@ -108,7 +118,9 @@ def test_population_is_seeded_and_obeys_its_acceptance_rules(planar3):
     movements = draw_population(planar3, spec)
     again = draw_population(planar3, spec)
     assert [m.path for m in movements] == list(range(80))
-    assert all(np.array_equal(a.q0, b.q0) and np.array_equal(a.direction, b.direction) for a, b in zip(movements, again))
+    assert all(
+        np.array_equal(a.q0, b.q0) and np.array_equal(a.direction, b.direction) for a, b in zip(movements, again)
+    )
     data = planar3.model.createData()
     for movement in movements:
         q = planar3.configuration(movement.q0)
@@ -121,9 +133,13 @@ def test_population_is_seeded_and_obeys_its_acceptance_rules(planar3):
         singular_values = np.linalg.svd(jacobian, compute_uv=False)
         assert singular_values[-1] / singular_values[0] >= 0.2
     # Another seed draws other movements; another list of durations keeps the 2 s ones.
-    other = draw_population(planar3, PopulationSpec(paths=40, durations=(0.5, 2.0), seed=12, reach_fraction=0.8, min_condition=0.2))
+    other = draw_population(
+        planar3, PopulationSpec(paths=40, durations=(0.5, 2.0), seed=12, reach_fraction=0.8, min_condition=0.2)
+    )
     assert not np.allclose(other[0].q0, movements[0].q0)
-    only_long = draw_population(planar3, PopulationSpec(paths=40, durations=(2.0,), seed=11, reach_fraction=0.8, min_condition=0.2))
+    only_long = draw_population(
+        planar3, PopulationSpec(paths=40, durations=(2.0,), seed=11, reach_fraction=0.8, min_condition=0.2)
+    )
     assert all(np.array_equal(a.q0, b.q0) for a, b in zip(only_long, movements[40:]))
     # Directions are uniform on the circle: the mean resultant of 2000 draws is near zero.
     many = draw_population(planar3, PopulationSpec(paths=2000, durations=(0.3,), seed=1))
@@ -273,8 +289,22 @@ def reference_atlas(tmp_path_factory):
 
 def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
     table = reference_atlas
-    required = ["path", "duration", "resolver", "q0_1", "q0_2", "q0_3", "direction_1", "direction_2", "unstable",
-                "verdict", "instability_time", "peak_torque_ratio", "first_limit_violation", "max_tip_error"]
+    required = [
+        "path",
+        "duration",
+        "resolver",
+        "q0_1",
+        "q0_2",
+        "q0_3",
+        "direction_1",
+        "direction_2",
+        "unstable",
+        "verdict",
+        "instability_time",
+        "peak_torque_ratio",
+        "first_limit_violation",
+        "max_tip_error",
+    ]
     assert list(table.columns[: len(required)]) == required
     assert len(table) == 12 * 4 and table["path"].nunique() == 12
     assert list(table["resolver"][:4]) == PAPER_RESOLVERS
@@ -334,8 +364,28 @@ def test_a_sweep_killed_midway_resumes_to_the_identical_table(reference_atlas, t
     """SIGKILL the CLI after two chunks landed, run the same command again:
     the table equals the uninterrupted one, nothing lost or counted twice."""
     out = tmp_path / "killed"
-    command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "6", "--durations", "0.3,1.8",
-               "--chunk-size", "4", "--seed", "5", "--workers", "0", "--no-progress", "--no-figures", "--out", str(out)]
+    command = [
+        sys.executable,
+        "-m",
+        "torqueopt",
+        "atlas",
+        "--robot",
+        "planar3",
+        "--paths",
+        "6",
+        "--durations",
+        "0.3,1.8",
+        "--chunk-size",
+        "4",
+        "--seed",
+        "5",
+        "--workers",
+        "0",
+        "--no-progress",
+        "--no-figures",
+        "--out",
+        str(out),
+    ]
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     chunks = out / "chunks"
@@ -376,7 +426,7 @@ def test_cli_runs_and_prints_the_claims(tmp_path, capsys):
                  "--no-progress", "--no-figures", "--out", str(tmp_path)])  # fmt: skip
     out = capsys.readouterr().out
     assert code == 0
-    assert "null-space" in out and "wrote" in out and 'claim (' in out
+    assert "null-space" in out and "wrote" in out and "claim (" in out
     assert len(_table(tmp_path)) == 12
 
 
@@ -410,7 +460,9 @@ def test_missing_dask_names_the_package(monkeypatch, tmp_path):
     import importlib
 
     monkeypatch.setattr(importlib, "import_module", lambda name: no_distributed(name))
-    with pytest.raises(MissingDependency, match=r"the atlas needs 'dask\[distributed\]'.*pip install 'torqueopt\[atlas\]'"):
+    with pytest.raises(
+        MissingDependency, match=r"the atlas needs 'dask\[distributed\]'.*pip install 'torqueopt\[atlas\]'"
+    ):
         run_atlas("planar3", out=tmp_path, **{**SMALL, "paths": 1, "durations": (0.2,)})
 
 

@@ -106,7 +106,11 @@ def test_speed_stop_matches_simulate(planar3):
 
 
 def test_simulate_many_batches_by_duration_and_falls_back(planar3, panda_pose):
-    lines = [StraightLine([1, 1], duration=0.3), StraightLine([1, -1], duration=0.5), StraightLine([0, 1], duration=0.3)]
+    lines = [
+        StraightLine([1, 1], duration=0.3),
+        StraightLine([1, -1], duration=0.5),
+        StraightLine([0, 1], duration=0.3),
+    ]
     q0s = [PAPER_Q0, PAPER_Q0, [0.3, 1.2, -0.4]]
     for run, line, q0 in zip(simulate_many(planar3, "null-space", lines, q0s), lines, q0s):
         assert_same_run(run, torqueopt.simulate(planar3, "null-space", line, q0))
@@ -149,14 +153,19 @@ def test_batch_energies_against_their_definition(planar3):
             kkt = np.block([[inertia, jacobian.T], [jacobian, np.zeros((2, 2))]])
             least = np.linalg.solve(kkt, np.concatenate([np.zeros(3), jacobian @ v]))[:3]
             assert extra.kinetic_energy[row] == pytest.approx(kinetic, rel=1e-9)
-            assert extra.self_motion_energy[row] == pytest.approx(kinetic - 0.5 * least @ inertia @ least, rel=1e-7, abs=1e-9)
+            assert extra.self_motion_energy[row] == pytest.approx(
+                kinetic - 0.5 * least @ inertia @ least, rel=1e-7, abs=1e-9
+            )
 
 
 def test_batch_takes_any_trajectory(planar3):
     """The trajectory protocol: a minimum-jerk line and a circle, batched together."""
     from torqueopt.trajectory import Circle, MinimumJerkLine
 
-    lines = [MinimumJerkLine([1, 0.5], length=0.6, duration=0.8), Circle(radius=0.3, duration=0.8, centre_direction=[0, 1])]
+    lines = [
+        MinimumJerkLine([1, 0.5], length=0.6, duration=0.8),
+        Circle(radius=0.3, duration=0.8, centre_direction=[0, 1]),
+    ]
     q0s = [PAPER_Q0, [0.3, 1.4, -1.0]]
     for run, line, q0 in zip(simulate_batch(planar3, "inertia-pinv", lines, q0s), lines, q0s):
         assert_same_run(run, torqueopt.simulate(planar3, "inertia-pinv", line, q0))

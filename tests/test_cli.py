@@ -56,28 +56,58 @@ def broken_urdf(tmp_path):
 
 BAD_INPUTS = [
     (["--robot", "nowhere/arm.urdf"], "URDF file 'nowhere/arm.urdf' does not exist"),
-    (["--robot", "BROKEN"], "<joint name=\"joint2\"> has no <child link=\"...\"/>"),
+    (["--robot", "BROKEN"], '<joint name="joint2"> has no <child link="..."/>'),
     (["--robot", "robbie"], "unknown robot 'robbie': give a URDF path or one of planar3, panda"),
     (["--robot", "planar3", "--frame", "hand"], "robot 'planar3' has no frame 'hand': choose one of"),
-    (["--robot", "planar3", "--resolver", "magic"], f"unknown resolver 'magic': choose one of {', '.join(torqueopt.resolver_names())}"),
+    (
+        ["--robot", "planar3", "--resolver", "magic"],
+        f"unknown resolver 'magic': choose one of {', '.join(torqueopt.resolver_names())}",
+    ),
     (["--robot", "planar3", "--task", "spin"], "unknown task 'spin': choose one of xy, position, pose"),
     (["--robot", "planar3", "--q0=0.1,0.2"], "--q0 has 2 values but needs 3"),
     (["--robot", "planar3", "--q0=0.1,nan,0.2"], "--q0: 'nan' is not finite; give finite numbers"),
-    (["--robot", "planar3", "--q0=0.1,abc,0.2"], "--q0: 'abc' is not a number (give comma-separated numbers, e.g. 1,1)"),
+    (
+        ["--robot", "planar3", "--q0=0.1,abc,0.2"],
+        "--q0: 'abc' is not a number (give comma-separated numbers, e.g. 1,1)",
+    ),
     (["--robot", "planar3", "--direction", "0,0"], "direction [0.0, 0.0] is zero; give a non-zero direction"),
     (["--robot", "planar3", "--duration", "0"], "--duration: 0 must be a positive finite number"),
     (["--robot", "planar3", "--duration", "-1"], "--duration: -1 must be a positive finite number"),
     (["--robot", "planar3", "--dt", "0"], "--dt: 0 must be a positive finite number"),
-    (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "task 'position' (m=3) at frame 'tip' of robot 'planar3' can never be realised: its 3 joints move the frame in only 2 independent directions"),
+    (
+        ["--robot", "planar3", "--task", "position", "--direction", "1,1,0"],
+        "task 'position' (m=3) at frame 'tip' of robot 'planar3' can never be realised: its 3 joints move the frame in only 2 independent directions",
+    ),
     (["--robot", "planar3", "--task", "position", "--direction", "1,1,0"], "valid: task xy at this frame"),
-    (["--robot", "panda", "--frame", "panda_link3", "--direction", "1,1,0"], "task 'position' (m=3) at frame 'panda_link3' of robot 'panda' can never be realised"),
-    (["--robot", "planar3", "--resolver", "weighted-null-space", "--weight", "0,0,0"], "weight [0.0, 0.0, 0.0] is zero for every joint, which leaves no torque to minimise"),
-    (["--robot", "planar3", "--duration", "2", "--dt", "0.3"], "dt=0.3 s does not divide the duration 2 s (6.667 steps); give a dt that does, such as 0.333333 s (6 steps) or 0.285714 s (7 steps)"),
-    (["--robot", "planar3", "--duration", "1e9"], "duration 1e+09 s at dt 0.001 s needs 1e+12 steps, more than the limit of 1,000,000 steps (raise it with --max-steps)"),
-    (["--robot", "planar3", "--duration", "2", "--dt", "1e-9"], "needs 2e+09 steps, more than the limit of 1,000,000 steps"),
-    (["--robot", "planar3", "--duration", "1", "--max-steps", "999"], "duration 1 s at dt 0.001 s needs 1000 steps, more than the limit of 999 steps"),
+    (
+        ["--robot", "panda", "--frame", "panda_link3", "--direction", "1,1,0"],
+        "task 'position' (m=3) at frame 'panda_link3' of robot 'panda' can never be realised",
+    ),
+    (
+        ["--robot", "planar3", "--resolver", "weighted-null-space", "--weight", "0,0,0"],
+        "weight [0.0, 0.0, 0.0] is zero for every joint, which leaves no torque to minimise",
+    ),
+    (
+        ["--robot", "planar3", "--duration", "2", "--dt", "0.3"],
+        "dt=0.3 s does not divide the duration 2 s (6.667 steps); give a dt that does, such as 0.333333 s (6 steps) or 0.285714 s (7 steps)",
+    ),
+    (
+        ["--robot", "planar3", "--duration", "1e9"],
+        "duration 1e+09 s at dt 0.001 s needs 1e+12 steps, more than the limit of 1,000,000 steps (raise it with --max-steps)",
+    ),
+    (
+        ["--robot", "planar3", "--duration", "2", "--dt", "1e-9"],
+        "needs 2e+09 steps, more than the limit of 1,000,000 steps",
+    ),
+    (
+        ["--robot", "planar3", "--duration", "1", "--max-steps", "999"],
+        "duration 1 s at dt 0.001 s needs 1000 steps, more than the limit of 999 steps",
+    ),
     (["--robot", "planar3", "--max-steps", "1.5"], "--max-steps: 1.5 must be a positive whole number"),
-    (["--robot", "planar3", "--html", "HTML", "--speed", "1e-9"], "needs 3e+09 frames, more than the limit of 100,000 frames (raise it with --max-frames)"),
+    (
+        ["--robot", "planar3", "--html", "HTML", "--speed", "1e-9"],
+        "needs 3e+09 frames, more than the limit of 100,000 frames (raise it with --max-frames)",
+    ),
     (["--robot", "planar3", "--feedback=-100,1"], "feedback gain kp=-100.0 must be a finite number >= 0"),
     (["--robot", "planar3", "--torque-limit", "1,2"], "torque limit has 2 values; robot 'planar3' needs 1 or 3"),
     (["--robot", "planar3", "--feedback", "1"], "--feedback has 1 value but needs 2"),
@@ -188,7 +218,10 @@ def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
     blocker.write_text("")
     code = main(["paper", "--out", str(blocker / "sub")])
     assert code == 2
-    assert capsys.readouterr().err == f"torqueopt paper: error: cannot write to '{blocker / 'sub'}': '{blocker}' is a file, not a folder\n"
+    assert (
+        capsys.readouterr().err
+        == f"torqueopt paper: error: cannot write to '{blocker / 'sub'}': '{blocker}' is a file, not a folder\n"
+    )
 
 
 def test_option_errors_are_one_line_exit_2(tmp_path, capsys):

@@ -16,8 +16,11 @@ def closed_form_inertia(q):
     """H(q) of the planar 3R arm of identical thin rods, expanded by hand."""
     l, m, r, inertia = LENGTH, MASS, CENTRE, ROD_INERTIA
     c2, c3, c23 = np.cos(q[1]), np.cos(q[2]), np.cos(q[1] + q[2])
-    h11 = 3 * inertia + m * r**2 + m * (l**2 + r**2 + 2 * l * r * c2) + m * (
-        2 * l**2 + r**2 + 2 * l * l * c2 + 2 * l * r * c23 + 2 * l * r * c3
+    h11 = (
+        3 * inertia
+        + m * r**2
+        + m * (l**2 + r**2 + 2 * l * r * c2)
+        + m * (2 * l**2 + r**2 + 2 * l * l * c2 + 2 * l * r * c23 + 2 * l * r * c3)
     )
     h12 = 2 * inertia + m * (r**2 + l * r * c2) + m * (l**2 + r**2 + l * l * c2 + l * r * c23 + 2 * l * r * c3)
     h13 = inertia + m * (r**2 + l * r * c23 + l * r * c3)
@@ -33,7 +36,11 @@ def closed_form_inertia_derivatives(q):
     s2, s3, s23 = np.sin(q[1]), np.sin(q[2]), np.sin(q[1] + q[2])
     d2 = np.array(
         [
-            [-2 * m * l * r * s2 - m * (2 * l * l * s2 + 2 * l * r * s23), -m * l * r * s2 - m * (l * l * s2 + l * r * s23), -m * l * r * s23],
+            [
+                -2 * m * l * r * s2 - m * (2 * l * l * s2 + 2 * l * r * s23),
+                -m * l * r * s2 - m * (l * l * s2 + l * r * s23),
+                -m * l * r * s23,
+            ],
             [0, 0, 0],
             [0, 0, 0],
         ]
@@ -41,7 +48,11 @@ def closed_form_inertia_derivatives(q):
     d2[1, 0], d2[2, 0] = d2[0, 1], d2[0, 2]
     d3 = np.array(
         [
-            [-m * (2 * l * r * s23 + 2 * l * r * s3), -m * (l * r * s23 + 2 * l * r * s3), -m * (l * r * s23 + l * r * s3)],
+            [
+                -m * (2 * l * r * s23 + 2 * l * r * s3),
+                -m * (l * r * s23 + 2 * l * r * s3),
+                -m * (l * r * s23 + l * r * s3),
+            ],
             [0, -2 * m * l * r * s3, -m * l * r * s3],
             [0, 0, 0],
         ]
@@ -80,17 +91,13 @@ def closed_form_jacobian(q):
     a1, a12, a123 = q[0], q[0] + q[1], q[0] + q[1] + q[2]
     s = LENGTH * np.array([np.sin(a1), np.sin(a12), np.sin(a123)])
     c = LENGTH * np.array([np.cos(a1), np.cos(a12), np.cos(a123)])
-    return np.array(
-        [[-s.sum(), -s[1] - s[2], -s[2]], [c.sum(), c[1] + c[2], c[2]]]
-    )
+    return np.array([[-s.sum(), -s[1] - s[2], -s[2]], [c.sum(), c[1] + c[2], c[2]]])
 
 
 def closed_form_drift(q, v):
     angles = np.cumsum(q)
     rates = np.cumsum(v)
-    return -LENGTH * np.array(
-        [np.sum(np.cos(angles) * rates**2), np.sum(np.sin(angles) * rates**2)]
-    )
+    return -LENGTH * np.array([np.sum(np.cos(angles) * rates**2), np.sum(np.sin(angles) * rates**2)])
 
 
 def random_states(rng, count, n, speed=2.0):
@@ -151,6 +158,7 @@ def test_drift_matches_finite_differences_on_7dof_arms(robot_name, request, rng)
         ahead = robot.terms(pin.integrate(robot.model, q, step * v), v).jacobian.dot(v)
         behind = robot.terms(pin.integrate(robot.model, q, -step * v), v).jacobian.dot(v)
         np.testing.assert_allclose(terms.drift, (ahead - behind) / (2 * step), atol=2e-6, rtol=1e-6)
+
         # The position rows are also the second derivative of the frame origin.
         def origin(t):
             return robot.frame_placement(pin.integrate(robot.model, q, t * v)).translation

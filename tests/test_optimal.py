@@ -26,8 +26,15 @@ def small_problem(robot, q0, duration=0.2, intervals=4, torque_bounds=False, wei
     line = line.anchored(robot.task_position(q0)[: robot.m])
     nodes = np.linspace(0.0, duration, intervals + 1)
     return Transcription(
-        robot, duration, intervals, line.sample(nodes).position, q0, weight_root(robot, weight), torque_midpoint(robot),
-        torque_bounds=torque_bounds, end_at_rest=end_at_rest,
+        robot,
+        duration,
+        intervals,
+        line.sample(nodes).position,
+        q0,
+        weight_root(robot, weight),
+        torque_midpoint(robot),
+        torque_bounds=torque_bounds,
+        end_at_rest=end_at_rest,
     )
 
 
@@ -41,6 +48,7 @@ def central_difference(function, w, step=1e-6):
 
 
 # -- derivatives -------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["planar3", "panda"])
 def test_analytical_derivatives_match_finite_differences(name, rng, paper_arm):
@@ -72,6 +80,7 @@ def test_analytical_derivatives_match_finite_differences(name, rng, paper_arm):
 
 
 # -- optimality ------------------------------------------------------------------------
+
 
 def test_kkt_conditions_hold_at_the_solution(paper_arm):
     result = optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=0.05, weight="range", torque_bounds=True)
@@ -228,6 +237,7 @@ def test_mesh_refinement_converges_at_second_order(paper_arm):
 
 # -- validation by replay, the cost of runs ------------------------------------------
 
+
 def test_replay_of_a_runs_torques_reproduces_the_run(paper_arm):
     run = torqueopt.simulate(paper_arm, "pinv", PAPER.line("short"), PAPER.q0)
     replay = replay_torques(paper_arm, run.q[0], run.v[0], run.tau[:-1], run.dt)
@@ -298,7 +308,17 @@ def test_pose_task_is_refused():
 
 # -- the CLI -------------------------------------------------------------------------
 
-PAPER_CLI = ["optimize", "--robot", "planar3", "--q0=-45,135,-135", "--degrees", "--direction", "1,1", "--torque-limit", "54,24,6"]
+PAPER_CLI = [
+    "optimize",
+    "--robot",
+    "planar3",
+    "--q0=-45,135,-135",
+    "--degrees",
+    "--direction",
+    "1,1",
+    "--torque-limit",
+    "54,24,6",
+]
 
 
 def test_cli_writes_the_run_and_its_summary(tmp_path, capsys):
@@ -359,6 +379,7 @@ class _no_exit:
 
 # -- the local-against-global study --------------------------------------------------
 
+
 def test_local_global_study_on_short_movements(tmp_path):
     import json
 
@@ -377,7 +398,12 @@ def test_local_global_study_on_short_movements(tmp_path):
         assert study.row(movement, "global, bounded").peak_ratio <= 1 + 1e-3
     assert {row.method for row in study.rows} >= set(LOCAL) | {label for label, _, _ in GLOBAL_VARIANTS}
     paths = write_local_global(study, tmp_path)
-    assert {path.name for path in paths} == {"global.md", "global.json", "global_torques_long.png", "global_arm_long.png"}
+    assert {path.name for path in paths} == {
+        "global.md",
+        "global.json",
+        "global_torques_long.png",
+        "global_arm_long.png",
+    }
     summary = json.loads((tmp_path / "global.json").read_text())
     assert len(summary["rows"]) == len(study.rows) and summary["answer"] == study.answer()
     assert f"{study.row('long', 'global').cost:.1f}" in study.answer()

@@ -248,8 +248,13 @@ def test_paper_options_make_the_scenario():
         (["--direction", "1,x"], "--direction: 'x' is not a number (give comma-separated numbers, e.g. 1,1)"),
         (["--limit-factor", "0"], "--limit-factor: 0 must be a positive finite number"),
         (["--growth-factor", "many"], "--growth-factor: 'many' is not a number"),
-        (["--q0=0,0,0"], ("q0 = (0°, 0°, 0°) is a singular configuration (task Jacobian is singular: smallest/largest "
-                         "singular value 0 is below the cutoff 1e-06); choose another start")),
+        (
+            ["--q0=0,0,0"],
+            (
+                "q0 = (0°, 0°, 0°) is a singular configuration (task Jacobian is singular: smallest/largest "
+                "singular value 0 is below the cutoff 1e-06); choose another start"
+            ),
+        ),
     ],
 )
 def test_paper_bad_options_exit_2_with_one_line(tmp_path, capsys, options, message):

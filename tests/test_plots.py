@@ -95,7 +95,9 @@ def test_snapshots_crowd_where_the_joints_move_fast(stopped_run):
 def test_a_stopped_run_is_drawn_up_to_its_stop_and_says_so(tmp_path, stopped_run, titles):
     assert not stopped_run.completed and 1.0 < stopped_run.stop_time < 2.0
     assert_png(plots.plot_run(stopped_run, tmp_path / "run.png"))
-    assert titles[-1].startswith("planar3: resolver null-space, task xy at 'tip', 2 s\nnull-space STOPPED EARLY at t = ")
+    assert titles[-1].startswith(
+        "planar3: resolver null-space, task xy at 'tip', 2 s\nnull-space STOPPED EARLY at t = "
+    )
     assert "speed of joint" in titles[-1] and "(drawn up to there)" in titles[-1]
 
 

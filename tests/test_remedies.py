@@ -30,7 +30,11 @@ def states(robot, rng, count=5):
     upper = np.where(np.isfinite(robot.model.upperPositionLimit), robot.model.upperPositionLimit, np.pi)
     found = 0
     while found < count:
-        angles = rng.uniform(lower[: robot.nv], upper[: robot.nv]) if robot.nq == robot.nv else rng.uniform(-np.pi, np.pi, robot.nv)
+        angles = (
+            rng.uniform(lower[: robot.nv], upper[: robot.nv])
+            if robot.nq == robot.nv
+            else rng.uniform(-np.pi, np.pi, robot.nv)
+        )
         q = robot.configuration(angles)
         v = rng.uniform(-1.5, 1.5, robot.nv)
         terms = robot.terms(q, v)
@@ -62,7 +66,9 @@ def test_damped_null_space_is_the_optimum_of_its_criterion(robot_name, torque_we
     squares of the stacked system, in a null-space basis of numpy's own SVD."""
     robot = request.getfixturevalue(robot_name)
     mu, damping = 0.7, 4.0
-    resolver = torqueopt.get_resolver("damped-null-space", kinematic_weight=mu, damping=damping, torque_weight=torque_weight)
+    resolver = torqueopt.get_resolver(
+        "damped-null-space", kinematic_weight=mu, damping=damping, torque_weight=torque_weight
+    )
     root = np.ones(robot.nv) if torque_weight == "unit" else range_root(robot)
     midpoint = torque_midpoint(robot)
     step = resolver.solver(robot)
@@ -76,12 +82,17 @@ def test_damped_null_space_is_the_optimum_of_its_criterion(robot_name, torque_we
         np.testing.assert_allclose(resolution.joint_acceleration, p + Z.dot(y), atol=1e-9)  # on the task's affine set
         torque_residual = root * (resolution.torque - midpoint)
         gradient = (root[:, None] * H.dot(Z)).T.dot(torque_residual) + weight**2 * (y + damping * Z.T.dot(v))
-        scale = np.linalg.norm(root[:, None] * H.dot(Z)) * (np.linalg.norm(torque_residual) + weight * np.linalg.norm(y))
+        scale = np.linalg.norm(root[:, None] * H.dot(Z)) * (
+            np.linalg.norm(torque_residual) + weight * np.linalg.norm(y)
+        )
         assert np.abs(gradient).max() < 1e-9 * scale
 
         def criterion(coordinates, H=H, b=b, p=p, Z=Z, v=v, weight=weight):
             torque = H.dot(p + Z.dot(coordinates)) + b
-            return float(np.sum((root * (torque - midpoint)) ** 2) + weight**2 * np.sum((coordinates + damping * Z.T.dot(v)) ** 2))
+            return float(
+                np.sum((root * (torque - midpoint)) ** 2)
+                + weight**2 * np.sum((coordinates + damping * Z.T.dot(v)) ** 2)
+            )
 
         best = minimize(criterion, np.zeros(robot.redundancy), method="BFGS", options={"gtol": 1e-10})
         assert criterion(y) <= best.fun + 1e-9 * (1 + best.fun)  # no general-purpose search does better
@@ -105,7 +116,9 @@ def test_kinematic_weight_zero_is_the_papers_null_space_methods(robot_name, requ
         paper = paper_resolver.solver(robot)
         for q, v, xdd, terms in states(robot, rng, count=3):
             expected = paper(terms, xdd).torque
-            np.testing.assert_allclose(blend(terms, xdd).torque, expected, rtol=0, atol=1e-10 * (1 + np.abs(expected).max()))
+            np.testing.assert_allclose(
+                blend(terms, xdd).torque, expected, rtol=0, atol=1e-10 * (1 + np.abs(expected).max())
+            )
 
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
@@ -120,7 +133,9 @@ def test_large_kinematic_weight_approaches_self_motion_damping(robot_name, reque
         np.testing.assert_allclose(damped.joint_acceleration, formula, atol=1e-9 * (1 + np.abs(formula).max()))
         gaps = []
         for mu in (1e2, 1e3, 1e4):
-            blend = torqueopt.get_resolver("damped-null-space", kinematic_weight=mu, damping=damping).resolve(robot, terms, xdd)
+            blend = torqueopt.get_resolver("damped-null-space", kinematic_weight=mu, damping=damping).resolve(
+                robot, terms, xdd
+            )
             gaps.append(np.abs(blend.joint_acceleration - formula).max())
         assert gaps[2] < 1e-6 * (1 + np.abs(formula).max())
         assert gaps[1] < 2e-2 * gaps[0] and gaps[2] < 2e-2 * gaps[1]
@@ -143,7 +158,9 @@ def test_inverse_inertia_resolvers_solve_their_kkt_systems(name, robot_name, req
         rhs = np.concatenate([-2 * H.T.dot(metric).dot(b), xdd - terms.drift])
         expected = np.linalg.solve(kkt, rhs)[:n]
         resolution = step(terms, xdd)
-        np.testing.assert_allclose(resolution.joint_acceleration, expected, rtol=1e-7, atol=1e-8 * (1 + np.abs(expected).max()))
+        np.testing.assert_allclose(
+            resolution.joint_acceleration, expected, rtol=1e-7, atol=1e-8 * (1 + np.abs(expected).max())
+        )
         Z = null_basis(J)
         stationary = Z.T.dot(resolution.torque if power == 1 else np.linalg.solve(H, resolution.torque))
         assert np.abs(stationary).max() < 1e-8 * (1 + np.abs(resolution.torque).max())
@@ -155,7 +172,9 @@ def test_inverse_inertia_resolvers_reduce_to_the_pseudoinverses_at_rest(planar3,
         rest = planar3.terms(q, np.zeros(3))
         for remedy, classic in (("inverse-inertia-torque", "inertia-pinv"), ("inverse-inertia-squared-torque", "pinv")):
             got = torqueopt.get_resolver(remedy).resolve(planar3, rest, xdd).torque
-            np.testing.assert_allclose(got, torqueopt.get_resolver(classic).resolve(planar3, rest, xdd).torque, atol=1e-9)
+            np.testing.assert_allclose(
+                got, torqueopt.get_resolver(classic).resolve(planar3, rest, xdd).torque, atol=1e-9
+            )
 
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
@@ -171,7 +190,9 @@ def test_self_motion_damping_makes_a_free_self_motion_decay(robot_name, request,
     v0 *= 0.5 / np.linalg.norm(v0)
     energies = {}
     for name in ("self-motion-damping", "pinv"):
-        step = torqueopt.get_resolver(name, **({"damping": damping} if name == "self-motion-damping" else {})).solver(robot)
+        step = torqueopt.get_resolver(name, **({"damping": damping} if name == "self-motion-damping" else {})).solver(
+            robot
+        )
         state_q, state_v = q.copy(), v0.copy()
         start_tip = robot.task_position(q)
         for _ in range(steps):
@@ -219,7 +240,12 @@ def test_remedies_run_from_the_cli_with_their_options(tmp_path, capsys):
     assert code == 0
     result = torqueopt.load_result(out)
     assert result.resolver == "damped-null-space"
-    assert result.resolver_options == {"kinematic_weight": 0.25, "damping": 10.0, "torque_weight": "range", "singular_tolerance": 1e-6}
+    assert result.resolver_options == {
+        "kinematic_weight": 0.25,
+        "damping": 10.0,
+        "torque_weight": "range",
+        "singular_tolerance": 1e-6,
+    }
     expected = torqueopt.simulate(torqueopt.load_robot("planar3"), "damped-null-space", torqueopt.StraightLine([1, 1], duration=0.3),
                                   PAPER_Q0, resolver_options={"kinematic_weight": 0.25, "torque_weight": "range"})  # fmt: skip
     np.testing.assert_allclose(result.tau, expected.tau, rtol=1e-9, atol=1e-9)
@@ -235,7 +261,12 @@ def test_remedies_run_from_the_cli_with_their_options(tmp_path, capsys):
 def test_remedies_realise_the_task_through_pinocchio_dynamics(panda, rng):
     """Independent of Resolution's own joint acceleration: ABA from the torque alone realises ẍ."""
     data = panda.model.createData()
-    for name in ("damped-null-space", "self-motion-damping", "inverse-inertia-torque", "inverse-inertia-squared-torque"):
+    for name in (
+        "damped-null-space",
+        "self-motion-damping",
+        "inverse-inertia-torque",
+        "inverse-inertia-squared-torque",
+    ):
         step = torqueopt.get_resolver(name).solver(panda)
         for q, v, xdd, terms in states(panda, rng, count=2):
             resolution = step(terms, xdd)

@@ -85,7 +85,9 @@ def test_every_resolver_meets_the_contract(name, robot_name, request, rng):
         assert isinstance(resolution.infeasible, (bool, np.bool_)) and isinstance(resolution.task_error, float)
         assert resolution.torque.shape == (robot.nv,) and resolution.joint_acceleration.shape == (robot.nv,)
         acceleration = pin.aba(robot.model, data, q, v, resolution.torque)
-        np.testing.assert_allclose(acceleration, resolution.joint_acceleration, atol=1e-8 * (1 + np.abs(acceleration).max()))
+        np.testing.assert_allclose(
+            acceleration, resolution.joint_acceleration, atol=1e-8 * (1 + np.abs(acceleration).max())
+        )
         shortfall = float(np.linalg.norm(terms.jacobian.dot(acceleration) + terms.drift - xdd))
         assert resolution.task_error == pytest.approx(shortfall, abs=1e-8 * (1 + np.abs(xdd).max()))
         if not resolution.infeasible:
@@ -104,7 +106,10 @@ def test_every_resolver_declares_its_options_completely(name):
     for option in declared:
         assert option.kind and option.meaning and isinstance(option.unit, str)
         if option.default is not None:
-            assert option.convert(option.default) == pytest.approx(option.default) or option.convert(option.default) == option.default
+            assert (
+                option.convert(option.default) == pytest.approx(option.default)
+                or option.convert(option.default) == option.default
+            )
         assert getattr(resolver, option.name) is option.default
     assert resolver.settings == {option.name: option.default for option in declared}
 
@@ -153,7 +158,9 @@ def test_pseudoinverses_minimise_their_acceleration_norms(robot_name, request, r
         plain = torqueopt.get_resolver("pinv").resolve(robot, terms, xdd).joint_acceleration
         weighted = torqueopt.get_resolver("inertia-pinv").resolve(robot, terms, xdd).joint_acceleration
         assert np.abs(null_basis.T.dot(plain)).max() < 1e-10 * (1 + np.abs(plain).max())  # min ‖q̈‖²
-        assert np.abs(null_basis.T.dot(terms.inertia.dot(weighted))).max() < 1e-9 * (1 + np.abs(weighted).max())  # min q̈ᵀHq̈
+        assert np.abs(null_basis.T.dot(terms.inertia.dot(weighted))).max() < 1e-9 * (
+            1 + np.abs(weighted).max()
+        )  # min q̈ᵀHq̈
 
 
 def test_loose_pseudoinverse_cutoff_would_be_wrong_where_ours_is_right(planar3):
@@ -184,7 +191,9 @@ def test_weighted_resolver_accepts_a_user_weight(planar3):
     np.testing.assert_allclose(unit, plain, atol=1e-10)
     matrix = torqueopt.get_resolver("weighted-null-space", weight=np.diag([1.0, 4.0, 9.0]))
     vector = torqueopt.get_resolver("weighted-null-space", weight=[1.0, 4.0, 9.0])
-    np.testing.assert_allclose(matrix.resolve(planar3, terms, xdd).torque, vector.resolve(planar3, terms, xdd).torque, atol=1e-10)
+    np.testing.assert_allclose(
+        matrix.resolve(planar3, terms, xdd).torque, vector.resolve(planar3, terms, xdd).torque, atol=1e-10
+    )
 
 
 def test_resolve_api_matches_resolver_object(planar3):
@@ -195,7 +204,9 @@ def test_resolve_api_matches_resolver_object(planar3):
         np.testing.assert_allclose(got.torque, expected.torque)
         assert (got.task_error, got.infeasible) == (expected.task_error, expected.infeasible)
     weighted = torqueopt.resolve(planar3, "weighted-null-space", q, v, xdd, weight=[1.0, 4.0, 9.0])
-    expected = torqueopt.get_resolver("weighted-null-space", weight=[1.0, 4.0, 9.0]).resolve(planar3, planar3.terms(q, v), xdd)
+    expected = torqueopt.get_resolver("weighted-null-space", weight=[1.0, 4.0, 9.0]).resolve(
+        planar3, planar3.terms(q, v), xdd
+    )
     np.testing.assert_allclose(weighted.torque, expected.torque)
 
 
@@ -217,8 +228,14 @@ def test_unknown_option_is_one_line_naming_the_close_match_and_the_valid_ones(pl
 def test_bad_option_values_name_the_value_and_what_it_must_be():
     cases = [
         ({"singular_tolerance": 0}, "option singular_tolerance=0 of resolver 'pinv' must be a finite number > 0"),
-        ({"singular_tolerance": "abc"}, "option singular_tolerance=abc of resolver 'pinv' is not a number; give a finite number > 0"),
-        ({"singular_tolerance": float("nan")}, "option singular_tolerance=nan of resolver 'pinv' must be a finite number > 0"),
+        (
+            {"singular_tolerance": "abc"},
+            "option singular_tolerance=abc of resolver 'pinv' is not a number; give a finite number > 0",
+        ),
+        (
+            {"singular_tolerance": float("nan")},
+            "option singular_tolerance=nan of resolver 'pinv' must be a finite number > 0",
+        ),
     ]
     for options, message in cases:
         with pytest.raises(torqueopt.InvalidInput) as error:
@@ -241,7 +258,9 @@ def test_bad_option_values_name_the_value_and_what_it_must_be():
 def test_a_misspelt_resolver_name_suggests_the_close_one():
     with pytest.raises(torqueopt.ResolverNotFound) as error:
         torqueopt.get_resolver("null_space")
-    assert str(error.value).startswith("unknown resolver 'null_space' (did you mean 'null-space'?): choose one of pinv,")
+    assert str(error.value).startswith(
+        "unknown resolver 'null_space' (did you mean 'null-space'?): choose one of pinv,"
+    )
 
 
 @pytest.mark.parametrize("name", PAPER_RESOLVERS)

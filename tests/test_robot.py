@@ -13,7 +13,11 @@ from torqueopt.catalog import available_robots, find_robot
     [
         ("panda", "panda_hand", [f"panda_joint{i}" for i in range(1, 8)]),
         ("xarm7", "link_eef", [f"joint{i}" for i in range(1, 8)]),
-        ("baxter", "right_gripper", ["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"]),
+        (
+            "baxter",
+            "right_gripper",
+            ["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"],
+        ),
         ("tiago", "arm_tool_link", [f"arm_{i}_joint" for i in range(1, 8)]),
     ],
 )
@@ -65,7 +69,9 @@ def test_configuration_from_angles_round_trips_for_continuous_joints():
 
 
 def test_unknown_names_list_the_valid_choices():
-    with pytest.raises(RobotNotFound, match=r"unknown robot 'robbie': give a URDF path or one of planar3, panda, xarm7, baxter"):
+    with pytest.raises(
+        RobotNotFound, match=r"unknown robot 'robbie': give a URDF path or one of planar3, panda, xarm7, baxter"
+    ):
         torqueopt.load_robot("robbie")
     with pytest.raises(RobotNotFound, match=r"URDF file 'missing/arm.urdf' does not exist"):
         torqueopt.load_robot("missing/arm.urdf")
@@ -79,7 +85,10 @@ def test_unknown_names_list_the_valid_choices():
     "edit, message",
     [
         (('<parent link="link1"/>', ""), r'<joint name="joint2"> has no <parent link="..."/>'),
-        (('<child link="link2"/>', '<child link="linkX"/>'), r"<joint name=\"joint2\"> has child link 'linkX', which is not a <link>"),
+        (
+            ('<child link="link2"/>', '<child link="linkX"/>'),
+            r"<joint name=\"joint2\"> has child link 'linkX', which is not a <link>",
+        ),
         (('<mass value="10.0"/>', '<mass value="ten"/>'), r'<mass value="ten"> in <link name="link1"> is not a number'),
         (("</robot>", ""), "XML syntax error"),
         (('effort="6.0" velocity="100.0"/>', "/>"), "URDFIncompleteError"),
@@ -95,7 +104,9 @@ def test_malformed_urdf_names_the_broken_tag(tmp_path, edit, message):
 
 def test_planar3_starts_at_the_papers_configuration_by_default(planar3):
     np.testing.assert_allclose(planar3.default_configuration, np.radians([-45.0, 135.0, -135.0]))
-    np.testing.assert_allclose(planar3.task_position(planar3.default_configuration), [np.sqrt(2), 1 - np.sqrt(2)], atol=1e-12)
+    np.testing.assert_allclose(
+        planar3.task_position(planar3.default_configuration), [np.sqrt(2), 1 - np.sqrt(2)], atol=1e-12
+    )
 
 
 def test_joint_angles_of_many_configurations_at_once():

@@ -109,7 +109,9 @@ def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar
 
     result = torqueopt.simulate(planar3, HalfTask(), StraightLine([1, 1], duration=0.01), PAPER_Q0)
     assert result.infeasible.tolist() == [False, True] * 5 + [False]
-    assert result.task_error[0] == 0.0 and result.task_error[1] == pytest.approx(0.5 * np.sqrt(2.0), rel=1e-3)  # half of √2 m/s², J̇q̇ ≈ 0
+    assert result.task_error[0] == 0.0 and result.task_error[1] == pytest.approx(
+        0.5 * np.sqrt(2.0), rel=1e-3
+    )  # half of √2 m/s², J̇q̇ ≈ 0
     assert result.summary()["infeasible_steps"] == 5 and result.max_task_error == result.task_error.max() > 0
     for name in ("run.csv", "run.npz"):
         back = torqueopt.load_result(result.to_csv(tmp_path / name))
@@ -124,7 +126,18 @@ def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar
 
 def test_npz_keeps_everything(tmp_path, short_pinv):
     back = torqueopt.load_result(short_pinv.to_csv(tmp_path / "run.npz"))
-    for name in ("t", "q", "v", "acceleration", "tau", "x", "x_ref", "jacobian_inverse_condition", "task_error", "infeasible"):
+    for name in (
+        "t",
+        "q",
+        "v",
+        "acceleration",
+        "tau",
+        "x",
+        "x_ref",
+        "jacobian_inverse_condition",
+        "task_error",
+        "infeasible",
+    ):
         np.testing.assert_array_equal(getattr(back, name), getattr(short_pinv, name))
     assert back.summary() == short_pinv.summary()
 
@@ -254,13 +267,17 @@ def test_bad_simulation_input(planar3, kwargs, message):
 
 
 def test_direction_must_fit_the_task(planar3, panda):
-    with pytest.raises(InvalidInput, match="trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"):
+    with pytest.raises(
+        InvalidInput, match="trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"
+    ):
         torqueopt.simulate(planar3, "pinv", StraightLine([1, 1, 0], duration=0.5), PAPER_Q0)
 
 
 def test_csv_of_continuous_joints_rebuilds_configurations_and_files_are_not_private(tmp_path):
     kinova = torqueopt.load_robot("kinova", gravity=False)
-    result = torqueopt.simulate(kinova, "pinv", StraightLine([0, 0, 1], accel=0.5, duration=0.05), kinova.default_configuration)
+    result = torqueopt.simulate(
+        kinova, "pinv", StraightLine([0, 0, 1], accel=0.5, duration=0.05), kinova.default_configuration
+    )
     path = result.to_csv(tmp_path / "kinova.csv")
     back = torqueopt.load_result(path, robot=kinova)
     assert back.q.shape == result.q.shape == (51, kinova.nq)
@@ -280,7 +297,10 @@ def _umask():
     "damage, message",
     [
         (lambda csv, sidecar: sidecar.write_text("{not json"), r"is malformed \(Expecting property name"),
-        (lambda csv, sidecar: sidecar.write_text('{"robot": "planar3"}'), r"is malformed \(missing field 'joint_names'\); write runs with torqueopt run --out"),
+        (
+            lambda csv, sidecar: sidecar.write_text('{"robot": "planar3"}'),
+            r"is malformed \(missing field 'joint_names'\); write runs with torqueopt run --out",
+        ),
         (lambda csv, sidecar: csv.write_text("t,q1\n0,abc\n"), "is malformed"),
         (lambda csv, sidecar: sidecar.unlink(), "has no sidecar"),
     ],

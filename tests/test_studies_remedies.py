@@ -67,7 +67,9 @@ def test_the_kinematic_term_answer_says_what_the_sweep_shows(study):
     assert answer["settings"] == len(swept) == 4
     assert answer["stable_settings"] == sum(p.long_stable for p in swept)
     assert answer["within_limit_settings"] == len(within)
-    assert text.startswith("Without a kinematic term (μ = 0, null-space) the long movement is unstable from t = 1.389 s")
+    assert text.startswith(
+        "Without a kinematic term (μ = 0, null-space) the long movement is unstable from t = 1.389 s"
+    )
     if within:
         best = max(within, key=lambda p: p.short_kept)
         assert answer["best"]["kinematic_weight"] == best.kinematic_weight
@@ -82,7 +84,12 @@ def test_the_default_blend_row_matches_its_run(study, paper):
     run = study.runs["short", "damped-null-space"]
     pinv, null = (torque_cost(paper.runs["short", name]) for name in ("pinv", "null-space"))
     assert row["null_space_cut_kept"] == pytest.approx((pinv - torque_cost(run)) / (pinv - null), rel=1e-12)
-    assert row["options"] == {"kinematic_weight": 0.5, "damping": 10.0, "torque_weight": "unit", "singular_tolerance": 1e-6}
+    assert row["options"] == {
+        "kinematic_weight": 0.5,
+        "damping": 10.0,
+        "torque_weight": "unit",
+        "singular_tolerance": 1e-6,
+    }
     long_row = next(r for r in study.entries() if r["movement"] == "long" and r["resolver"] == "damped-null-space")
     assert long_row["unstable"] == study.whiplash["long", "damped-null-space"].unstable
     assert math.isclose(long_row["peak_torque_ratio"], study.runs["long", "damped-null-space"].peak_torque_ratio.max())

@@ -240,9 +240,7 @@ def simulate_case(robot, case):
 @pytest.fixture(scope="module")
 def other_runs(planar3, planar3_unbounded):
     cases = OTHER_STABLE + OTHER_UNSTABLE
-    return {
-        case: (simulate_case(planar3, case), simulate_case(planar3_unbounded, case)) for case in cases
-    }
+    return {case: (simulate_case(planar3, case), simulate_case(planar3_unbounded, case)) for case in cases}
 
 
 @pytest.mark.parametrize("case", OTHER_STABLE, ids=lambda c: f"{c[3]}-{c[2]}s-from-{c[0]}")

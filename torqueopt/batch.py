@@ -120,7 +120,9 @@ def simulate_many(
         raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
     if not (batch and batch_supports(robot, resolver)):
         return [
-            simulate_one(robot, resolver, line, q0, dt=dt, max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio)
+            simulate_one(
+                robot, resolver, line, q0, dt=dt, max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio
+            )
             for line, q0 in zip(trajectories, q0s)
         ]
     results: list[SimResult | None] = [None] * len(trajectories)
@@ -405,7 +407,9 @@ def _energies(inertia: np.ndarray, jacobian: np.ndarray, velocity: np.ndarray):
     tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)
     inverse_inertia_jt = np.linalg.solve(inertia, np.swapaxes(jacobian, 1, 2))  # H⁻¹Jᵀ, (B, n, m)
     task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
-    task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity[..., None])[..., 0])
+    task_energy = 0.5 * np.einsum(
+        "bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity[..., None])[..., 0]
+    )
     return kinetic, np.maximum(kinetic - task_energy, 0.0)
 
 
@@ -472,7 +476,9 @@ def _batched_step(robot: Robot, resolver: Resolver):
         upper = np.where(singular[:, None, None], np.eye(m), upper)
         residual = command - drift
         # J⁺ r = Q_m R⁻ᵀ r, the minimum-norm solution of J q̈ = r: Eq. (26)'s particular solution.
-        particular = np.einsum("bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0])
+        particular = np.einsum(
+            "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
+        )
         acceleration = particular
         basis = orthogonal[:, :, m:] if redundant else None  # Z, (B, n, n − m), orthonormal
         if redundant and kind is not PseudoInverse:

@@ -255,7 +255,9 @@ def task_ranks(robot, samples: int = RANK_SAMPLES, seed: int = 0) -> dict[str, i
     low, high = np.full(robot.nv, -math.pi), np.full(robot.nv, math.pi)
     if robot.nq == robot.nv:
         low = np.maximum(low, np.nan_to_num(np.asarray(model.lowerPositionLimit, float), nan=-math.pi))
-        high = np.maximum(np.minimum(high, np.nan_to_num(np.asarray(model.upperPositionLimit, float), nan=math.pi)), low)
+        high = np.maximum(
+            np.minimum(high, np.nan_to_num(np.asarray(model.upperPositionLimit, float), nan=math.pi)), low
+        )
     # Each task's rows are the first m of the world-aligned 6-row Jacobian (linear, then angular).
     ranks = dict.fromkeys(TASK_DIMENSIONS, 0)
     for _ in range(samples):

@@ -171,5 +171,3 @@ def rk4_stepper(robot: Robot, dt: float, data=None):
         return integrate(q, combination[0]), combination[1]
 
     return rk4
-
-

@@ -92,4 +92,3 @@ class LeastSquares:
 
     def __call__(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         return self._svd.compute(matrix).solve(rhs).reshape(-1)
-

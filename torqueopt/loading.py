@@ -74,7 +74,9 @@ def load_robot(
     extra_locks = set(robot_source.locked_joints) | set(lock)
     for joint in extra_locks:
         if not full_model.existJointName(joint):
-            raise InvalidInput(f"cannot lock joint '{joint}': robot '{robot_source.name}' has joints {', '.join(list(full_model.names)[1:])}")
+            raise InvalidInput(
+                f"cannot lock joint '{joint}': robot '{robot_source.name}' has joints {', '.join(list(full_model.names)[1:])}"
+            )
     locked_ids = [
         j
         for j in range(1, full_model.njoints)
@@ -149,7 +151,9 @@ def _validate_urdf(path: Path, with_yourdfpy: bool = True) -> set[str]:
             reference = joint.find(tag)
             link = None if reference is None else reference.get("link")
             if not link:
-                raise UrdfError(f"malformed URDF '{path}': <joint name=\"{joint.get('name')}\"> has no <{tag} link=\"...\"/>")
+                raise UrdfError(
+                    f'malformed URDF \'{path}\': <joint name="{joint.get("name")}"> has no <{tag} link="..."/>'
+                )
             if link not in link_names:
                 raise UrdfError(
                     f"malformed URDF '{path}': <joint name=\"{joint.get('name')}\"> has {tag} link '{link}', "
@@ -166,7 +170,7 @@ def _validate_urdf(path: Path, with_yourdfpy: bool = True) -> set[str]:
                 except ValueError:
                     raise UrdfError(
                         f"malformed URDF '{path}': <{element.tag} {attribute}=\"{text}\"> in "
-                        f"<{owner.tag} name=\"{owner.get('name')}\"> is not a number"
+                        f'<{owner.tag} name="{owner.get("name")}"> is not a number'
                     ) from None
 
     checked_urdf_text(path)  # every physical quantity, one line naming the link or joint
@@ -180,7 +184,9 @@ def _validate_urdf(path: Path, with_yourdfpy: bool = True) -> set[str]:
     level = logger.level
     logger.setLevel(logging.CRITICAL)  # its fallback parser logs noise for files we already checked
     try:
-        urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)
+        urdf = yourdfpy.URDF.load(
+            str(path), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False
+        )
     except Exception as error:  # yourdfpy raises lxml, KeyError, ValueError... for broken files
         detail = " ".join(str(error).split()) or type(error).__name__
         raise UrdfError(f"malformed URDF '{path}': {detail}") from None
@@ -201,7 +207,9 @@ def _single_leaf_frame(model: pin.Model, urdf: Path) -> str:
     ]
     if len(leaves) == 1:
         return leaves[0]
-    raise FrameNotFound(f"URDF '{urdf}' has several end links; name the task frame with --frame, one of {', '.join(leaves)}")
+    raise FrameNotFound(
+        f"URDF '{urdf}' has several end links; name the task frame with --frame, one of {', '.join(leaves)}"
+    )
 
 
 def _full_reference_configuration(full_model, robot_source: RobotSource, reference_configuration) -> np.ndarray:
@@ -224,5 +232,7 @@ def _reduce_configuration(full_model, model, full_configuration) -> np.ndarray:
     for joint_id in range(1, model.njoints):
         full_id = full_model.getJointId(model.names[joint_id])
         full_joint, joint = full_model.joints[full_id], model.joints[joint_id]
-        reduced[joint.idx_q : joint.idx_q + joint.nq] = full_configuration[full_joint.idx_q : full_joint.idx_q + full_joint.nq]
+        reduced[joint.idx_q : joint.idx_q + joint.nq] = full_configuration[
+            full_joint.idx_q : full_joint.idx_q + full_joint.nq
+        ]
     return reduced

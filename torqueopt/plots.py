@@ -102,8 +102,11 @@ def plot_torques(
             _symlog(ax, limit, peak)
         ax.set_ylabel("torque [N·m]")
         panel_title = _joint_title(results[0], joint, [(r.resolver, r.peak_torque[joint]) for r in results])
-        ax.set_title(panel_title + ("\nscale linear within ±limit, logarithmic beyond" if log_beyond else ""),
-                     fontsize=10, loc="left")
+        ax.set_title(
+            panel_title + ("\nscale linear within ±limit, logarithmic beyond" if log_beyond else ""),
+            fontsize=10,
+            loc="left",
+        )
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
     _legend_once(fig, axes)
@@ -133,8 +136,14 @@ def plot_motion(
     speed_ax.set_ylabel("joint velocity [rad/s]")
     accel_ax.set_ylabel("joint acceleration [rad/s²]")
     if not np.isfinite(result.acceleration).any():
-        accel_ax.text(0.5, 0.5, "accelerations not recorded in this run file", transform=accel_ax.transAxes,
-                      ha="center", va="center")
+        accel_ax.text(
+            0.5,
+            0.5,
+            "accelerations not recorded in this run file",
+            transform=accel_ax.transAxes,
+            ha="center",
+            va="center",
+        )
     for ax in (speed_ax, accel_ax):
         _mark_events(ax, events)
         _mark_stops(ax, [result])
@@ -252,21 +261,39 @@ def plot_stick_strip(
         ax.set_aspect("equal")
         ax.xaxis.set_major_locator(ticks())
         ax.yaxis.set_major_locator(ticks())
-        ax.text(0.03, 0.95, f"t = {result.t[row]:.3f} s", transform=ax.transAxes, va="top", fontsize=9,
-                bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5})
+        ax.text(
+            0.03,
+            0.95,
+            f"t = {result.t[row]:.3f} s",
+            transform=ax.transAxes,
+            va="top",
+            fontsize=9,
+            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5},
+        )
         ax.tick_params(labelsize=7)
         if column == 0:
             ax.set_ylabel(_axis_names(robot)[1] + " [m]", fontsize=8)
         else:
             ax.set_yticklabels([])
         if index == 0:
-            fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=5, fontsize=8, frameon=False,
-                       bbox_to_anchor=(0.5, 1.0 - 0.62 / height))
+            fig.legend(
+                *ax.get_legend_handles_labels(),
+                loc="upper center",
+                ncol=5,
+                fontsize=8,
+                frameon=False,
+                bbox_to_anchor=(0.5, 1.0 - 0.62 / height),
+            )
         ax.set_xlabel(_axis_names(robot)[0] + " [m]", fontsize=8, labelpad=1)
     speed_ax = place(left, bottom, width - left - right, speed_height - 0.35)
     for joint, name in enumerate(result.joint_names):
-        speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.3,
-                      label=f"{name} velocity")
+        speed_ax.plot(
+            result.t,
+            result.v[:, joint],
+            color=_JOINT_COLORS[joint % len(_JOINT_COLORS)],
+            lw=1.3,
+            label=f"{name} velocity",
+        )
     for row in rows:
         speed_ax.axvline(result.t[row], color="0.75", lw=0.8)
     speed_ax.plot([], [], color="0.75", lw=0.8, label="snapshot times")
@@ -310,8 +337,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
     right = grid[:, 1].subgridspec(len(panels), 1, height_ratios=panels)
     speed_ax = fig.add_subplot(right[0])
     for joint, name in enumerate(result.joint_names):
-        speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2,
-                      label=name)
+        speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2, label=name)
     _mark_stops(speed_ax, [result])
     velocity_title = _draw_joint_limits(speed_ax, result)
     speed_ax.set_title("joint velocities" + velocity_title, fontsize=9, loc="left")
@@ -333,7 +359,9 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
         _draw_task_shortfall(error_ax, result)
     if result.dexterity:
         draw_dexterity(fig.add_subplot(right[3]), result)
-    default = f"{result.robot}: resolver {result.resolver}, task {result.task} at '{result.frame}', {result.duration:g} s"
+    default = (
+        f"{result.robot}: resolver {result.resolver}, task {result.task} at '{result.frame}', {result.duration:g} s"
+    )
     _suptitle(fig, title or default, [result])
     return _save(fig, path, dpi)
 
@@ -536,7 +564,9 @@ def _draw_limits(ax, result: SimResult, joint: int) -> None:
 
 def _mark_events(ax, events: Mapping[str, float] | None) -> None:
     for index, (label, when) in enumerate((events or {}).items()):
-        ax.axvline(when, color=_EVENT_COLORS[index % len(_EVENT_COLORS)], ls="--", lw=1.1, label=f"{label} ({when:.3f} s)")
+        ax.axvline(
+            when, color=_EVENT_COLORS[index % len(_EVENT_COLORS)], ls="--", lw=1.1, label=f"{label} ({when:.3f} s)"
+        )
 
 
 def _draw_joint_limits(ax, result: SimResult) -> str:
@@ -632,7 +662,8 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
         ax.set_xlabel("distance along the reference line [m]")
         ax.set_ylabel("deviation across it [mm]" if normal is not None else "distance from it [mm]")
         ax.set_title(
-            "tip deviation from the straight reference path" + (" (signed, + to its left)" if normal is not None else ""),
+            "tip deviation from the straight reference path"
+            + (" (signed, + to its left)" if normal is not None else ""),
             fontsize=9,
             loc="left",
         )
@@ -652,9 +683,7 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
         unit = "[m]" if linear == 2 else "direction of the movement's plane [m]"
         ax.set_xlabel(f"tip {names[0]} {unit}".replace("tip first", "tip, first"))
         ax.set_ylabel(f"tip {names[1]} {unit}".replace("tip second", "tip, second"))
-        ax.set_title(
-            "tip path" if linear == 2 else "tip path in the plane of the movement", fontsize=9, loc="left"
-        )
+        ax.set_title("tip path" if linear == 2 else "tip path in the plane of the movement", fontsize=9, loc="left")
     ax.plot([], [], "o", color="k", ms=4, label="start")
     ax.plot([], [], "x", color="0.3", ms=7, label="end of run")
     ax.grid(alpha=0.3)

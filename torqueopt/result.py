@@ -99,7 +99,9 @@ class SimResult:
         # Runs written before these columns existed, and results built by hand, realised their task.
         rows = len(self.t)
         self.task_error = np.zeros(rows) if self.task_error is None else np.asarray(self.task_error, dtype=float)
-        self.infeasible = np.zeros(rows, dtype=bool) if self.infeasible is None else np.asarray(self.infeasible, dtype=bool)
+        self.infeasible = (
+            np.zeros(rows, dtype=bool) if self.infeasible is None else np.asarray(self.infeasible, dtype=bool)
+        )
 
     # -- joint position and velocity limits --------------------------------------
     def _joint_limit(self, key: str, fill: float) -> np.ndarray:
@@ -282,15 +284,28 @@ class SimResult:
         if path.suffix.lower() == ".npz":
             arrays = {name: getattr(self, name) for name in _ARRAY_FIELDS}
             arrays.update({_DEXTERITY_KEY + name: values for name, values in (self.dexterity or {}).items()})
-            atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(self._metadata()), **arrays))
+            atomic_write(
+                path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(self._metadata()), **arrays)
+            )
             return path
         dexterity = self.dexterity or {}
         table = np.column_stack(
-            [self.t, self.joint_angles, self.v, self.tau, self.x, self.x_ref, self.task_error, self.infeasible,
-             *dexterity.values()]
+            [
+                self.t,
+                self.joint_angles,
+                self.v,
+                self.tau,
+                self.x,
+                self.x_ref,
+                self.task_error,
+                self.infeasible,
+                *dexterity.values(),
+            ]
         )
         header = ",".join([*self.csv_columns(), *dexterity])
-        atomic_write(path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g"))
+        atomic_write(
+            path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g")
+        )
         sidecar = self._metadata()
         sidecar["torque_upper"] = [_json_number(x) for x in self.torque_upper]
         sidecar["torque_lower"] = [_json_number(x) for x in self.torque_lower]
@@ -337,8 +352,12 @@ def _load_npz(path: Path) -> SimResult:
         stored = {new: old for new, old in _RENAMED.items() if old in archive.files and new not in archive.files}
         names = {stored.get(name, name): name for name in _ARRAY_FIELDS}
         # Files written before the per-step task columns existed lack them: SimResult fills them in.
-        arrays = {name: archive[key] for key, name in names.items() if key in archive.files or name not in _STEP_COLUMNS}
-        dexterity = {key[len(_DEXTERITY_KEY):]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)}
+        arrays = {
+            name: archive[key] for key, name in names.items() if key in archive.files or name not in _STEP_COLUMNS
+        }
+        dexterity = {
+            key[len(_DEXTERITY_KEY) :]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)
+        }
     return SimResult(**metadata, **arrays, dexterity=dexterity or None)
 
 
@@ -423,7 +442,9 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
     known = {name for names in (*groups.values(), *optional.values()) for name in names}
     unknown = [name for name in header if name not in known]
     if unknown:
-        raise ValueError(f"its header has unknown column {', '.join(repr(u) for u in unknown)}; a run of {n} joints has {contract}")
+        raise ValueError(
+            f"its header has unknown column {', '.join(repr(u) for u in unknown)}; a run of {n} joints has {contract}"
+        )
     return {key: [where[name] for name in names] for key, names in {**groups, **optional}.items()}
 
 

@@ -42,8 +42,7 @@ _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _WORLD = pin.Convention.WORLD
 #: Joints with one configuration coordinate that Pinocchio integrates by addition.
 _EUCLIDEAN_JOINTS = frozenset(
-    f"JointModel{kind}"
-    for kind in ("RX", "RY", "RZ", "RevoluteUnaligned", "PX", "PY", "PZ", "PrismaticUnaligned")
+    f"JointModel{kind}" for kind in ("RX", "RY", "RZ", "RevoluteUnaligned", "PX", "PY", "PZ", "PrismaticUnaligned")
 )
 
 
@@ -321,7 +320,9 @@ class Robot:
 
         return terms
 
-    def forward_dynamics(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: pin.Data | None = None) -> np.ndarray:
+    def forward_dynamics(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: pin.Data | None = None
+    ) -> np.ndarray:
         """Joint acceleration from torque, by Pinocchio's ABA [rad/s²], computed in ``data`` (fresh when None).
 
         ABA runs in Pinocchio's WORLD convention: the same accelerations as

@@ -242,7 +242,9 @@ def simulate(
             break
 
     recorded = len(log)
-    q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = _columns(log, (robot.nq, n, n, n, robot.m))
+    q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = _columns(
+        log, (robot.nq, n, n, n, robot.m)
+    )
     task_error_log = np.zeros(recorded)
     infeasible_log = np.zeros(recorded, dtype=bool)
     for row, task_error, infeasible in shortfalls:

@@ -173,7 +173,12 @@ def run_atlas(
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
     if population.mode == "random":
-        _check_size(population.paths * sum(steps_per_run.values()) * len(resolver_objects), max_steps, population, resolver_objects)
+        _check_size(
+            population.paths * sum(steps_per_run.values()) * len(resolver_objects),
+            max_steps,
+            population,
+            resolver_objects,
+        )
 
     loaded = spec.load()
     for resolver in resolver_objects:
@@ -220,7 +225,15 @@ def run_atlas(
     }
     done_paths = sum(len(chunks[index]) for index in done)
     if jobs:
-        run_chunks(jobs, out, scheduler=scheduler, workers=workers, progress=progress, total_paths=len(movements), done_paths=done_paths)
+        run_chunks(
+            jobs,
+            out,
+            scheduler=scheduler,
+            workers=workers,
+            progress=progress,
+            total_paths=len(movements),
+            done_paths=done_paths,
+        )
 
     table = _collect(pandas, out, len(chunks), [r.name for r in resolver_objects])
     atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))

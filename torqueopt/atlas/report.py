@@ -65,14 +65,18 @@ def write_markdown(summary: dict) -> str:
     lines = [
         f"# Stability atlas: {config['robot_name']} ({config['task']} task)",
         "",
-        (f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
-        f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
-        f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
-        f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
-        f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop."),
-        (f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "
-        f"exceeds {config['thresholds']['pinv_factor']:g} x pinv's on the same path or the self-motion energy "
-        f"exceeds {config['thresholds']['energy_factor']:g} x the task's. Intervals: Wilson 95 %."),
+        (
+            f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
+            f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
+            f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
+            f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
+            f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop."
+        ),
+        (
+            f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "
+            f"exceeds {config['thresholds']['pinv_factor']:g} x pinv's on the same path or the self-motion energy "
+            f"exceeds {config['thresholds']['energy_factor']:g} x the task's. Intervals: Wilson 95 %."
+        ),
         "",
     ]
     for criterion, description in summary["criteria"].items():
@@ -88,19 +92,29 @@ def write_markdown(summary: dict) -> str:
             for d in durations:
                 cell = cells.get(d)
                 texts.append(
-                    "-" if cell is None or not cell["trials"]
+                    "-"
+                    if cell is None or not cell["trials"]
                     else f"{cell['fraction']:.0%} [{cell['low']:.0%}, {cell['high']:.0%}] ({cell['successes']}/{cell['trials']})"
                 )
             lines.append(f"| {resolver} | " + " | ".join(texts) + " |")
-        lines += ["", f"### The paper's claims ({criterion})", "", "| the paper | the atlas | figure | holds? |", "|---|---|---|---|"]
+        lines += [
+            "",
+            f"### The paper's claims ({criterion})",
+            "",
+            "| the paper | the atlas | figure | holds? |",
+            "|---|---|---|---|",
+        ]
         for claim in summary["claims"][criterion]:
             lines.append(
-                f"| \"{claim['paper']}\" | {claim['figure']} | {claim['text']} | "
-                f"{claim['holds']} ({claim['rule']}) |"
+                f'| "{claim["paper"]}" | {claim["figure"]} | {claim["text"]} | {claim["holds"]} ({claim["rule"]}) |'
             )
         lines.append("")
-    lines += ["## Verdicts per resolver", "", "| resolver | " + " | ".join(VERDICTS) + " | median peak torque vs pinv |",
-              "|---|" + "---|" * (len(VERDICTS) + 1)]
+    lines += [
+        "## Verdicts per resolver",
+        "",
+        "| resolver | " + " | ".join(VERDICTS) + " | median peak torque vs pinv |",
+        "|---|" + "---|" * (len(VERDICTS) + 1),
+    ]
     for resolver, counts in summary["verdicts"].items():
         median = summary["torque"][resolver]["median_torque_vs_pinv"]
         lines.append(f"| {resolver} | " + " | ".join(str(counts[v]) for v in VERDICTS) + f" | {median:.3g} |")
@@ -140,8 +154,12 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             durations = np.array([c["duration"] for c in cells])
             shift = (offset - (len(resolvers) - 1) / 2) * 0.012 * (max(summary["durations"]) or 1)
             fraction = np.array([c["fraction"] for c in cells])
-            error = np.clip([[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]], 0.0, None)
-            axis.errorbar(durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver])
+            error = np.clip(
+                [[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]], 0.0, None
+            )
+            axis.errorbar(
+                durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver]
+            )
         axis.set_title(_SHORT_CRITERIA.get(criterion, criterion), fontsize=9)
         axis.set_xlabel("movement duration T [s]")
         axis.set_ylim(-0.02, 1.02)
@@ -153,12 +171,19 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
 
     # 2. Workspace map: start points coloured by verdict, one panel per resolver (planar tasks).
     if "start_2" in table.columns and "start_3" not in table.columns:
-        verdict_colours = {"stable": "#2ca02c", "whiplash": "#d62728", "too demanding": "#ff7f0e", "singular": "#7f7f7f"}
+        verdict_colours = {
+            "stable": "#2ca02c",
+            "whiplash": "#d62728",
+            "too demanding": "#ff7f0e",
+            "singular": "#7f7f7f",
+        }
         longest = max(summary["durations"])
         columns = min(len(resolvers), 4)
         rows_of_panels = -(-len(resolvers) // columns)
-        figure, axes = plt.subplots(rows_of_panels, columns, figsize=(3.4 * columns, 3.5 * rows_of_panels), squeeze=False)
-        for axis in axes.flat[len(resolvers):]:
+        figure, axes = plt.subplots(
+            rows_of_panels, columns, figsize=(3.4 * columns, 3.5 * rows_of_panels), squeeze=False
+        )
+        for axis in axes.flat[len(resolvers) :]:
             axis.set_visible(False)
         # A grid repeats each start point with several directions: there, colour by the share that whips.
         longest_rows = table[table["duration"] == longest]
@@ -168,14 +193,29 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             if repeated:
                 shares = rows.assign(whip=rows["verdict"] == "whiplash").groupby(["start_1", "start_2"])["whip"].mean()
                 starts = shares.index.to_frame(index=False)
-                points = axis.scatter(starts["start_1"], starts["start_2"], c=shares.to_numpy(), cmap="Reds", vmin=0, vmax=1,
-                                      s=22, edgecolors="k", linewidths=0.3)
+                points = axis.scatter(
+                    starts["start_1"],
+                    starts["start_2"],
+                    c=shares.to_numpy(),
+                    cmap="Reds",
+                    vmin=0,
+                    vmax=1,
+                    s=22,
+                    edgecolors="k",
+                    linewidths=0.3,
+                )
                 figure.colorbar(points, ax=axis, fraction=0.046, pad=0.04, label="share of directions that whip")
             else:
                 for verdict, colour in verdict_colours.items():
                     chosen = rows[rows["verdict"] == verdict]
-                    axis.scatter(chosen["start_1"], chosen["start_2"], s=10, color=colour,
-                                 label=f"{verdict} ({len(chosen)})", linewidths=0)
+                    axis.scatter(
+                        chosen["start_1"],
+                        chosen["start_2"],
+                        s=10,
+                        color=colour,
+                        label=f"{verdict} ({len(chosen)})",
+                        linewidths=0,
+                    )
             if robot.name == "planar3":
                 axis.add_patch(plt.Circle((0, 0), 3.0, fill=False, lw=0.6, color="k"))  # the arm's reach
             axis.set_aspect("equal")
@@ -193,8 +233,14 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     for resolver in resolvers:
         rows = table[(table["resolver"] == resolver) & table["unstable"]]
         if len(rows):
-            axis.hist(rows["instability_time"] / rows["duration"], bins=bins, histtype="step", lw=1.5,
-                      label=f"{resolver} ({len(rows)})", color=colours[resolver])
+            axis.hist(
+                rows["instability_time"] / rows["duration"],
+                bins=bins,
+                histtype="step",
+                lw=1.5,
+                label=f"{resolver} ({len(rows)})",
+                color=colours[resolver],
+            )
     axis.set_xlabel("instability time / duration (2x-limit rule)")
     axis.set_ylabel("runs")
     axis.legend(fontsize=8)
@@ -213,9 +259,16 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
         share = proportion(int((rows["verdict"] == "whiplash").sum()), len(rows))
         if ratio.size:
             marker = "o" if resolver in _PAPER_RESOLVERS else "s"
-            axis.errorbar(np.median(ratio), share.fraction,
-                          yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
-                          marker=marker, capsize=3, color=colours[resolver], label=resolver, linestyle="none")
+            axis.errorbar(
+                np.median(ratio),
+                share.fraction,
+                yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
+                marker=marker,
+                capsize=3,
+                color=colours[resolver],
+                label=resolver,
+                linestyle="none",
+            )
     axis.axvline(1.0, color="k", lw=0.6)
     axis.set_xlabel("median peak |τ|/limit relative to pinv, paths where both are stable (left: less torque)")
     axis.set_ylabel("whiplash fraction, all durations")

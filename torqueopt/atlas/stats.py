@@ -118,50 +118,60 @@ def claims(table, criterion: str = "unstable") -> list[dict]:
 
     if null_space is not None:
         share = proportion(int(null_space.loc[long_paths].sum()), len(long_paths))
-        results.append(_claim(
-            "nearly any long path led to similar instability problems",
-            f"null-space unstable on the {longest:g} s paths",
-            share,
-            holds=_decide(share.low >= 0.5, share.high < 0.5),
-            rule="yes when the interval lies at or above 50 %, no when below",
-        ))
+        results.append(
+            _claim(
+                "nearly any long path led to similar instability problems",
+                f"null-space unstable on the {longest:g} s paths",
+                share,
+                holds=_decide(share.low >= 0.5, share.high < 0.5),
+                rule="yes when the interval lies at or above 50 %, no when below",
+            )
+        )
     if pinv is not None:
         share = proportion(int(pinv.loc[long_paths].sum()), len(long_paths))
-        results.append(_claim(
-            "this rarely happened in the case of the unweighted pseudoinverse algorithm",
-            f"pinv unstable on the {longest:g} s paths",
-            share,
-            holds=_decide(share.high <= 0.10, share.low > 0.10),
-            rule="yes when the interval lies at or below 10 %, no when above",
-        ))
+        results.append(
+            _claim(
+                "this rarely happened in the case of the unweighted pseudoinverse algorithm",
+                f"pinv unstable on the {longest:g} s paths",
+                share,
+                holds=_decide(share.high <= 0.10, share.low > 0.10),
+                rule="yes when the interval lies at or below 10 %, no when above",
+            )
+        )
     if null_space is not None and weighted is not None:
         only_weighted = proportion(int((weighted & ~null_space).sum()), len(wide))
         only_null = proportion(int((null_space & ~weighted).sum()), len(wide))
-        results.append(_claim(
-            "there were even movements where the instability was shown only by the weighted case",
-            "weighted-null-space unstable and null-space not, all paths",
-            only_weighted,
-            holds=_decide(only_weighted.successes > 0, False),
-            rule="yes with at least one such path; undecided with none (not found here)",
-        ))
-        results.append(_claim(
-            "although the reverse was not found",
-            "null-space unstable and weighted-null-space not, all paths",
-            only_null,
-            holds=_decide(only_null.successes == 0, only_null.successes > 0),
-            rule="yes with no such path; no with any (the paper found none)",
-        ))
+        results.append(
+            _claim(
+                "there were even movements where the instability was shown only by the weighted case",
+                "weighted-null-space unstable and null-space not, all paths",
+                only_weighted,
+                holds=_decide(only_weighted.successes > 0, False),
+                rule="yes with at least one such path; undecided with none (not found here)",
+            )
+        )
+        results.append(
+            _claim(
+                "although the reverse was not found",
+                "null-space unstable and weighted-null-space not, all paths",
+                only_null,
+                holds=_decide(only_null.successes == 0, only_null.successes > 0),
+                rule="yes with no such path; no with any (the paper found none)",
+            )
+        )
     if null_space is not None and inertia is not None:
         given = null_space.astype(bool)
         share = proportion(int((inertia & given).sum()), int(given.sum()))
-        results.append(_claim(
-            "whenever the null-space algorithm was unstable, the inertia-weighted pseudoinverse algorithm was "
-            "unstable as well (in most of the trajectories studied)",
-            "P(inertia-pinv unstable | null-space unstable), all paths",
-            share,
-            holds=_decide(share.trials > 0 and share.low > 0.5, share.trials > 0 and share.high < 0.5),
-            rule="yes when the interval lies above 50 % ('most'), no when below",
-        ))
+        results.append(
+            _claim(
+                "whenever the null-space algorithm was unstable, the inertia-weighted pseudoinverse algorithm was "
+                "unstable as well (in most of the trajectories studied)",
+                "P(inertia-pinv unstable | null-space unstable), all paths",
+                share,
+                holds=_decide(share.trials > 0 and share.low > 0.5, share.trials > 0 and share.high < 0.5),
+                rule="yes when the interval lies above 50 % ('most'), no when below",
+            )
+        )
     return results
 
 

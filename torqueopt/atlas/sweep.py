@@ -71,7 +71,9 @@ class RobotSpec:
     gravity: bool | tuple[float, ...] | None = None
 
     def load(self) -> Robot:
-        return load_robot(self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity)
+        return load_robot(
+            self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity
+        )
 
     def as_dict(self) -> dict:
         return {
@@ -109,8 +111,10 @@ def run_chunk(job: dict) -> list[dict]:
     """
     robot = _worker_robot(job["robot"])
     thresholds = Thresholds(**job["thresholds"])
-    movements = [Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start))
-                 for path, duration, q0, direction, start in job["movements"]]
+    movements = [
+        Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start))
+        for path, duration, q0, direction, start in job["movements"]
+    ]
     lines = [StraightLine(m.direction, accel=job["accel"], duration=m.duration, start=m.start) for m in movements]
     q0s = [m.q0 for m in movements]
     resolvers: list[Resolver] = job["resolvers"]
@@ -152,7 +156,9 @@ def _simulate_all(robot, resolver, lines, q0s, dt, batch):
         results, energies = [None] * len(lines), [None] * len(lines)
         for duration in sorted({line.duration for line in lines}):
             members = [i for i, line in enumerate(lines) if line.duration == duration]
-            runs, extras = simulate_batch(robot, resolver, [lines[i] for i in members], [q0s[i] for i in members], dt, extras=True)
+            runs, extras = simulate_batch(
+                robot, resolver, [lines[i] for i in members], [q0s[i] for i in members], dt, extras=True
+            )
             for i, run, extra in zip(members, runs, extras):
                 results[i], energies[i] = run, (extra.kinetic_energy, extra.self_motion_energy)
         return results, energies
@@ -262,7 +268,13 @@ def _client(distributed, scheduler, workers):
 def _progress_bar(total: int, done: int, enabled: bool):
     tqdm = require("tqdm")
     return tqdm.tqdm(
-        total=total, initial=done, unit="path", desc="atlas", disable=not enabled, file=sys.stderr, dynamic_ncols=True,
+        total=total,
+        initial=done,
+        unit="path",
+        desc="atlas",
+        disable=not enabled,
+        file=sys.stderr,
+        dynamic_ncols=True,
         smoothing=0.1,
     )
 

@@ -110,7 +110,9 @@ class Thresholds:
         pinv_factor: float = DEFAULT_PINV_FACTOR,
         energy_factor: float = DEFAULT_ENERGY_FACTOR,
     ):
-        self.limit_factor = positive_number(limit_factor, "limit_factor", hint="a multiple of the torque limit, such as 2")
+        self.limit_factor = positive_number(
+            limit_factor, "limit_factor", hint="a multiple of the torque limit, such as 2"
+        )
         self.pinv_factor = positive_number(pinv_factor, "pinv_factor", hint="a multiple of pinv's torque, such as 2")
         self.energy_factor = positive_number(energy_factor, "energy_factor", hint="a ratio of energies, such as 10")
 
@@ -149,7 +151,8 @@ def applied_rows(result: SimResult, *per_sample):
         arrays = {
             item.name: getattr(result, item.name)[keep]
             for item in fields(result)
-            if item.name not in _PER_JOINT_FIELDS and isinstance(getattr(result, item.name), np.ndarray)
+            if item.name not in _PER_JOINT_FIELDS
+            and isinstance(getattr(result, item.name), np.ndarray)
             and len(getattr(result, item.name)) == count
         }
         result = replace(result, **arrays)
@@ -223,7 +226,13 @@ def run_row(
             "whip_speed": float(speeds[fastest]),
         }
     else:
-        whip = {"whip_time": math.nan, "aligned_joint": None, "aligned_angle": math.nan, "whip_speed_joint": None, "whip_speed": math.nan}
+        whip = {
+            "whip_time": math.nan,
+            "aligned_joint": None,
+            "aligned_angle": math.nan,
+            "whip_speed_joint": None,
+            "whip_speed": math.nan,
+        }
 
     return {
         "unstable": bool(report.unstable),

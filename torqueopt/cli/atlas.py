@@ -35,32 +35,83 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--robot", default="planar3", help="robot name or URDF (default planar3)")
     parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
     parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
-    parser.add_argument("--torque-limit", metavar="TAU", help="symmetric torque limits [N·m], one value or one per joint")
-    parser.add_argument("--paths", required=True, metavar="N", help="movements per duration (random mode)")
-    parser.add_argument("--durations", default="0.5,1,1.5,2", metavar="T,...", help="movement durations [s] (default 0.5,1,1.5,2)")
     parser.add_argument(
-        "--resolvers", default=_PAPER_RESOLVERS, metavar="NAMES",
+        "--torque-limit", metavar="TAU", help="symmetric torque limits [N·m], one value or one per joint"
+    )
+    parser.add_argument("--paths", required=True, metavar="N", help="movements per duration (random mode)")
+    parser.add_argument(
+        "--durations", default="0.5,1,1.5,2", metavar="T,...", help="movement durations [s] (default 0.5,1,1.5,2)"
+    )
+    parser.add_argument(
+        "--resolvers",
+        default=_PAPER_RESOLVERS,
+        metavar="NAMES",
         help=f"comma-separated resolvers, of {', '.join(resolver_names())} (default the paper's four; pinv is always run)",
     )
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing; resumed if it holds this atlas)")
+    parser.add_argument(
+        "--out", required=True, metavar="DIR", help="output folder (created if missing; resumed if it holds this atlas)"
+    )
     parser.add_argument("--seed", default="0", help="seed of the population (default 0)")
     group = parser.add_argument_group("population")
-    group.add_argument("--mode", choices=("random", "grid"), default="random", help="random starts, or a grid of start points")
-    group.add_argument("--reach-fraction", default="0.9", metavar="F", help="the whole line within F of the arm's reach (default 0.9)")
-    group.add_argument("--min-condition", default="0.05", metavar="C", help="start Jacobian σmin/σmax at least C (default 0.05)")
-    group.add_argument("--grid-spacing", default="0.25", metavar="M", help="grid mode: start-point spacing [m] (default 0.25)")
-    group.add_argument("--grid-directions", default="8", metavar="K", help="grid mode: directions per start point (default 8)")
-    group.add_argument("--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)")
+    group.add_argument(
+        "--mode", choices=("random", "grid"), default="random", help="random starts, or a grid of start points"
+    )
+    group.add_argument(
+        "--reach-fraction", default="0.9", metavar="F", help="the whole line within F of the arm's reach (default 0.9)"
+    )
+    group.add_argument(
+        "--min-condition", default="0.05", metavar="C", help="start Jacobian σmin/σmax at least C (default 0.05)"
+    )
+    group.add_argument(
+        "--grid-spacing", default="0.25", metavar="M", help="grid mode: start-point spacing [m] (default 0.25)"
+    )
+    group.add_argument(
+        "--grid-directions", default="8", metavar="K", help="grid mode: directions per start point (default 8)"
+    )
+    group.add_argument(
+        "--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)"
+    )
     group.add_argument("--dt", default="0.001", help="integration step [s] (default 0.001)")
     group = parser.add_argument_group("verdicts (see torqueopt.atlas.verdicts)")
-    group.add_argument("--limit-factor", default=repr(DEFAULT_LIMIT_FACTOR), metavar="K", help="2x-limit rule: unstable above K x the limit (default 2)")
-    group.add_argument("--pinv-factor", default=repr(DEFAULT_PINV_FACTOR), metavar="K", help=f"runaway above K x pinv's peak torque on the path (default {DEFAULT_PINV_FACTOR:g})")
-    group.add_argument("--energy-factor", default=repr(DEFAULT_ENERGY_FACTOR), metavar="K", help=f"runaway when self-motion energy exceeds K x the task's (default {DEFAULT_ENERGY_FACTOR:g})")
+    group.add_argument(
+        "--limit-factor",
+        default=repr(DEFAULT_LIMIT_FACTOR),
+        metavar="K",
+        help="2x-limit rule: unstable above K x the limit (default 2)",
+    )
+    group.add_argument(
+        "--pinv-factor",
+        default=repr(DEFAULT_PINV_FACTOR),
+        metavar="K",
+        help=f"runaway above K x pinv's peak torque on the path (default {DEFAULT_PINV_FACTOR:g})",
+    )
+    group.add_argument(
+        "--energy-factor",
+        default=repr(DEFAULT_ENERGY_FACTOR),
+        metavar="K",
+        help=f"runaway when self-motion energy exceeds K x the task's (default {DEFAULT_ENERGY_FACTOR:g})",
+    )
     group = parser.add_argument_group("execution")
-    group.add_argument("--scheduler", metavar="ADDRESS", help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)")
-    group.add_argument("--workers", metavar="N", help="local cluster worker processes (default: the machine's cores; 0: no Dask)")
-    group.add_argument("--chunk-size", default=str(DEFAULT_CHUNK_SIZE), metavar="N", help=f"movements per chunk of work (default {DEFAULT_CHUNK_SIZE})")
-    group.add_argument("--max-steps", default=f"{DEFAULT_MAX_STEPS:.0e}", metavar="N", help="refuse sweeps of more trajectory-steps (default 1e10)")
+    group.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)",
+    )
+    group.add_argument(
+        "--workers", metavar="N", help="local cluster worker processes (default: the machine's cores; 0: no Dask)"
+    )
+    group.add_argument(
+        "--chunk-size",
+        default=str(DEFAULT_CHUNK_SIZE),
+        metavar="N",
+        help=f"movements per chunk of work (default {DEFAULT_CHUNK_SIZE})",
+    )
+    group.add_argument(
+        "--max-steps",
+        default=f"{DEFAULT_MAX_STEPS:.0e}",
+        metavar="N",
+        help="refuse sweeps of more trajectory-steps (default 1e10)",
+    )
     group.add_argument("--no-batch", action="store_true", help="simulate each movement alone (the reference path)")
     group.add_argument("--no-progress", action="store_true", help="no progress bar")
     group.add_argument("--no-figures", action="store_true", help="skip the figures")
@@ -84,7 +135,9 @@ def atlas_command(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     durations = tuple(parse_vector(args.durations, "durations").tolist())
     resolvers = [name.strip() for name in args.resolvers.split(",") if name.strip()]
-    torque_limit = None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
+    torque_limit = (
+        None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
+    )
     spec = RobotSpec(args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit)
     result = run_atlas(
         spec,
@@ -112,19 +165,29 @@ def atlas_command(args: argparse.Namespace) -> int:
         max_steps=_whole(args.max_steps, "max-steps", 1),
     )
     summary = result.summary
-    print(f"{'resolver':<22}" + "".join(f"{f'T={d:g} s':>12}" for d in summary["durations"]) + "   (unstable by the 2x-limit rule / whiplash)")
+    print(
+        f"{'resolver':<22}"
+        + "".join(f"{f'T={d:g} s':>12}" for d in summary["durations"])
+        + "   (unstable by the 2x-limit rule / whiplash)"
+    )
     for resolver in summary["resolvers"]:
         cells = []
         for duration in summary["durations"]:
             parts = []
             for criterion in ("unstable", "whiplash"):
-                item = next(i for i in summary["unstable_fraction"][criterion] if i["resolver"] == resolver and i["duration"] == duration)
+                item = next(
+                    i
+                    for i in summary["unstable_fraction"][criterion]
+                    if i["resolver"] == resolver and i["duration"] == duration
+                )
                 parts.append(f"{item['fraction']:.0%}")
             cells.append(f"{'/'.join(parts):>12}")
         print(f"{resolver:<22}" + "".join(cells))
     for claim in summary["claims"]["whiplash"]:
-        print(f"claim ({claim['holds']}): \"{claim['paper']}\": {claim['figure']}: {claim['text']}")
+        print(f'claim ({claim["holds"]}): "{claim["paper"]}": {claim["figure"]}: {claim["text"]}')
     resumed = summary.get("resumed_chunks", 0)
     note = f", {resumed} chunks resumed from an earlier run" if resumed else ""
-    print(f"wrote {result.out}/results.parquet, atlas.md, atlas.json and figures in {time.perf_counter() - started:.1f} s{note}")
+    print(
+        f"wrote {result.out}/results.parquet, atlas.md, atlas.json and figures in {time.perf_counter() - started:.1f} s{note}"
+    )
     return EXIT_OK

@@ -68,9 +68,14 @@ def add_parser(subparsers) -> None:
         help=f"longest transcription interval [s] (default {DEFAULT_GRID_STEP})",
     )
     group.add_argument(
-        "--warm-start", default="pinv", metavar="RESOLVER", help=f"resolver whose run starts the solve: {', '.join(resolver_names())}"
+        "--warm-start",
+        default="pinv",
+        metavar="RESOLVER",
+        help=f"resolver whose run starts the solve: {', '.join(resolver_names())}",
     )
-    group.add_argument("--hessian", default="gauss-newton", choices=HESSIANS, help="Hessian of the Lagrangian (default gauss-newton)")
+    group.add_argument(
+        "--hessian", default="gauss-newton", choices=HESSIANS, help="Hessian of the Lagrangian (default gauss-newton)"
+    )
     group.add_argument("--tolerance", default="1e-8", help="IPOPT tolerance (default 1e-8)")
     group.add_argument("--max-iterations", default="500", metavar="N", help="IPOPT iteration limit (default 500)")
     group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
@@ -165,7 +170,9 @@ def _paper_study(args: argparse.Namespace) -> int:
 def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
     """A short human-readable report of an optimisation."""
     unit = "N²·m²·s" if result.weight == "identity" else "s (weighted)" if result.weight == "range" else "(user weight)"
-    verdict = "optimal (IPOPT converged)" if result.optimal else f"NOT OPTIMAL: {result.status} ({result.solver_message})"
+    verdict = (
+        "optimal (IPOPT converged)" if result.optimal else f"NOT OPTIMAL: {result.status} ({result.solver_message})"
+    )
     lines = [
         f"{result.robot}: whole-path torque optimisation, task {result.task} at frame '{result.frame}' "
         f"(n={robot.nv}, m={robot.m}), {result.grid_intervals} intervals of {result.grid_step * 1e3:.4g} ms, "
@@ -179,7 +186,9 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
         ),
         f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
     ]
-    for name, peak, limit, ratio in zip(result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio):
+    for name, peak, limit, ratio in zip(
+        result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
+    ):
         limit_text = f"{limit:14.3f}" if np.isfinite(limit) else f"{'none':>14}"
         ratio_text = f"{ratio:12.3f}" if np.isfinite(limit) else f"{'-':>12}"
         flag = "  OVER" if ratio > 1.0 else ""

@@ -101,12 +101,19 @@ def paper_command(args: argparse.Namespace) -> int:
 
 def print_remedies(study: RemediesStudy) -> None:
     """The remedies' runs, one line each, and the answers to the Discussion's questions."""
-    print(f"remedies ({', '.join(study.remedies)}" + (f"; not registered: {', '.join(study.skipped)})" if study.skipped else ")"))
+    print(
+        f"remedies ({', '.join(study.remedies)}"
+        + (f"; not registered: {', '.join(study.skipped)})" if study.skipped else ")")
+    )
     for row in study.entries():
         if row["resolver"] not in study.remedies:
             continue
         when = "stable" if row["instability_time"] is None else f"UNSTABLE from t = {row['instability_time']:.3f} s"
-        kept = "" if row["null_space_cut_kept"] is None else f", keeps {_percent(row['null_space_cut_kept'])} of null-space's cut"
+        kept = (
+            ""
+            if row["null_space_cut_kept"] is None
+            else f", keeps {_percent(row['null_space_cut_kept'])} of null-space's cut"
+        )
         print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
     for key, answer in study.summary()["answers"].items():
         print(f"{key.replace('_', ' ')}: " + " ".join(answer["sentences"]))

@@ -52,4 +52,3 @@ def plot_command(args: argparse.Namespace) -> int:
     if robot is not None:
         print(f"wrote {write_stick_figures(args, robot, result, path)}")
     return EXIT_OK
-

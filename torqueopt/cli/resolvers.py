@@ -71,8 +71,7 @@ def add_resolver_arguments(group) -> None:
     group.add_argument(
         "--weight",
         metavar="W",
-        help="alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; "
-        "default 1/(τ⁺−τ⁻)²)",
+        help="alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; default 1/(τ⁺−τ⁻)²)",
     )
 
 

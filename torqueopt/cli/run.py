@@ -101,7 +101,13 @@ def run_command(args: argparse.Namespace) -> int:
     if args.out:
         writable_path(args.out)
     result = simulate(
-        robot, resolver, trajectory, q0, dt=dt, feedback=feedback, max_steps=max_steps,
+        robot,
+        resolver,
+        trajectory,
+        q0,
+        dt=dt,
+        feedback=feedback,
+        max_steps=max_steps,
         dexterity=args.dexterity,
     )
     # Every file is written before anything is printed, so a closed stdout
@@ -162,7 +168,8 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         lines.append(f"{name:<24}{peak:18.3f}{limit_text}{ratio_text}{flag}")
     if robot.joints_without_torque_limit:
         lines.append(
-            "no torque limit for joints " + ", ".join(robot.joints_without_torque_limit)
+            "no torque limit for joints "
+            + ", ".join(robot.joints_without_torque_limit)
             + " (URDF effort zero, infinite or missing): give --torque-limit to check them"
         )
     violation = result.first_limit_violation

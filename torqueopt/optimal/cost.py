@@ -64,10 +64,14 @@ def weight_root(robot: Robot, weight=None) -> np.ndarray:
             raise InvalidInput(f"weight {values.tolist()} must be {n} finite non-negative numbers")
         return np.diag(np.sqrt(values))
     if values.shape != (n, n) or not np.isfinite(values).all() or not np.allclose(values, values.T):
-        raise InvalidInput(f"weight must be {', '.join(WEIGHTS)}, {n} values or a symmetric {n}x{n} matrix, got shape {values.shape}")
+        raise InvalidInput(
+            f"weight must be {', '.join(WEIGHTS)}, {n} values or a symmetric {n}x{n} matrix, got shape {values.shape}"
+        )
     eigenvalues, eigenvectors = np.linalg.eigh(values)
     if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
-        raise InvalidInput(f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}")
+        raise InvalidInput(
+            f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
+        )
     return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
 
 

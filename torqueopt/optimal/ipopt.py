@@ -146,9 +146,7 @@ def solve_transcription(
     NumpyFunction = _function_class(casadi)
     size, count = problem.size, problem.constraint_count
     scalar = casadi.Sparsity.dense(1, 1)
-    jacobian_sparsity, jacobian_order = _sparsity(
-        casadi, problem.jacobian_rows, problem.jacobian_cols, (count, size)
-    )
+    jacobian_sparsity, jacobian_order = _sparsity(casadi, problem.jacobian_rows, problem.jacobian_cols, (count, size))
     hessian_sparsity, hessian_order = _sparsity(casadi, problem.hessian_rows, problem.hessian_cols, (size, size))
     keep = []  # casadi holds Callbacks by raw pointer: keep every one alive for the solve
 

@@ -147,7 +147,9 @@ class Transcription:
         bounded = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
         self.torque_bounds = bool(torque_bounds)
         if self.torque_bounds and not bounded.any():
-            raise InvalidInput(f"robot '{robot.name}' has no finite torque limit to bound the torques by; give torque limits")
+            raise InvalidInput(
+                f"robot '{robot.name}' has no finite torque limit to bound the torques by; give torque limits"
+            )
         self.bounded_joints = np.flatnonzero(bounded) if self.torque_bounds else np.zeros(0, int)
         self.fractions = BOUND_FRACTIONS if self.torque_bounds else ()
         n, N = self.n, self.intervals
@@ -235,7 +237,9 @@ class Transcription:
                 if fraction == 0.5:
                     bound_torque[k, index], bound_jacobian[k, index] = torque[k], torque_jacobian[k]
                 else:
-                    self._inverse_dynamics(q[k], v[k], a[k], fraction * h, bound_torque[k, index], bound_jacobian[k, index])
+                    self._inverse_dynamics(
+                        q[k], v[k], a[k], fraction * h, bound_torque[k, index], bound_jacobian[k, index]
+                    )
         task = np.empty((N, self.m))
         task_jacobian = np.empty((N, self.m, n))
         frame, rows = self.robot.frame_id, self.robot.task_rows
@@ -243,7 +247,10 @@ class Transcription:
             pin.computeJointJacobians(model, data, q[k])
             task[k - 1] = pin.updateFramePlacement(model, data, frame).translation[rows]
             task_jacobian[k - 1] = pin.getFrameJacobian(model, data, frame, _LWA)[rows]
-        self._last_w, self._last = w.copy(), Evaluation(torque, torque_jacobian, task, task_jacobian, bound_torque, bound_jacobian)
+        self._last_w, self._last = (
+            w.copy(),
+            Evaluation(torque, torque_jacobian, task, task_jacobian, bound_torque, bound_jacobian),
+        )
         return self._last
 
     def _inverse_dynamics(self, q, v, a, s: float, torque_out: np.ndarray, jacobian_out: np.ndarray) -> None:

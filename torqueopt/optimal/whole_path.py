@@ -276,7 +276,9 @@ def optimize(
     if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
         raise InvalidInput(f"max_iterations={max_iterations!r} must be a whole number >= 1")
     if robot.m > robot.nv:
-        raise InvalidInput(f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints")
+        raise InvalidInput(
+            f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints"
+        )
     check_trajectory(trajectory)
     duration = positive_number(trajectory.duration, "duration", "s")
     if dt > duration or grid_step > duration:
@@ -416,4 +418,3 @@ def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
     torques = np.array([pin.rnea(model, data, *state(t + 0.5 * step)).copy() for t in times[:-1]])
     tips = np.array([robot.frame_placement(row, data).translation[robot.task_rows] for row in q])
     return {"q": q, "v": v, "a": a, "tau": torques, "x": tips}
-

@@ -25,4 +25,3 @@ def alignment_times(result: SimResult, joint: int = 2) -> list[float]:
             fraction = 0.0 if a == b else a / (a - b)
             times.append(float(result.t[k] + fraction * (result.t[k + 1] - result.t[k])))
     return times
-

@@ -84,25 +84,29 @@ def _check_claims(results: PaperResults) -> list[Claim]:
     pinv, null = peak("short", "pinv"), peak("short", "null-space")
     fraction = null[0] / pinv[0]
     pulled = (pinv[2] - null[2]) / limit[2]
-    claims.append(Claim(
-        1,
-        "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
-        "away from its 6 N·m limit",
-        bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
-        f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m: joint 1 at {fraction:.1%} of pinv's "
-        f"(small: <= {SMALL_FRACTION:.0%}); joint 3 at {pinv[2] / limit[2]:.0%} of its limit with pinv, "
-        f"{null[2] / limit[2]:.0%} with null-space (pulled away: by >= {PULLED_AWAY:.0%} of the limit)",
-    ))
+    claims.append(
+        Claim(
+            1,
+            "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
+            "away from its 6 N·m limit",
+            bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
+            f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m: joint 1 at {fraction:.1%} of pinv's "
+            f"(small: <= {SMALL_FRACTION:.0%}); joint 3 at {pinv[2] / limit[2]:.0%} of its limit with pinv, "
+            f"{null[2] / limit[2]:.0%} with null-space (pulled away: by >= {PULLED_AWAY:.0%} of the limit)",
+        )
+    )
 
     pinv, null = peak("medium", "pinv"), peak("medium", "null-space")
-    claims.append(Claim(
-        2,
-        "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
-        "limits, though joint 2 is larger",
-        bool(null[0] < pinv[0] and null[2] < pinv[2] and within("medium", "null-space") and null[1] > pinv[1]),
-        f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m, limits {fmt(limit)}; null-space first limit "
-        f"violation: {_when(runs['medium', 'null-space'].first_limit_violation)}",
-    ))
+    claims.append(
+        Claim(
+            2,
+            "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
+            "limits, though joint 2 is larger",
+            bool(null[0] < pinv[0] and null[2] < pinv[2] and within("medium", "null-space") and null[1] > pinv[1]),
+            f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m, limits {fmt(limit)}; null-space first limit "
+            f"violation: {_when(runs['medium', 'null-space'].first_limit_violation)}",
+        )
+    )
 
     long_pinv, long_null = runs["long", "pinv"], runs["long", "null-space"]
     verdict = judged["long", "null-space"]
@@ -111,41 +115,51 @@ def _check_claims(results: PaperResults) -> list[Claim]:
     speed_at = [_speed_at(long_null, t) for t in aligned]
     fast = [pinv_speed > 0 and s >= HIGH_SPEED * pinv_speed for s in speed_at]
     late = bool(verdict.unstable and verdict.time > 0.5 * long_null.duration)
-    claims.append(Claim(
-        3,
-        "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
-        "passing through alignment at high joint speeds",
-        bool(within("long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
-        f"pinv peak |τ| {fmt(long_pinv.peak_torque)} N·m, fastest joint {pinv_speed:.3g} rad/s; null-space "
-        f"{verdict_text(verdict)} of {long_null.duration:g} s, peak |τ| {fmt(long_null.peak_torque)} N·m; "
-        f"links 2 and 3 in line at t = {fmt(aligned)} s with the fastest joint at {fmt(speed_at)} rad/s "
-        f"(high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
-    ))
+    claims.append(
+        Claim(
+            3,
+            "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
+            "passing through alignment at high joint speeds",
+            bool(within("long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
+            f"pinv peak |τ| {fmt(long_pinv.peak_torque)} N·m, fastest joint {pinv_speed:.3g} rad/s; null-space "
+            f"{verdict_text(verdict)} of {long_null.duration:g} s, peak |τ| {fmt(long_null.peak_torque)} N·m; "
+            f"links 2 and 3 in line at t = {fmt(aligned)} s with the fastest joint at {fmt(speed_at)} rad/s "
+            f"(high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+        )
+    )
 
     weighted, null = peak("short", "weighted-null-space"), peak("short", "null-space")
     ratio = weighted[2] / null[2]
-    claims.append(Claim(
-        4,
-        "short: weighted-null-space makes joint 3's torque much smaller than null-space's at the expense of "
-        "joints 1 and 2, all within limits",
-        bool(ratio <= MUCH_SMALLER and weighted[0] > null[0] and weighted[1] > null[1]
-             and within("short", "weighted-null-space")),
-        f"peak |τ| weighted {fmt(weighted)}, null-space {fmt(null)} N·m: joint 3 at {ratio:.0%} of null-space's "
-        f"(much smaller: <= {MUCH_SMALLER:.0%}); weighted peak/limit {fmt(weighted / limit)}",
-    ))
+    claims.append(
+        Claim(
+            4,
+            "short: weighted-null-space makes joint 3's torque much smaller than null-space's at the expense of "
+            "joints 1 and 2, all within limits",
+            bool(
+                ratio <= MUCH_SMALLER
+                and weighted[0] > null[0]
+                and weighted[1] > null[1]
+                and within("short", "weighted-null-space")
+            ),
+            f"peak |τ| weighted {fmt(weighted)}, null-space {fmt(null)} N·m: joint 3 at {ratio:.0%} of null-space's "
+            f"(much smaller: <= {MUCH_SMALLER:.0%}); weighted peak/limit {fmt(weighted / limit)}",
+        )
+    )
 
     inertia, pinv, null = peak("short", "inertia-pinv"), peak("short", "pinv"), peak("short", "null-space")
     between = [min(p, z) <= i <= max(p, z) for i, p, z in zip(inertia, pinv, null)]
     unstable_long = {name: judged["long", name] for name in ("weighted-null-space", "inertia-pinv")}
-    claims.append(Claim(
-        5,
-        "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
-        "movement lie between those of pinv and null-space for most joints",
-        bool(all(v.unstable for v in unstable_long.values()) and sum(between) > len(between) / 2),
-        "; ".join(f"{name} {verdict_text(v)}" for name, v in unstable_long.items())
-        + f"; short peak |τ| inertia-pinv {fmt(inertia)}, pinv {fmt(pinv)}, null-space {fmt(null)} N·m: between "
-        f"for joints {[i + 1 for i, b in enumerate(between) if b]} of {len(between)}",
-    ))
+    claims.append(
+        Claim(
+            5,
+            "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
+            "movement lie between those of pinv and null-space for most joints",
+            bool(all(v.unstable for v in unstable_long.values()) and sum(between) > len(between) / 2),
+            "; ".join(f"{name} {verdict_text(v)}" for name, v in unstable_long.items())
+            + f"; short peak |τ| inertia-pinv {fmt(inertia)}, pinv {fmt(pinv)}, null-space {fmt(null)} N·m: between "
+            f"for joints {[i + 1 for i, b in enumerate(between) if b]} of {len(between)}",
+        )
+    )
 
     swing = results.free_swing
     speed = np.abs(swing.v).max(axis=1, initial=0.0)
@@ -154,15 +168,21 @@ def _check_claims(results: PaperResults) -> list[Claim]:
     peak_joint = swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))]
     swing_aligned = alignment_times(swing)
     nearest = min(swing_aligned, key=lambda t: abs(t - peak_time)) if swing_aligned else None
-    claims.append(Claim(
-        6,
-        "the free-swinging arm shows the same whip: a joint-speed peak as links 2 and 3 straighten",
-        bool(nearest is not None and abs(nearest - peak_time) <= NEAR_ALIGNMENT and pinv_speed > 0
-             and peak_speed >= HIGH_SPEED * pinv_speed),
-        f"zero torque, gravity {fmt(results.free_swing_gravity)} m/s²: fastest joint {peak_joint} at "
-        f"{peak_speed:.3g} rad/s at t = {peak_time:.3f} s; links 2 and 3 in line at t = {fmt(swing_aligned)} s "
-        f"(near: within {NEAR_ALIGNMENT:g} s; high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
-    ))
+    claims.append(
+        Claim(
+            6,
+            "the free-swinging arm shows the same whip: a joint-speed peak as links 2 and 3 straighten",
+            bool(
+                nearest is not None
+                and abs(nearest - peak_time) <= NEAR_ALIGNMENT
+                and pinv_speed > 0
+                and peak_speed >= HIGH_SPEED * pinv_speed
+            ),
+            f"zero torque, gravity {fmt(results.free_swing_gravity)} m/s²: fastest joint {peak_joint} at "
+            f"{peak_speed:.3g} rad/s at t = {peak_time:.3f} s; links 2 and 3 in line at t = {fmt(swing_aligned)} s "
+            f"(near: within {NEAR_ALIGNMENT:g} s; high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+        )
+    )
     return claims
 
 
@@ -176,6 +196,5 @@ def _when(time: float | None) -> str:
 
 
 def verdict_text(report: WhiplashReport) -> str:
-    """"unstable from t = ... s" or "stable", for summaries and figure titles."""
+    """ "unstable from t = ... s" or "stable", for summaries and figure titles."""
     return f"unstable from t = {report.time:.3f} s" if report.unstable else "stable"
-

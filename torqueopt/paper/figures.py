@@ -38,43 +38,63 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
     )
     for filename, movement, names, label in comparisons:
         title = f"{label}: joint torques, {' vs '.join(names)}, {movement_text(movement)}"
-        written.append(plots.plot_torques([runs[movement, n] for n in names], out / filename, title=title,
-                                          instability_times=unstable(movement, *names)))
+        written.append(
+            plots.plot_torques(
+                [runs[movement, n] for n in names],
+                out / filename,
+                title=title,
+                instability_times=unstable(movement, *names),
+            )
+        )
 
     long_null = runs["long", "null-space"]
     events = _events(long_null, judged["long", "null-space"])
-    written.append(plots.plot_motion(
-        long_null, out / "fig5.png",
-        title=f"Fig. 5: joint velocities and accelerations of the null-space method, {movement_text('long')}",
-        events=events,
-    ))
+    written.append(
+        plots.plot_motion(
+            long_null,
+            out / "fig5.png",
+            title=f"Fig. 5: joint velocities and accelerations of the null-space method, {movement_text('long')}",
+            events=events,
+        )
+    )
     swing = results.free_swing
     gravity = np.linalg.norm(results.free_swing_gravity)
-    written.append(plots.plot_stick_strip(
-        results.robot, swing, out / "fig7.png",
-        title=(
-            f"Fig. 7: free-swinging arm: zero torque, gravity {gravity:.3g} m/s² along the line direction "
-            f"(initial tip acceleration {scenario.accel:.3g} m/s²), {swing.duration:g} s; dashed: the long "
-            "movement's straight line, which the swing replaces"
-        ),
-        snapshots=10,
-        events=dict(zip(["links 2 and 3 in line"], alignment_times(swing))),
-    ))
+    written.append(
+        plots.plot_stick_strip(
+            results.robot,
+            swing,
+            out / "fig7.png",
+            title=(
+                f"Fig. 7: free-swinging arm: zero torque, gravity {gravity:.3g} m/s² along the line direction "
+                f"(initial tip acceleration {scenario.accel:.3g} m/s²), {swing.duration:g} s; dashed: the long "
+                "movement's straight line, which the swing replaces"
+            ),
+            snapshots=10,
+            events=dict(zip(["links 2 and 3 in line"], alignment_times(swing))),
+        )
+    )
     for name in PAPER_RESOLVERS:
         result = runs["long", name]
         verdict = judged["long", name]
         state = verdict_text(verdict)
-        written.append(plots.plot_stick_strip(
-            results.robot, result, out / f"arm_long_{name}.png",
-            title=f"{name}: the arm during the {movement_text('long')}: {state}",
-            snapshots=10,
-            events=_events(result, verdict),
-            ellipse="velocity",
-        ))
-    written.append(plots.plot_tip_path(
-        [runs["long", name] for name in PAPER_RESOLVERS], out / "tip_long.png",
-        title=f"Tip paths of the four resolvers, {movement_text('long')} (open loop)",
-    ))
+        written.append(
+            plots.plot_stick_strip(
+                results.robot,
+                result,
+                out / f"arm_long_{name}.png",
+                title=f"{name}: the arm during the {movement_text('long')}: {state}",
+                snapshots=10,
+                events=_events(result, verdict),
+                ellipse="velocity",
+            )
+        )
+    written.append(
+        plots.plot_tip_path(
+            [runs["long", name] for name in PAPER_RESOLVERS],
+            out / "tip_long.png",
+            title=f"Tip paths of the four resolvers, {movement_text('long')} (open loop)",
+        )
+    )
     return written
 
 

@@ -44,7 +44,9 @@ class ZeroTorque(Resolver):
         n = robot.nv
 
         def step(terms: TaskTerms, task_acceleration: np.ndarray):
-            acceleration = pin.aba(model, data, terms.configuration, terms.joint_velocity, np.zeros(n), pin.Convention.WORLD)
+            acceleration = pin.aba(
+                model, data, terms.configuration, terms.joint_velocity, np.zeros(n), pin.Convention.WORLD
+            )
             # The swing does not try to realise the task: its shortfall is all of it that gravity misses.
             shortfall = float(np.linalg.norm(terms.jacobian.dot(acceleration) + terms.drift - task_acceleration))
             return Resolution(np.zeros(n), acceleration, float("nan"), shortfall, False)

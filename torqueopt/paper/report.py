@@ -25,17 +25,19 @@ def summary_entries(results: PaperResults) -> list[dict]:
     entries = []
     for (movement, name), result in results.runs.items():
         report = results.whiplash[movement, name]
-        entries.append({
-            "movement": movement,
-            "resolver": name,
-            "duration": result.duration,
-            "peak_torque": result.peak_torque.tolist(),
-            "torque_limit": [float(x) if np.isfinite(x) else None for x in result.torque_upper],
-            "first_limit_violation": result.first_limit_violation,
-            "unstable": report.unstable,
-            "instability_time": report.time,
-            "max_tip_error": result.max_tip_error,
-        })
+        entries.append(
+            {
+                "movement": movement,
+                "resolver": name,
+                "duration": result.duration,
+                "peak_torque": result.peak_torque.tolist(),
+                "torque_limit": [float(x) if np.isfinite(x) else None for x in result.torque_upper],
+                "first_limit_violation": result.first_limit_violation,
+                "unstable": report.unstable,
+                "instability_time": report.time,
+                "max_tip_error": result.max_tip_error,
+            }
+        )
     return entries
 
 
@@ -162,7 +164,6 @@ def format_summary_markdown(results: PaperResults, figures: list[str]) -> str:
     for name in figures:
         text = descriptions.get(name)
         if text is None and name.startswith("arm_long_"):
-            text = f"stick figures of the arm during the long movement, {name[len('arm_long_'):-len('.png')]}"
+            text = f"stick figures of the arm during the long movement, {name[len('arm_long_') : -len('.png')]}"
         lines.append(f"- `{name}`: {text}")
     return "\n".join(lines) + "\n"
-

@@ -99,4 +99,3 @@ def _check_start(robot: Robot, scenario: PaperScenario) -> None:
     except SingularJacobian as error:
         degrees = ", ".join(f"{a:g}°" for a in np.degrees(scenario.q0).round(4))
         raise InvalidInput(f"q0 = ({degrees}) is a singular configuration ({error}); choose another start") from None
-

@@ -380,7 +380,12 @@ class _MinMax:
         self._rows_plus, self._rows_minus = rows[:nb, :redundancy], rows[nb:, :redundancy]
         self._upper_plus, self._lower_minus = upper[:nb], lower[nb:]
         self.program = _Program(
-            np.zeros((redundancy + 1, redundancy + 1)), np.r_[np.zeros(redundancy), 1.0], rows, upper, lower, linear=True
+            np.zeros((redundancy + 1, redundancy + 1)),
+            np.r_[np.zeros(redundancy), 1.0],
+            rows,
+            upper,
+            lower,
+            linear=True,
         )
 
     def __call__(self, range_basis, tilde_torque):

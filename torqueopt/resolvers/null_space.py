@@ -116,10 +116,14 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
                 raise InvalidInput(f"weight {weight.tolist()} must be {n} finite non-negative numbers")
             return np.sqrt(weight)
         if weight.shape != (n, n) or not np.isfinite(weight).all() or not np.allclose(weight, weight.T):
-            raise InvalidInput(f"weight must be a vector of {n} values or a symmetric {n}x{n} matrix, got shape {weight.shape}")
+            raise InvalidInput(
+                f"weight must be a vector of {n} values or a symmetric {n}x{n} matrix, got shape {weight.shape}"
+            )
         eigenvalues, eigenvectors = np.linalg.eigh(weight)
         if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
-            raise InvalidInput(f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}")
+            raise InvalidInput(
+                f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
+            )
         return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:

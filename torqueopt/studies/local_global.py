@@ -71,7 +71,9 @@ GLOBAL_VARIANTS = (
 )
 #: Transcription interval of the study [s]: the short movement's cost is within 0.3 % of its 1 ms-grid value.
 STUDY_GRID_STEP = 0.005
-_WITHIN = 1.0 + 1e-3  # peak |τ|/limit at or below this counts as within the limits (bounds hold at the grid's midpoints)
+_WITHIN = (
+    1.0 + 1e-3
+)  # peak |τ|/limit at or below this counts as within the limits (bounds hold at the grid's midpoints)
 
 
 @dataclass
@@ -181,15 +183,23 @@ class LocalGlobalStudy:
             excess = local.cost / best.cost - 1 if local.cost is not None else math.nan
             gaps.append(
                 f"{movement} {local.cost:.2f} against {best.cost:.2f} "
-                + (f"(+{100 * excess:.1f} %)" if excess < 1 else f"({local.cost / best.cost:.0f} times, {local.verdict})")
+                + (
+                    f"(+{100 * excess:.1f} %)"
+                    if excess < 1
+                    else f"({local.cost / best.cost:.0f} times, {local.verdict})"
+                )
                 if local.cost is not None
                 else f"{movement}: null-space {local.verdict} against {best.cost:.1f}"
             )
         sentences = [
-            (f"On the paper's long movement {len(failed)} of the {len(local_long)} local methods run here fail "
-            f"({', '.join(failed) if failed else 'none'}: unstable, diverged or over a torque limit)."),
-            ("Null-space, the local torque optimum, is nearly globally optimal while the movement is short and "
-            f"falls behind as it grows (∫‖τ‖² dt in N²·m²·s: {'; '.join(gaps)})."),
+            (
+                f"On the paper's long movement {len(failed)} of the {len(local_long)} local methods run here fail "
+                f"({', '.join(failed) if failed else 'none'}: unstable, diverged or over a torque limit)."
+            ),
+            (
+                "Null-space, the local torque optimum, is nearly globally optimal while the movement is short and "
+                f"falls behind as it grows (∫‖τ‖² dt in N²·m²·s: {'; '.join(gaps)})."
+            ),
         ]
         if best_local is not None:
             sentences.append(
@@ -210,8 +220,11 @@ class LocalGlobalStudy:
         clean = [row for row in global_rows if row.problem_free]
         sentences.append(
             f"{len(clean)} of the {len(global_rows)} global solutions are problem-free by the same detector "
-            + ("(all of them). " if len(clean) == len(global_rows) else
-               f"(not: {', '.join(f'{row.movement} {row.method}' for row in global_rows if not row.problem_free)}). ")
+            + (
+                "(all of them). "
+                if len(clean) == len(global_rows)
+                else f"(not: {', '.join(f'{row.movement} {row.method}' for row in global_rows if not row.problem_free)}). "
+            )
             + "So, on this arm and these paths, the global resolution is free of the whiplash that ends the "
             "local torque optimisers"
             + (
@@ -239,9 +252,11 @@ class LocalGlobalStudy:
         lines = [
             "# Local against global torque optimisation",
             "",
-            ("The paper's arm, its three movements, open loop; every cost on the 1 ms grid over the applied "
-            f"torques. Global optima: direct transcription with {self.grid_step * 1e3:g} ms intervals, IPOPT, "
-            "start at rest at q0, end free, replayed open loop through the same RK4."),
+            (
+                "The paper's arm, its three movements, open loop; every cost on the 1 ms grid over the applied "
+                f"torques. Global optima: direct transcription with {self.grid_step * 1e3:g} ms intervals, IPOPT, "
+                "start at rest at q0, end free, replayed open loop through the same RK4."
+            ),
             "",
             "| movement | method | ∫‖τ‖² dt [N²·m²·s] | ∫Σ(τᵢ/τᵢ⁺)² dt [s] | peak \\|τ\\|/limit | verdict |",
             "| --- | --- | ---: | ---: | ---: | --- |",
@@ -317,9 +332,14 @@ def plot_long_torques(study: LocalGlobalStudy, path: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
     unstable = [row for row in study.rows if row.movement == "long" and row.kind == "local" and row.unstable]
-    note = "; ".join(f"{row.method} unstable from {row.unstable_time:.2f} s (dotted), leaves the axes" for row in unstable
-                     if any(row.method == line[0] for line in _FIGURE_LINES))
-    fig.suptitle("Long movement (2 s): local resolvers against the whole-movement optimum" + (f"\n{note}" if note else ""))
+    note = "; ".join(
+        f"{row.method} unstable from {row.unstable_time:.2f} s (dotted), leaves the axes"
+        for row in unstable
+        if any(row.method == line[0] for line in _FIGURE_LINES)
+    )
+    fig.suptitle(
+        "Long movement (2 s): local resolvers against the whole-movement optimum" + (f"\n{note}" if note else "")
+    )
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=9)
     return _save(fig, path)
@@ -373,7 +393,13 @@ def run_local_global(
                 print(f"{movement:>6} {name:<26} {rows[-1].verdict}", flush=True)
         for label, weight, bounded in GLOBAL_VARIANTS:
             result = optimize(
-                robot, line, scenario.q0, weight=weight, torque_bounds=bounded, end="free", dt=scenario.dt,
+                robot,
+                line,
+                scenario.q0,
+                weight=weight,
+                torque_bounds=bounded,
+                end="free",
+                dt=scenario.dt,
                 grid_step=grid_step,
             )
             global_runs[movement, label] = result

@@ -28,9 +28,7 @@ def visual_model(robot: Robot) -> tuple[pin.Model, pin.GeometryModel]:
     text = checked_urdf_text(robot.source.urdf)
     try:
         with quiet_stderr():
-            geometry = pin.buildGeomFromUrdfString(
-                full_model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs
-            )
+            geometry = pin.buildGeomFromUrdfString(full_model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
     except (RuntimeError, ValueError) as error:
         raise TorqueoptError(f"cannot load the visuals of '{robot.source.urdf}': {error}") from None
     locked_ids = [full_model.getJointId(name) for name in robot.locked_joints]
