@@ -64,3 +64,11 @@ def test_paths_and_dexterity_example_shows_the_papers_long_movement_verdicts():
     # The circle brings the tip back to the start; each row reports how far the joints end from q0.
     assert {("circle", "r=0.1", name) for name in ("pinv", "inertia-pinv", "null-space")} <= set(rows)
     assert printed.startswith("at q0: w = 1.2247, dynamic w = 5.7427")
+
+
+def test_remedies_sweep_prints_its_grid_and_the_answer():
+    printed = run_example("remedies_sweep.py", "--torque-weight", "range", "--kinematic-weights", "0,0.5",
+                          "--dampings", "10")  # fmt: skip
+    rows = {line.split()[0]: line.split()[1] for line in printed.splitlines() if line[:1].isdigit()}
+    assert rows["0"].startswith("100%/") and rows["0"].endswith("U")  # weighted-null-space: unstable
+    assert "Without a kinematic term (μ = 0, weighted-null-space)" in printed

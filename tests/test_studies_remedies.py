@@ -146,3 +146,20 @@ def test_paper_command_writes_the_remedies_section_and_figures(tmp_path, capsys)
     assert "### Would linear programming rather than least squares be more satisfactory?" in markdown
     assert "kinematic term: Without a kinematic term" in printed and "linear programming: " in printed
     assert study_module.SWEPT_RESOLVER == "damped-null-space"
+
+
+def test_a_range_weighted_sweep_is_measured_against_weighted_null_space(paper):
+    study = run_remedies(paper, kinematic_weights=(0.0, 0.5), dampings=(10.0,), torque_weight="range")
+    zero = min(study.sweep, key=lambda p: p.kinematic_weight)
+    assert zero.short_kept == pytest.approx(1.0, abs=1e-9)
+    assert zero.long_peak_ratio == pytest.approx(
+        paper.runs["long", "weighted-null-space"].peak_torque_ratio.max(), rel=1e-9
+    )
+    root = 1.0 / (paper.robot.torque_upper - paper.robot.torque_lower)
+    run = paper.runs["short", "weighted-null-space"]
+    assert torque_cost(run, "range") == pytest.approx(float(np.sum((run.tau[:-1] * root) ** 2)) * run.dt, rel=1e-12)
+    text = " ".join(study.kinematic_term_answer()["sentences"])
+    assert text.startswith("Without a kinematic term (μ = 0, weighted-null-space) the long movement is unstable")
+    assert study.summary()["sweep"]["torque_weight"] == "range"
+    with pytest.raises(torqueopt.InvalidInput, match="sweep torque weight 'diagonal' must be one of unit, range"):
+        run_remedies(paper, torque_weight="diagonal")

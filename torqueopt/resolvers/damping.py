@@ -80,7 +80,8 @@ __all__ = ["SelfMotionDamping", "DampedNullSpaceTorque", "DEFAULT_DAMPING", "DEF
 #: K_D = 10 goes unstable on the long movement); a larger one gives up more of the cut (μ = 0.7
 #: keeps 79 %). On one redundant degree of freedom the blend is the convex combination
 #: y = (y_torque + μ² y_damping)/(1 + μ²), so the short movement, which starts at rest, keeps
-#: about 1 − (μ²/(1 + μ²))² of the cut whatever the weight. ``torqueopt paper`` reruns the sweep.
+#: about 1 − (μ²/(1 + μ²))² of the cut whatever the weight. ``examples/remedies_sweep.py``
+#: reruns this sweep (``--torque-weight range`` or ``unit``); ``torqueopt paper`` runs a coarser one.
 DEFAULT_DAMPING = 10.0
 DEFAULT_KINEMATIC_WEIGHT = 0.5
 

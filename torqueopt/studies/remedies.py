@@ -74,6 +74,8 @@ SWEPT_RESOLVER = "damped-null-space"
 DEFAULT_KINEMATIC_WEIGHTS = (0.0, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 2.0, 5.0)
 #: K_D values of the sweep [1/s].
 DEFAULT_DAMPINGS = (2.0, 5.0, 10.0, 20.0, 50.0)
+#: The torque weights the sweep can use, each with the paper's method it equals at μ = 0.
+SWEEP_REFERENCES = {"unit": "null-space", "range": "weighted-null-space"}
 _WITHIN = 1.0 + 1e-6  # peak |τ|/limit at or below this is within the limits (round-off of a bounded solver)
 
 
@@ -83,15 +85,23 @@ def registered_remedies() -> tuple[tuple[str, ...], tuple[str, ...]]:
     return present, tuple(name for name in REMEDIES if name not in RESOLVERS)
 
 
-def torque_cost(result: SimResult) -> float:
-    r""":math:`\int \|\tau - \tau_{mid}\|^2 dt` [N²·m²·s] over the torques held over each step.
+def torque_cost(result: SimResult, torque_weight: str = "unit") -> float:
+    r""":math:`\int \|S(\tau - \tau_{mid})\|^2 dt` over the torques held over each step.
 
-    The last row of a completed run (t = T) starts no step, so it is left out.
+    ``torque_weight``: ``unit`` (S = I, [N²·m²·s]) or ``range`` (S = diag(1/(τ⁺ − τ⁻)) of
+    Eq. (33), [s]; 0 for an unbounded joint). The last row of a completed run (t = T)
+    starts no step, so it is left out.
     """
     bounded = np.isfinite(result.torque_upper) & np.isfinite(result.torque_lower)
     midpoint = np.where(bounded, 0.5 * (result.torque_upper + result.torque_lower), 0.0)
+    if torque_weight == "unit":
+        root = np.ones(result.n)
+    elif torque_weight == "range":
+        root = np.where(bounded, 1.0 / (result.torque_upper - result.torque_lower), 0.0)
+    else:
+        raise InvalidInput(f"torque weight '{torque_weight}' of a torque cost must be one of unit, range")
     applied = result.tau[:-1] if result.completed else result.tau
-    return float(np.sum(np.square(applied - midpoint)) * result.dt)
+    return float(np.sum(np.square(root * (applied - midpoint))) * result.dt)
 
 
 def _stable(result: SimResult, report: WhiplashReport) -> bool:
@@ -109,7 +119,7 @@ class SweepPoint:
     Attributes:
         kinematic_weight: μ (dimensionless).
         damping: K_D [1/s].
-        short_cost: torque cost of the short movement [N²·m²·s].
+        short_cost: torque cost of the short movement in the sweep's torque weight.
         short_kept: share of null-space's short-movement cut against pinv that it keeps (1: all of it).
         short_peak_ratio: largest |τ|/limit on the short movement.
         long_peak_ratio: largest |τ|/limit on the long movement.
@@ -143,6 +153,8 @@ class RemediesStudy:
         whiplash: WhiplashReport per (movement, remedy).
         sweep: the (μ, K_D) settings of ``damped-null-space``, empty when not swept.
         kinematic_weights, dampings: the grid swept.
+        sweep_torque_weight: the blend's ``torque_weight`` in the sweep (``unit`` or ``range``); the
+            sweep's cut is then measured in that weight against the method it equals at μ = 0.
     """
 
     key: ClassVar[str] = "remedies"
@@ -155,6 +167,7 @@ class RemediesStudy:
     sweep: list[SweepPoint] = field(default_factory=list)
     kinematic_weights: tuple[float, ...] = ()
     dampings: tuple[float, ...] = ()
+    sweep_torque_weight: str = "unit"
 
     # -- lookups ---------------------------------------------------------------
     def run(self, movement: str, name: str) -> SimResult:
@@ -168,12 +181,28 @@ class RemediesStudy:
     def stable(self, movement: str, name: str) -> bool:
         return _stable(self.run(movement, name), self.report(movement, name))
 
-    def cut_kept(self, movement: str, name: str) -> float:
-        """Share of null-space's cut in torque cost against pinv on ``movement`` that ``name`` keeps."""
-        pinv, null = torque_cost(self.run(movement, "pinv")), torque_cost(self.run(movement, "null-space"))
-        if not pinv > null:
+    def cut_kept(self, movement: str, name: str, torque_weight: str = "unit") -> float:
+        """Share of the cut in torque cost against pinv on ``movement`` that ``name`` keeps.
+
+        The cut is null-space's in ∫‖τ‖²dt (``unit``), or weighted-null-space's in
+        ∫‖Sτ‖²dt with the range weight S of Eq. (33) (``range``).
+        """
+        reference = SWEEP_REFERENCES[torque_weight]
+        pinv = torque_cost(self.run(movement, "pinv"), torque_weight)
+        best = torque_cost(self.run(movement, reference), torque_weight)
+        if not pinv > best:
             return math.nan
-        return (pinv - torque_cost(self.run(movement, name))) / (pinv - null)
+        return (pinv - torque_cost(self.run(movement, name), torque_weight)) / (pinv - best)
+
+    @property
+    def sweep_reference(self) -> str:
+        """The paper's method the swept blend equals at μ = 0."""
+        return SWEEP_REFERENCES[self.sweep_torque_weight]
+
+    def _sweep_cost_text(self) -> str:
+        if self.sweep_torque_weight == "unit":
+            return "∫‖τ‖²dt"
+        return "∫‖Sτ‖²dt (S = 1/(τ⁺ − τ⁻), Eq. (33))"
 
     # -- numbers ---------------------------------------------------------------
     def entries(self) -> list[dict]:
@@ -208,11 +237,12 @@ class RemediesStudy:
     def kinematic_term_answer(self) -> dict:
         """The Discussion's first question, answered in sentences generated from the runs and the sweep."""
         sentences = []
-        null_long = self.report("long", "null-space")
+        reference = self.sweep_reference
+        null_long = self.report("long", reference)
         sentences.append(
-            "Without a kinematic term (μ = 0, null-space) the long movement is "
+            f"Without a kinematic term (μ = 0, {reference}) the long movement is "
             + (f"unstable from t = {null_long.time:.3f} s" if null_long.unstable else "stable")
-            + f" (peak |τ|/limit {_peak_ratio(self.run('long', 'null-space')):.3g})."
+            + f" (peak |τ|/limit {_peak_ratio(self.run('long', reference)):.3g})."
         )
         result = {"sentences": sentences}
         points = [p for p in self.sweep if p.kinematic_weight > 0]
@@ -224,8 +254,8 @@ class RemediesStudy:
                 sentences.append(
                     f"Yes on this arm: with μ = {best.kinematic_weight:g} and K_D = {best.damping:g} 1/s the long "
                     f"movement stays stable and within its torque limits (peak |τ|/limit {best.long_peak_ratio:.3g}), "
-                    f"while the short movement keeps {_percent(best.short_kept)} of the cut in ∫‖τ‖²dt that null-space "
-                    "makes against pinv."
+                    f"while the short movement keeps {_percent(best.short_kept)} of the cut in "
+                    f"{self._sweep_cost_text()} that {reference} makes against pinv."
                 )
             elif stable:
                 best = max(stable, key=lambda p: p.short_kept)
@@ -272,6 +302,7 @@ class RemediesStudy:
                     )
                 )
             result.update(
+                torque_weight=self.sweep_torque_weight,
                 settings=len(points),
                 stable_settings=len(stable),
                 within_limit_settings=len(within),
@@ -284,7 +315,13 @@ class RemediesStudy:
             long = self.run("long", SWEPT_RESOLVER)
             sentences.append(
                 f"The defaults of {SWEPT_RESOLVER} (μ = {defaults.kinematic_weight:g}, K_D = {defaults.damping:g} 1/s) "
-                f"keep {_percent(self.cut_kept('short', SWEPT_RESOLVER))} of the short movement's cut and leave the long "
+                f"keep {_percent(self.cut_kept('short', SWEPT_RESOLVER))} of the short movement's cut"
+                + (
+                    ""
+                    if self.sweep_torque_weight == "unit"
+                    else " (null-space's, in ∫‖τ‖²dt: the defaults use the unit weight)"
+                )
+                + " and leave the long "
                 f"movement {self._verdict('long', SWEPT_RESOLVER)} (peak |τ|/limit {_peak_ratio(long):.3g}); the "
                 f"medium movement is {self._verdict('medium', SWEPT_RESOLVER)}."
             )
@@ -366,6 +403,7 @@ class RemediesStudy:
             "runs": self.entries(),
             "sweep": {
                 "resolver": SWEPT_RESOLVER,
+                "torque_weight": self.sweep_torque_weight,
                 "kinematic_weights": list(self.kinematic_weights),
                 "dampings": list(self.dampings),
                 "points": [{**asdict(p), "within_limits": p.within_limits} for p in self.sweep],
@@ -427,11 +465,11 @@ class RemediesStudy:
         if self.sweep:
             lines += [
                 "",
-                f"### The sweep of {SWEPT_RESOLVER} (unit torque weight)",
+                f"### The sweep of {SWEPT_RESOLVER} (torque_weight={self.sweep_torque_weight})",
                 "",
                 (
-                    "Each cell: share of the short movement's cut kept / peak |τ|/limit on the long movement "
-                    "(**U**: unstable)."
+                    f"Each cell: share of {self.sweep_reference}'s cut in {self._sweep_cost_text()} on the short "
+                    "movement kept / peak |τ|/limit on the long movement (**U**: unstable)."
                 ),
                 "",
                 "| μ \\ K_D [1/s] | " + " | ".join(f"{d:g}" for d in self.dampings) + " |",
@@ -461,17 +499,21 @@ def run_remedies(
     sweep: bool = True,
     kinematic_weights: Sequence[float] = DEFAULT_KINEMATIC_WEIGHTS,
     dampings: Sequence[float] = DEFAULT_DAMPINGS,
+    torque_weight: str = "unit",
 ) -> RemediesStudy:
     """Run every registered remedy on the paper's movements and, with ``sweep``, the (μ, K_D) grid.
 
     Uses the paper's scenario, robot and whiplash thresholds; the sweep runs
-    ``damped-null-space`` with the unit torque weight on the short and long
-    movements for each μ in ``kinematic_weights`` and K_D in ``dampings``
-    (μ = 0 is run once: K_D has no effect there).
+    ``damped-null-space`` with ``torque_weight`` (``unit`` or ``range``) on the
+    short and long movements for each μ in ``kinematic_weights`` and K_D in
+    ``dampings`` (μ = 0 is run once: K_D has no effect there), and measures
+    the short movement's cut in that weight.
 
     Raises:
-        InvalidInput: a μ or K_D that is negative or not finite.
+        InvalidInput: a μ or K_D that is negative or not finite, or another torque weight.
     """
+    if torque_weight not in SWEEP_REFERENCES:
+        raise InvalidInput(f"sweep torque weight '{torque_weight}' must be one of {', '.join(SWEEP_REFERENCES)}")
     scenario, robot = paper.scenario, paper.robot
     limit_factor, growth_factor = paper.limit_factor, paper.growth_factor
     kinematic_weights = _grid(kinematic_weights, "kinematic weight")
@@ -483,10 +525,14 @@ def run_remedies(
             result = run_movement(scenario, movement, name, robot)
             runs[movement, name] = result
             whiplash[movement, name] = detect_whiplash(result, limit_factor, growth_factor)
-    study = RemediesStudy(paper=paper, remedies=remedies, skipped=skipped, runs=runs, whiplash=whiplash)
+    study = RemediesStudy(
+        paper=paper, remedies=remedies, skipped=skipped, runs=runs, whiplash=whiplash, sweep_torque_weight=torque_weight
+    )
     if not sweep or SWEPT_RESOLVER not in RESOLVERS:
         return study
-    pinv_cost, null_cost = (torque_cost(paper.runs["short", name]) for name in ("pinv", "null-space"))
+    pinv_cost, null_cost = (
+        torque_cost(paper.runs["short", name], torque_weight) for name in ("pinv", SWEEP_REFERENCES[torque_weight])
+    )
     cut = pinv_cost - null_cost
     points = []
     for mu in kinematic_weights:
@@ -495,13 +541,13 @@ def run_remedies(
             if mu == 0.0 and at_zero is not None:
                 points.append(SweepPoint(**{**asdict(at_zero), "damping": damping}))
                 continue
-            options = {"kinematic_weight": mu, "damping": damping}
+            options = {"kinematic_weight": mu, "damping": damping, "torque_weight": torque_weight}
             short = simulate(robot, SWEPT_RESOLVER, scenario.line("short"), scenario.q0, dt=scenario.dt,
                              resolver_options=options)  # fmt: skip
             long = simulate(robot, SWEPT_RESOLVER, scenario.line("long"), scenario.q0, dt=scenario.dt,
                             resolver_options=options)  # fmt: skip
             report = detect_whiplash(long, limit_factor, growth_factor)
-            cost = torque_cost(short)
+            cost = torque_cost(short, torque_weight)
             point = SweepPoint(
                 kinematic_weight=mu,
                 damping=damping,
@@ -619,14 +665,14 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
             continue  # those near the limit line crowd each other; the right panel shows every μ
         trade.annotate(f"μ={mu:g}", (shown(top.short_kept), top.long_peak_ratio), textcoords="offset points",
                        xytext=(3, 5), fontsize=8, color="0.3")  # fmt: skip
-    references = [("pinv", "s"), ("null-space", "D")]
+    references = [("pinv", "s"), (study.sweep_reference, "D")]
     if SELF_MOTION_DAMPING in study.remedies:
         references.append((SELF_MOTION_DAMPING, "^"))
     if SWEPT_RESOLVER in study.remedies:
         references.append((SWEPT_RESOLVER, "*"))
     for name, marker in references:
         label = f"{name} (defaults)" if name == SWEPT_RESOLVER else name
-        trade.plot(shown(study.cut_kept("short", name)), _peak_ratio(study.run("long", name)), marker=marker, ms=12,
+        trade.plot(shown(study.cut_kept("short", name, study.sweep_torque_weight)), _peak_ratio(study.run("long", name)), marker=marker, ms=12,
                    color="k", mfc="gold" if marker == "*" else "none", ls="none", label=label)  # fmt: skip
     for ax in (trade, by_weight):
         ax.axhline(1.0, color="k", ls="--", lw=0.9, label="torque limit")
@@ -636,11 +682,16 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
         ax.set_ylabel("long movement (2 s): peak |τ|/limit")
         ax.grid(alpha=0.3, which="both")
     trade.set_xscale("log")
-    trade.set_xlabel(f"short movement: share of null-space's torque cut given up [%] (μ = 0 drawn at {floor:.2g} %)")
+    trade.set_xlabel(
+        f"short movement: share of {study.sweep_reference}'s torque cut given up [%] (μ = 0 drawn at {floor:.2g} %)"
+    )
     trade.set_title("Torque saving against stability (o stable, x unstable)", fontsize=10, loc="left")
     trade.legend(fontsize=8, loc="upper right")
     by_weight.set_xscale("log")
     by_weight.set_xlabel("kinematic weight μ (relative to ‖SHZ‖_F)")
     by_weight.set_title("Long-movement peak against μ", fontsize=10, loc="left")
-    fig.suptitle(f"{SWEPT_RESOLVER} on the paper's arm as μ and K_D vary", fontsize=11)
+    fig.suptitle(
+        f"{SWEPT_RESOLVER} (torque_weight={study.sweep_torque_weight}) on the paper's arm as μ and K_D vary",
+        fontsize=11,
+    )
     return _save(fig, path)
