@@ -107,7 +107,13 @@ def test_the_lp_answer_is_honest_about_what_was_run(study):
     lp = answer["minmax-torque"]
     for movement, peak in lp["peak_torque_ratio"].items():
         assert peak == pytest.approx(study.runs[movement, "minmax-torque"].peak_torque_ratio.max())
-    assert f"stays within the torque limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
+    assert f"keeps every torque within its limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
+    for movement in ("short", "medium", "long"):
+        run = study.runs[movement, "minmax-torque"]
+        done = movement in lp["done_within_bounds"]
+        assert done == (movement in lp["within_limits"] and run.infeasible_steps == 0)
+        assert lp["infeasible_steps"][movement] == int(run.infeasible.sum())
+    assert f"the LP does {len(lp['done_within_bounds'])} of 3 movements" in " ".join(answer["sentences"])
 
 
 @pytest.mark.slow
