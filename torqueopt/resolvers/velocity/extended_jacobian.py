@@ -101,7 +101,7 @@ class ExtendedJacobian(VelocityResolver):
             name="algorithmic_tolerance",
             kind="number in [0, 1)",
             unit="",
-            default=1e-3,
+            default=0.05,
             meaning="the alignment |∂G/∂q·n|/(|∂G/∂q| |n|) below which the run stops at an algorithmic singularity",
             convert=lambda value: _fraction(number(0.0)(value)),
         ),
