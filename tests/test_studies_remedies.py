@@ -107,7 +107,9 @@ def test_the_lp_answer_is_honest_about_what_was_run(study):
     lp = answer["minmax-torque"]
     for movement, peak in lp["peak_torque_ratio"].items():
         assert peak == pytest.approx(study.runs[movement, "minmax-torque"].peak_torque_ratio.max())
-    assert f"keeps every torque within its limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
+    assert (
+        f"keeps every torque within its limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
+    )
     for movement in ("short", "medium", "long"):
         run = study.runs[movement, "minmax-torque"]
         done = movement in lp["done_within_bounds"]
