@@ -644,7 +644,11 @@ def plot_long_torques(study: RemediesStudy, path: Path) -> Path:
         if report.unstable:
             ax.axvline(report.time, color="k", ls=":", lw=1.2)
         state = study._verdict("long", name)
-        extra = f", {result.infeasible_steps} infeasible steps" if result.infeasible_steps else ""
+        extra = (
+            f", {result.infeasible_steps} infeasible steps (tip off the path by up to {result.max_tip_error * 1e3:.3g} mm)"
+            if result.infeasible_steps
+            else ""
+        )
         ax.set_title(f"{name}: {state}, peak |τ|/limit {peak:.3g}{extra}", fontsize=10, loc="left")
         ax.set_ylabel("τ / τ⁺")
         ax.grid(alpha=0.3)
