@@ -74,10 +74,14 @@ def add_parser(subparsers) -> None:
         help=f"resolver whose run starts the solve: {', '.join(resolver_names())}",
     )
     group.add_argument(
-        "--hessian", default="gauss-newton", choices=HESSIANS, help="Hessian of the Lagrangian (default gauss-newton)"
+        "--hessian",
+        default="auto",
+        choices=HESSIANS,
+        help="Hessian of the Lagrangian: gauss-newton, limited-memory (L-BFGS), or auto: Gauss-Newton, then "
+        "L-BFGS from where it stopped if it did not converge (default auto)",
     )
     group.add_argument("--tolerance", default="1e-8", help="IPOPT tolerance (default 1e-8)")
-    group.add_argument("--max-iterations", default="500", metavar="N", help="IPOPT iteration limit (default 500)")
+    group.add_argument("--max-iterations", default="500", metavar="N", help="IPOPT iteration limit of each run (default 500)")
     group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
     group.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     group.add_argument(
@@ -179,7 +183,7 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
         f"end {result.end}, weight {result.weight}"
         + (", torque bounds" if result.torque_bounds else "")
         + (", joint limits" if result.joint_limits else ""),
-        f"status: {verdict}, {result.iterations} iterations, {result.solve_seconds:.2f} s",
+        f"status: {verdict}, {result.iterations} iterations ({result.hessian}), {result.solve_seconds:.2f} s",
         (
             f"cost on the {result.dt * 1e3:g} ms grid: {result.cost:.6g} {unit} "
             f"(warm start {result.warm_start}: {result.warm_start_cost:.6g})"

@@ -57,6 +57,17 @@ Gauss-Newton matrix of the least-squares cost,
 without the constraints' curvature: positive semi-definite, block diagonal,
 one 3n×3n block per interval.
 
+Known artefact: interpolating positions only at the nodes, a held
+acceleration may alternate from one interval to the next, and the optimum
+uses that freedom a little: its torques carry a square ripple at the grid's
+period whose amplitude falls linearly with h (short paper movement, joint 1:
+±1.4 N·m at 10 ms, ±0.7 at 5 ms, ±0.26 at 2 ms; long movement: ±0.48, ±0.24,
+±0.08), while the cost converges at second order. A C² piecewise-cubic
+motion (linear acceleration) was tried instead and rejected: solved forward
+from a clamped start its spline recurrence has a growing mode (eigenvalue
+−2 − √3), and IPOPT found far worse, rippling solutions (panda: cost 2.6e6
+against 246).
+
 Only revolute and prismatic joints (``robot.euclidean``), whose
 configurations add, are supported: a continuous joint's (cos, sin) would
 need manifold variables.

@@ -11,7 +11,7 @@ local, instant-by-instant criterion, Eq. (29), Eq. (30), Eq. (31), Eq. (32), Eq.
 1. a local resolver's run (``pinv`` by default) on the simulation grid,
    sampled at the nodes, is the warm start;
 2. the direct transcription of :mod:`torqueopt.optimal.transcription`
-   (held acceleration over intervals of ``grid_step``, ≤ 10 ms by default) is
+   (held acceleration over intervals of ``grid_step``, ≤ 5 ms by default) is
    solved by IPOPT (:mod:`torqueopt.optimal.ipopt`);
 3. the planned motion (piecewise quadratic, exactly as transcribed) is
    mapped to the simulation grid: the torque held over each step
@@ -53,10 +53,13 @@ __all__ = ["DEFAULT_GRID_STEP", "ENDS", "HESSIANS", "OptimalResult", "optimize"]
 
 #: How the movement may end: at rest (v(T) = 0) or with any joint velocity.
 ENDS = ("rest", "free")
-#: Hessians of the Lagrangian IPOPT can use.
-HESSIANS = ("limited-memory", "gauss-newton")
+#: Hessians of the Lagrangian: ``auto`` tries Gauss-Newton, then L-BFGS from where it stopped.
+HESSIANS = ("auto", "gauss-newton", "limited-memory")
+#: What ``auto`` tries, in order, and the statuses after which a second try cannot help.
+_AUTO = ("gauss-newton", "limited-memory")
+_FINAL = ("converged", "infeasible", "time limit")
 #: Longest interval of the transcription grid [s].
-DEFAULT_GRID_STEP = 0.01
+DEFAULT_GRID_STEP = 0.005
 
 
 @dataclass
@@ -232,7 +235,7 @@ def optimize(
     dt: float = 1e-3,
     grid_step: float = DEFAULT_GRID_STEP,
     warm_start: str | Resolver | SimResult = "pinv",
-    hessian: str = "gauss-newton",
+    hessian: str = "auto",
     tolerance: float = 1e-8,
     max_iterations: int = 500,
     max_time: float | None = None,
@@ -256,9 +259,14 @@ def optimize(
         grid_step: the longest transcription interval [s]; the grid has an even number N of
             intervals, h = T/N ≤ grid_step.
         warm_start: a resolver (name or object) whose simulated run starts the solve, or a SimResult.
-        hessian: ``gauss-newton`` (the default: the block Gauss-Newton matrix of the cost) or ``limited-memory`` (IPOPT's L-BFGS).
+        hessian: ``gauss-newton`` (the block Gauss-Newton matrix of the cost), ``limited-memory``
+            (IPOPT's L-BFGS), or ``auto`` (the default): Gauss-Newton, and when it ends short of
+            convergence (acceptable level, iteration limit, failure) L-BFGS from its last iterate.
+            Measured: Gauss-Newton converges where L-BFGS stalls on panda; L-BFGS converges where
+            Gauss-Newton stops at "acceptable" with active torque bounds on the planar arm.
         tolerance: IPOPT's tolerance on the scaled KKT error.
-        max_iterations, max_time: bounds on the work (iterations; wall time [s]).
+        max_iterations, max_time: bounds on the work (iterations of each IPOPT run; wall time [s]
+            of all of them).
         verbose: print IPOPT's log.
 
     Raises:
@@ -320,15 +328,27 @@ def optimize(
         resolver = get_resolver(warm_start)
         start_run, start_name = simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
     w0 = _warm_start(problem, start_run)
-    solved = solve_transcription(
-        problem,
-        w0,
-        hessian=hessian,
-        tolerance=tolerance,
-        max_iterations=max_iterations,
-        max_time=max_time,
-        verbose=verbose,
-    )
+    attempts, start, spent = [], w0, 0.0
+    for name in _AUTO if hessian == "auto" else (hessian,):
+        remaining = None if max_time is None else max_time - spent
+        if remaining is not None and remaining <= 0.0:
+            break
+        solved = solve_transcription(
+            problem,
+            start,
+            hessian=name,
+            tolerance=tolerance,
+            max_iterations=max_iterations,
+            max_time=remaining,
+            verbose=verbose,
+        )
+        attempts.append((name, solved))
+        spent += solved.seconds
+        if solved.status in _FINAL:
+            break
+        start = solved.w
+    hessians_used = ", then ".join(name for name, _ in attempts)
+    messages = ", then ".join(attempt.message for _, attempt in attempts)
     plan = _on_grid(problem, solved.w, times)
     applied = plan["tau"]
     replay = replay_torques(robot, q_start, np.zeros(robot.nv), applied, dt)
@@ -364,9 +384,9 @@ def optimize(
         grid_cost=solved.objective,
         weight=weight_name,
         status=solved.status,
-        solver_message=solved.message,
-        iterations=solved.iterations,
-        solve_seconds=solved.seconds,
+        solver_message=messages,
+        iterations=sum(attempt.iterations for _, attempt in attempts),
+        solve_seconds=spent,
         replay_tip_error=float(np.nanmax(replay_error)) if replay.completed else float("inf"),
         plan_tip_error=float(plan_error.max()),
         constraint_violation=solved.constraint_violation,
@@ -376,7 +396,7 @@ def optimize(
         torque_bounds=bool(torque_bounds),
         joint_limits=bool(joint_limits),
         trajectory=describe(trajectory),
-        hessian=hessian,
+        hessian=hessians_used,
         warm_start=start_name,
         warm_start_cost=start_cost,
         solution={"problem": problem, "w": solved.w, "lam_g": solved.lam_g, "lam_x": solved.lam_x},

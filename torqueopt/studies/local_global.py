@@ -295,7 +295,7 @@ _FIGURE_LINES = (
     ("pinv", "tab:blue", "-"),
     ("null-space", "tab:red", "-"),
     ("damped-null-space", "tab:orange", "-"),
-    ("bounded-torque", "tab:brown", "-"),
+    ("bounded-torque", "tab:brown", ":"),  # dotted: on this path it coincides with damped-null-space
     ("global", "black", "-"),
     ("global weighted, bounded", "tab:green", "--"),
 )
