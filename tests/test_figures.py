@@ -1,5 +1,6 @@
 """Figures: the format the suffix names, the resolution asked for, and readable ticks."""
 
+import itertools
 import re
 import struct
 
@@ -98,7 +99,7 @@ def test_symlog_torque_ticks_do_not_overlap_and_come_more_than_once_a_decade():
     boxes = sorted(
         (label.get_window_extent(renderer) for label in ax.get_yticklabels() if label.get_text()), key=lambda b: b.y0
     )
-    for lower, upper in zip(boxes, boxes[1:]):
+    for lower, upper in itertools.pairwise(boxes):
         assert upper.y0 >= lower.y1 - 0.5, "tick labels overlap"
 
 
