@@ -81,7 +81,9 @@ def add_parser(subparsers) -> None:
         "L-BFGS from where it stopped if it did not converge (default auto)",
     )
     group.add_argument("--tolerance", default="1e-8", help="IPOPT tolerance (default 1e-8)")
-    group.add_argument("--max-iterations", default="500", metavar="N", help="IPOPT iteration limit of each run (default 500)")
+    group.add_argument(
+        "--max-iterations", default="500", metavar="N", help="IPOPT iteration limit of each run (default 500)"
+    )
     group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
     group.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     group.add_argument(
