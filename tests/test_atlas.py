@@ -486,3 +486,16 @@ def test_bounded_resolver_rows_keep_the_task_it_gave_up(planar3):
     assert row["infeasible_steps"] == run.infeasible_steps
     assert row["peak_torque_ratio"] <= 1.0 + 1e-9 and not row["unstable"]
     assert rows[0, "pinv"]["max_task_error"] == 0.0 and rows[0, "pinv"]["infeasible_steps"] == 0
+
+
+def test_an_algorithmic_singularity_at_the_start_is_a_singular_verdict_not_stable(planar3):
+    """A start where the extended Jacobian is already singular (found by a seeded
+    search) gives a run with no rows: the atlas calls it singular, not stable."""
+    from torqueopt.atlas.verdicts import run_row
+
+    q0 = [2.7336406607023154, 1.9845664104768632, -3.1243861495570098]
+    run = torqueopt.simulate(planar3, "extended-jacobian", torqueopt.StraightLine([1, 1], duration=0.2), q0)
+    assert len(run.t) == 0 and run.stop_reason.startswith("extended Jacobian is singular")
+    kinetic, self_motion = self_motion_energy(planar3, run)
+    row = run_row(run, kinetic, self_motion, 1.0, Thresholds())
+    assert not row["unstable"] and row["verdict"] == "singular"

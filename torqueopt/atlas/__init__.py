@@ -25,7 +25,9 @@ Files in the output folder:
     lets a killed sweep resume.
 
 The runs use :func:`torqueopt.simulate`'s acceleration profile, step and
-held-torque RK4 (the batched path is held to it at 1e-9).
+integrator: held-torque RK4 for the torque resolvers (the batched path is
+held to it at 1e-9), RK4 on the joint velocities with inverse-dynamics
+torques for the velocity-level methods.
 """
 
 from __future__ import annotations

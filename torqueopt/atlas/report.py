@@ -70,7 +70,8 @@ def write_markdown(summary: dict) -> str:
             f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
             f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
             f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
-            f"dt {config['dt'] * 1e3:g} ms, held-torque RK4, open loop."
+            f"dt {config['dt'] * 1e3:g} ms, open loop: held-torque RK4 for the torque resolvers, RK4 on the joint "
+            "velocities with inverse-dynamics torques for the velocity-level ones."
         ),
         (
             f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "

@@ -45,8 +45,9 @@ The verdict (column ``verdict``)
       torque is what ``pinv`` needs on the path too, and the self-motion is
       small), or it fails at the very first sample, before any self-motion
       could build up: the path asks more than the arm has;
-    * ``"singular"``: the run reached a singular Jacobian (and stopped there)
-      before failing the 2x-limit rule;
+    * ``"singular"``: the run reached a singular Jacobian, the task's or an
+      algorithmic one such as the extended Jacobian's (and stopped there, at
+      t = 0 too), before failing the 2x-limit rule;
     * ``"stable"``: otherwise (the runaway figures are still in the row).
 
 The thresholds 2 and 10 were read off a first look at 60 random paths of the
@@ -201,7 +202,8 @@ def run_row(
     torque_vs_pinv = peak_ratio / pinv_peak_ratio if pinv_peak_ratio > 0 else math.nan
     runaway = bool(over_energy.any() or (math.isfinite(torque_vs_pinv) and torque_vs_pinv > thresholds.pinv_factor))
 
-    singular = result.stop_reason is not None and result.stop_reason.startswith("task Jacobian is singular")
+    # The task Jacobian's singularity, or an algorithmic one (the extended Jacobian's), even at t = 0.
+    singular = result.stop_reason is not None and "Jacobian is singular" in result.stop_reason
     if report.unstable:
         from_the_start = report.time is not None and report.time <= result.t[0]
         verdict = "whiplash" if runaway and not from_the_start else "too demanding"

@@ -3,7 +3,8 @@
 Exit codes:
     0  success (torque-limit violations are findings, not failures);
     2  bad input: the message names the bad value and what would be valid;
-    3  the simulation stopped early (diverged, or the Jacobian went singular);
+    3  the work stopped short: a simulation stopped early (diverged, or the
+       Jacobian went singular), or ``optimize``'s solver did not converge;
        everything computed up to then is still written and summarised.
 """
 
@@ -43,7 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
             "Redundancy resolution of robot arms through torque optimisation "
             "(Hollerbach & Suh 1987), simulated with Pinocchio."
         ),
-        epilog="Exit codes: 0 success, 2 bad input, 3 simulation stopped early (diverged or singular).",
+        epilog=(
+            "Exit codes: 0 success, 2 bad input, 3 stopped short (a simulation diverged or went singular, "
+            "or the optimiser did not converge)."
+        ),
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     subparsers.required = True

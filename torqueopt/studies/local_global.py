@@ -370,8 +370,9 @@ def run_local_global(
     for movement in MOVEMENTS:
         line = scenario.line(movement)
         for name in (*LOCAL, *present):
-            options = {"weight": scenario.weight} if name == "weighted-null-space" else {}
-            run = simulate(robot, get_resolver(name, **options), line, scenario.q0, dt=scenario.dt)
+            # Each method at its defaults, as the paper's runner does (weighted-null-space's
+            # default 1/(τ⁺−τ⁻)² is the paper's W up to a scale, the same minimiser).
+            run = simulate(robot, get_resolver(name), line, scenario.q0, dt=scenario.dt)
             report = detect_whiplash(run)
             local_runs[movement, name] = run
             rows.append(
