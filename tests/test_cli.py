@@ -1,5 +1,7 @@
 """The run command: the summary, the files, and one-line errors with exit code 2."""
 
+import os
+import stat
 import subprocess
 import sys
 
@@ -222,6 +224,14 @@ def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
         capsys.readouterr().err
         == f"torqueopt paper: error: cannot write to '{blocker / 'sub'}': '{blocker}' is a file, not a folder\n"
     )
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    assert main(["paper", "--out", str(fifo)]) == 2
+    assert (
+        capsys.readouterr().err
+        == f"torqueopt paper: error: cannot write to '{fifo}': '{fifo}' is a FIFO, not a folder\n"
+    )
+    assert stat.S_ISFIFO(fifo.lstat().st_mode)  # left as it was
 
 
 def test_option_errors_are_one_line_exit_2(tmp_path, capsys):

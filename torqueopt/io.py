@@ -57,7 +57,7 @@ def writable_path(path: str | os.PathLike, directory: bool = False) -> Path:
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
-        raise OutputError(f"cannot write to '{folder}': '{existing}' is a file, not a folder")
+        raise OutputError(f"cannot write to '{folder}': '{existing}' is {_kind(existing)}, not a folder")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise OutputError(f"cannot write to '{folder}': '{existing}' is not writable")
     return path
@@ -158,3 +158,12 @@ def atomic_write(path: Path, write) -> None:
     except BaseException:
         os.unlink(handle.name)
         raise
+
+
+def _kind(path: Path) -> str:
+    """What ``path`` is, in words (a regular file, a FIFO, a socket, a device), for messages."""
+    mode = path.lstat().st_mode
+    for test, words in _KINDS[1:]:
+        if test(mode):
+            return words.split(" (")[0].split(",")[0]
+    return "a file"
