@@ -262,3 +262,31 @@ def test_paper_bad_options_exit_2_with_one_line(tmp_path, capsys, options, messa
     assert code == 2
     assert capsys.readouterr().err == f"torqueopt paper: error: {message}\n"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("figure_format, magic", [("svg", b"<?xml"), ("pdf", b"%PDF")])
+def test_write_paper_writes_vector_figures_when_asked(paper, tmp_path, figure_format, magic):
+    """Every figure of the paper in the format asked for, the summary naming those files."""
+    from torqueopt.paper import write_paper
+
+    written = write_paper(paper, tmp_path, figure_format=figure_format)
+    figures = [path for path in written if path.suffix not in (".json", ".md")]
+    # Figs. 2-7 (six), four stick-figure strips and the tip paths
+    assert len(figures) == 11 and all(path.suffix == f".{figure_format}" for path in figures)
+    for path in figures:
+        assert path.read_bytes()[: len(magic)] == magic, path.name
+    assert not list(tmp_path.glob("*.png"))
+    markdown = (tmp_path / "summary.md").read_text()
+    assert f"- `fig4.{figure_format}`: long movement, the same: null-space goes unstable" in markdown
+    assert (
+        f"- `arm_long_null-space.{figure_format}`: stick figures of the arm during the long movement, null-space"
+        in markdown
+    )
+
+
+def test_paper_refuses_an_unknown_figure_format(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["paper", "--out", "x", "--format", "jpeg"])
+    assert stop.value.code == 2
+    assert "argument --format: invalid choice: 'jpeg' (choose from 'png', 'pdf', 'svg')" in capsys.readouterr().err

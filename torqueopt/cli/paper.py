@@ -9,6 +9,7 @@ import numpy as np
 
 from ..io import writable_path
 from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
+from ..plots import FIGURE_FORMATS
 from ..studies.remedies import RemediesStudy, _percent, run_remedies
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
@@ -66,6 +67,13 @@ def add_parser(subparsers) -> None:
         help="for joints without a torque limit: unstable beyond K times the starting torque "
         f"(default {DEFAULT_GROWTH_FACTOR:g})",
     )
+    parser.add_argument(
+        "--format",
+        dest="figure_format",
+        choices=FIGURE_FORMATS,
+        default="png",
+        help="format of every figure: png (default), or pdf / svg for vector output in a paper",
+    )
     parser.set_defaults(handler=paper_command)
 
 
@@ -75,7 +83,7 @@ def paper_command(args: argparse.Namespace) -> int:
     writable_path(args.out, directory=True)
     results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor)
     studies = [] if args.no_remedies else [run_remedies(results, sweep=not args.no_remedy_sweep)]
-    written = write_paper(results, args.out, studies)
+    written = write_paper(results, args.out, studies, figure_format=args.figure_format)
 
     print(f"{'movement':<9}{'resolver':<21}{'peak |tau|/limit':>18}{'limit exceeded':>16}  verdict")
     for (movement, name), result in results.runs.items():

@@ -16,8 +16,11 @@ from .scenario import PAPER_RESOLVERS
 __all__ = ["write_figures"]
 
 
-def write_figures(results: PaperResults, out: Path) -> list[Path]:
-    """Write Figures 2-7, the long movement's stick-figure strips and its tip paths into the folder ``out``; returns their paths."""
+def write_figures(results: PaperResults, out: Path, figure_format: str = "png") -> list[Path]:
+    """Write Figures 2-7, the long movement's stick-figure strips and its tip paths into the folder ``out``; returns their paths.
+
+    ``figure_format`` is the files' format and suffix: ``png``, ``pdf`` or ``svg``.
+    """
     from .. import plots
 
     scenario, runs, judged = results.scenario, results.runs, results.whiplash
@@ -31,17 +34,17 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
 
     written = []
     comparisons = (
-        ("fig2.png", "short", ("pinv", "null-space"), "Fig. 2"),
-        ("fig3.png", "medium", ("pinv", "null-space"), "Fig. 3"),
-        ("fig4.png", "long", ("pinv", "null-space"), "Fig. 4"),
-        ("fig6.png", "short", ("weighted-null-space", "inertia-pinv"), "Fig. 6"),
+        ("fig2", "short", ("pinv", "null-space"), "Fig. 2"),
+        ("fig3", "medium", ("pinv", "null-space"), "Fig. 3"),
+        ("fig4", "long", ("pinv", "null-space"), "Fig. 4"),
+        ("fig6", "short", ("weighted-null-space", "inertia-pinv"), "Fig. 6"),
     )
-    for filename, movement, names, label in comparisons:
+    for stem, movement, names, label in comparisons:
         title = f"{label}: joint torques, {' vs '.join(names)}, {movement_text(movement)}"
         written.append(
             plots.plot_torques(
                 [runs[movement, n] for n in names],
-                out / filename,
+                out / f"{stem}.{figure_format}",
                 title=title,
                 instability_times=unstable(movement, *names),
             )
@@ -52,7 +55,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
     written.append(
         plots.plot_motion(
             long_null,
-            out / "fig5.png",
+            out / f"fig5.{figure_format}",
             title=f"Fig. 5: joint velocities and accelerations of the null-space method, {movement_text('long')}",
             events=events,
         )
@@ -63,7 +66,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
         plots.plot_stick_strip(
             results.robot,
             swing,
-            out / "fig7.png",
+            out / f"fig7.{figure_format}",
             title=(
                 f"Fig. 7: free-swinging arm: zero torque, gravity {gravity:.3g} m/s² along the line direction "
                 f"(initial tip acceleration {scenario.accel:.3g} m/s²), {swing.duration:g} s; dashed: the long "
@@ -81,7 +84,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
             plots.plot_stick_strip(
                 results.robot,
                 result,
-                out / f"arm_long_{name}.png",
+                out / f"arm_long_{name}.{figure_format}",
                 title=f"{name}: the arm during the {movement_text('long')}: {state}",
                 snapshots=10,
                 events=_events(result, verdict),
@@ -91,7 +94,7 @@ def write_figures(results: PaperResults, out: Path) -> list[Path]:
     written.append(
         plots.plot_tip_path(
             [runs["long", name] for name in PAPER_RESOLVERS],
-            out / "tip_long.png",
+            out / f"tip_long.{figure_format}",
             title=f"Tip paths of the four resolvers, {movement_text('long')} (open loop)",
         )
     )

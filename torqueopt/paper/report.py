@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 from ..io import atomic_write
+from ..plots import FIGURE_FORMATS
 from .alignment import alignment_times
 from .figures import write_figures
 from .runner import PaperResults
@@ -41,18 +42,22 @@ def summary_entries(results: PaperResults) -> list[dict]:
     return entries
 
 
-def write_paper(results: PaperResults, out_dir: str | os.PathLike, studies: Sequence = ()) -> list[Path]:
+def write_paper(
+    results: PaperResults, out_dir: str | os.PathLike, studies: Sequence = (), figure_format: str = "png"
+) -> list[Path]:
     """Write Figures 2-7, the long-movement stick-figure strips, summary.json and summary.md into ``out_dir``.
 
     ``studies`` (see :class:`torqueopt.studies.Study`) add their figures, a
     key of ``summary.json`` each and a section of ``summary.md`` each.
+    ``figure_format`` (``png``, ``pdf`` or ``svg``) is every figure's format.
     """
+    figure_format = _figure_format(figure_format)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InvalidInput(f"output '{out}' exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
-    written = write_figures(results, out)
-    study_figures = [study.write_figures(out) for study in studies]
+    written = write_figures(results, out, figure_format)
+    study_figures = [study.write_figures(out, figure_format) for study in studies]
     scenario, swing = results.scenario, results.free_swing
 
     summary = {
@@ -153,17 +158,25 @@ def format_summary_markdown(results: PaperResults, figures: list[str]) -> str:
         lines.append(f"   {claim.evidence}.")
     lines += ["", "## Figures", ""]
     descriptions = {
-        "fig2.png": "short movement, torques of pinv and null-space with the ± limits",
-        "fig3.png": "medium movement, the same",
-        "fig4.png": "long movement, the same: null-space goes unstable",
-        "fig5.png": "joint velocities and accelerations of the long null-space movement",
-        "fig6.png": "short movement, weighted-null-space and inertia-pinv",
-        "fig7.png": "the free-swinging arm as stick figures, with its joint speeds",
-        "tip_long.png": "tip paths of the long movement against the straight line",
+        "fig2": "short movement, torques of pinv and null-space with the ± limits",
+        "fig3": "medium movement, the same",
+        "fig4": "long movement, the same: null-space goes unstable",
+        "fig5": "joint velocities and accelerations of the long null-space movement",
+        "fig6": "short movement, weighted-null-space and inertia-pinv",
+        "fig7": "the free-swinging arm as stick figures, with its joint speeds",
+        "tip_long": "tip paths of the long movement against the straight line",
     }
     for name in figures:
-        text = descriptions.get(name)
-        if text is None and name.startswith("arm_long_"):
-            text = f"stick figures of the arm during the long movement, {name[len('arm_long_') : -len('.png')]}"
+        stem = Path(name).stem
+        text = descriptions.get(stem)
+        if text is None and stem.startswith("arm_long_"):
+            text = f"stick figures of the arm during the long movement, {stem[len('arm_long_') :]}"
         lines.append(f"- `{name}`: {text}")
     return "\n".join(lines) + "\n"
+
+
+def _figure_format(name: str) -> str:
+    """``name`` as one of :data:`torqueopt.plots.FIGURE_FORMATS`, or InvalidInput listing them."""
+    if name not in FIGURE_FORMATS:
+        raise InvalidInput(f"figure format '{name}' is not one of {', '.join(FIGURE_FORMATS)}")
+    return name

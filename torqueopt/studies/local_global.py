@@ -276,15 +276,15 @@ class LocalGlobalStudy:
             lines.append("")
         return "\n".join(lines)
 
-    def write_figures(self, out_dir: Path) -> list[Path]:
+    def write_figures(self, out_dir: Path, figure_format: str = "png") -> list[Path]:
         from .. import plots
 
         out = Path(out_dir)
-        torques = plot_long_torques(self, out / "global_torques_long.png")
+        torques = plot_long_torques(self, out / f"global_torques_long.{figure_format}")
         strip = plots.plot_stick_strip(
             self.robot,
             _labelled(self.global_runs["long", "global"].as_sim_result(), "global"),
-            out / "global_arm_long.png",
+            out / f"global_arm_long.{figure_format}",
             title="Long movement: the whole-movement torque optimum (unweighted, end free)",
         )
         return [torques, strip]

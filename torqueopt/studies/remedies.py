@@ -449,12 +449,12 @@ class RemediesStudy:
         }
 
     # -- files -----------------------------------------------------------------
-    def write_figures(self, out_dir: Path) -> list[Path]:
-        """``remedies_long.png`` (torques on the long movement) and, when swept, ``remedies_tradeoff.png``."""
+    def write_figures(self, out_dir: Path, figure_format: str = "png") -> list[Path]:
+        """``remedies_long`` (torques on the long movement) and, when swept, ``remedies_tradeoff``, as ``figure_format``."""
         out = Path(out_dir)
-        written = [plot_long_torques(self, out / "remedies_long.png")]
+        written = [plot_long_torques(self, out / f"remedies_long.{figure_format}")]
         if self.sweep:
-            written.append(plot_tradeoff(self, out / "remedies_tradeoff.png"))
+            written.append(plot_tradeoff(self, out / f"remedies_tradeoff.{figure_format}"))
         return written
 
     def markdown(self, figures: Sequence[str]) -> str:
