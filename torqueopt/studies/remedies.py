@@ -518,10 +518,10 @@ class RemediesStudy:
                     cells.append(f"{_percent(point.short_kept)} / {point.long_peak_ratio:.3g}{mark}")
                 lines.append(f"| {mu:g} | " + " | ".join(cells) + " |")
         descriptions = {
-            "remedies_long.png": "torques of every remedy on the long movement beside pinv and null-space, as |τ|/limit",
-            "remedies_tradeoff.png": "the trade-off: short-movement cut kept against long-movement peak torque, over μ and K_D",
+            "remedies_long": "torques of every remedy on the long movement beside pinv and null-space, as |τ|/limit",
+            "remedies_tradeoff": "the trade-off: short-movement cut kept against long-movement peak torque, over μ and K_D",
         }
-        shown = [f"- `{name}`: {descriptions[name]}" for name in figures if name in descriptions]
+        shown = [f"- `{name}`: {descriptions[Path(name).stem]}" for name in figures if Path(name).stem in descriptions]
         if shown:
             lines += ["", "Figures:", "", *shown]
         return "\n".join(lines) + "\n"
