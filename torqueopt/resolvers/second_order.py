@@ -37,9 +37,8 @@ from ..robot import Robot, TaskTerms
 from ..tasks import FrameTask, Kinematics, PostureTask, TaskStack, pseudoinverse
 from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, number
-from .velocity.criteria import criterion_from
-from .velocity.gradient_projection import DEFAULT_GAINS
-from .velocity.options import criterion_spec, task_stack
+from .velocity.gradient_projection import CRITERION_OPTION, CriterionGain, gain_option
+from .velocity.options import task_stack
 
 __all__ = ["GradientProjectionAcceleration", "TaskPriorityAcceleration"]
 
@@ -53,7 +52,7 @@ _DAMPING = Option(
 )
 
 
-class GradientProjectionAcceleration(NullSpaceResolver):
+class GradientProjectionAcceleration(CriterionGain, NullSpaceResolver):
     r"""Gradient projection at the acceleration level: q̈ = J⁺(ẍ − J̇q̇) − (I − J⁺J)(k ∂p/∂q + k_d q̇).
 
     The acceleration-level twin of ``gradient-projection`` (Eq. (4)); p is
@@ -65,34 +64,10 @@ class GradientProjectionAcceleration(NullSpaceResolver):
     name = "gradient-projection-acceleration"
     needs_redundancy = True
     options = (
-        Option(
-            name="criterion",
-            kind="'joint-limits' | 'manipulability' | callable p(joint_angles)",
-            unit="",
-            default="joint-limits",
-            meaning="the criterion p to minimise: Eq. (5), or p = −w of Eq. (6), or your own",
-            convert=criterion_spec,
-        ),
-        Option(
-            name="k",
-            kind="number >= 0",
-            unit="rad²/s² per unit of p",
-            default=None,
-            meaning="gain of the gradient acceleration −k ∂p/∂q",
-            convert=number(0.0),
-            default_text="10 for joint-limits, 1 for manipulability and callables",
-        ),
+        CRITERION_OPTION,
+        gain_option("rad²/s² per unit of p", "gain of the gradient acceleration −k ∂p/∂q"),
         _DAMPING,
     )
-
-    def __init__(self, **options):
-        super().__init__(**options)
-        self.objective = criterion_from(self.criterion)
-        self.gain = DEFAULT_GAINS.get(getattr(self.objective, "name", ""), 1.0) if self.k is None else self.k
-
-    def check(self, robot: Robot) -> None:
-        super().check(robot)
-        self.objective.check(robot)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         kinematics = Kinematics(robot)
