@@ -8,7 +8,17 @@ from ..checks import parse_count, parse_positive, parse_vector
 from ..loading import load_robot
 from ..robot import TASK_DIMENSIONS, Robot
 
-__all__ = ["add_robot_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
+__all__ = ["add_robot_options", "add_start_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
+
+
+def add_start_options(group: argparse._ArgumentGroup) -> None:
+    """``--q0`` and ``--degrees``: the start configuration of a movement, the start of the movement the command runs."""
+    group.add_argument(
+        "--q0",
+        metavar="ANGLES",
+        help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
+    )
+    group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:

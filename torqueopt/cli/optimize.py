@@ -12,7 +12,7 @@ from ..optimal import DEFAULT_GRID_STEP, ENDS, HESSIANS, WEIGHTS, OptimalResult,
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, parse_positive, parse_vector, robot_from_args
+from .common import add_robot_options, add_start_options, parse_positive, parse_vector, robot_from_args
 from .paths import add_path_options, trajectory_from_args
 
 __all__ = ["add_parser", "format_optimal_summary"]
@@ -36,12 +36,7 @@ def add_parser(subparsers) -> None:
     )
     add_robot_options(parser, required=False)  # --paper needs none
     group = parser.add_argument_group("movement")
-    group.add_argument(
-        "--q0",
-        metavar="ANGLES",
-        help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
-    )
-    group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
+    add_start_options(group)
     add_path_options(group)
     group.add_argument(
         "--dt",

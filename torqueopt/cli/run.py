@@ -17,7 +17,7 @@ from ..robot import Robot
 from ..simulate import DEFAULT_MAX_STEPS, Feedback, simulate, step_budget
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, parse_count, parse_positive, parse_vector, robot_from_args
+from .common import add_robot_options, add_start_options, parse_count, parse_positive, parse_vector, robot_from_args
 from .paths import add_path_options, trajectory_from_args
 from .play import add_playback_options, check_frames, play_live, playback_options, prepare_playback
 from .resolvers import add_resolver_arguments, resolver_from_args
@@ -39,12 +39,7 @@ def add_parser(subparsers) -> None:
     add_robot_options(parser)
     group = parser.add_argument_group("movement")
     add_resolver_arguments(group)
-    group.add_argument(
-        "--q0",
-        metavar="ANGLES",
-        help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
-    )
-    group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
+    add_start_options(group)
     add_path_options(group)
     group.add_argument(
         "--dt",
