@@ -465,3 +465,14 @@ def test_task_priority_at_the_acceleration_level_is_eq_11_differentiated(panda, 
         )
         np.testing.assert_allclose(resolution.joint_acceleration, expected, atol=1e-8)
         np.testing.assert_allclose(terms.jacobian.dot(resolution.joint_acceleration) + terms.drift, xdd, atol=1e-9)
+
+
+def test_a_kinematic_run_keeps_the_urdf_joint_limits_as_a_torque_run_does(planar3):
+    """Both loops build their result the same way: the joint limits of the URDF
+    (planar3: ±2π rad, 100 rad/s) are in a velocity-level run's result too."""
+    line = torqueopt.StraightLine([1, 1], duration=0.2)
+    kinematic = torqueopt.simulate(planar3, "velocity-pinv", line, PAPER_Q0)
+    kinetic = torqueopt.simulate(planar3, "pinv", line, PAPER_Q0)
+    assert np.array_equal(kinematic.velocity_limit, [100.0, 100.0, 100.0])
+    assert np.allclose(kinematic.position_upper, 2 * np.pi) and np.allclose(kinematic.position_lower, -2 * np.pi)
+    assert kinematic.joint_limits == kinetic.joint_limits and kinematic.trajectory == kinetic.trajectory

@@ -52,7 +52,7 @@ from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
 from .tasks import FrameTask, Kinematics
-from .trajectory import check_trajectory, describe
+from .trajectory import check_trajectory
 
 __all__ = ["simulate_kinematic", "joint_rates", "DIFFERENCE_STEP"]
 
@@ -107,8 +107,7 @@ def simulate_kinematic(
     method is undefined with the last row where it was.
     """
     from .checks import configuration_vector
-    from .dexterity import dexterity_along
-    from .simulate import DEFAULT_MAX_STEPS, _row_bytes, _task_reference, step_budget
+    from .simulate import DEFAULT_MAX_STEPS, _row_bytes, _task_reference, run_result, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)
@@ -204,11 +203,22 @@ def simulate_kinematic(
             break
         q = integrate(q, (h / 6.0) * (velocity + 2.0 * k2 + 2.0 * k3 + k4))
 
-    result = _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time)
-    result.trajectory = describe(trajectory)
-    if dexterity:
-        result.dexterity = dexterity_along(robot, result.q)
-    return result
+    # the kinematic motion realises the task velocity itself: nothing is given up
+    return run_result(
+        robot,
+        resolver,
+        log,
+        times,
+        ref_position[::2],
+        dt=dt,
+        duration=duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+        trajectory=trajectory,
+        task_error=np.zeros(len(log)),
+        infeasible=np.zeros(len(log), dtype=bool),
+        dexterity=dexterity,
+    )
 
 
 def _anchored(robot: Robot, trajectory, placement: pin.SE3):
@@ -222,42 +232,6 @@ def _anchored(robot: Robot, trajectory, placement: pin.SE3):
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
     return trajectory
-
-
-def _result(robot, resolver, log, times, ref_position, dt, duration, stop_reason, stop_time) -> SimResult:
-    recorded = len(log)
-    n = robot.nv
-    if log:
-        q_log, v_log, a_log, tau_log, x_log, condition_log = (np.array(column) for column in zip(*log))
-    else:
-        q_log, v_log, a_log, tau_log, x_log = (np.empty((0, size)) for size in (robot.nq, n, n, n, robot.m))
-        condition_log = np.empty(0)
-    return SimResult(
-        robot=robot.name,
-        frame=robot.frame,
-        task=robot.task,
-        resolver=resolver.name,
-        resolver_options=resolver.settings_for_file(),
-        joint_names=list(robot.joint_names),
-        dt=dt,
-        t=times[:recorded].copy(),
-        q=q_log.reshape(recorded, robot.nq),
-        joint_angles=robot.joint_angles(q_log).reshape(recorded, n),
-        v=v_log.reshape(recorded, n),
-        acceleration=a_log.reshape(recorded, n),
-        tau=tau_log.reshape(recorded, n),
-        x=x_log.reshape(recorded, robot.m),
-        x_ref=ref_position[::2][:recorded].copy(),
-        jacobian_inverse_condition=np.asarray(condition_log, dtype=float).reshape(recorded),
-        torque_upper=robot.torque_upper.copy(),
-        torque_lower=robot.torque_lower.copy(),
-        duration=duration,
-        stop_reason=stop_reason,
-        stop_time=stop_time,
-        # the kinematic motion realises the task velocity itself: nothing is given up
-        task_error=np.zeros(recorded),
-        infeasible=np.zeros(recorded, dtype=bool),
-    )
 
 
 def _with_diagnosis(reason: str, resolver, kinematics: Kinematics, task: FrameTask) -> str:

@@ -241,14 +241,54 @@ def simulate(
             stop_reason, stop_time = _speed_stop(robot, v, max_joint_speed, t, dt), t + dt
             break
 
+    task_error_log = np.zeros(len(log))
+    infeasible_log = np.zeros(len(log), dtype=bool)
+    for row, task_error, infeasible in shortfalls:
+        task_error_log[row], infeasible_log[row] = task_error, infeasible
+    return run_result(
+        robot,
+        resolver,
+        log,
+        times,
+        ref_position,
+        dt=dt,
+        duration=duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+        trajectory=trajectory,
+        task_error=task_error_log,
+        infeasible=infeasible_log,
+        dexterity=dexterity,
+    )
+
+
+def run_result(
+    robot: Robot,
+    resolver,
+    log: list[tuple],
+    times: np.ndarray,
+    reference_position: np.ndarray,
+    *,
+    dt: float,
+    duration: float,
+    stop_reason: str | None,
+    stop_time: float | None,
+    trajectory,
+    task_error: np.ndarray,
+    infeasible: np.ndarray,
+    dexterity: bool,
+) -> SimResult:
+    """The :class:`SimResult` of a run from its per-step ``log`` of (q, v, q̈, τ, x, σmin/σmax) tuples.
+
+    ``times`` and ``reference_position`` are the run's whole grid and
+    reference; the result keeps their first ``len(log)`` rows. Every loop
+    (held-torque and kinematic) builds its result here.
+    """
     recorded = len(log)
+    n = robot.nv
     q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = _columns(
         log, (robot.nq, n, n, n, robot.m)
     )
-    task_error_log = np.zeros(recorded)
-    infeasible_log = np.zeros(recorded, dtype=bool)
-    for row, task_error, infeasible in shortfalls:
-        task_error_log[row], infeasible_log[row] = task_error, infeasible
     return SimResult(
         robot=robot.name,
         frame=robot.frame,
@@ -264,7 +304,7 @@ def simulate(
         acceleration=acceleration_log,
         tau=torque_log,
         x=x_log,
-        x_ref=ref_position[:recorded].copy(),
+        x_ref=reference_position[:recorded].copy(),
         jacobian_inverse_condition=inverse_condition_log,
         torque_upper=robot.torque_upper.copy(),
         torque_lower=robot.torque_lower.copy(),
@@ -272,8 +312,8 @@ def simulate(
         stop_reason=stop_reason,
         stop_time=stop_time,
         trajectory=describe(trajectory),
-        task_error=task_error_log,
-        infeasible=infeasible_log,
+        task_error=task_error,
+        infeasible=infeasible,
         dexterity=dexterity_along(robot, q_log) if dexterity else None,
         joint_limits=joint_limits_record(*robot.joint_limits),
     )
