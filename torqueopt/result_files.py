@@ -1,0 +1,236 @@
+"""The run files: a :class:`~torqueopt.result.SimResult` written to and read from disk.
+
+Two formats, chosen by the path's suffix:
+
+* CSV (any other suffix): one row per step, columns ``t``, ``q1..qn`` (one
+  angle per joint), ``v1..vn``, ``tau1..taun``, ``x1..xm``, ``xref1..xrefm``,
+  ``task_error``, ``infeasible``, then one column per dexterity measure;
+  beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
+  stop reason). The reader takes the columns by name, in any order, and
+  refuses a header that is missing, repeats or adds a column.
+* NumPy ``.npz``: every array of the run, the dexterity measures as
+  ``dexterity_<name>``, and the same metadata as a JSON string.
+
+Every file is written through :func:`torqueopt.io.atomic_write`, so it is
+never left half-written. Files written before a column or field existed
+(the per-step task columns, a renamed array) are still read.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from dataclasses import fields
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import InvalidInput
+from .io import atomic_write
+
+if TYPE_CHECKING:
+    from .result import SimResult
+
+__all__ = ["csv_columns", "load_result", "write_result"]
+
+#: The per-step columns after xref, in this order; files written before they existed lack them.
+_STEP_COLUMNS = ("task_error", "infeasible")
+#: Prefix of the dexterity arrays in a ``.npz`` run file.
+_DEXTERITY_KEY = "dexterity_"
+#: Fields renamed since files were first written: new name -> the name older .npz files use.
+_RENAMED = {"jacobian_inverse_condition": "jacobian_condition"}
+_ARRAY_FIELDS = (
+    "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
+    "jacobian_inverse_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
+)  # fmt: skip
+
+
+def csv_columns(n: int, m: int) -> list[str]:
+    """The CSV columns of a run of n joints and m task coordinates, before any dexterity measure.
+
+    ``t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible``.
+    """
+    return (
+        ["t"]
+        + [f"q{i}" for i in range(1, n + 1)]
+        + [f"v{i}" for i in range(1, n + 1)]
+        + [f"tau{i}" for i in range(1, n + 1)]
+        + [f"x{i}" for i in range(1, m + 1)]
+        + [f"xref{i}" for i in range(1, m + 1)]
+        + list(_STEP_COLUMNS)
+    )
+
+
+def write_result(result: SimResult, path: str | os.PathLike) -> Path:
+    """Write ``result`` to ``path``; :meth:`SimResult.to_csv` documents the formats."""
+    path = Path(path)
+    if path.suffix.lower() == ".npz":
+        arrays = {name: getattr(result, name) for name in _ARRAY_FIELDS}
+        arrays.update({_DEXTERITY_KEY + name: values for name, values in (result.dexterity or {}).items()})
+        atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(_metadata(result)), **arrays))
+        return path
+    dexterity = result.dexterity or {}
+    table = np.column_stack(
+        [
+            result.t,
+            result.joint_angles,
+            result.v,
+            result.tau,
+            result.x,
+            result.x_ref,
+            result.task_error,
+            result.infeasible,
+            *dexterity.values(),
+        ]
+    )
+    header = ",".join([*result.csv_columns(), *dexterity])
+    atomic_write(path, lambda handle: np.savetxt(handle, table, delimiter=",", header=header, comments="", fmt="%.10g"))
+    sidecar = _metadata(result)
+    sidecar["torque_upper"] = [json_number(x) for x in result.torque_upper]
+    sidecar["torque_lower"] = [json_number(x) for x in result.torque_lower]
+    metadata = json.dumps(sidecar, indent=2).encode()
+    atomic_write(Path(f"{path}.json"), lambda handle: handle.write(metadata))
+    return path
+
+
+def _metadata(result: SimResult) -> dict:
+    return {f.name: getattr(result, f.name) for f in fields(result) if f.name not in (*_ARRAY_FIELDS, "dexterity")}
+
+
+def load_result(path: str | os.PathLike, robot=None) -> SimResult:
+    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz).
+
+    A CSV holds one angle per joint, not configuration vectors: with ``robot``
+    given, ``q`` is rebuilt from them (needed for continuous joints, whose
+    configuration is (cos, sin)); without it ``q`` holds the angles. A CSV
+    has no joint accelerations or Jacobian condition: those arrays are NaN.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidInput(f"run file '{path}' does not exist")
+    try:
+        if path.suffix.lower() == ".npz":
+            return _load_npz(path)
+        return _load_csv(path, robot)
+    except InvalidInput:
+        raise
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, zipfile.BadZipFile) as error:
+        detail = " ".join(str(error).split()) or type(error).__name__
+        if isinstance(error, KeyError):
+            detail = f"missing field {detail}"
+        raise InvalidInput(f"run file '{path}' is malformed ({detail}); write runs with torqueopt run --out") from None
+
+
+def _load_npz(path: Path) -> SimResult:
+    # The result module imports this one for its file methods; the readers need its class only when they run.
+    from .result import SimResult
+
+    with np.load(path, allow_pickle=False) as archive:
+        metadata = json.loads(str(archive["metadata"]))
+        # Files written before a field was renamed keep its old name.
+        stored = {new: old for new, old in _RENAMED.items() if old in archive.files and new not in archive.files}
+        names = {stored.get(name, name): name for name in _ARRAY_FIELDS}
+        # Files written before the per-step task columns existed lack them: SimResult fills them in.
+        arrays = {
+            name: archive[key] for key, name in names.items() if key in archive.files or name not in _STEP_COLUMNS
+        }
+        dexterity = {
+            key[len(_DEXTERITY_KEY) :]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)
+        }
+    return SimResult(**metadata, **arrays, dexterity=dexterity or None)
+
+
+def _load_csv(path: Path, robot) -> SimResult:
+    from .result import SimResult
+
+    sidecar = Path(f"{path}.json")
+    if not sidecar.is_file():
+        raise InvalidInput(f"run file '{path}' has no sidecar '{sidecar}'; write runs with torqueopt run --out")
+    metadata = json.loads(sidecar.read_text())
+    with open(path) as handle:
+        header = [name.strip() for name in handle.readline().strip().split(",")]
+    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if table.size == 0:
+        table = np.empty((0, len(header)))
+    if table.shape[1] != len(header):
+        raise ValueError(f"its rows have {table.shape[1]} values but its header names {len(header)} columns")
+    columns = _csv_columns_by_name(header, len(metadata["joint_names"]), metadata["task"])
+    t, angles, v, tau, x, x_ref = (table[:, columns[group]] for group in ("t", "q", "v", "tau", "x", "xref"))
+    if "task_error" in columns:
+        metadata["task_error"] = table[:, columns["task_error"]][:, 0]
+        metadata["infeasible"] = table[:, columns["infeasible"]][:, 0] != 0
+    dexterity = {name: table[:, index[0]].copy() for name, index in columns.items() if name in _dexterity_names()}
+    upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
+    lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
+    return SimResult(
+        **metadata,
+        t=t[:, 0],
+        q=angles if robot is None else np.array([robot.configuration(row) for row in angles]).reshape(len(angles), -1),
+        joint_angles=angles,
+        v=v,
+        acceleration=np.full_like(v, np.nan),
+        tau=tau,
+        x=x,
+        x_ref=x_ref,
+        jacobian_inverse_condition=np.full(len(t), np.nan),
+        torque_upper=upper,
+        torque_lower=lower,
+        dexterity=dexterity or None,
+    )
+
+
+def _dexterity_names() -> tuple[str, ...]:
+    from .dexterity import DEXTERITY_COLUMNS
+
+    return DEXTERITY_COLUMNS
+
+
+def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list[int]]:
+    """Column indices of each group of a run CSV's header, read by name, in any order.
+
+    The contract: ``t``, ``q1..qn``, ``v1..vn``, ``tau1..taun``, ``x1..xm``,
+    ``xref1..xrefm`` (m from the task), optionally ``task_error`` and
+    ``infeasible`` together, and the dexterity measures by their names.
+
+    Raises:
+        InvalidInput: a missing, repeated or unknown column, naming it and the contract.
+    """
+    from .robot import TASK_DIMENSIONS
+
+    m = TASK_DIMENSIONS.get(task)
+    if m is None:
+        raise ValueError(f"its sidecar names the task '{task}', not one of {', '.join(TASK_DIMENSIONS)}")
+    where = {}
+    for index, name in enumerate(header):
+        if name in where:
+            raise ValueError(f"its header names column '{name}' twice")
+        where[name] = index
+    groups = {
+        "t": ["t"],
+        "q": [f"q{i}" for i in range(1, n + 1)],
+        "v": [f"v{i}" for i in range(1, n + 1)],
+        "tau": [f"tau{i}" for i in range(1, n + 1)],
+        "x": [f"x{i}" for i in range(1, m + 1)],
+        "xref": [f"xref{i}" for i in range(1, m + 1)],
+    }
+    optional = {name: [name] for name in (*_STEP_COLUMNS, *_dexterity_names()) if name in where}
+    if ("task_error" in optional) != ("infeasible" in optional):
+        groups.update(task_error=["task_error"], infeasible=["infeasible"])
+    contract = f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m} (then task_error, infeasible, dexterity)"
+    missing = [name for names in groups.values() for name in names if name not in where]
+    if missing:
+        raise ValueError(f"its header has no column {', '.join(missing)}; a run of {n} joints has {contract}")
+    known = {name for names in (*groups.values(), *optional.values()) for name in names}
+    unknown = [name for name in header if name not in known]
+    if unknown:
+        raise ValueError(
+            f"its header has unknown column {', '.join(repr(u) for u in unknown)}; a run of {n} joints has {contract}"
+        )
+    return {key: [where[name] for name in names] for key, names in {**groups, **optional}.items()}
+
+
+def json_number(value: float) -> float | None:
+    """A float as JSON holds it: None for ±inf and NaN (an unbounded limit)."""
+    return float(value) if np.isfinite(value) else None
