@@ -57,7 +57,7 @@ def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path
 def test_stick_figure_ellipses_are_the_dexterity_ellipses_at_the_tip(tmp_path, planar3, run, kind, axes_drawn):
     plots.plot_stick_strip(planar3, run, tmp_path / "stick.png", title="t", snapshots=3, ellipse=kind)
     figure = axes_drawn[-1]
-    rows = plots._snapshot_rows(run, 3)
+    rows = plots.stick._snapshot_rows(run, 3)
     patches = [patch for ax in figure.axes for patch in ax.patches]
     assert len(patches) == len(rows)
     shapes = []

@@ -64,16 +64,16 @@ def test_an_unknown_format_or_bad_dpi_is_refused_before_work(saved_run, tmp_path
 
 def test_no_tick_label_is_below_8_points(saved_run, tmp_path, monkeypatch):
     """Every figure goes through one save: look at the figure it saved."""
-    import torqueopt.plots as plots
+    import torqueopt.plots.run as run_figure
 
     saved = []
-    original_save = plots._save
+    original_save = run_figure.save_figure
 
     def save(fig, path, dpi=None):
         saved.append(fig)
         return original_save(fig, path, dpi)
 
-    monkeypatch.setattr(plots, "_save", save)
+    monkeypatch.setattr(run_figure, "save_figure", save)
     plot_run(torqueopt.load_result(saved_run), tmp_path / "fig.png")
     sizes = [label.get_fontsize() for ax in saved[0].axes for label in (*ax.get_xticklabels(), *ax.get_yticklabels())]
     assert sizes and min(sizes) >= 8.0
@@ -84,13 +84,13 @@ def test_symlog_torque_ticks_do_not_overlap_and_come_more_than_once_a_decade():
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from torqueopt.plots import _symlog
+    from torqueopt.plots.canvas import symlog_scale
 
     fig = Figure(figsize=(9.0, 2.3), dpi=DEFAULT_DPI)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.plot([0, 1, 2], [0, 510, -40])
-    _symlog(ax, 54.0, 510.0)
+    symlog_scale(ax, 54.0, 510.0)
     fig.canvas.draw()
     ticks = sorted(ax.get_yticks())
     beyond = [tick for tick in ticks if tick > 54.0]
@@ -107,7 +107,7 @@ def test_the_tip_panel_of_a_straight_3d_line_shows_the_deviation_in_mm():
     """A synthetic run: 0.3 m along z, with a known sideways drift of 2 mm · (t/T)²."""
     from matplotlib.figure import Figure
 
-    from torqueopt.plots import _draw_tip_path
+    from torqueopt.plots.panels import _draw_tip_path
     from torqueopt.result import SimResult
 
     t = np.linspace(0.0, 1.0, 101)

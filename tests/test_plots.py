@@ -86,7 +86,7 @@ def test_stick_strips_for_the_planar_arm_and_a_3d_arm(tmp_path, planar3, short_r
 
 
 def test_snapshots_crowd_where_the_joints_move_fast(stopped_run):
-    rows = plots._snapshot_rows(stopped_run, 8)
+    rows = plots.stick._snapshot_rows(stopped_run, 8)
     assert rows[0] == 0 and rows[-1] == len(stopped_run.t) - 1
     # The run's second half (from 0.7 s) holds most of its joint motion, so most snapshots.
     assert sum(stopped_run.t[rows] > 0.7) >= 4

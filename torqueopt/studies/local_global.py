@@ -307,10 +307,10 @@ def plot_long_torques(study: LocalGlobalStudy, path: Path) -> Path:
     The axes span ±1.6 times each limit; a run that leaves them (null-space's
     whiplash) is marked where the detector trips.
     """
-    from ..plots import _figure, _save
+    from ..plots.canvas import new_figure, save_figure
 
     limits = np.asarray(study.scenario.torque_limit, float)
-    fig = _figure(9.0, 7.5)
+    fig = new_figure(9.0, 7.5)
     axes = fig.subplots(len(limits), 1, sharex=True)
     for joint, ax in enumerate(axes):
         for method, colour, style in _FIGURE_LINES:
@@ -342,7 +342,7 @@ def plot_long_torques(study: LocalGlobalStudy, path: Path) -> Path:
     )
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _labelled(result: SimResult, label: str) -> SimResult:

@@ -623,10 +623,10 @@ def _json_float(value: float) -> float | None:
 # -- figures ------------------------------------------------------------------
 def plot_long_torques(study: RemediesStudy, path: Path) -> Path:
     """One panel per resolver (pinv, null-space, each remedy): every joint's τ/τ⁺ on the long movement."""
-    from ..plots import _figure, _save, _symlog
+    from ..plots.canvas import new_figure, save_figure, symlog_scale
 
     names = (*BASELINES, *study.remedies)
-    fig = _figure(9.0, 1.0 + 1.9 * len(names))
+    fig = new_figure(9.0, 1.0 + 1.9 * len(names))
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     for ax, name in zip(axes, names):
         result, report = study.run("long", name), study.report("long", name)
@@ -638,7 +638,7 @@ def plot_long_torques(study: RemediesStudy, path: Path) -> Path:
             ax.axhline(level, color="k", ls="--", lw=0.9)
         peak = _peak_ratio(result)
         if peak > 1.5:
-            _symlog(ax, 1.0, peak)
+            symlog_scale(ax, 1.0, peak)
         else:
             ax.set_ylim(-1.6, 1.6)
         if report.unstable:
@@ -659,7 +659,7 @@ def plot_long_torques(study: RemediesStudy, path: Path) -> Path:
         "dashed: ±limit; dotted: instability; logarithmic beyond ±1 where a run exceeds 1.5",
         fontsize=11,
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
@@ -669,9 +669,9 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
     (x, log; μ = 0 gives up nothing and sits at the left edge) against the long
     movement's peak |τ|/limit (y, log). Right: that peak against μ.
     """
-    from ..plots import _figure, _save
+    from ..plots.canvas import new_figure, save_figure
 
-    fig = _figure(12.0, 5.4)
+    fig = new_figure(12.0, 5.4)
     trade, by_weight = fig.subplots(1, 2, width_ratios=[3, 2])
     colors = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
     given_up = [100 * (1 - p.short_kept) for p in study.sweep]
@@ -732,4 +732,4 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
         f"{SWEPT_RESOLVER} (torque_weight={study.sweep_torque_weight}) on the paper's arm as μ and K_D vary",
         fontsize=11,
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
