@@ -164,7 +164,7 @@ def simulate_kinematic(
     for k, t in enumerate(times.tolist()):
         index = 2 * k
         try:
-            velocity, condition = f(q, index)
+            velocity, inverse_condition = f(q, index)
             x = task.value(kinematics)
             # ∂f/∂c ∂c/∂t, exact for a map affine in c
             time_rate = ref_acceleration[index] + gain * ref_velocity[index]
@@ -182,7 +182,7 @@ def simulate_kinematic(
             break
         torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
         # The row that passes a ceiling stays in the result: peaks and verdicts count it.
-        log.append((q, velocity, acceleration, torque, x, condition))
+        log.append((q, velocity, acceleration, torque, x, inverse_condition))
         if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
             stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)

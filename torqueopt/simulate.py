@@ -333,10 +333,10 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
     """
     notes = []
     terms = robot.terms(q, np.zeros(robot.nv))
-    condition = _jacobian_inverse_condition(terms.jacobian)
-    if condition < NEAR_SINGULAR:
+    inverse_condition = _jacobian_inverse_condition(terms.jacobian)
+    if inverse_condition < NEAR_SINGULAR:
         notes.append(
-            f"the start is near-singular: σmin/σmax of the task Jacobian is {condition:.3g} (below {NEAR_SINGULAR:g}); "
+            f"the start is near-singular: σmin/σmax of the task Jacobian is {inverse_condition:.3g} (below {NEAR_SINGULAR:g}); "
             "give another --q0"
         )
     rest = np.abs(terms.bias_torque) / np.where(terms.bias_torque >= 0, robot.torque_upper, -robot.torque_lower)

@@ -13,6 +13,7 @@ Subclasses implement :meth:`VelocityResolver.rate_function`.
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from typing import ClassVar
 
 import numpy as np
@@ -21,7 +22,7 @@ from ...errors import InvalidInput
 from ...linalg import JacobianSolver
 from ...robot import Robot
 from ...tasks import FrameTask
-from ..base import NullSpaceFunction, Resolver
+from ..base import Resolver
 from ..options import Option, number
 
 __all__ = ["VelocityResolver", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
@@ -49,19 +50,19 @@ class VelocityResolver(Resolver):
     level: ClassVar[str] = "velocity"
     options: ClassVar[tuple[Option, ...]] = (POSITION_GAIN_OPTION,)
 
+    @abstractmethod
     def rate_function(self, robot: Robot, task: FrameTask):
         r"""How this resolver maps task velocity to joint rates on ``robot``.
 
-        Returns a function ``(kinematics, task_velocity) -> (q̇, condition)``:
+        Returns a function ``(kinematics, task_velocity) -> (q̇, inverse_condition)``:
         ``kinematics`` is a :class:`torqueopt.tasks.Kinematics` already
         updated at q, ``task_velocity`` the commanded :math:`\dot x` of
-        ``task`` [m/s, rad/s], q̇ the joint rates [rad/s] and condition
+        ``task`` [m/s, rad/s], q̇ the joint rates [rad/s] and inverse_condition
         :math:`\sigma_{min}/\sigma_{max}` of the task Jacobian. The map must
         be affine in ``task_velocity`` (every Section 1.1 method is): the
         simulation differentiates it in time through that. It raises
         SingularJacobian where the method is undefined.
         """
-        raise NotImplementedError
 
     def settings_for_file(self) -> dict:
         """The option values as JSON-ready values: vectors as lists, task objects and callables by their repr."""
@@ -79,14 +80,9 @@ class VelocityResolver(Resolver):
         """What the method's own state says at a configuration where a run had to stop, or None."""
         return None
 
-    def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
-        raise InvalidInput(self._torque_message())
-
     def solver(self, robot: Robot):
-        raise InvalidInput(self._torque_message())
-
-    def _torque_message(self) -> str:
-        return (
+        """Refused: a velocity-level resolver has no torque step (InvalidInput saying how to run it)."""
+        raise InvalidInput(
             f"resolver '{self.name}' resolves joint velocities, not torques from a task acceleration: "
             "run it through torqueopt.simulate (joint rates integrated, torques by inverse dynamics) "
             "or torqueopt.kinematic.joint_rates"

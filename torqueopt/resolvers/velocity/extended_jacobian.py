@@ -87,6 +87,7 @@ class ExtendedJacobian(VelocityResolver):
     """
 
     name = "extended-jacobian"
+    equations = (14, 15)
     needs_redundancy = True
     options = (
         Option(
@@ -149,7 +150,7 @@ class ExtendedJacobian(VelocityResolver):
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
-            _, _, condition = decompose(jacobian, task_velocity)  # J itself must keep full rank
+            _, _, inverse_condition = decompose(jacobian, task_velocity)  # J itself must keep full rank
             _, g_row, normal = self.extended_row(kinematics, task)
             alignment = _alignment(g_row, normal)
             if not alignment >= tolerance:
@@ -160,7 +161,7 @@ class ExtendedJacobian(VelocityResolver):
                 )
             extended = np.vstack([jacobian, g_row])  # J_ex of Eq. (15)
             # Eq. (15): J_ex q̇ = [ẋ; 0], inverted directly
-            return np.linalg.solve(extended, np.append(task_velocity, 0.0)), condition
+            return np.linalg.solve(extended, np.append(task_velocity, 0.0)), inverse_condition
 
         return rates
 

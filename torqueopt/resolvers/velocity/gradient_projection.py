@@ -80,6 +80,7 @@ class GradientProjection(CriterionGain, VelocityResolver):
     """
 
     name = "gradient-projection"
+    equations = (4, 5, 6)
     needs_redundancy = True
     options = (
         CRITERION_OPTION,
@@ -92,9 +93,9 @@ class GradientProjection(CriterionGain, VelocityResolver):
         criterion, k = self.objective, self.gain
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)
+            particular, basis, inverse_condition = decompose(task.jacobian(kinematics), task_velocity)
             gradient = criterion.gradient(kinematics, task)
             # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k, and I − J⁺J = Z Zᵀ
-            return particular - k * basis.dot(basis.T.dot(gradient)), condition
+            return particular - k * basis.dot(basis.T.dot(gradient)), inverse_condition
 
         return rates

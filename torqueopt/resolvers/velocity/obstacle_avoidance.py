@@ -48,6 +48,7 @@ class ObstacleAvoidance(VelocityResolver):
     """
 
     name = "obstacle-avoidance"
+    equations = (12, 13)
     needs_redundancy = True
     options = (
         Option(
@@ -108,17 +109,17 @@ class ObstacleAvoidance(VelocityResolver):
         speed = obstacle.speed if self.speed is None else self.speed
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)
+            particular, basis, inverse_condition = decompose(task.jacobian(kinematics), task_velocity)
             closest = obstacle.closest_point(kinematics)
             gain = activation(closest.clearance, influence, critical)
             if gain == 0.0:
-                return particular, condition
+                return particular, inverse_condition
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
             repulsion = speed * closest.normal  # ẋ_o
             # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ), with I − J⁺J = Z Zᵀ
             projector = basis.dot(basis.T)
             phi = pseudoinverse(point_jacobian.dot(projector)).dot(repulsion - point_jacobian.dot(particular))
             # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
-            return particular + gain * phi, condition
+            return particular + gain * phi, inverse_condition
 
         return rates

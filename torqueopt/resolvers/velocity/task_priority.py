@@ -35,6 +35,7 @@ class TaskPriority(VelocityResolver):
     """
 
     name = "task-priority"
+    equations = (7, 8, 9, 10, 11)
     needs_redundancy = True
     options = (
         Option(
@@ -72,11 +73,11 @@ class TaskPriority(VelocityResolver):
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
-            _, _, condition = decompose(jacobian, task_velocity)  # the high-priority task must keep full rank
+            _, _, inverse_condition = decompose(jacobian, task_velocity)  # the high-priority task must keep full rank
             jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
             velocities = [task_velocity] + [lower.desired_velocity(kinematics) for lower in secondary]
             # Eq. (11) (and its recursion for deeper stacks), Eq. (7), Eq. (8), Eq. (9), Eq. (10) in the docstring
             joint_rates, _ = prioritised_rates(jacobians, velocities, damping=damping)
-            return joint_rates, condition
+            return joint_rates, inverse_condition
 
         return rates
