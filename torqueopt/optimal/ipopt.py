@@ -9,13 +9,12 @@ by finite differences.
 
 Why IPOPT: an interior-point method with a sparse (MUMPS) factorisation of
 the KKT matrix fits a transcription with thousands of variables and
-block-banded Jacobians. Measured on the short planar movement's
-transcription (456 variables): IPOPT converged in 0.04 s; scipy's SLSQP
-(dense) took 33 s and stopped at five times the optimum's cost; trust-constr
-hit 500 iterations in 20 s far from it (BENCHMARKS.md, "Whole-path
-optimisation"). Why ``grad_f``, ``jac_g`` and ``hess_lag`` are given to
-``nlpsol`` directly: with only the Callbacks' Jacobians, casadi's own
-construction of them cost 190 s on the long movement against 0.1-0.5 s.
+block-banded Jacobians; on the short planar movement's transcription it
+converges where scipy's SLSQP (dense) and trust-constr stop far from the
+optimum. Why ``grad_f``, ``jac_g`` and ``hess_lag`` are given to ``nlpsol``
+directly: with only the Callbacks' Jacobians, casadi's own construction of
+them dominates the solve. The measurements behind both choices are in
+BENCHMARKS.md, "Whole-path optimisation".
 """
 
 from __future__ import annotations
