@@ -55,7 +55,7 @@ def long_movement(robot):
     print(f"Long movement: {LONG.length:.3f} m along (1, 1)/√2 in {LONG.duration:g} s from q0 = (-45°, 135°, -135°)")
     header = (
         f"{'method':<24}{'level':<10}{'verdict':<24}{'peak |tau|/limit (j1, j2, j3)':<32}"
-        f"{'peak speed':>11}{'w min':>8}{'w end':>8}{'Eq.(5) mean':>12}{'max |dq|/half':>14}{'clearance':>10}"
+        f"{'peak speed':>11}{'w min':>8}{'w end':>8}{'Eq. (5) mean':>13}{'max |dq|/half':>14}{'clearance':>10}"
     )
     print(header)
     print("-" * len(header))
@@ -73,7 +73,7 @@ def long_movement(robot):
         level = getattr(torqueopt.get_resolver(name, **options), "level", "torque")
         print(
             f"{label:<24}{level:<10}{state:<24}{'(' + ratios + ')':<32}{np.abs(result.v).max():>11.2f}"
-            f"{np.nanmin(w):>8.3f}{w[-1]:>8.3f}{mean_p:>12.4f}{distance:>14.3f}{clearance(robot, result):>10.3f}"
+            f"{np.nanmin(w):>8.3f}{w[-1]:>8.3f}{mean_p:>13.4f}{distance:>14.3f}{clearance(robot, result):>10.3f}"
         )
     print("peak speed in rad/s; w = sqrt(det JJᵀ) [m²], Eq. (6); Eq. (5) with the URDF's ±2π limits;")
     print("clearance from the obstacle at (1.2, 0.3), radius 0.1 m [m], negative: through it")

@@ -420,7 +420,7 @@ def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
 
 
 def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
-    """The planned motion at ``times`` and the RNEA torque at each step's midpoint (Eq. of the module docstring)."""
+    """The planned motion at ``times`` and the RNEA torque at each step's midpoint (the formula of the module docstring)."""
     q_nodes, v_nodes, a_nodes = problem.split(w)
     model, data, robot = problem.model, problem.data, problem.robot
     h, last = problem.h, problem.intervals - 1

@@ -3,31 +3,33 @@
 Each resolver's equations of the paper, cited the same way in its module
 docstring, at the lines that compute them, and in the README's table:
 
-================================== ============================================================ =================================================
-name                               method                                                       equations of the paper
-================================== ============================================================ =================================================
-``pinv``                           unweighted pseudoinverse                                     Eq. (34)
-``inertia-pinv``                   inertia-weighted pseudoinverse                               Eq. (16), Eq. (19), Eq. (35)
-``null-space``                     null-space torque optimisation                               Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36)
-``weighted-null-space``            the same, weighted by torque range                           Eq. (32), Eq. (33), Eq. (37)
-``damped-null-space``              the torque criterion plus a self-motion damping term         the Discussion; S of Eq. (33)
-``self-motion-damping``            y = −K_D Zᵀq̇, the kinematic limit of the blend               (not in the paper)
-``inverse-inertia-torque``         minimum τᵀH⁻¹τ (Gauss's principle)                           (not in the paper)
-``inverse-inertia-squared-torque`` minimum τᵀH⁻²τ                                               (not in the paper)
-``bounded-torque``                 the torque criterion under hard bounds τ⁻ <= τ <= τ⁺ (a QP)   Eq. (26), Eq. (29), Eq. (33), the Discussion
-``minmax-torque``                  the least largest normalised torque (an LP)                  Eq. (26), Eq. (28), the Discussion
-================================== ============================================================ =================================================
+==================================== ==================================================================== ================================================
+name                                 method                                                               equations of the paper
+==================================== ==================================================================== ================================================
+``pinv``                             unweighted pseudoinverse                                             Eq. (34)
+``inertia-pinv``                     inertia-weighted pseudoinverse                                       Eq. (16), Eq. (19), Eq. (35)
+``null-space``                       null-space torque optimisation                                       Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36)
+``weighted-null-space``              the same, weighted by torque range                                   Eq. (32), Eq. (33), Eq. (37)
+``damped-null-space``                the torque criterion plus a self-motion damping term                 the Discussion; S of Eq. (33)
+``self-motion-damping``              y = −K_D Zᵀq̇, the kinematic limit of the blend                      (not in the paper)
+``inverse-inertia-torque``           minimum τᵀH⁻¹τ (Gauss's principle)                                   (not in the paper)
+``inverse-inertia-squared-torque``   minimum τᵀH⁻²τ                                                       (not in the paper)
+``bounded-torque``                   the torque criterion under hard bounds τ⁻ <= τ <= τ⁺ (a QP)          Eq. (26), Eq. (29), Eq. (33), the Discussion
+``minmax-torque``                    the least largest normalised torque (an LP)                          Eq. (26), Eq. (28), the Discussion
+``gradient-projection-acceleration`` Liégeois's gradient as a null-space acceleration, self-motion damped Eq. (4), criteria Eq. (5), Eq. (6)
+``task-priority-acceleration``       task priority at the acceleration level                              Eq. (11) differentiated
+==================================== ==================================================================== ================================================
 
 All of them write the joint acceleration as Eq. (26) and the torque as
 Eq. (20) (:class:`~torqueopt.resolvers.base.NullSpaceResolver`).
 
-The velocity-level methods of Section 1.1 (``velocity-pinv``,
-``gradient-projection``, ``task-priority``, ``obstacle-avoidance``,
-``extended-jacobian``, ``kinetic-energy-pinv``) are registered too, from
-:mod:`torqueopt.resolvers.velocity`; their ``level`` is ``"velocity"``. Their
-acceleration-level forms ``gradient-projection-acceleration`` and
-``task-priority-acceleration`` are torque resolvers, from
-:mod:`torqueopt.resolvers.second_order`.
+The last two are the acceleration-level forms of Section 1.1 methods, from
+:mod:`torqueopt.resolvers.second_order`. The velocity-level methods of
+Section 1.1 (``velocity-pinv``, ``gradient-projection``, ``task-priority``,
+``obstacle-avoidance``, ``extended-jacobian``, ``kinetic-energy-pinv``) are
+registered too, from :mod:`torqueopt.resolvers.velocity` (their table is
+there); their ``level`` is ``"velocity"``. Each resolver's :attr:`equations`
+lists the same numbers as its row.
 """
 
 from __future__ import annotations

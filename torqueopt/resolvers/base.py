@@ -90,8 +90,10 @@ SINGULAR_TOLERANCE_OPTION = Option(
 class Resolver(ABC):
     """Maps a desired task acceleration to joint torques.
 
-    Subclasses set :attr:`name`, declare their :attr:`options`, document their
-    equation, and implement :meth:`solver`. The constructor takes the declared
+    Subclasses set :attr:`name`, declare their :attr:`options`, list the
+    paper's equations they compute in :attr:`equations` (cited as ``Eq. (N)``
+    in their docstring and at the lines that compute them), and implement
+    :meth:`solver`. The constructor takes the declared
     options as keywords, checks them, and sets each as an attribute of the same
     name (the default when not given).
     """
@@ -101,6 +103,8 @@ class Resolver(ABC):
     options: ClassVar[tuple[Option, ...]] = ()
     #: True when the method is only defined with a null space (m < n).
     needs_redundancy: ClassVar[bool] = False
+    #: The numbers N of the paper's equations, Eq. (N), that define this method (empty when it is not in the paper).
+    equations: ClassVar[tuple[int, ...]] = ()
 
     def __init__(self, **options):
         self.settings = validate_options(self.name, self.declared_options(), options)

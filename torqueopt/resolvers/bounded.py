@@ -430,6 +430,7 @@ class BoundedTorque(_BoundedResolver):
     """
 
     name = "bounded-torque"
+    equations = (26, 29, 33)
 
     options = (
         Option(
@@ -543,6 +544,7 @@ class MinMaxTorque(_BoundedResolver):
     """
 
     name = "minmax-torque"
+    equations = (26, 28)
     options = (INFEASIBLE_OPTION,)
 
     def _optimum(self, robot: Robot, bounded, spread, midpoint):

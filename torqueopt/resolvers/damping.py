@@ -142,6 +142,7 @@ class DampedNullSpaceTorque(NullSpaceResolver):
     """
 
     name = "damped-null-space"
+    equations = (33,)
     needs_redundancy = True
     options = (
         Option(

@@ -42,6 +42,7 @@ class NullSpaceTorque(NullSpaceResolver):
     """
 
     name = "null-space"
+    equations = (28, 29, 30, 31, 36)
     needs_redundancy = True
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
@@ -53,7 +54,7 @@ class NullSpaceTorque(NullSpaceResolver):
             inertia_basis = inertia.dot(null_space_basis)
             # Eq. (28), Eq. (30): (τ̂⁺ + τ̂⁻)/2 = (τ⁺ + τ⁻)/2 − τ̃.
             torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque
-            return least_squares(inertia_basis, torque_offset)  # Eq. (31)
+            return least_squares(inertia_basis, torque_offset)  # Eq. (31), the minimiser of Eq. (29)
 
         return coordinates
 
@@ -73,6 +74,7 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
     """
 
     name = "weighted-null-space"
+    equations = (32, 33, 37)
     needs_redundancy = True
     options = (
         Option(
@@ -137,7 +139,7 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
             inertia = terms.inertia
             inertia_basis = inertia.dot(null_space_basis)
             torque_offset = midpoint - inertia.dot(particular) - terms.bias_torque  # Eq. (28), Eq. (30)
-            # Eq. (33): y = [W½ H Z]⁺ W½ (τ̂⁺ + τ̂⁻)/2.
+            # Eq. (33): y = [W½ H Z]⁺ W½ (τ̂⁺ + τ̂⁻)/2, the minimiser of Eq. (32).
             if diagonal:
                 return least_squares(root_column * inertia_basis, root * torque_offset)
             return least_squares(root.dot(inertia_basis), root.dot(torque_offset))

@@ -22,6 +22,7 @@ class PseudoInverse(NullSpaceResolver):
     """
 
     name = "pinv"
+    equations = (34,)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         return None
@@ -43,6 +44,7 @@ class InertiaWeightedPseudoInverse(NullSpaceResolver):
     """
 
     name = "inertia-pinv"
+    equations = (16, 19, 35)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         # Z^T H Z is symmetric positive definite (H is, Z has full column rank),

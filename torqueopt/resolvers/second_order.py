@@ -62,6 +62,7 @@ class GradientProjectionAcceleration(CriterionGain, NullSpaceResolver):
     """
 
     name = "gradient-projection-acceleration"
+    equations = (4, 5, 6)
     needs_redundancy = True
     options = (
         CRITERION_OPTION,
@@ -93,6 +94,7 @@ class TaskPriorityAcceleration(NullSpaceResolver):
     """
 
     name = "task-priority-acceleration"
+    equations = (11,)
     needs_redundancy = True
     options = (
         Option(

@@ -34,6 +34,7 @@ class VelocityPseudoInverse(VelocityResolver):
     """
 
     name = "velocity-pinv"
+    equations = (1, 2, 3)
     options = (
         Option(
             name="self_motion",
@@ -59,12 +60,12 @@ class VelocityPseudoInverse(VelocityResolver):
         self_motion = self.self_motion
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            # Eq. (3) by SVD: J⁺ẋ, the null-space basis Z, and σmin/σmax
-            particular, basis, condition = decompose(task.jacobian(kinematics), task_velocity)
+            # Eq. (3) by SVD: J⁺ẋ (the least-norm q̇ of Eq. (1)), the null-space basis Z, and σmin/σmax
+            particular, basis, inverse_condition = decompose(task.jacobian(kinematics), task_velocity)
             if self_motion is None or basis is None:
-                return particular, condition  # Eq. (2) with φ̇ = 0
+                return particular, inverse_condition  # Eq. (2) with φ̇ = 0
             phi = self_motion(robot.joint_angles(kinematics.q)) if callable(self_motion) else self_motion
-            return particular + basis.dot(basis.T.dot(phi)), condition  # Eq. (2): (I − J⁺J)φ̇ = Z Zᵀφ̇
+            return particular + basis.dot(basis.T.dot(phi)), inverse_condition  # Eq. (2): (I − J⁺J)φ̇ = Z Zᵀφ̇
 
         return rates
 
@@ -84,17 +85,19 @@ class KineticEnergyPseudoInverse(VelocityResolver):
     """
 
     name = "kinetic-energy-pinv"
+    equations = (16, 17)
 
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
-            _, _, condition = decompose(jacobian, task_velocity)  # raises SingularJacobian when J loses rank
+            _, _, inverse_condition = decompose(jacobian, task_velocity)  # raises SingularJacobian when J loses rank
             inertia = pin.crba(kinematics.model, kinematics.data, kinematics.q)
             inertia = np.triu(inertia) + np.triu(inertia, 1).T  # CRBA fills the upper triangle
             inverse_inertia_jt = np.linalg.solve(inertia, jacobian.T)  # W⁻¹Jᵀ with W = H
-            # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ
-            return inverse_inertia_jt.dot(np.linalg.solve(jacobian.dot(inverse_inertia_jt), task_velocity)), condition
+            # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ, the q̇ of least kinetic energy Eq. (17)
+            joint_rates = inverse_inertia_jt.dot(np.linalg.solve(jacobian.dot(inverse_inertia_jt), task_velocity))
+            return joint_rates, inverse_condition
 
         return rates

@@ -1,0 +1,141 @@
+"""The paper's equations are cited in one format, ``Eq. (N)``, and each resolver's list of them agrees everywhere.
+
+A reader finds any equation by grepping ``Eq. (N)``: in the package, in the
+README and in the examples every citation is written that way (never
+``Eq.(N)``, ``eq. N``, ``Eqs. (1)-(3)``, ``equation (N)`` or ``(Eq. 31)``).
+Each registered resolver lists its equations in its class attribute
+``equations``; the registry's tables (the docstrings of
+:mod:`torqueopt.resolvers` and :mod:`torqueopt.resolvers.velocity`), the
+README's tables, the resolver's docstrings and the comments at the lines
+that compute them all carry exactly those numbers.
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+import torqueopt.resolvers
+import torqueopt.resolvers.velocity
+from torqueopt.resolvers import RESOLVERS
+
+ROOT = Path(__file__).resolve().parents[1]
+CITED = re.compile(r"Eq\. \((\d+)\)")
+#: Any mention of an equation by number: "Eq", "Eqs", "eq", "equation(s)", with or without "." and "(".
+MENTION = re.compile(r"\b(?:[Ee]qs?|[Ee]quations?)\b\.?\s*\(?\s*\d+")
+#: A number in parentheses that continues a citation list without its own "Eq.": "Eq. (1), (2)", "Eq. (1)-(3)".
+CONTINUED = re.compile(r"\)\s*(?:,|-|–|—|and|or|to)\s*\(\d+\)")
+LISTED = re.compile(r"(?:[Ee]qs?|[Ee]quations?)\.?\s*\(\d+\)$")
+#: The paper numbers its equations (1) to (37).
+PAPER_EQUATIONS = range(1, 38)
+
+
+def cited_files() -> list[Path]:
+    return [*sorted((ROOT / "torqueopt").rglob("*.py")), *sorted((ROOT / "examples").glob("*.py")), ROOT / "README.md"]
+
+
+def miscited(text: str) -> list[str]:
+    """The citations in ``text`` not written ``Eq. (N)``, and numbers of the paper it cites outside its range."""
+    found = [match.group(0) for match in MENTION.finditer(text) if not CITED.match(text, match.start())]
+    for match in CONTINUED.finditer(text):
+        # "f(x) - (3)" in code is not a citation; a list is one only when it follows a citation.
+        if LISTED.search(text, max(match.start() - 16, 0), match.start() + 1):
+            found.append(match.group(0))
+    found += [f"Eq. ({number})" for number in CITED.findall(text) if int(number) not in PAPER_EQUATIONS]
+    return found
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("torque of Eq. (31) and Eq. (20)", []),
+        ("as Eq.(5) says", ["Eq.(5"]),
+        ("see eq. 31", ["eq. 31"]),
+        ("Eqs. (1)-(3)", ["Eqs. (1", ")-(3)"]),
+        ("Eq. (1), (2)", ["), (2)"]),
+        ("from equation (12)", ["equation (12"]),
+        ("(Eq. 31)", ["Eq. 31"]),
+        ("Eq. (38)", ["Eq. (38)"]),
+        ("equations of the paper", []),
+        ("x = f(a) - (3) * b", []),
+    ],
+)
+def test_the_citation_check_finds_each_variant(text, expected):
+    assert miscited(text) == expected
+
+
+@pytest.mark.parametrize("path", cited_files(), ids=lambda path: str(path.relative_to(ROOT)))
+def test_every_equation_is_cited_as_eq_n(path):
+    text = path.read_text(encoding="utf-8")
+    wrong = [
+        f"line {text.count(chr(10), 0, text.find(found)) + 1}: {found!r}" for found in dict.fromkeys(miscited(text))
+    ]
+    assert not wrong, f"{path.relative_to(ROOT)} cites equations not written Eq. (N): {'; '.join(wrong)}"
+
+
+def registry_rows() -> dict[str, set[int]]:
+    """Resolver name -> the equations in its row of the registry's reStructuredText tables."""
+    rows = {}
+    for module in (torqueopt.resolvers, torqueopt.resolvers.velocity):
+        for line in module.__doc__.splitlines():
+            name = re.match(r"``([a-z0-9-]+)``\s", line)
+            if name:
+                rows[name.group(1)] = {int(number) for number in CITED.findall(line)}
+    return rows
+
+
+def readme_rows() -> dict[str, set[int]]:
+    """Resolver name -> the equations in its row of the README's tables with a ``paper`` column."""
+    rows = {}
+    table: list[list[str]] = []
+    for line in [*(ROOT / "README.md").read_text(encoding="utf-8").splitlines(), ""]:
+        if line.startswith("|"):
+            table.append([cell.strip() for cell in re.split(r"(?<!\\)\|", line.strip())[1:-1]])
+            continue
+        if table and "paper" in table[0]:
+            column = table[0].index("paper")
+            for cells in table[2:]:
+                name = re.fullmatch(r"`([a-z0-9-]+)`", cells[0])
+                if name:
+                    rows[name.group(1)] = {int(number) for number in CITED.findall(cells[column])}
+        table = []
+    return rows
+
+
+def test_the_tables_list_every_registered_resolver():
+    assert set(registry_rows()) == set(RESOLVERS)
+    assert set(readme_rows()) == set(RESOLVERS)
+
+
+@pytest.mark.parametrize("name", list(RESOLVERS))
+def test_each_resolvers_equations_agree_between_class_registry_readme_and_docstrings(name):
+    cls = RESOLVERS[name]
+    declared = set(cls.equations)
+    assert declared <= set(PAPER_EQUATIONS)
+    assert registry_rows()[name] == declared, "the registry's table"
+    assert readme_rows()[name] == declared, "the README's table"
+    documented = set(map(int, CITED.findall((cls.__doc__ or "") + (sys.modules[cls.__module__].__doc__ or ""))))
+    assert declared <= documented, (
+        f"the docstrings of {cls.__name__} and its module miss {sorted(declared - documented)}"
+    )
+
+
+@pytest.mark.parametrize("name", [name for name, cls in RESOLVERS.items() if cls.equations])
+def test_each_declared_equation_is_cited_at_a_line_of_code(name):
+    """``grep "Eq. (N)"`` lands on code: a comment citing N in the resolver's module, or in one of a base it
+    inherits or of a function or class of torqueopt it calls (a criterion's module)."""
+    modules = {inspect.getmodule(base) for base in RESOLVERS[name].__mro__}
+    modules |= {inspect.getmodule(value) for module in list(modules) for value in vars(module).values()}
+    comments = "".join(
+        line.split("#", 1)[1]
+        for module in modules
+        if module is not None and module.__name__.startswith("torqueopt")
+        for line in inspect.getsource(module).splitlines()
+        if "#" in line and not line.lstrip().startswith(('"', "'"))
+    )
+    cited = set(map(int, CITED.findall(comments)))
+    assert set(RESOLVERS[name].equations) <= cited, f"no comment cites {sorted(set(RESOLVERS[name].equations) - cited)}"
