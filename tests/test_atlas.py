@@ -435,7 +435,7 @@ def test_cli_runs_and_prints_the_claims(tmp_path, capsys):
     [
         (["--paths", "1000000", "--durations", "2,2.5"], "the atlas would simulate 1.8e+10 trajectory-steps"),
         (["--paths", "3", "--resolvers", "pinv,nope"], "unknown resolver 'nope': choose one of"),
-        (["--paths", "two"], "--paths: 'two' is not a number"),
+        (["--paths", "two"], "--paths: 'two' is not a whole number"),
         (["--paths", "3", "--durations", "0.5,x"], "--durations: 'x' is not a number"),
     ],
 )

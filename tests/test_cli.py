@@ -105,7 +105,7 @@ BAD_INPUTS = [
         ["--robot", "planar3", "--duration", "1", "--max-steps", "999"],
         "duration 1 s at dt 0.001 s needs 1000 steps, more than the limit of 999 steps",
     ),
-    (["--robot", "planar3", "--max-steps", "1.5"], "--max-steps: 1.5 must be a positive whole number"),
+    (["--robot", "planar3", "--max-steps", "1.5"], "--max-steps: 1.5 must be a whole number >= 1"),
     (
         ["--robot", "planar3", "--html", "HTML", "--speed", "1e-9"],
         "needs 3e+09 frames, more than the limit of 100,000 frames (raise it with --max-frames)",

@@ -323,7 +323,7 @@ def test_cli_min_jerk_line_defaults_to_the_lines_length(tmp_path):
             "--duration applies to --path line or min-jerk or circle, not to --path csv",
         ),
         (["--path", "circle", "--radius", "-1"], "--radius: -1 must be a positive finite number"),
-        (["--path", "circle", "--turns", "2.5"], "--turns: '2.5' is not a whole number"),
+        (["--path", "circle", "--turns", "2.5"], "--turns: 2.5 must be a whole number >= 1"),
         (["--path", "circle", "--turns", "0"], "--turns: 0 must be a whole number >= 1"),
         (
             ["--path", "circle", "--normal", "0,0,1"],

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import positive_number, whole_number
 from ..errors import InvalidInput, OutputError
 from ..io import atomic_write, writable_path
 from ..resolvers import Resolver
@@ -162,11 +163,10 @@ def run_atlas(
     )  # fmt: skip
     thresholds = Thresholds(limit_factor, pinv_factor, energy_factor)
     resolver_objects = resolvers_from(resolvers)
-    if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
-        raise InvalidInput(f"chunk_size={chunk_size!r} must be a whole number >= 1")
-    if workers is not None and not (isinstance(workers, (int, np.integer)) and 0 <= workers <= 1024):
-        raise InvalidInput(f"workers={workers!r} must be a whole number from 0 to 1024")
-    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0 < dt <= min(population.durations)):
+    chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
+    workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
+    dt = positive_number(dt, "dt", "s")
+    if dt > min(population.durations):
         raise InvalidInput(f"dt={dt!r} must be a positive number of seconds no longer than the shortest duration")
     out = writable_path(out, directory=True)
     if out.exists() and not out.is_dir():

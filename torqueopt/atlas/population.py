@@ -44,6 +44,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from ..checks import number_in_range, positive_number, whole_number
 from ..errors import InvalidInput
 from ..robot import Robot
 
@@ -74,26 +75,21 @@ class PopulationSpec:
     def __post_init__(self):
         if self.mode not in _MODES:
             raise InvalidInput(f"unknown population mode '{self.mode}': choose one of {', '.join(_MODES)}")
-        if not isinstance(self.paths, (int, np.integer)) or not 1 <= self.paths <= MAX_PATHS:
-            raise InvalidInput(f"paths={self.paths!r} must be a whole number from 1 to {MAX_PATHS:,}")
+        object.__setattr__(self, "paths", whole_number(self.paths, "paths", 1, MAX_PATHS))
         durations = tuple(float(d) for d in np.atleast_1d(np.asarray(self.durations, dtype=float)))
         if not durations or len(durations) > 100 or not all(math.isfinite(d) and 0 < d <= 600 for d in durations):
             raise InvalidInput(f"durations {list(durations)} must be 1 to 100 numbers of seconds in (0, 600]")
         if len(set(durations)) != len(durations):
             raise InvalidInput(f"durations {list(durations)} repeat a value; give each once")
         object.__setattr__(self, "durations", durations)
-        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise InvalidInput(f"seed={self.seed!r} must be a whole number >= 0")
-        for name, low, high in (("reach_fraction", 0.0, 1.0), ("min_condition", 0.0, 1.0)):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and low < value <= high) and not (name == "min_condition" and value == 0):
-                raise InvalidInput(f"{name}={value!r} must be in ({low:g}, {high:g}]")
+        object.__setattr__(self, "seed", whole_number(self.seed, "seed"))
+        object.__setattr__(self, "reach_fraction", number_in_range(self.reach_fraction, "reach_fraction", 0.0, 1.0))
+        object.__setattr__(
+            self, "min_condition", number_in_range(self.min_condition, "min_condition", 0.0, 1.0, low_open=False)
+        )
         for name in ("accel", "grid_spacing"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise InvalidInput(f"{name}={value!r} must be a positive finite number")
-        if not isinstance(self.grid_directions, (int, np.integer)) or not 1 <= self.grid_directions <= 360:
-            raise InvalidInput(f"grid_directions={self.grid_directions!r} must be a whole number from 1 to 360")
+            object.__setattr__(self, name, positive_number(getattr(self, name), name))
+        object.__setattr__(self, "grid_directions", whole_number(self.grid_directions, "grid_directions", 1, 360))
         if self.grid_posture is not None:
             object.__setattr__(self, "grid_posture", tuple(float(x) for x in self.grid_posture))
 

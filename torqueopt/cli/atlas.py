@@ -6,11 +6,10 @@ import argparse
 import math
 import time
 
-from ..errors import InvalidInput
 from ..resolvers import resolver_names
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK
-from .common import parse_positive, parse_vector
+from .common import parse_positive, parse_vector, parse_whole
 
 __all__ = ["add_parser"]
 
@@ -118,16 +117,6 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(handler=atlas_command)
 
 
-def _whole(text: str, name: str, low: int = 0) -> int:
-    try:
-        value = float(text)
-    except ValueError:
-        raise InvalidInput(f"--{name}: '{text}' is not a number") from None
-    if not (math.isfinite(value) and value == int(value) and value >= low):
-        raise InvalidInput(f"--{name}: {text} must be a whole number >= {low}")
-    return int(value)
-
-
 def atlas_command(args: argparse.Namespace) -> int:
     from ..atlas import run_atlas
     from ..atlas.sweep import RobotSpec
@@ -141,19 +130,19 @@ def atlas_command(args: argparse.Namespace) -> int:
     spec = RobotSpec(args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit)
     result = run_atlas(
         spec,
-        paths=_whole(args.paths, "paths", 1),
+        paths=parse_whole(args.paths, "paths", 1),
         durations=durations,
         resolvers=resolvers,
         out=args.out,
-        seed=_whole(args.seed, "seed"),
+        seed=parse_whole(args.seed, "seed"),
         scheduler=args.scheduler,
-        workers=None if args.workers is None else _whole(args.workers, "workers"),
-        chunk_size=_whole(args.chunk_size, "chunk-size", 1),
+        workers=None if args.workers is None else parse_whole(args.workers, "workers"),
+        chunk_size=parse_whole(args.chunk_size, "chunk-size", 1),
         mode=args.mode,
         reach_fraction=parse_positive(args.reach_fraction, "reach-fraction"),
         min_condition=float(parse_vector(args.min_condition, "min-condition", 1)[0]),
         grid_spacing=parse_positive(args.grid_spacing, "grid-spacing"),
-        grid_directions=_whole(args.grid_directions, "grid-directions", 1),
+        grid_directions=parse_whole(args.grid_directions, "grid-directions", 1),
         accel=parse_positive(args.accel, "accel"),
         dt=parse_positive(args.dt, "dt"),
         limit_factor=parse_positive(args.limit_factor, "limit-factor"),
@@ -162,7 +151,7 @@ def atlas_command(args: argparse.Namespace) -> int:
         batch=not args.no_batch,
         progress=not args.no_progress,
         figures=not args.no_figures,
-        max_steps=_whole(args.max_steps, "max-steps", 1),
+        max_steps=parse_whole(args.max_steps, "max-steps", 1),
     )
     summary = result.summary
     print(

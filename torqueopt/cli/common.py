@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import argparse
 
-from ..checks import parse_count, parse_positive, parse_vector
+from ..checks import parse_count, parse_positive, parse_vector, parse_whole
 from ..loading import load_robot
 from ..robot import TASK_DIMENSIONS, Robot
 
-__all__ = ["add_robot_options", "add_start_options", "robot_from_args", "parse_vector", "parse_positive", "parse_count"]
+__all__ = [
+    "add_robot_options",
+    "add_start_options",
+    "robot_from_args",
+    "parse_vector",
+    "parse_positive",
+    "parse_count",
+    "parse_whole",
+]
 
 
 def add_start_options(group: argparse._ArgumentGroup) -> None:

@@ -12,7 +12,7 @@ from ..optimal import DEFAULT_GRID_STEP, ENDS, HESSIANS, WEIGHTS, OptimalResult,
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, add_start_options, parse_positive, parse_vector, robot_from_args
+from .common import add_robot_options, add_start_options, parse_positive, parse_vector, parse_whole, robot_from_args
 from .paths import add_path_options, trajectory_from_args
 
 __all__ = ["add_parser", "format_optimal_summary"]
@@ -95,16 +95,6 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(handler=optimize_command)
 
 
-def _whole_number(text: str, name: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise InvalidInput(f"--{name}: '{text}' is not a whole number") from None
-    if value < 1:
-        raise InvalidInput(f"--{name}: {text} must be a whole number >= 1")
-    return value
-
-
 def optimize_command(args: argparse.Namespace) -> int:
     if args.paper:
         return _paper_study(args)
@@ -114,7 +104,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     dt = parse_positive(args.dt, "dt")
     grid_step = parse_positive(args.grid_step, "grid-step")
     tolerance = parse_positive(args.tolerance, "tolerance")
-    max_iterations = _whole_number(args.max_iterations, "max-iterations")
+    max_iterations = parse_whole(args.max_iterations, "max-iterations", minimum=1)
     max_time = None if args.max_time is None else parse_positive(args.max_time, "max-time")
     robot = robot_from_args(args)
     weight = args.weight if args.weight in WEIGHTS else parse_vector(args.weight, "weight", robot.nv)

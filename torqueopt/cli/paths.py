@@ -7,7 +7,7 @@ import math
 
 from ..errors import InvalidInput
 from ..trajectory import Circle, MinimumJerkLine, StraightLine, Trajectory, WaypointPath
-from .common import parse_positive, parse_vector
+from .common import parse_positive, parse_vector, parse_whole
 
 __all__ = ["PATHS", "add_path_options", "trajectory_from_args"]
 
@@ -94,18 +94,8 @@ def trajectory_from_args(args: argparse.Namespace) -> Trajectory:
         return MinimumJerkLine(direction, length=length, duration=duration)
     if kind == "circle":
         radius = DEFAULT_RADIUS if args.radius is None else parse_positive(args.radius, "radius")
-        turns = 1 if args.turns is None else _parse_turns(args.turns)
+        turns = 1 if args.turns is None else parse_whole(args.turns, "turns", minimum=1)
         normal = None if args.normal is None else parse_vector(args.normal, "normal", 3)
         centre = None if args.centre is None else parse_vector(args.centre, "centre")
         return Circle(radius, duration, turns=turns, normal=normal, centre_direction=centre)
     return WaypointPath.from_csv(file_name, absolute=bool(args.absolute))
-
-
-def _parse_turns(text: str) -> int:
-    try:
-        turns = int(text)
-    except ValueError:
-        raise InvalidInput(f"--turns: '{text}' is not a whole number") from None
-    if turns < 1:
-        raise InvalidInput(f"--turns: {text} must be a whole number >= 1")
-    return turns

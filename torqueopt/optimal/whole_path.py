@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..checks import configuration_vector, positive_number
+from ..checks import configuration_vector, positive_number, step_count, whole_number
 from ..errors import InvalidInput
 from ..resolvers import Resolver, get_resolver
 from ..resolvers.null_space import torque_midpoint
@@ -281,8 +281,7 @@ def optimize(
     tolerance = positive_number(tolerance, "tolerance")
     if max_time is not None:
         max_time = positive_number(max_time, "max_time", "s")
-    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
-        raise InvalidInput(f"max_iterations={max_iterations!r} must be a whole number >= 1")
+    max_iterations = whole_number(max_iterations, "max_iterations", minimum=1)
     if robot.m > robot.nv:
         raise InvalidInput(
             f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints"
@@ -291,9 +290,7 @@ def optimize(
     duration = positive_number(trajectory.duration, "duration", "s")
     if dt > duration or grid_step > duration:
         raise InvalidInput(f"dt={dt} s and grid_step={grid_step} s must not exceed the duration {duration} s")
-    steps = round(duration / dt)
-    if not math.isclose(steps * dt, duration, rel_tol=1e-9, abs_tol=1e-12):
-        raise InvalidInput(f"dt={dt} s does not divide the duration {duration} s into whole steps")
+    steps = step_count(duration, dt)
     root = weight_root(robot, weight)
     weight_name = weight if isinstance(weight, str) else ("identity" if weight is None else "user")
     midpoint = torque_midpoint(robot)

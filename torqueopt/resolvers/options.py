@@ -5,20 +5,21 @@ attribute ``options``. :func:`validate_options` turns the keyword arguments
 given to :func:`torqueopt.get_resolver` (Python values) or to
 ``torqueopt run --option NAME=VALUE`` (text) into checked values, so the two
 entry points accept exactly the same things and fail with the same one-line
-messages. Checks that need the robot (a vector's length) are the resolver's,
-in its ``check``.
+messages. The converters' rules are those of :mod:`torqueopt.checks`
+(:func:`~torqueopt.checks.number_at_least`, :func:`~torqueopt.checks.finite_array`).
+Checks that need the robot (a vector's length) are the resolver's, in its ``check``.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from numbers import Real
+from functools import partial
 
 import numpy as np
 
+from ..checks import Refused, finite_array, number_at_least
 from ..errors import InvalidInput
 
 __all__ = [
@@ -32,8 +33,8 @@ __all__ = [
 ]
 
 
-class OptionValueError(ValueError):
-    """Raised by an option's converter; its text completes "option NAME=VALUE of resolver 'R' ..."."""
+#: Raised by an option's converter; its text completes "option NAME=VALUE of resolver 'R' ...".
+OptionValueError = Refused
 
 
 @dataclass(frozen=True)
@@ -65,48 +66,12 @@ class Option:
 
 def number(minimum: float = 0.0, strict: bool = False, unit: str = "") -> Callable[[object], float]:
     """A converter accepting a finite real number >= ``minimum`` (> when ``strict``), or its text."""
-    relation = ">" if strict else ">="
-    unit_text = f" [{unit}]" if unit else ""
-
-    def convert(value) -> float:
-        if isinstance(value, str):
-            try:
-                value = float(value)
-            except ValueError:
-                raise OptionValueError(
-                    f"is not a number; give a finite number {relation} {minimum:g}{unit_text}"
-                ) from None
-        if isinstance(value, bool) or not isinstance(value, Real):
-            raise OptionValueError(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}")
-        value = float(value)
-        if not math.isfinite(value) or value < minimum or (strict and value == minimum):
-            raise OptionValueError(f"must be a finite number {relation} {minimum:g}{unit_text}")
-        return value
-
-    return convert
-
-
-def _numbers(value, what: str) -> np.ndarray:
-    """An array of finite floats from comma-separated text or array-like values."""
-    if isinstance(value, str):
-        parts = [part.strip() for part in value.split(",")]
-        try:
-            array = np.array([float(part) for part in parts])
-        except ValueError:
-            raise OptionValueError(f"is not {what}; give comma-separated numbers, e.g. 1,1,1") from None
-    else:
-        try:
-            array = np.array(value, dtype=float)
-        except (TypeError, ValueError):
-            raise OptionValueError(f"is not {what}") from None
-    if array.size == 0 or not np.isfinite(array).all():
-        raise OptionValueError(f"must be {what} of finite numbers")
-    return array
+    return partial(number_at_least, minimum=minimum, strict=strict, unit=unit)
 
 
 def vector_or_matrix(value) -> np.ndarray:
     """A converter accepting a vector (comma-separated on the CLI) or a square matrix of finite numbers."""
-    array = _numbers(value, "a vector or a matrix")
+    array = finite_array(value, "a vector or a matrix")
     if array.ndim > 2 or (array.ndim == 2 and array.shape[0] != array.shape[1]):
         raise OptionValueError(f"must be a vector or a square matrix, got shape {array.shape}")
     return array
@@ -121,7 +86,7 @@ def choice_or_vector(*choices: str) -> Callable[[object], object]:
             return value.strip()
         if isinstance(value, str) and not any(ch.isdigit() for ch in value):
             raise OptionValueError(f"must be {listed} or a vector of numbers")
-        array = _numbers(value, f"{listed} or a vector")
+        array = finite_array(value, f"{listed} or a vector")
         if array.ndim != 1:
             raise OptionValueError(f"must be {listed} or a vector, got shape {array.shape}")
         return array

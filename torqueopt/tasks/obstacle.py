@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from ..checks import finite_numbers, non_negative_number
 from ..errors import InvalidInput
 from .task import Kinematics, Task
 
@@ -62,18 +63,10 @@ class ObstacleTask(Task):
     dimension = 3
 
     def __init__(self, center, radius: float = 0.0, *, speed: float = 0.5, frame: str | None = None):
-        try:
-            values = np.asarray(center, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"obstacle centre {center!r} is not a vector of numbers") from None
-        if values.size not in (2, 3) or not np.isfinite(values).all():
-            raise InvalidInput(f"obstacle centre {values.tolist()} must be 2 or 3 finite numbers [m]")
+        values = finite_numbers(center, "obstacle centre", (2, 3), unit="m")
         self.center = np.concatenate([values, np.zeros(3 - values.size)])
-        for name, value in (("radius", radius), ("speed", speed)):
-            if not (np.isfinite(float(value)) and float(value) >= 0):
-                raise InvalidInput(f"obstacle {name}={value!r} must be a finite number >= 0 [m, m/s]")
-        self.radius = float(radius)
-        self.speed = float(speed)
+        self.radius = non_negative_number(radius, "obstacle radius", "m")
+        self.speed = non_negative_number(speed, "obstacle speed", "m/s")
         self.frame = frame
         self._chain_key = None
         self._chain: list[tuple[int, int | None]] = []

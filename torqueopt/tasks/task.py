@@ -19,7 +19,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 import pinocchio as pin
 
-from ..checks import non_negative_number
+from ..checks import finite_numbers, non_negative_number
 from ..errors import InvalidInput
 
 __all__ = ["Kinematics", "Task"]
@@ -116,13 +116,7 @@ class Task(ABC):
         self.gain = non_negative_number(gain, "task gain", "1/s")
 
     def _check_target(self, target) -> np.ndarray:
-        try:
-            values = np.asarray(target, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"task target {target!r} is not a vector of numbers") from None
-        if values.size != self.dimension or not np.isfinite(values).all():
-            raise InvalidInput(f"task target {values.tolist()} must be {self.dimension} finite numbers for {self!r}")
-        return values
+        return finite_numbers(target, "task target", self.dimension, context=f"for {self!r}")
 
     def check(self, robot) -> None:
         """Raise if this task cannot be computed on ``robot`` (a missing frame, a wrong size)."""

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import finite_numbers as point  # the check of a point, a direction, a normal
 from ..errors import InvalidInput
 
 __all__ = ["Reference", "Trajectory", "check_trajectory", "minimum_jerk", "point"]
@@ -142,16 +143,3 @@ def minimum_jerk(times, duration: float):
     s_dot = 30.0 * tau**2 * (1.0 - tau) ** 2 / duration
     s_ddot = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / duration**2
     return s, s_dot, s_ddot
-
-
-def point(values, name: str, size: int | tuple[int, ...] = (2, 3)) -> np.ndarray:
-    """``values`` as a finite float vector of ``size`` entries (one of them, for a tuple), else InvalidInput."""
-    sizes = (size,) if isinstance(size, int) else size
-    try:
-        vector = np.asarray(values, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} {values!r} is not a vector of numbers") from None
-    if vector.size not in sizes or not np.isfinite(vector).all():
-        wanted = " or ".join(str(s) for s in sizes)
-        raise InvalidInput(f"{name} {vector.tolist()} must be {wanted} finite numbers")
-    return vector

@@ -27,9 +27,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..checks import positive_number
+from ..checks import finite_numbers, positive_number, whole_number
 from ..errors import InvalidInput
-from .base import Reference, Trajectory, minimum_jerk, point
+from .base import Reference, Trajectory, minimum_jerk
 
 __all__ = ["Circle"]
 
@@ -72,19 +72,17 @@ class Circle(Trajectory):
     def __post_init__(self):
         object.__setattr__(self, "radius", positive_number(self.radius, "radius", "m"))
         object.__setattr__(self, "duration", positive_number(self.duration, "duration", "s"))
-        if isinstance(self.turns, bool) or not isinstance(self.turns, (int, np.integer)) or self.turns < 1:
-            raise InvalidInput(f"turns={self.turns!r} must be a whole number >= 1")
-        object.__setattr__(self, "turns", int(self.turns))
+        object.__setattr__(self, "turns", whole_number(self.turns, "turns", minimum=1))
         dimension = None
         if self.normal is not None:
-            normal = point(self.normal, "normal", 3)
+            normal = finite_numbers(self.normal, "normal", 3)
             norm = float(np.linalg.norm(normal))
             if norm == 0.0:
                 raise InvalidInput("normal [0.0, 0.0, 0.0] is zero; give a non-zero plane normal")
             object.__setattr__(self, "normal", normal / norm)
             dimension = 3
         if self.centre_direction is not None:
-            centre = point(self.centre_direction, "centre_direction")
+            centre = finite_numbers(self.centre_direction, "centre_direction")
             if dimension is not None and centre.size != dimension:
                 raise InvalidInput(
                     f"centre_direction {centre.tolist()} has {centre.size} values but the normal makes the circle 3-D"
@@ -96,7 +94,7 @@ class Circle(Trajectory):
             object.__setattr__(self, "centre_direction", centre)
             dimension = centre.size
         if self.start is not None:
-            start = point(self.start, "start")
+            start = finite_numbers(self.start, "start")
             if dimension is not None and start.size != dimension:
                 raise InvalidInput(f"start {start.tolist()} has {start.size} values but the circle is {dimension}-D")
             object.__setattr__(self, "start", start)

@@ -25,15 +25,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..checks import positive_number
+from ..checks import finite_numbers, positive_number
 from ..errors import InvalidInput
-from .base import Reference, Trajectory, minimum_jerk, point
+from .base import Reference, Trajectory, minimum_jerk
 
 __all__ = ["MinimumJerkLine", "StraightLine"]
 
 
 def _unit_direction(direction) -> np.ndarray:
-    vector = point(direction, "direction")
+    vector = finite_numbers(direction, "direction")
     norm = float(np.linalg.norm(vector))
     if norm == 0.0:
         raise InvalidInput(f"direction {vector.tolist()} is zero; give a non-zero direction")
@@ -43,10 +43,7 @@ def _unit_direction(direction) -> np.ndarray:
 def _start_like(start, direction: np.ndarray) -> np.ndarray | None:
     if start is None:
         return None
-    vector = np.asarray(start, dtype=float).reshape(-1)
-    if vector.shape != direction.shape or not np.isfinite(vector).all():
-        raise InvalidInput(f"start {vector.tolist()} must be {direction.size} finite numbers like the direction")
-    return vector
+    return finite_numbers(start, "start", direction.size, context="like the direction")
 
 
 @dataclass(frozen=True)

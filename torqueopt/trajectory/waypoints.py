@@ -27,8 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import finite_numbers
 from ..errors import InvalidInput
-from .base import Reference, Trajectory, point
+from .base import Reference, Trajectory
 
 __all__ = ["WaypointPath"]
 
@@ -88,7 +89,7 @@ class WaypointPath(Trajectory):
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "_spline", spline)
         if self.start is not None:
-            object.__setattr__(self, "start", point(self.start, "start", points.shape[1]))
+            object.__setattr__(self, "start", finite_numbers(self.start, "start", points.shape[1]))
 
     kind = "csv"
 

@@ -1,9 +1,11 @@
-"""Converters for the options of the velocity-level resolvers (API values or the CLI's text)."""
+"""Converters for the options of the velocity-level resolvers (API values or the CLI's text), on the rules of
+:mod:`torqueopt.checks`."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ...checks import finite_array
 from ...tasks import FrameTask, ObstacleTask, PostureTask, Task, TaskStack
 from ..options import OptionValueError
 
@@ -11,23 +13,19 @@ __all__ = ["vector_or_callable", "task_stack", "obstacle", "criterion_spec"]
 
 
 def _vector(value) -> np.ndarray:
-    if isinstance(value, str):
-        try:
-            return np.array([float(part) for part in value.split(",")])
-        except ValueError:
-            raise OptionValueError("is not a vector; give comma-separated numbers, e.g. 0,0.1,0") from None
-    try:
-        array = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise OptionValueError("is neither a vector of numbers nor a callable") from None
-    if array.size == 0 or not np.isfinite(array).all():
-        raise OptionValueError("must be a vector of finite numbers")
-    return array
+    return finite_array(value, "a vector", example="0,0.1,0").reshape(-1)
 
 
 def vector_or_callable(value):
     """A callable as it is, else a vector of finite numbers (comma-separated on the CLI)."""
-    return value if callable(value) else _vector(value)
+    if callable(value):
+        return value
+    if not isinstance(value, str):
+        try:
+            np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise OptionValueError("is neither a vector of numbers nor a callable") from None
+    return _vector(value)
 
 
 def task_stack(value) -> TaskStack:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ...errors import InvalidInput
+from ...checks import finite_numbers
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
 from ..options import Option
@@ -50,10 +50,8 @@ class VelocityPseudoInverse(VelocityResolver):
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
-        if isinstance(self.self_motion, np.ndarray) and (
-            self.self_motion.size != robot.nv or not np.isfinite(self.self_motion).all()
-        ):
-            raise InvalidInput(f"self_motion {self.self_motion.tolist()} must be {robot.nv} finite joint rates [rad/s]")
+        if isinstance(self.self_motion, np.ndarray):
+            finite_numbers(self.self_motion, "self_motion", robot.nv, unit="rad/s", context="(one rate per joint)")
 
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=self.self_motion is not None)

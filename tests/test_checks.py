@@ -1,0 +1,133 @@
+"""The validators of torqueopt.checks: what each accepts, and the exact message of each refusal."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from torqueopt import InvalidInput
+from torqueopt.checks import (
+    Refused,
+    finite_array,
+    finite_numbers,
+    number_at_least,
+    number_in_range,
+    parse_count,
+    parse_whole,
+    whole_number,
+)
+
+
+def refused(call, *args, **kwargs) -> str:
+    with pytest.raises(InvalidInput) as error:
+        call(*args, **kwargs)
+    return str(error.value)
+
+
+@pytest.mark.parametrize(
+    "value, minimum, maximum, expected",
+    [(0, 0, None, 0), (np.int64(7), 1, None, 7), (360, 1, 360, 360), (1_000_000, 1, 1_000_000, 1_000_000)],
+)
+def test_whole_number_accepts_integers_within_the_bounds_as_int(value, minimum, maximum, expected):
+    number = whole_number(value, "paths", minimum, maximum)
+    assert number == expected and type(number) is int
+
+
+@pytest.mark.parametrize(
+    "value, minimum, maximum, message",
+    [
+        (0, 1, None, "turns=0 must be a whole number >= 1"),
+        (1.5, 1, None, "turns=1.5 must be a whole number >= 1"),
+        (2.0, 1, None, "turns=2.0 must be a whole number >= 1"),  # a float is not a count, even a whole one
+        (True, 0, None, "turns=True must be a whole number >= 0"),
+        ("3", 0, None, "turns='3' must be a whole number >= 0"),
+        (np.int64(361), 1, 360, "turns=361 must be a whole number from 1 to 360"),
+        (0, 1, 1_000_000, "turns=0 must be a whole number from 1 to 1,000,000"),
+    ],
+)
+def test_whole_number_refuses_other_values_naming_them_and_the_bounds(value, minimum, maximum, message):
+    assert refused(whole_number, value, "turns", minimum, maximum) == message
+
+
+def test_number_in_range_accepts_the_closed_ends_only():
+    assert number_in_range(1, "reach_fraction", 0.0, 1.0) == 1.0
+    assert number_in_range(0.0, "min_condition", 0.0, 1.0, low_open=False) == 0.0
+    assert refused(number_in_range, 0.0, "reach_fraction", 0.0, 1.0) == "reach_fraction=0.0 must be in (0, 1]"
+    assert refused(number_in_range, 1.0, "f", 0.0, 1.0, high_open=True) == "f=1.0 must be in (0, 1)"
+    assert refused(number_in_range, math.nan, "f", 0.0, 1.0, low_open=False) == "f=nan must be in [0, 1]"
+    assert refused(number_in_range, "x", "f", 0.0, 1.0, unit="m") == "f='x' is not a number [m]"
+    assert refused(number_in_range, 2, "f", -1.0, 1.5, unit="m") == "f=2 must be in (-1, 1.5] [m]"
+
+
+def test_finite_numbers_accepts_the_sizes_given_and_says_which():
+    np.testing.assert_array_equal(finite_numbers([1, 2], "start"), [1.0, 2.0])
+    np.testing.assert_array_equal(finite_numbers(np.ones((1, 3)), "normal", 3), [1.0, 1.0, 1.0])
+    assert refused(finite_numbers, [1.0], "start") == "start [1.0] must be 2 or 3 finite numbers"
+    assert refused(finite_numbers, [1, math.inf], "start", 2) == "start [1.0, inf] must be 2 finite numbers"
+    assert refused(finite_numbers, "ab", "start") == "start 'ab' is not a vector of numbers"
+    assert (
+        refused(finite_numbers, [0], "centre", (2, 3), unit="m", context="for the obstacle")
+        == "centre [0.0] must be 2 or 3 finite numbers [m] for the obstacle"
+    )
+
+
+@pytest.mark.parametrize("value, expected", [("2.5", 2.5), (0, 0.0), (np.float64(1e3), 1000.0), ("1e-3", 1e-3)])
+def test_number_at_least_converts_numbers_and_their_text(value, expected):
+    assert number_at_least(value, 0.0) == expected
+
+
+@pytest.mark.parametrize(
+    "value, strict, message",
+    [
+        (-1, False, "must be a finite number >= 0 [1/s]"),
+        (0, True, "must be a finite number > 0 [1/s]"),
+        (math.inf, False, "must be a finite number >= 0 [1/s]"),
+        ("nan", False, "must be a finite number >= 0 [1/s]"),
+        ("lots", False, "is not a number; give a finite number >= 0 [1/s]"),
+        (True, False, "is not a number; give a finite number >= 0 [1/s]"),
+        ([1.0], False, "is not a number; give a finite number >= 0 [1/s]"),
+    ],
+)
+def test_number_at_least_refuses_with_what_the_value_must_be(value, strict, message):
+    with pytest.raises(Refused, match=f"^{re.escape(message)}$"):
+        number_at_least(value, 0.0, strict=strict, unit="1/s")
+
+
+def test_finite_array_keeps_the_shape_and_refuses_empty_or_non_finite_values():
+    assert finite_array("1, 2,3", "a vector").tolist() == [1.0, 2.0, 3.0]
+    assert finite_array([[1, 0], [0, 1]], "a matrix").shape == (2, 2)
+    for value, message in [
+        ("1,x", "is not a vector; give comma-separated numbers, e.g. 0,0.1,0"),
+        ("nan,1", "must be a vector of finite numbers"),
+        ([], "must be a vector of finite numbers"),
+        ({"a": 1}, "is not a vector"),
+    ]:
+        with pytest.raises(Refused, match=f"^{re.escape(message)}$"):
+            finite_array(value, "a vector", example="0,0.1,0")
+
+
+@pytest.mark.parametrize("text, expected", [("0", 0), ("2e6", 2_000_000), ("3.0", 3), (" 12 ", 12)])
+def test_parse_whole_accepts_whole_numbers_in_any_notation(text, expected):
+    assert parse_whole(text, "seed") == expected
+
+
+@pytest.mark.parametrize(
+    "text, minimum, maximum, message",
+    [
+        ("two", 1, None, "--paths: 'two' is not a whole number"),
+        ("1.5", 1, None, "--paths: 1.5 must be a whole number >= 1"),
+        ("-1", 0, None, "--paths: -1 must be a whole number >= 0"),
+        ("inf", 1, None, "--paths: inf must be a whole number >= 1"),
+        ("25", 2, 24, "--paths: 25 must be a whole number from 2 to 24"),
+    ],
+)
+def test_parse_whole_names_the_option_and_the_bounds(text, minimum, maximum, message):
+    assert refused(parse_whole, text, "paths", minimum, maximum) == message
+
+
+def test_parse_count_is_a_whole_number_of_at_least_one():
+    assert parse_count("2e6", "max-steps") == 2_000_000
+    assert refused(parse_count, "0", "max-steps") == "--max-steps: 0 must be a whole number >= 1"

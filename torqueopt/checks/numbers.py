@@ -1,0 +1,211 @@
+"""Rules for numbers and vectors given to the Python API: one function per rule, each naming the value it refuses.
+
+Two forms share these rules. The API's messages name the value as
+``name=value`` (:func:`positive_number`, :func:`whole_number`, ...). A
+declared resolver option (:mod:`torqueopt.resolvers.options`) is named by the
+option machinery, so its converters (:func:`number_at_least`,
+:func:`finite_array`) raise :class:`Refused` with only what the value must be,
+which the machinery completes as ``option NAME=VALUE of resolver 'R' ...``.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+
+from ..errors import InvalidInput
+
+__all__ = [
+    "Refused",
+    "positive_number",
+    "non_negative_number",
+    "number_at_least",
+    "number_in_range",
+    "whole_number",
+    "finite_values",
+    "finite_vector",
+    "finite_numbers",
+    "finite_array",
+    "show_number",
+    "count_values",
+]
+
+
+class Refused(ValueError):
+    """A value a converter refuses; its text completes "NAME=VALUE ..." (e.g. "must be a finite number >= 0")."""
+
+
+def _at_least(number: float, minimum: float, strict: bool) -> bool:
+    """The one test of "a finite number >= minimum" (> when ``strict``)."""
+    return math.isfinite(number) and (number > minimum if strict else number >= minimum)
+
+
+def _is_whole(number: float, minimum: int, maximum: int | None) -> bool:
+    """The one test of "a whole number from minimum (to maximum)"."""
+    return (
+        math.isfinite(number) and number == int(number) and number >= minimum and (maximum is None or number <= maximum)
+    )
+
+
+def _whole_wording(minimum: int, maximum: int | None) -> str:
+    return f"a whole number >= {minimum}" if maximum is None else f"a whole number from {minimum} to {maximum:,}"
+
+
+def show_number(value) -> str:
+    """A number as the user gave it: ``-1``, ``-100.0``, ``inf`` (numpy scalars as plain numbers, never ``np.float64(-100.0)``)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
+
+
+def count_values(count: int, noun: str = "value") -> str:
+    """``1 value``, ``3 values``."""
+    return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
+
+
+def _as_float(value, name: str, suffix: str) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}={show_number(value)} is not a number{suffix}") from None
+
+
+def positive_number(value, name: str, unit: str | None = None, hint: str | None = None) -> float:
+    """``value`` as a float, or InvalidInput unless it is a finite number > 0.
+
+    Args:
+        name: how the message names the value (``dt``, ``limit_factor``).
+        unit: appended as `` [unit]``.
+        hint: appended as `` (hint)``, e.g. "a multiple, such as 2".
+    """
+    suffix = (f" [{unit}]" if unit else "") + (f" ({hint})" if hint else "")
+    number = _as_float(value, name, suffix)
+    if not _at_least(number, 0.0, strict=True):
+        raise InvalidInput(f"{name}={show_number(value)} must be a positive finite number{suffix}")
+    return number
+
+
+def non_negative_number(value, name: str, unit: str | None = None) -> float:
+    """``value`` as a float, or InvalidInput unless it is a finite number >= 0 (a gain, a clearance)."""
+    suffix = f" [{unit}]" if unit else ""
+    number = _as_float(value, name, suffix)
+    if not _at_least(number, 0.0, strict=False):
+        raise InvalidInput(f"{name}={show_number(value)} must be a finite number >= 0{suffix}")
+    return number
+
+
+def number_in_range(
+    value, name: str, low: float, high: float, low_open: bool = True, high_open: bool = False, unit: str | None = None
+) -> float:
+    """``value`` as a float within the interval from ``low`` to ``high`` (open at an end when ``*_open``), else InvalidInput.
+
+    The message writes the interval as mathematics does: ``(0, 1]``.
+    """
+    suffix = f" [{unit}]" if unit else ""
+    number = _as_float(value, name, suffix)
+    above = number > low if low_open else number >= low
+    below = number < high if high_open else number <= high
+    if not (math.isfinite(number) and above and below):
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+        raise InvalidInput(f"{name}={show_number(value)} must be in {interval}{suffix}")
+    return number
+
+
+def whole_number(value, name: str, minimum: int = 0, maximum: int | None = None) -> int:
+    """``value`` as an int, or InvalidInput unless it is an integer (not a bool, not a float) within the bounds.
+
+    Example messages: ``paths=0 must be a whole number from 1 to 1,000,000``,
+    ``turns=1.5 must be a whole number >= 1``.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not _is_whole(value, minimum, maximum):
+        raise InvalidInput(f"{name}={show_number(value)} must be {_whole_wording(minimum, maximum)}")
+    return int(value)
+
+
+def number_at_least(value, minimum: float = 0.0, strict: bool = False, unit: str = "") -> float:
+    """A converter's rule: a finite real number >= ``minimum`` (> when ``strict``), or its text; else :class:`Refused`."""
+    relation = ">" if strict else ">="
+    unit_text = f" [{unit}]" if unit else ""
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            raise Refused(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}") from None
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise Refused(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}")
+    if not _at_least(float(value), minimum, strict):
+        raise Refused(f"must be a finite number {relation} {minimum:g}{unit_text}")
+    return float(value)
+
+
+def finite_array(value, what: str, example: str = "1,1,1") -> np.ndarray:
+    """A converter's rule: a non-empty array of finite floats from comma-separated text or array-like values.
+
+    Args:
+        what: what the value should be, in words, for :class:`Refused`'s text ("a vector").
+        example: comma-separated numbers shown when text is not numbers.
+    """
+    if isinstance(value, str):
+        try:
+            array = np.array([float(part.strip()) for part in value.split(",")])
+        except ValueError:
+            raise Refused(f"is not {what}; give comma-separated numbers, e.g. {example}") from None
+    else:
+        try:
+            array = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise Refused(f"is not {what}") from None
+    if array.size == 0 or not np.isfinite(array).all():
+        raise Refused(f"must be {what} of finite numbers")
+    return array
+
+
+def finite_values(values, name: str) -> tuple[float, ...]:
+    """One or more finite numbers as a tuple of floats (any count), or InvalidInput naming ``name``."""
+    try:
+        array = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a list of numbers") from None
+    if not array.size or not np.isfinite(array).all():
+        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers")
+    return tuple(array.tolist())
+
+
+def _flat_vector(values, name: str) -> np.ndarray:
+    try:
+        return np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a vector of numbers") from None
+
+
+def finite_vector(values, size: int, name: str, names=None) -> np.ndarray:
+    """A float vector of ``size`` finite entries, or InvalidInput naming ``name`` (and the joints ``names``)."""
+    vector = _flat_vector(values, name)
+    if vector.size != size:
+        joints = f" (joints {', '.join(names)})" if names else ""
+        raise InvalidInput(f"{name} has {count_values(vector.size)} but needs {size}{joints}")
+    if not np.isfinite(vector).all():
+        raise InvalidInput(f"{name} {vector.tolist()} has a non-finite value; all {size} values must be finite")
+    return vector
+
+
+def finite_numbers(
+    values, name: str, size: int | tuple[int, ...] = (2, 3), unit: str | None = None, context: str = ""
+) -> np.ndarray:
+    """``values`` as a finite float vector of ``size`` entries (one of them, for a tuple), else InvalidInput.
+
+    A point, a direction or a target: ``start [1.0] must be 2 or 3 finite numbers``.
+
+    Args:
+        unit: appended as `` [unit]``.
+        context: appended after a space, e.g. "for FrameTask('tip', 'xy')".
+    """
+    sizes = (size,) if isinstance(size, int) else size
+    vector = _flat_vector(values, name)
+    if vector.size not in sizes or not np.isfinite(vector).all():
+        wanted = " or ".join(str(s) for s in sizes)
+        suffix = (f" [{unit}]" if unit else "") + (f" {context}" if context else "")
+        raise InvalidInput(f"{name} {vector.tolist()} must be {wanted} finite numbers{suffix}")
+    return vector

@@ -1,0 +1,89 @@
+"""Checks that need the robot: a configuration of the right size, a task the joints can realise."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InvalidInput
+from .numbers import count_values, finite_vector
+
+__all__ = ["configuration_vector", "task_ranks", "check_task_rank", "RANK_SAMPLES"]
+
+#: Random configurations at which :func:`check_task_rank` looks for a full-rank task Jacobian.
+RANK_SAMPLES = 8
+
+
+def configuration_vector(robot, values, name: str = "q0") -> np.ndarray:
+    """A configuration vector of ``robot`` from either its nq configuration values or one angle per joint [rad]."""
+    try:
+        array = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} {values!r} is not a vector of numbers") from None
+    if robot.nq != robot.nv and array.size == robot.nq:
+        return finite_vector(array, robot.nq, name)
+    return robot.configuration(finite_vector(array, robot.nv, name, names=robot.joint_names))
+
+
+def task_ranks(robot, samples: int = RANK_SAMPLES, seed: int = 0) -> dict[str, int]:
+    """Per task kind, the largest rank of its task Jacobian over ``samples`` seeded random configurations.
+
+    A chain's Jacobian has its generic (structural) rank at almost every
+    configuration, so a rank below the task dimension at every one of a few
+    random configurations means the task can never be realised: a planar arm
+    asked for a 3-D position, or a frame with too few joints above it.
+    Angles are drawn uniformly within the joint limits (within ±π where a
+    limit is wider or missing), with a numpy generator of fixed seed, so the
+    answer never depends on global random state.
+    """
+    import pinocchio as pin
+
+    from ..robot import TASK_DIMENSIONS
+
+    generator = np.random.default_rng(seed)
+    model = robot.model
+    data = model.createData()
+    low, high = np.full(robot.nv, -math.pi), np.full(robot.nv, math.pi)
+    if robot.nq == robot.nv:
+        low = np.maximum(low, np.nan_to_num(np.asarray(model.lowerPositionLimit, float), nan=-math.pi))
+        high = np.maximum(
+            np.minimum(high, np.nan_to_num(np.asarray(model.upperPositionLimit, float), nan=math.pi)), low
+        )
+    # Each task's rows are the first m of the world-aligned 6-row Jacobian (linear, then angular).
+    ranks = dict.fromkeys(TASK_DIMENSIONS, 0)
+    for _ in range(samples):
+        q = robot.configuration(generator.uniform(low, high))
+        jacobian = pin.computeFrameJacobian(model, data, q, robot.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        for task, size in TASK_DIMENSIONS.items():
+            singular_values = np.linalg.svd(jacobian[:size], compute_uv=False)
+            if singular_values[0] > 0:
+                rank = int((singular_values > 1e-9 * singular_values[0]).sum())
+                ranks[task] = max(ranks[task], rank)
+    return ranks
+
+
+def check_task_rank(robot) -> None:
+    """InvalidInput when the robot's task Jacobian is rank-deficient everywhere (see :func:`task_ranks`).
+
+    The message names the rank the joints reach and the tasks this frame can
+    do; it is an input mistake, found before any simulation.
+    """
+    from ..robot import TASK_DIMENSIONS
+
+    if robot.m > robot.nv:
+        return  # fewer joints than task coordinates: the resolvers' own check says so
+    ranks = task_ranks(robot)
+    rank, m = ranks[robot.task], robot.m
+    if rank >= m:
+        return
+    feasible = [task for task, size in TASK_DIMENSIONS.items() if ranks[task] >= size]
+    tasks = f"task {' or '.join(feasible)} at this frame" if feasible else "no task at this frame"
+    joints = count_values(robot.nv, "joint")
+    default = getattr(getattr(robot, "source", None), "frame", None)
+    example = f" such as '{default}'" if default and default != robot.frame else ""
+    raise InvalidInput(
+        f"task '{robot.task}' (m={m}) at frame '{robot.frame}' of robot '{robot.name}' can never be realised: "
+        f"its {joints} move the frame in only {rank} independent directions of the task at every one of "
+        f"{RANK_SAMPLES} random configurations; valid: {tasks}, or a frame further along the chain{example}"
+    )
