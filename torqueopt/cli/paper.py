@@ -10,7 +10,7 @@ import numpy as np
 from ..io import writable_path
 from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
 from ..plots import FIGURE_FORMATS
-from ..studies.remedies import RemediesStudy, _percent, run_remedies
+from ..studies.remedies import RemediesStudy, percent, run_remedies
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector
@@ -120,7 +120,7 @@ def print_remedies(study: RemediesStudy) -> None:
         kept = (
             ""
             if row["null_space_cut_kept"] is None
-            else f", keeps {_percent(row['null_space_cut_kept'])} of null-space's cut"
+            else f", keeps {percent(row['null_space_cut_kept'])} of null-space's cut"
         )
         print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
     for key, answer in study.summary()["answers"].items():
