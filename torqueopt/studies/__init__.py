@@ -8,8 +8,12 @@ A study runs on the paper's results and is written into the same folder by
 * ``summary() -> dict``: JSON-ready numbers and the sentences they support;
 * ``markdown(figures) -> str``: its section of ``summary.md``.
 
-Modules: :mod:`torqueopt.studies.remedies` (the Discussion's remedies for the
-whiplash: a kinematic term in the criterion, linear programming).
+One package per study, each split by job (running it, its record, its
+answers in words, its report, its figures):
+:mod:`torqueopt.studies.remedies` (the Discussion's remedies for the
+whiplash: a kinematic term in the criterion, linear programming) and
+:mod:`torqueopt.studies.local_global` (local against whole-movement
+optimisation, the Discussion's last question).
 """
 
 from __future__ import annotations
