@@ -17,6 +17,7 @@ from torqueopt.checks import (
     number_in_range,
     parse_count,
     parse_whole,
+    weight_matrix_root,
     whole_number,
 )
 
@@ -131,3 +132,35 @@ def test_parse_whole_names_the_option_and_the_bounds(text, minimum, maximum, mes
 def test_parse_count_is_a_whole_number_of_at_least_one():
     assert parse_count("2e6", "max-steps") == 2_000_000
     assert refused(parse_count, "0", "max-steps") == "--max-steps: 0 must be a whole number >= 1"
+
+
+def test_weight_matrix_root_squares_back_to_the_weight():
+    np.testing.assert_allclose(weight_matrix_root([4.0, 0.0, 9.0], 3), [2.0, 0.0, 3.0])
+    rng = np.random.default_rng(0)
+    factor = rng.normal(size=(3, 2))
+    weight = factor @ factor.T  # symmetric positive semi-definite, rank 2
+    root = weight_matrix_root(weight, 3)
+    np.testing.assert_allclose(root.T @ root, weight, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "weight, choices, message",
+    [
+        ([1.0, -1.0, 1.0], (), "weight [1.0, -1.0, 1.0] must be 3 finite non-negative numbers"),
+        ([1.0, 1.0], (), "weight must be a vector of 3 values or a symmetric 3x3 matrix, got shape (2,)"),
+        (
+            np.ones((2, 2)),
+            ("identity", "range"),
+            "weight must be identity, range, 3 values or a symmetric 3x3 matrix, got shape (2, 2)",
+        ),
+        (
+            np.triu(np.ones((3, 3))),
+            (),
+            "weight must be a vector of 3 values or a symmetric 3x3 matrix, got shape (3, 3)",
+        ),
+        (-np.eye(3), (), "weight matrix must be positive semi-definite; its smallest eigenvalue is -1"),
+        ({"a": 1}, ("identity",), "weight {'a': 1} is not a name, a vector or a matrix of numbers"),
+    ],
+)
+def test_weight_matrix_root_refuses_what_is_not_a_weight(weight, choices, message):
+    assert refused(weight_matrix_root, weight, 3, choices) == message

@@ -15,7 +15,7 @@ numbers) written once:
 * :mod:`~torqueopt.checks.work`: bounds on the work a request asks for
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
-  (:func:`configuration_vector`, :func:`check_task_rank`).
+  (:func:`configuration_vector`, :func:`weight_matrix_root`, :func:`check_task_rank`).
 """
 
 from .numbers import (
@@ -32,7 +32,7 @@ from .numbers import (
     show_number,
     whole_number,
 )
-from .robot import RANK_SAMPLES, check_task_rank, configuration_vector, task_ranks
+from .robot import RANK_SAMPLES, check_task_rank, configuration_vector, task_ranks, weight_matrix_root
 from .text import parse_count, parse_positive, parse_vector, parse_whole
 from .work import bounded_count, step_count
 
@@ -56,6 +56,7 @@ __all__ = [
     "bounded_count",
     "step_count",
     "configuration_vector",
+    "weight_matrix_root",
     "task_ranks",
     "check_task_rank",
     "RANK_SAMPLES",

@@ -1,4 +1,4 @@
-"""Checks that need the robot: a configuration of the right size, a task the joints can realise."""
+"""Checks that need the robot: a configuration of the right size, a joint-space weight, a task the joints can realise."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import InvalidInput
 from .numbers import count_values, finite_vector
 
-__all__ = ["configuration_vector", "task_ranks", "check_task_rank", "RANK_SAMPLES"]
+__all__ = ["configuration_vector", "weight_matrix_root", "task_ranks", "check_task_rank", "RANK_SAMPLES"]
 
 #: Random configurations at which :func:`check_task_rank` looks for a full-rank task Jacobian.
 RANK_SAMPLES = 8
@@ -87,3 +87,34 @@ def check_task_rank(robot) -> None:
         f"its {joints} move the frame in only {rank} independent directions of the task at every one of "
         f"{RANK_SAMPLES} random configurations; valid: {tasks}, or a frame further along the chain{example}"
     )
+
+
+def weight_matrix_root(weight, n: int, choices: tuple[str, ...] = ()) -> np.ndarray:
+    r"""A square root :math:`S` with :math:`S^\top S = W` of a joint-space weight, or InvalidInput.
+
+    ``weight`` is a vector of ``n`` finite non-negative numbers, the
+    diagonal of W (the root is then the vector of their square roots), or a
+    symmetric positive semi-definite n×n matrix (the root is an n×n matrix).
+
+    Args:
+        choices: the names the caller also accepts, listed in the message
+            when the shape fits neither form.
+    """
+    try:
+        values = np.asarray(weight, dtype=float)
+    except (TypeError, ValueError):
+        named = "a name, " if choices else ""
+        raise InvalidInput(f"weight {weight!r} is not {named}a vector or a matrix of numbers") from None
+    if values.shape == (n,):
+        if not np.isfinite(values).all() or (values < 0).any():
+            raise InvalidInput(f"weight {values.tolist()} must be {n} finite non-negative numbers")
+        return np.sqrt(values)
+    if values.shape != (n, n) or not np.isfinite(values).all() or not np.allclose(values, values.T):
+        forms = f"{', '.join(choices)}, {n} values" if choices else f"a vector of {n} values"
+        raise InvalidInput(f"weight must be {forms} or a symmetric {n}x{n} matrix, got shape {values.shape}")
+    eigenvalues, eigenvectors = np.linalg.eigh(values)
+    if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
+        raise InvalidInput(
+            f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
+        )
+    return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T

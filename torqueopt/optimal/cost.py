@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import weight_matrix_root
 from ..errors import InvalidInput
 from ..resolvers.null_space import torque_midpoint
 from ..result import SimResult
@@ -55,24 +56,8 @@ def weight_root(robot: Robot, weight=None) -> np.ndarray:
                 f"of robot '{robot.name}' have no torque limit; give torque limits or a weight vector"
             )
         return np.diag(2.0 / torque_range)  # Eq. (33): W^(1/2), scaled by the half range
-    try:
-        values = np.asarray(weight, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"weight {weight!r} is not a name, a vector or a matrix of numbers") from None
-    if values.shape == (n,):
-        if not np.isfinite(values).all() or (values < 0).any():
-            raise InvalidInput(f"weight {values.tolist()} must be {n} finite non-negative numbers")
-        return np.diag(np.sqrt(values))
-    if values.shape != (n, n) or not np.isfinite(values).all() or not np.allclose(values, values.T):
-        raise InvalidInput(
-            f"weight must be {', '.join(WEIGHTS)}, {n} values or a symmetric {n}x{n} matrix, got shape {values.shape}"
-        )
-    eigenvalues, eigenvectors = np.linalg.eigh(values)
-    if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
-        raise InvalidInput(
-            f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
-        )
-    return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
+    root = weight_matrix_root(weight, n, choices=WEIGHTS)
+    return np.diag(root) if root.ndim == 1 else root
 
 
 def torque_cost(tau, dt: float, root: np.ndarray, midpoint: np.ndarray) -> float:

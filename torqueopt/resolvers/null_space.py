@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import weight_matrix_root
 from ..errors import InvalidInput, NoRedundancy
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
@@ -113,20 +114,7 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
                 f"weight {weight.tolist()} is zero for every joint, which leaves no torque to minimise; "
                 "give at least one positive weight"
             )
-        if weight.shape == (n,):
-            if not np.isfinite(weight).all() or (weight < 0).any():
-                raise InvalidInput(f"weight {weight.tolist()} must be {n} finite non-negative numbers")
-            return np.sqrt(weight)
-        if weight.shape != (n, n) or not np.isfinite(weight).all() or not np.allclose(weight, weight.T):
-            raise InvalidInput(
-                f"weight must be a vector of {n} values or a symmetric {n}x{n} matrix, got shape {weight.shape}"
-            )
-        eigenvalues, eigenvectors = np.linalg.eigh(weight)
-        if eigenvalues.min() < -1e-12 * max(1.0, eigenvalues.max()):
-            raise InvalidInput(
-                f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
-            )
-        return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
+        return weight_matrix_root(weight, n)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)
