@@ -164,3 +164,24 @@ def test_weight_matrix_root_squares_back_to_the_weight():
 )
 def test_weight_matrix_root_refuses_what_is_not_a_weight(weight, choices, message):
     assert refused(weight_matrix_root, weight, 3, choices) == message
+
+
+def test_a_missing_frame_is_refused_once_for_the_robot_the_frame_task_and_the_obstacle(planar3):
+    from torqueopt import FrameNotFound, TaskNotFound
+    from torqueopt.checks import check_frame, check_task
+    from torqueopt.tasks import FrameTask, ObstacleTask
+
+    check_frame(planar3.model, "tip", "planar3")
+    message = "robot 'planar3' has no frame 'hand': choose one of "
+    for call in (
+        lambda: check_frame(planar3.model, "hand", "planar3"),
+        lambda: FrameTask("hand", "xy").check(planar3),
+        lambda: ObstacleTask([1.0, 0.0], frame="hand").check(planar3),
+    ):
+        with pytest.raises(FrameNotFound) as error:
+            call()
+        assert str(error.value).startswith(message) and str(error.value).endswith("tip"), str(error.value)
+    with pytest.raises(TaskNotFound, match=r"^unknown task kind 'planar': choose one of xy, position, pose$"):
+        FrameTask("tip", "planar")
+    with pytest.raises(TaskNotFound, match=r"^unknown task 'planar': choose one of xy, position, pose$"):
+        check_task("planar")

@@ -31,8 +31,8 @@ import numpy as np
 import pinocchio as pin
 
 from .catalog import RobotSource
-from .checks import finite_vector
-from .errors import FrameNotFound, InvalidInput, TaskNotFound
+from .checks import check_task_and_frame, finite_vector
+from .errors import InvalidInput
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "check_task_and_frame"]
 
@@ -365,17 +365,3 @@ class Robot:
             f"Robot({self.name!r}, frame={self.frame!r}, task={self.task!r}, n={self.nv}, m={self.m}, "
             f"torque_limit={self.torque_limit.tolist()})"
         )
-
-
-def check_task_and_frame(model: pin.Model, frame: str, task: str, robot_name: str) -> None:
-    """TaskNotFound or FrameNotFound, naming the valid choices, unless ``task`` is known and ``model`` has ``frame``."""
-    if task not in TASK_DIMENSIONS:
-        raise TaskNotFound(f"unknown task '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
-    if not model.existFrame(frame):
-        raise FrameNotFound(f"robot '{robot_name}' has no frame '{frame}': choose one of {_frame_hint(model)}")
-
-
-def _frame_hint(model: pin.Model) -> str:
-    names = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
-    shown = ", ".join(names[-12:])
-    return ("..., " if len(names) > 12 else "") + shown

@@ -15,7 +15,8 @@ numbers) written once:
 * :mod:`~torqueopt.checks.work`: bounds on the work a request asks for
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
-  (:func:`configuration_vector`, :func:`weight_matrix_root`, :func:`check_task_rank`).
+  (:func:`configuration_vector`, :func:`weight_matrix_root`, :func:`check_task_and_frame`,
+  :func:`check_task_rank`).
 """
 
 from .numbers import (
@@ -32,7 +33,16 @@ from .numbers import (
     show_number,
     whole_number,
 )
-from .robot import RANK_SAMPLES, check_task_rank, configuration_vector, task_ranks, weight_matrix_root
+from .robot import (
+    RANK_SAMPLES,
+    check_frame,
+    check_task,
+    check_task_and_frame,
+    check_task_rank,
+    configuration_vector,
+    task_ranks,
+    weight_matrix_root,
+)
 from .text import parse_count, parse_positive, parse_vector, parse_whole
 from .work import bounded_count, step_count
 
@@ -57,6 +67,9 @@ __all__ = [
     "step_count",
     "configuration_vector",
     "weight_matrix_root",
+    "check_task_and_frame",
+    "check_task",
+    "check_frame",
     "task_ranks",
     "check_task_rank",
     "RANK_SAMPLES",

@@ -1,4 +1,5 @@
-"""Checks that need the robot: a configuration of the right size, a joint-space weight, a task the joints can realise."""
+"""Checks that need the robot: a configuration of the right size, a joint-space weight, a task and frame it has,
+a task the joints can realise."""
 
 from __future__ import annotations
 
@@ -6,10 +7,19 @@ import math
 
 import numpy as np
 
-from ..errors import InvalidInput
+from ..errors import FrameNotFound, InvalidInput, TaskNotFound
 from .numbers import count_values, finite_vector
 
-__all__ = ["configuration_vector", "weight_matrix_root", "task_ranks", "check_task_rank", "RANK_SAMPLES"]
+__all__ = [
+    "configuration_vector",
+    "weight_matrix_root",
+    "check_task_and_frame",
+    "check_task",
+    "check_frame",
+    "task_ranks",
+    "check_task_rank",
+    "RANK_SAMPLES",
+]
 
 #: Random configurations at which :func:`check_task_rank` looks for a full-rank task Jacobian.
 RANK_SAMPLES = 8
@@ -118,3 +128,28 @@ def weight_matrix_root(weight, n: int, choices: tuple[str, ...] = ()) -> np.ndar
             f"weight matrix must be positive semi-definite; its smallest eigenvalue is {eigenvalues.min():.3g}"
         )
     return (eigenvectors * np.sqrt(np.clip(eigenvalues, 0.0, None))).T
+
+
+def check_task_and_frame(model, frame: str, task: str, robot_name: str) -> None:
+    """TaskNotFound or FrameNotFound, naming the valid choices, unless ``task`` is known and ``model`` has ``frame``."""
+    check_task(task)
+    check_frame(model, frame, robot_name)
+
+
+def check_task(task: str, what: str = "task") -> None:
+    """TaskNotFound naming the task kinds (``xy``, ``position``, ``pose``) unless ``task`` is one of them."""
+    from ..robot import TASK_DIMENSIONS
+
+    if task not in TASK_DIMENSIONS:
+        raise TaskNotFound(f"unknown {what} '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
+
+
+def check_frame(model, frame: str, robot_name: str) -> None:
+    """FrameNotFound unless the Pinocchio ``model`` has ``frame``; the message lists (the last 12 of) its body frames."""
+    if model.existFrame(frame):
+        return
+    import pinocchio as pin
+
+    names = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
+    shown = ("..., " if len(names) > 12 else "") + ", ".join(names[-12:])
+    raise FrameNotFound(f"robot '{robot_name}' has no frame '{frame}': choose one of {shown}")

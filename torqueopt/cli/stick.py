@@ -9,6 +9,7 @@ import numpy as np
 
 from ..loading import load_robot
 from ..plots import plot_stick_strip
+from ..plots.stick import SNAPSHOTS_RANGE
 from ..result import SimResult
 from ..robot import Robot
 from .common import add_robot_options, parse_vector
@@ -33,7 +34,10 @@ def add_stick_options(parser: argparse.ArgumentParser) -> None:
         "(default velocity)",
     )
     group.add_argument(
-        "--snapshots", type=_snapshots, default=8, help="with --stick-figures: how many (2 to 24, default 8)"
+        "--snapshots",
+        type=_snapshots,
+        default=8,
+        help=f"with --stick-figures: how many ({SNAPSHOTS_RANGE[0]} to {SNAPSHOTS_RANGE[1]}, default 8)",
     )
     add_robot_options(parser, required=False)
     # The run records its robot: --robot and the options beside it only override.
@@ -74,6 +78,6 @@ def _snapshots(text: str) -> int:
         count = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if not 2 <= count <= 24:
-        raise argparse.ArgumentTypeError(f"{text} must be from 2 to 24")
+    if not SNAPSHOTS_RANGE[0] <= count <= SNAPSHOTS_RANGE[1]:
+        raise argparse.ArgumentTypeError(f"{text} must be from {SNAPSHOTS_RANGE[0]} to {SNAPSHOTS_RANGE[1]}")
     return count

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import whole_number
 from ..errors import InvalidInput
 from ..result import SimResult
 from ..robot import Robot
@@ -15,7 +16,10 @@ from .canvas import few_ticks, new_figure, save_figure
 from .dexterity import _ELLIPSES, dexterity_ellipses
 from .panels import _JOINT_COLORS, _mark_events, _mark_stops, _suptitle
 
-__all__ = ["arm_points", "plot_stick_strip"]
+__all__ = ["arm_points", "plot_stick_strip", "SNAPSHOTS_RANGE"]
+
+#: The fewest and the most snapshots a strip may hold.
+SNAPSHOTS_RANGE = (2, 24)
 
 
 def plot_stick_strip(
@@ -50,8 +54,7 @@ def plot_stick_strip(
     """
     if ellipse not in (None, *_ELLIPSES):
         raise InvalidInput(f"ellipse={ellipse!r} is not one of {', '.join(_ELLIPSES)} (or None)")
-    if not isinstance(snapshots, (int, np.integer)) or not 2 <= snapshots <= 24:
-        raise InvalidInput(f"snapshots={snapshots!r} must be a whole number from 2 to 24")
+    snapshots = whole_number(snapshots, "snapshots", *SNAPSHOTS_RANGE)
     if not len(result.t):
         fig = new_figure(8.0, 2.0)
         fig.text(0.5, 0.4, "no samples to draw: the run stopped before its first step", ha="center", va="center")

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import FrameNotFound, TaskNotFound
+from ..checks import check_frame, check_task
 from .task import Kinematics, Task
 
 __all__ = ["FrameTask", "FRAME_TASK_KINDS"]
@@ -42,8 +42,7 @@ class FrameTask(Task):
     """
 
     def __init__(self, frame: str, kind: str = "position", *, target=None, gain: float = 1.0, reference_rotation=None):
-        if kind not in FRAME_TASK_KINDS:
-            raise TaskNotFound(f"unknown task kind '{kind}': choose one of {', '.join(FRAME_TASK_KINDS)}")
+        check_task(kind, "task kind")
         self.frame = frame
         self.kind = kind
         self.rows = FRAME_TASK_KINDS[kind]
@@ -59,9 +58,7 @@ class FrameTask(Task):
         return cls(robot.frame, robot.task, **options)
 
     def check(self, robot) -> None:
-        if not robot.model.existFrame(self.frame):
-            names = [f.name for f in robot.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
-            raise FrameNotFound(f"robot '{robot.name}' has no frame '{self.frame}': choose one of {', '.join(names)}")
+        check_frame(robot.model, self.frame, robot.name)
 
     def frame_id(self, kinematics: Kinematics) -> int:
         """The frame's index in the kinematics' model (looked up once per model)."""

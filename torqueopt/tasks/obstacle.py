@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..checks import finite_numbers, non_negative_number
+from ..checks import check_frame, finite_numbers, non_negative_number
 from ..errors import InvalidInput
 from .task import Kinematics, Task
 
@@ -88,9 +88,7 @@ class ObstacleTask(Task):
         return cls(values)
 
     def check(self, robot) -> None:
-        frame = self.frame or robot.frame
-        if not robot.model.existFrame(frame):
-            raise InvalidInput(f"obstacle task: robot '{robot.name}' has no frame '{frame}'")
+        check_frame(robot.model, self.frame or robot.frame, robot.name)
 
     def _segments(self, kinematics: Kinematics):
         """(joint id, next joint id or None for the end frame) along the chain, built once per model."""
