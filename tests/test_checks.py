@@ -185,3 +185,32 @@ def test_a_missing_frame_is_refused_once_for_the_robot_the_frame_task_and_the_ob
         FrameTask("tip", "planar")
     with pytest.raises(TaskNotFound, match=r"^unknown task 'planar': choose one of xy, position, pose$"):
         check_task("planar")
+
+
+def test_torque_limits_broadcast_one_value_and_refuse_what_is_not_a_limit(planar3):
+    from torqueopt.checks import torque_limit_vector
+
+    np.testing.assert_array_equal(torque_limit_vector(planar3, 5), [5.0, 5.0, 5.0])
+    np.testing.assert_array_equal(torque_limit_vector(planar3, [1, np.inf, 2]), [1.0, np.inf, 2.0])
+    joints = ", ".join(planar3.joint_names)
+    assert (
+        refused(torque_limit_vector, planar3, [1, 2])
+        == f"torque limit has 2 values; robot 'planar3' needs 1 or 3 (joints {joints})"
+    )
+    assert (
+        refused(torque_limit_vector, planar3, [1, 0, 2]) == "torque limit [1.0, 0.0, 2.0] must be positive numbers "
+        "(inf for unbounded)"
+    )
+    assert refused(torque_limit_vector, planar3, [1, np.nan, 2]).startswith("torque limit [1.0, nan, 2.0] must be")
+    assert refused(torque_limit_vector, planar3, "strong") == "torque limit 'strong' is not a vector of numbers"
+
+
+def test_a_velocity_vector_has_one_finite_rate_per_joint(planar3):
+    from torqueopt.checks import velocity_vector
+
+    np.testing.assert_array_equal(velocity_vector(planar3, [0, 1, 2]), [0.0, 1.0, 2.0])
+    joints = ", ".join(planar3.joint_names)
+    assert refused(velocity_vector, planar3, [0, 1]) == f"v0 has 2 values but needs 3 (joints {joints})"
+    assert refused(velocity_vector, planar3, [0, 1, np.inf], "v") == (
+        "v [0.0, 1.0, inf] has a non-finite value; all 3 values must be finite"
+    )

@@ -47,7 +47,7 @@ import sys
 import numpy as np
 import pinocchio as pin
 
-from .checks import finite_vector, positive_number
+from .checks import finite_vector, positive_number, velocity_vector
 from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
@@ -124,7 +124,7 @@ def simulate_kinematic(
         duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot)
     )
     q = configuration_vector(robot, q0)
-    if v0 is not None and np.any(robot.check_velocity(v0) != 0.0):
+    if v0 is not None and np.any(velocity_vector(robot, v0) != 0.0):
         raise InvalidInput(
             f"resolver '{resolver.name}' sets the joint velocity itself (q̇ = f(q, t)); v0 must be None or zero"
         )

@@ -31,8 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from .catalog import RobotSource
-from .checks import check_task_and_frame, finite_vector
-from .errors import InvalidInput
+from .checks import check_task_and_frame, finite_vector, torque_limit_vector, velocity_vector
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "check_task_and_frame"]
 
@@ -213,17 +212,7 @@ class Robot:
             limit = self.urdf_effort_limit.copy()
             limit[~np.isfinite(limit) | (limit <= 0)] = np.inf
         else:
-            values = np.atleast_1d(np.asarray(torque_limit, dtype=float))
-            if values.size == 1:
-                values = np.full(self.nv, values.item())
-            if values.shape != (self.nv,):
-                raise InvalidInput(
-                    f"torque limit has {values.size} values; robot '{self.name}' needs 1 or {self.nv} "
-                    f"(joints {', '.join(self.joint_names)})"
-                )
-            if np.isnan(values).any() or (values <= 0).any():
-                raise InvalidInput(f"torque limit {values.tolist()} must be positive numbers (inf for unbounded)")
-            limit = values
+            limit = torque_limit_vector(self, torque_limit)
         self.torque_upper = limit
         self.torque_lower = -limit
 
@@ -284,8 +273,8 @@ class Robot:
         return np.array([pin.difference(self.model, self._neutral, row) for row in configurations]).reshape(-1, self.nv)
 
     def check_velocity(self, velocity) -> np.ndarray:
-        """A validated joint velocity vector (n values, finite) [rad/s]."""
-        return finite_vector(velocity, self.nv, "v0", names=self.joint_names)
+        """A validated joint velocity vector (n values, finite) [rad/s]: :func:`torqueopt.checks.velocity_vector`."""
+        return velocity_vector(self, velocity)
 
     # -- dynamics -------------------------------------------------------------
     def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:

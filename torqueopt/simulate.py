@@ -33,6 +33,7 @@ from .checks import (
     positive_number,
     show_number,
     step_count,
+    velocity_vector,
 )
 from .dexterity import dexterity_along
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
@@ -77,7 +78,7 @@ def resolve(robot: Robot, resolver: str | Resolver, q, v, task_acceleration, **o
     resolver = get_resolver(resolver, **options)
     resolver.check(robot)
     q = configuration_vector(robot, q)
-    v = robot.check_velocity(v)
+    v = velocity_vector(robot, v)
     task_acceleration = finite_vector(task_acceleration, robot.m, f"task acceleration for task '{robot.task}'")
     return resolver.resolve(robot, robot.terms(q, v), task_acceleration)
 
@@ -155,7 +156,7 @@ def simulate(
         feedback = Feedback(*feedback)
 
     q = configuration_vector(robot, q0)
-    v = np.zeros(robot.nv) if v0 is None else robot.check_velocity(v0)
+    v = np.zeros(robot.nv) if v0 is None else velocity_vector(robot, v0)
     for note in start_notes(robot, q):
         warnings.warn(note, TorqueoptWarning, stacklevel=2)
     placement = robot.frame_placement(q)

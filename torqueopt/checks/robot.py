@@ -12,6 +12,8 @@ from .numbers import count_values, finite_vector
 
 __all__ = [
     "configuration_vector",
+    "velocity_vector",
+    "torque_limit_vector",
     "weight_matrix_root",
     "check_task_and_frame",
     "check_task",
@@ -34,6 +36,30 @@ def configuration_vector(robot, values, name: str = "q0") -> np.ndarray:
     if robot.nq != robot.nv and array.size == robot.nq:
         return finite_vector(array, robot.nq, name)
     return robot.configuration(finite_vector(array, robot.nv, name, names=robot.joint_names))
+
+
+def velocity_vector(robot, values, name: str = "v0") -> np.ndarray:
+    """A joint velocity vector of ``robot``: n finite values [rad/s], or InvalidInput naming the joints."""
+    return finite_vector(values, robot.nv, name, names=robot.joint_names)
+
+
+def torque_limit_vector(robot, values) -> np.ndarray:
+    """Symmetric torque limits of ``robot`` [N·m]: one positive number for every joint or one per joint, ``inf``
+    for a joint without a limit; else InvalidInput naming the joints."""
+    try:
+        limits = np.atleast_1d(np.asarray(values, dtype=float)).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"torque limit {values!r} is not a vector of numbers") from None
+    if limits.size == 1:
+        limits = np.full(robot.nv, limits.item())
+    if limits.size != robot.nv:
+        raise InvalidInput(
+            f"torque limit has {count_values(limits.size)}; robot '{robot.name}' needs 1 or {robot.nv} "
+            f"(joints {', '.join(robot.joint_names)})"
+        )
+    if np.isnan(limits).any() or (limits <= 0).any():
+        raise InvalidInput(f"torque limit {limits.tolist()} must be positive numbers (inf for unbounded)")
+    return limits
 
 
 def task_ranks(robot, samples: int = RANK_SAMPLES, seed: int = 0) -> dict[str, int]:
