@@ -166,7 +166,7 @@ def test_reach_and_grid_mode(planar3):
         ({"paths": 0}, "paths=0 must be a whole number from 1 to 1,000,000"),
         ({"durations": (0.5, -1)}, r"durations \[0.5, -1.0\] must be 1 to 100 numbers of seconds in \(0, 600\]"),
         ({"mode": "sobol"}, "unknown population mode 'sobol': choose one of random, grid"),
-        ({"reach_fraction": 1.5}, r"reach_fraction=1.5 must be in \(0, 1\]"),
+        ({"reach_fraction": 1.5}, r"reach_fraction=1.5 must be a number in \(0, 1\]"),
     ],
 )
 def test_bad_population_settings(kwargs, message):

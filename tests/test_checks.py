@@ -14,6 +14,7 @@ from torqueopt.checks import (
     finite_array,
     finite_numbers,
     number_at_least,
+    number_in_interval,
     number_in_range,
     parse_count,
     parse_whole,
@@ -55,12 +56,30 @@ def test_whole_number_refuses_other_values_naming_them_and_the_bounds(value, min
 
 def test_number_in_range_accepts_the_closed_ends_only():
     assert number_in_range(1, "reach_fraction", 0.0, 1.0) == 1.0
-    assert number_in_range(0.0, "min_condition", 0.0, 1.0, low_open=False) == 0.0
-    assert refused(number_in_range, 0.0, "reach_fraction", 0.0, 1.0) == "reach_fraction=0.0 must be in (0, 1]"
-    assert refused(number_in_range, 1.0, "f", 0.0, 1.0, high_open=True) == "f=1.0 must be in (0, 1)"
-    assert refused(number_in_range, math.nan, "f", 0.0, 1.0, low_open=False) == "f=nan must be in [0, 1]"
+    assert number_in_range(0.0, "min_condition", 0.0, 1.0) == 0.0
+    assert (
+        refused(number_in_range, 0.0, "reach_fraction", 0.0, 1.0, low_open=True)
+        == "reach_fraction=0.0 must be a number in (0, 1]"
+    )
+    assert refused(number_in_range, 1.0, "f", 0.0, 1.0, True, True) == "f=1.0 must be a number in (0, 1)"
+    assert refused(number_in_range, math.nan, "f", 0.0, 1.0) == "f=nan must be a number in [0, 1]"
     assert refused(number_in_range, "x", "f", 0.0, 1.0, unit="m") == "f='x' is not a number [m]"
-    assert refused(number_in_range, 2, "f", -1.0, 1.5, unit="m") == "f=2 must be in (-1, 1.5] [m]"
+    assert refused(number_in_range, 2, "f", -1.0, 1.5, True, unit="m") == "f=2 must be a number in (-1, 1.5] [m]"
+
+
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        (1.0, "must be a number in [0, 1)"),
+        ("-0.1", "must be a number in [0, 1)"),
+        ("half", "is not a number; give a number in [0, 1)"),
+        (None, "is not a number; give a number in [0, 1)"),
+    ],
+)
+def test_number_in_interval_refuses_with_the_interval(value, message):
+    assert number_in_interval("0.25", 0.0, 1.0, high_open=True) == 0.25
+    with pytest.raises(Refused, match=f"^{re.escape(message)}$"):
+        number_in_interval(value, 0.0, 1.0, high_open=True)
 
 
 def test_finite_numbers_accepts_the_sizes_given_and_says_which():

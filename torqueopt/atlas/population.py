@@ -83,10 +83,10 @@ class PopulationSpec:
             raise InvalidInput(f"durations {list(durations)} repeat a value; give each once")
         object.__setattr__(self, "durations", durations)
         object.__setattr__(self, "seed", whole_number(self.seed, "seed"))
-        object.__setattr__(self, "reach_fraction", number_in_range(self.reach_fraction, "reach_fraction", 0.0, 1.0))
         object.__setattr__(
-            self, "min_condition", number_in_range(self.min_condition, "min_condition", 0.0, 1.0, low_open=False)
+            self, "reach_fraction", number_in_range(self.reach_fraction, "reach_fraction", 0.0, 1.0, low_open=True)
         )
+        object.__setattr__(self, "min_condition", number_in_range(self.min_condition, "min_condition", 0.0, 1.0))
         for name in ("accel", "grid_spacing"):
             object.__setattr__(self, name, positive_number(getattr(self, name), name))
         object.__setattr__(self, "grid_directions", whole_number(self.grid_directions, "grid_directions", 1, 360))

@@ -7,7 +7,7 @@ numbers) written once:
 * :mod:`~torqueopt.checks.numbers`: numbers and vectors given to the API,
   named ``name=value`` (:func:`positive_number`, :func:`whole_number`,
   :func:`finite_numbers`, ...), and the converters of resolver options
-  (:func:`number_at_least`, :func:`finite_array`), which raise
+  (:func:`number_at_least`, :func:`number_in_interval`, :func:`finite_array`), which raise
   :class:`Refused` for the option machinery to complete;
 * :mod:`~torqueopt.checks.text`: the same rules on the text of command-line
   options, named ``--name: text`` (:func:`parse_vector`,
@@ -29,6 +29,7 @@ from .numbers import (
     finite_vector,
     non_negative_number,
     number_at_least,
+    number_in_interval,
     number_in_range,
     positive_number,
     show_number,
@@ -55,6 +56,7 @@ __all__ = [
     "non_negative_number",
     "number_at_least",
     "number_in_range",
+    "number_in_interval",
     "whole_number",
     "finite_values",
     "finite_vector",

@@ -23,6 +23,7 @@ __all__ = [
     "non_negative_number",
     "number_at_least",
     "number_in_range",
+    "number_in_interval",
     "whole_number",
     "finite_values",
     "finite_vector",
@@ -97,20 +98,18 @@ def non_negative_number(value, name: str, unit: str | None = None) -> float:
 
 
 def number_in_range(
-    value, name: str, low: float, high: float, low_open: bool = True, high_open: bool = False, unit: str | None = None
+    value, name: str, low: float, high: float, low_open: bool = False, high_open: bool = False, unit: str | None = None
 ) -> float:
     """``value`` as a float within the interval from ``low`` to ``high`` (open at an end when ``*_open``), else InvalidInput.
 
-    The message writes the interval as mathematics does: ``(0, 1]``.
+    Example message: ``reach_fraction=1.5 must be a number in (0, 1]``.
     """
     suffix = f" [{unit}]" if unit else ""
     number = _as_float(value, name, suffix)
-    above = number > low if low_open else number >= low
-    below = number < high if high_open else number <= high
-    if not (math.isfinite(number) and above and below):
-        interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
-        raise InvalidInput(f"{name}={show_number(value)} must be in {interval}{suffix}")
-    return number
+    try:
+        return number_in_interval(number, low, high, low_open, high_open)
+    except Refused as refusal:
+        raise InvalidInput(f"{name}={show_number(value)} {refusal}{suffix}") from None
 
 
 def whole_number(value, name: str, minimum: int = 0, maximum: int | None = None) -> int:
@@ -138,6 +137,30 @@ def number_at_least(value, minimum: float = 0.0, strict: bool = False, unit: str
     if not _at_least(float(value), minimum, strict):
         raise Refused(f"must be a finite number {relation} {minimum:g}{unit_text}")
     return float(value)
+
+
+def number_in_interval(
+    value, low: float, high: float, low_open: bool = False, high_open: bool = False, unit: str = ""
+) -> float:
+    """A converter's rule: a real number (or its text) in the interval from ``low`` to ``high``, else :class:`Refused`.
+
+    The message writes the interval as mathematics does, open ends in round brackets: ``[0, 1)``.
+    """
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    unit_text = f" [{unit}]" if unit else ""
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            raise Refused(f"is not a number; give a number in {interval}{unit_text}") from None
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise Refused(f"is not a number; give a number in {interval}{unit_text}")
+    number = float(value)
+    above = number > low if low_open else number >= low
+    below = number < high if high_open else number <= high
+    if not (math.isfinite(number) and above and below):
+        raise Refused(f"must be a number in {interval}{unit_text}")
+    return number
 
 
 def finite_array(value, what: str, example: str = "1,1,1") -> np.ndarray:

@@ -2,12 +2,15 @@ r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of 
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
+from ...checks import number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
-from ..options import Option, OptionValueError, number
+from ..options import Option, OptionValueError
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import criterion_from
 from .options import criterion_spec
@@ -104,7 +107,7 @@ class ExtendedJacobian(VelocityResolver):
             unit="",
             default=0.05,
             meaning="the alignment |∂G/∂q·n|/(|∂G/∂q| |n|) below which the run stops at an algorithmic singularity",
-            convert=lambda value: _fraction(number(0.0)(value)),
+            convert=partial(number_in_interval, low=0.0, high=1.0, high_open=True),
         ),
         POSITION_GAIN_OPTION,
     )
@@ -174,10 +177,4 @@ def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
 def _hessian_criterion(value):
     if value == "manipulability":
         raise OptionValueError("has no Hessian here; the extended Jacobian needs one: use joint-limits or a callable")
-    return value
-
-
-def _fraction(value: float) -> float:
-    if not value < 1.0:
-        raise OptionValueError("must be a number in [0, 1)")
     return value
