@@ -1,0 +1,197 @@
+r"""What the two bounded resolvers share: the bounded joints, the ``infeasible`` option and its policies.
+
+:class:`_BoundedResolver` writes the step of both: the resolver's own
+optimum within bounds (``_optimum``, one per resolver), and, when there is
+none, the policy the ``infeasible`` option names (scale the task, least task
+error, exceed the bounds least, stop), in the coordinates of Eq. (26).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import NoRedundancy, SolverFailure, TorqueBoundsInfeasible
+from ...linalg import JacobianSolver
+from ...robot import Robot, TaskTerms
+from ..base import Resolution, Resolver, Step
+from ..null_space import torque_midpoint
+from ..options import Option, OptionValueError
+from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
+
+__all__ = ["INFEASIBLE_OPTION", "INFEASIBLE_POLICIES", "torque_utilisation"]
+
+#: What a bounded resolver does when no torque within bounds realises the task.
+INFEASIBLE_POLICIES = ("scale", "least-error", "exceed", "stop")
+
+
+def torque_utilisation(torque, torque_lower, torque_upper) -> np.ndarray:
+    r"""The largest normalised torque :math:`\max_i |\tau_i - \tau_{mid,i}| / (\tau^+_i - \tau^-_i)`.
+
+    Joints without a finite limit are left out (0 when no joint has one).
+    Within bounds iff the value is at most 1/2. ``torque`` is one torque
+    vector (n) or a run's rows (N × n); the result is a float or (N,).
+    """
+    torque = np.asarray(torque, dtype=float)
+    lower, upper = np.asarray(torque_lower, float), np.asarray(torque_upper, float)
+    bounded = np.isfinite(lower) & np.isfinite(upper)
+    if not bounded.any():
+        return np.zeros(torque.shape[:-1]) if torque.ndim > 1 else np.float64(0.0)
+    middle = 0.5 * (upper[bounded] + lower[bounded])
+    spread = upper[bounded] - lower[bounded]
+    return (np.abs(torque[..., bounded] - middle) / spread).max(axis=-1)
+
+
+def _bounded_joints(robot: Robot):
+    """The joints with finite limits: their indices, or ``slice(None)`` (a view, no copy) when every joint has them."""
+    finite = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
+    return slice(None) if finite.all() else np.flatnonzero(finite)
+
+
+def _solver_bounds(robot: Robot, bounded):
+    """(τ⁺, τ⁻) of the bounded joints as given to DAQP, and their ranges τ⁺ − τ⁻ [N·m].
+
+    DAQP accepts a row that exceeds its bound by about ``primal_tol``
+    (measured: up to 1.4 times it on the LPs); the bounds it gets are pulled
+    in by :data:`BOUND_MARGIN` of each range, so that the torques it returns
+    never exceed the true limits.
+    """
+    upper, lower = robot.torque_upper[bounded], robot.torque_lower[bounded]
+    spread = upper - lower
+    margin = BOUND_MARGIN * spread
+    return upper - margin, lower + margin, spread
+
+
+def _policy(value) -> str:
+    """Converter of the ``infeasible`` option."""
+    text = str(value).strip() if isinstance(value, str) else value
+    if text not in INFEASIBLE_POLICIES:
+        raise OptionValueError(f"must be one of {', '.join(INFEASIBLE_POLICIES)}")
+    return text
+
+
+INFEASIBLE_OPTION = Option(
+    name="infeasible",
+    kind=" | ".join(f"'{policy}'" for policy in INFEASIBLE_POLICIES),
+    unit="",
+    default="scale",
+    meaning=(
+        "when no torque within bounds realises the task: scale the task acceleration down (largest s in [0, 1]), "
+        "take the least task error, exceed the bounds least (min-max torque), or stop"
+    ),
+    convert=_policy,
+)
+
+
+class _BoundedResolver(Resolver):
+    """Shared checks, options and the infeasible-task policies of the two bounded resolvers."""
+
+    needs_redundancy = True
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        if not (np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)).any():
+            raise NoRedundancy(
+                f"resolver '{self.name}' bounds torques, but robot '{robot.name}' has no finite torque limit; "
+                "give torque limits (--torque-limit)"
+            )
+
+    @property
+    def needs_torque_limits(self) -> bool:
+        return True
+
+    def solver(self, robot: Robot) -> Step:
+        """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once."""
+        self.check(robot)
+        n, m = robot.nv, robot.m
+        r = n - m
+        bounded = _bounded_joints(robot)
+        upper, lower, spread = _solver_bounds(robot, bounded)
+        midpoint = torque_midpoint(robot)
+        decompose = JacobianSolver(m, n, self.singular_tolerance)
+        optimum = self._optimum(robot, bounded, spread, midpoint)
+        nb = spread.size
+        # Largest scaling: max s over (s, y), 0 <= s <= 1 a simple bound on the first variable.
+        scaling = _Program(
+            np.zeros((1 + r, 1 + r)),
+            np.r_[-1.0, np.zeros(r)],
+            np.zeros((nb, 1 + r)),
+            np.r_[1.0, np.ones(nb)],
+            np.r_[0.0, -np.ones(nb)],
+            bounds=1,
+            linear=True,
+        )
+        # Least task error: min ½‖a − ẍ‖² over (a, y). Its Hessian is singular in y, as an
+        # LP's (a zero matrix) is everywhere: DAQP then runs proximal-point iterations, whose
+        # limit is an exact optimum.
+        least_error = _Program(
+            np.diag(np.r_[np.ones(m), np.zeros(r)]), np.zeros(n), np.zeros((nb, n)), np.ones(nb), -np.ones(nb)
+        )
+        minmax = _MinMax(bounded, spread, midpoint, r) if self.infeasible == "exceed" else None
+        range_basis = _RangeBasis(n, r)
+        policy = self.infeasible
+        name = self.name
+
+        def least_error_task(rows, row_upper, row_lower, command):
+            """(a, z) of min ½‖a − ẍ‖² with τ = (rest) + H J⁺ a + U z within bounds."""
+            x, flag, _ = least_error.solve(f=np.r_[-command, np.zeros(r)], A=rows, bupper=row_upper, blower=row_lower)
+            if flag == _EXIT_INFEASIBLE:  # pragma: no cover - H is invertible: every torque in the box is some (a, z)
+                raise SolverFailure(f"resolver '{name}': DAQP found no torque in the box for the least task error")
+            return x[:m], x[m:]
+
+        def step(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
+            command = task_acceleration
+            particular, basis, inverse_condition = decompose(terms.jacobian, command - terms.drift)
+            inertia = terms.inertia
+            inertia_basis = inertia.dot(basis)
+            tilde_torque = inertia.dot(particular) + terms.bias_torque  # Eq. (28)
+            found = optimum(terms, basis, inertia_basis, tilde_torque)
+            if found is not None:
+                y, torque = found
+                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, False)  # Eq. (26)
+            if policy == "stop":
+                raise TorqueBoundsInfeasible(
+                    f"resolver '{name}' (infeasible='stop'): no torque within bounds realises the task "
+                    f"acceleration {np.round(command, 6).tolist()}"
+                )
+            range_rows = range_basis(inertia_basis)  # U, orthonormal, spans the range of HZ
+            if policy == "exceed":
+                z, _ = minmax(range_rows, tilde_torque)
+                y = range_basis.coordinates(range_rows.dot(z))
+                torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
+                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, True)
+            # τ = rest + H J⁺ a + U z realises the task acceleration a (J q̈ + J̇q̇ = a).
+            pseudo_inverse = np.linalg.pinv(terms.jacobian)
+            task_torque = inertia.dot(pseudo_inverse)  # H J⁺, n × m
+            rest_torque = tilde_torque - task_torque.dot(command)  # b − H J⁺ J̇q̇
+            rows = np.hstack([task_torque, range_rows])[bounded] / spread[:, None]
+            row_upper = (upper - rest_torque[bounded]) / spread
+            row_lower = (lower - rest_torque[bounded]) / spread
+            if policy == "scale":
+                # Flacco, De Luca & Khatib (ICRA 2012): the largest s in [0, 1] with a torque within bounds.
+                scaled_rows = np.hstack([rows[:, :m].dot(command)[:, None], rows[:, m:]])
+                x, flag, _ = scaling.solve(A=scaled_rows, bupper=np.r_[1.0, row_upper], blower=np.r_[0.0, row_lower])
+                if flag == _EXIT_INFEASIBLE:
+                    # Not even s = 0 (the tip held on its path) has a torque within bounds:
+                    # give up the direction too, for the least task error.
+                    achieved, z = least_error_task(rows, row_upper, row_lower, command)
+                else:
+                    achieved, z = float(np.clip(x[0], 0.0, 1.0)) * command, x[1:]
+            else:
+                achieved, z = least_error_task(rows, row_upper, row_lower, command)
+            # The resolver's own optimum at the achievable task acceleration; on the boundary
+            # round-off may make that program infeasible, and then the first stage's z stands.
+            shifted_particular = particular + pseudo_inverse.dot(achieved - command)
+            shifted_tilde = rest_torque + task_torque.dot(achieved)
+            found = optimum(terms, basis, inertia_basis, shifted_tilde)
+            if found is None:
+                y = range_basis.coordinates(range_rows.dot(z))
+                found = y, shifted_tilde + inertia_basis.dot(y)
+            y, torque = found
+            error = float(np.linalg.norm(achieved - command))
+            return Resolution(torque, shifted_particular + basis.dot(y), inverse_condition, error, True)
+
+        return step
+
+    def _optimum(self, robot: Robot, bounded, spread, midpoint):
+        """``(terms, Z, HZ, τ̃) -> (y, τ)`` of this resolver's criterion with τ within bounds, or None when none is."""
+        raise NotImplementedError

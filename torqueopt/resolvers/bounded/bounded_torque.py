@@ -1,0 +1,138 @@
+r"""``bounded-torque``: the paper's torque criterion under hard torque bounds, a QP in the coordinates of Eq. (26)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InvalidInput
+from ...robot import Robot, TaskTerms
+from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT
+from ..options import Option, choice_or_vector, number
+from .base import INFEASIBLE_OPTION, _BoundedResolver, _solver_bounds
+from .programs import _EXIT_INFEASIBLE, _Program
+
+__all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
+
+#: ``torque_weight`` names: the identity, or the torque-range weight of Eq. (33).
+TORQUE_WEIGHTS = ("unit", "range")
+
+
+class BoundedTorque(_BoundedResolver):
+    r"""Torque optimisation with hard torque bounds, by quadratic programming.
+
+    .. math::
+
+        \min_y\ \|S(\tau - \tau_{mid})\|^2 + \bar\mu^2\|y + K_D Z^\top\dot q\|^2
+        \quad\text{s.t.}\quad \tau = \tilde\tau + H Z y,\quad \tau^- \le \tau \le \tau^+
+
+    with :math:`\tau_{mid} = (\tau^+ + \tau^-)/2` (Eq. (29)), :math:`S = I`
+    (``torque_weight='unit'``: the criterion of ``null-space``, Eq. (29), Eq. (30), Eq. (31)),
+    the torque-range weight :math:`S = \mathrm{diag}(1/(\tau^+_i - \tau^-_i))`
+    of Eq. (33) (``'range'``: that of ``weighted-null-space``; zero for an
+    unbounded joint), or :math:`S^2 = \mathrm{diag}(w)` for a user vector
+    :math:`w` (the diagonal of the weight matrix W of Eq. (32)).
+    The kinematic term is that of ``damped-null-space``, with the same
+    options and defaults: :math:`\bar\mu = \mu\|SHZ\|_F` with the
+    dimensionless ``kinematic_weight`` :math:`\mu` (default 0.5) and the
+    self-motion damping ``damping`` :math:`K_D` (default 10 1/s). With the
+    bounds inactive the answer is that of ``damped-null-space``, and with
+    :math:`\mu = 0` that of ``null-space`` / ``weighted-null-space``: the
+    paper's criterion under hard bounds. The Hessian
+    :math:`(SHZ)^\top SHZ + \bar\mu^2 I` is positive definite whenever S
+    has no zero entry or :math:`\mu > 0`.
+    """
+
+    name = "bounded-torque"
+    equations = (26, 29, 33)
+
+    options = (
+        Option(
+            name="torque_weight",
+            kind="'unit' | 'range' | vector (n)",
+            unit="1/(N·m)² for a vector",
+            default="unit",
+            meaning=(
+                "S of the criterion ‖S(τ − τ_mid)‖²: the identity, the torque range 1/(τ⁺ − τ⁻) of Eq. (33), "
+                "or S² = diag(vector), the diagonal of W"
+            ),
+            convert=choice_or_vector(*TORQUE_WEIGHTS),
+        ),
+        Option(
+            name="kinematic_weight",
+            kind="number >= 0",
+            unit="",
+            default=DEFAULT_KINEMATIC_WEIGHT,
+            meaning=(
+                "μ of the kinematic term μ̄²‖y + K_D Zᵀq̇‖², μ̄ = μ‖SHZ‖_F, as in damped-null-space "
+                "(0: the paper's torque criterion alone)"
+            ),
+            convert=number(0.0),
+        ),
+        Option(
+            name="damping",
+            kind="number >= 0",
+            unit="1/s",
+            default=DEFAULT_DAMPING,
+            meaning="K_D of the kinematic term, as in damped-null-space: the self-motion velocity Zᵀq̇ is driven to 0",
+            convert=number(0.0, unit="1/s"),
+        ),
+        INFEASIBLE_OPTION,
+    )
+
+    def weight_root(self, robot: Robot) -> np.ndarray:
+        r"""The diagonal of S (n values, :math:`S^2 = W`)."""
+        if isinstance(self.torque_weight, str):
+            if self.torque_weight == "unit":
+                return np.ones(robot.nv)
+            spread = robot.torque_upper - robot.torque_lower
+            return np.where(np.isfinite(spread), 1.0 / spread, 0.0)  # Eq. (33)
+        weight = self.torque_weight
+        if weight.shape != (robot.nv,) or (weight < 0).any():
+            raise InvalidInput(
+                f"option torque_weight={','.join(f'{w:g}' for w in weight)} of resolver '{self.name}' must be "
+                f"{robot.nv} non-negative numbers, one per joint of robot '{robot.name}' (the diagonal of W)"
+            )
+        return np.sqrt(weight)
+
+    def check(self, robot: Robot) -> None:
+        super().check(robot)
+        self.weight_root(robot)
+
+    def _optimum(self, robot: Robot, bounded, spread, midpoint):
+        r = robot.redundancy
+        nb = spread.size
+        root = self.weight_root(robot)[:, None]
+        relative_weight2 = self.kinematic_weight**2
+        damping = self.damping
+        upper, lower, _ = _solver_bounds(robot, bounded)
+        program = _Program(np.eye(r), np.zeros(r), np.zeros((nb, r)), np.ones(nb), -np.ones(nb))
+        identity = np.eye(r)
+        inverse_spread = (1.0 / spread)[:, None]
+
+        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque):
+            weighted_basis = root * inertia_basis
+            offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eq. (29), Eq. (32)
+            hessian = weighted_basis.T.dot(weighted_basis)
+            cost = weighted_basis.T.dot(offset).reshape(-1)
+            if relative_weight2:
+                # μ̄² = μ²‖SHZ‖_F² = μ² trace((SHZ)ᵀSHZ), damped-null-space's normalisation.
+                mu2 = relative_weight2 * hessian.trace()
+                hessian = hessian + mu2 * identity
+                cost = cost + mu2 * damping * basis.T.dot(terms.joint_velocity)
+            # DAQP's pivot and zero tolerances are absolute: scale the criterion to a unit Hessian
+            # trace (the minimiser is the same), so that range weights on large limits stay well above them.
+            scale = r / hessian.trace()
+            rows = inertia_basis[bounded] * inverse_spread
+            base = tilde_torque[bounded]
+            y, flag, _ = program.solve(
+                H=scale * hessian,
+                f=scale * cost,
+                A=rows,
+                bupper=(upper - base) / spread,
+                blower=(lower - base) / spread,
+            )
+            if flag == _EXIT_INFEASIBLE:
+                return None
+            return y, tilde_torque + inertia_basis.dot(y)
+
+        return optimum

@@ -1,0 +1,161 @@
+r"""The bounded resolvers' programs, solved by DAQP: one workspace per program, the min-max torque LP, the range basis.
+
+Each program is set up once per run (:class:`_Program`) and only its
+numbers change at each step, with the previous step's active set as the
+warm start; every LP answer is certified by its own multipliers. The LPs
+run on an orthonormal basis of the range of :math:`HZ` (:class:`_RangeBasis`)
+rather than on :math:`y` of Eq. (26) itself.
+"""
+
+from __future__ import annotations
+
+import eigenpy
+import numpy as np
+
+from ...errors import MissingDependency, SolverFailure
+
+__all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE"]
+
+#: Feasibility tolerance of every bound row, as a fraction of the joint's torque range.
+FEASIBILITY_TOLERANCE = 1e-9
+#: How far inside each torque range [fraction of τ⁺ − τ⁻] the bounds given to DAQP lie.
+BOUND_MARGIN = 10 * FEASIBILITY_TOLERANCE
+_THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
+_EXIT_OPTIMAL = 1
+_EXIT_INFEASIBLE = -1
+_EXIT_NAMES = {
+    -2: "cycling",
+    -3: "unbounded",
+    -4: "iteration limit",
+    -5: "non-convex",
+    -6: "overdetermined initial active set",
+}
+
+
+def _daqp():
+    try:
+        import daqp
+    except ImportError:  # pragma: no cover - daqp is a core dependency
+        raise MissingDependency("the bounded resolvers need the QP solver DAQP: pip install daqp") from None
+    return daqp
+
+
+class _Program:
+    r"""One DAQP workspace: set up once with the problem's shape, then only its numbers change.
+
+    An LP (``linear=True``, zero Hessian) is solved by DAQP's proximal-point
+    iterations; their default stopping rule can end a few iterations short of
+    the optimum on these degenerate LPs (measured: 1e-5 short of the largest
+    task scaling on panda), so LPs run with a tight proximal tolerance and
+    every LP answer is certified by its own multipliers: dual feasibility and
+    stationarity :math:`c + A^\top\lambda = 0` of the LP itself, not of the
+    last proximal subproblem. An answer that fails the certificate raises
+    :class:`~torqueopt.errors.SolverFailure` rather than being used.
+    """
+
+    def __init__(self, hessian, cost, rows, upper, lower, bounds: int = 0, linear: bool = False):
+        daqp = _daqp()
+        self._model = daqp.Model()
+        settings = {"primal_tol": FEASIBILITY_TOLERANCE}
+        if linear:
+            settings["eta_prox"] = 1e-12
+        self._model.settings = settings
+        self._linear = linear
+        self._bounds = bounds
+        self._cost = np.asarray(cost, dtype=float)
+        self._rows = rows
+        flag = self._model.setup(hessian, cost, rows, upper, lower, np.zeros(rows.shape[0] + bounds, dtype=np.int32))[0]
+        if flag < 0:  # pragma: no cover - the shapes are ours
+            raise SolverFailure(f"DAQP setup failed with exit flag {flag}")
+
+    def solve(self, **numbers):
+        """(x, exit flag, multipliers) after replacing the given numbers (H, f, A, bupper, blower)."""
+        self._model.update(**numbers)
+        x, _, flag, info = self._model.solve()
+        if flag != _EXIT_OPTIMAL and flag != _EXIT_INFEASIBLE:
+            raise SolverFailure(f"DAQP failed: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})")
+        multipliers = info["lam"]
+        if self._linear and flag == _EXIT_OPTIMAL:
+            rows = numbers.get("A", self._rows)
+            self._rows = rows
+            stationarity = self._cost + rows.T.dot(multipliers[self._bounds :])
+            stationarity[: self._bounds] += multipliers[: self._bounds]
+            if np.abs(stationarity).max() > 1e-7 * (1.0 + np.abs(self._cost).max()):
+                raise SolverFailure(
+                    f"DAQP's LP answer fails its optimality certificate (stationarity residual "
+                    f"{np.abs(stationarity).max():.2g})"
+                )
+        return x, flag, multipliers
+
+
+class _RangeBasis:
+    r"""An orthonormal basis U of the range of :math:`G = HZ` (n × (n − m)), and y from a torque change in it.
+
+    The LPs and the policies' programs run on :math:`\tau = \tilde\tau + U z`
+    rather than on :math:`\tau = \tilde\tau + G y`: G's singular values span
+    the inertia's range (on xarm7, from 4e-3 to 4e-6 per N·m of range), which
+    no LP tolerance survives (DAQP reports such LPs unbounded), while U's
+    rows are bounded by 1. Then :math:`y = G^+ U z` (Eigen's SVD, the same
+    decomposition that gave U).
+    """
+
+    def __init__(self, rows: int, columns: int):
+        # One column (n − m = 1): U = G/‖G‖, with no SVD (eigenpy returns a full U for a column).
+        self._svd = eigenpy.HhJacobiSVD(rows, columns, _THIN_UV) if columns > 1 else None
+        self._column = None
+
+    def __call__(self, inertia_basis: np.ndarray) -> np.ndarray:
+        if self._svd is None:
+            self._column = inertia_basis[:, 0]
+            return inertia_basis / np.linalg.norm(self._column)
+        return self._svd.compute(inertia_basis).matrixU()
+
+    def coordinates(self, torque_change: np.ndarray) -> np.ndarray:
+        """y with G y = ``torque_change`` (a vector in the range of G, the G of the last call)."""
+        if self._svd is None:
+            column = self._column
+            return np.array([column.dot(torque_change) / column.dot(column)])
+        return self._svd.solve(torque_change)
+
+
+class _MinMax:
+    r"""The LP :math:`\min_{z,t} t` s.t. :math:`|\tilde\tau_i + (Uz)_i - \tau_{mid,i}| \le t\,(\tau^+_i - \tau^-_i)`."""
+
+    def __init__(self, bounded, spread, midpoint, redundancy: int):
+        nb = spread.size
+        self._bounded = bounded
+        self._midpoint = midpoint[bounded]
+        self._inverse_spread = 1.0 / spread
+        self._inverse_spread_column = self._inverse_spread[:, None]
+        self._r = redundancy
+        sign = np.r_[-np.ones(nb), np.ones(nb)][:, None]
+        rows = np.hstack([np.zeros((2 * nb, redundancy)), sign])
+        upper = np.r_[np.zeros(nb), np.full(nb, np.inf)]
+        lower = np.r_[np.full(nb, -np.inf), np.zeros(nb)]
+        self._rows, self._upper, self._lower = rows, upper, lower
+        # Views made once: each call writes the numbers into them in place.
+        self._rows_plus, self._rows_minus = rows[:nb, :redundancy], rows[nb:, :redundancy]
+        self._upper_plus, self._lower_minus = upper[:nb], lower[nb:]
+        self.program = _Program(
+            np.zeros((redundancy + 1, redundancy + 1)),
+            np.r_[np.zeros(redundancy), 1.0],
+            rows,
+            upper,
+            lower,
+            linear=True,
+        )
+
+    def __call__(self, range_basis, tilde_torque):
+        """(z, t) minimising the largest normalised torque t over τ = τ̃ + U z (U: ``range_basis``).
+
+        Row i: (U_i z − t) ≤ −c_i and (U_i z + t) ≥ −c_i, with U_i and c_i = τ̃_i − τ_mid,i divided by the range.
+        """
+        bounded = self._bounded
+        np.multiply(range_basis[bounded], self._inverse_spread_column, out=self._rows_plus)
+        self._rows_minus[...] = self._rows_plus
+        np.multiply(self._midpoint - tilde_torque[bounded], self._inverse_spread, out=self._upper_plus)
+        self._lower_minus[...] = self._upper_plus
+        x, flag, _ = self.program.solve(A=self._rows, bupper=self._upper, blower=self._lower)
+        if flag != _EXIT_OPTIMAL:  # pragma: no cover - t large enough is always feasible
+            raise SolverFailure("the min-max torque LP failed")
+        return x[: self._r], x[self._r]
