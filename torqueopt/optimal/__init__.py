@@ -9,7 +9,8 @@ deviation of an open-loop RK4 replay of those torques.
 Modules: :mod:`~torqueopt.optimal.transcription` (the NLP and its
 analytical derivatives), :mod:`~torqueopt.optimal.ipopt` (the solver),
 :mod:`~torqueopt.optimal.whole_path` (warm start, mapping to the simulation
-grid, validation), :mod:`~torqueopt.optimal.cost` (the cost of any run),
+grid, validation), :mod:`~torqueopt.optimal.result` (:class:`OptimalResult`,
+its summary and files), :mod:`~torqueopt.optimal.cost` (the cost of any run),
 :mod:`~torqueopt.optimal.replay` (open-loop replay).
 """
 
