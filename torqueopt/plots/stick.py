@@ -78,7 +78,7 @@ def plot_stick_strip(
     # Equal scales on both axes: widen the narrower range to the panel's shape.
     span = np.maximum(span, span[::-1] * np.array([1.0 / aspect, aspect]))
 
-    # Axes placed by hand, in inches: constrained layout costs about a second per strip.
+    # Axes placed by hand, in inches: constrained layout is slower per strip (BENCHMARKS.md, "Stick strips").
     columns = min(len(rows), 5)
     panel_rows = -(-len(rows) // columns)
     panel_width = 3.0
