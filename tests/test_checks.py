@@ -233,3 +233,24 @@ def test_a_velocity_vector_has_one_finite_rate_per_joint(planar3):
     assert refused(velocity_vector, planar3, [0, 1, np.inf], "v") == (
         "v [0.0, 1.0, inf] has a non-finite value; all 3 values must be finite"
     )
+
+
+def test_finite_values_with_a_minimum_refuse_values_below_it():
+    from torqueopt.checks import finite_values
+
+    assert finite_values([0, 2.5], "sweep dampings", minimum=0.0) == (0.0, 2.5)
+    assert finite_values(3, "torque_limit", minimum=0.0, strict=True) == (3.0,)
+    assert refused(finite_values, [1, -1], "sweep dampings", minimum=0.0) == (
+        "sweep dampings [1.0, -1.0] must be finite numbers >= 0"
+    )
+    assert refused(finite_values, [54, 0], "torque_limit", minimum=0.0, strict=True, unit="N·m") == (
+        "torque_limit [54.0, 0.0] must be positive numbers [N·m]"
+    )
+    assert (
+        refused(finite_values, [1, 2], "gains", minimum=1.5, strict=True)
+        == "gains [1.0, 2.0] must be finite numbers > 1.5"
+    )
+    assert (
+        refused(finite_values, ["a"], "sweep dampings", minimum=0.0) == "sweep dampings ['a'] is not a list of numbers"
+    )
+    assert refused(finite_values, [], "sweep dampings") == "sweep dampings [] must be finite numbers"

@@ -130,7 +130,7 @@ def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper, monkeypat
 
 
 def test_bad_sweep_grids_are_refused(paper):
-    with pytest.raises(torqueopt.InvalidInput, match=r"sweep dampings \[-1\] must be finite numbers >= 0"):
+    with pytest.raises(torqueopt.InvalidInput, match=r"sweep dampings \[-1.0\] must be finite numbers >= 0"):
         run_remedies(paper, dampings=[-1])
 
 

@@ -185,14 +185,28 @@ def finite_array(value, what: str, example: str = "1,1,1") -> np.ndarray:
     return array
 
 
-def finite_values(values, name: str) -> tuple[float, ...]:
-    """One or more finite numbers as a tuple of floats (any count), or InvalidInput naming ``name``."""
+def finite_values(
+    values, name: str, minimum: float | None = None, strict: bool = False, unit: str | None = None
+) -> tuple[float, ...]:
+    """One or more finite numbers as a tuple of floats (any count), or InvalidInput naming ``name``.
+
+    Args:
+        minimum: when given, every value must be >= it (> when ``strict``):
+            ``sweep dampings [-1.0] must be finite numbers >= 0``, ``torque_limit [0.0] must be positive numbers``.
+        unit: appended as `` [unit]``.
+    """
+    suffix = f" [{unit}]" if unit else ""
     try:
         array = np.asarray(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise InvalidInput(f"{name} {values!r} is not a list of numbers") from None
+        raise InvalidInput(f"{name} {values!r} is not a list of numbers{suffix}") from None
     if not array.size or not np.isfinite(array).all():
-        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers")
+        raise InvalidInput(f"{name} {array.tolist()} must be finite numbers{suffix}")
+    if minimum is not None and not all(_at_least(value, minimum, strict) for value in array.tolist()):
+        wanted = (
+            "positive numbers" if strict and minimum == 0 else f"finite numbers {'>' if strict else '>='} {minimum:g}"
+        )
+        raise InvalidInput(f"{name} {array.tolist()} must be {wanted}{suffix}")
     return tuple(array.tolist())
 
 

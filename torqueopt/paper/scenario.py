@@ -64,10 +64,9 @@ class PaperScenario:
                 f"({', '.join(MOVEMENTS)})"
             )
         object.__setattr__(self, "durations", durations)
-        limits = finite_values(self.torque_limit, "torque_limit")
-        if min(limits) <= 0:
-            raise InvalidInput(f"torque_limit {list(limits)} must be positive numbers [N·m]")
-        object.__setattr__(self, "torque_limit", limits)
+        object.__setattr__(
+            self, "torque_limit", finite_values(self.torque_limit, "torque_limit", minimum=0.0, strict=True, unit="N·m")
+        )
         for name in ("accel", "dt"):
             object.__setattr__(self, name, positive_number(getattr(self, name), name))
         if self.dt > min(durations):

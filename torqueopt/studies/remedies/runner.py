@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict
 
+from ...checks import finite_values
 from ...errors import InvalidInput
 from ...paper import MOVEMENTS, PaperResults, run_movement
 from ...resolvers import RESOLVERS
@@ -99,7 +100,4 @@ def run_remedies(
 
 
 def _grid(values: Sequence[float], what: str) -> tuple[float, ...]:
-    grid = tuple(float(v) for v in values)
-    if not grid or any(not (math.isfinite(v) and v >= 0) for v in grid):
-        raise InvalidInput(f"sweep {what}s {list(values)} must be finite numbers >= 0")
-    return grid
+    return finite_values(values, f"sweep {what}s", minimum=0.0)
