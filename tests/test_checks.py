@@ -254,3 +254,12 @@ def test_finite_values_with_a_minimum_refuse_values_below_it():
         refused(finite_values, ["a"], "sweep dampings", minimum=0.0) == "sweep dampings ['a'] is not a list of numbers"
     )
     assert refused(finite_values, [], "sweep dampings") == "sweep dampings [] must be finite numbers"
+
+
+def test_parse_number_takes_any_finite_number_and_names_the_option():
+    from torqueopt.checks import parse_number
+
+    assert parse_number("-0.5", "min-condition") == -0.5 and parse_number("1e-3", "min-condition") == 1e-3
+    assert refused(parse_number, "abc", "min-condition") == "--min-condition: 'abc' is not a number"
+    assert refused(parse_number, "nan", "min-condition") == "--min-condition: nan must be a finite number"
+    assert refused(parse_number, "-inf", "min-condition") == "--min-condition: -inf must be a finite number"

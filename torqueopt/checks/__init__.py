@@ -11,7 +11,7 @@ numbers) written once:
   :class:`Refused` for the option machinery to complete;
 * :mod:`~torqueopt.checks.text`: the same rules on the text of command-line
   options, named ``--name: text`` (:func:`parse_vector`,
-  :func:`parse_positive`, :func:`parse_whole`, :func:`parse_count`);
+  :func:`parse_number`, :func:`parse_positive`, :func:`parse_whole`, :func:`parse_count`);
 * :mod:`~torqueopt.checks.work`: bounds on the work a request asks for
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
@@ -47,7 +47,7 @@ from .robot import (
     velocity_vector,
     weight_matrix_root,
 )
-from .text import parse_count, parse_positive, parse_vector, parse_whole
+from .text import parse_count, parse_number, parse_positive, parse_vector, parse_whole
 from .work import bounded_count, step_count
 
 __all__ = [
@@ -65,6 +65,7 @@ __all__ = [
     "show_number",
     "count_values",
     "parse_vector",
+    "parse_number",
     "parse_positive",
     "parse_whole",
     "parse_count",

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InvalidInput
 from .numbers import _at_least, _is_whole, _whole_wording, count_values
 
-__all__ = ["parse_vector", "parse_positive", "parse_count", "parse_whole"]
+__all__ = ["parse_vector", "parse_number", "parse_positive", "parse_count", "parse_whole"]
 
 
 def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: bool = False) -> np.ndarray:
@@ -39,6 +39,14 @@ def _parse_number(text: str, name: str) -> float:
         return float(text)
     except ValueError:
         raise InvalidInput(f"--{name}: '{text}' is not a number") from None
+
+
+def parse_number(text: str, name: str) -> float:
+    """The finite number of option ``--name`` (its range, if any, is the API's to check)."""
+    value = _parse_number(text, name)
+    if not math.isfinite(value):
+        raise InvalidInput(f"--{name}: {text} must be a finite number")
+    return value
 
 
 def parse_positive(text: str, name: str) -> float:

@@ -9,7 +9,7 @@ import time
 from ..resolvers import resolver_names
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK
-from .common import parse_positive, parse_vector, parse_whole
+from .common import parse_number, parse_positive, parse_vector, parse_whole
 
 __all__ = ["add_parser"]
 
@@ -140,7 +140,7 @@ def atlas_command(args: argparse.Namespace) -> int:
         chunk_size=parse_whole(args.chunk_size, "chunk-size", 1),
         mode=args.mode,
         reach_fraction=parse_positive(args.reach_fraction, "reach-fraction"),
-        min_condition=float(parse_vector(args.min_condition, "min-condition", 1)[0]),
+        min_condition=parse_number(args.min_condition, "min-condition"),
         grid_spacing=parse_positive(args.grid_spacing, "grid-spacing"),
         grid_directions=parse_whole(args.grid_directions, "grid-directions", 1),
         accel=parse_positive(args.accel, "accel"),

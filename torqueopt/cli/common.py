@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..checks import parse_count, parse_positive, parse_vector, parse_whole
+from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
 from ..loading import load_robot
 from ..robot import TASK_DIMENSIONS, Robot
 
@@ -13,6 +13,7 @@ __all__ = [
     "add_start_options",
     "robot_from_args",
     "parse_vector",
+    "parse_number",
     "parse_positive",
     "parse_count",
     "parse_whole",
