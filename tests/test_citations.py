@@ -7,7 +7,8 @@ Each registered resolver lists its equations in its class attribute
 ``equations``; the registry's tables (the docstrings of
 :mod:`torqueopt.resolvers` and :mod:`torqueopt.resolvers.velocity`), the
 README's tables, the resolver's docstrings and the comments at the lines
-that compute them all carry exactly those numbers.
+that compute them all carry exactly those numbers. And the code, the README,
+the examples and the tests cite no issue, pull-request or session numbers.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ MENTION = re.compile(r"\b(?:[Ee]qs?|[Ee]quations?)\b\.?\s*\(?\s*\d+")
 #: A number in parentheses that continues a citation list without its own "Eq.": "Eq. (1), (2)", "Eq. (1)-(3)".
 CONTINUED = re.compile(r"\)\s*(?:,|-|–|—|and|or|to)\s*\(\d+\)")
 LISTED = re.compile(r"(?:[Ee]qs?|[Ee]quations?)\.?\s*\(\d+\)$")
+#: A number of an issue, a pull request or a work session.
+WORK_ITEM = re.compile(r"\b[Ii]ssues? #?\d+|\b(?:[Pp]ull request|PR) #?\d+|(?<![\w/&])#\d+\b|\b[Ss]ession \d+")
 #: The paper numbers its equations (1) to (37).
 PAPER_EQUATIONS = range(1, 38)
 
@@ -139,3 +142,21 @@ def test_each_declared_equation_is_cited_at_a_line_of_code(name):
     )
     cited = set(map(int, CITED.findall(comments)))
     assert set(RESOLVERS[name].equations) <= cited, f"no comment cites {sorted(set(RESOLVERS[name].equations) - cited)}"
+
+
+def test_the_work_item_check_finds_issue_and_pull_request_numbers():
+    # Built from pieces, so that this file itself cites none.
+    cited = ["issue" + " 3", "#" + "12", "PR" + " 7", "session" + " 2"]
+    text = f"as {cited[0]} asks; see {cited[1]} and {cited[2]} ({cited[3]}); colour #ff0000, Eq. (3), the issues found"
+    assert WORK_ITEM.findall(text) == cited
+
+
+@pytest.mark.parametrize(
+    "path",
+    [*cited_files(), *sorted((ROOT / "tests").glob("*.py"))],
+    ids=lambda path: str(path.relative_to(ROOT)),
+)
+def test_no_issue_numbers_in_code_docstrings_or_tests(path):
+    """The code says what it does, not which piece of work brought it: no issue, pull-request or session numbers."""
+    found = WORK_ITEM.findall(path.read_text(encoding="utf-8"))
+    assert not found, f"{path.relative_to(ROOT)} cites work items: {found}"
