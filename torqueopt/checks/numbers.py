@@ -6,6 +6,13 @@ declared resolver option (:mod:`torqueopt.resolvers.options`) is named by the
 option machinery, so its converters (:func:`number_at_least`,
 :func:`finite_array`) raise :class:`Refused` with only what the value must be,
 which the machinery completes as ``option NAME=VALUE of resolver 'R' ...``.
+
+Which vector check to use:
+
+* :func:`finite_vector`: exactly n values, one per joint (names the joints);
+* :func:`finite_numbers`: a point, direction or target of 2 or 3 (or a given number of) coordinates;
+* :func:`finite_values`: any number of values, a list of durations or a sweep grid;
+* :func:`finite_array`: an option's vector or matrix, keeping its shape.
 """
 
 from __future__ import annotations
