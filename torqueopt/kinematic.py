@@ -107,7 +107,8 @@ def simulate_kinematic(
     method is undefined with the last row where it was.
     """
     from .checks import configuration_vector
-    from .simulate import DEFAULT_MAX_STEPS, _row_bytes, _task_reference, run_result, step_budget
+    from .run_log import logged_row_bytes, run_result, task_reference
+    from .simulate import DEFAULT_MAX_STEPS, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)
@@ -121,7 +122,7 @@ def simulate_kinematic(
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
     steps = step_budget(
-        duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=_row_bytes(robot)
+        duration, dt, DEFAULT_MAX_STEPS if max_steps is None else max_steps, row_bytes=logged_row_bytes(robot)
     )
     q = configuration_vector(robot, q0)
     if v0 is not None and np.any(velocity_vector(robot, v0) != 0.0):
@@ -134,7 +135,7 @@ def simulate_kinematic(
     trajectory = _anchored(robot, trajectory, placement)
     # Reference at every step start and mid-step: RK4 evaluates f at t, t + h/2 and t + h.
     half_times = 0.5 * dt * np.arange(2 * steps + 1)
-    reference = _task_reference(robot, trajectory, half_times)
+    reference = task_reference(robot, trajectory, half_times)
     ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
     times = half_times[::2]
 

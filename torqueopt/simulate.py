@@ -35,13 +35,13 @@ from .checks import (
     step_count,
     velocity_vector,
 )
-from .dexterity import dexterity_along
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
 from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
-from .result import SimResult, joint_limits_record
+from .result import SimResult
 from .robot import Robot
-from .trajectory import Trajectory, check_trajectory, describe
+from .run_log import logged_row_bytes, run_result, task_reference
+from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
 
@@ -151,7 +151,7 @@ def simulate(
     dt = positive_number(dt, "dt", "s")
     duration = trajectory.duration if duration is None else duration
     duration = positive_number(duration, "duration", "s")
-    steps = step_budget(duration, dt, max_steps, row_bytes=_row_bytes(robot))
+    steps = step_budget(duration, dt, max_steps, row_bytes=logged_row_bytes(robot))
     if feedback is not None and not isinstance(feedback, Feedback):
         feedback = Feedback(*feedback)
 
@@ -171,7 +171,7 @@ def simulate(
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 
     times = dt * np.arange(steps + 1)
-    reference = _task_reference(robot, trajectory, times)
+    reference = task_reference(robot, trajectory, times)
 
     n = robot.nv
     limit = robot.torque_upper
@@ -260,63 +260,6 @@ def simulate(
         task_error=task_error_log,
         infeasible=infeasible_log,
         dexterity=dexterity,
-    )
-
-
-def run_result(
-    robot: Robot,
-    resolver,
-    log: list[tuple],
-    times: np.ndarray,
-    reference_position: np.ndarray,
-    *,
-    dt: float,
-    duration: float,
-    stop_reason: str | None,
-    stop_time: float | None,
-    trajectory,
-    task_error: np.ndarray,
-    infeasible: np.ndarray,
-    dexterity: bool,
-) -> SimResult:
-    """The :class:`SimResult` of a run from its per-step ``log`` of (q, v, q̈, τ, x, σmin/σmax) tuples.
-
-    ``times`` and ``reference_position`` are the run's whole grid and
-    reference; the result keeps their first ``len(log)`` rows. Every loop
-    (held-torque and kinematic) builds its result here.
-    """
-    recorded = len(log)
-    n = robot.nv
-    q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = _columns(
-        log, (robot.nq, n, n, n, robot.m)
-    )
-    return SimResult(
-        robot=robot.name,
-        frame=robot.frame,
-        task=robot.task,
-        resolver=resolver.name,
-        resolver_options=resolver.settings_for_file(),
-        joint_names=list(robot.joint_names),
-        dt=dt,
-        t=times[:recorded].copy(),
-        q=q_log,
-        joint_angles=robot.joint_angles(q_log).reshape(recorded, n),
-        v=v_log,
-        acceleration=acceleration_log,
-        tau=torque_log,
-        x=x_log,
-        x_ref=reference_position[:recorded].copy(),
-        jacobian_inverse_condition=inverse_condition_log,
-        torque_upper=robot.torque_upper.copy(),
-        torque_lower=robot.torque_lower.copy(),
-        duration=duration,
-        stop_reason=stop_reason,
-        stop_time=stop_time,
-        trajectory=describe(trajectory),
-        task_error=task_error,
-        infeasible=infeasible,
-        dexterity=dexterity_along(robot, q_log) if dexterity else None,
-        joint_limits=joint_limits_record(*robot.joint_limits),
     )
 
 
@@ -412,35 +355,3 @@ def _jacobian_inverse_condition(jacobian: np.ndarray) -> float:
     """σ_min/σ_max of a task Jacobian (0 when it is zero), for rows at which no resolver runs."""
     singular_values = np.linalg.svd(jacobian, compute_uv=False)
     return float(singular_values[-1] / singular_values[0]) if singular_values[0] > 0 else 0.0
-
-
-def _row_bytes(robot: Robot) -> int:
-    """Memory one recorded step takes while a run is logged [bytes]: six arrays, their headers and a tuple."""
-    floats = robot.nq + 3 * robot.nv + robot.m + 2
-    return 8 * floats + 6 * 112 + 96
-
-
-def _columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
-    """The per-step tuples of ``log`` as arrays: one (steps × size) array per vector field, then the trailing float.
-
-    Each vector field is joined by one ``concatenate`` (cheaper per row than
-    ``np.array`` of a list of arrays).
-    """
-    if not log:
-        return [*(np.empty((0, size)) for size in sizes), np.empty(0)]
-    *vectors, scalars = zip(*log)
-    arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
-    return [*arrays, np.array(scalars, dtype=float)]
-
-
-def _task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray):
-    """The trajectory's samples embedded in the task coordinates (zero orientation rows for ``pose``)."""
-    sample = trajectory.sample(times)
-    if robot.task != "pose":
-        return sample
-    pad = np.zeros((times.size, 3))
-    return type(sample)(
-        position=np.hstack([sample.position, pad]),
-        velocity=np.hstack([sample.velocity, pad]),
-        acceleration=np.hstack([sample.acceleration, pad]),
-    )

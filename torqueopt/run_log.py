@@ -1,0 +1,109 @@
+"""A run's log and the :class:`~torqueopt.result.SimResult` made from it, shared by every simulation loop.
+
+The held-torque loop (:func:`torqueopt.simulate`) and the kinematic loop
+(:func:`torqueopt.kinematic.simulate_kinematic`) log one tuple
+(q, v, q̈, τ, x, σmin/σmax) per step; :func:`run_result` turns the log into
+the run's result, with the reference of :func:`task_reference` on the same
+grid. :func:`logged_row_bytes` is what one logged step costs in
+memory, for the step budget checked before a run starts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .dexterity import dexterity_along
+from .result import SimResult, joint_limits_record
+from .robot import Robot
+from .trajectory import Trajectory, describe
+
+__all__ = ["log_columns", "logged_row_bytes", "run_result", "task_reference"]
+
+
+def run_result(
+    robot: Robot,
+    resolver,
+    log: list[tuple],
+    times: np.ndarray,
+    reference_position: np.ndarray,
+    *,
+    dt: float,
+    duration: float,
+    stop_reason: str | None,
+    stop_time: float | None,
+    trajectory,
+    task_error: np.ndarray,
+    infeasible: np.ndarray,
+    dexterity: bool,
+) -> SimResult:
+    """The :class:`SimResult` of a run from its per-step ``log`` of (q, v, q̈, τ, x, σmin/σmax) tuples.
+
+    ``times`` and ``reference_position`` are the run's whole grid and
+    reference; the result keeps their first ``len(log)`` rows. Every loop
+    (held-torque and kinematic) builds its result here.
+    """
+    recorded = len(log)
+    n = robot.nv
+    q_log, v_log, acceleration_log, torque_log, x_log, inverse_condition_log = log_columns(
+        log, (robot.nq, n, n, n, robot.m)
+    )
+    return SimResult(
+        robot=robot.name,
+        frame=robot.frame,
+        task=robot.task,
+        resolver=resolver.name,
+        resolver_options=resolver.settings_for_file(),
+        joint_names=list(robot.joint_names),
+        dt=dt,
+        t=times[:recorded].copy(),
+        q=q_log,
+        joint_angles=robot.joint_angles(q_log).reshape(recorded, n),
+        v=v_log,
+        acceleration=acceleration_log,
+        tau=torque_log,
+        x=x_log,
+        x_ref=reference_position[:recorded].copy(),
+        jacobian_inverse_condition=inverse_condition_log,
+        torque_upper=robot.torque_upper.copy(),
+        torque_lower=robot.torque_lower.copy(),
+        duration=duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+        trajectory=describe(trajectory),
+        task_error=task_error,
+        infeasible=infeasible,
+        dexterity=dexterity_along(robot, q_log) if dexterity else None,
+        joint_limits=joint_limits_record(*robot.joint_limits),
+    )
+
+
+def task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray):
+    """The trajectory's samples embedded in the task coordinates (zero orientation rows for ``pose``)."""
+    sample = trajectory.sample(times)
+    if robot.task != "pose":
+        return sample
+    pad = np.zeros((times.size, 3))
+    return type(sample)(
+        position=np.hstack([sample.position, pad]),
+        velocity=np.hstack([sample.velocity, pad]),
+        acceleration=np.hstack([sample.acceleration, pad]),
+    )
+
+
+def logged_row_bytes(robot: Robot) -> int:
+    """Memory one recorded step takes while a run is logged [bytes]: six arrays, their headers and a tuple."""
+    floats = robot.nq + 3 * robot.nv + robot.m + 2
+    return 8 * floats + 6 * 112 + 96
+
+
+def log_columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
+    """The per-step tuples of ``log`` as arrays: one (steps × size) array per vector field, then the trailing float.
+
+    Each vector field is joined by one ``concatenate`` (cheaper per row than
+    ``np.array`` of a list of arrays).
+    """
+    if not log:
+        return [*(np.empty((0, size)) for size in sizes), np.empty(0)]
+    *vectors, scalars = zip(*log)
+    arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
+    return [*arrays, np.array(scalars, dtype=float)]
