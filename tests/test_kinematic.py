@@ -213,34 +213,43 @@ def test_the_avoidance_switches_on_smoothly():
 # -- runs: torques by inverse dynamics on the motion ----------------------------------------
 
 
+#: The methods run on the paper's long movement: key -> (resolver, options).
+LONG_CASES = {
+    "velocity-pinv": ("velocity-pinv", {}),
+    "gradient-projection": ("gradient-projection", {"k": 30.0}),
+    "manipulability": ("gradient-projection", {"criterion": "manipulability", "k": 1.0}),
+    "kinetic-energy-pinv": ("kinetic-energy-pinv", {}),
+    "extended-jacobian": ("extended-jacobian", {}),
+    "task-priority": ("task-priority", {"secondary": FrameTask("link3", "xy", target=ELBOW_TARGET)}),
+    "obstacle-avoidance": ("obstacle-avoidance", {"obstacle": OBSTACLE}),
+    "pinv": ("pinv", {}),
+    "null-space": ("null-space", {}),
+}
+KINEMATIC_CASES = [key for key in LONG_CASES if key not in ("pinv", "null-space")]
+
+
 @pytest.fixture(scope="module")
 def long_runs(planar3):
-    """The paper's long movement with every velocity-level method (and the torque methods beside)."""
-    cases = {
-        "velocity-pinv": {},
-        "gradient-projection": {"k": 30.0},
-        "manipulability": {"criterion": "manipulability", "k": 1.0},
-        "kinetic-energy-pinv": {},
-        "extended-jacobian": {},
-        "task-priority": {"secondary": FrameTask("link3", "xy", target=ELBOW_TARGET)},
-        "obstacle-avoidance": {"obstacle": OBSTACLE},
-    }
+    """The paper's long movement with every velocity-level method (and the torque methods beside),
+    by key of :data:`LONG_CASES`: each run is simulated the first time a test asks for it, then kept."""
     runs = {}
-    for key, options in cases.items():
-        name = "gradient-projection" if key == "manipulability" else key
-        runs[key] = torqueopt.simulate(planar3, name, LONG, PAPER_Q0, resolver_options=options)
-    for name in ("pinv", "null-space"):
-        runs[name] = torqueopt.simulate(planar3, name, LONG, PAPER_Q0)
-    return runs
+
+    def run(key):
+        if key not in runs:
+            name, options = LONG_CASES[key]
+            runs[key] = torqueopt.simulate(planar3, name, LONG, PAPER_Q0, resolver_options=options)
+        return runs[key]
+
+    return run
 
 
+@pytest.mark.slow
 def test_every_kinematic_run_tracks_the_line_and_records_consistent_torques(long_runs, planar3):
     """q̈ of the record matches differences of its q̇ (away from the reference's jumps at 0 and T/2),
     the task acceleration is met, and the power τ·q̇ equals dT/dt (no gravity on the paper's arm)."""
     data = planar3.model.createData()
-    for key, result in long_runs.items():
-        if key in ("pinv", "null-space"):
-            continue
+    for key in KINEMATIC_CASES:
+        result = long_runs(key)
         assert result.completed, key
         assert result.max_tip_error < 1e-9, key
         differences = np.gradient(result.v, result.dt, axis=0)
@@ -268,7 +277,7 @@ def test_every_kinematic_run_tracks_the_line_and_records_consistent_torques(long
 def test_joint_limit_gradient_projection_keeps_joints_nearer_mid_range(long_runs, planar3):
     criterion = JointLimits()
     mean_p = {
-        key: np.mean([criterion.value(Kinematics(planar3).update(q)) for q in long_runs[key].q])
+        key: np.mean([criterion.value(Kinematics(planar3).update(q)) for q in long_runs(key).q])
         for key in ("velocity-pinv", "gradient-projection")
     }
     assert mean_p["gradient-projection"] < 0.9 * mean_p["velocity-pinv"]
@@ -276,12 +285,12 @@ def test_joint_limit_gradient_projection_keeps_joints_nearer_mid_range(long_runs
 
 def test_manipulability_gradient_projection_keeps_w_higher(long_runs, planar3):
     mean_w = {
-        key: np.mean([closed_form_manipulability(q) for q in long_runs[key].q])
+        key: np.mean([closed_form_manipulability(q) for q in long_runs(key).q])
         for key in ("velocity-pinv", "manipulability")
     }
     assert mean_w["manipulability"] > 1.02 * mean_w["velocity-pinv"]
-    assert closed_form_manipulability(long_runs["manipulability"].q[-1]) > closed_form_manipulability(
-        long_runs["velocity-pinv"].q[-1]
+    assert closed_form_manipulability(long_runs("manipulability").q[-1]) > closed_form_manipulability(
+        long_runs("velocity-pinv").q[-1]
     )
 
 
@@ -292,7 +301,7 @@ def test_the_secondary_task_moves_the_elbow_to_its_target_without_touching_the_t
     def elbow_miss(result):
         return np.array([np.linalg.norm(planar_points(q)[2] - ELBOW_TARGET) for q in result.q])
 
-    priority, plain = long_runs["task-priority"], long_runs["velocity-pinv"]
+    priority, plain = long_runs("task-priority"), long_runs("velocity-pinv")
     assert priority.max_tip_error < 1e-9
     assert elbow_miss(priority).mean() < 0.75 * elbow_miss(plain).mean()
     best = np.linalg.norm(priority.x[-1] - ELBOW_TARGET) - 1.0
@@ -306,15 +315,16 @@ def test_obstacle_avoidance_increases_the_clearance(long_runs, planar3):
         kinematics = Kinematics(planar3)
         return min(obstacle.clearance(kinematics.update(q)) for q in result.q)
 
-    assert clearance(long_runs["velocity-pinv"]) < 0.0  # the plain pseudoinverse runs the arm through it
-    assert clearance(long_runs["obstacle-avoidance"]) > 0.2
+    assert clearance(long_runs("velocity-pinv")) < 0.0  # the plain pseudoinverse runs the arm through it
+    assert clearance(long_runs("obstacle-avoidance")) > 0.2
 
 
+@pytest.mark.slow
 def test_the_kinematic_pseudoinverse_does_not_whip_where_the_null_space_method_does(long_runs):
     """The paper's contrast, on the velocity-level resolved rate: no whiplash on the long movement."""
-    assert detect_whiplash(long_runs["null-space"]).unstable
+    assert detect_whiplash(long_runs("null-space")).unstable
     for key in ("velocity-pinv", "kinetic-energy-pinv", "extended-jacobian"):
-        assert not detect_whiplash(long_runs[key]).unstable, key
+        assert not detect_whiplash(long_runs(key)).unstable, key
 
 
 # -- repeatability (Klein & Huang) ------------------------------------------------------------
@@ -330,6 +340,7 @@ def test_pinv_drifts_after_one_loop_and_the_extended_jacobian_does_not(planar3):
     assert drift["extended-jacobian"] < 1e-6
 
 
+@pytest.mark.slow
 def test_the_extended_jacobian_stops_cleanly_at_its_algorithmic_singularity(planar3):
     """On the circle centred toward the base the surface G = G(q0) folds: the run stops, saying where it stood."""
     result = torqueopt.simulate(planar3, "extended-jacobian", torqueopt.Circle(0.3, 4.0), PAPER_Q0, dt=0.005)
