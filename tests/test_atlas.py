@@ -262,6 +262,7 @@ def test_post_hoc_energy_equals_the_batched_one(planar3):
     assert np.allclose(self_motion, extra.self_motion_energy, rtol=1e-7, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_unbatched_rows_equal_batched_rows():
     movements = [(1.0, PAPER_Q0, (1, 1)), (1.0, [0.3, 1.2, -0.9], (-1, 0.4))]
     batched, unbatched = _rows(movements, batch=True), _rows(movements, batch=False)
@@ -287,6 +288,7 @@ def reference_atlas(tmp_path_factory):
     return _table(out)
 
 
+@pytest.mark.slow
 def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
     table = reference_atlas
     required = [
