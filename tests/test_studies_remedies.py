@@ -14,15 +14,9 @@ import pytest
 
 import torqueopt
 from torqueopt.cli import main
-from torqueopt.paper import run_paper
 from torqueopt.resolvers import RESOLVERS
 from torqueopt.studies import remedies as study_module
 from torqueopt.studies.remedies import REMEDIES, run_remedies, torque_cost
-
-
-@pytest.fixture(scope="module")
-def paper():
-    return run_paper()
 
 
 @pytest.fixture(scope="module")
