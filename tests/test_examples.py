@@ -66,6 +66,7 @@ def test_paths_and_dexterity_example_shows_the_papers_long_movement_verdicts():
     assert printed.startswith("at q0: w = 1.2247, dynamic w = 5.7427")
 
 
+@pytest.mark.slow
 def test_remedies_sweep_prints_its_grid_and_the_answer():
     printed = run_example("remedies_sweep.py", "--torque-weight", "range", "--kinematic-weights", "0,0.5",
                           "--dampings", "10")  # fmt: skip
