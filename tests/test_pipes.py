@@ -23,7 +23,8 @@ def _environment(unbuffered: bool) -> dict:
     return environment
 
 
-@pytest.mark.parametrize("unbuffered", [True, False])
+# One case of each pipe test runs in the quick selection (-m "not slow"), the other in the full suite.
+@pytest.mark.parametrize("unbuffered", [pytest.param(True, marks=pytest.mark.slow), False])
 def test_a_reader_that_closed_before_the_first_line_costs_no_file(tmp_path, unbuffered):
     """The pipe's read end is closed before the command prints anything, so its
     first print fails with EPIPE: the run must still write the whole file and exit 0."""
@@ -44,7 +45,7 @@ def test_a_reader_that_closed_before_the_first_line_costs_no_file(tmp_path, unbu
     assert result.completed and len(result.t) == 501 and result.t[-1] == pytest.approx(0.5)
 
 
-@pytest.mark.parametrize("unbuffered", [True, False])
+@pytest.mark.parametrize("unbuffered", [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_head_takes_one_line_and_the_file_is_complete(tmp_path, unbuffered):
     out = tmp_path / "run.csv"
     command = " ".join([f"'{sys.executable}'", "-m", "torqueopt", *RUN, "--out", str(out)])
