@@ -25,7 +25,15 @@ def _png_size(path):
     return struct.unpack(">II", header[16:24])
 
 
-@pytest.mark.parametrize("suffix, magic", [(".pdf", b"%PDF-"), (".svg", b"<?xml"), (".png", b"\x89PNG")])
+# PDF runs in the quick selection (-m "not slow"); tests/test_plots.py writes PNGs there too.
+@pytest.mark.parametrize(
+    "suffix, magic",
+    [
+        (".pdf", b"%PDF-"),
+        pytest.param(".svg", b"<?xml", marks=pytest.mark.slow),
+        pytest.param(".png", b"\x89PNG", marks=pytest.mark.slow),
+    ],
+)
 def test_plot_writes_the_format_its_suffix_names(saved_run, tmp_path, suffix, magic):
     out = tmp_path / f"fig{suffix}"
     assert main(["plot", str(saved_run), "--out", str(out)]) == 0
