@@ -283,6 +283,7 @@ def test_joint_limit_gradient_projection_keeps_joints_nearer_mid_range(long_runs
     assert mean_p["gradient-projection"] < 0.9 * mean_p["velocity-pinv"]
 
 
+@pytest.mark.slow
 def test_manipulability_gradient_projection_keeps_w_higher(long_runs, planar3):
     mean_w = {
         key: np.mean([closed_form_manipulability(q) for q in long_runs(key).q])
@@ -294,6 +295,7 @@ def test_manipulability_gradient_projection_keeps_w_higher(long_runs, planar3):
     )
 
 
+@pytest.mark.slow
 def test_the_secondary_task_moves_the_elbow_to_its_target_without_touching_the_tip(long_runs):
     """The elbow lies on the unit circle about the tip, so the best it can do is |x_tip − target| − 1:
     the low-priority task reaches that insofar-as-possible optimum while the tip stays on its path."""
@@ -308,6 +310,7 @@ def test_the_secondary_task_moves_the_elbow_to_its_target_without_touching_the_t
     assert elbow_miss(priority)[-1] == pytest.approx(best, abs=2e-3) and elbow_miss(plain)[-1] > best + 0.2
 
 
+@pytest.mark.slow
 def test_obstacle_avoidance_increases_the_clearance(long_runs, planar3):
     obstacle = ObstacleTask.from_spec(OBSTACLE)
 
