@@ -255,6 +255,7 @@ def test_run_cost_sums_the_applied_torques(paper_arm):
     assert torque_cost(np.ones((4, 3)), 0.5, np.eye(3), np.zeros(3)) == pytest.approx(6.0)
 
 
+@pytest.mark.slow
 def test_solution_replays_on_the_path_and_beats_its_warm_start(paper_arm):
     result = optimize(paper_arm, PAPER.line("long"), PAPER.q0)
     assert result.optimal
