@@ -150,6 +150,7 @@ def test_paper_command_writes_the_remedies_section_and_figures(tmp_path, capsys)
     assert study_module.SWEPT_RESOLVER == "damped-null-space"
 
 
+@pytest.mark.slow
 def test_a_range_weighted_sweep_is_measured_against_weighted_null_space(paper):
     study = run_remedies(paper, kinematic_weights=(0.0, 0.5), dampings=(10.0,), torque_weight="range")
     zero = min(study.sweep, key=lambda p: p.kinematic_weight)
