@@ -307,8 +307,16 @@ def _largest_scaling(ref, tolerance=1e-10):
     return low
 
 
-@pytest.mark.parametrize("name", ["bounded-torque", "minmax-torque"])
-@pytest.mark.parametrize("robot_name", ["tight_planar3", "tight_panda"])
+# Each resolver on one arm in the quick selection (-m "not slow"), on both in the full suite.
+@pytest.mark.parametrize(
+    "robot_name, name",
+    [
+        pytest.param("tight_planar3", "bounded-torque", marks=pytest.mark.slow),
+        ("tight_planar3", "minmax-torque"),
+        ("tight_panda", "bounded-torque"),
+        pytest.param("tight_panda", "minmax-torque", marks=pytest.mark.slow),
+    ],
+)
 def test_scale_reports_the_true_largest_feasible_scaling(name, robot_name, request):
     robot = request.getfixturevalue(robot_name)
     step = _step(name, robot, infeasible="scale")
