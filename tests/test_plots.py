@@ -129,6 +129,7 @@ def test_plot_command_writes_the_figure_beside_the_run(saved_runs, capsys):
     assert_png(saved_runs / "short.png")
 
 
+@pytest.mark.slow
 def test_plot_command_reads_npz_and_takes_out_and_title(saved_runs, tmp_path, capsys, titles):
     out = tmp_path / "figures" / "mine.png"
     assert main(["plot", str(saved_runs / "short.npz"), "--out", str(out), "--title", "my run"]) == 0
