@@ -222,6 +222,7 @@ def test_verdicts_on_the_papers_three_movements():
     assert rows[2, "null-space"]["instability_time"] > 1.0  # "near the movement end"
 
 
+@pytest.mark.slow
 def test_a_path_too_demanding_for_pinv_is_not_called_whiplash():
     """Eight times the paper's acceleration over 0.5 s: pinv itself needs more
     than twice the limits, so every resolver fails the 2x-limit rule, and none
@@ -478,6 +479,7 @@ def test_a_resolver_the_batch_does_not_cover_runs_through_simulate():
     assert rows[0, "damped-null-space"]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio))
 
 
+@pytest.mark.slow
 def test_bounded_resolver_rows_keep_the_task_it_gave_up(planar3):
     """bounded-torque holds the limits on the paper's long movement and gives up
     task acceleration instead: the row says how much, as the run does."""
