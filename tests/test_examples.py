@@ -23,6 +23,7 @@ def test_quickstart_shows_the_null_space_cut_in_joint_1_torque():
     assert "null-space: peak |tau| = [  0.73,   3.19,   4.25]" in printed
 
 
+@pytest.mark.slow
 def test_seven_dof_example_flags_the_null_space_resolver_on_xarm7():
     printed = run_example("seven_dof_instability.py", "--robots", "xarm7", "--duration", "0.5")
     rows = {line.split()[1]: line.split() for line in printed.splitlines() if line.startswith("xarm7")}
