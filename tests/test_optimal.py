@@ -139,6 +139,7 @@ def path_inverse_dynamics(arm, line, q0, times):
     return np.array(torques)
 
 
+@pytest.mark.slow
 def test_without_redundancy_the_optimum_is_the_inverse_dynamics_of_the_path():
     """Joint 3 locked: n = m = 2, the path fixes the motion, so the optimum is its inverse dynamics."""
     arm = torqueopt.load_robot("planar3", lock=["joint3"], torque_limit=[54.0, 24.0])
