@@ -92,6 +92,7 @@ def test_snapshots_crowd_where_the_joints_move_fast(stopped_run):
     assert sum(stopped_run.t[rows] > 0.7) >= 4
 
 
+@pytest.mark.slow
 def test_a_stopped_run_is_drawn_up_to_its_stop_and_says_so(tmp_path, stopped_run, titles):
     assert not stopped_run.completed and 1.0 < stopped_run.stop_time < 2.0
     assert_png(plots.plot_run(stopped_run, tmp_path / "run.png"))
