@@ -1,5 +1,6 @@
 """The stability atlas: population, verdicts, statistics, the Dask sweep, resume after a kill, the CLI."""
 
+import importlib.util
 import json
 import math
 import os
@@ -14,8 +15,11 @@ import pinocchio as pin
 import pytest
 
 # The atlas is an extra (pip install torqueopt[atlas]): without it these tests skip, saying so.
+# Dask is only looked for, not imported (that takes a third of a second): most tests here
+# sweep in-process, and the sweep imports Dask itself when it needs it.
 pandas = pytest.importorskip("pandas")
-pytest.importorskip("dask.distributed")
+if importlib.util.find_spec("distributed") is None:
+    pytest.skip("could not find 'distributed': the atlas needs dask[distributed]", allow_module_level=True)
 pytest.importorskip("pyarrow")
 pytest.importorskip("tqdm")
 
