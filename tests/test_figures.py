@@ -70,6 +70,7 @@ def test_an_unknown_format_or_bad_dpi_is_refused_before_work(saved_run, tmp_path
     assert not list(tmp_path.glob("fig*"))
 
 
+@pytest.mark.slow
 def test_no_tick_label_is_below_8_points(saved_run, tmp_path, monkeypatch):
     """Every figure goes through one save: look at the figure it saved."""
     import torqueopt.plots.run as run_figure
