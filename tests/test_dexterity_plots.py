@@ -53,7 +53,8 @@ def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path
     assert (tmp_path / "with.png").read_bytes()[:8] == PNG
 
 
-@pytest.mark.parametrize("kind", ["velocity", "acceleration"])
+# The velocity ellipses in the quick selection (-m "not slow"), both kinds in the full suite.
+@pytest.mark.parametrize("kind", ["velocity", pytest.param("acceleration", marks=pytest.mark.slow)])
 def test_stick_figure_ellipses_are_the_dexterity_ellipses_at_the_tip(tmp_path, planar3, run, kind, axes_drawn):
     plots.plot_stick_strip(planar3, run, tmp_path / "stick.png", title="t", snapshots=3, ellipse=kind)
     figure = axes_drawn[-1]
