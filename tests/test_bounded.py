@@ -444,7 +444,7 @@ def test_bad_options_and_robots_without_limits_are_refused(planar3):
         InvalidInput, match="option damping=-1 of resolver 'bounded-torque' must be a finite number >= 0"
     ):
         get_resolver("bounded-torque", damping=-1)
-    message = "option torque_weight=1,1 of resolver 'bounded-torque' must be 3 non-negative numbers, one per joint"
+    message = "option torque_weight=1,1 of resolver 'bounded-torque' must be 'unit', 'range' or 3 non-negative numbers, one per joint"
     with pytest.raises(InvalidInput, match=message):
         get_resolver("bounded-torque", torque_weight=[1.0, 1.0]).check(planar3)
     with pytest.raises(InvalidInput, match="unknown option 'kinematic_weight' for resolver 'minmax-torque'"):

@@ -223,7 +223,7 @@ def test_new_option_values_are_checked_with_one_line_messages(planar3):
         torqueopt.get_resolver("damped-null-space", torque_weight=[1.0, 2.0]).check(planar3)
     assert str(error.value) == (
         "option torque_weight=1,2 of resolver 'damped-null-space' must be 'unit', 'range' or 3 non-negative numbers, "
-        "one per joint of robot 'planar3'"
+        "one per joint of robot 'planar3' (the diagonal of W)"
     )
     with pytest.raises(torqueopt.InvalidInput) as error:
         torqueopt.get_resolver("self-motion-damping", kinematic_weight=1.0)

@@ -68,7 +68,13 @@ from .base import NullSpaceFunction, NullSpaceResolver
 from .null_space import torque_midpoint
 from .options import Option, choice_or_vector, number
 
-__all__ = ["SelfMotionDamping", "DampedNullSpaceTorque", "DEFAULT_DAMPING", "DEFAULT_KINEMATIC_WEIGHT"]
+__all__ = [
+    "SelfMotionDamping",
+    "DampedNullSpaceTorque",
+    "DEFAULT_DAMPING",
+    "DEFAULT_KINEMATIC_WEIGHT",
+    "torque_weight_root",
+]
 
 #: K_D [1/s] for both resolvers, and μ (dimensionless, relative to ‖S H Z‖_F) for
 #: ``damped-null-space``. Chosen by sweeping μ ∈ {0.1, 0.15, 0.2, 0.3, 0.5, 0.7} × K_D ∈
@@ -93,6 +99,23 @@ _DAMPING_OPTION = Option(
     meaning="K_D: the self-motion velocity Zᵀq̇ is driven towards zero at this rate",
     convert=number(0.0, unit="1/s"),
 )
+
+
+def torque_weight_root(torque_weight, robot: Robot, resolver: str) -> np.ndarray:
+    """The diagonal of S (S² = W) [1/(N·m)] of a ``torque_weight`` option: ones for ``unit``, 1/(τ⁺ − τ⁻) for
+    ``range`` (0 for an unbounded joint), or √w for a vector w of n non-negative numbers; else InvalidInput."""
+    if isinstance(torque_weight, str):
+        if torque_weight == "unit":
+            return np.ones(robot.nv)
+        torque_range = robot.torque_upper - robot.torque_lower
+        return np.where(np.isfinite(torque_range), 1.0 / torque_range, 0.0)  # Eq. (33)
+    if torque_weight.shape != (robot.nv,) or (torque_weight < 0).any():
+        raise InvalidInput(
+            f"option torque_weight={','.join(f'{w:g}' for w in torque_weight)} of resolver '{resolver}' must be "
+            f"'unit', 'range' or {robot.nv} non-negative numbers, one per joint of robot '{robot.name}' "
+            "(the diagonal of W)"
+        )
+    return np.sqrt(torque_weight)
 
 
 class SelfMotionDamping(NullSpaceResolver):
@@ -178,19 +201,8 @@ class DampedNullSpaceTorque(NullSpaceResolver):
         self.weight_root(robot)
 
     def weight_root(self, robot: Robot) -> np.ndarray:
-        """The diagonal of S (S² = W) [1/(N·m)]: ones, 1/(τ⁺ − τ⁻) (0 for an unbounded joint), or √w."""
-        weight = self.torque_weight
-        if isinstance(weight, str):
-            if weight == "unit":
-                return np.ones(robot.nv)
-            torque_range = robot.torque_upper - robot.torque_lower
-            return np.where(np.isfinite(torque_range), 1.0 / torque_range, 0.0)  # Eq. (33)
-        if weight.shape != (robot.nv,) or (weight < 0).any():
-            raise InvalidInput(
-                f"option torque_weight={','.join(f'{w:g}' for w in weight)} of resolver '{self.name}' must be "
-                f"'unit', 'range' or {robot.nv} non-negative numbers, one per joint of robot '{robot.name}'"
-            )
-        return np.sqrt(weight)
+        """The diagonal of S (S² = W) [1/(N·m)]: see :func:`torque_weight_root`."""
+        return torque_weight_root(self.torque_weight, robot, self.name)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InvalidInput
 from ...robot import Robot, TaskTerms
-from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT
+from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
 from ..options import Option, choice_or_vector, number
 from .base import INFEASIBLE_OPTION, _BoundedResolver, _solver_bounds
 from .programs import _EXIT_INFEASIBLE, _Program
@@ -80,19 +79,8 @@ class BoundedTorque(_BoundedResolver):
     )
 
     def weight_root(self, robot: Robot) -> np.ndarray:
-        r"""The diagonal of S (n values, :math:`S^2 = W`)."""
-        if isinstance(self.torque_weight, str):
-            if self.torque_weight == "unit":
-                return np.ones(robot.nv)
-            spread = robot.torque_upper - robot.torque_lower
-            return np.where(np.isfinite(spread), 1.0 / spread, 0.0)  # Eq. (33)
-        weight = self.torque_weight
-        if weight.shape != (robot.nv,) or (weight < 0).any():
-            raise InvalidInput(
-                f"option torque_weight={','.join(f'{w:g}' for w in weight)} of resolver '{self.name}' must be "
-                f"{robot.nv} non-negative numbers, one per joint of robot '{robot.name}' (the diagonal of W)"
-            )
-        return np.sqrt(weight)
+        r"""The diagonal of S (n values, :math:`S^2 = W`), as ``damped-null-space`` weighs torques."""
+        return torque_weight_root(self.torque_weight, robot, self.name)
 
     def check(self, robot: Robot) -> None:
         super().check(robot)
