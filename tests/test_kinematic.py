@@ -52,6 +52,7 @@ def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng)
 
 
 def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, panda, rng):
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     for robot in (planar3, panda):
         for _ in range(3):
             q = pin.randomConfiguration(robot.model) if robot is panda else rng.uniform(-2, 2, 3)
@@ -73,6 +74,7 @@ def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, pand
 
 
 def test_joint_limit_gradient_is_that_of_eq_5(panda, rng):
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     criterion = JointLimits()
     lower, upper = panda.model.lowerPositionLimit, panda.model.upperPositionLimit
     for _ in range(3):
@@ -94,6 +96,7 @@ def criterion_gradient_at(robot, criterion, task=None):
 def test_manipulability_gradient_from_the_kinematic_hessian_matches_differences(planar3, panda, rng):
     """∂w/∂q from Pinocchio's kinematic Hessian against central differences of w: the closed-form
     planar w of Eq. (6) for the paper's arm, w of Pinocchio's Jacobian for panda."""
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     criterion = torqueopt.resolvers.velocity.Manipulability()
     for robot, w_of in ((planar3, closed_form_manipulability), (panda, None)):
         task = FrameTask(robot.frame, robot.task)
@@ -110,6 +113,7 @@ def test_manipulability_gradient_from_the_kinematic_hessian_matches_differences(
 
 
 def test_gradient_projection_is_eq_4_and_descends_its_criterion(planar3, panda, rng):
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     for robot, criterion, k in (
         (planar3, "manipulability", 2.0),
         (panda, "joint-limits", 3.0),
@@ -462,6 +466,7 @@ def test_gradient_projection_at_the_acceleration_level(planar3, rng):
 
 def test_task_priority_at_the_acceleration_level_is_eq_11_differentiated(panda, rng):
     """q̈ = p + [J_l P]⁺(ẍ_l − J̇_l q̇ − J_l p), p = J⁺(ẍ − J̇q̇), P = I − J⁺J, against the resolver's null-space form."""
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     elbow = FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6])
     resolver = torqueopt.get_resolver("task-priority-acceleration", secondary=elbow, stiffness=16.0, damping=8.0)
     for _ in range(3):

@@ -45,6 +45,7 @@ def test_frame_task_matches_closed_form_planar_kinematics(planar3, rng):
 
 @pytest.mark.parametrize("robot_name, kind", [("planar3", "xy"), ("panda", "position"), ("panda", "pose")])
 def test_frame_task_jacobian_drift_and_hessian_match_central_differences(robot_name, kind, request, rng):
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     robot = request.getfixturevalue(robot_name)
     task = FrameTask(robot.frame, kind)
     kinematics = Kinematics(robot)
@@ -111,6 +112,7 @@ def test_obstacle_closest_point_matches_dense_sampling(planar3, rng):
 @pytest.mark.parametrize("robot_name", ["planar3", "panda"])
 def test_obstacle_point_jacobian_is_the_velocity_of_the_material_point(robot_name, request, rng):
     """J_o q̇ equals the central difference of the world position of the point fixed on its link."""
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
     robot = request.getfixturevalue(robot_name)
     kinematics = Kinematics(robot)
     for _ in range(3):
