@@ -263,3 +263,30 @@ def test_parse_number_takes_any_finite_number_and_names_the_option():
     assert refused(parse_number, "abc", "min-condition") == "--min-condition: 'abc' is not a number"
     assert refused(parse_number, "nan", "min-condition") == "--min-condition: nan must be a finite number"
     assert refused(parse_number, "-inf", "min-condition") == "--min-condition: -inf must be a finite number"
+
+
+def test_one_value_per_joint_is_checked_alike_for_the_paper_scenario_and_the_posture_task(planar3):
+    from torqueopt.checks import joint_vector
+    from torqueopt.paper import PAPER
+    from torqueopt.tasks import PostureTask
+
+    joints = ", ".join(planar3.joint_names)
+    np.testing.assert_array_equal(joint_vector(planar3, [1, 2, 3], "q0"), [1.0, 2.0, 3.0])
+    assert refused(joint_vector, planar3, [1, 2], "q0") == f"q0 has 2 values but needs 3 (joints {joints})"
+    assert refused(PAPER.replace(q0=(-45.0, 135.0)).load_robot) == f"q0 has 2 values but needs 3 (joints {joints})"
+    assert refused(PostureTask([0.0, 0.0]).check, planar3) == (
+        f"posture target has 2 values but needs 3 (joints {joints})"
+    )
+
+
+def test_a_bad_task_target_names_the_task_it_was_given_to():
+    from torqueopt.tasks import FrameTask, PostureTask
+
+    assert refused(PostureTask, [0.0, math.nan]) == (
+        "task target [0.0, nan] must be 2 finite numbers for PostureTask(target=[0.0, nan], gain=1)"
+    )
+    assert (
+        refused(FrameTask, "tip", "xy", target=[1.0])
+        == "task target [1.0] must be 2 finite numbers for FrameTask('tip', 'xy')"
+    )
+    assert refused(PostureTask, "abc") == "task target 'abc' is not a vector of numbers"

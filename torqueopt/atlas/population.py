@@ -44,7 +44,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..checks import number_in_range, positive_number, whole_number
+from ..checks import joint_vector, number_in_range, positive_number, whole_number
 from ..errors import InvalidInput
 from ..robot import Robot
 
@@ -243,9 +243,7 @@ def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
     mesh = np.stack(np.meshgrid(*([axis] * dimension), indexing="ij"), axis=-1).reshape(-1, dimension)
     points = base + mesh[np.linalg.norm(mesh, axis=1) <= limit]
     if spec.grid_posture is not None:
-        posture = np.asarray(spec.grid_posture, float)
-        if posture.size != robot.nv:
-            raise InvalidInput(f"grid_posture has {posture.size} values but robot '{robot.name}' has {robot.nv} joints")
+        posture = joint_vector(robot, spec.grid_posture, "grid_posture")
     elif robot.name == "planar3":
         posture = np.radians([-45.0, 135.0, -135.0])  # the paper's start posture: elbow and wrist bent
     else:

@@ -15,7 +15,7 @@ numbers) written once:
 * :mod:`~torqueopt.checks.work`: bounds on the work a request asks for
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
-  (:func:`configuration_vector`, :func:`velocity_vector`,
+  (:func:`configuration_vector`, :func:`joint_vector`, :func:`velocity_vector`,
   :func:`torque_limit_vector`, :func:`weight_matrix_root`, :func:`check_task_and_frame`,
   :func:`check_task_rank`).
 """
@@ -42,6 +42,7 @@ from .robot import (
     check_task_and_frame,
     check_task_rank,
     configuration_vector,
+    joint_vector,
     task_ranks,
     torque_limit_vector,
     velocity_vector,
@@ -72,6 +73,7 @@ __all__ = [
     "bounded_count",
     "step_count",
     "configuration_vector",
+    "joint_vector",
     "velocity_vector",
     "torque_limit_vector",
     "weight_matrix_root",

@@ -18,6 +18,7 @@ Which vector check to use:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from numbers import Real
 
 import numpy as np
@@ -236,7 +237,11 @@ def finite_vector(values, size: int, name: str, names=None) -> np.ndarray:
 
 
 def finite_numbers(
-    values, name: str, size: int | tuple[int, ...] = (2, 3), unit: str | None = None, context: str = ""
+    values,
+    name: str,
+    size: int | tuple[int, ...] = (2, 3),
+    unit: str | None = None,
+    context: str | Callable[[], str] = "",
 ) -> np.ndarray:
     """``values`` as a finite float vector of ``size`` entries (one of them, for a tuple), else InvalidInput.
 
@@ -244,12 +249,14 @@ def finite_numbers(
 
     Args:
         unit: appended as `` [unit]``.
-        context: appended after a space, e.g. "for FrameTask('tip', 'xy')".
+        context: appended after a space, e.g. "for FrameTask('tip', 'xy')"; a callable
+            is called for it only when the check fails (a repr of an object still being made).
     """
     sizes = (size,) if isinstance(size, int) else size
     vector = _flat_vector(values, name)
     if vector.size not in sizes or not np.isfinite(vector).all():
         wanted = " or ".join(str(s) for s in sizes)
+        context = context() if callable(context) else context
         suffix = (f" [{unit}]" if unit else "") + (f" {context}" if context else "")
         raise InvalidInput(f"{name} {vector.tolist()} must be {wanted} finite numbers{suffix}")
     return vector

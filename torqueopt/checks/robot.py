@@ -12,6 +12,7 @@ from .numbers import count_values, finite_vector
 
 __all__ = [
     "configuration_vector",
+    "joint_vector",
     "velocity_vector",
     "torque_limit_vector",
     "weight_matrix_root",
@@ -38,9 +39,17 @@ def configuration_vector(robot, values, name: str = "q0") -> np.ndarray:
     return robot.configuration(finite_vector(array, robot.nv, name, names=robot.joint_names))
 
 
-def velocity_vector(robot, values, name: str = "v0") -> np.ndarray:
-    """A joint velocity vector of ``robot``: n finite values [rad/s], or InvalidInput naming the joints."""
+def joint_vector(robot, values, name: str) -> np.ndarray:
+    """One finite value per joint of ``robot`` (n values), or InvalidInput naming the joints.
+
+    Example message: ``q0 has 2 values but needs 3 (joints joint1, joint2, joint3)``.
+    """
     return finite_vector(values, robot.nv, name, names=robot.joint_names)
+
+
+def velocity_vector(robot, values, name: str = "v0") -> np.ndarray:
+    """A joint velocity vector of ``robot``: n finite values [rad/s] (:func:`joint_vector`)."""
+    return joint_vector(robot, values, name)
 
 
 def torque_limit_vector(robot, values) -> np.ndarray:

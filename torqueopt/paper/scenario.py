@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import finite_values, positive_number
+from ..checks import finite_values, joint_vector, positive_number
 from ..errors import InvalidInput
 from ..loading import load_robot
 from ..robot import Robot
@@ -100,8 +100,7 @@ class PaperScenario:
     def load_robot(self) -> Robot:
         """The arm with the scenario's limits and gravity off."""
         robot = load_robot(self.robot, torque_limit=np.array(self.torque_limit), gravity=False)
-        if len(self.q0) != robot.nv:
-            raise InvalidInput(f"q0 has {len(self.q0)} angles but robot '{robot.name}' has {robot.nv} joints")
+        joint_vector(robot, self.q0, "q0")
         return robot
 
     def as_dict(self) -> dict:

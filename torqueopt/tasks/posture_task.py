@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput
+from ..checks import joint_vector
 from .task import Kinematics, Task
 
 __all__ = ["PostureTask"]
@@ -34,11 +34,8 @@ class PostureTask(Task):
         if self._given is None:
             self.dimension = robot.nv
             self.target = robot.joint_angles(robot.default_configuration)
-        elif self.dimension != robot.nv:
-            raise InvalidInput(
-                f"posture target has {self.dimension} values but robot '{robot.name}' has {robot.nv} joints "
-                f"({', '.join(robot.joint_names)})"
-            )
+        else:
+            joint_vector(robot, self.target, "posture target")
 
     def _require(self, kinematics: Kinematics) -> None:
         if self.target is None:

@@ -112,11 +112,11 @@ class Task(ABC):
     dimension: int
 
     def __init__(self, target=None, gain: float = 1.0):
-        self.target = None if target is None else self._check_target(target)
         self.gain = non_negative_number(gain, "task gain", "1/s")
+        self.target = None if target is None else self._check_target(target)
 
     def _check_target(self, target) -> np.ndarray:
-        return finite_numbers(target, "task target", self.dimension, context=f"for {self!r}")
+        return finite_numbers(target, "task target", self.dimension, context=lambda: f"for {self!r}")
 
     def check(self, robot) -> None:
         """Raise if this task cannot be computed on ``robot`` (a missing frame, a wrong size)."""
