@@ -1,5 +1,5 @@
-"""Checks that need the robot: a configuration of the right size, a joint-space weight, a task and frame it has,
-a task the joints can realise."""
+"""Checks that need the robot: one value per joint, a configuration, torque limits, a joint-space weight, a task
+and a frame it has, a task its joints can realise."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def configuration_vector(robot, values, name: str = "q0") -> np.ndarray:
         raise InvalidInput(f"{name} {values!r} is not a vector of numbers") from None
     if robot.nq != robot.nv and array.size == robot.nq:
         return finite_vector(array, robot.nq, name)
-    return robot.configuration(finite_vector(array, robot.nv, name, names=robot.joint_names))
+    return robot.configuration(joint_vector(robot, array, name))
 
 
 def joint_vector(robot, values, name: str) -> np.ndarray:
