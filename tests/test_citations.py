@@ -167,3 +167,14 @@ def test_no_issue_numbers_in_code_docstrings_or_tests(path):
     """The code says what it does, not which piece of work brought it: no issue, pull-request or session numbers."""
     found = WORK_ITEM.findall(path.read_text(encoding="utf-8"))
     assert not found, f"{path.relative_to(ROOT)} cites work items: {found}"
+
+
+def test_every_equation_the_package_cites_lands_on_a_line_of_code():
+    """``grep "Eq. (N)" torqueopt`` finds, for every N the package cites, a comment at a line that computes it."""
+    cited, at_code = set(), set()
+    for path in (ROOT / "torqueopt").rglob("*.py"):
+        for line in path.read_text(encoding="utf-8").splitlines():
+            cited |= set(map(int, CITED.findall(line)))
+            if "#" in line and not line.lstrip().startswith(('"', "'")):
+                at_code |= set(map(int, CITED.findall(line.split("#", 1)[1])))
+    assert cited and not cited - at_code, f"cited only in prose: {sorted(cited - at_code)}"
