@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -290,3 +291,14 @@ def test_a_bad_task_target_names_the_task_it_was_given_to():
         == "task target [1.0] must be 2 finite numbers for FrameTask('tip', 'xy')"
     )
     assert refused(PostureTask, "abc") == "task target 'abc' is not a vector of numbers"
+
+
+def test_a_trajectory_must_move_in_as_many_dimensions_as_the_task(planar3):
+    from torqueopt import StraightLine
+    from torqueopt.checks import trajectory_dimension
+
+    assert trajectory_dimension(planar3, StraightLine([1, 1])) == 2
+    assert trajectory_dimension(planar3, SimpleNamespace(dimension=None)) == 2  # one without a dimension of its own
+    assert refused(trajectory_dimension, planar3, StraightLine([1, 1, 0])) == (
+        "trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"
+    )

@@ -47,7 +47,7 @@ import sys
 import numpy as np
 import pinocchio as pin
 
-from .checks import finite_vector, positive_number, velocity_vector
+from .checks import finite_vector, positive_number, trajectory_dimension, velocity_vector
 from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
@@ -224,12 +224,7 @@ def simulate_kinematic(
 
 def _anchored(robot: Robot, trajectory, placement: pin.SE3):
     """The trajectory anchored at the tip's position at q0 when it has no start, as :func:`torqueopt.simulate` does."""
-    linear_dimension = min(robot.m, 3)
-    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
-        raise InvalidInput(
-            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
-            f"'{robot.task}' moves the tip in {linear_dimension}"
-        )
+    linear_dimension = trajectory_dimension(robot, trajectory)
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
     return trajectory

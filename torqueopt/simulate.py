@@ -33,6 +33,7 @@ from .checks import (
     positive_number,
     show_number,
     step_count,
+    trajectory_dimension,
     velocity_vector,
 )
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
@@ -161,12 +162,7 @@ def simulate(
         warnings.warn(note, TorqueoptWarning, stacklevel=2)
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
-    linear_dimension = min(robot.m, 3)
-    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
-        raise InvalidInput(
-            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
-            f"'{robot.task}' moves the tip in {linear_dimension}"
-        )
+    linear_dimension = trajectory_dimension(robot, trajectory)
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 

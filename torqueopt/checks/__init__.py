@@ -16,7 +16,8 @@ numbers) written once:
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
   (:func:`configuration_vector`, :func:`joint_vector`, :func:`velocity_vector`,
-  :func:`torque_limit_vector`, :func:`weight_matrix_root`, :func:`check_task_and_frame`,
+  :func:`torque_limit_vector`, :func:`weight_matrix_root`, :func:`trajectory_dimension`,
+  :func:`check_task_and_frame`,
   :func:`check_task_rank`).
 """
 
@@ -45,6 +46,7 @@ from .robot import (
     joint_vector,
     task_ranks,
     torque_limit_vector,
+    trajectory_dimension,
     velocity_vector,
     weight_matrix_root,
 )
@@ -77,6 +79,7 @@ __all__ = [
     "velocity_vector",
     "torque_limit_vector",
     "weight_matrix_root",
+    "trajectory_dimension",
     "check_task_and_frame",
     "check_task",
     "check_frame",

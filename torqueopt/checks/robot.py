@@ -16,6 +16,7 @@ __all__ = [
     "velocity_vector",
     "torque_limit_vector",
     "weight_matrix_root",
+    "trajectory_dimension",
     "check_task_and_frame",
     "check_task",
     "check_frame",
@@ -69,6 +70,19 @@ def torque_limit_vector(robot, values) -> np.ndarray:
     if np.isnan(limits).any() or (limits <= 0).any():
         raise InvalidInput(f"torque limit {limits.tolist()} must be positive numbers (inf for unbounded)")
     return limits
+
+
+def trajectory_dimension(robot, trajectory) -> int:
+    """The number of position coordinates the robot's task moves the tip in, min(m, 3), or InvalidInput when
+    ``trajectory`` moves in another number (a planar path for a 3-D task, say); a trajectory without a
+    dimension of its own takes this one."""
+    linear_dimension = min(robot.m, 3)
+    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
+        raise InvalidInput(
+            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
+            f"'{robot.task}' moves the tip in {linear_dimension}"
+        )
+    return linear_dimension
 
 
 def task_ranks(robot, samples: int = RANK_SAMPLES, seed: int = 0) -> dict[str, int]:

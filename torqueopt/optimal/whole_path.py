@@ -35,7 +35,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from ..checks import configuration_vector, positive_number, step_count, whole_number
+from ..checks import configuration_vector, positive_number, step_count, trajectory_dimension, whole_number
 from ..errors import InvalidInput
 from ..resolvers import Resolver, get_resolver
 from ..resolvers.null_space import torque_midpoint
@@ -134,12 +134,7 @@ def optimize(
     weight_name = weight if isinstance(weight, str) else ("identity" if weight is None else "user")
     midpoint = torque_midpoint(robot)
     q_start = configuration_vector(robot, q0)
-    linear_dimension = min(robot.m, 3)
-    if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
-        raise InvalidInput(
-            f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "
-            f"'{robot.task}' moves the tip in {linear_dimension}"
-        )
+    linear_dimension = trajectory_dimension(robot, trajectory)
     if trajectory.start is None:
         trajectory = trajectory.anchored(robot.task_position(q_start)[:linear_dimension])
 
