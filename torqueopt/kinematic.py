@@ -47,7 +47,7 @@ import sys
 import numpy as np
 import pinocchio as pin
 
-from .checks import finite_vector, positive_number, trajectory_dimension, velocity_vector
+from .checks import configuration_vector, finite_vector, positive_number, trajectory_dimension, velocity_vector
 from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
@@ -63,7 +63,6 @@ _LARGEST_FLOAT = sys.float_info.max
 
 def joint_rates(robot: Robot, resolver, q, task_velocity) -> np.ndarray:
     """Joint rates q̇ [rad/s] that a velocity-level resolver gives for ``task_velocity`` (m values) at q."""
-    from .checks import configuration_vector
     from .resolvers import get_resolver
 
     resolver = get_resolver(resolver)
@@ -106,7 +105,6 @@ def simulate_kinematic(
     by a ceiling ends with the row that passed it, one stopped where the
     method is undefined with the last row where it was.
     """
-    from .checks import configuration_vector
     from .run_log import logged_row_bytes, run_result, task_reference
     from .simulate import DEFAULT_MAX_STEPS, step_budget
 
