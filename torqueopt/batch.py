@@ -42,6 +42,7 @@ import pinocchio as pin
 
 from .checks import configuration_vector, positive_number
 from .errors import InvalidInput
+from .forest import RobotForest
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
 from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
@@ -61,7 +62,6 @@ from .trajectory import Trajectory, check_trajectory, describe
 
 __all__ = ["BATCHED_RESOLVERS", "BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
 
-_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 #: Resolver classes whose step has a batched twin here (exact classes: a subclass may change the step).
 BATCHED_RESOLVERS = (PseudoInverse, InertiaWeightedPseudoInverse, NullSpaceTorque, WeightedNullSpaceTorque)
 
@@ -202,7 +202,12 @@ def simulate_batch(
 
     model = robot.model
     data = model.createData()  # the batch's own: the robot's data is never written
+    forest = RobotForest(robot)
     pool = pin.ModelPool(model, max(threads, 1))
+
+    def aba(q, v, tau):
+        return _aba(pool, threads, q, v, tau)
+
     n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
     linear_dimension = min(m, 3)
     steps = step_budget(duration, dt)
@@ -233,68 +238,58 @@ def simulate_batch(
     torque_ceiling = np.minimum(max_torque_ratio * limit, np.finfo(float).max)
     speed_ceiling = min(max_joint_speed, np.finfo(float).max)
 
-    # Logs: one row per recorded step and movement; rows past a movement's stop stay unused.
-    q_log = np.empty((count, steps + 1, n))
-    v_log = np.empty((count, steps + 1, n))
-    acceleration_log = np.full((count, steps + 1, n), np.nan)
-    torque_log = np.full((count, steps + 1, n), np.nan)
-    x_log = np.empty((count, steps + 1, m))
-    condition_log = np.empty((count, steps + 1))
-    energy_log = np.empty((count, steps + 1)) if extras else None
-    self_energy_log = np.empty((count, steps + 1)) if extras else None
+    # Logs, time-major (a step writes one contiguous block): [step, movement]; rows past a stop stay unused.
+    q_log = np.empty((steps + 1, count, n))
+    v_log = np.empty((steps + 1, count, n))
+    acceleration_log = np.full((steps + 1, count, n), np.nan)
+    torque_log = np.full((steps + 1, count, n), np.nan)
+    x_log = np.empty((steps + 1, count, m))
+    condition_log = np.empty((steps + 1, count))
+    energy_log = np.empty((steps + 1, count)) if extras else None
+    self_energy_log = np.empty((steps + 1, count)) if extras else None
+    reference_acceleration = np.ascontiguousarray(np.swapaxes(reference_acceleration, 0, 1))
     recorded = np.zeros(count, dtype=int)
     stop_reason: list[str | None] = [None] * count
     stop_time: list[float | None] = [None] * count
 
     active = np.arange(count)  # movement index of each batch row
-    inertia = np.empty((count, n, n))
-    bias = np.empty((count, n))
-    # Whole 6-row frame quantities: the task rows are sliced once per step, not once per movement.
-    jacobian = np.empty((count, 6, n))
-    drift = np.empty((count, 6))
-    tip = np.empty((count, 3))
     h = dt
-    # Bound once: attribute look-ups cost as much as the calls at this size.
-    all_terms, frame_jacobian = pin.computeAllTerms, pin.getFrameJacobian
-    classical_acceleration, frame_placement = pin.getFrameClassicalAcceleration, pin.updateFramePlacement
-    data_inertia, data_bias = data.M, data.nle  # Eigen never reallocates these: one view serves every call
     for k, t in enumerate(times.tolist()):
         size = active.size
         if size == 0:
             break
-        # Task terms, one computeAllTerms per movement (as simulate's terms_function).
-        for row, (q_row, v_row) in enumerate(zip(q, v)):
-            all_terms(model, data, q_row, v_row)
-            inertia[row] = data_inertia
-            bias[row] = data_bias
-            jacobian[row] = frame_jacobian(model, data, frame_id, _LWA)
-            drift[row] = classical_acceleration(model, data, frame_id, _LWA).vector
-            tip[row] = frame_placement(model, data, frame_id).translation
-        H, b = inertia[:size], bias[:size]
-        J, Jd = jacobian[:size, rows], drift[:size, rows]
+        where = slice(None) if size == count else active  # plain slicing while no movement has stopped
+        # Task terms of every movement still running, a few Pinocchio calls per forest of copies.
+        H, b, jacobian, drift, tip = forest.terms(q, v)
+        J, Jd = jacobian[:, rows], drift[:, rows]
         # Every state is recorded (q, v, x, condition); torque and q̈ only where the resolver ran.
-        q_log[active, k] = q
-        v_log[active, k] = v
-        x_log[active, k] = tip[:size, rows]
-        recorded[active] = k + 1
+        q_log[k, where] = q
+        v_log[k, where] = v
+        x_log[k, where] = tip[:, rows]
+        recorded[where] = k + 1
         if k == steps:
             # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
-            condition_log[active, k] = _condition(J)
+            condition_log[k, where] = _condition(J)
             if extras:
-                energy_log[active, k], self_energy_log[active, k] = _energies(H, J, v)
+                energy_log[k, where], self_energy_log[k, where] = _energies(H, J, v)
             break
-        command = reference_acceleration[active, k]
+        command = reference_acceleration[k, where]
         torque, joint_acceleration, condition, singular, basis = step(H, b, J, Jd, command)
         if extras:
             kinetic, self_motion = _null_space_energies(H, basis, v)
             if singular.any():  # the QR basis of a singular J is not its null space
                 kinetic[singular], self_motion[singular] = _energies(H[singular], J[singular], v[singular])
-            energy_log[active, k], self_energy_log[active, k] = kinetic, self_motion
-        condition_log[active, k] = condition
-        resolved = ~singular
-        acceleration_log[active[resolved], k] = joint_acceleration[resolved]
-        torque_log[active[resolved], k] = torque[resolved]
-        over = resolved & ~(np.abs(torque) <= torque_ceiling).all(axis=1)
+            energy_log[k, where], self_energy_log[k, where] = kinetic, self_motion
+        condition_log[k, where] = condition
+        if singular.any():
+            resolved = ~singular
+            acceleration_log[k, active[resolved]] = joint_acceleration[resolved]
+            torque_log[k, active[resolved]] = torque[resolved]
+            over = resolved & ~(np.abs(torque) <= torque_ceiling).all(axis=1)
+        else:
+            acceleration_log[k, where] = joint_acceleration
+            torque_log[k, where] = torque
+            over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
         stopping = singular | over
         for row in np.flatnonzero(stopping).tolist():
             movement = int(active[row])
@@ -312,9 +307,9 @@ def simulate_batch(
 
         # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
         k1 = joint_acceleration
-        k2 = _aba(pool, threads, q + (h / 2) * v, v + (h / 2) * k1, torque)
-        k3 = _aba(pool, threads, q + ((h / 2) * v + (h * h / 4) * k1), v + (h / 2) * k2, torque)
-        k4 = _aba(pool, threads, q + (h * v + (h * h / 2) * k2), v + h * k3, torque)
+        k2 = aba(q + (h / 2) * v, v + (h / 2) * k1, torque)
+        k3 = aba(q + ((h / 2) * v + (h * h / 4) * k1), v + (h / 2) * k2, torque)
+        k4 = aba(q + (h * v + (h * h / 2) * k2), v + h * k3, torque)
         q = q + (h * v + (h * h / 6) * (k1 + k2 + k3))
         v = v + ((h / 6) * k1 + (h / 3) * k2 + (h / 3) * k3 + (h / 6) * k4)
         fast = ~(np.abs(v) <= speed_ceiling).all(axis=1)
@@ -332,7 +327,7 @@ def simulate_batch(
     options = resolver.settings_for_file()
     for i in range(count):
         length = int(recorded[i])
-        q_rows = q_log[i, :length].copy()
+        q_rows = q_log[:length, i].copy()
         results.append(
             SimResult(
                 robot=robot.name,
@@ -344,12 +339,12 @@ def simulate_batch(
                 t=times[:length].copy(),
                 q=q_rows,
                 joint_angles=robot.joint_angles(q_rows).reshape(length, n),
-                v=v_log[i, :length].copy(),
-                acceleration=acceleration_log[i, :length].copy(),
-                tau=torque_log[i, :length].copy(),
-                x=x_log[i, :length].copy(),
+                v=v_log[:length, i].copy(),
+                acceleration=acceleration_log[:length, i].copy(),
+                tau=torque_log[:length, i].copy(),
+                x=x_log[:length, i].copy(),
                 x_ref=reference_position[i, :length].copy(),
-                jacobian_inverse_condition=condition_log[i, :length].copy(),
+                jacobian_inverse_condition=condition_log[:length, i].copy(),
                 torque_upper=robot.torque_upper.copy(),
                 torque_lower=robot.torque_lower.copy(),
                 duration=duration,
@@ -365,7 +360,7 @@ def simulate_batch(
     if not extras:
         return results
     more = [
-        BatchExtras(energy_log[i, : recorded[i]].copy(), self_energy_log[i, : recorded[i]].copy()) for i in range(count)
+        BatchExtras(energy_log[: recorded[i], i].copy(), self_energy_log[: recorded[i], i].copy()) for i in range(count)
     ]
     return results, more
 
@@ -433,6 +428,66 @@ def _null_space_energies(inertia: np.ndarray, basis: np.ndarray | None, velocity
     return kinetic, np.clip(self_motion, 0.0, kinetic)
 
 
+def _complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
+    r"""``(J⁺r, Z, σ_min/σ_max)`` per row of a (B, m, n) stack, from the complete QR of :math:`J^\top`.
+
+    :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
+    rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
+    is the minimum-norm solution of :math:`J\ddot q = r`. The condition comes
+    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J). Rows with a
+    singular J get a finite, unused answer.
+    """
+    m = J.shape[1]
+    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
+    largest = squared[:, -1]
+    condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
+    condition = np.where(largest > 0, condition, 0.0)
+    orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
+    upper = triangular[:, :m, :]
+    upper = np.where((condition < 1e-12)[:, None, None], np.eye(m), upper)
+    particular = np.einsum(
+        "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
+    )
+    return particular, orthogonal[:, :, m:] if redundant else None, condition
+
+
+def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
+    r""":func:`_complete_qr` for two-row Jacobians of two or three joints (the planar arm's xy task), in closed form.
+
+    Gram-Schmidt with one re-orthogonalisation gives the row-space basis
+    :math:`q_1, q_2` and :math:`R = \begin{pmatrix} r_{11} & r_{12}\\ 0 & r_{22}\end{pmatrix}`
+    (:math:`J^\top = [q_1\ q_2] R`) to working accuracy; :math:`J^\dagger r = q_1 y_1 + q_2 y_2`
+    with :math:`R^\top y = r`; for three joints the null space is spanned by
+    :math:`z = q_1\times q_2`. The singular values of R are those of J:
+    :math:`\sigma_{max}^2 = (s + \sqrt{s^2 - 4d^2})/2` with
+    :math:`s = \|R\|_F^2`, :math:`d = r_{11}r_{22}`, and :math:`\sigma_{min} = d/\sigma_{max}`.
+    Equal to the QR path to round-off, without a LAPACK call per row.
+    """
+    first, second = J[:, 0], J[:, 1]
+    r11 = np.sqrt(np.einsum("bi,bi->b", first, first))
+    safe11 = np.where(r11 > 0.0, r11, 1.0)
+    q1 = first / safe11[:, None]
+    r12 = np.einsum("bi,bi->b", q1, second)
+    u = second - r12[:, None] * q1
+    u -= np.einsum("bi,bi->b", q1, u)[:, None] * q1  # twice is enough: orthogonal to working accuracy
+    r22 = np.sqrt(np.einsum("bi,bi->b", u, u))
+    safe22 = np.where(r22 > 0.0, r22, 1.0)
+    q2 = u / safe22[:, None]
+    y1 = residual[:, 0] / safe11
+    y2 = (residual[:, 1] - r12 * y1) / safe22
+    particular = q1 * y1[:, None] + q2 * y2[:, None]
+    frobenius = r11 * r11 + r12 * r12 + r22 * r22
+    determinant = r11 * r22
+    largest_squared = 0.5 * (frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant**2, 0.0)))
+    condition = np.where(
+        largest_squared > 0.0, determinant / np.where(largest_squared > 0.0, largest_squared, 1.0), 0.0
+    )
+    if not (redundant and J.shape[2] == 3):
+        return particular, None, condition
+    basis = np.cross(q1, q2)[:, :, None]  # (B, 3, 1), unit: q1 ⊥ q2
+    return particular, basis, condition
+
+
 def _batched_step(robot: Robot, resolver: Resolver):
     r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, condition, singular, Z)``.
 
@@ -463,24 +518,13 @@ def _batched_step(robot: Robot, resolver: Resolver):
         projected = np.einsum("bji,bj->bi", u, rhs) * inverse
         return np.einsum("bji,bj->bi", vt, projected)
 
+    factor = _two_rows if m == 2 and n in (2, 3) else _complete_qr
+
     def step(H, b, J, drift, command):
-        # σ²(J) are the eigenvalues of J Jᵀ (m×m): the condition σ_min/σ_max without a full SVD.
-        squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
-        largest = squared[:, -1]
-        condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
-        condition = np.where(largest > 0, condition, 0.0)
+        # Eq. (26)'s particular solution J⁺(ẍ − J̇q̇), a null-space basis Z and σ_min/σ_max of J.
+        particular, basis, condition = factor(J, command - drift, redundant)
         singular = ~(condition >= tolerance)
-        # Jᵀ = Q R (complete QR): the first m columns of Q span the row space of J, the rest its null space.
-        orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
-        upper = triangular[:, :m, :]
-        upper = np.where(singular[:, None, None], np.eye(m), upper)
-        residual = command - drift
-        # J⁺ r = Q_m R⁻ᵀ r, the minimum-norm solution of J q̈ = r: Eq. (26)'s particular solution.
-        particular = np.einsum(
-            "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
-        )
         acceleration = particular
-        basis = orthogonal[:, :, m:] if redundant else None  # Z, (B, n, n − m), orthonormal
         if redundant and kind is not PseudoInverse:
             inertia_basis = H @ basis  # H Z
             if kind is InertiaWeightedPseudoInverse:

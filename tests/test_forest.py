@@ -1,0 +1,97 @@
+"""The batch's fast pieces against Pinocchio's single-robot calls and numpy's QR.
+
+:class:`torqueopt.forest.RobotForest` computes a whole batch's task terms from
+one forest model; each copy must give what Pinocchio's frame calls give for
+that copy alone. The batch's closed-form two-row factorisation must agree
+with the complete QR it replaces, and with the SVD's condition.
+"""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import torqueopt
+from torqueopt.batch import _complete_qr, _two_rows
+from torqueopt.errors import InvalidInput
+from torqueopt.forest import RobotForest
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def _states(robot, count, seed):
+    rng = np.random.default_rng(seed)
+    low = np.maximum(robot.model.lowerPositionLimit, -3.0)
+    high = np.minimum(robot.model.upperPositionLimit, 3.0)
+    return rng.uniform(low, high, (count, robot.nv)), rng.uniform(-2.0, 2.0, (count, robot.nv))
+
+
+def _relative(ours, theirs):
+    return np.max(np.abs(ours - theirs)) / (1.0 + np.max(np.abs(theirs)))
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda", "baxter"])
+def test_each_copy_gets_what_pinocchio_gives_that_robot_alone(name, planar3, panda):
+    """13 states through a forest of 5 copies: three passes, the last one partly filled.
+
+    baxter is a branch of a larger tree (its other joints locked away): the
+    columns of joints outside the tip's support must stay zero."""
+    robot = {"planar3": planar3, "panda": panda}.get(name) or torqueopt.load_robot(name)
+    q, v = _states(robot, 13, seed=3)
+    inertia, bias, jacobian, drift, tip = RobotForest(robot, copies=5).terms(q, v)
+    model, data = robot.model, robot.model.createData()
+    for i in range(len(q)):
+        pin.computeAllTerms(model, data, q[i], v[i])
+        placement = pin.updateFramePlacement(model, data, robot.frame_id)
+        assert _relative(inertia[i], data.M) < 1e-13
+        assert _relative(bias[i], data.nle) < 1e-13
+        assert _relative(jacobian[i], pin.getFrameJacobian(model, data, robot.frame_id, _LWA)) < 1e-13
+        reference_drift = pin.getFrameClassicalAcceleration(model, data, robot.frame_id, _LWA).vector
+        assert _relative(drift[i], reference_drift) < 1e-13
+        assert _relative(tip[i], placement.translation) < 1e-15
+
+
+def test_the_copies_do_not_interact(planar3):
+    """The forest's mass matrix is block-diagonal: no copy's acceleration loads another's joints."""
+    forest = RobotForest(planar3, copies=4)
+    q, v = _states(planar3, 4, seed=5)
+    forest.terms(q, v)
+    mass = forest._pool[0].data.M.copy()
+    n = planar3.nv
+    for i in range(4):
+        mass[i * n : (i + 1) * n, i * n : (i + 1) * n] = 0.0
+    assert np.max(np.abs(mass)) == 0.0
+
+
+def test_a_forest_needs_joints_whose_configuration_adds():
+    kinova = torqueopt.load_robot("kinova")  # continuous joints: nq = 2 per joint
+    with pytest.raises(InvalidInput, match="kinova.*nq != nv"):
+        RobotForest(kinova)
+
+
+@pytest.mark.parametrize("joints", [2, 3])
+def test_two_row_closed_form_equals_the_complete_qr(joints):
+    """Random 2×n Jacobians, from well conditioned to σmin/σmax = 1e-7 (below the batch's cutoff 1e-6)."""
+    rng = np.random.default_rng(11)
+    count = 400
+    u = np.linalg.qr(rng.normal(size=(count, 2, 2)))[0]
+    w = np.linalg.qr(rng.normal(size=(count, joints, joints)))[0][:, :, :2]
+    conditions = 10.0 ** rng.uniform(-7, 0, count)
+    singular_values = np.stack([np.full(count, 2.0), 2.0 * conditions], axis=1)
+    jacobian = u @ (singular_values[:, :, None] * np.swapaxes(w, 1, 2))  # U Σ Wᵀ, known σ
+    residual = rng.normal(size=(count, 2))
+    redundant = joints > 2
+    particular, basis, condition = _two_rows(jacobian, residual, redundant)
+    reference, reference_basis, _ = _complete_qr(jacobian, residual, redundant)
+    # The minimum-norm solution is amplified by 1/σmin: compare relative to its size, allowing κ·ε.
+    scale = np.linalg.norm(reference, axis=1)
+    assert np.all(np.linalg.norm(particular - reference, axis=1) <= 1e-15 * scale / conditions + 1e-14)
+    np.testing.assert_allclose(condition, conditions, rtol=1e-9)
+    np.testing.assert_allclose(np.einsum("bij,bj->bi", jacobian, particular), residual, atol=1e-8)
+    if redundant:
+        # A basis is unique up to sign: compare the projectors Z Zᵀ, and J Z = 0.
+        projector = basis @ np.swapaxes(basis, 1, 2)
+        reference_projector = reference_basis @ np.swapaxes(reference_basis, 1, 2)
+        assert np.max(np.abs(projector - reference_projector)) < 1e-8
+        assert np.max(np.abs(jacobian @ basis)) < 1e-14
+    else:
+        assert basis is None

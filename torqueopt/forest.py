@@ -1,0 +1,207 @@
+r"""Many copies of one robot as one Pinocchio model: a batch's dynamics in a few calls.
+
+A :class:`RobotForest` holds ``copies`` copies of a robot's kinematic tree,
+side by side under one universe, in a single ``pin.Model``. Pinocchio then
+computes the joint-space terms of every copy in one call per quantity: CRBA
+gives a block-diagonal mass matrix whose diagonal blocks are the copies'
+:math:`H`, ``nonLinearEffects`` the stacked bias torques :math:`b`,
+``computeJointJacobiansTimeVariation`` the world-frame joint Jacobians and
+their time derivatives, ``aba`` the stacked forward dynamics. The copies do
+not interact: nothing couples two trees, so each block is exactly the single
+robot's value at that copy's state.
+
+The task frame's Jacobian and drift :math:`\dot J\dot q` (Eq. (18)) come from
+the world-frame quantities by the rigid-body change of reference point that
+``pin.getFrameJacobian`` and ``pin.getFrameClassicalAcceleration`` apply to
+one frame (Pinocchio has no call that applies it to many frames at once), in
+three batched numpy lines; the tests hold them to those Pinocchio calls.
+
+This is the fast path of :mod:`torqueopt.batch`; :meth:`Robot.terms_function`
+and :meth:`Robot.forward_dynamics` are the reference it is held to.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import InvalidInput
+from .robot import Robot
+
+__all__ = ["FOREST_DOFS", "RobotForest"]
+
+#: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
+#: shrinks with the forest's size, but Pinocchio's ``createData`` grows
+#: steeply with it (about 25 ms for 96 joints, seconds for 192: BENCHMARKS.md),
+#: so a batch larger than one forest goes through it in several passes.
+FOREST_DOFS = 96
+
+# Per-joint model vectors that enter the dynamics or the limits, copied to every tree.
+_PER_DOF = ("armature", "damping", "friction", "rotorInertia", "rotorGearRatio", "effortLimit", "velocityLimit")
+_PER_CONFIGURATION = ("lowerPositionLimit", "upperPositionLimit")
+
+# Forest models per robot (a Robot is immutable, so its forest is too), and the
+# Pinocchio data each thread computes in: two runs in two threads never share a
+# data, and a run in a thread reuses the data of the thread's earlier runs
+# (every value read from it is recomputed by the call that precedes the read).
+_MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_THREAD = threading.local()
+
+
+def _forest_model(robot: Robot, copies: int) -> pin.Model:
+    """``copies`` copies of the robot's tree under one universe, each with its task frame (frame 1 + copy)."""
+    cached = _MODELS.setdefault(robot, {})
+    if copies in cached:
+        return cached[copies]
+    model = robot.model
+    forest = pin.Model()
+    forest.name = f"{model.name} x {copies}"
+    forest.gravity = model.gravity
+    tip = model.frames[robot.frame_id]
+    for copy in range(copies):
+        joint_of = {0: 0}
+        for joint in range(1, model.njoints):
+            joint_of[joint] = forest.addJoint(
+                joint_of[model.parents[joint]], model.joints[joint], model.jointPlacements[joint],
+                f"{model.names[joint]}#{copy}",
+            )  # fmt: skip
+            forest.appendBodyToJoint(joint_of[joint], model.inertias[joint], pin.SE3.Identity())
+        frame = pin.Frame(f"{tip.name}#{copy}", joint_of[tip.parentJoint], 0, tip.placement, pin.FrameType.OP_FRAME)
+        forest.addFrame(frame, False)
+    for name in _PER_DOF + _PER_CONFIGURATION:
+        if hasattr(model, name):
+            setattr(forest, name, np.tile(np.asarray(getattr(model, name)), copies))
+    cached[copies] = forest
+    return forest
+
+
+class _Pass:
+    """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
+
+    __slots__ = ("bias", "data", "inertia", "jacobian", "jacobian_rate", "placements")
+
+    def __init__(self, forest: pin.Model, copies: int, n: int):
+        self.data = data = forest.createData()
+        # Pinocchio's matrices are column-major: column c = copy·n + j of a (6, copies·n) matrix is
+        # [:, j, copy] of an F-order reshape, and the diagonal blocks of M are one strided view.
+        self.inertia = np.lib.stride_tricks.as_strided(
+            data.M, shape=(copies, n, n), strides=((n + copies * n * n) * 8, 8, copies * n * 8), writeable=False
+        )
+        self.bias = data.nle.reshape(n, copies, order="F").T
+        self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
+        self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
+        self.placements = data.oMf
+
+
+class RobotForest:
+    r"""Copies of ``robot``'s tree in one Pinocchio model, computing the task terms of many states at once.
+
+    :meth:`terms` takes (S, n) stacks of states for any S: the rows go
+    through the forest ``copies`` at a time, each pass in its own Pinocchio
+    data (a last, partly filled pass repeats a row in the unused trees), and
+    come back as (S, ...) stacks. Only robots whose joints all add
+    (:attr:`Robot.euclidean`) can be copied this way: a copy's q is then a
+    slice of the forest's.
+    """
+
+    def __init__(self, robot: Robot, copies: int | None = None):
+        if not robot.euclidean:
+            raise InvalidInput(
+                f"robot '{robot.name}' has joints whose configuration does not add (nq != nv): "
+                "it cannot be copied into a forest"
+            )
+        model = robot.model
+        self.n = n = model.nv
+        self.copies = copies = max(1, FOREST_DOFS // n) if copies is None else int(copies)
+        self.model = _forest_model(robot, copies)
+        by_robot = getattr(_THREAD, "passes", None)
+        if by_robot is None:
+            by_robot = _THREAD.passes = weakref.WeakKeyDictionary()
+        self._pool = by_robot.setdefault(robot, {}).setdefault(copies, [])
+        # Joints outside the tip's support move other links, not the tip: their Jacobian columns are zero.
+        support = set(model.supports[model.frames[robot.frame_id].parentJoint])
+        mask = np.zeros(n)
+        for joint in range(1, model.njoints):
+            if joint in support:
+                mask[model.idx_vs[joint] : model.idx_vs[joint] + model.nvs[joint]] = 1.0
+        self._mask = None if mask.all() else mask
+
+    def _padded(self, rows: np.ndarray) -> np.ndarray:
+        """The forest vector of (s, n) ``rows``, s ≤ copies: a view when s = copies, else padded with the first row."""
+        if rows.shape[0] == self.copies:
+            return rows.reshape(-1)
+        return np.concatenate([rows.reshape(-1), np.tile(rows[0], self.copies - rows.shape[0])])
+
+    def terms(self, q: np.ndarray, v: np.ndarray):
+        r"""The task terms of every row: ``(H, b, J, J̇q̇, p)`` as (S, n, n), (S, n), (S, 6, n), (S, 6), (S, 3).
+
+        :math:`H` and :math:`b = C\dot q + g` of Eq. (20); the task frame's
+        Jacobian :math:`J` and classical-acceleration drift :math:`\dot J\dot q`
+        (Eq. (18)) in LOCAL_WORLD_ALIGNED, linear rows first; its position p.
+        """
+        count = q.shape[0]
+        model, copies = self.model, self.copies
+        q, v = np.ascontiguousarray(q), np.ascontiguousarray(v)
+        passes = -(-count // copies)
+        while len(self._pool) < passes:
+            self._pool.append(_Pass(model, copies, self.n))
+        used = self._pool[:passes]
+        for index, forest_pass in enumerate(used):
+            rows = slice(index * copies, (index + 1) * copies)
+            q_forest, v_forest = self._padded(q[rows]), self._padded(v[rows])
+            data = forest_pass.data
+            pin.crba(model, data, q_forest)
+            pin.nonLinearEffects(model, data, q_forest, v_forest)
+            pin.computeJointJacobiansTimeVariation(model, data, q_forest, v_forest)
+            pin.updateFramePlacements(model, data)
+        inertia = np.concatenate([forest_pass.inertia for forest_pass in used])[:count]
+        bias = np.concatenate([forest_pass.bias for forest_pass in used])[:count]
+        world = np.concatenate([forest_pass.jacobian for forest_pass in used])[:count]
+        world_rate = np.concatenate([forest_pass.jacobian_rate for forest_pass in used])[:count]
+        tip = np.array(
+            [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
+        )[:count]
+        if self._mask is not None:
+            world *= self._mask
+            world_rate *= self._mask
+        return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
+
+
+def _skew_basis() -> np.ndarray:
+    """K with ``(p @ K).reshape(3, 3)`` = [p]×, the matrix of p × (·)."""
+    basis = np.zeros((3, 3, 3))
+    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        basis[k, i, j], basis[k, j, i] = -1.0, 1.0
+    return basis.reshape(3, 9)
+
+
+_SKEW = _skew_basis()
+
+
+def _skew(vectors: np.ndarray) -> np.ndarray:
+    """[p]× for every row of a (B, 3) stack: (B, 3, 3)."""
+    return (vectors @ _SKEW).reshape(-1, 3, 3)
+
+
+def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):
+    r"""A point's Jacobian and classical drift (LOCAL_WORLD_ALIGNED) from world-frame ones, per row.
+
+    ``world`` = :math:`J_O` maps :math:`\dot q` to the body's spatial velocity
+    :math:`(v_O, \omega)` at the world origin, ``world_rate`` = :math:`\dot J_O`.
+    The point p moves at :math:`v_p = v_O + \omega\times p`, so its Jacobian's
+    linear rows are :math:`J_v - [p]_\times J_\omega`; at zero :math:`\ddot q` it
+    accelerates at :math:`\dot v_O - [p]_\times\dot\omega + [\omega]_\times v_p`.
+    """
+    # einsum, not matmul: numpy's matmul makes one BLAS call per matrix of a stack, slow for 3×3 blocks.
+    cross_point = _skew(point)
+    jacobian = world.copy()
+    jacobian[:, :3] -= np.einsum("bij,bjc->bic", cross_point, world[:, 3:])
+    velocity = np.einsum("bij,bj->bi", jacobian, v)  # (v_p, ω)
+    drift = np.einsum("bij,bj->bi", world_rate, v)  # (v̇_O, ω̇) at zero q̈
+    drift[:, :3] += np.einsum("bij,bj->bi", _skew(velocity[:, 3:]), velocity[:, :3]) - np.einsum(
+        "bij,bj->bi", cross_point, drift[:, 3:]
+    )
+    return jacobian, drift
