@@ -6,25 +6,25 @@ interleaved round by round so the shared machine's load hits all alike:
 
 * ``simulate``: one :func:`torqueopt.simulate` run, planar3, null-space, the
   paper's long movement (2 s, 2001 rows);
-* ``batch``: :func:`torqueopt.batch.simulate_batch` in this process, 64
-  movements of 2 s from the atlas's population (seed 1), null-space, with the
-  energy extras the atlas uses;
+* ``batch``: :func:`torqueopt.batch.simulate_batch` in this process, 256
+  movements of 2 s (the atlas's default chunk) from the atlas's population
+  (seed 1), null-space, with the energy extras the atlas uses;
 * ``sweep 1 worker`` / ``sweep 2 workers``: the atlas's chunks (``run_chunk``:
-  batch, verdicts, rows; pinv and null-space on 4 x 64 movements of 2 s)
+  batch, verdicts, rows; pinv and null-space on 2 x 256 movements of 2 s)
   through ``distributed.as_completed`` on a LocalCluster of 1 and of 2
   worker processes started before the rounds (startup is not timed);
   trajectory-steps counted from the rows.
 
-Also measured once: how H is best obtained for a batch (CRBA inside
-``computeAllTerms`` per movement, or n + 1 batched ``rneaInParallel`` calls
-beside a per-movement Jacobian), and the batch against simulate on panda
-(n = 7) to show how the cost grows with the number of joints.
+Also measured once: the task terms per movement by simulate's own calls (one
+movement at a time) against the batch's forest
+(:class:`torqueopt.forest.RobotForest`), and the batch against simulate on
+panda (n = 7) to show how the cost grows with the number of joints.
 
 ``--count`` instead counts instructions with valgrind's callgrind (figures
 that do not move with the host's load): one process per case and length,
 the difference between a 150-step and a 50-step run divided by the
-trajectory-steps between them, for the batch (64 movements, null-space,
-with the energy extras) and for one ``simulate`` run (null-space).
+trajectory-steps between them, for the batch (64 and 256 movements,
+null-space, with the energy extras) and for one ``simulate`` run (null-space).
 
 Run::
 
@@ -49,17 +49,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population
 from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds
 from torqueopt.batch import simulate_batch
+from torqueopt.forest import RobotForest
 
 BEGIN, END = "<!-- bench_atlas:begin -->", "<!-- bench_atlas:end -->"
 PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
-_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
 def _cpu_ticks():
@@ -95,45 +94,26 @@ def _sweep(client, jobs, distributed):
     return steps / (time.perf_counter() - started)
 
 
-def _terms_comparison(robot, count=64, repeats=30):
-    """µs per movement to get H, b, J, J̇q̇ and the tip: computeAllTerms (CRBA) vs n + 1 rneaInParallel for H, b."""
-    model, data = robot.model, robot.model.createData()
+def _terms_comparison(robot, count=256, repeats=30):
+    """µs per movement to get H, b, J, J̇q̇ and the tip: simulate's per-movement calls vs one forest pass per copies."""
     rng = np.random.default_rng(0)
     q = np.array([robot.configuration(rng.uniform(-1, 1, robot.nv)) for _ in range(count)])
     v = rng.normal(size=(count, robot.nv))
-    n, rows, frame_id = robot.nv, robot.task_rows, robot.frame_id
-    pool = pin.ModelPool(model, 1)
+    n = robot.nv
+    terms = robot.terms_function()
     inertia, bias = np.empty((count, n, n)), np.empty((count, n))
     jacobian, drift = np.empty((count, robot.m, n)), np.empty((count, robot.m))
 
-    def with_crba():
+    def per_movement():
         for row in range(count):
-            pin.computeAllTerms(model, data, q[row], v[row])
-            inertia[row] = data.M
-            bias[row] = data.nle
-            jacobian[row] = pin.getFrameJacobian(model, data, frame_id, _LWA)[rows]
-            drift[row] = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector[rows]
-            pin.updateFramePlacement(model, data, frame_id)
+            step = terms(q[row], v[row])
+            inertia[row], bias[row] = step.inertia, step.bias_torque
+            jacobian[row], drift[row] = step.jacobian, step.drift
 
-    zeros, unit = np.zeros((count, n)), np.zeros((count, n))
-    out = np.empty((count, n))
-
-    def with_rnea():
-        pin.rneaInParallel(1, pool, q.T, v.T, zeros.T, out.T)
-        bias[:] = out
-        for column in range(n):
-            unit[:] = 0.0
-            unit[:, column] = 1.0
-            pin.rneaInParallel(1, pool, q.T, v.T, unit.T, out.T)  # H e_i + b
-            inertia[:, :, column] = out - bias
-        for row in range(count):
-            pin.forwardKinematics(model, data, q[row], v[row], zeros[row])
-            drift[row] = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector[rows]
-            jacobian[row] = pin.computeFrameJacobian(model, data, q[row], frame_id, _LWA)[rows]
-
-    timings = {"crba": [], "rnea": []}
+    forest = RobotForest(robot)
+    timings = {"per movement": [], "forest": []}
     for _ in range(repeats):
-        for name, function in (("crba", with_crba), ("rnea", with_rnea)):
+        for name, function in (("per movement", per_movement), ("forest", lambda: forest.terms(q, v))):
             started = time.perf_counter()
             function()
             timings[name].append((time.perf_counter() - started) / count * 1e6)
@@ -175,9 +155,11 @@ def count_instructions() -> dict:
             )  # fmt: skip
         return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
 
-    batch = (total("batch", 150, 64) - total("batch", 50, 64)) / (100 * 64)
-    single = (total("simulate", 150, 1) - total("simulate", 50, 1)) / 100
-    return {"batch": batch, "simulate": single}
+    counts = {
+        f"batch of {size}": (total("batch", 150, size) - total("batch", 50, size)) / (100 * size) for size in (64, 256)
+    }
+    counts["simulate"] = (total("simulate", 150, 1) - total("simulate", 50, 1)) / 100
+    return counts
 
 
 def main(argv=None):
@@ -188,19 +170,18 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.count:
         counts = count_instructions()
-        print(
-            f"instructions per trajectory-step (planar3, null-space): batch of 64 {counts['batch']:,.0f}, "
-            f"one simulate run {counts['simulate']:,.0f} ({counts['simulate'] / counts['batch']:.2f}x)"
-        )
+        print("instructions per trajectory-step (planar3, null-space, with the energy extras):")
+        for name, value in counts.items():
+            print(f"  {name}: {value:,.0f} ({counts['simulate'] / value:.2f}x fewer than simulate)")
         return
 
     import distributed
 
     planar3 = torqueopt.load_robot("planar3")
-    movements = draw_population(planar3, PopulationSpec(paths=256, durations=(2.0,), seed=1))
-    lines = [torqueopt.StraightLine(m.direction, duration=2.0, start=m.start) for m in movements[:64]]
-    q0s = [m.q0 for m in movements[:64]]
-    jobs = _jobs("planar3", movements, ["pinv", "null-space"], 64)
+    movements = draw_population(planar3, PopulationSpec(paths=512, durations=(2.0,), seed=1))
+    lines = [torqueopt.StraightLine(m.direction, duration=2.0, start=m.start) for m in movements[:256]]
+    q0s = [m.q0 for m in movements[:256]]
+    jobs = _jobs("planar3", movements, ["pinv", "null-space"], 256)  # the atlas's default chunk size
     paper_line = torqueopt.StraightLine([1, 1], duration=2.0)
 
     clusters = {}
@@ -242,7 +223,7 @@ def main(argv=None):
 
     panda = torqueopt.load_robot("panda")
     rng = np.random.default_rng(2)
-    panda_q0s = [panda.default_configuration + rng.normal(scale=0.2, size=panda.nv) for _ in range(32)]
+    panda_q0s = [panda.default_configuration + rng.normal(scale=0.2, size=panda.nv) for _ in range(128)]
     panda_lines = [torqueopt.StraightLine(rng.normal(size=3), accel=0.5, duration=0.5) for _ in panda_q0s]
     panda_rates = {"simulate": [], "batch": []}
     for _ in range(args.rounds):
@@ -275,17 +256,17 @@ def main(argv=None):
         "",
         f"Scaling from 1 to 2 workers: {two / one:.2f}x.",
         "",
-        "| robot | H, b, J, J̇q̇ per movement: computeAllTerms (CRBA) | n + 1 rneaInParallel + per-movement J, J̇q̇ |",
+        "| robot | H, b, J, J̇q̇, tip per movement: simulate's calls, one movement at a time | the batch's forest |",
         "|---|---|---|",
     ]
     for name, timing in terms.items():
-        lines_out.append(f"| {name} | {timing['crba']:.2f} µs | {timing['rnea']:.2f} µs |")
+        lines_out.append(f"| {name} | {timing['per movement']:.2f} µs | {timing['forest']:.2f} µs |")
     lines_out += [
         "",
         "| panda (n = 7, position task), null-space, 0.5 s | trajectory-steps/s |",
         "|---|---|",
         f"| simulate | {cell(panda_rates['simulate'])} |",
-        f"| batch (32 movements) | {cell(panda_rates['batch'])} |",
+        f"| batch (128 movements) | {cell(panda_rates['batch'])} |",
         END,
     ]
     text = "\n".join(lines_out)

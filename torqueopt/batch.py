@@ -42,7 +42,7 @@ import pinocchio as pin
 
 from .checks import configuration_vector, positive_number
 from .errors import InvalidInput
-from .forest import RobotForest
+from .forest import RobotForest, _skew
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
 from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
@@ -478,13 +478,12 @@ def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
     particular = q1 * y1[:, None] + q2 * y2[:, None]
     frobenius = r11 * r11 + r12 * r12 + r22 * r22
     determinant = r11 * r22
-    largest_squared = 0.5 * (frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant**2, 0.0)))
-    condition = np.where(
-        largest_squared > 0.0, determinant / np.where(largest_squared > 0.0, largest_squared, 1.0), 0.0
-    )
+    # σ_min/σ_max = d/σ_max² = 2d / (s + √(s² − 4d²)); 0 for a zero J (s = 0).
+    denominator = frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant * determinant, 0.0))
+    condition = np.divide(2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0)
     if not (redundant and J.shape[2] == 3):
         return particular, None, condition
-    basis = np.cross(q1, q2)[:, :, None]  # (B, 3, 1), unit: q1 ⊥ q2
+    basis = _skew(q1) @ q2[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
     return particular, basis, condition
 
 

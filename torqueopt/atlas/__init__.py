@@ -77,7 +77,7 @@ __all__ = [
 #: Largest sweep (movements × resolvers × steps) run_atlas starts without being told otherwise.
 DEFAULT_MAX_STEPS = 10_000_000_000
 #: Movements per chunk of work.
-DEFAULT_CHUNK_SIZE = 64
+DEFAULT_CHUNK_SIZE = 256
 _FORMAT = 1
 _OUR_FILES = ("results.parquet", "atlas.md", "atlas.json", CHUNK_FOLDER)
 
