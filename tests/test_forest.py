@@ -95,3 +95,34 @@ def test_two_row_closed_form_equals_the_complete_qr(joints):
         assert np.max(np.abs(jacobian @ basis)) < 1e-14
     else:
         assert basis is None
+
+
+def test_batches_in_threads_on_one_robot_give_the_serial_results(planar3):
+    """Each thread computes in its own forest data, so two batches sharing a Robot cannot race."""
+    import threading
+
+    from torqueopt import StraightLine
+    from torqueopt.batch import simulate_batch
+
+    rng = np.random.default_rng(4)
+    cases = [
+        (name, [StraightLine(d, duration=0.3) for d in rng.normal(size=(20, 2))], rng.uniform(-2, 2, (20, 3)))
+        for name in ("null-space", "inertia-pinv")
+    ]
+    serial = [simulate_batch(planar3, name, lines, q0s) for name, lines, q0s in cases]
+    threaded = [None, None]
+    barrier = threading.Barrier(len(cases))
+
+    def run(index):
+        barrier.wait()
+        threaded[index] = simulate_batch(planar3, *cases[index])
+
+    threads = [threading.Thread(target=run, args=(index,)) for index in range(len(cases))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for alone, together in zip(serial, threaded):
+        for run_alone, run_together in zip(alone, together):
+            for field in ("q", "v", "tau", "x"):
+                np.testing.assert_array_equal(getattr(run_together, field), getattr(run_alone, field))

@@ -42,7 +42,7 @@ import pinocchio as pin
 
 from .checks import configuration_vector, positive_number
 from .errors import InvalidInput
-from .forest import RobotForest, _skew
+from .forest import RobotForest, _cross
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver, get_resolver
 from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
@@ -483,7 +483,7 @@ def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
     condition = np.divide(2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0)
     if not (redundant and J.shape[2] == 3):
         return particular, None, condition
-    basis = _skew(q1) @ q2[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
+    basis = _cross(q1, q2)[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
     return particular, basis, condition
 
 

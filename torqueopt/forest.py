@@ -34,10 +34,10 @@ from .robot import Robot
 __all__ = ["FOREST_DOFS", "RobotForest"]
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
-#: shrinks with the forest's size, but Pinocchio's ``createData`` grows
-#: steeply with it (about 25 ms for 96 joints, seconds for 192: BENCHMARKS.md),
-#: so a batch larger than one forest goes through it in several passes.
-FOREST_DOFS = 96
+#: shrinks with the forest's size, but CRBA's instructions per copy and
+#: Pinocchio's ``createData`` grow with it (BENCHMARKS.md), so a batch larger
+#: than one forest goes through it in several passes.
+FOREST_DOFS = 48
 
 # Per-joint model vectors that enter the dynamics or the limits, copied to every tree.
 _PER_DOF = ("armature", "damping", "friction", "rotorInertia", "rotorGearRatio", "effortLimit", "velocityLimit")
@@ -170,20 +170,12 @@ class RobotForest:
         return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
 
 
-def _skew_basis() -> np.ndarray:
-    """K with ``(p @ K).reshape(3, 3)`` = [p]×, the matrix of p × (·)."""
-    basis = np.zeros((3, 3, 3))
-    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
-        basis[k, i, j], basis[k, j, i] = -1.0, 1.0
-    return basis.reshape(3, 9)
-
-
-_SKEW = _skew_basis()
-
-
-def _skew(vectors: np.ndarray) -> np.ndarray:
-    """[p]× for every row of a (B, 3) stack: (B, 3, 3)."""
-    return (vectors @ _SKEW).reshape(-1, 3, 3)
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b along axis 1 of (B, 3, ...) stacks (broadcast), by components: numpy's cross and matmul on stacks of
+    3-vectors cost several times more per row (BENCHMARKS.md)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
 def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):
@@ -192,16 +184,12 @@ def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: n
     ``world`` = :math:`J_O` maps :math:`\dot q` to the body's spatial velocity
     :math:`(v_O, \omega)` at the world origin, ``world_rate`` = :math:`\dot J_O`.
     The point p moves at :math:`v_p = v_O + \omega\times p`, so its Jacobian's
-    linear rows are :math:`J_v - [p]_\times J_\omega`; at zero :math:`\ddot q` it
-    accelerates at :math:`\dot v_O - [p]_\times\dot\omega + [\omega]_\times v_p`.
+    linear rows are :math:`J_v + J_\omega\times p`; at zero :math:`\ddot q` it
+    accelerates at :math:`\dot v_O + \dot\omega\times p + \omega\times v_p`.
     """
-    # einsum, not matmul: numpy's matmul makes one BLAS call per matrix of a stack, slow for 3×3 blocks.
-    cross_point = _skew(point)
     jacobian = world.copy()
-    jacobian[:, :3] -= np.einsum("bij,bjc->bic", cross_point, world[:, 3:])
-    velocity = np.einsum("bij,bj->bi", jacobian, v)  # (v_p, ω)
-    drift = np.einsum("bij,bj->bi", world_rate, v)  # (v̇_O, ω̇) at zero q̈
-    drift[:, :3] += np.einsum("bij,bj->bi", _skew(velocity[:, 3:]), velocity[:, :3]) - np.einsum(
-        "bij,bj->bi", cross_point, drift[:, 3:]
-    )
+    jacobian[:, :3] += _cross(world[:, 3:], point[:, :, None])
+    velocity = (jacobian * v[:, None, :]).sum(axis=2)  # (v_p, ω)
+    drift = (world_rate * v[:, None, :]).sum(axis=2)  # (v̇_O, ω̇) at zero q̈
+    drift[:, :3] += _cross(drift[:, 3:], point) + _cross(velocity[:, 3:], velocity[:, :3])
     return jacobian, drift
