@@ -40,7 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from .checks import configuration_vector, positive_number
+from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .errors import InvalidInput
 from .forest import RobotForest, _cross
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
@@ -116,8 +116,7 @@ def simulate_many(
     """
     resolver = get_resolver(resolver)
     trajectories = list(trajectories)
-    if len(trajectories) != len(q0s):
-        raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
+    _check_pairs(trajectories, q0s)
     if not (batch and batch_supports(robot, resolver)):
         return [
             simulate_one(
@@ -190,15 +189,14 @@ def simulate_batch(
     count = len(trajectories)
     if count == 0:
         return ([], []) if extras else []
-    if len(q0s) != count:
-        raise InvalidInput(f"{count} trajectories but {len(q0s)} start configurations")
+    _check_pairs(trajectories, q0s)
     dt = positive_number(dt, "dt", "s")
     durations = {line.duration for line in trajectories}
     if len(durations) != 1:
         raise InvalidInput(f"a batch needs movements of one duration, got {sorted(durations)} s: use simulate_many")
     duration = durations.pop()
     step_budget(duration, dt, max_steps)
-    threads = int(threads)
+    threads = whole_number(threads, "threads", 1)
 
     model = robot.model
     data = model.createData()  # the batch's own: the robot's data is never written
@@ -209,7 +207,6 @@ def simulate_batch(
         return _aba(pool, threads, q, v, tau)
 
     n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
-    linear_dimension = min(m, 3)
     steps = step_budget(duration, dt)
     times = dt * np.arange(steps + 1)
 
@@ -220,11 +217,7 @@ def simulate_batch(
     descriptions = []
     for i, line in enumerate(trajectories):
         check_trajectory(line)
-        if line.dimension is not None and line.dimension != linear_dimension:
-            raise InvalidInput(
-                f"trajectory {type(line).__name__} moves in {line.dimension} dimensions but task "
-                f"'{robot.task}' moves the tip in {linear_dimension}"
-            )
+        linear_dimension = trajectory_dimension(robot, line)
         if line.start is None:
             pin.framesForwardKinematics(model, data, q[i])
             line = line.anchored(data.oMf[frame_id].translation[:linear_dimension].copy())
@@ -244,7 +237,7 @@ def simulate_batch(
     acceleration_log = np.full((steps + 1, count, n), np.nan)
     torque_log = np.full((steps + 1, count, n), np.nan)
     x_log = np.empty((steps + 1, count, m))
-    condition_log = np.empty((steps + 1, count))
+    inverse_condition_log = np.empty((steps + 1, count))
     energy_log = np.empty((steps + 1, count)) if extras else None
     self_energy_log = np.empty((steps + 1, count)) if extras else None
     reference_acceleration = np.ascontiguousarray(np.swapaxes(reference_acceleration, 0, 1))
@@ -262,25 +255,25 @@ def simulate_batch(
         # Task terms of every movement still running, a few Pinocchio calls per forest of copies.
         H, b, jacobian, drift, tip = forest.terms(q, v)
         J, Jd = jacobian[:, rows], drift[:, rows]
-        # Every state is recorded (q, v, x, condition); torque and q̈ only where the resolver ran.
+        # Every state is recorded (q, v, x, inverse_condition); torque and q̈ only where the resolver ran.
         q_log[k, where] = q
         v_log[k, where] = v
         x_log[k, where] = tip[:, rows]
         recorded[where] = k + 1
         if k == steps:
             # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
-            condition_log[k, where] = _condition(J)
+            inverse_condition_log[k, where] = _inverse_condition(J)
             if extras:
                 energy_log[k, where], self_energy_log[k, where] = _energies(H, J, v)
             break
         command = reference_acceleration[k, where]
-        torque, joint_acceleration, condition, singular, basis = step(H, b, J, Jd, command)
+        torque, joint_acceleration, inverse_condition, singular, basis = step(H, b, J, Jd, command)
         if extras:
             kinetic, self_motion = _null_space_energies(H, basis, v)
             if singular.any():  # the QR basis of a singular J is not its null space
                 kinetic[singular], self_motion[singular] = _energies(H[singular], J[singular], v[singular])
             energy_log[k, where], self_energy_log[k, where] = kinetic, self_motion
-        condition_log[k, where] = condition
+        inverse_condition_log[k, where] = inverse_condition
         if singular.any():
             resolved = ~singular
             acceleration_log[k, active[resolved]] = joint_acceleration[resolved]
@@ -294,7 +287,9 @@ def simulate_batch(
         for row in np.flatnonzero(stopping).tolist():
             movement = int(active[row])
             if singular[row]:
-                stop_reason[movement] = f"{resolver_singular_message(condition[row], resolver)} at t = {t:.4f} s"
+                stop_reason[movement] = (
+                    f"{resolver_singular_message(inverse_condition[row], resolver)} at t = {t:.4f} s"
+                )
             else:
                 stop_reason[movement] = _torque_stop(robot, torque[row], max_torque_ratio, t)
             stop_time[movement] = t
@@ -344,7 +339,7 @@ def simulate_batch(
                 tau=torque_log[:length, i].copy(),
                 x=x_log[:length, i].copy(),
                 x_ref=reference_position[i, :length].copy(),
-                jacobian_inverse_condition=condition_log[:length, i].copy(),
+                jacobian_inverse_condition=inverse_condition_log[:length, i].copy(),
                 torque_upper=robot.torque_upper.copy(),
                 torque_lower=robot.torque_lower.copy(),
                 duration=duration,
@@ -365,10 +360,16 @@ def simulate_batch(
     return results, more
 
 
-def resolver_singular_message(condition: float, resolver: Resolver) -> str:
+def _check_pairs(trajectories: Sequence[Trajectory], q0s) -> None:
+    """InvalidInput unless there is one start configuration per trajectory."""
+    if len(trajectories) != len(q0s):
+        raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
+
+
+def resolver_singular_message(inverse_condition: float, resolver: Resolver) -> str:
     """The message of :class:`~torqueopt.errors.SingularJacobian` that ``simulate`` records (see linalg._inverse_condition)."""
     return (
-        f"task Jacobian is singular: smallest/largest singular value {condition:.3g} "
+        f"task Jacobian is singular: smallest/largest singular value {inverse_condition:.3g} "
         f"is below the cutoff {resolver.singular_tolerance:.3g}"
     )
 
@@ -381,7 +382,7 @@ def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> n
     return out
 
 
-def _condition(jacobian: np.ndarray) -> np.ndarray:
+def _inverse_condition(jacobian: np.ndarray) -> np.ndarray:
     """σ_min/σ_max per task Jacobian of the stack (0 for a zero one), for rows at which no resolver runs."""
     singular_values = np.linalg.svd(jacobian, compute_uv=False)
     largest = singular_values[:, 0]
@@ -433,22 +434,22 @@ def _complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
 
     :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
     rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
-    is the minimum-norm solution of :math:`J\ddot q = r`. The condition comes
+    is the minimum-norm solution of :math:`J\ddot q = r`. The inverse condition comes
     from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J). Rows with a
     singular J get a finite, unused answer.
     """
     m = J.shape[1]
     squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
     largest = squared[:, -1]
-    condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
-    condition = np.where(largest > 0, condition, 0.0)
+    inverse_condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
+    inverse_condition = np.where(largest > 0, inverse_condition, 0.0)
     orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
     upper = triangular[:, :m, :]
-    upper = np.where((condition < 1e-12)[:, None, None], np.eye(m), upper)
+    upper = np.where((inverse_condition < 1e-12)[:, None, None], np.eye(m), upper)
     particular = np.einsum(
         "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
     )
-    return particular, orthogonal[:, :, m:] if redundant else None, condition
+    return particular, orthogonal[:, :, m:] if redundant else None, inverse_condition
 
 
 def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
@@ -480,15 +481,17 @@ def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
     determinant = r11 * r22
     # σ_min/σ_max = d/σ_max² = 2d / (s + √(s² − 4d²)); 0 for a zero J (s = 0).
     denominator = frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant * determinant, 0.0))
-    condition = np.divide(2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0)
+    inverse_condition = np.divide(
+        2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0
+    )
     if not (redundant and J.shape[2] == 3):
-        return particular, None, condition
+        return particular, None, inverse_condition
     basis = _cross(q1, q2)[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
-    return particular, basis, condition
+    return particular, basis, inverse_condition
 
 
 def _batched_step(robot: Robot, resolver: Resolver):
-    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, condition, singular, Z)``.
+    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, σ_min/σ_max, singular, Z)``.
 
     Same equations as the resolver's own step (:meth:`Resolver.solver`):
     :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y` (Eq. (26)),
@@ -521,8 +524,8 @@ def _batched_step(robot: Robot, resolver: Resolver):
 
     def step(H, b, J, drift, command):
         # Eq. (26)'s particular solution J⁺(ẍ − J̇q̇), a null-space basis Z and σ_min/σ_max of J.
-        particular, basis, condition = factor(J, command - drift, redundant)
-        singular = ~(condition >= tolerance)
+        particular, basis, inverse_condition = factor(J, command - drift, redundant)
+        singular = ~(inverse_condition >= tolerance)
         acceleration = particular
         if redundant and kind is not PseudoInverse:
             inertia_basis = H @ basis  # H Z
@@ -542,6 +545,6 @@ def _batched_step(robot: Robot, resolver: Resolver):
                     y = least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
             acceleration = particular + np.einsum("bij,bj->bi", basis, y)
         torque = np.einsum("bij,bj->bi", H, acceleration) + b  # Eq. (20)
-        return torque, acceleration, condition, singular, basis
+        return torque, acceleration, inverse_condition, singular, basis
 
     return step
