@@ -6,15 +6,17 @@ by side, one time step for the whole batch at a time. It computes what
 each of its runs to the matching ``simulate`` run to 1e-9:
 
 * the task terms :math:`H`, :math:`b = \dot q\cdot C\cdot\dot q + g`,
-  :math:`J`, :math:`\dot J\dot q` and the tip placement come from Pinocchio,
-  one ``computeAllTerms`` per movement (the Jacobian and its drift have no
-  batched Pinocchio call; CRBA inside ``computeAllTerms`` is cheaper than
-  :math:`n + 1` batched RNEA calls for :math:`H`, see BENCHMARKS.md);
-* the resolver's linear algebra runs on (B, n, n) stacks at once: one
-  batched SVD of the task Jacobians gives :math:`J^\dagger r` and a null-space
-  basis :math:`Z`, then each resolver's choice of the null-space
-  coordinates :math:`y` is a batched solve (the formulas of
-  :mod:`torqueopt.resolvers`, Eq. (31), Eq. (33), Eq. (34), Eq. (35), Eq. (36), Eq. (37));
+  :math:`J`, :math:`\dot J\dot q` and the tip placement come from Pinocchio
+  through a :class:`~torqueopt.forest.RobotForest`: copies of the robot in one
+  Pinocchio model, so four calls give the terms of a whole pass of movements
+  (CRBA, RNEA, the joint Jacobians and their rate); the tests hold them to
+  ``simulate``'s per-movement frame calls;
+* the resolver's linear algebra runs on (B, ...) stacks at once: the complete
+  QR of the task Jacobians (or, for two task rows on two or three joints, its
+  closed form) gives :math:`J^\dagger r` and a null-space basis :math:`Z`,
+  then each resolver's choice of the null-space coordinates :math:`y` is a
+  batched solve (the formulas of :mod:`torqueopt.resolvers`, Eq. (31),
+  Eq. (33), Eq. (34), Eq. (35), Eq. (36), Eq. (37));
 * RK4 with the torque held (:func:`torqueopt.integrators.rk4_step`) takes the
   resolver's :math:`\ddot q` as its first stage and computes the other three
   stage accelerations of the whole batch with one ``pin.abaInParallel``
