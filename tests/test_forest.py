@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 
 import torqueopt
-from torqueopt.batch import _complete_qr, _two_rows
+from torqueopt.batch_resolvers import complete_qr, two_rows
 from torqueopt.errors import InvalidInput
 from torqueopt.forest import RobotForest
 
@@ -69,7 +69,7 @@ def test_a_forest_needs_joints_whose_configuration_adds():
 
 
 @pytest.mark.parametrize("joints", [2, 3])
-def test_two_row_closed_form_equals_the_complete_qr(joints):
+def test_two_row_closed_form_equals_thecomplete_qr(joints):
     """Random 2×n Jacobians, from well conditioned to σmin/σmax = 1e-7 (below the batch's cutoff 1e-6)."""
     rng = np.random.default_rng(11)
     count = 400
@@ -80,8 +80,8 @@ def test_two_row_closed_form_equals_the_complete_qr(joints):
     jacobian = u @ (singular_values[:, :, None] * np.swapaxes(w, 1, 2))  # U Σ Wᵀ, known σ
     residual = rng.normal(size=(count, 2))
     redundant = joints > 2
-    particular, basis, condition = _two_rows(jacobian, residual, redundant)
-    reference, reference_basis, _ = _complete_qr(jacobian, residual, redundant)
+    particular, basis, condition = two_rows(jacobian, residual, redundant)
+    reference, reference_basis, _ = complete_qr(jacobian, residual, redundant)
     # The minimum-norm solution is amplified by 1/σmin: compare relative to its size, allowing κ·ε.
     scale = np.linalg.norm(reference, axis=1)
     assert np.all(np.linalg.norm(particular - reference, axis=1) <= 1e-15 * scale / conditions + 1e-14)

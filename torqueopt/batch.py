@@ -42,13 +42,11 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from .batch_resolvers import BATCHED_RESOLVERS, batched_step
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .errors import InvalidInput
-from .forest import RobotForest, _cross
-from .linalg import DEFAULT_SINGULAR_TOLERANCE
+from .forest import RobotForest
 from .resolvers import Resolver, get_resolver
-from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
-from .resolvers.pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .simulate import (
@@ -63,9 +61,6 @@ from .simulate import simulate as simulate_one
 from .trajectory import Trajectory, check_trajectory, describe
 
 __all__ = ["BATCHED_RESOLVERS", "BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
-
-#: Resolver classes whose step has a batched twin here (exact classes: a subclass may change the step).
-BATCHED_RESOLVERS = (PseudoInverse, InertiaWeightedPseudoInverse, NullSpaceTorque, WeightedNullSpaceTorque)
 
 
 def batch_supports(robot: Robot, resolver: str | Resolver, feedback=None) -> bool:
@@ -228,7 +223,7 @@ def simulate_batch(
         reference_position[i] = sample.position
         reference_acceleration[i] = sample.acceleration
 
-    step = _batched_step(robot, resolver)
+    step = batched_step(robot, resolver)
     limit = robot.torque_upper
     torque_ceiling = np.minimum(max_torque_ratio * limit, np.finfo(float).max)
     speed_ceiling = min(max_joint_speed, np.finfo(float).max)
@@ -429,124 +424,3 @@ def _null_space_energies(inertia: np.ndarray, basis: np.ndarray | None, velocity
     else:
         self_motion = 0.5 * np.einsum("bi,bi->b", projected, _solve(reduced, projected[..., None])[..., 0])
     return kinetic, np.clip(self_motion, 0.0, kinetic)
-
-
-def _complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
-    r"""``(J⁺r, Z, σ_min/σ_max)`` per row of a (B, m, n) stack, from the complete QR of :math:`J^\top`.
-
-    :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
-    rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
-    is the minimum-norm solution of :math:`J\ddot q = r`. The inverse condition comes
-    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J). Rows with a
-    singular J get a finite, unused answer.
-    """
-    m = J.shape[1]
-    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
-    largest = squared[:, -1]
-    inverse_condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
-    inverse_condition = np.where(largest > 0, inverse_condition, 0.0)
-    orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
-    upper = triangular[:, :m, :]
-    upper = np.where((inverse_condition < 1e-12)[:, None, None], np.eye(m), upper)
-    particular = np.einsum(
-        "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
-    )
-    return particular, orthogonal[:, :, m:] if redundant else None, inverse_condition
-
-
-def _two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
-    r""":func:`_complete_qr` for two-row Jacobians of two or three joints (the planar arm's xy task), in closed form.
-
-    Gram-Schmidt with one re-orthogonalisation gives the row-space basis
-    :math:`q_1, q_2` and :math:`R = \begin{pmatrix} r_{11} & r_{12}\\ 0 & r_{22}\end{pmatrix}`
-    (:math:`J^\top = [q_1\ q_2] R`) to working accuracy; :math:`J^\dagger r = q_1 y_1 + q_2 y_2`
-    with :math:`R^\top y = r`; for three joints the null space is spanned by
-    :math:`z = q_1\times q_2`. The singular values of R are those of J:
-    :math:`\sigma_{max}^2 = (s + \sqrt{s^2 - 4d^2})/2` with
-    :math:`s = \|R\|_F^2`, :math:`d = r_{11}r_{22}`, and :math:`\sigma_{min} = d/\sigma_{max}`.
-    Equal to the QR path to round-off, without a LAPACK call per row.
-    """
-    first, second = J[:, 0], J[:, 1]
-    r11 = np.sqrt(np.einsum("bi,bi->b", first, first))
-    safe11 = np.where(r11 > 0.0, r11, 1.0)
-    q1 = first / safe11[:, None]
-    r12 = np.einsum("bi,bi->b", q1, second)
-    u = second - r12[:, None] * q1
-    u -= np.einsum("bi,bi->b", q1, u)[:, None] * q1  # twice is enough: orthogonal to working accuracy
-    r22 = np.sqrt(np.einsum("bi,bi->b", u, u))
-    safe22 = np.where(r22 > 0.0, r22, 1.0)
-    q2 = u / safe22[:, None]
-    y1 = residual[:, 0] / safe11
-    y2 = (residual[:, 1] - r12 * y1) / safe22
-    particular = q1 * y1[:, None] + q2 * y2[:, None]
-    frobenius = r11 * r11 + r12 * r12 + r22 * r22
-    determinant = r11 * r22
-    # σ_min/σ_max = d/σ_max² = 2d / (s + √(s² − 4d²)); 0 for a zero J (s = 0).
-    denominator = frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant * determinant, 0.0))
-    inverse_condition = np.divide(
-        2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0
-    )
-    if not (redundant and J.shape[2] == 3):
-        return particular, None, inverse_condition
-    basis = _cross(q1, q2)[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
-    return particular, basis, inverse_condition
-
-
-def _batched_step(robot: Robot, resolver: Resolver):
-    r"""The resolver's step on (B, ...) stacks: ``(H, b, J, J̇q̇, ẍ) -> (τ, q̈, σ_min/σ_max, singular, Z)``.
-
-    Same equations as the resolver's own step (:meth:`Resolver.solver`):
-    :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + Z y` (Eq. (26)),
-    :math:`\tau = H\ddot q + b`, with y as each resolver chooses it.
-    Rows whose Jacobian is singular (σ_min/σ_max below the resolver's
-    cutoff) are flagged; their outputs are not used.
-    """
-    n, m = robot.nv, robot.m
-    tolerance = getattr(resolver, "singular_tolerance", DEFAULT_SINGULAR_TOLERANCE)
-    kind = type(resolver)
-    midpoint = torque_midpoint(robot)
-    root = resolver.weight_root(robot) if kind is WeightedNullSpaceTorque else None
-    redundant = n > m
-
-    def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """Minimum-norm least squares per row, rank cutoff 1e-12 relative (as linalg.LeastSquares)."""
-        if matrix.shape[2] == 1:
-            # One column a: y = aᵀb / aᵀa, or 0 for a zero column (the minimum-norm answer).
-            column = matrix[:, :, 0]
-            norm2 = np.einsum("bi,bi->b", column, column)
-            safe = np.where(norm2 > 0.0, norm2, 1.0)
-            return np.where(norm2 > 0.0, np.einsum("bi,bi->b", column, rhs) / safe, 0.0)[:, None]
-        u, s, vt = np.linalg.svd(matrix, full_matrices=False)
-        keep = s > 1e-12 * s[:, :1]
-        inverse = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
-        projected = np.einsum("bji,bj->bi", u, rhs) * inverse
-        return np.einsum("bji,bj->bi", vt, projected)
-
-    factor = _two_rows if m == 2 and n in (2, 3) else _complete_qr
-
-    def step(H, b, J, drift, command):
-        # Eq. (26)'s particular solution J⁺(ẍ − J̇q̇), a null-space basis Z and σ_min/σ_max of J.
-        particular, basis, inverse_condition = factor(J, command - drift, redundant)
-        singular = ~(inverse_condition >= tolerance)
-        acceleration = particular
-        if redundant and kind is not PseudoInverse:
-            inertia_basis = H @ basis  # H Z
-            if kind is InertiaWeightedPseudoInverse:
-                # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eq. (16), Eq. (35); ZᵀHZ is positive definite
-                reduced = np.swapaxes(basis, 1, 2) @ inertia_basis
-                rhs = np.einsum("bji,bj->bi", inertia_basis, particular)
-                y = -np.linalg.solve(reduced, rhs[..., None])[..., 0]
-            else:
-                # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖W½ (H Z y − offset)‖, Eq. (31), Eq. (33)
-                offset = midpoint - np.einsum("bij,bj->bi", H, particular) - b
-                if root is None:
-                    y = least_squares(inertia_basis, offset)
-                elif root.ndim == 1:
-                    y = least_squares(root[None, :, None] * inertia_basis, root * offset)
-                else:
-                    y = least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
-            acceleration = particular + np.einsum("bij,bj->bi", basis, y)
-        torque = np.einsum("bij,bj->bi", H, acceleration) + b  # Eq. (20)
-        return torque, acceleration, inverse_condition, singular, basis
-
-    return step

@@ -31,7 +31,7 @@ import pinocchio as pin
 from .errors import InvalidInput
 from .robot import Robot
 
-__all__ = ["FOREST_DOFS", "RobotForest"]
+__all__ = ["FOREST_DOFS", "RobotForest", "stacked_cross"]
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
 #: shrinks with the forest's size, but CRBA's instructions per copy and
@@ -170,7 +170,7 @@ class RobotForest:
         return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b along axis 1 of (B, 3, ...) stacks (broadcast), by components: numpy's cross and matmul on stacks of
     3-vectors cost several times more per row (BENCHMARKS.md)."""
     a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
@@ -188,8 +188,8 @@ def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: n
     accelerates at :math:`\dot v_O + \dot\omega\times p + \omega\times v_p`.
     """
     jacobian = world.copy()
-    jacobian[:, :3] += _cross(world[:, 3:], point[:, :, None])
+    jacobian[:, :3] += stacked_cross(world[:, 3:], point[:, :, None])
     velocity = (jacobian * v[:, None, :]).sum(axis=2)  # (v_p, ω)
     drift = (world_rate * v[:, None, :]).sum(axis=2)  # (v̇_O, ω̇) at zero q̈
-    drift[:, :3] += _cross(drift[:, 3:], point) + _cross(velocity[:, 3:], velocity[:, :3])
+    drift[:, :3] += stacked_cross(drift[:, 3:], point) + stacked_cross(velocity[:, 3:], velocity[:, :3])
     return jacobian, drift
