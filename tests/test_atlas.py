@@ -474,13 +474,13 @@ def test_missing_dask_names_the_package(monkeypatch, tmp_path):
 
 
 def test_a_resolver_the_batch_does_not_cover_runs_through_simulate():
-    """A remedy (damped-null-space) has no batched twin: its rows come from
-    simulate, and its verdict columns are there like the others'."""
-    rows = _rows([(1.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "damped-null-space"])
-    assert rows[0, "pinv"]["batched"] and not rows[0, "damped-null-space"]["batched"]
+    """A bounded resolver (the QP bounded-torque) has no batched twin: its rows
+    come from simulate, and its verdict columns are there like the others'."""
+    rows = _rows([(1.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "bounded-torque"])
+    assert rows[0, "pinv"]["batched"] and not rows[0, "bounded-torque"]["batched"]
     planar3 = torqueopt.load_robot("planar3")
-    run = torqueopt.simulate(planar3, "damped-null-space", torqueopt.StraightLine([1, 1], duration=1.0), PAPER_Q0)
-    assert rows[0, "damped-null-space"]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio))
+    run = torqueopt.simulate(planar3, "bounded-torque", torqueopt.StraightLine([1, 1], duration=1.0), PAPER_Q0)
+    assert rows[0, "bounded-torque"]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio))
 
 
 @pytest.mark.slow

@@ -12,6 +12,7 @@ from torqueopt.errors import InvalidInput
 from .conftest import PAPER_Q0
 
 PAPER_RESOLVERS = ["pinv", "inertia-pinv", "null-space", "weighted-null-space"]
+REMEDIES = ["damped-null-space", "self-motion-damping", "inverse-inertia-torque", "inverse-inertia-squared-torque"]
 _ARRAYS = ("t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref", "jacobian_inverse_condition")
 
 
@@ -46,7 +47,11 @@ def _population(robot, count, seed):
 # null-space, whose long runs whip and stop early, stays in the quick selection (-m "not slow");
 # the panda test below holds all four resolvers there.
 @pytest.mark.parametrize(
-    "name", [name if name == "null-space" else pytest.param(name, marks=pytest.mark.slow) for name in PAPER_RESOLVERS]
+    "name",
+    [
+        name if name in ("null-space", "damped-null-space") else pytest.param(name, marks=pytest.mark.slow)
+        for name in PAPER_RESOLVERS + REMEDIES
+    ],
 )
 def test_batch_equals_simulate_on_planar3(planar3, name):
     """Random starts and directions plus the paper's movement: the long
@@ -65,7 +70,7 @@ def test_batch_equals_simulate_on_planar3(planar3, name):
     assert any(run.completed for run in runs)
 
 
-@pytest.mark.parametrize("name", PAPER_RESOLVERS)
+@pytest.mark.parametrize("name", PAPER_RESOLVERS + REMEDIES)
 def test_batch_equals_simulate_on_panda(panda, name):
     """Seven joints, three task rows, gravity on: a null space of dimension 4."""
     if name == "weighted-null-space" and not np.isfinite(panda.torque_upper).all():
@@ -135,7 +140,7 @@ def test_batch_leaves_the_robot_data_alone_and_refuses_what_it_cannot_do(planar3
         simulate_batch(panda_pose, "pinv", [StraightLine([0, 0, 1], duration=0.1)], [panda_pose.default_configuration])
     with pytest.raises(InvalidInput, match=r"a batch needs movements of one duration, got \[0.1, 0.2\] s"):
         simulate_batch(planar3, "pinv", [StraightLine([1, 1], duration=d) for d in (0.1, 0.2)], [PAPER_Q0] * 2)
-    assert {cls.name for cls in BATCHED_RESOLVERS} == set(PAPER_RESOLVERS)
+    assert {cls.name for cls in BATCHED_RESOLVERS} == set(PAPER_RESOLVERS + REMEDIES)
 
 
 def test_batch_energies_against_their_definition(planar3):
@@ -173,3 +178,16 @@ def test_batch_takes_any_trajectory(planar3):
     q0s = [PAPER_Q0, [0.3, 1.4, -1.0]]
     for run, line, q0 in zip(simulate_batch(planar3, "inertia-pinv", lines, q0s), lines, q0s):
         assert_same_run(run, torqueopt.simulate(planar3, "inertia-pinv", line, q0))
+
+
+@pytest.mark.parametrize(
+    "options", [{"torque_weight": "range", "kinematic_weight": 2.0}, {"kinematic_weight": 0.0, "damping": 3.0}]
+)
+def test_damped_null_space_options_match_simulate(planar3, options):
+    """The range weight with a heavy kinematic term, and μ = 0 (the paper's least squares exactly)."""
+    resolver = torqueopt.get_resolver("damped-null-space", **options)
+    q0s, directions = _population(planar3, 6, seed=12)
+    lines = [StraightLine(d, duration=1.2) for d in directions]
+    runs = simulate_batch(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0, max_torque_ratio=20.0))

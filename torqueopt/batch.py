@@ -28,7 +28,9 @@ leaves the batch at once: the arrays are compacted, so the rest go on at
 the cost of the movements still running.
 
 Supported: the four paper resolvers (``pinv``, ``inertia-pinv``,
-``null-space``, ``weighted-null-space``, with any weight) on robots whose
+``null-space``, ``weighted-null-space``, with any weight) and the four
+remedies (``damped-null-space``, ``self-motion-damping``,
+``inverse-inertia-torque``, ``inverse-inertia-squared-torque``) on robots whose
 joints all add (revolute or prismatic, :attr:`Robot.euclidean`), for the
 ``xy`` and ``position`` tasks, open loop. :func:`batch_supports` says
 whether a case is; :func:`simulate_many` runs any list of movements,
@@ -264,7 +266,7 @@ def simulate_batch(
                 energy_log[k, where], self_energy_log[k, where] = _energies(H, J, v)
             break
         command = reference_acceleration[k, where]
-        torque, joint_acceleration, inverse_condition, singular, basis = step(H, b, J, Jd, command)
+        torque, joint_acceleration, inverse_condition, singular, basis = step(H, b, J, Jd, command, v)
         if extras:
             kinetic, self_motion = _null_space_energies(H, basis, v)
             if singular.any():  # the QR basis of a singular J is not its null space

@@ -1,8 +1,10 @@
-r"""The paper's four resolvers on stacks of movements: one step of each for a whole batch.
+r"""The paper's four resolvers and the four remedies on stacks of movements: one step for a whole batch.
 
 :func:`batched_step` returns the step :func:`torqueopt.batch.simulate_batch`
-takes for its resolver: the formulas of :mod:`torqueopt.resolvers`
-(Eq. (16), Eq. (20), Eq. (26), Eq. (31), Eq. (33), Eq. (35)) on (B, ...)
+takes for its resolver: the formulas of :mod:`torqueopt.resolvers` (the
+paper's Eq. (16), Eq. (20), Eq. (26), Eq. (28), Eq. (31), Eq. (33), Eq. (35);
+the remedies of :mod:`torqueopt.resolvers.damping` and
+:mod:`torqueopt.resolvers.inverse_inertia`) on (B, ...)
 stacks, held by the tests to each resolver's own step through ``simulate``.
 The task-space factorisation behind them (:math:`J^\dagger r`, a null-space
 basis, σmin/σmax) is :func:`complete_qr`, or :func:`two_rows` in closed form
@@ -16,6 +18,8 @@ import numpy as np
 from .forest import stacked_cross
 from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver
+from .resolvers.damping import DampedNullSpaceTorque, SelfMotionDamping
+from .resolvers.inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .resolvers.null_space import NullSpaceTorque, WeightedNullSpaceTorque, torque_midpoint
 from .resolvers.pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 from .robot import Robot
@@ -23,7 +27,16 @@ from .robot import Robot
 __all__ = ["BATCHED_RESOLVERS", "batched_step", "complete_qr", "two_rows"]
 
 #: Resolver classes whose step has a batched twin here (exact classes: a subclass may change the step).
-BATCHED_RESOLVERS = (PseudoInverse, InertiaWeightedPseudoInverse, NullSpaceTorque, WeightedNullSpaceTorque)
+BATCHED_RESOLVERS = (
+    PseudoInverse,
+    InertiaWeightedPseudoInverse,
+    NullSpaceTorque,
+    WeightedNullSpaceTorque,
+    DampedNullSpaceTorque,
+    SelfMotionDamping,
+    InverseInertiaTorque,
+    InverseInertiaSquaredTorque,
+)
 
 
 def complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
@@ -100,7 +113,9 @@ def batched_step(robot: Robot, resolver: Resolver):
     tolerance = getattr(resolver, "singular_tolerance", DEFAULT_SINGULAR_TOLERANCE)
     kind = type(resolver)
     midpoint = torque_midpoint(robot)
-    root = resolver.weight_root(robot) if kind is WeightedNullSpaceTorque else None
+    root = resolver.weight_root(robot) if kind in (WeightedNullSpaceTorque, DampedNullSpaceTorque) else None
+    kinematic_weight = resolver.kinematic_weight if kind is DampedNullSpaceTorque else 0.0
+    damping = getattr(resolver, "damping", 0.0)
     redundant = n > m
 
     def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -119,7 +134,7 @@ def batched_step(robot: Robot, resolver: Resolver):
 
     factor = two_rows if m == 2 and n in (2, 3) else complete_qr
 
-    def step(H, b, J, drift, command):
+    def step(H, b, J, drift, command, v):
         # Eq. (26)'s particular solution J⁺(ẍ − J̇q̇), a null-space basis Z and σ_min/σ_max of J.
         particular, basis, inverse_condition = factor(J, command - drift, redundant)
         singular = ~(inverse_condition >= tolerance)
@@ -131,13 +146,32 @@ def batched_step(robot: Robot, resolver: Resolver):
                 reduced = np.swapaxes(basis, 1, 2) @ inertia_basis
                 rhs = np.einsum("bji,bj->bi", inertia_basis, particular)
                 y = -np.linalg.solve(reduced, rhs[..., None])[..., 0]
+            elif kind is SelfMotionDamping:
+                y = -damping * np.einsum("bji,bj->bi", basis, v)  # y = −K_D Zᵀq̇
+            elif kind is InverseInertiaTorque:
+                # y = −(ZᵀHZ)⁻¹ Zᵀτ̃, τ̃ = H J⁺r + b (Eq. (28)); ZᵀHZ is positive definite
+                reduced = np.swapaxes(basis, 1, 2) @ inertia_basis
+                torque_tilde = np.einsum("bij,bj->bi", H, particular) + b
+                y = -np.linalg.solve(reduced, np.einsum("bji,bj->bi", basis, torque_tilde)[..., None])[..., 0]
+            elif kind is InverseInertiaSquaredTorque:
+                # y = −Zᵀ H⁻¹ τ̃ (Eq. (28)'s τ̃)
+                torque_tilde = np.einsum("bij,bj->bi", H, particular) + b
+                y = -np.einsum("bji,bj->bi", basis, np.linalg.solve(H, torque_tilde[..., None])[..., 0])
             else:
                 # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖W½ (H Z y − offset)‖, Eq. (31), Eq. (33)
                 offset = midpoint - np.einsum("bij,bj->bi", H, particular) - b
                 if root is None:
                     y = least_squares(inertia_basis, offset)
                 elif root.ndim == 1:
-                    y = least_squares(root[None, :, None] * inertia_basis, root * offset)
+                    weighted = root[None, :, None] * inertia_basis
+                    if kinematic_weight:
+                        # damped-null-space: [SHZ; μ̄I] y ≈ [S(τ_mid − τ̃); −μ̄K_D Zᵀq̇], μ̄ = μ‖SHZ‖_F
+                        weight = kinematic_weight * np.sqrt(np.einsum("bij,bij->b", weighted, weighted))
+                        stacked = np.concatenate([weighted, weight[:, None, None] * np.eye(n - m)], axis=1)
+                        kinematic = (-damping * weight)[:, None] * np.einsum("bji,bj->bi", basis, v)
+                        y = least_squares(stacked, np.concatenate([root * offset, kinematic], axis=1))
+                    else:
+                        y = least_squares(weighted, root * offset)
                 else:
                     y = least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
             acceleration = particular + np.einsum("bij,bj->bi", basis, y)
