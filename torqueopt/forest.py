@@ -153,7 +153,7 @@ class RobotForest:
             rows = slice(index * copies, (index + 1) * copies)
             q_forest, v_forest = self._padded(q[rows]), self._padded(v[rows])
             data = forest_pass.data
-            pin.crba(model, data, q_forest, pin.Convention.LOCAL)  # the convention computeAllTerms uses
+            pin.crba(model, data, q_forest, pin.Convention.LOCAL)  # WORLD, the default, costs the same here
             pin.nonLinearEffects(model, data, q_forest, v_forest)
             pin.computeJointJacobiansTimeVariation(model, data, q_forest, v_forest)
             pin.updateFramePlacements(model, data)
