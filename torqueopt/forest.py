@@ -22,7 +22,6 @@ and :meth:`Robot.forward_dynamics` are the reference it is held to.
 
 from __future__ import annotations
 
-import threading
 import weakref
 
 import numpy as np
@@ -43,12 +42,10 @@ FOREST_DOFS = 48
 _PER_DOF = ("armature", "damping", "friction", "rotorInertia", "rotorGearRatio", "effortLimit", "velocityLimit")
 _PER_CONFIGURATION = ("lowerPositionLimit", "upperPositionLimit")
 
-# Forest models per robot (a Robot is immutable, so its forest is too), and the
-# Pinocchio data each thread computes in: two runs in two threads never share a
-# data, and a run in a thread reuses the data of the thread's earlier runs
-# (every value read from it is recomputed by the call that precedes the read).
+# Forest models per robot: a Robot is immutable, so its forest model is too and
+# is built once. Pinocchio data are never shared: each RobotForest makes its
+# own (its cost: BENCHMARKS.md), so two runs in threads cannot race.
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_THREAD = threading.local()
 
 
 def _forest_model(robot: Robot, copies: int) -> pin.Model:
@@ -117,10 +114,7 @@ class RobotForest:
         self.n = n = model.nv
         self.copies = copies = max(1, FOREST_DOFS // n) if copies is None else int(copies)
         self.model = _forest_model(robot, copies)
-        by_robot = getattr(_THREAD, "passes", None)
-        if by_robot is None:
-            by_robot = _THREAD.passes = weakref.WeakKeyDictionary()
-        self._pool = by_robot.setdefault(robot, {}).setdefault(copies, [])
+        self._pool: list[_Pass] = []  # this forest's own Pinocchio data, one per pass, made as needed
         # Joints outside the tip's support move other links, not the tip: their Jacobian columns are zero.
         support = set(model.supports[model.frames[robot.frame_id].parentJoint])
         mask = np.zeros(n)
