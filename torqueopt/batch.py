@@ -51,14 +51,8 @@ from .forest import RobotForest
 from .resolvers import Resolver, get_resolver
 from .result import SimResult, joint_limits_record
 from .robot import Robot
-from .simulate import (
-    DEFAULT_MAX_JOINT_SPEED,
-    DEFAULT_MAX_STEPS,
-    DEFAULT_MAX_TORQUE_RATIO,
-    _speed_stop,
-    _torque_stop,
-    step_budget,
-)
+from .run_log import speed_stop_reason, torque_stop_reason
+from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
 from .simulate import simulate as simulate_one
 from .trajectory import Trajectory, check_trajectory, describe
 
@@ -290,7 +284,7 @@ def simulate_batch(
                     f"{resolver_singular_message(inverse_condition[row], resolver)} at t = {t:.4f} s"
                 )
             else:
-                stop_reason[movement] = _torque_stop(robot, torque[row], max_torque_ratio, t)
+                stop_reason[movement] = torque_stop_reason(robot, torque[row], max_torque_ratio, t)
             stop_time[movement] = t
         if stopping.any():
             keep = ~stopping
@@ -310,7 +304,7 @@ def simulate_batch(
         if fast.any():
             for row in np.flatnonzero(fast).tolist():
                 movement = int(active[row])
-                stop_reason[movement] = _speed_stop(robot, v[row], max_joint_speed, t, dt)
+                stop_reason[movement] = speed_stop_reason(robot, v[row], max_joint_speed, t, dt)
                 stop_time[movement] = t + dt
             keep = ~fast
             active, q, v = active[keep], q[keep], v[keep]

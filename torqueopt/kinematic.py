@@ -51,6 +51,7 @@ from .checks import configuration_vector, finite_vector, positive_number, trajec
 from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
+from .run_log import torque_stop_reason
 from .tasks import FrameTask, Kinematics
 from .trajectory import check_trajectory
 
@@ -187,7 +188,7 @@ def simulate_kinematic(
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
-            stop_reason, stop_time = _torque_stop(robot, torque, max_torque_ratio, t), t
+            stop_reason, stop_time = torque_stop_reason(robot, torque, max_torque_ratio, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         if k == steps:
@@ -241,14 +242,4 @@ def _speed_stop(robot: Robot, velocity: np.ndarray, max_joint_speed: float, t: f
     return (
         f"speed of joint {robot.joint_names[joint]} reached {velocity[joint]:.4g} rad/s, beyond "
         f"{max_joint_speed:g} rad/s, at t = {t:.4f} s"
-    )
-
-
-def _torque_stop(robot: Robot, torque: np.ndarray, max_torque_ratio: float, t: float) -> str:
-    if not np.isfinite(torque).all():
-        return f"torque became non-finite at t = {t:.4f} s"
-    joint = int(np.argmax(np.abs(torque) / robot.torque_upper))
-    return (
-        f"torque of joint {robot.joint_names[joint]} reached {torque[joint]:.4g} N·m, more than "
-        f"{max_torque_ratio:g} times its limit {robot.torque_upper[joint]:g} N·m, at t = {t:.4f} s"
     )

@@ -6,6 +6,9 @@ The held-torque loop (:func:`torqueopt.simulate`) and the kinematic loop
 the run's result, with the reference of :func:`task_reference` on the same
 grid. :func:`logged_row_bytes` is what one logged step costs in
 memory, for the step budget checked before a run starts.
+:func:`torque_stop_reason` and :func:`speed_stop_reason` word why a run
+stopped, the same for every loop (``simulate``, the batch, the kinematic
+loop's torque stop).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .trajectory import Trajectory, describe
 
-__all__ = ["log_columns", "logged_row_bytes", "run_result", "task_reference"]
+__all__ = ["log_columns", "logged_row_bytes", "run_result", "speed_stop_reason", "task_reference", "torque_stop_reason"]
 
 
 def run_result(
@@ -107,3 +110,26 @@ def log_columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
     *vectors, scalars = zip(*log)
     arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
     return [*arrays, np.array(scalars, dtype=float)]
+
+
+def torque_stop_reason(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:
+    """Why torques that failed the ceiling test end the run at time t [s]."""
+    if not np.isfinite(tau).all():
+        return f"torque became non-finite at t = {t:.4f} s"
+    limit = robot.torque_upper
+    joint = int(np.argmax(np.abs(tau) / limit))
+    return (
+        f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
+        f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
+    )
+
+
+def speed_stop_reason(robot: Robot, v: np.ndarray, max_joint_speed: float, t: float, dt: float) -> str:
+    """Why joint velocities that failed the ceiling test after the step from t to t + dt [s] end the run."""
+    if not np.isfinite(v).all():
+        return f"state became non-finite during the step from t = {t:.4f} s"
+    joint = int(np.argmax(np.abs(v)))
+    return (
+        f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
+        f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
+    )

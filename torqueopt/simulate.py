@@ -41,7 +41,7 @@ from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .run_log import logged_row_bytes, run_result, task_reference
+from .run_log import logged_row_bytes, run_result, speed_stop_reason, task_reference, torque_stop_reason
 from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -229,13 +229,13 @@ def simulate(
         log.append((q, v, joint_acceleration, tau, x, inverse_condition))
         if not all(within(map(abs, tau.tolist()), torque_ceiling)):
             # The torque that ends the run stays in the result: peaks and verdicts count it.
-            stop_reason, stop_time = _torque_stop(robot, tau, max_torque_ratio, t), t
+            stop_reason, stop_time = torque_stop_reason(robot, tau, max_torque_ratio, t), t
             break
         q, v = advance(q, v, tau, joint_acceleration)
         # RK4 weighs every stage acceleration that moves q into v as well, so a
         # finite v after the step means a finite q.
         if not all(within(map(abs, v.tolist()), speed_ceiling)):
-            stop_reason, stop_time = _speed_stop(robot, v, max_joint_speed, t, dt), t + dt
+            stop_reason, stop_time = speed_stop_reason(robot, v, max_joint_speed, t, dt), t + dt
             break
 
     task_error_log = np.zeros(len(log))
@@ -322,29 +322,6 @@ def step_budget(
         item_bytes=row_bytes,
     )
     return step_count(duration, dt)
-
-
-def _torque_stop(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:
-    """Why torques that failed the ceiling test end the run at time t [s]."""
-    if not np.isfinite(tau).all():
-        return f"torque became non-finite at t = {t:.4f} s"
-    limit = robot.torque_upper
-    joint = int(np.argmax(np.abs(tau) / limit))
-    return (
-        f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
-        f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
-    )
-
-
-def _speed_stop(robot: Robot, v: np.ndarray, max_joint_speed: float, t: float, dt: float) -> str:
-    """Why joint velocities that failed the ceiling test after the step from t to t + dt [s] end the run."""
-    if not np.isfinite(v).all():
-        return f"state became non-finite during the step from t = {t:.4f} s"
-    joint = int(np.argmax(np.abs(v)))
-    return (
-        f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
-        f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
-    )
 
 
 def _jacobian_inverse_condition(jacobian: np.ndarray) -> float:
