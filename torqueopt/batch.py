@@ -48,10 +48,11 @@ from .batch_resolvers import BATCHED_RESOLVERS, batched_step
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .errors import InvalidInput
 from .forest import RobotForest
+from .linalg import singular_message
 from .resolvers import Resolver, get_resolver
 from .result import SimResult, joint_limits_record
 from .robot import Robot
-from .run_log import speed_stop_reason, torque_stop_reason
+from .run_log import speed_stop_reason, stop_ceilings, torque_stop_reason
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
 from .simulate import simulate as simulate_one
 from .trajectory import Trajectory, check_trajectory, describe
@@ -194,7 +195,7 @@ def simulate_batch(
     model = robot.model
     data = model.createData()  # the batch's own: the robot's data is never written
     forest = RobotForest(robot)
-    pool = pin.ModelPool(model, max(threads, 1))
+    pool = pin.ModelPool(model, threads)
 
     def aba(q, v, tau):
         return _aba(pool, threads, q, v, tau)
@@ -220,9 +221,7 @@ def simulate_batch(
         reference_acceleration[i] = sample.acceleration
 
     step = batched_step(robot, resolver)
-    limit = robot.torque_upper
-    torque_ceiling = np.minimum(max_torque_ratio * limit, np.finfo(float).max)
-    speed_ceiling = min(max_joint_speed, np.finfo(float).max)
+    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
 
     # Logs, time-major (a step writes one contiguous block): [step, movement]; rows past a stop stay unused.
     q_log = np.empty((steps + 1, count, n))
@@ -280,9 +279,8 @@ def simulate_batch(
         for row in np.flatnonzero(stopping).tolist():
             movement = int(active[row])
             if singular[row]:
-                stop_reason[movement] = (
-                    f"{resolver_singular_message(inverse_condition[row], resolver)} at t = {t:.4f} s"
-                )
+                message = singular_message(inverse_condition[row], resolver.singular_tolerance)
+                stop_reason[movement] = f"{message} at t = {t:.4f} s"
             else:
                 stop_reason[movement] = torque_stop_reason(robot, torque[row], max_torque_ratio, t)
             stop_time[movement] = t
@@ -357,14 +355,6 @@ def _check_pairs(trajectories: Sequence[Trajectory], q0s) -> None:
     """InvalidInput unless there is one start configuration per trajectory."""
     if len(trajectories) != len(q0s):
         raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
-
-
-def resolver_singular_message(inverse_condition: float, resolver: Resolver) -> str:
-    """The message of :class:`~torqueopt.errors.SingularJacobian` that ``simulate`` records (see linalg._inverse_condition)."""
-    return (
-        f"task Jacobian is singular: smallest/largest singular value {inverse_condition:.3g} "
-        f"is below the cutoff {resolver.singular_tolerance:.3g}"
-    )
 
 
 def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:

@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 from .forest import stacked_cross
-from .linalg import DEFAULT_SINGULAR_TOLERANCE
 from .resolvers import Resolver
 from .resolvers.damping import DampedNullSpaceTorque, SelfMotionDamping
 from .resolvers.inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
@@ -110,7 +109,7 @@ def batched_step(robot: Robot, resolver: Resolver):
     cutoff) are flagged; their outputs are not used.
     """
     n, m = robot.nv, robot.m
-    tolerance = getattr(resolver, "singular_tolerance", DEFAULT_SINGULAR_TOLERANCE)
+    tolerance = resolver.singular_tolerance
     kind = type(resolver)
     midpoint = torque_midpoint(robot)
     root = resolver.weight_root(robot) if kind in (WeightedNullSpaceTorque, DampedNullSpaceTorque) else None

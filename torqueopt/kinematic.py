@@ -42,8 +42,6 @@ pass the same ceilings as :func:`torqueopt.simulate`.
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pinocchio as pin
 
@@ -51,7 +49,7 @@ from .checks import configuration_vector, finite_vector, positive_number, trajec
 from .errors import InvalidInput, SingularJacobian
 from .result import SimResult
 from .robot import Robot
-from .run_log import torque_stop_reason
+from .run_log import stop_ceilings, torque_stop_reason
 from .tasks import FrameTask, Kinematics
 from .trajectory import check_trajectory
 
@@ -59,7 +57,6 @@ __all__ = ["simulate_kinematic", "joint_rates", "DIFFERENCE_STEP"]
 
 #: Step [rad] of the central difference of f along q̇.
 DIFFERENCE_STEP = 1.0e-6
-_LARGEST_FLOAT = sys.float_info.max
 
 
 def joint_rates(robot: Robot, resolver, q, task_velocity) -> np.ndarray:
@@ -145,9 +142,7 @@ def simulate_kinematic(
     model = robot.model
     dynamics_data = model.createData()
     integrate = robot.integrate
-    limit = robot.torque_upper
-    torque_ceiling = np.minimum(max_torque_ratio * limit, _LARGEST_FLOAT)
-    speed_ceiling = min(max_joint_speed, _LARGEST_FLOAT)
+    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
 
     def command(index: int) -> np.ndarray:
         """c(t, q) at the reference sample ``index`` (half steps), with kinematics at q."""

@@ -18,6 +18,7 @@ __all__ = [
     "JacobianSolver",
     "LeastSquares",
     "DEFAULT_SINGULAR_TOLERANCE",
+    "singular_message",
 ]
 
 #: Relative singular-value cutoff: a task Jacobian whose smallest singular
@@ -71,11 +72,16 @@ def _inverse_condition(singular_values, tolerance: float) -> float:
     largest = singular_values[0]
     inverse_condition = singular_values[-1] / largest if largest > 0 else 0.0
     if not inverse_condition >= tolerance:
-        raise SingularJacobian(
-            f"task Jacobian is singular: smallest/largest singular value {inverse_condition:.3g} "
-            f"is below the cutoff {tolerance:.3g}"
-        )
+        raise SingularJacobian(singular_message(inverse_condition, tolerance))
     return inverse_condition
+
+
+def singular_message(inverse_condition: float, tolerance: float) -> str:
+    """What :class:`~torqueopt.errors.SingularJacobian` says of a Jacobian whose σ_min/σ_max fell below ``tolerance``."""
+    return (
+        f"task Jacobian is singular: smallest/largest singular value {inverse_condition:.3g} "
+        f"is below the cutoff {tolerance:.3g}"
+    )
 
 
 class LeastSquares:

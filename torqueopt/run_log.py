@@ -13,6 +13,8 @@ loop's torque stop).
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from .dexterity import dexterity_along
@@ -20,7 +22,15 @@ from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .trajectory import Trajectory, describe
 
-__all__ = ["log_columns", "logged_row_bytes", "run_result", "speed_stop_reason", "task_reference", "torque_stop_reason"]
+__all__ = [
+    "log_columns",
+    "logged_row_bytes",
+    "run_result",
+    "speed_stop_reason",
+    "stop_ceilings",
+    "task_reference",
+    "torque_stop_reason",
+]
 
 
 def run_result(
@@ -110,6 +120,17 @@ def log_columns(log: list[tuple], sizes: tuple[int, ...]) -> list[np.ndarray]:
     *vectors, scalars = zip(*log)
     arrays = [np.concatenate(column).reshape(len(log), size) for column, size in zip(vectors, sizes)]
     return [*arrays, np.array(scalars, dtype=float)]
+
+
+def stop_ceilings(robot: Robot, max_torque_ratio: float, max_joint_speed: float):
+    """The divergence stops' ceilings: per-joint torque [N·m] (an array) and joint speed [rad/s] (a float).
+
+    Both are capped at the largest float, so the one test a loop makes per
+    step, all(|value| <= ceiling), also fails inf and NaN (which compare
+    False); the reason is worked out only then.
+    """
+    largest = sys.float_info.max
+    return np.minimum(max_torque_ratio * robot.torque_upper, largest), min(max_joint_speed, largest)
 
 
 def torque_stop_reason(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:

@@ -18,7 +18,6 @@ motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
 from __future__ import annotations
 
 import operator
-import sys
 import warnings
 from dataclasses import dataclass
 from functools import partial
@@ -41,7 +40,14 @@ from .integrators import rk4_step, rk4_stepper
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .run_log import logged_row_bytes, run_result, speed_stop_reason, task_reference, torque_stop_reason
+from .run_log import (
+    logged_row_bytes,
+    run_result,
+    speed_stop_reason,
+    stop_ceilings,
+    task_reference,
+    torque_stop_reason,
+)
 from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -52,7 +58,6 @@ DEFAULT_MAX_JOINT_SPEED = 1.0e3
 DEFAULT_MAX_TORQUE_RATIO = 1.0e3
 #: Most steps one run may take (1000 s at the paper's 1 ms); ``max_steps`` raises it.
 DEFAULT_MAX_STEPS = 1_000_000
-_LARGEST_FLOAT = sys.float_info.max
 
 
 @dataclass(frozen=True)
@@ -170,12 +175,9 @@ def simulate(
     reference = task_reference(robot, trajectory, times)
 
     n = robot.nv
-    limit = robot.torque_upper
-    # Each vector gets one test per step, all(|value| <= ceiling): with every
-    # ceiling capped at the largest float, inf and NaN (which compare False)
-    # fail it too, and the reason is worked out only then.
-    torque_ceiling = np.minimum(max_torque_ratio * limit, _LARGEST_FLOAT).tolist()
-    speed_ceiling = [min(max_joint_speed, _LARGEST_FLOAT)] * n
+    # One test per vector and step, all(|value| <= ceiling), on plain lists (cheaper than numpy at this size).
+    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
+    torque_ceiling, speed_ceiling = torque_ceiling.tolist(), [speed_ceiling] * n
     within = partial(map, operator.le)
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver(robot)
