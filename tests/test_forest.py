@@ -50,6 +50,19 @@ def test_each_copy_gets_what_pinocchio_gives_that_robot_alone(name, planar3, pan
         assert _relative(tip[i], placement.translation) < 1e-15
 
 
+def test_every_copy_carries_the_armature():
+    """A rotor's armature adds to the diagonal of H: each copy's block must have it, as computeAllTerms does."""
+    robot = torqueopt.load_robot("planar3")  # its own copy: the shared fixture is not touched
+    robot.model.armature = np.array([0.5, 0.2, 0.1])
+    q, v = _states(robot, 7, seed=9)
+    inertia, bias, _, _, _ = RobotForest(robot, copies=3).terms(q, v)
+    data = robot.model.createData()
+    for i in range(len(q)):
+        pin.computeAllTerms(robot.model, data, q[i], v[i])
+        assert _relative(inertia[i], data.M) < 1e-13
+        assert _relative(bias[i], data.nle) < 1e-13
+
+
 def test_the_copies_do_not_interact(planar3):
     """The forest's mass matrix is block-diagonal: no copy's acceleration loads another's joints."""
     forest = RobotForest(planar3, copies=4)

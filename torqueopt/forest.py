@@ -38,9 +38,6 @@ __all__ = ["FOREST_DOFS", "RobotForest", "stacked_cross"]
 #: than one forest goes through it in several passes.
 FOREST_DOFS = 48
 
-# Per-joint model vectors that enter the dynamics or the limits, copied to every tree.
-_PER_DOF = ("armature", "damping", "friction", "rotorInertia", "rotorGearRatio", "effortLimit", "velocityLimit")
-_PER_CONFIGURATION = ("lowerPositionLimit", "upperPositionLimit")
 
 # Forest models per robot: a Robot is immutable, so its forest model is too and
 # is built once. Pinocchio data are never shared: each RobotForest makes its
@@ -68,9 +65,9 @@ def _forest_model(robot: Robot, copies: int) -> pin.Model:
             forest.appendBodyToJoint(joint_of[joint], model.inertias[joint], pin.SE3.Identity())
         frame = pin.Frame(f"{tip.name}#{copy}", joint_of[tip.parentJoint], 0, tip.placement, pin.FrameType.OP_FRAME)
         forest.addFrame(frame, False)
-    for name in _PER_DOF + _PER_CONFIGURATION:
-        if hasattr(model, name):
-            setattr(forest, name, np.tile(np.asarray(getattr(model, name)), copies))
+    # Of the per-joint model vectors only the armature enters CRBA and RNEA (damping, friction,
+    # rotor and limit vectors do not): it is the one copied to every tree.
+    forest.armature = np.tile(model.armature, copies)
     cached[copies] = forest
     return forest
 
@@ -180,8 +177,9 @@ def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: n
     The point p moves at :math:`v_p = v_O + \omega\times p`, so its Jacobian's
     linear rows are :math:`J_v + J_\omega\times p`; at zero :math:`\ddot q` it
     accelerates at :math:`\dot v_O + \dot\omega\times p + \omega\times v_p`.
+    ``world`` is overwritten with the point's Jacobian (the caller's own stack).
     """
-    jacobian = world.copy()
+    jacobian = world
     jacobian[:, :3] += stacked_cross(world[:, 3:], point[:, :, None])
     velocity = (jacobian * v[:, None, :]).sum(axis=2)  # (v_p, ω)
     drift = (world_rate * v[:, None, :]).sum(axis=2)  # (v̇_O, ω̇) at zero q̈
