@@ -311,3 +311,27 @@ def test_a_user_resolver_plugs_in_through_null_space_function(planar3):
     np.testing.assert_allclose(null_basis.T.dot(acceleration), -5.0 * null_basis.T.dot(v), atol=1e-10)
     result = torqueopt.simulate(planar3, DampedSelfMotion(), torqueopt.StraightLine([1, 1], duration=0.2), q)
     assert result.resolver == "damped-self-motion" and result.completed
+
+
+@pytest.mark.parametrize(
+    "resolver, option, message",
+    [
+        ("bounded-torque", "kinematic_weight", "option kinematic_weight=1e308 of resolver 'bounded-torque' "
+         "must be a number in [0, 1e+06]"),
+        ("damped-null-space", "kinematic_weight", "option kinematic_weight=1e308 of resolver 'damped-null-space' "
+         "must be a number in [0, 1e+06]"),
+        ("task-priority", "damping", "option damping=1e308 of resolver 'task-priority' must be a number in [0, 1e+06]"),
+        ("task-priority", "position_gain", "option position_gain=1e308 of resolver 'task-priority' "
+         "must be a number in [0, 1e+06] [1/s]"),
+    ],
+)  # fmt: skip
+def test_options_whose_arithmetic_overflows_are_bounded_in_one_line(resolver, option, message, capsys):
+    """kinematic_weight=1e308 squared, damping=1e308 squared overflowed (OverflowError); position_gain=1e308 made
+    the SVD fail to converge: each is refused where it enters, in one line naming the valid range."""
+    from torqueopt.cli import main
+
+    code = main(["run", "--robot", "planar3", "--direction", "1,1", "--duration", "0.05",
+                 "--resolver", resolver, "--option", f"{option}=1e308"])  # fmt: skip
+    assert code == 2
+    assert capsys.readouterr().err == f"torqueopt run: error: {message}\n"
+    torqueopt.get_resolver(resolver, **{option: 1e6})  # the bound itself is valid

@@ -212,3 +212,15 @@ def test_task_stack_takes_tasks_and_refuses_the_rest():
         TaskStack([])
     with pytest.raises(InvalidInput, match="a task stack needs one or more Task objects"):
         TaskStack(["tip"])
+
+
+@pytest.mark.parametrize("damping", [1e-6, 1e-8, 1e-12, 1e-300])
+def test_a_tiny_damping_keeps_the_cutoff_and_acts_like_none(rng, damping):
+    """Damped least squares replaces 1/σ by σ/(σ² + λ²) on the singular values the cutoff keeps; the
+    round-off ones (a projected Jacobian J_l(I − J⁺J) of rank n − m) stay dropped, so λ → 0 is the plain
+    pseudoinverse, whatever the round-off."""
+    jacobian = rng.normal(size=(2, 3))
+    projected = np.eye(3) - np.linalg.pinv(jacobian).dot(jacobian)  # rank 1, two singular values ~1e-16
+    plain = pseudoinverse(projected)
+    np.testing.assert_allclose(plain, np.linalg.pinv(projected, rcond=1e-10), atol=1e-12)
+    np.testing.assert_allclose(pseudoinverse(projected, damping=damping), plain, atol=1e-9)

@@ -66,7 +66,7 @@ from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .null_space import torque_midpoint
-from .options import Option, choice_or_vector, number
+from .options import LARGEST_WEIGHT, Option, choice_or_vector, number
 
 __all__ = [
     "SelfMotionDamping",
@@ -170,11 +170,11 @@ class DampedNullSpaceTorque(NullSpaceResolver):
     options = (
         Option(
             name="kinematic_weight",
-            kind="number >= 0",
+            kind="number in [0, 1e6]",
             unit="",
             default=DEFAULT_KINEMATIC_WEIGHT,
             meaning="μ: weight of the kinematic term relative to ‖S H Z‖_F (0: null-space; large: self-motion-damping)",
-            convert=number(0.0),
+            convert=number(0.0, maximum=LARGEST_WEIGHT),
         ),
         _DAMPING_OPTION,
         Option(

@@ -19,13 +19,14 @@ from functools import partial
 
 import numpy as np
 
-from ..checks import Refused, finite_array, number_at_least
+from ..checks import Refused, finite_array, number_at_least, number_in_interval
 from ..errors import InvalidInput
 
 __all__ = [
     "Option",
     "OptionValueError",
     "number",
+    "LARGEST_WEIGHT",
     "vector_or_matrix",
     "choice_or_vector",
     "validate_options",
@@ -64,8 +65,18 @@ class Option:
         return self.default_text if self.default_text is not None else format_value(self.default)
 
 
-def number(minimum: float = 0.0, strict: bool = False, unit: str = "") -> Callable[[object], float]:
-    """A converter accepting a finite real number >= ``minimum`` (> when ``strict``), or its text."""
+#: The largest gain or weight an option takes where the arithmetic squares it (1e308² overflows; a
+#: weight of 1e6 already makes its term outweigh the rest by 1e12).
+LARGEST_WEIGHT = 1e6
+
+
+def number(
+    minimum: float = 0.0, strict: bool = False, unit: str = "", maximum: float | None = None
+) -> Callable[[object], float]:
+    """A converter accepting a finite real number >= ``minimum`` (> when ``strict``), or its text;
+    with ``maximum``, also <= ``maximum``."""
+    if maximum is not None:
+        return partial(number_in_interval, low=minimum, high=maximum, low_open=strict, unit=unit)
     return partial(number_at_least, minimum=minimum, strict=strict, unit=unit)
 
 

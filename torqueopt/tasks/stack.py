@@ -42,20 +42,21 @@ ABSOLUTE_TOLERANCE = 1e-10
 def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float = 0.0) -> np.ndarray:
     r"""Moore-Penrose pseudoinverse by SVD (Eq. (3) for full row rank), singular values below
     ``tolerance`` × the largest, or below :data:`ABSOLUTE_TOLERANCE`, dropped; with ``damping``
-    λ > 0 the damped least-squares inverse :math:`A^\top(AA^\top + \lambda^2 I)^{-1}` instead.
+    λ > 0 the kept singular values inverted as damped least squares,
+    :math:`\sigma/(\sigma^2 + \lambda^2)` (:math:`A^\top(AA^\top + \lambda^2 I)^{-1}` on the kept subspace).
 
     The absolute floor matters for projected Jacobians such as :math:`J_o(I - J^\dagger J)`
     of a point the null space cannot move (the tip itself): all their singular values are
-    round-off, which a relative cutoff alone would invert."""
+    round-off, which a relative cutoff alone would invert. Damping keeps the cutoff rather than
+    replacing it: a round-off σ of 1e-16 with λ = 1e-8 would otherwise be inverted to 1, and a tiny
+    λ must behave like none."""
     if matrix.size == 0:
         return np.zeros(matrix.T.shape)
     u, singular, vt = np.linalg.svd(matrix, full_matrices=False)
-    if damping > 0.0:
-        inverse_values = singular / (singular**2 + damping**2)
-    else:
-        largest = singular[0] if singular.size else 0.0
-        keep = singular > max(tolerance * largest, ABSOLUTE_TOLERANCE)
-        inverse_values = np.where(keep, 1.0 / np.where(keep, singular, 1.0), 0.0)
+    largest = singular[0] if singular.size else 0.0
+    keep = singular > max(tolerance * largest, ABSOLUTE_TOLERANCE)
+    kept = np.where(keep, singular, 1.0)
+    inverse_values = np.where(keep, kept / (kept**2 + damping**2) if damping > 0.0 else 1.0 / kept, 0.0)
     return (vt.T * inverse_values).dot(u.T)
 
 

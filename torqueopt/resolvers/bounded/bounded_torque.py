@@ -6,7 +6,7 @@ import numpy as np
 
 from ...robot import Robot, TaskTerms
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
-from ..options import Option, choice_or_vector, number
+from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
 from .base import INFEASIBLE_OPTION, _BoundedResolver, _solver_bounds
 from .programs import _EXIT_INFEASIBLE, _Program
 
@@ -58,14 +58,14 @@ class BoundedTorque(_BoundedResolver):
         ),
         Option(
             name="kinematic_weight",
-            kind="number >= 0",
+            kind="number in [0, 1e6]",
             unit="",
             default=DEFAULT_KINEMATIC_WEIGHT,
             meaning=(
                 "μ of the kinematic term μ̄²‖y + K_D Zᵀq̇‖², μ̄ = μ‖SHZ‖_F, as in damped-null-space "
                 "(0: the paper's torque criterion alone)"
             ),
-            convert=number(0.0),
+            convert=number(0.0, maximum=LARGEST_WEIGHT),
         ),
         Option(
             name="damping",

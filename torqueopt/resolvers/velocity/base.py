@@ -23,18 +23,18 @@ from ...linalg import JacobianSolver
 from ...robot import Robot
 from ...tasks import FrameTask
 from ..base import Resolver
-from ..options import Option, number
+from ..options import LARGEST_WEIGHT, Option, number
 
 __all__ = ["VelocityResolver", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
 
 #: The option every velocity-level resolver accepts: closed-loop inverse kinematics.
 POSITION_GAIN_OPTION = Option(
     name="position_gain",
-    kind="number >= 0",
+    kind="number in [0, 1e6]",
     unit="1/s",
     default=0.0,
     meaning="closed-loop inverse kinematics: commanded task velocity ẋ_ref + K(x_ref − x); 0 is the paper's open loop",
-    convert=number(0.0, unit="1/s"),
+    convert=number(0.0, unit="1/s", maximum=LARGEST_WEIGHT),
 )
 
 

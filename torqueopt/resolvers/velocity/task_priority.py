@@ -6,7 +6,7 @@ import numpy as np
 
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_rates
-from ..options import Option, number
+from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import task_stack
 
@@ -49,11 +49,11 @@ class TaskPriority(VelocityResolver):
         ),
         Option(
             name="damping",
-            kind="number >= 0",
+            kind="number in [0, 1e6]",
             unit="",
             default=0.0,
             meaning="damped least squares λ of the lower-priority inverses (0: the plain pseudoinverse of Eq. (11))",
-            convert=number(0.0),
+            convert=number(0.0, maximum=LARGEST_WEIGHT),
         ),
         POSITION_GAIN_OPTION,
     )
