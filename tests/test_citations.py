@@ -6,7 +6,7 @@ README and the other Markdown files and in the examples every citation is writte
 Each registered resolver lists its equations in its class attribute
 ``equations``; the registry's tables (the docstrings of
 :mod:`torqueopt.resolvers` and :mod:`torqueopt.resolvers.velocity`), the
-README's tables, the resolver's docstrings and the comments at the lines
+tables of the README and of docs/, the resolver's docstrings and the comments at the lines
 that compute them all carry exactly those numbers. And the code, the README,
 the examples and the tests cite no issue, pull-request or session numbers.
 """
@@ -98,10 +98,14 @@ def registry_rows() -> dict[str, set[int]]:
 
 
 def readme_rows() -> dict[str, set[int]]:
-    """Resolver name -> the equations in its row of the README's tables with a ``paper`` column."""
+    """Resolver name -> the equations in its row of the documentation's tables with a ``paper`` column.
+
+    The tables are in the README and in the pages of docs/ (the resolvers' pages and the Discussion's)."""
     rows = {}
     table: list[list[str]] = []
-    for line in [*(ROOT / "README.md").read_text(encoding="utf-8").splitlines(), ""]:
+    pages = [ROOT / "README.md", *sorted(path for path in (ROOT / "docs").rglob("*.md") if "_build" not in path.parts)]
+    lines = [line for page in pages for line in [*page.read_text(encoding="utf-8").splitlines(), ""]]
+    for line in lines:
         if line.startswith("|"):
             table.append([cell.strip() for cell in re.split(r"(?<!\\)\|", line.strip())[1:-1]])
             continue
@@ -126,7 +130,7 @@ def test_each_resolvers_equations_agree_between_class_registry_readme_and_docstr
     declared = set(cls.equations)
     assert declared <= set(PAPER_EQUATIONS)
     assert registry_rows()[name] == declared, "the registry's table"
-    assert readme_rows()[name] == declared, "the README's table"
+    assert readme_rows()[name] == declared, "the table in the README or docs/"
     documented = set(map(int, CITED.findall((cls.__doc__ or "") + (sys.modules[cls.__module__].__doc__ or ""))))
     assert declared <= documented, (
         f"the docstrings of {cls.__name__} and its module miss {sorted(declared - documented)}"

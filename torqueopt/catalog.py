@@ -77,7 +77,7 @@ _KNOWN_ARMS = {
         # position Jacobian 0.029) and needs 1.13 times joint s1's limit to hold
         # against gravity. Shoulder, elbow and wrist bent (chosen on a 9³ grid of
         # s1, e1, w1 for the largest σmin/σmax with gravity at most half of
-        # every limit, 0.2 rad from the joint limits, and the README's 1 s line
+        # every limit, 0.2 rad from the joint limits, and the 1 s line of docs/robots.md
         # along z completing within all limits): σmin/σmax 0.52, gravity 0.23
         # of the limits; the same for both arms.
         start=tuple(

@@ -18,7 +18,7 @@ one line:
 * every ``<origin xyz rpy>`` and ``<axis xyz>`` finite, and a moving
   joint's axis not zero;
 * ``<limit>``: ``effort`` and ``velocity`` finite numbers >= 0 or ``inf``
-  (0 and ``inf`` both mean unbounded, as the README says; urdfdom cannot read
+  (0 and ``inf`` both mean unbounded, as docs/robots.md says; urdfdom cannot read
   ``inf``, so Pinocchio is given 0 for it); ``lower <= upper``, both finite
   (a joint without position limits is ``type="continuous"``);
 * the joints form a tree: every link is the child of at most one joint and

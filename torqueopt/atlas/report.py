@@ -131,7 +131,7 @@ def write_markdown(summary: dict) -> str:
     figures = summary.get("figures") or {}
     if figures:
         lines += ["", "## Figures", ""] + [f"- {title}: `{name}`" for title, name in figures.items()]
-    lines += ["", "Columns of `results.parquet`: see `torqueopt.atlas.verdicts` (docstring) and the README.", ""]
+    lines += ["", "Columns of `results.parquet`: see `torqueopt.atlas.verdicts` (docstring) and the docs.", ""]
     return "\n".join(lines)
 
 

@@ -1,7 +1,7 @@
 """The registry of resolvers, by name.
 
 Each resolver's equations of the paper, cited the same way in its module
-docstring, at the lines that compute them, and in the README's table:
+docstring, at the lines that compute them, and in the table of docs/resolvers/index.md:
 
 ==================================== ==================================================================== ================================================
 name                                 method                                                               equations of the paper

@@ -14,7 +14,7 @@ from .options import criterion_spec
 __all__ = ["GradientProjection", "CriterionGain", "CRITERION_OPTION", "DEFAULT_GAINS", "gain_option"]
 
 #: Default gain k per named criterion, chosen on the paper's long movement
-#: (see the README section "Kinematic against kinetic resolution").
+#: (see docs/discussion/kinematic.md, "Kinematic against kinetic resolution").
 DEFAULT_GAINS = {"joint-limits": 10.0, "manipulability": 1.0}
 
 

@@ -1,0 +1,35 @@
+"""Sphinx configuration of the torqueopt documentation (see docs/README.md for why Sphinx, furo and MyST)."""
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # document the checkout being built, not an older installed copy
+
+project = "torqueopt"
+author = "torqueopt developers"
+copyright = "torqueopt developers"
+
+extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.mathjax", "sphinx.ext.napoleon"]
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
+root_doc = "index"
+exclude_patterns = ["_build", "README.md"]
+
+# A reference that does not resolve is a warning, and CI builds with -W: a broken link fails.
+nitpicky = True
+myst_heading_anchors = 3
+myst_enable_extensions = ["dollarmath"]
+suppress_warnings = []
+
+# Signatures carry the parameter names; the docstrings carry their units and meanings. Type hints
+# (numpy arrays, Pinocchio objects) would each need a target to link to.
+autodoc_typehints = "none"
+autodoc_member_order = "bysource"
+autodoc_default_options = {"member-order": "bysource"}
+napoleon_google_docstring = False
+napoleon_numpy_docstring = True
+
+# MathJax is the one script the pages load from a CDN; it is only needed to typeset the equations.
+html_theme = "furo"
+html_title = "torqueopt"
+html_static_path = []
