@@ -4,6 +4,7 @@ import os
 import re
 import socket
 import stat
+from pathlib import Path
 
 import pytest
 
@@ -145,3 +146,135 @@ def test_every_writer_refuses_a_fifo_with_exit_2(tmp_path, saved_run, name, comm
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "it is a FIFO (named pipe), not a regular file" in err[0]
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+
+
+# -- the files of one command: checked before any work, written as one unit (issue 18, items 1 and 2) --------
+
+
+RUN = ["run", *PAPER, "--resolver", "pinv", "--duration", "0.1"]
+
+
+def _old_run(tmp_path, name="old.csv"):
+    """A run file and its sidecar as an earlier run left them: their contents, to check they are untouched."""
+    out = tmp_path / name
+    assert main([*RUN, "--out", str(out)]) == 0
+    return out, out.read_bytes(), Path(f"{out}.json").read_bytes()
+
+
+def _read_only(path):
+    path.chmod(0o444)
+    return path
+
+
+def _folder_instead(path):
+    path.unlink()
+    path.mkdir()
+    return path
+
+
+@pytest.mark.parametrize(
+    "spoil, message",
+    [(_read_only, "it is read-only; make it writable or write to a new name"), (_folder_instead, "it is a folder")],
+    ids=["read-only sidecar", "folder at the sidecar"],
+)
+def test_run_refuses_a_sidecar_it_cannot_write_before_it_simulates(tmp_path, capsys, monkeypatch, spoil, message):
+    out, data, sidecar = _old_run(tmp_path)
+    spoil(Path(f"{out}.json"))
+    import torqueopt.cli.run as run_module
+
+    monkeypatch.setattr(run_module, "simulate", lambda *args, **kwargs: pytest.fail("simulated before the check"))
+    capsys.readouterr()
+    assert main([*RUN, "--resolver", "null-space", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == f"torqueopt run: error: cannot write '{out}.json': {message}" + (
+        "; give a file name\n" if spoil is _folder_instead else "\n"
+    )
+    assert out.read_bytes() == data
+    if spoil is _read_only:
+        assert Path(f"{out}.json").read_bytes() == sidecar
+
+
+def test_optimize_refuses_an_optimal_sidecar_it_cannot_write_before_it_solves(tmp_path, capsys, monkeypatch):
+    out, data, sidecar = _old_run(tmp_path, "o.csv")
+    optimal = Path(f"{out}.optimal.json")
+    optimal.write_text("{}")
+    _read_only(optimal)
+    import torqueopt.cli.optimize as optimize_module
+
+    monkeypatch.setattr(optimize_module, "optimize", lambda *args, **kwargs: pytest.fail("solved before the check"))
+    capsys.readouterr()
+    assert main(["optimize", *PAPER, "--duration", "0.1", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt optimize: error: cannot write '{out}.optimal.json': it is read-only; "
+        "make it writable or write to a new name\n"
+    )
+    assert out.read_bytes() == data and Path(f"{out}.json").read_bytes() == sidecar
+
+
+def test_files_written_together_all_land_or_none(tmp_path):
+    from torqueopt.io import written_together
+
+    first, second = tmp_path / "first.txt", tmp_path / "second.txt"
+    first.write_text("old first")
+    second.write_text("old second")
+    with pytest.raises(RuntimeError, match="the work failed"), written_together():
+        write_text(first, "new first")
+        assert first.read_text() == "old first"  # nothing lands before the unit ends
+        write_text(second, "new second")
+        raise RuntimeError("the work failed")
+    assert first.read_text() == "old first" and second.read_text() == "old second"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["first.txt", "second.txt"]  # no temporaries left
+    with written_together():
+        write_text(first, "new first")
+        write_text(second, "new second")
+        write_text(Path(tmp_path / "deep" / "third.txt"), "new third")
+    assert (first.read_text(), second.read_text()) == ("new first", "new second")
+    assert (tmp_path / "deep" / "third.txt").read_text() == "new third"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep", "first.txt", "second.txt"]
+
+
+def test_a_unit_whose_last_rename_fails_puts_the_first_files_back(tmp_path, monkeypatch):
+    """The renames at the end of a unit can fail too (a file made read-only meanwhile): the ones done are undone."""
+    from torqueopt.io import written_together
+
+    first, second = tmp_path / "first.txt", tmp_path / "second.txt"
+    first.write_text("old first")
+    real_replace = os.replace
+
+    def failing_replace(source, target):
+        if Path(target) == second:
+            raise OSError(28, "No space left on device")
+        return real_replace(source, target)
+
+    monkeypatch.setattr(os, "replace", failing_replace)
+    with pytest.raises(OutputError, match=f"cannot write '{second}': No space left on device"), written_together():
+        write_text(first, "new first")
+        write_text(second, "new second")
+    assert first.read_text() == "old first" and not second.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["first.txt"]
+
+
+def test_a_symlinked_run_file_has_its_sidecar_beside_its_target(tmp_path, capsys):
+    data = tmp_path / "data"
+    data.mkdir()
+    target = data / "target.csv"
+    target.write_text("")
+    link = tmp_path / "link.csv"
+    link.symlink_to(target)
+    assert main([*RUN, "--out", str(link)]) == 0
+    assert f"wrote {link} and {target}.json" in capsys.readouterr().out
+    assert Path(f"{target}.json").is_file() and not Path(f"{link}.json").exists()
+    assert link.is_symlink()
+    from torqueopt.result import load_result
+
+    assert load_result(target).resolver == load_result(link).resolver == "pinv"
+    assert main(["plot", str(target), "--out", str(tmp_path / "figure.png")]) == 0
+
+
+def test_plot_checks_the_stick_figure_file_before_it_draws(tmp_path, capsys):
+    out, _, _ = _old_run(tmp_path)
+    (tmp_path / "figure-stick.png").mkdir()
+    capsys.readouterr()
+    code = main(["plot", str(out), "--out", str(tmp_path / "figure.png"), "--stick-figures"])
+    assert code == 2
+    assert capsys.readouterr().err.startswith(f"torqueopt plot: error: cannot write '{tmp_path}/figure-stick.png'")
+    assert not (tmp_path / "figure.png").exists()

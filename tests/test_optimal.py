@@ -416,3 +416,17 @@ def test_cli_paper_study_needs_a_folder(capsys):
 
     assert main(["optimize", "--paper"]) == 2
     assert "--paper needs --out DIR" in capsys.readouterr().err
+
+
+def test_cli_paper_study_checks_its_files_before_the_study(tmp_path, capsys, monkeypatch):
+    from torqueopt.cli import main
+    from torqueopt.studies import local_global
+
+    monkeypatch.setattr(local_global, "run_local_global", lambda *a, **k: pytest.fail("ran before the check"))
+    (tmp_path / "global.md").write_text("the user's")
+    (tmp_path / "global.md").chmod(0o444)
+    assert main(["optimize", "--paper", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt optimize: error: cannot write '{tmp_path}/global.md': it is read-only; "
+        "make it writable or write to a new name\n"
+    )

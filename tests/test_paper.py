@@ -208,6 +208,12 @@ def paper_command(tmp_path_factory):
 def test_paper_command_writes_every_figure_and_both_summaries(paper_command):
     code, out, printed = paper_command
     assert code == 0
+    from torqueopt.paper import paper_files
+
+    # The files the command checked before its work are the files it wrote.
+    assert sorted(path.name for path in out.iterdir()) == sorted(
+        path.name for path in paper_files(out, "png", remedies=True, sweep=True)
+    )
     figures = [f"fig{i}.png" for i in range(2, 8)] + [
         f"arm_long_{name}.png" for name in ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
     ]
@@ -290,3 +296,33 @@ def test_paper_refuses_an_unknown_figure_format(capsys):
         main(["paper", "--out", "x", "--format", "jpeg"])
     assert stop.value.code == 2
     assert "argument --format: invalid choice: 'jpeg' (choose from 'png', 'pdf', 'svg')" in capsys.readouterr().err
+
+
+def test_paper_checks_every_file_before_it_simulates(tmp_path, capsys, monkeypatch):
+    """A file of the paper's it may not replace (a read-only tip_long.png) is refused before the 20 s of work."""
+    import torqueopt.cli.paper as paper_module
+
+    monkeypatch.setattr(paper_module, "run_paper", lambda *args, **kwargs: pytest.fail("simulated before the check"))
+    (tmp_path / "fig2.png").write_text("the user's")
+    (tmp_path / "tip_long.png").write_text("the user's")
+    (tmp_path / "tip_long.png").chmod(0o444)
+    assert main(["paper", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt paper: error: cannot write '{tmp_path}/tip_long.png': it is read-only; "
+        "make it writable or write to a new name\n"
+    )
+    assert (tmp_path / "fig2.png").read_text() == "the user's"
+
+
+def test_the_papers_files_are_named_before_the_work(tmp_path):
+    from torqueopt.paper import paper_files
+
+    names = [path.name for path in paper_files(tmp_path, "svg", remedies=True, sweep=False)]
+    assert names == [
+        *(f"fig{i}.svg" for i in range(2, 8)),
+        *(f"arm_long_{name}.svg" for name in ("pinv", "inertia-pinv", "null-space", "weighted-null-space")),
+        "tip_long.svg",
+        "remedies_long.svg",
+        "summary.json",
+        "summary.md",
+    ]

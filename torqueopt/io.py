@@ -23,18 +23,34 @@ The rule for what is already at the path (as a careful Unix tool does it):
 
 Every refusal is an :class:`~torqueopt.errors.OutputError` (exit 2 from the
 CLI) that names the path and what it is.
+
+The files of one command are one unit: the command checks every one of them
+with :func:`writable_paths` before it starts its work, and writes them inside
+:func:`written_together`, where each :func:`atomic_write` leaves its
+temporary file beside its target and the renames wait for the end of the
+block. When the block fails, the temporaries are removed and every old file
+is left as it was; when a rename at the end fails, the files already renamed
+get their old content back. Either all of the files land or none does.
+
+A run's sidecars go beside the file its data went to (:func:`sidecar_path`):
+beside the target of a symbolic link, not beside the link, so the target can
+be read on its own.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
+import secrets
 import stat
 import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from .errors import OutputError
 
-__all__ = ["atomic_write", "writable_path"]
+__all__ = ["atomic_write", "sidecar_path", "writable_path", "writable_paths", "written_together"]
 
 
 def writable_path(path: str | os.PathLike, directory: bool = False) -> Path:
@@ -61,6 +77,125 @@ def writable_path(path: str | os.PathLike, directory: bool = False) -> Path:
     if not os.access(existing, os.W_OK | os.X_OK):
         raise OutputError(f"cannot write to '{folder}': '{existing}' is not writable")
     return path
+
+
+def writable_paths(paths: Iterable[str | os.PathLike]) -> list[Path]:
+    """Every path of ``paths`` checked by :func:`writable_path`: the files one command will write, before its work."""
+    return [writable_path(path) for path in paths]
+
+
+def sidecar_path(path: str | os.PathLike, suffix: str = ".json") -> Path:
+    """The sidecar ``<file><suffix>`` of the file a write to ``path`` goes to (through a symbolic link, its target).
+
+    A dangling link or one that cannot be followed gives the sidecar beside
+    the link: :func:`writable_path` refuses such a path anyway.
+    """
+    path = Path(path)
+    if path.is_symlink() and path.exists():
+        path = Path(os.path.realpath(path))
+    return Path(f"{path}{suffix}")
+
+
+class _Unit:
+    """The files of one :func:`written_together` block: (temporary, target, path as given) each, renamed at its end."""
+
+    def __init__(self):
+        self.pending: dict[Path, tuple[str, Path]] = {}
+
+    def add(self, temporary: str, target: Path, path: Path) -> None:
+        earlier = self.pending.pop(target, None)
+        if earlier is not None:  # the same file written twice: the last content wins
+            _remove(earlier[0])
+        self.pending[target] = (temporary, path)
+
+    def discard(self) -> None:
+        for temporary, _ in self.pending.values():
+            _remove(temporary)
+        self.pending.clear()
+
+    def commit(self) -> None:
+        """Rename every temporary into place; on a failure, undo the renames done and raise OutputError."""
+        try:
+            for _, path in self.pending.values():
+                _replaceable(path)  # again: the targets may have changed during the work
+        except OutputError:
+            self.discard()
+            raise
+        done: list[tuple[Path, str | None]] = []
+        failed = None
+        for target, (temporary, path) in self.pending.items():
+            backup = _backup(target)
+            try:
+                os.replace(temporary, target)
+            except OSError as error:
+                failed = OutputError(f"cannot write '{path}': {error.strerror or error}")
+                if backup is not None:
+                    _remove(backup)
+                break
+            done.append((target, backup))
+        if failed is not None:
+            for target, backup in reversed(done):
+                if backup is None:
+                    _remove(target)
+                else:
+                    os.replace(backup, target)
+            self.discard()
+            raise failed
+        for _, backup in done:
+            if backup is not None:
+                _remove(backup)
+        self.pending.clear()
+
+
+_UNIT: contextvars.ContextVar[_Unit | None] = contextvars.ContextVar("torqueopt_output_unit", default=None)
+
+
+@contextlib.contextmanager
+def written_together() -> Iterator[None]:
+    """Every :func:`atomic_write` inside the block lands at its end, all together, or none does.
+
+    On an exception in the block, the temporary files are removed and the
+    old files stay as they were; the exception goes on. A block inside
+    another joins it: its files land with the outer block's.
+
+    Raises:
+        OutputError: a file cannot be renamed into place at the end (the
+            files renamed before it are put back).
+    """
+    if _UNIT.get() is not None:
+        yield
+        return
+    unit = _Unit()
+    token = _UNIT.set(unit)
+    try:
+        yield
+    except BaseException:
+        unit.discard()
+        raise
+    finally:
+        _UNIT.reset(token)
+    unit.commit()
+
+
+def _backup(target: Path) -> str | None:
+    """A second name (a hard link) for the file at ``target``, to put it back; None when there is none to keep."""
+    if not target.exists():
+        return None
+    for _ in range(10):
+        name = str(target.with_name(f".{target.name}.{secrets.token_hex(4)}.old"))
+        try:
+            os.link(target, name)
+            return name
+        except FileExistsError:
+            continue
+        except OSError:
+            return None  # a file system without hard links: no way back for this file
+    return None
+
+
+def _remove(name: str | os.PathLike) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(name)
 
 
 #: What a path holds, by its file type, for the messages of :func:`_replaceable`.
@@ -119,6 +254,7 @@ def atomic_write(path: Path, write) -> None:
     What is already at ``path`` is treated as the module docstring says: a
     symbolic link is written through to its target, a replaced file keeps
     its mode, and special, hard-linked and read-only files are refused.
+    Inside :func:`written_together`, the rename waits for the end of the block.
 
     Raises:
         OutputError: the file cannot be created or written (no such folder,
@@ -151,6 +287,10 @@ def atomic_write(path: Path, write) -> None:
             os.chmod(handle.name, stat.S_IMODE(existing.st_mode))
             if os.geteuid() == 0:
                 os.chown(handle.name, existing.st_uid, existing.st_gid)
+        unit = _UNIT.get()
+        if unit is not None:
+            unit.add(handle.name, target, path)
+            return
         os.replace(handle.name, target)
     except OSError as error:
         os.unlink(handle.name)

@@ -12,7 +12,10 @@ Two formats, chosen by the path's suffix:
   ``dexterity_<name>``, and the same metadata as a JSON string.
 
 Every file is written through :func:`torqueopt.io.atomic_write`, so it is
-never left half-written. Files written before a column or field existed
+never left half-written, and a run's files land together or not at all
+(:func:`torqueopt.io.written_together`); :func:`run_files` names them, for a
+command to check before it simulates. The sidecar goes beside the file the
+data went to (the target of a symbolic link). Files written before a column or field existed
 (the per-step task columns, a renamed array) are still read.
 """
 
@@ -28,12 +31,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import InvalidInput
-from .io import atomic_write
+from .io import atomic_write, sidecar_path, written_together
 
 if TYPE_CHECKING:
     from .result import SimResult
 
-__all__ = ["csv_columns", "load_result", "write_result"]
+__all__ = ["csv_columns", "load_result", "run_files", "write_result"]
 
 #: The per-step columns after xref, in this order; files written before they existed lack them.
 _STEP_COLUMNS = ("task_error", "infeasible")
@@ -63,9 +66,19 @@ def csv_columns(n: int, m: int) -> list[str]:
     )
 
 
+def run_files(path: str | os.PathLike) -> list[Path]:
+    """The files :func:`write_result` writes for ``path``: the ``.npz``, or the CSV and its JSON sidecar."""
+    path = Path(path)
+    return [path] if path.suffix.lower() == ".npz" else [path, sidecar_path(path)]
+
+
 def write_result(result: SimResult, path: str | os.PathLike) -> Path:
     """Write ``result`` to ``path``; :meth:`SimResult.to_csv` documents the formats."""
-    path = Path(path)
+    with written_together():
+        return _write_result(result, Path(path))
+
+
+def _write_result(result: SimResult, path: Path) -> Path:
     if path.suffix.lower() == ".npz":
         arrays = {name: getattr(result, name) for name in _ARRAY_FIELDS}
         arrays.update({_DEXTERITY_KEY + name: values for name, values in (result.dexterity or {}).items()})
@@ -91,7 +104,7 @@ def write_result(result: SimResult, path: str | os.PathLike) -> Path:
     sidecar["torque_upper"] = [json_number(x) for x in result.torque_upper]
     sidecar["torque_lower"] = [json_number(x) for x in result.torque_lower]
     metadata = json.dumps(sidecar, indent=2).encode()
-    atomic_write(Path(f"{path}.json"), lambda handle: handle.write(metadata))
+    atomic_write(sidecar_path(path), lambda handle: handle.write(metadata))
     return path
 
 
@@ -145,7 +158,9 @@ def _load_npz(path: Path) -> SimResult:
 def _load_csv(path: Path, robot) -> SimResult:
     from .result import SimResult
 
-    sidecar = Path(f"{path}.json")
+    sidecar = sidecar_path(path)
+    if not sidecar.is_file() and Path(f"{path}.json").is_file():
+        sidecar = Path(f"{path}.json")  # where earlier versions wrote it, beside the link
     if not sidecar.is_file():
         raise InvalidInput(f"run file '{path}' has no sidecar '{sidecar}'; write runs with torqueopt run --out")
     metadata = json.loads(sidecar.read_text())

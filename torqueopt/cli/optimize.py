@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from ..errors import InvalidInput
-from ..io import writable_path
+from ..io import writable_path, writable_paths
 from ..optimal import DEFAULT_GRID_STEP, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
 from ..resolvers import resolver_names
 from ..robot import Robot
@@ -114,7 +114,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         angles = parse_vector(args.q0, "q0", robot.nv)
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
-        writable_path(args.out)
+        writable_paths(OptimalResult.files(args.out))
     result = optimize(
         robot,
         trajectory,
@@ -135,9 +135,9 @@ def optimize_command(args: argparse.Namespace) -> int:
     # Files first, then the summary, so that a closed stdout cannot cost a result.
     lines = []
     if args.out:
-        path = result.to_csv(args.out)
-        extra = f", {path}.json" if path.suffix.lower() != ".npz" else ""
-        lines.append(f"wrote {path}{extra} and {path}.optimal.json")
+        result.to_csv(args.out)
+        *files, optimal = OptimalResult.files(args.out)
+        lines.append(f"wrote {', '.join(map(str, files))} and {optimal}")
     print(format_optimal_summary(robot, result))
     for line in lines:
         print(line)
@@ -145,15 +145,16 @@ def optimize_command(args: argparse.Namespace) -> int:
 
 
 def _paper_study(args: argparse.Namespace) -> int:
-    from ..studies.local_global import run_local_global, write_local_global
+    from ..studies import local_global
 
     if not args.out:
         raise InvalidInput("--paper needs --out DIR, the folder for global.md, global.json and the figures")
     out = writable_path(args.out, directory=True)
     if out.exists() and not out.is_dir():
         raise InvalidInput(f"--out '{out}' exists and is not a folder")
-    study = run_local_global(progress=True)
-    for path in write_local_global(study, out):
+    writable_paths(local_global.local_global_files(out))
+    study = local_global.run_local_global(progress=True)
+    for path in local_global.write_local_global(study, out):
         print(f"wrote {path}")
     return EXIT_OK if study.all_optimal else EXIT_STOPPED
 

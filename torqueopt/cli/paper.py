@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from ..io import writable_path
-from ..paper import MOVEMENTS, PAPER, PaperScenario, run_paper, write_paper
+from ..io import writable_path, writable_paths
+from ..paper import MOVEMENTS, PAPER, PaperScenario, paper_files, run_paper, write_paper
 from ..plots import FIGURE_FORMATS
 from ..studies.remedies import RemediesStudy, percent, run_remedies
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
@@ -81,8 +81,10 @@ def paper_command(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     scenario, limit_factor, growth_factor = scenario_from_args(args)
     writable_path(args.out, directory=True)
+    remedies, sweep = not args.no_remedies, not args.no_remedy_sweep
+    writable_paths(paper_files(args.out, args.figure_format, remedies=remedies, sweep=sweep))
     results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor)
-    studies = [] if args.no_remedies else [run_remedies(results, sweep=not args.no_remedy_sweep)]
+    studies = [run_remedies(results, sweep=sweep)] if remedies else []
     written = write_paper(results, args.out, studies, figure_format=args.figure_format)
 
     print(f"{'movement':<9}{'resolver':<21}{'peak |tau|/limit':>18}{'limit exceeded':>16}  verdict")

@@ -158,7 +158,9 @@ def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):
     """Build the playback and write its HTML file when asked; returns the playback and the lines to print.
 
     Nothing is printed here, so a command can write every file before it
-    prints (its files never depend on stdout).
+    prints (its files never depend on stdout). Each line is a function to
+    call once the files have landed (inside :func:`torqueopt.io.written_together`
+    the HTML file is there only at the end of the block).
     """
     from ..viewer import Playback, export_html
 
@@ -168,8 +170,10 @@ def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):
     if options.html is not None:
         path = export_html(playback, options.html)
         lines.append(
-            f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): {count_values(len(frames), 'frame')} over "
-            f"{frames.duration:.2f} s at speed {options.speed:g}"
+            lambda: (
+                f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): {count_values(len(frames), 'frame')} over "
+                f"{frames.duration:.2f} s at speed {options.speed:g}"
+            )
         )
     return playback, lines
 
@@ -178,7 +182,7 @@ def show_playback(options: PlaybackOptions, robot: Robot, result: SimResult) -> 
     """Write the HTML file and/or play live, as ``options`` say."""
     playback, lines = prepare_playback(options, robot, result)
     for line in lines:
-        print(line)
+        print(line())
     if options.live:
         play_live(playback)
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..io import writable_path
+from ..io import writable_path, written_together
 from ..plots import DEFAULT_DPI, figure_format, plot_run
 from ..result import load_result
 from . import EXIT_OK
 from .common import parse_positive
-from .stick import add_stick_options, stick_robot, write_stick_figures
+from .stick import add_stick_options, stick_figure_path, stick_robot, write_stick_figures
 
 __all__ = ["add_parser"]
 
@@ -44,11 +44,15 @@ def plot_command(args: argparse.Namespace) -> int:
     figure_format(out)
     dpi = parse_positive(args.dpi, "dpi")
     out = writable_path(out)
+    if args.stick_figures:
+        writable_path(stick_figure_path(out))
     result = load_result(args.run)
     robot = stick_robot(args, result) if args.stick_figures else None
-    path = plot_run(result, out, title=args.title, dpi=dpi)
+    with written_together():
+        path = plot_run(result, out, title=args.title, dpi=dpi)
+        sticks = None if robot is None else write_stick_figures(args, robot, result, path)
     status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
     print(f"wrote {path}{status}")
-    if robot is not None:
-        print(f"wrote {write_stick_figures(args, robot, result, path)}")
+    if sticks is not None:
+        print(f"wrote {sticks}")
     return EXIT_OK

@@ -10,9 +10,10 @@ import numpy as np
 
 from ..dexterity import summarise_along
 from ..errors import InvalidInput
-from ..io import writable_path
+from ..io import writable_paths, written_together
 from ..resolvers import Resolver
 from ..result import SimResult
+from ..result_files import run_files
 from ..robot import Robot
 from ..simulate import DEFAULT_MAX_STEPS, Feedback, simulate, step_budget
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
@@ -93,8 +94,8 @@ def run_command(args: argparse.Namespace) -> int:
     else:
         angles = parse_vector(args.q0, "q0", robot.nv)
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
-    if args.out:
-        writable_path(args.out)
+    # Every file the run will write, checked before it starts (the HTML's by playback_options).
+    writable_paths(run_files(args.out) if args.out else [])
     result = simulate(
         robot,
         resolver,
@@ -108,13 +109,14 @@ def run_command(args: argparse.Namespace) -> int:
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
     lines = []
-    if args.out:
-        path = result.to_csv(args.out)
-        extra = f" and {path}.json" if path.suffix.lower() != ".npz" else ""
-        lines.append(f"wrote {path}{extra}")
+    with written_together():
+        if args.out:
+            result.to_csv(args.out)
+            lines.append(f"wrote {' and '.join(map(str, run_files(args.out)))}")
+        if playback.wanted:
+            viewer, playback_lines = prepare_playback(playback, robot, result)
     if playback.wanted:
-        viewer, playback_lines = prepare_playback(playback, robot, result)
-        lines += playback_lines
+        lines += [line() for line in playback_lines]
     print(format_summary(robot, result, limit_factor))
     for line in lines:
         print(line)

@@ -14,7 +14,7 @@ from ..result import SimResult
 from ..robot import Robot
 from .common import add_robot_options, parse_vector
 
-__all__ = ["add_stick_options", "stick_robot", "write_stick_figures"]
+__all__ = ["add_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
 
 ELLIPSES = ("velocity", "acceleration", "none")
 
@@ -48,12 +48,18 @@ def add_stick_options(parser: argparse.ArgumentParser) -> None:
 
 def write_stick_figures(args: argparse.Namespace, robot: Robot, result: SimResult, figure: Path) -> Path:
     """Draw the stick figures of ``result`` beside ``figure`` (as ``<stem>-stick.png``)."""
-    path = figure.with_name(f"{figure.stem}-stick.png")
+    path = stick_figure_path(figure)
     ellipse = None if args.ellipse == "none" else args.ellipse
     title = f"{result.robot}: resolver {result.resolver}, {len(result.t)} rows" + (
         f", {ellipse} ellipses" if ellipse else ""
     )
     return plot_stick_strip(robot, result, path, title=title, snapshots=args.snapshots, ellipse=ellipse)
+
+
+def stick_figure_path(figure) -> Path:
+    """Where the stick figures beside ``figure`` go: ``<stem>-stick.png``."""
+    figure = Path(figure)
+    return figure.with_name(f"{figure.stem}-stick.png")
 
 
 def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:

@@ -154,17 +154,26 @@ class OptimalResult:
 
         The run file is readable by :func:`torqueopt.load_result` and
         ``torqueopt plot``/``play``; the ``.optimal.json`` file holds
-        :meth:`summary`. Every file is written atomically.
+        :meth:`summary`. The files land together or not at all, the sidecars
+        beside the file the data went to (see :meth:`files`).
         """
         import json
-        from pathlib import Path
 
-        from ..io import atomic_write
+        from ..io import atomic_write, sidecar_path, written_together
 
-        path = self.as_sim_result().to_csv(path)
         text = json.dumps(self.summary(), indent=2).encode()
-        atomic_write(Path(f"{path}.optimal.json"), lambda handle: handle.write(text))
+        with written_together():
+            path = self.as_sim_result().to_csv(path)
+            atomic_write(sidecar_path(path, ".optimal.json"), lambda handle: handle.write(text))
         return path
+
+    @staticmethod
+    def files(path) -> list:
+        """The files :meth:`to_csv` writes for ``path``: the run's (:func:`~torqueopt.result_files.run_files`) and ``.optimal.json``."""
+        from ..io import sidecar_path
+        from ..result_files import run_files
+
+        return [*run_files(path), sidecar_path(path, ".optimal.json")]
 
     def __repr__(self) -> str:
         return (

@@ -11,14 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidInput
-from ..io import atomic_write
+from ..io import atomic_write, written_together
 from ..plots import FIGURE_FORMATS
 from .alignment import alignment_times
 from .figures import write_figures
 from .runner import PaperResults
-from .scenario import MOVEMENTS
+from .scenario import MOVEMENTS, PAPER_RESOLVERS
 
-__all__ = ["format_summary_markdown", "summary_entries", "write_paper"]
+__all__ = ["format_summary_markdown", "paper_files", "summary_entries", "write_paper"]
 
 
 def summary_entries(results: PaperResults) -> list[dict]:
@@ -42,6 +42,26 @@ def summary_entries(results: PaperResults) -> list[dict]:
     return entries
 
 
+def paper_files(
+    out_dir: str | os.PathLike, figure_format: str = "png", remedies: bool = True, sweep: bool = True
+) -> list[Path]:
+    """The files :func:`write_paper` writes into ``out_dir``, known before the work so that a command can check them.
+
+    ``remedies``: with the remedies study (``remedies_long``); ``sweep``: with
+    its sweep (``remedies_tradeoff``). The order is :func:`write_paper`'s.
+    """
+    figure_format = _figure_format(figure_format)
+    out = Path(out_dir)
+    stems = [
+        *(f"fig{i}" for i in range(2, 8)),
+        *(f"arm_long_{name}" for name in PAPER_RESOLVERS),
+        "tip_long",
+        *(["remedies_long"] if remedies else []),
+        *(["remedies_tradeoff"] if remedies and sweep else []),
+    ]
+    return [*(out / f"{stem}.{figure_format}" for stem in stems), out / "summary.json", out / "summary.md"]
+
+
 def write_paper(
     results: PaperResults, out_dir: str | os.PathLike, studies: Sequence = (), figure_format: str = "png"
 ) -> list[Path]:
@@ -50,12 +70,17 @@ def write_paper(
     ``studies`` (see :class:`torqueopt.studies.Study`) add their figures, a
     key of ``summary.json`` each and a section of ``summary.md`` each.
     ``figure_format`` (``png``, ``pdf`` or ``svg``) is every figure's format.
+    The files (:func:`paper_files` names them) land together or not at all.
     """
     figure_format = _figure_format(figure_format)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InvalidInput(f"output '{out}' exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
+    with written_together():
+        return _write_paper(results, out, studies, figure_format)
+
+
+def _write_paper(results: PaperResults, out: Path, studies: Sequence, figure_format: str) -> list[Path]:
     written = write_figures(results, out, figure_format)
     study_figures = [study.write_figures(out, figure_format) for study in studies]
     scenario, swing = results.scenario, results.free_swing

@@ -37,11 +37,12 @@ The study's modules, one job each:
 """
 
 from .figures import plot_long_torques
-from .report import write_local_global
+from .report import local_global_files, write_local_global
 from .runner import run_local_global
 from .study import GLOBAL_VARIANTS, LOCAL, REMEDIES, STUDY_GRID_STEP, LocalGlobalStudy, Row
 
 __all__ = [
+    "local_global_files",
     "GLOBAL_VARIANTS",
     "LOCAL",
     "REMEDIES",

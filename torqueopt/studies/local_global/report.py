@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...io import atomic_write
+from ...io import atomic_write, written_together
 from ...paper import MOVEMENTS
 
 if TYPE_CHECKING:
@@ -113,15 +113,21 @@ def markdown_text(study: LocalGlobalStudy, figures: list[str]) -> str:
     return "\n".join(lines)
 
 
-def write_local_global(study: LocalGlobalStudy, out_dir) -> list[Path]:
-    """Write global.md, global.json and the two figures into ``out_dir``; every file atomically."""
+def local_global_files(out_dir) -> list[Path]:
+    """The files :func:`write_local_global` writes into ``out_dir``, for a command to check before the study."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    figures = study.write_figures(out)
-    summary = json.dumps(study.summary(), indent=2, default=_json_default).encode()
-    markdown = study.markdown([path.name for path in figures]).encode()
-    atomic_write(out / "global.json", lambda handle: handle.write(summary))
-    atomic_write(out / "global.md", lambda handle: handle.write(markdown))
+    return [out / name for name in ("global_torques_long.png", "global_arm_long.png", "global.json", "global.md")]
+
+
+def write_local_global(study: LocalGlobalStudy, out_dir) -> list[Path]:
+    """Write global.md, global.json and the two figures into ``out_dir``, together or not at all."""
+    out = Path(out_dir)
+    with written_together():
+        figures = study.write_figures(out)
+        summary = json.dumps(study.summary(), indent=2, default=_json_default).encode()
+        markdown = study.markdown([path.name for path in figures]).encode()
+        atomic_write(out / "global.json", lambda handle: handle.write(summary))
+        atomic_write(out / "global.md", lambda handle: handle.write(markdown))
     return [*figures, out / "global.json", out / "global.md"]
 
 
