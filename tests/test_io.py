@@ -148,7 +148,7 @@ def test_every_writer_refuses_a_fifo_with_exit_2(tmp_path, saved_run, name, comm
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
 
 
-# -- the files of one command: checked before any work, written as one unit (issue 18, items 1 and 2) --------
+# -- the files of one command: checked before any work, written as one unit ------------------------------
 
 
 RUN = ["run", *PAPER, "--resolver", "pinv", "--duration", "0.1"]
