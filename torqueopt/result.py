@@ -49,6 +49,9 @@ class SimResult:
         task_error: per row, the task acceleration the resolver gave up,
             ‖J q̈ + J̇q̇ − ẍ‖ [m/s², rad/s²], (N,); zeros when not given.
         infeasible: per row, True where no admissible torque realised the task, (N,).
+        limiting: the infeasible rows' bounds, ``{row: text}``: which bounds (torque, joint
+            position, velocity, acceleration; which joint, which side) each answer lay on,
+            as the bounded resolvers report them (None when no row has any; not kept in files).
         resolver_options: the resolver's option values, JSON-ready (None when unknown).
         dexterity: per-row dexterity measures keyed by name (each (N,)), as
             :func:`torqueopt.dexterity.dexterity_along` gives them; None
@@ -86,6 +89,7 @@ class SimResult:
     resolver_options: dict | None = None
     dexterity: dict[str, np.ndarray] | None = None
     joint_limits: dict | None = None
+    limiting: dict[int, str] | None = None
 
     def __post_init__(self):
         # Runs written before these columns existed, and results built by hand, realised their task.
@@ -220,6 +224,14 @@ class SimResult:
         """How many steps found no admissible torque that realises the task."""
         return int(np.count_nonzero(self.infeasible))
 
+    @property
+    def first_infeasible_step(self) -> tuple[float, str] | None:
+        """(time [s], the bounds its answer lay on) of the first infeasible step, or None when there is none."""
+        if not self.infeasible.any():
+            return None
+        row = int(np.argmax(self.infeasible))
+        return float(self.t[row]), (self.limiting or {}).get(row, "")
+
     def summary(self) -> dict:
         """The run's figures as plain JSON-ready values."""
         return {
@@ -242,6 +254,9 @@ class SimResult:
             "max_orientation_error": self.max_orientation_error,
             "max_task_error": self.max_task_error,
             "infeasible_steps": self.infeasible_steps,
+            "first_infeasible_step": (
+                None if self.first_infeasible_step is None else dict(zip(("t", "limiting"), self.first_infeasible_step))
+            ),
             "resolver_options": self.resolver_options,
             "first_position_violation": _violation_json(self.first_position_violation),
             "first_velocity_violation": _violation_json(self.first_velocity_violation),

@@ -48,11 +48,13 @@ def run_result(
     task_error: np.ndarray,
     infeasible: np.ndarray,
     dexterity: bool,
+    limiting: dict[int, str] | None = None,
 ) -> SimResult:
     """The :class:`SimResult` of a run from its per-step ``log`` of (q, v, q̈, τ, x, σmin/σmax) tuples.
 
     ``times`` and ``reference_position`` are the run's whole grid and
-    reference; the result keeps their first ``len(log)`` rows. Every loop
+    reference; the result keeps their first ``len(log)`` rows. ``limiting``: per
+    infeasible row, the bounds its answer lay on (a bounded resolver's ``Resolution.limiting``). Every loop
     (held-torque and kinematic) builds its result here.
     """
     recorded = len(log)
@@ -85,6 +87,7 @@ def run_result(
         trajectory=describe(trajectory),
         task_error=task_error,
         infeasible=infeasible,
+        limiting=limiting or None,
         dexterity=dexterity_along(robot, q_log) if dexterity else None,
         joint_limits=joint_limits_record(*robot.joint_limits),
     )

@@ -180,7 +180,7 @@ def simulate(
     torque_ceiling, speed_ceiling = torque_ceiling.tolist(), [speed_ceiling] * n
     within = partial(map, operator.le)
     # Built once per run: the resolver's per-robot constants and workspaces.
-    solve = resolver.solver(robot)
+    solve = resolver.solver_for_run(robot, dt)
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
     data = robot.model.createData()
@@ -195,7 +195,7 @@ def simulate(
     # cheaper than writing six rows into preallocated arrays, and every array
     # in it is fresh at each step, so nothing is overwritten later.
     log = []
-    # (row, task error, infeasible) of the rows whose task was not realised exactly:
+    # (row, task error, infeasible, limiting bounds) of the rows whose task was not realised exactly:
     # most resolvers never give any up, so the common row costs one test.
     shortfalls = []
     stop_reason = None
@@ -221,13 +221,13 @@ def simulate(
                 + feedback.kp * (ref_position[k] - x)
             )
         try:
-            tau, joint_acceleration, inverse_condition, task_error, infeasible = solve(terms, command)
+            tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = solve(terms, command)
         except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
             stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
             log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
             break
         if task_error or infeasible:
-            shortfalls.append((len(log), task_error, infeasible))
+            shortfalls.append((len(log), task_error, infeasible, limiting))
         log.append((q, v, joint_acceleration, tau, x, inverse_condition))
         if not all(within(map(abs, tau.tolist()), torque_ceiling)):
             # The torque that ends the run stays in the result: peaks and verdicts count it.
@@ -242,8 +242,11 @@ def simulate(
 
     task_error_log = np.zeros(len(log))
     infeasible_log = np.zeros(len(log), dtype=bool)
-    for row, task_error, infeasible in shortfalls:
+    limiting_log = {}
+    for row, task_error, infeasible, limiting in shortfalls:
         task_error_log[row], infeasible_log[row] = task_error, infeasible
+        if limiting:
+            limiting_log[row] = limiting
     return run_result(
         robot,
         resolver,
@@ -257,6 +260,7 @@ def simulate(
         trajectory=trajectory,
         task_error=task_error_log,
         infeasible=infeasible_log,
+        limiting=limiting_log,
         dexterity=dexterity,
     )
 

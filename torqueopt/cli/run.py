@@ -200,6 +200,9 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
             f"task not realised: largest task-acceleration shortfall {result.max_task_error:.4g} m/s², "
             f"{result.infeasible_steps} infeasible step{'s' if result.infeasible_steps != 1 else ''}"
         )
+    first_infeasible = result.first_infeasible_step
+    if first_infeasible is not None and first_infeasible[1]:
+        lines.append(f"first infeasible step: t = {first_infeasible[0]:.3f} s, on {first_infeasible[1]}")
     if result.max_orientation_error is not None:
         lines.append(f"max orientation error: {math.degrees(result.max_orientation_error):.4f} deg")
     if result.dexterity:

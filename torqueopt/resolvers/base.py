@@ -62,6 +62,8 @@ class Resolution(NamedTuple):
             task acceleration the resolver gave up; 0 when it realised the task exactly.
         infeasible: True when no admissible torque (within the resolver's constraints)
             realises the task, so ``task_error`` is the least violation it found.
+        limiting: on an infeasible step, the bounds its answer lies on, in one line
+            ("torque limit (upper) of joint J; velocity limit (lower) of joint K"); empty otherwise.
     """
 
     torque: np.ndarray
@@ -69,6 +71,7 @@ class Resolution(NamedTuple):
     jacobian_inverse_condition: float
     task_error: float = 0.0
     infeasible: bool = False
+    limiting: str = ""
 
 
 #: A robot-bound step: ``(terms, task_acceleration) -> Resolution``.
@@ -162,6 +165,10 @@ class Resolver(ABC):
         each step pays only for what changes with the state; nothing carries
         over from one run to the next.
         """
+
+    def solver_for_run(self, robot: Robot, dt: float) -> Step:
+        """The step of a run that holds each torque for ``dt`` [s]: :meth:`solver` unless the resolver looks a step ahead."""
+        return self.solver(robot)
 
     def __repr__(self) -> str:
         given = ", ".join(

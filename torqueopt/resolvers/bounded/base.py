@@ -16,6 +16,7 @@ from ...robot import Robot, TaskTerms
 from ..base import Resolution, Resolver, Step
 from ..null_space import torque_midpoint
 from ..options import Option, OptionValueError
+from .joint_limits import JointLimits
 from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
 
 __all__ = ["INFEASIBLE_OPTION", "INFEASIBLE_POLICIES", "torque_utilisation"]
@@ -99,8 +100,23 @@ class _BoundedResolver(Resolver):
     def needs_torque_limits(self) -> bool:
         return True
 
-    def solver(self, robot: Robot) -> Step:
-        """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once."""
+    def joint_limits_of(self, robot: Robot, dt: float | None = None) -> JointLimits | None:
+        """The joint-limit bounds on q̈ this resolver adds to its programs on ``robot`` (None: none)."""
+        if self.joint_limits != "on":
+            return None
+        limits = JointLimits(robot, dt, self.joint_acceleration_limit)
+        return limits if limits.count else None
+
+    def solver_for_run(self, robot: Robot, dt: float) -> Step:
+        return self.solver(robot, dt)
+
+    def solver(self, robot: Robot, dt: float | None = None) -> Step:
+        """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once.
+
+        ``dt`` [s] is the step over which the run holds the torque: the
+        joint-limit bounds keep the state after it within the limits
+        (:data:`~torqueopt.resolvers.bounded.joint_limits.DEFAULT_STEP` when None).
+        """
         self.check(robot)
         n, m = robot.nv, robot.m
         r = n - m
@@ -108,35 +124,58 @@ class _BoundedResolver(Resolver):
         upper, lower, spread = _solver_bounds(robot, bounded)
         midpoint = torque_midpoint(robot)
         decompose = JacobianSolver(m, n, self.singular_tolerance)
-        optimum = self._optimum(robot, bounded, spread, midpoint)
+        limits = self.joint_limits_of(robot, dt)
+        nl = 0 if limits is None else limits.count
+        optimum = self._optimum(robot, bounded, spread, midpoint, nl)
         nb = spread.size
         # Largest scaling: max s over (s, y), 0 <= s <= 1 a simple bound on the first variable.
+        rows_count = nb + nl
         scaling = _Program(
             np.zeros((1 + r, 1 + r)),
             np.r_[-1.0, np.zeros(r)],
-            np.zeros((nb, 1 + r)),
-            np.r_[1.0, np.ones(nb)],
-            np.r_[0.0, -np.ones(nb)],
+            np.zeros((rows_count, 1 + r)),
+            np.r_[1.0, np.ones(rows_count)],
+            np.r_[0.0, -np.ones(rows_count)],
             bounds=1,
             linear=True,
         )
+
         # Least task error: min ½‖a − ẍ‖² over (a, y). Its Hessian is singular in y, as an
         # LP's (a zero matrix) is everywhere: DAQP then runs proximal-point iterations, whose
         # limit is an exact optimum.
-        least_error = _Program(
-            np.diag(np.r_[np.ones(m), np.zeros(r)]), np.zeros(n), np.zeros((nb, n)), np.ones(nb), -np.ones(nb)
-        )
+        def least_error_program(count):
+            return _Program(
+                np.diag(np.r_[np.ones(m), np.zeros(r)]),
+                np.zeros(n),
+                np.zeros((count, n)),
+                np.ones(count),
+                -np.ones(count),
+            )
+
+        least_error = least_error_program(rows_count)
+        # With joint limits, torque and joint bounds may leave no q̈ at all: then the torque bounds alone.
+        torque_least_error = least_error_program(nb) if nl else least_error
         minmax = _MinMax(bounded, spread, midpoint, r) if self.infeasible == "exceed" else None
         range_basis = _RangeBasis(n, r)
         policy = self.infeasible
         name = self.name
+        joint_names = robot.joint_names
 
-        def least_error_task(rows, row_upper, row_lower, command):
-            """(a, z) of min ½‖a − ẍ‖² with τ = (rest) + H J⁺ a + U z within bounds."""
-            x, flag, _ = least_error.solve(f=np.r_[-command, np.zeros(r)], A=rows, bupper=row_upper, blower=row_lower)
-            if flag == _EXIT_INFEASIBLE:  # pragma: no cover - H is invertible: every torque in the box is some (a, z)
-                raise SolverFailure(f"resolver '{name}': DAQP found no torque in the box for the least task error")
+        def least_error_task(rows, row_upper, row_lower, command, program=least_error):
+            """(a, z) of min ½‖a − ẍ‖² with τ = (rest) + H J⁺ a + U z within bounds, or None when there is none."""
+            x, flag, _ = program.solve(f=np.r_[-command, np.zeros(r)], A=rows, bupper=row_upper, blower=row_lower)
+            if flag == _EXIT_INFEASIBLE:
+                return None
             return x[:m], x[m:]
+
+        def torque_bounds_active(torque):
+            """The torque bounds ``torque`` lies on, as texts."""
+            found = []
+            joints = np.arange(n)[bounded]
+            for side, bound in (("upper", robot.torque_upper), ("lower", robot.torque_lower)):
+                on = np.abs(torque[bounded] - bound[bounded]) <= 1e-6 * spread
+                found.extend(f"torque limit ({side}) of joint {joint_names[joints[row]]}" for row in np.flatnonzero(on))
+            return found
 
         def step(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
             command = task_acceleration
@@ -144,7 +183,21 @@ class _BoundedResolver(Resolver):
             inertia = terms.inertia
             inertia_basis = inertia.dot(basis)
             tilde_torque = inertia.dot(particular) + terms.bias_torque  # Eq. (28)
-            found = optimum(terms, basis, inertia_basis, tilde_torque)
+            joint_rows = joint_bounds = None
+            if limits is not None:
+                joint_bounds = limits(terms)
+                joint_scale = limits.scale(joint_bounds)
+                joints = limits.joints
+
+                def joint_rows(offset, rows):
+                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā."""
+                    return (
+                        rows[joints] / joint_scale[:, None],
+                        (joint_bounds.upper - offset[joints]) / joint_scale,
+                        (joint_bounds.lower - offset[joints]) / joint_scale,
+                    )
+
+            found = optimum(terms, basis, inertia_basis, tilde_torque, particular, joint_rows)
             if found is not None:
                 y, torque = found
                 return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, False)  # Eq. (26)
@@ -152,13 +205,22 @@ class _BoundedResolver(Resolver):
                 raise TorqueBoundsInfeasible(
                     f"resolver '{name}' (infeasible='stop'): no torque within bounds realises the task "
                     f"acceleration {np.round(command, 6).tolist()}"
+                    + (" within the joint limits" if joint_rows is not None else "")
                 )
             range_rows = range_basis(inertia_basis)  # U, orthonormal, spans the range of HZ
             if policy == "exceed":
                 z, _ = minmax(range_rows, tilde_torque)
                 y = range_basis.coordinates(range_rows.dot(z))
                 torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
-                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, True)
+                acceleration = particular + basis.dot(y)
+                return Resolution(
+                    torque,
+                    acceleration,
+                    inverse_condition,
+                    0.0,
+                    True,
+                    limiting_bounds(torque, acceleration, joint_bounds),
+                )
             # τ = rest + H J⁺ a + U z realises the task acceleration a (J q̈ + J̇q̇ = a).
             pseudo_inverse = np.linalg.pinv(terms.jacobian)
             task_torque = inertia.dot(pseudo_inverse)  # H J⁺, n × m
@@ -166,29 +228,65 @@ class _BoundedResolver(Resolver):
             rows = np.hstack([task_torque, range_rows])[bounded] / spread[:, None]
             row_upper = (upper - rest_torque[bounded]) / spread
             row_lower = (lower - rest_torque[bounded]) / spread
+            torque_rows, torque_upper_rows, torque_lower_rows = rows, row_upper, row_lower
+            if joint_rows is not None:
+                # q̈ = H⁻¹(τ − b) = (p − J⁺ẍ) + J⁺ a + H⁻¹U z.
+                acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
+                    particular - pseudo_inverse.dot(command),
+                    np.hstack([pseudo_inverse, np.linalg.solve(inertia, range_rows)]),
+                )
+                rows = np.vstack([rows, acceleration_rows])
+                row_upper = np.r_[row_upper, acceleration_upper]
+                row_lower = np.r_[row_lower, acceleration_lower]
+            found_task = None
             if policy == "scale":
                 # Flacco, De Luca & Khatib (ICRA 2012): the largest s in [0, 1] with a torque within bounds.
                 scaled_rows = np.hstack([rows[:, :m].dot(command)[:, None], rows[:, m:]])
                 x, flag, _ = scaling.solve(A=scaled_rows, bupper=np.r_[1.0, row_upper], blower=np.r_[0.0, row_lower])
-                if flag == _EXIT_INFEASIBLE:
-                    # Not even s = 0 (the tip held on its path) has a torque within bounds:
-                    # give up the direction too, for the least task error.
-                    achieved, z = least_error_task(rows, row_upper, row_lower, command)
-                else:
-                    achieved, z = float(np.clip(x[0], 0.0, 1.0)) * command, x[1:]
-            else:
-                achieved, z = least_error_task(rows, row_upper, row_lower, command)
+                if flag != _EXIT_INFEASIBLE:
+                    found_task = float(np.clip(x[0], 0.0, 1.0)) * command, x[1:]
+            # Not even s = 0 (the tip held on its path) has a torque within bounds, or the policy
+            # asks for it: give up the direction too, for the least task error.
+            if found_task is None:
+                found_task = least_error_task(rows, row_upper, row_lower, command)
+            within_joint_limits = found_task is not None or joint_rows is None
+            if found_task is None:
+                # No q̈ within the joint limits has a torque within bounds: the torque bounds win.
+                found_task = least_error_task(
+                    torque_rows, torque_upper_rows, torque_lower_rows, command, program=torque_least_error
+                )
+            if found_task is None:  # pragma: no cover - H is invertible: every torque in the box is some (a, z)
+                raise SolverFailure(f"resolver '{name}': DAQP found no torque in the box for the least task error")
+            achieved, z = found_task
             # The resolver's own optimum at the achievable task acceleration; on the boundary
             # round-off may make that program infeasible, and then the first stage's z stands.
             shifted_particular = particular + pseudo_inverse.dot(achieved - command)
             shifted_tilde = rest_torque + task_torque.dot(achieved)
-            found = optimum(terms, basis, inertia_basis, shifted_tilde)
+            found = optimum(
+                terms,
+                basis,
+                inertia_basis,
+                shifted_tilde,
+                shifted_particular,
+                joint_rows if within_joint_limits else None,
+            )
             if found is None:
                 y = range_basis.coordinates(range_rows.dot(z))
                 found = y, shifted_tilde + inertia_basis.dot(y)
             y, torque = found
             error = float(np.linalg.norm(achieved - command))
-            return Resolution(torque, shifted_particular + basis.dot(y), inverse_condition, error, True)
+            acceleration = shifted_particular + basis.dot(y)
+            limiting = limiting_bounds(torque, acceleration, joint_bounds)
+            if not within_joint_limits:
+                limiting = "joint limits given up for the torque limits; " + limiting
+            return Resolution(torque, acceleration, inverse_condition, error, True, limiting)
+
+        def limiting_bounds(torque, acceleration, joint_bounds):
+            """The bounds the answer of an infeasible step lies on, in one line."""
+            found = torque_bounds_active(torque)
+            if joint_bounds is not None:
+                found += limits.active(joint_bounds, acceleration)
+            return "; ".join(found) if found else "no bound within 1e-6 of its range"
 
         return step
 

@@ -8,6 +8,7 @@ from ...robot import Robot, TaskTerms
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
 from .base import INFEASIBLE_OPTION, _BoundedResolver, _solver_bounds
+from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
 from .programs import _EXIT_INFEASIBLE, _Program
 
 __all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
@@ -76,6 +77,8 @@ class BoundedTorque(_BoundedResolver):
             convert=number(0.0, unit="1/s"),
         ),
         INFEASIBLE_OPTION,
+        JOINT_LIMITS_OPTION,
+        JOINT_ACCELERATION_LIMIT_OPTION,
     )
 
     def weight_root(self, robot: Robot) -> np.ndarray:
@@ -86,18 +89,19 @@ class BoundedTorque(_BoundedResolver):
         super().check(robot)
         self.weight_root(robot)
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint):
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
         r = robot.redundancy
         nb = spread.size
+        rows_count = nb + joint_rows_count
         root = self.weight_root(robot)[:, None]
         relative_weight2 = self.kinematic_weight**2
         damping = self.damping
         upper, lower, _ = _solver_bounds(robot, bounded)
-        program = _Program(np.eye(r), np.zeros(r), np.zeros((nb, r)), np.ones(nb), -np.ones(nb))
+        program = _Program(np.eye(r), np.zeros(r), np.zeros((rows_count, r)), np.ones(rows_count), -np.ones(rows_count))
         identity = np.eye(r)
         inverse_spread = (1.0 / spread)[:, None]
 
-        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque):
+        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque, particular, joint_rows):
             weighted_basis = root * inertia_basis
             offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eq. (29), Eq. (32)
             hessian = weighted_basis.T.dot(weighted_basis)
@@ -112,15 +116,23 @@ class BoundedTorque(_BoundedResolver):
             scale = r / hessian.trace()
             rows = inertia_basis[bounded] * inverse_spread
             base = tilde_torque[bounded]
-            y, flag, _ = program.solve(
-                H=scale * hessian,
-                f=scale * cost,
-                A=rows,
-                bupper=(upper - base) / spread,
-                blower=(lower - base) / spread,
-            )
+            row_upper, row_lower = (upper - base) / spread, (lower - base) / spread
+            if joint_rows_count:
+                # q̈ = p + Z y within the joint limits' bounds (joint_limits.py); rows of zeros when not asked.
+                acceleration_rows, acceleration_upper, acceleration_lower = (
+                    joint_rows(particular, basis) if joint_rows is not None else _free_rows(joint_rows_count, r)
+                )
+                rows = np.vstack([rows, acceleration_rows])
+                row_upper = np.r_[row_upper, acceleration_upper]
+                row_lower = np.r_[row_lower, acceleration_lower]
+            y, flag, _ = program.solve(H=scale * hessian, f=scale * cost, A=rows, bupper=row_upper, blower=row_lower)
             if flag == _EXIT_INFEASIBLE:
                 return None
             return y, tilde_torque + inertia_basis.dot(y)
 
         return optimum
+
+
+def _free_rows(count: int, columns: int):
+    """``count`` rows that bound nothing (zero rows, infinite bounds), for a program asked without its joint limits."""
+    return np.zeros((count, columns)), np.full(count, np.inf), np.full(count, -np.inf)

@@ -2,8 +2,11 @@ r"""``minmax-torque``: the paper's linear programming on the largest normalised 
 
 from __future__ import annotations
 
+import numpy as np
+
 from ...robot import Robot, TaskTerms
 from .base import INFEASIBLE_OPTION, _BoundedResolver
+from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
 from .programs import BOUND_MARGIN, _MinMax, _RangeBasis
 
 __all__ = ["MinMaxTorque"]
@@ -29,17 +32,19 @@ class MinMaxTorque(_BoundedResolver):
 
     name = "minmax-torque"
     equations = (26, 28)
-    options = (INFEASIBLE_OPTION,)
+    options = (INFEASIBLE_OPTION, JOINT_LIMITS_OPTION, JOINT_ACCELERATION_LIMIT_OPTION)
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint):
-        minmax = _MinMax(bounded, spread, midpoint, robot.redundancy)
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
+        minmax = _MinMax(bounded, spread, midpoint, robot.redundancy, joint_rows_count)
         ceiling = 0.5 - BOUND_MARGIN  # the LP's t may exceed its true value by DAQP's tolerance
         range_basis = _RangeBasis(robot.nv, robot.redundancy)
 
-        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque):
+        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque, particular, joint_rows):
             range_rows = range_basis(inertia_basis)
-            z, utilisation = minmax(range_rows, tilde_torque)
-            if utilisation > ceiling:
+            # τ = τ̃ + U z gives q̈ = p + H⁻¹U z: the joint limits' rows in z.
+            extra = joint_rows(particular, np.linalg.solve(terms.inertia, range_rows)) if joint_rows else None
+            z, utilisation = minmax(range_rows, tilde_torque, extra)
+            if utilisation is None or utilisation > ceiling:
                 return None
             y = range_basis.coordinates(range_rows.dot(z))
             return y, tilde_torque + inertia_basis.dot(y)

@@ -119,23 +119,34 @@ class _RangeBasis:
 
 
 class _MinMax:
-    r"""The LP :math:`\min_{z,t} t` s.t. :math:`|\tilde\tau_i + (Uz)_i - \tau_{mid,i}| \le t\,(\tau^+_i - \tau^-_i)`."""
+    r"""The LP :math:`\min_{z,t} t` s.t. :math:`|\tilde\tau_i + (Uz)_i - \tau_{mid,i}| \le t\,(\tau^+_i - \tau^-_i)`.
 
-    def __init__(self, bounded, spread, midpoint, redundancy: int):
+    With ``extra_rows`` > 0 it also takes that many general rows on z
+    (:math:`l \le A z \le u`, the joint limits' bounds on q̈), given at each
+    call; then it can be infeasible.
+    """
+
+    def __init__(self, bounded, spread, midpoint, redundancy: int, extra_rows: int = 0):
         nb = spread.size
         self._bounded = bounded
         self._midpoint = midpoint[bounded]
         self._inverse_spread = 1.0 / spread
         self._inverse_spread_column = self._inverse_spread[:, None]
         self._r = redundancy
-        sign = np.r_[-np.ones(nb), np.ones(nb)][:, None]
-        rows = np.hstack([np.zeros((2 * nb, redundancy)), sign])
-        upper = np.r_[np.zeros(nb), np.full(nb, np.inf)]
-        lower = np.r_[np.full(nb, -np.inf), np.zeros(nb)]
+        sign = np.r_[-np.ones(nb), np.ones(nb), np.zeros(extra_rows)][:, None]
+        rows = np.hstack([np.zeros((2 * nb + extra_rows, redundancy)), sign])
+        upper = np.r_[np.zeros(nb), np.full(nb + extra_rows, np.inf)]
+        lower = np.r_[np.full(nb, -np.inf), np.zeros(nb), np.full(extra_rows, -np.inf)]
         self._rows, self._upper, self._lower = rows, upper, lower
         # Views made once: each call writes the numbers into them in place.
-        self._rows_plus, self._rows_minus = rows[:nb, :redundancy], rows[nb:, :redundancy]
-        self._upper_plus, self._lower_minus = upper[:nb], lower[nb:]
+        self._rows_plus, self._rows_minus = rows[:nb, :redundancy], rows[nb : 2 * nb, :redundancy]
+        self._upper_plus, self._lower_minus = upper[:nb], lower[nb : 2 * nb]
+        self._extra = extra_rows
+        self._rows_extra, self._upper_extra, self._lower_extra = (
+            rows[2 * nb :, :redundancy],
+            upper[2 * nb :],
+            lower[2 * nb :],
+        )
         self.program = _Program(
             np.zeros((redundancy + 1, redundancy + 1)),
             np.r_[np.zeros(redundancy), 1.0],
@@ -145,17 +156,26 @@ class _MinMax:
             linear=True,
         )
 
-    def __call__(self, range_basis, tilde_torque):
+    def __call__(self, range_basis, tilde_torque, extra=None):
         """(z, t) minimising the largest normalised torque t over τ = τ̃ + U z (U: ``range_basis``).
 
         Row i: (U_i z − t) ≤ −c_i and (U_i z + t) ≥ −c_i, with U_i and c_i = τ̃_i − τ_mid,i divided by the range.
+        ``extra``: (rows, upper, lower) of the extra rows on z (None: they bound nothing); t is
+        None when they leave no z.
         """
         bounded = self._bounded
         np.multiply(range_basis[bounded], self._inverse_spread_column, out=self._rows_plus)
         self._rows_minus[...] = self._rows_plus
         np.multiply(self._midpoint - tilde_torque[bounded], self._inverse_spread, out=self._upper_plus)
         self._lower_minus[...] = self._upper_plus
+        if self._extra:
+            if extra is None:
+                self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = 0.0, np.inf, -np.inf
+            else:
+                self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = extra
         x, flag, _ = self.program.solve(A=self._rows, bupper=self._upper, blower=self._lower)
-        if flag != _EXIT_OPTIMAL:  # pragma: no cover - t large enough is always feasible
-            raise SolverFailure("the min-max torque LP failed")
+        if flag != _EXIT_OPTIMAL:
+            if self._extra and flag == _EXIT_INFEASIBLE:
+                return x[: self._r], None
+            raise SolverFailure("the min-max torque LP failed")  # pragma: no cover - t large enough is always feasible
         return x[: self._r], x[self._r]

@@ -1,0 +1,321 @@
+r"""Joint position, velocity and acceleration limits as bounds on :math:`\ddot q`, for any bounded resolver.
+
+The formulation is A. Del Prete, "Joint position and velocity bounds in
+discrete-time acceleration/torque control of robot manipulators", IEEE
+Robotics and Automation Letters 3(1), 2018 (as tsid implements it in
+``TaskJointPosVelAccBounds``). With the joint acceleration :math:`a = \ddot q_i`
+held over the step :math:`\delta` [s] from the state :math:`(q_i, \dot q_i)`,
+
+.. math::
+
+    q_i^+ = q_i + \delta\dot q_i + \tfrac12\delta^2 a, \qquad \dot q_i^+ = \dot q_i + \delta a,
+
+and per joint, with position limits :math:`[q^-_i, q^+_i]` [rad], velocity
+limit :math:`\dot q^{max}_i` [rad/s] and maximum deceleration
+:math:`\bar a_i > 0` [rad/s²], the bounds on :math:`a` are the tightest of
+
+position
+    :math:`q_i^+ \le q^+_i`: :math:`a \le 2(q^+_i - q_i - \delta\dot q_i)/\delta^2`;
+    when that bound would reverse the velocity inside the step
+    (:math:`a < -\dot q_i/\delta`, :math:`\dot q_i > 0`), the joint's turning
+    point :math:`q_i - \dot q_i^2/(2a)` must stay within the limit too:
+    :math:`a \le \min(-\dot q_i^2/(2(q^+_i - q_i)), -\dot q_i/\delta)`.
+    The same, mirrored, at :math:`q^-_i`.
+viability
+    the next state can still stop before the limit decelerating at
+    :math:`\bar a_i`: :math:`q_i^+ + (\dot q_i^+)^2/(2\bar a_i) \le q^+_i`,
+    a quadratic in a whose larger root is
+
+    .. math::
+
+        a \le \frac{-b + \sqrt{b^2 - 4\delta^2 c}}{2\delta^2},\quad
+        b = 2\delta\dot q_i + \bar a_i\delta^2,\quad
+        c = \dot q_i^2 - 2\bar a_i(q^+_i - q_i - \delta\dot q_i),
+
+    and never below :math:`-\dot q_i/\delta` (stopping within the step is
+    always allowed); mirrored at :math:`q^-_i`.
+velocity
+    :math:`|\dot q_i^+| \le \dot q^{max}_i`:
+    :math:`(-\dot q^{max}_i - \dot q_i)/\delta \le a \le (\dot q^{max}_i - \dot q_i)/\delta`.
+acceleration
+    :math:`|a| \le \ddot q^{max}_i` where an acceleration limit is given.
+
+The maximum deceleration :math:`\bar a_i` is the acceleration limit where
+one is given (option ``joint_acceleration_limit``). Otherwise it is derived
+at each state from the torque limit and the mass matrix,
+
+.. math::
+
+    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |b_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
+
+half the acceleration joint i's own torque gives it, beyond what holds the
+bias torque :math:`b_i` (Coriolis, centrifugal, gravity), with the other
+joints at rest (a tenth of the limit when the bias alone takes more than
+nine tenths of it). The half leaves torque for the task and for the other
+joints, which the real stop also moves. A joint without a torque limit and
+without an acceleration limit can stop at once: it has no viability bound.
+
+A run holds the torque over the step, not the acceleration: the
+acceleration drifts inside the step with the state, and the state at the
+end of it differs from the constant-acceleration prediction above (measured
+on the four 7-joint arms at δ = 1 ms: up to 0.13 % of a velocity limit, and
+2e-6 rad, at steps that ride a bound). The bounds are therefore computed
+for limits pulled in by :data:`VELOCITY_MARGIN` of each velocity limit and
+:data:`POSITION_MARGIN` at each position limit, so that the run stays
+inside the URDF's own limits.
+
+When a joint's bounds cross (a state outside its limits, or not viable with
+:math:`\bar a_i`), the bound of the higher kind wins (position, then
+viability, then velocity, then acceleration) and the joint's acceleration is
+pinned to it. Joints without any finite limit have no rows.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ...checks import finite_array
+from ...robot import Robot, TaskTerms
+from ..options import Option, OptionValueError
+
+__all__ = [
+    "BOUND_KINDS",
+    "DEFAULT_STEP",
+    "JOINT_ACCELERATION_LIMIT_OPTION",
+    "JOINT_LIMITS_OPTION",
+    "AccelerationBounds",
+    "JointLimits",
+    "POSITION_MARGIN",
+    "VELOCITY_MARGIN",
+    "acceleration_bounds",
+    "stopping_deceleration",
+]
+
+#: The kinds of a joint-acceleration bound, in the order in which they win when two cross.
+BOUND_KINDS = ("position", "viability", "velocity", "acceleration")
+_NONE = len(BOUND_KINDS)
+#: The step δ [s] the bounds assume when the resolver is not told the run's (simulate's default dt).
+DEFAULT_STEP = 1e-3
+#: Fraction of each velocity limit by which the bounds pull it in (the held torque's drift inside a step).
+VELOCITY_MARGIN = 0.01
+#: How far inside each position limit [rad or m] the bounds keep the joint (the same drift).
+POSITION_MARGIN = 1e-4
+#: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
+STOPPING_FRACTION = 0.5
+#: The least share of the torque limit counted as available to stop, when the bias torque takes more.
+LEAST_STOPPING_SHARE = 0.1
+
+
+def _on_off(value) -> str:
+    if value is True or value is False:
+        return "on" if value else "off"
+    text = str(value).strip().lower() if isinstance(value, str) else value
+    if text not in ("on", "off"):
+        raise OptionValueError("must be 'on' or 'off'")
+    return text
+
+
+def _acceleration_limit(value):
+    if isinstance(value, str) and value.strip() == "torque":
+        return "torque"
+    if isinstance(value, str) and not any(ch.isdigit() for ch in value):
+        raise OptionValueError("must be 'torque' or a positive number or vector")
+    array = finite_array(value, "'torque' or a number or vector")
+    if array.ndim > 1 or not (array > 0).all():
+        raise OptionValueError("must be 'torque' or a positive number or vector")
+    return float(array) if array.ndim == 0 else array
+
+
+JOINT_LIMITS_OPTION = Option(
+    name="joint_limits",
+    kind="'on' | 'off'",
+    unit="",
+    default="on",
+    meaning=(
+        "the URDF's joint position and velocity limits (and joint_acceleration_limit) as bounds on q̈ that keep "
+        "the next state inside them and able to stop (Del Prete, RA-L 2018); 'off': torque bounds only"
+    ),
+    convert=_on_off,
+)
+
+JOINT_ACCELERATION_LIMIT_OPTION = Option(
+    name="joint_acceleration_limit",
+    kind="'torque' | number > 0 | vector (n)",
+    unit="rad/s²",
+    default="torque",
+    meaning=(
+        "joint acceleration limits |q̈| <= value, also the deceleration the joint-limit bounds count on to stop; "
+        "'torque': none, the deceleration derived at each state from the torque limits and H"
+    ),
+    convert=_acceleration_limit,
+)
+
+
+class AccelerationBounds(NamedTuple):
+    """Bounds on the joint accelerations of the limited joints at one state.
+
+    Attributes:
+        lower, upper: the bounds [rad/s²], one per limited joint.
+        lower_kind, upper_kind: which bound each is, an index into :data:`BOUND_KINDS`
+            (``len(BOUND_KINDS)`` for an infinite bound).
+        deceleration: the maximum deceleration :math:`\bar a_i` [rad/s²] assumed (inf when the joint can stop at once).
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    lower_kind: np.ndarray
+    upper_kind: np.ndarray
+    deceleration: np.ndarray
+
+
+def stopping_deceleration(terms: TaskTerms, torque_limit: np.ndarray) -> np.ndarray:
+    r"""The maximum deceleration :math:`\bar a_i` [rad/s²] derived from the torque limits [N·m] and H at a state.
+
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`; inf where the torque is unbounded.
+    """
+    available = np.maximum(torque_limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * torque_limit)
+    return STOPPING_FRACTION * available / np.diag(terms.inertia)
+
+
+def _pick(candidates, choose):
+    """Per joint, the tightest of the stacked ``candidates`` (kinds × joints) and which kind it is."""
+    kind = choose(candidates, axis=0)
+    value = np.take_along_axis(candidates, kind[None, :], axis=0)[0]
+    return value, np.where(np.isfinite(value), kind, _NONE)
+
+
+def acceleration_bounds(
+    angle, velocity, step, position_lower, position_upper, velocity_limit, deceleration, acceleration_limit
+) -> AccelerationBounds:
+    r"""Del Prete's bounds on :math:`\ddot q` (module docstring) for joints at ``angle`` [rad], ``velocity`` [rad/s].
+
+    All arguments are arrays of one value per joint (±inf where a joint has
+    no such limit), but ``step``, δ [s]. ``deceleration`` is :math:`\bar a`
+    [rad/s²] (inf: the joint stops at once), ``acceleration_limit``
+    :math:`\ddot q^{max}` [rad/s²] (inf: none).
+    """
+    q, v, dt = np.asarray(angle, float), np.asarray(velocity, float), float(step)
+    lower, upper = np.asarray(position_lower, float), np.asarray(position_upper, float)
+    brake = np.asarray(deceleration, float)
+    stop_in_step = -v / dt
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # Position: q⁺ = q + δq̇ + ½δ²a within [q⁻, q⁺], and the turning point inside the step too.
+        upper_next = 2.0 * (upper - q - dt * v) / dt**2
+        lower_next = 2.0 * (lower - q - dt * v) / dt**2
+        upper_turn = np.minimum(-(v**2) / (2.0 * (upper - q)), stop_in_step)
+        lower_turn = np.maximum(v**2 / (2.0 * (q - lower)), stop_in_step)
+        turns_up = (v > 0) & (upper_next <= stop_in_step) & (q < upper)
+        turns_down = (v < 0) & (lower_next >= stop_in_step) & (q > lower)
+        upper_position = np.where(turns_up, upper_turn, upper_next)
+        lower_position = np.where(turns_down, lower_turn, lower_next)
+        # Viability: q⁺ + (q̇⁺)²/(2ā) <= q⁺_max, the larger root of δ²a² + b a + c = 0.
+        b_up = 2.0 * dt * v + brake * dt**2
+        c_up = v**2 - 2.0 * brake * (upper - q - dt * v)
+        root_up = (-b_up + np.sqrt(b_up**2 - 4.0 * dt**2 * c_up)) / (2.0 * dt**2)
+        b_down = 2.0 * dt * v - brake * dt**2
+        c_down = v**2 - 2.0 * brake * (q + dt * v - lower)
+        root_down = (-b_down - np.sqrt(b_down**2 - 4.0 * dt**2 * c_down)) / (2.0 * dt**2)
+    stops_at_once = ~np.isfinite(brake)
+    upper_viability = np.where(stops_at_once, np.inf, np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step))
+    lower_viability = np.where(stops_at_once, -np.inf, np.fmin(np.nan_to_num(root_down, nan=np.inf), stop_in_step))
+    upper_viability = np.where(np.isfinite(upper), upper_viability, np.inf)
+    lower_viability = np.where(np.isfinite(lower), lower_viability, -np.inf)
+    # Velocity: |q̇ + δa| <= q̇_max.
+    speed = np.asarray(velocity_limit, float)
+    upper_velocity, lower_velocity = (speed - v) / dt, (-speed - v) / dt
+    limit = np.asarray(acceleration_limit, float) * np.ones_like(q)
+    high, high_kind = _pick(np.array([upper_position, upper_viability, upper_velocity, limit]), np.argmin)
+    low, low_kind = _pick(np.array([lower_position, lower_viability, lower_velocity, -limit]), np.argmax)
+    crossed = low > high
+    if crossed.any():
+        # The bound of the higher kind wins (position first), and pins the acceleration.
+        upper_wins = crossed & (high_kind <= low_kind)
+        lower_wins = crossed & ~upper_wins
+        low = np.where(upper_wins, high, low)
+        high = np.where(lower_wins, low, high)
+    return AccelerationBounds(low, high, low_kind, high_kind, brake * np.ones_like(q))
+
+
+class JointLimits:
+    """A robot's joint limits as bounds on q̈ at each state, for a resolver's program (built once per run).
+
+    ``joints`` are the indices of the joints with a finite position,
+    velocity or acceleration limit: one row each. ``step`` is the run's dt
+    [s] (:data:`DEFAULT_STEP` when not known), ``acceleration_limit`` the
+    ``joint_acceleration_limit`` option ('torque', a number or n values [rad/s²]).
+    """
+
+    def __init__(self, robot: Robot, step: float | None = None, acceleration_limit="torque"):
+        lower, upper, velocity = robot.joint_limits
+        if isinstance(acceleration_limit, str):
+            limit = np.full(robot.nv, np.inf)
+        else:
+            limit = np.asarray(acceleration_limit, float) * np.ones(robot.nv)
+        limited = np.isfinite(lower) | np.isfinite(upper) | np.isfinite(velocity) | np.isfinite(limit)
+        self.robot = robot
+        self.joints = np.flatnonzero(limited)
+        self.step = DEFAULT_STEP if step is None else float(step)
+        self.derived = isinstance(acceleration_limit, str)
+        joints = self.joints
+        # The margins, but never past the middle of a joint's range.
+        position_margin = np.minimum(POSITION_MARGIN, 0.25 * (upper - lower))[joints]
+        self._lower, self._upper = lower[joints] + position_margin, upper[joints] - position_margin
+        self._velocity, self._limit = (1.0 - VELOCITY_MARGIN) * velocity[joints], limit[joints]
+        self._torque_limit = np.minimum(robot.torque_upper, -robot.torque_lower)[joints]
+        self._euclidean = robot.euclidean
+        self._neutral = robot.configuration(np.zeros(robot.nv))
+
+    @property
+    def count(self) -> int:
+        """The number of limited joints (rows)."""
+        return self.joints.size
+
+    def __call__(self, terms: TaskTerms) -> AccelerationBounds:
+        """The bounds on q̈ of the limited joints at the state of ``terms``."""
+        joints = self.joints
+        configuration = terms.configuration
+        angles = configuration - self._neutral if self._euclidean else self.robot.joint_angles(configuration)
+        if self.derived:
+            deceleration = stopping_deceleration(terms, np.minimum(self.robot.torque_upper, -self.robot.torque_lower))[
+                joints
+            ]
+        else:
+            deceleration = self._limit
+        return acceleration_bounds(
+            angles[joints],
+            terms.joint_velocity[joints],
+            self.step,
+            self._lower,
+            self._upper,
+            self._velocity,
+            deceleration,
+            self._limit,
+        )
+
+    def scale(self, bounds: AccelerationBounds) -> np.ndarray:
+        """Per row, the acceleration [rad/s²] it is divided by, so that the solver's tolerance is relative."""
+        return np.where(np.isfinite(bounds.deceleration), bounds.deceleration, 1.0)
+
+    def active(self, bounds: AccelerationBounds, acceleration: np.ndarray, tolerance: float = 1e-6) -> list[str]:
+        """The joint bounds ``acceleration`` (n) [rad/s²] lies on, as "position limit (upper) of joint J" texts."""
+        found = []
+        joint_acceleration = acceleration[self.joints]
+        scale = self.scale(bounds)
+        names = self.robot.joint_names
+        for side, bound, kinds in (
+            ("upper", bounds.upper, bounds.upper_kind),
+            ("lower", bounds.lower, bounds.lower_kind),
+        ):
+            on = np.isfinite(bound) & (np.abs(joint_acceleration - bound) <= tolerance * scale)
+            for row in np.flatnonzero(on):
+                found.append(f"{describe_kind(kinds[row])} ({side}) of joint {names[self.joints[row]]}")
+        return found
+
+
+def describe_kind(kind: int) -> str:
+    """'position limit', 'position limit (stopping distance)', 'velocity limit', 'acceleration limit'."""
+    return {0: "position limit", 1: "position limit (stopping distance)", 2: "velocity limit"}.get(
+        int(kind), "acceleration limit"
+    )
