@@ -44,5 +44,21 @@ def xarm7():
 
 
 @pytest.fixture
+def saved_figures(monkeypatch):
+    """Every matplotlib figure saved during the test, in the order saved: their artists hold what was drawn."""
+    import matplotlib.figure
+
+    figures = []
+    original = matplotlib.figure.Figure.savefig
+
+    def spy(self, *args, **kwargs):
+        figures.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+    return figures
+
+
+@pytest.fixture
 def rng():
     return np.random.default_rng(20261121)

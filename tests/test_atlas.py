@@ -331,6 +331,56 @@ def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
 
 
 @pytest.mark.slow
+def test_the_atlas_figures_draw_the_table(reference_atlas, planar3, tmp_path, saved_figures):
+    """Each figure read back against a direct count over the table's rows."""
+    from torqueopt.atlas.report import summarise, write_figures
+
+    from .drawn import errorbar
+
+    table = reference_atlas
+    summary = summarise(table, {})
+    made = write_figures(table, summary, tmp_path, planar3)
+    assert list(made.values()) == ["unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png"]
+    fractions, workspace, histogram, tradeoff = saved_figures
+    records = table.to_dict("records")
+    durations = sorted({r["duration"] for r in records})
+    for ax, flag in zip(fractions.axes, (lambda r: r["unstable"], lambda r: r["verdict"] == "whiplash")):
+        for resolver in PAPER_RESOLVERS:
+            x, y, low, high = errorbar(ax, resolver)
+            np.testing.assert_allclose(x, durations, atol=0.05)  # each resolver shifted a little sideways
+            for duration, fraction, bar_low, bar_high in zip(durations, y, low, high):
+                chosen = [r for r in records if r["resolver"] == resolver and r["duration"] == duration]
+                count = sum(flag(r) for r in chosen)
+                assert fraction == count / len(chosen)
+                assert (bar_low, bar_high) == pytest.approx(wilson_interval(count, len(chosen)), abs=1e-12)
+    longest = max(durations)
+    for ax, resolver in zip(workspace.axes, PAPER_RESOLVERS):
+        drawn = {collection.get_label().split(" (")[0]: collection.get_offsets() for collection in ax.collections}
+        for verdict, offsets in drawn.items():
+            chosen = [
+                r for r in records if r["resolver"] == resolver and r["duration"] == longest and r["verdict"] == verdict
+            ]
+            np.testing.assert_array_equal(
+                np.reshape(offsets, (-1, 2)), [[r["start_1"], r["start_2"]] for r in chosen] or np.zeros((0, 2))
+            )
+        assert sum(len(offsets) for offsets in drawn.values()) == len(table["path"].unique()) // len(durations)
+    (hist_ax,) = histogram.axes
+    for patch in hist_ax.patches:
+        resolver, count = patch.get_label().rsplit(" (", 1)
+        assert int(count.rstrip(")")) == sum(r["unstable"] for r in records if r["resolver"] == resolver)
+    (trade_ax,) = tradeoff.axes
+    pinv_stable = {r["path"] for r in records if r["resolver"] == "pinv" and r["verdict"] == "stable"}
+    for resolver in PAPER_RESOLVERS:
+        rows = [r for r in records if r["resolver"] == resolver]
+        ratios = [r["torque_vs_pinv"] for r in rows if r["verdict"] == "stable" and r["path"] in pinv_stable]
+        x, y, low, high = errorbar(trade_ax, resolver)
+        whips = sum(r["verdict"] == "whiplash" for r in rows)
+        assert x[0] == pytest.approx(np.median(ratios), rel=1e-12)
+        assert y[0] == pytest.approx(whips / len(rows), rel=1e-12)
+        assert (low[0], high[0]) == pytest.approx(wilson_interval(whips, len(rows)), abs=1e-12)
+
+
+@pytest.mark.slow
 def test_scheduler_and_workers_in_separate_processes(reference_atlas, tmp_path):
     """A real Dask scheduler and two workers started as processes on 127.0.0.1, reached by address."""
     scheduler_file = tmp_path / "scheduler.json"

@@ -37,6 +37,13 @@ def test_degrees_and_npz(tmp_path, capsys):
     code = main(["run", "--robot", "planar3", "--q0=-45,135,-135", "--degrees", "--direction", "1,1",
                  "--resolver", "pinv", "--duration", "0.2", "--out", str(out)])  # fmt: skip
     assert code == 0 and out.is_file()
+    # The start read back from the file: -45°, 135°, -135° in radians, and the tip where they put it
+    # (link angles -45°, 90°, -45° of three unit links: x = √2, y = 1 - √2).
+    run = torqueopt.load_result(out)
+    np.testing.assert_allclose(run.q[0], [-np.pi / 4, 3 * np.pi / 4, -3 * np.pi / 4], atol=1e-15)
+    np.testing.assert_allclose(run.x[0], [np.sqrt(2.0), 1.0 - np.sqrt(2.0)], atol=1e-12)
+    with np.load(out) as saved:
+        np.testing.assert_allclose(saved["q"][0], np.radians([-45.0, 135.0, -135.0]), atol=1e-15)
 
 
 def test_run_that_explodes_exits_3_and_keeps_its_rows(tmp_path, capsys):

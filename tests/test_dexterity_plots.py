@@ -1,6 +1,5 @@
 """Dexterity in figures: the run panel, ellipses on stick figures (checked against the measures), ``torqueopt plot``."""
 
-import matplotlib.figure
 import numpy as np
 import pytest
 
@@ -22,42 +21,37 @@ def run(planar3):
     )
 
 
-@pytest.fixture
-def axes_drawn(monkeypatch):
-    """Every Axes of every figure saved during the test."""
-    figures = []
-    original = matplotlib.figure.Figure.savefig
-
-    def spy(self, *args, **kwargs):
-        figures.append(self)
-        return original(self, *args, **kwargs)
-
-    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
-    return figures
-
-
 @pytest.mark.slow
-def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path, run, axes_drawn):
+def test_the_run_figure_has_a_dexterity_panel_when_the_run_has_measures(tmp_path, run, saved_figures):
     plots.plot_run(run, tmp_path / "with.png")
     plain = torqueopt.simulate(
         torqueopt.load_robot("planar3"), "pinv", torqueopt.StraightLine((1, 1), duration=0.3), PAPER_Q0
     )
     plots.plot_run(plain, tmp_path / "without.png")
-    with_panel, without_panel = axes_drawn
+    with_panel, without_panel = saved_figures
     assert len(with_panel.axes) == len(without_panel.axes) + 1
     panel = with_panel.axes[-1]
     assert panel.get_title(loc="left") == "dexterity, as a ratio to its start value"
     lines = {line.get_label().split(" (start")[0]: line for line in panel.get_lines()}
-    manipulability = run.dexterity["manipulability"]
-    np.testing.assert_allclose(lines["w, Eq. (6)"].get_ydata(), manipulability / manipulability[0])
+    for label, measure in (("w, Eq. (6)", "manipulability"), ("σ_min(J)", "min_singular_value"),
+                           ("dynamic w, Eq. (25)", "dynamic_manipulability")):  # fmt: skip
+        values = run.dexterity[measure]
+        np.testing.assert_array_equal(lines[label].get_xdata(), run.t)
+        np.testing.assert_allclose(lines[label].get_ydata(), values / values[0], rtol=1e-15)
+    # σ_min of the planar Jacobian, closed form, at the last sample
+    absolute = np.cumsum(run.joint_angles[-1])
+    jacobian = np.array(
+        [[-np.sin(absolute[j:]).sum() for j in range(3)], [np.cos(absolute[j:]).sum() for j in range(3)]]
+    )
+    assert run.dexterity["min_singular_value"][-1] == pytest.approx(np.linalg.svd(jacobian)[1][-1], rel=1e-12)
     assert (tmp_path / "with.png").read_bytes()[:8] == PNG
 
 
 # The velocity ellipses in the quick selection (-m "not slow"), both kinds in the full suite.
 @pytest.mark.parametrize("kind", ["velocity", pytest.param("acceleration", marks=pytest.mark.slow)])
-def test_stick_figure_ellipses_are_the_dexterity_ellipses_at_the_tip(tmp_path, planar3, run, kind, axes_drawn):
+def test_stick_figure_ellipses_are_the_dexterity_ellipses_at_the_tip(tmp_path, planar3, run, kind, saved_figures):
     plots.plot_stick_strip(planar3, run, tmp_path / "stick.png", title="t", snapshots=3, ellipse=kind)
-    figure = axes_drawn[-1]
+    figure = saved_figures[-1]
     rows = plots.stick._snapshot_rows(run, 3)
     patches = [patch for ax in figure.axes for patch in ax.patches]
     assert len(patches) == len(rows)

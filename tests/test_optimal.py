@@ -14,6 +14,7 @@ from torqueopt.paper import PAPER
 from torqueopt.resolvers.null_space import torque_midpoint
 
 from .conftest import PAPER_Q0
+from .drawn import data, horizontal_levels, labelled
 
 
 @pytest.fixture(scope="module")
@@ -334,6 +335,7 @@ def test_cli_writes_the_run_and_its_summary(tmp_path, capsys):
     assert "status: optimal (IPOPT converged)" in printed
     run = torqueopt.load_result(out)
     assert run.resolver == "optimal" and len(run.t) == 501
+    np.testing.assert_allclose(run.q[0], np.radians([-45.0, 135.0, -135.0]), atol=1e-12)  # --degrees read back
     summary = json.loads((tmp_path / "global.csv.optimal.json").read_text())
     assert summary["status"] == "converged" and summary["cost"] == pytest.approx(run.dt * np.sum(run.tau[:-1] ** 2))
 
@@ -382,7 +384,7 @@ class _no_exit:
 # -- the local-against-global study --------------------------------------------------
 
 
-def test_local_global_study_on_short_movements(tmp_path):
+def test_local_global_study_on_short_movements(tmp_path, saved_figures):
     import json
 
     from torqueopt.studies.local_global import GLOBAL_VARIANTS, LOCAL, run_local_global, write_local_global
@@ -408,6 +410,29 @@ def test_local_global_study_on_short_movements(tmp_path):
     }
     summary = json.loads((tmp_path / "global.json").read_text())
     assert len(summary["rows"]) == len(study.rows) and summary["answer"] == study.answer()
+    # The figures read back: every method's torques on the long movement, and the optimum's arm.
+    torques, strip = saved_figures
+    drawn_methods = set()
+    for joint, ax in enumerate(torques.axes):
+        for line in ax.get_lines():
+            method = line.get_label()
+            if method.startswith("_"):
+                continue
+            drawn_methods.add(method)
+            runs = study.local_runs if ("long", method) in study.local_runs else study.global_runs
+            run = runs["long", method]
+            np.testing.assert_array_equal(line.get_xdata(), run.t[:-1])
+            np.testing.assert_array_equal(line.get_ydata(), run.tau[:-1, joint])
+        limit = PAPER.torque_limit[joint]
+        assert horizontal_levels(ax) == [-limit, limit]
+    assert {"pinv", "null-space", "global"} <= drawn_methods
+    optimum = study.global_runs["long", "global"].as_sim_result()
+    panels = [ax for ax in strip.axes if any(line.get_label() == "tip path so far" for line in ax.get_lines())]
+    for ax in panels:
+        row = len(labelled(ax, "tip path so far").get_xdata()) - 1
+        absolute = np.cumsum(optimum.joint_angles[row])
+        joints = np.cumsum(np.column_stack([np.cos(absolute), np.sin(absolute)]), axis=0)
+        np.testing.assert_allclose(np.column_stack(data(ax, "arm (joints as dots)"))[1:], joints, atol=1e-12)
     assert f"{study.row('long', 'global').cost:.1f}" in study.answer()
 
 

@@ -326,3 +326,58 @@ def test_the_papers_files_are_named_before_the_work(tmp_path):
         "summary.json",
         "summary.md",
     ]
+
+
+@pytest.mark.slow
+def test_the_paper_figures_draw_the_runs_they_name(paper, tmp_path, saved_figures):
+    """Each figure read back: the torques, speeds, arm poses and tip paths of the runs its title names."""
+    from torqueopt.paper.figures import write_figures
+
+    from .drawn import data, labelled, vertical_marks
+
+    written = write_figures(paper, tmp_path, "svg")
+    figures = {path.stem: figure for path, figure in zip(written, saved_figures, strict=True)}
+    assert set(figures) == {"fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "tip_long"} | {
+        f"arm_long_{name}" for name in ("pinv", "inertia-pinv", "null-space", "weighted-null-space")
+    }
+    for stem, movement, names in (("fig2", "short", ("pinv", "null-space")), ("fig3", "medium", ("pinv", "null-space")),
+                                  ("fig4", "long", ("pinv", "null-space")),
+                                  ("fig6", "short", ("weighted-null-space", "inertia-pinv"))):  # fmt: skip
+        assert (
+            figures[stem].get_suptitle().startswith(f"Fig. {stem[-1]}: joint torques, {' vs '.join(names)}, {movement}")
+        )
+        unstable = {
+            f"{name} unstable from {paper.whiplash[movement, name].time:.2f} s": paper.whiplash[movement, name].time
+            for name in names
+            if paper.whiplash[movement, name].unstable
+        }
+        for joint, ax in enumerate(figures[stem].axes):
+            for name in names:
+                np.testing.assert_array_equal(data(ax, name)[1], paper.runs[movement, name].tau[:, joint])
+            assert vertical_marks(ax) == unstable
+    assert "null-space unstable from 1.39 s" in vertical_marks(figures["fig4"].axes[0])
+    long_null = paper.runs["long", "null-space"]
+    speed_ax, _ = figures["fig5"].axes
+    for joint, name in enumerate(long_null.joint_names):
+        np.testing.assert_array_equal(data(speed_ax, name)[1], long_null.v[:, joint])
+    assert vertical_marks(speed_ax)[f"null-space unstable ({paper.whiplash['long', 'null-space'].time:.3f} s)"] > 0
+    strips = [("fig7", paper.free_swing)] + [(f"arm_long_{name}", paper.runs["long", name]) for name in
+                                             ("pinv", "inertia-pinv", "null-space", "weighted-null-space")]  # fmt: skip
+    for stem, run in strips:
+        panels = [
+            ax
+            for ax in figures[stem].axes
+            if any(line.get_label() == "arm (joints as dots)" for line in ax.get_lines())
+        ]
+        assert len(panels) == 10, stem
+        for ax in panels:
+            row = len(labelled(ax, "tip path so far").get_xdata()) - 1
+            absolute = np.cumsum(run.joint_angles[row])
+            joints = np.cumsum(np.column_stack([np.cos(absolute), np.sin(absolute)]), axis=0)
+            np.testing.assert_allclose(np.column_stack(data(ax, "arm (joints as dots)"))[1:], joints, atol=1e-12)
+    path_ax, error_ax = figures["tip_long"].axes
+    for name in ("pinv", "inertia-pinv", "null-space", "weighted-null-space"):
+        run = paper.runs["long", name]
+        np.testing.assert_allclose(data(error_ax, f"{name} tip")[1], 1e3 * np.linalg.norm(run.x - run.x_ref, axis=1))
+        along = (run.x - run.x_ref[0]) @ (np.array([1.0, 1.0]) / math.sqrt(2.0))
+        np.testing.assert_allclose(data(path_ax, f"{name} tip")[0], along, atol=1e-12)

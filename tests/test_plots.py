@@ -11,6 +11,8 @@ from torqueopt import plots
 from torqueopt.cli import main
 from torqueopt.errors import InvalidInput
 
+from .drawn import data, horizontal_levels, labelled, vertical_marks, vertical_times
+
 PNG = b"\x89PNG\r\n\x1a\n"
 PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
 
@@ -68,21 +70,105 @@ def test_arm_points_end_at_the_task_frame_of_a_3d_arm(panda):
     np.testing.assert_allclose(points[-1], panda.frame_placement(q).translation, atol=1e-12)
 
 
-@pytest.mark.slow
-def test_torque_motion_and_tip_figures(tmp_path, short_runs, titles):
-    torques = plots.plot_torques(short_runs, tmp_path / "torques.png", title="short", instability_times={"pinv": 0.2})
-    motion = plots.plot_motion(short_runs[1], tmp_path / "motion.png", title="motion", events={"event": 0.25})
-    tip = plots.plot_tip_path(short_runs, tmp_path / "tip.png", title="tip")
-    for path in (torques, motion, tip):
-        assert_png(path)
-    assert titles == ["short", "motion", "tip"]
+#: planar3's torque limits from its URDF, the paper's 54, 24 and 6 N·m.
+PAPER_LIMITS = (54.0, 24.0, 6.0)
 
 
-def test_stick_strips_for_the_planar_arm_and_a_3d_arm(tmp_path, planar3, short_runs, panda):
-    assert_png(plots.plot_stick_strip(planar3, short_runs[1], tmp_path / "planar.png", title="planar", snapshots=6))
+def planar_joint_points(angles):
+    """Closed-form positions [m] of planar3's joint origins and tip (unit links), shape (4, 2)."""
+    absolute = np.cumsum(angles)
+    return np.vstack([[0.0, 0.0], np.cumsum(np.column_stack([np.cos(absolute), np.sin(absolute)]), axis=0)])
+
+
+def test_the_torque_figure_draws_each_run_its_limits_and_the_instability(tmp_path, short_runs, saved_figures, titles):
+    assert_png(plots.plot_torques(short_runs, tmp_path / "torques.png", title="short", instability_times={"pinv": 0.2}))
+    assert titles == ["short"]
+    (figure,) = saved_figures
+    assert len(figure.axes) == 3
+    for joint, ax in enumerate(figure.axes):
+        for run in short_runs:
+            t, tau = data(ax, run.resolver)
+            np.testing.assert_array_equal(t, run.t)
+            np.testing.assert_array_equal(tau, run.tau[:, joint])
+        assert horizontal_levels(ax) == [-PAPER_LIMITS[joint], PAPER_LIMITS[joint]]
+        assert vertical_marks(ax) == {"pinv unstable from 0.20 s": 0.2}
+        assert f"limit ±{PAPER_LIMITS[joint]:g} N·m" in ax.get_title(loc="left")
+
+
+def test_the_motion_figure_draws_the_joint_velocities_accelerations_and_events(tmp_path, short_runs, saved_figures):
+    run = short_runs[1]
+    assert_png(plots.plot_motion(run, tmp_path / "motion.png", title="motion", events={"event": 0.25}))
+    (figure,) = saved_figures
+    speed_ax, accel_ax = figure.axes
+    for joint, name in enumerate(run.joint_names):
+        np.testing.assert_array_equal(data(speed_ax, name)[0], run.t)
+        np.testing.assert_array_equal(data(speed_ax, name)[1], run.v[:, joint])
+        np.testing.assert_array_equal(data(accel_ax, name)[1], run.acceleration[:, joint])
+    for ax in (speed_ax, accel_ax):
+        assert vertical_marks(ax) == {"event (0.250 s)": 0.25}
+
+
+def test_the_tip_figure_draws_the_deviation_across_the_line_and_the_tip_error(tmp_path, short_runs, saved_figures):
+    assert_png(plots.plot_tip_path(short_runs, tmp_path / "tip.png", title="tip"))
+    (figure,) = saved_figures
+    path_ax, error_ax = figure.axes
+    along_line = np.array([1.0, 1.0]) / math.sqrt(2.0)
+    to_its_left = np.array([-1.0, 1.0]) / math.sqrt(2.0)
+    assert horizontal_levels(path_ax) == [0.0]  # the reference line
+    for run in short_runs:
+        offset = run.x - run.x_ref[0]
+        along, across = data(path_ax, f"{run.resolver} tip")
+        np.testing.assert_allclose(along, offset @ along_line, atol=1e-12)
+        np.testing.assert_allclose(across, 1e3 * (offset @ to_its_left), atol=1e-9)
+        t, error = data(error_ax, f"{run.resolver} tip")
+        np.testing.assert_array_equal(t, run.t)
+        np.testing.assert_allclose(error, 1e3 * np.linalg.norm(run.x - run.x_ref, axis=1), atol=1e-9)
+    # 0.5 m along the line in 0.5 s, the tip within a millimetre of it
+    assert along[-1] == pytest.approx(np.linalg.norm(short_runs[0].x_ref[-1] - short_runs[0].x_ref[0]), abs=1e-3)
+
+
+def stick_panels(figure):
+    """(panel axes, the run's row it shows) of a stick strip; the tip path so far ends at that row."""
+    panels = [ax for ax in figure.axes if any(line.get_label() == "tip path so far" for line in ax.get_lines())]
+    return [(ax, len(labelled(ax, "tip path so far").get_xdata()) - 1) for ax in panels]
+
+
+def test_the_planar_stick_strip_draws_the_arm_at_each_snapshot_over_the_joint_speeds(
+    tmp_path, planar3, short_runs, saved_figures
+):
+    run = short_runs[1]
+    assert_png(plots.plot_stick_strip(planar3, run, tmp_path / "planar.png", title="planar", snapshots=6))
+    (figure,) = saved_figures
+    panels = stick_panels(figure)
+    rows = [row for _, row in panels]
+    assert len(panels) == 6 and rows[0] == 0 and rows[-1] == len(run.t) - 1 and rows == sorted(set(rows))
+    for ax, row in panels:
+        joints = planar_joint_points(run.joint_angles[row])
+        np.testing.assert_allclose(np.column_stack(data(ax, "arm (joints as dots)")), joints, atol=1e-12)
+        np.testing.assert_allclose(np.column_stack(data(ax, "tip")), joints[-1:], atol=1e-12)
+        np.testing.assert_allclose(np.column_stack(data(ax, "tip path so far")), run.x[: row + 1], atol=1e-12)
+        np.testing.assert_allclose(np.column_stack(data(ax, "reference path")), run.x_ref, atol=1e-12)
+        assert f"t = {run.t[row]:.3f} s" in [text.get_text() for text in ax.texts]
+    speed_ax = figure.axes[-1]
+    for joint, name in enumerate(run.joint_names):
+        np.testing.assert_array_equal(data(speed_ax, f"{name} velocity")[1], run.v[:, joint])
+    assert vertical_times(speed_ax) == run.t[rows].tolist()
+
+
+def test_the_stick_strip_of_a_3d_arm_projects_its_pinocchio_points(tmp_path, panda, saved_figures):
     line = torqueopt.StraightLine((0.0, 1.0, 0.0), accel=0.2, duration=0.2)
     run = torqueopt.simulate(panda, "pinv", line, panda.default_configuration)
     assert_png(plots.plot_stick_strip(panda, run, tmp_path / "panda.png", title="panda", snapshots=4))
+    (figure,) = saved_figures
+    for ax, row in stick_panels(figure):
+        drawn = np.column_stack(data(ax, "arm (joints as dots)"))
+        points = plots.arm_points(panda, run.joint_angles[row])
+        assert drawn.shape == (panda.nv + 1, 2)
+        # An orthogonal projection on a plane: no segment drawn longer than it is, the tip where the task frame is.
+        drawn_lengths = np.linalg.norm(np.diff(drawn, axis=0), axis=1)
+        assert (drawn_lengths <= np.linalg.norm(np.diff(points, axis=0), axis=1) + 1e-12).all()
+        np.testing.assert_allclose(data(ax, "tip path so far")[0][-1], drawn[-1, 0], atol=1e-12)
+        np.testing.assert_allclose(data(ax, "tip path so far")[1][-1], drawn[-1, 1], atol=1e-12)
 
 
 def test_snapshots_crowd_where_the_joints_move_fast(stopped_run):
@@ -92,14 +178,32 @@ def test_snapshots_crowd_where_the_joints_move_fast(stopped_run):
     assert sum(stopped_run.t[rows] > 0.7) >= 4
 
 
-@pytest.mark.slow
-def test_a_stopped_run_is_drawn_up_to_its_stop_and_says_so(tmp_path, stopped_run, titles):
-    assert not stopped_run.completed and 1.0 < stopped_run.stop_time < 2.0
-    assert_png(plots.plot_run(stopped_run, tmp_path / "run.png"))
+def test_the_run_figure_draws_a_stopped_run_up_to_its_stop_and_says_so(tmp_path, stopped_run, titles, saved_figures):
+    run = stopped_run
+    assert not run.completed and 1.0 < run.stop_time < 2.0
+    assert_png(plots.plot_run(run, tmp_path / "run.png"))
     assert titles[-1].startswith(
         "planar3: resolver null-space, task xy at 'tip', 2 s\nnull-space STOPPED EARLY at t = "
     )
     assert "speed of joint" in titles[-1] and "(drawn up to there)" in titles[-1]
+    (figure,) = saved_figures
+    *torque_axes, speed_ax, path_ax, error_ax = figure.axes
+    assert len(torque_axes) == 3
+    stop = {"null-space stopped early": run.stop_time}
+    for joint, ax in enumerate(torque_axes):
+        t, tau = data(ax, "torque")
+        np.testing.assert_array_equal(t, run.t)
+        np.testing.assert_array_equal(tau, run.tau[:, joint])
+        assert horizontal_levels(ax) == [-PAPER_LIMITS[joint], PAPER_LIMITS[joint]]
+        assert vertical_marks(ax) == stop
+    for joint, name in enumerate(run.joint_names):
+        np.testing.assert_array_equal(data(speed_ax, name)[1], run.v[:, joint])
+    assert vertical_marks(speed_ax) == stop
+    offset = run.x - run.x_ref[0]
+    np.testing.assert_allclose(data(path_ax, "tip")[0], offset @ (np.array([1.0, 1.0]) / math.sqrt(2.0)), atol=1e-12)
+    (error_line,) = [line for line in error_ax.get_lines() if len(line.get_xdata()) == len(run.t)]
+    np.testing.assert_allclose(error_line.get_ydata(), 1e3 * np.linalg.norm(run.x - run.x_ref, axis=1), atol=1e-9)
+    assert vertical_times(error_ax) == [run.stop_time]
 
 
 @pytest.mark.parametrize("snapshots", [1, 25, 2.5])
@@ -131,19 +235,30 @@ def test_plot_command_writes_the_figure_beside_the_run(saved_runs, capsys):
 
 
 @pytest.mark.slow
-def test_plot_command_reads_npz_and_takes_out_and_title(saved_runs, tmp_path, capsys, titles):
+def test_plot_command_reads_npz_and_takes_out_and_title(
+    saved_runs, short_runs, tmp_path, capsys, titles, saved_figures
+):
     out = tmp_path / "figures" / "mine.png"
     assert main(["plot", str(saved_runs / "short.npz"), "--out", str(out), "--title", "my run"]) == 0
     assert_png(out)
     assert titles == ["my run"]
+    (figure,) = saved_figures
+    for joint in range(3):
+        np.testing.assert_array_equal(data(figure.axes[joint], "torque")[1], short_runs[0].tau[:, joint])
 
 
-def test_plot_command_on_a_stopped_run(saved_runs, tmp_path, capsys):
+def test_plot_command_on_a_stopped_run(saved_runs, stopped_run, tmp_path, capsys, saved_figures):
     out = tmp_path / "stopped.png"
     assert main(["plot", str(saved_runs / "stopped.csv"), "--out", str(out)]) == 0
     stop = torqueopt.load_result(saved_runs / "stopped.csv").stop_time
     assert capsys.readouterr().out == f"wrote {out} (the run stopped early at t = {stop:.3f} s)\n"
     assert_png(out)
+    (figure,) = saved_figures
+    for joint in range(3):
+        t, tau = data(figure.axes[joint], "torque")
+        # the CSV keeps 10 significant digits
+        np.testing.assert_allclose(t, stopped_run.t, rtol=1e-9)
+        np.testing.assert_allclose(tau, stopped_run.tau[:, joint], rtol=1e-9)
 
 
 def malformed_runs(folder):

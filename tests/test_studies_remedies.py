@@ -113,6 +113,41 @@ def test_the_lp_answer_is_honest_about_what_was_run(study):
 
 
 @pytest.mark.slow
+def test_the_figures_draw_each_remedy_s_torque_ratios_and_the_sweep(study, paper, tmp_path, saved_figures):
+    from torqueopt.studies.remedies.figures import plot_long_torques, plot_tradeoff
+
+    from .drawn import data, horizontal_levels, vertical_times
+
+    plot_long_torques(study, tmp_path / "long.svg")
+    plot_tradeoff(study, tmp_path / "tradeoff.svg")
+    long_figure, tradeoff_figure = saved_figures
+    names = ("pinv", "null-space", *study.remedies)
+    assert len(long_figure.axes) == len(names)
+    for ax, name in zip(long_figure.axes, names):
+        assert ax.get_title(loc="left").startswith(f"{name}: ")
+        run, report = study.run("long", name), study.report("long", name)
+        for joint, joint_name in enumerate(run.joint_names):
+            np.testing.assert_allclose(
+                data(ax, joint_name)[1], run.tau[:, joint] / (54.0, 24.0, 6.0)[joint], rtol=1e-15
+            )
+        assert horizontal_levels(ax) == [-1.0, 1.0]
+        assert vertical_times(ax) == ([report.time] if report.unstable else [])
+    assert vertical_times(long_figure.axes[1]) == [paper.whiplash["long", "null-space"].time]
+    trade, by_weight = tradeoff_figure.axes
+    for damping in (2.0, 10.0):
+        points = sorted((p for p in study.sweep if p.damping == damping), key=lambda p: p.kinematic_weight)
+        np.testing.assert_array_equal(data(trade, f"K_D = {damping:g} 1/s")[1], [p.long_peak_ratio for p in points])
+        weights, peaks = data(by_weight, f"K_D = {damping:g} 1/s")
+        np.testing.assert_array_equal(weights, [0.5, 5.0])
+        np.testing.assert_array_equal(peaks, [p.long_peak_ratio for p in points[1:]])
+        # μ = 0 is null-space itself
+        assert points[0].long_peak_ratio == pytest.approx(
+            paper.runs["long", "null-space"].peak_torque_ratio.max(), rel=1e-9
+        )
+    assert horizontal_levels(trade) == horizontal_levels(by_weight) == [1.0, paper.limit_factor]
+
+
+@pytest.mark.slow
 def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper, monkeypatch):
     monkeypatch.delitem(RESOLVERS, "damped-null-space")
     missing = run_remedies(paper, sweep=False)
