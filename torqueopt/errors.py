@@ -18,6 +18,7 @@ __all__ = [
     "TorqueBoundsInfeasible",
     "SolverFailure",
     "MissingDependency",
+    "PlantError",
     "OutputError",
     "TorqueoptWarning",
 ]
@@ -69,6 +70,10 @@ class SolverFailure(TorqueoptError):
 
 class MissingDependency(TorqueoptError, ImportError):
     """An optional package needed for this feature is not installed."""
+
+
+class PlantError(TorqueoptError):
+    """The plant's model cannot be built: its joints do not match the robot's, or MuJoCo refuses it."""
 
 
 class OutputError(TorqueoptError, OSError):

@@ -61,6 +61,10 @@ class SimResult:
             ``position_upper``, ``velocity``: one value per joint, None where
             unbounded); None when unknown. :attr:`first_position_violation` and
             :attr:`first_velocity_violation` say when a run first left them.
+        plant: what the torque acted on, as the plant's ``record()`` gives it
+            (:mod:`torqueopt.plants`): ``{"name": "pinocchio", ...}`` or the
+            MuJoCo model, its options, notes and joint-limit events; None in
+            files written before it was recorded.
     """
 
     robot: str
@@ -90,6 +94,7 @@ class SimResult:
     dexterity: dict[str, np.ndarray] | None = None
     joint_limits: dict | None = None
     limiting: dict[int, str] | None = None
+    plant: dict | None = None
 
     def __post_init__(self):
         # Runs written before these columns existed, and results built by hand, realised their task.
@@ -260,6 +265,7 @@ class SimResult:
             "resolver_options": self.resolver_options,
             "first_position_violation": _violation_json(self.first_position_violation),
             "first_velocity_violation": _violation_json(self.first_velocity_violation),
+            "plant": self.plant,
         }
 
     # -- files -----------------------------------------------------------------

@@ -49,6 +49,7 @@ def run_result(
     infeasible: np.ndarray,
     dexterity: bool,
     limiting: dict[int, str] | None = None,
+    plant: dict | None = None,
 ) -> SimResult:
     """The :class:`SimResult` of a run from its per-step ``log`` of (q, v, q̈, τ, x, σmin/σmax) tuples.
 
@@ -90,6 +91,7 @@ def run_result(
         limiting=limiting or None,
         dexterity=dexterity_along(robot, q_log) if dexterity else None,
         joint_limits=joint_limits_record(*robot.joint_limits),
+        plant=plant,
     )
 
 

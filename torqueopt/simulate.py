@@ -37,6 +37,7 @@ from .checks import (
 )
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
 from .integrators import rk4_step, rk4_stepper
+from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
@@ -104,6 +105,8 @@ def simulate(
     resolver_options: dict | None = None,
     dexterity: bool = False,
     max_steps: int = DEFAULT_MAX_STEPS,
+    plant: str | Plant = "pinocchio",
+    plant_options: dict | None = None,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -130,6 +133,15 @@ def simulate(
         max_steps: the most steps the run may take (checked before it starts,
             with the memory it would need), so that a mistyped duration or dt
             fails at once.
+        plant: what the torque acts on (:mod:`torqueopt.plants`): ``"pinocchio"``
+            (the robot's own model, RK4 with the torque held), ``"mujoco"``
+            (a MuJoCo model of the arm; each step reads its state, computes the
+            torque from it with the robot's Pinocchio model, and lets MuJoCo
+            advance), or a :class:`~torqueopt.plants.Plant`. The result's
+            ``plant`` records it.
+        plant_options: the plant's options by name, for a plant name
+            (``{"integrator": "euler", "joint-limits": "off", "mjcf": "arm.xml"}``;
+            see :mod:`torqueopt.plants.mujoco`).
 
     Returns:
         SimResult with one row per step start, t = 0, dt, ..., duration.
@@ -146,6 +158,11 @@ def simulate(
     """
     resolver = get_resolver(resolver, **(resolver_options or {}))
     if getattr(resolver, "level", None) == "velocity":
+        if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
+            raise InvalidInput(
+                f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
+                "velocities, no torque drives a plant); a plant needs a torque resolver"
+            )
         from .kinematic import simulate_kinematic
 
         return simulate_kinematic(
@@ -163,6 +180,8 @@ def simulate(
 
     q = configuration_vector(robot, q0)
     v = np.zeros(robot.nv) if v0 is None else velocity_vector(robot, v0)
+    plant = make_plant(robot, plant, plant_options)
+    plant.reset(dt)
     for note in start_notes(robot, q):
         warnings.warn(note, TorqueoptWarning, stacklevel=2)
     placement = robot.frame_placement(q)
@@ -184,7 +203,15 @@ def simulate(
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
     data = robot.model.createData()
-    advance = rk4_stepper(robot, dt, data)
+    if isinstance(plant, PinocchioPlant):
+        advance = rk4_stepper(robot, dt, data)
+    else:
+        plant_step = plant.step
+
+        def advance(q, v, tau, _joint_acceleration):
+            # The plant reports its own state; the resolver's next torque is computed from it.
+            return plant_step(q, v, tau, dt)
+
     terms_at = robot.terms_function(data)
     task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
     # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
@@ -262,6 +289,7 @@ def simulate(
         infeasible=infeasible_log,
         limiting=limiting_log,
         dexterity=dexterity,
+        plant=plant.record(),
     )
 
 

@@ -20,6 +20,7 @@ from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
 from .common import add_robot_options, add_start_options, parse_count, parse_positive, parse_vector, robot_from_args
 from .paths import add_path_options, trajectory_from_args
+from .plant import add_plant_options, plant_from_args, plant_summary
 from .play import add_playback_options, check_frames, play_live, playback_options, prepare_playback
 from .resolvers import add_resolver_arguments, resolver_from_args
 
@@ -72,6 +73,7 @@ def add_parser(subparsers) -> None:
         "the run file (default: on)",
     )
     group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
+    add_plant_options(parser)
     add_playback_options(parser)
     parser.set_defaults(handler=run_command)
 
@@ -89,6 +91,7 @@ def run_command(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     resolver.check(robot)
     check_torque_limits(robot, resolver)
+    plant = plant_from_args(args, robot)
     if args.q0 is None:
         q0 = robot.default_configuration
     else:
@@ -105,6 +108,7 @@ def run_command(args: argparse.Namespace) -> int:
         feedback=feedback,
         max_steps=max_steps,
         dexterity=args.dexterity,
+        plant=plant,
     )
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
@@ -208,5 +212,6 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
     if result.dexterity:
         lines.extend(summarise_along(result.t, result.dexterity))
     lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")
+    lines.extend(plant_summary(result))
     lines.append("status: completed" if result.completed else f"status: STOPPED EARLY: {result.stop_reason}")
     return "\n".join(lines)

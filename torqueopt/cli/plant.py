@@ -1,0 +1,109 @@
+"""``--plant``, ``--mjcf`` and ``--plant-option``: what the resolver's torque acts on (:mod:`torqueopt.plants`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import InvalidInput
+from ..plants import PLANT_NAMES, Plant, make_plant
+from ..result import SimResult
+
+__all__ = ["add_plant_options", "plant_from_args", "plant_summary"]
+
+#: The plant options ``--plant-option`` takes, with the defaults ``--help`` states
+#: (the same as :data:`torqueopt.plants.mujoco.OPTION_DEFAULTS`, which a test holds them to).
+PLANT_OPTIONS = {
+    "integrator": ("rk4", "rk4|implicitfast|euler, MuJoCo's integrator"),
+    "timestep": ("dt", "MuJoCo's step [s], dividing --dt (sub-steps)"),
+    "contacts": ("off", "on|off"),
+    "joint-limits": ("on", "on|off, MuJoCo's joint-limit forces"),
+    "damping": ("urdf", "urdf|zero: the model's joint damping, friction loss and armature, or none"),
+    "inertia-floor": ("none", "raise principal moments of inertia below this [kg·m²] to it (planar3's thin rods)"),
+    "perturb": ("0", "scale each link's mass and inertia by a factor from U(1−p, 1+p)"),
+    "seed": ("0", "seed of those factors"),
+}
+
+
+def add_plant_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("plant (what the torque acts on)")
+    group.add_argument(
+        "--plant",
+        choices=PLANT_NAMES,
+        help="pinocchio: the robot's own model, RK4 with the torque held (the paper's); mujoco: a MuJoCo model of "
+        "the arm (its URDF compiled by MuJoCo, or --mjcf) advanced by MuJoCo, the torque computed from its state "
+        "(needs pip install 'torqueopt[mujoco]'); default pinocchio, mujoco with --mjcf",
+    )
+    group.add_argument(
+        "--mjcf",
+        metavar="FILE",
+        help="a MuJoCo MJCF model as the plant (implies --plant mujoco), its joint names matching the URDF's; "
+        "the controller still uses the URDF",
+    )
+    defaults = "; ".join(f"{key}= {text} (default {default})" for key, (default, text) in PLANT_OPTIONS.items())
+    group.add_argument(
+        "--plant-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help=f"a MuJoCo plant option, repeatable or comma-separated: {defaults}",
+    )
+
+
+def _plant_option_values(texts: list[str]) -> dict[str, str]:
+    options = {}
+    for text in texts:
+        for item in text.split(","):
+            key, separator, value = item.partition("=")
+            key = key.strip()
+            if not separator or not key or not value.strip():
+                raise InvalidInput(f"--plant-option '{item}' must be KEY=VALUE, e.g. --plant-option integrator=euler")
+            if key not in PLANT_OPTIONS:
+                raise InvalidInput(f"unknown --plant-option '{key}'; the options are {', '.join(PLANT_OPTIONS)}")
+            if key in options:
+                raise InvalidInput(f"--plant-option {key} is given twice; give it once")
+            options[key] = value.strip()
+    return options
+
+
+def plant_from_args(args: argparse.Namespace, robot) -> Plant:
+    """The plant that ``--plant``, ``--mjcf`` and ``--plant-option`` name, built (and checked) before any run."""
+    options = _plant_option_values(args.plant_option)
+    name = args.plant or ("mujoco" if args.mjcf else "pinocchio")
+    if name != "mujoco" and (args.mjcf or options):
+        given = "--mjcf" if args.mjcf else "--plant-option"
+        raise InvalidInput(f"{given} applies to --plant mujoco, not --plant {name}")
+    if args.mjcf:
+        options["mjcf"] = args.mjcf
+    return make_plant(robot, name, options)
+
+
+def plant_summary(result: SimResult) -> list[str]:
+    """The summary's lines on a MuJoCo plant: its model and options, its notes, the joint-limit forces that acted."""
+    record = result.plant or {}
+    if record.get("name") != "mujoco":
+        return []
+    substeps = record.get("substeps") or 1
+    lines = [
+        f"plant: MuJoCo {record['mujoco_version']} on {record['model'].upper()} {Path(record['model_file']).name}, "
+        f"{record['integrator']} at "
+        f"{record['timestep'] * 1e3:g} ms ({substeps} step{'s' if substeps != 1 else ''} per control step), "
+        f"contacts {record['contacts']}, joint limits {record['joint_limits']}, damping {record['damping']}"
+    ]
+    perturbation = record.get("perturbation")
+    if perturbation:
+        lines.append(
+            f"plant perturbed: {len(perturbation['links'])} link masses and inertias scaled by factors from "
+            f"U({1 - perturbation['fraction']:g}, {1 + perturbation['fraction']:g}), seed {perturbation['seed']}"
+        )
+    lines += [f"plant note: {note}" for note in record.get("notes", [])]
+    if record.get("joint_limits") == "on":
+        events = record.get("limit_events") or []
+        if not events:
+            lines.append("joint-limit force: none acted (no joint reached its limit in MuJoCo)")
+        for event in events:
+            lines.append(
+                f"joint-limit force: MuJoCo's limit stopped joint {event['joint']} from t = {event['first_time']:.3f} s "
+                f"(peak {event['peak_force']:.4g} N·m, {event['steps']} MuJoCo steps)"
+            )
+    return lines
