@@ -470,7 +470,7 @@ def test_resume_refuses_other_settings_and_folders_not_ours(tmp_path):
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "results.parquet").write_text("someone else's")
-    with pytest.raises(InvalidInput, match="already has results.parquet but no atlas-config.json"):
+    with pytest.raises(InvalidInput, match=r"is not empty and holds no atlas \(no atlas-config.json\)"):
         run_atlas("planar3", out=foreign, workers=0, **SMALL)
     assert (foreign / "results.parquet").read_text() == "someone else's"
 
@@ -557,3 +557,117 @@ def test_an_algorithmic_singularity_at_the_start_is_a_singular_verdict_not_stabl
     kinetic, self_motion = self_motion_energy(planar3, run)
     row = run_row(run, kinetic, self_motion, 1.0, Thresholds())
     assert not row["unstable"] and row["verdict"] == "singular"
+
+
+# -- folders and chunks that are not this atlas's -----------------------------------
+
+TINY = ["atlas", "--robot", "planar3", "--paths", "3", "--durations", "0.2,0.3", "--chunk-size", "2",
+        "--workers", "0", "--no-progress", "--no-figures"]  # fmt: skip
+
+
+def test_a_folder_holding_a_users_files_is_refused_and_left_as_it_was(tmp_path, capsys):
+    """A user's tradeoff.png (named like an atlas figure) or any other file: the folder is not this atlas's."""
+    for name in ("tradeoff.png", "notes.txt"):
+        out = tmp_path / name.split(".")[0]
+        out.mkdir()
+        (out / name).write_text("the user's")
+        assert main([*TINY, "--out", str(out)]) == 2
+        assert capsys.readouterr().err == (
+            f"torqueopt atlas: error: '{out}' is not empty and holds no atlas (no atlas-config.json), so it is "
+            "not this atlas's folder: give an empty or new folder, or this atlas's folder to resume it\n"
+        )
+        assert [path.name for path in out.iterdir()] == [name] and (out / name).read_text() == "the user's"
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--dt", "0.3"], "dt=0.3 s does not divide the duration 0.2 s"),
+        (["--dt", "0.07"], "dt=0.07 s does not divide the duration 0.2 s"),
+        (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'"),
+    ],
+    ids=["dt longer than a duration", "dt that does not divide", "unreachable scheduler"],
+)
+def test_a_refused_atlas_leaves_nothing_behind(tmp_path, capsys, monkeypatch, arguments, message):
+    """Refused for a bad --dt or an unreachable scheduler: no folder, no atlas-config.json, so the corrected
+    command is not refused for 'other settings'."""
+    from torqueopt.atlas import sweep
+
+    monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT", "1s")
+    out = tmp_path / "atlas"
+    assert main([*TINY, "--out", str(out), *arguments]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"torqueopt atlas: error: {message}") and error.count("\n") == 1
+    assert not out.exists()
+    out.mkdir()
+    assert main([*TINY, "--out", str(out), *arguments]) == 2
+    assert list(out.iterdir()) == []
+    capsys.readouterr()
+    assert main([*TINY, "--out", str(out)]) == 0
+
+
+def _spoil_other_seed(chunk, tmp_path):
+    other = tmp_path / "other"
+    assert main([*TINY, "--seed", "6", "--out", str(other)]) == 0
+    chunk.write_bytes((other / "chunks" / chunk.name).read_bytes())
+    return "written by another atlas (other settings)"
+
+
+def _spoil_truncated(chunk, tmp_path):
+    chunk.write_bytes(chunk.read_bytes()[: chunk.stat().st_size // 2])
+    return "unreadable (truncated or corrupt)"
+
+
+def _spoil_flipped_byte(chunk, tmp_path):
+    import pyarrow.parquet
+
+    column = pyarrow.parquet.ParquetFile(chunk).metadata.row_group(0).column(11)  # peak_torque_ratio
+    data = bytearray(chunk.read_bytes())
+    data[column.data_page_offset + column.total_compressed_size - 3] ^= 0xFF  # in the last bytes of its page data
+    chunk.write_bytes(bytes(data))
+    return "unreadable (truncated or corrupt)"  # the page's CRC32 no longer matches
+
+
+def _spoil_edited_rows(chunk, tmp_path):
+    """A value changed and the file written again with its proof kept: only the rows' checksum tells."""
+    import pyarrow
+    import pyarrow.parquet
+
+    table = pyarrow.parquet.read_table(chunk)
+    column = table.schema.get_field_index("peak_torque_ratio")
+    ratios = table.column(column).to_pylist()
+    table = table.set_column(column, "peak_torque_ratio", pyarrow.array([ratios[0] / 2, *ratios[1:]]))
+    pyarrow.parquet.write_table(table, chunk)
+    return "its rows do not match their checksum (corrupt)"
+
+
+def _spoil_no_fingerprint(chunk, tmp_path):
+    pandas.read_parquet(chunk).to_parquet(chunk, index=False)
+    return "written without the atlas fingerprint"
+
+
+@pytest.mark.parametrize(
+    "spoil", [_spoil_other_seed, _spoil_truncated, _spoil_flipped_byte, _spoil_edited_rows, _spoil_no_fingerprint],
+    ids=["other seed", "truncated", "flipped byte", "edited rows", "no fingerprint"],
+)  # fmt: skip
+def test_a_chunk_that_does_not_match_is_recomputed_and_the_run_says_so(tmp_path, capsys, spoil):
+    out = tmp_path / "atlas"
+    assert main([*TINY, "--out", str(out)]) == 0
+    reference = _table(out)
+    chunk = out / "chunks" / "chunk-000001.parquet"
+    reason = spoil(chunk, tmp_path)
+    capsys.readouterr()
+    assert main([*TINY, "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    note = captured.err.splitlines()
+    assert len(note) == 1 and note[0].startswith(
+        "torqueopt atlas: note: recomputing 1 of 4 chunks, which do not match this atlas: chunk-000001.parquet ("
+    ), captured.err
+    if reason is not None:
+        assert note[0].endswith(f"chunk-000001.parquet ({reason})")
+    assert "3 chunks resumed from an earlier run" in captured.out
+    pandas.testing.assert_frame_equal(_table(out), reference)
+    capsys.readouterr()
+    assert main([*TINY, "--out", str(out)]) == 0  # the recomputed chunk is trusted now
+    captured = capsys.readouterr()
+    assert captured.err == "" and "4 chunks resumed" in captured.out

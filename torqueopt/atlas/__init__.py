@@ -21,8 +21,15 @@ Files in the output folder:
 ``unstable_fraction.png``, ``workspace_map.png``, ``instability_time.png``, ``tradeoff.png``
     the figures.
 ``atlas-config.json``, ``chunks/``
-    the settings the sweep was started with, and each finished chunk: what
-    lets a killed sweep resume.
+    the settings the sweep was started with, and each finished chunk (with
+    the atlas's fingerprint and its own checksum, :mod:`torqueopt.atlas.sweep`):
+    what lets a killed sweep resume.
+
+Nothing is written before every check has passed (the settings, the size
+of the sweep, the folder, the files, the scheduler), and only into a folder
+that is new, empty or this atlas's: a folder that holds anything else is
+refused, so no file of the user's is ever replaced. The table, the summaries
+and the figures land together at the end, or none of them does.
 
 The runs use :func:`torqueopt.simulate`'s acceleration profile, step and
 integrator: held-torque RK4 for the torque resolvers (the batched path is
@@ -32,26 +39,28 @@ torques for the velocity-level methods.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..checks import positive_number, whole_number
-from ..errors import InvalidInput, OutputError
-from ..io import atomic_write, writable_path
+from ..checks import positive_number, step_count, whole_number
+from ..errors import InvalidInput, OutputError, TorqueoptWarning
+from ..io import atomic_write, writable_path, writable_paths, written_together
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from .population import Movement, PopulationSpec, draw_population
 from .stats import claims, proportion, unstable_fractions, wilson_interval
 from .sweep import (
-    CHUNK_FOLDER,
     RobotSpec,
     config_digest,
-    finished_chunks,
+    executor,
+    read_chunks,
     remove_partial_chunks,
     require,
     resolvers_from,
@@ -79,7 +88,12 @@ DEFAULT_MAX_STEPS = 10_000_000_000
 #: Movements per chunk of work.
 DEFAULT_CHUNK_SIZE = 256
 _FORMAT = 1
-_OUR_FILES = ("results.parquet", "atlas.md", "atlas.json", CHUNK_FOLDER)
+_CONFIG = "atlas-config.json"
+#: The files written at the end, together: the table, the summaries, the figures.
+_RESULT_FILES = (
+    "results.parquet", "atlas.json", "atlas.md",
+    "unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png",
+)  # fmt: skip
 
 
 @dataclass
@@ -147,9 +161,15 @@ def run_atlas(
         figures: draw the figures (needs matplotlib).
         max_steps: refuse a sweep of more trajectory-steps than this.
 
+    A chunk already in ``out/chunks`` that does not prove to be this
+    atlas's (another atlas's, truncated, corrupt) is recomputed, with a
+    :class:`~torqueopt.errors.TorqueoptWarning` naming it.
+
     Raises:
-        InvalidInput: bad settings, a sweep larger than ``max_steps``, or an
-            ``out`` folder that holds an atlas with other settings.
+        InvalidInput: bad settings, a sweep larger than ``max_steps``, a
+            scheduler that cannot be reached, or an ``out`` folder that holds
+            an atlas with other settings or anything that is not an atlas's.
+        OutputError: a file of the atlas cannot be written.
         MissingDependency: pandas, pyarrow, dask[distributed] or tqdm missing.
     """
     pandas = require("pandas")
@@ -166,11 +186,12 @@ def run_atlas(
     chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
     workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
     dt = positive_number(dt, "dt", "s")
-    if dt > min(population.durations):
-        raise InvalidInput(f"dt={dt!r} must be a positive number of seconds no longer than the shortest duration")
+    for duration in population.durations:
+        step_count(duration, dt)  # a dt that does not divide a duration would simulate another movement
     out = writable_path(out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the atlas to '{out}': it is a file; give a folder")
+    writable_paths(out / name for name in (_CONFIG, *_RESULT_FILES))
 
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
@@ -206,11 +227,11 @@ def run_atlas(
     }
     config = json.loads(json.dumps(config, default=_json_default))  # as atlas-config.json will read back
     digest = config_digest(config)
-    _claim_folder(out, config)
+    resume = _check_folder(out, config)
 
     chunks = _chunks(movements, chunk_size)
-    done = finished_chunks(out, len(chunks))
-    remove_partial_chunks(out)
+    frames, rejected = read_chunks(out, len(chunks), digest) if resume else ({}, [])
+    done = set(frames)
     jobs = {
         index: {
             "robot": spec,
@@ -226,30 +247,35 @@ def run_atlas(
         if index not in done
     }
     done_paths = sum(len(chunks[index]) for index in done)
-    if jobs:
-        run_chunks(
-            jobs,
-            out,
-            scheduler=scheduler,
-            workers=workers,
-            progress=progress,
-            total_paths=len(movements),
-            done_paths=done_paths,
+    if rejected:
+        warnings.warn(
+            f"recomputing {len(rejected)} of {len(chunks)} chunks, which do not match this atlas: {', '.join(rejected)}",
+            TorqueoptWarning,
+            stacklevel=2,
         )
+    # The scheduler is reached (or the cluster started) before the first file is written.
+    with executor(scheduler, workers) if jobs else contextlib.nullcontext() as client:
+        if not resume:
+            _claim_folder(out, config)
+        remove_partial_chunks(out)
+        if jobs:
+            frames.update(
+                run_chunks(jobs, out, client, progress=progress, total_paths=len(movements), done_paths=done_paths)
+            )
 
-    table = _collect(pandas, out, len(chunks), [r.name for r in resolver_objects])
-    atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
+    table = _collect(pandas, [frames[index] for index in range(len(chunks))], [r.name for r in resolver_objects])
     from .report import summarise, write_figures, write_markdown
 
     summary = summarise(table, config)
     summary["resumed_chunks"] = len(done)
-    text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
-    atomic_write(out / "atlas.json", lambda handle: handle.write(text))
-    markdown = write_markdown(summary).encode()
-    if figures:
-        summary["figures"] = write_figures(table, summary, out, loaded)
+    with written_together():
+        atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
+        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        atomic_write(out / "atlas.json", lambda handle: handle.write(text))
+        if figures:
+            summary["figures"] = write_figures(table, summary, out, loaded)
         markdown = write_markdown(summary).encode()
-    atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
+        atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
     return AtlasResult(table=table, summary=summary, out=out)
 
 
@@ -295,9 +321,14 @@ def _chunks(movements: list[Movement], size: int) -> list[list[Movement]]:
     return chunks
 
 
-def _claim_folder(out: Path, config: dict) -> None:
-    """Write atlas-config.json, or check that the one there matches (resume); never adopt a folder not ours."""
-    path = out / "atlas-config.json"
+def _check_folder(out: Path, config: dict) -> bool:
+    """True when ``out`` holds this atlas (resume), False when it is new or empty; writes nothing.
+
+    Raises:
+        InvalidInput: ``out`` holds an atlas with other settings, or is not
+            empty and holds no atlas: never adopt a folder that is not ours.
+    """
+    path = out / _CONFIG
     if path.is_file():
         try:
             existing = json.loads(path.read_text())
@@ -309,20 +340,23 @@ def _claim_folder(out: Path, config: dict) -> None:
                 f"'{out}' holds an atlas with other settings ({', '.join(changed)} differ); give another --out to "
                 "start a new atlas, or the same settings to resume it"
             )
-        return
-    clashes = [name for name in _OUR_FILES if (out / name).exists()]
-    if clashes:
+        return True
+    if out.is_dir() and any(out.iterdir()):
         raise InvalidInput(
-            f"'{out}' already has {', '.join(clashes)} but no atlas-config.json, so it is not an atlas this command "
-            "can resume: give another --out"
+            f"'{out}' is not empty and holds no atlas (no {_CONFIG}), so it is not this atlas's folder: give an "
+            "empty or new folder, or this atlas's folder to resume it"
         )
+    return False
+
+
+def _claim_folder(out: Path, config: dict) -> None:
+    """Write atlas-config.json into a new or empty folder (checked by :func:`_check_folder`), making it this atlas's."""
     text = json.dumps(config, indent=2, sort_keys=True).encode()
-    atomic_write(path, lambda handle: handle.write(text))
+    atomic_write(out / _CONFIG, lambda handle: handle.write(text))
 
 
-def _collect(pandas, out: Path, count: int, resolver_order: list[str]):
+def _collect(pandas, frames: list, resolver_order: list[str]):
     """Every chunk's rows, sorted by path and resolver (the order of the settings)."""
-    frames = [pandas.read_parquet(out / CHUNK_FOLDER / f"chunk-{index:06d}.parquet") for index in range(count)]
     table = pandas.concat(frames, ignore_index=True)
     rank = {name: i for i, name in enumerate(resolver_order)}
     table = table.assign(_rank=table["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")

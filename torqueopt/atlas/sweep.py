@@ -14,17 +14,29 @@ sweep finds the chunks already written and sends only the others, so a
 sweep killed at any moment loses at most the chunks in flight, counts none
 twice, and ends with the same table as an uninterrupted run: the table is
 the chunks' rows sorted by path and resolver, and every chunk's rows are a
-deterministic function of the settings.
+deterministic function of the settings (Dask may run a chunk twice: the
+second gives the same file).
+
+A chunk is trusted only when it proves it is this atlas's: its Parquet
+schema metadata (key ``torqueopt.atlas``) records the atlas fingerprint
+(:func:`config_digest` of the settings), its index, its row count and a
+SHA-256 of its rows (pandas' ``hash_pandas_object``), and its data pages
+carry Parquet's own CRC32 page checksums, verified on reading. A chunk that
+fails any of these (copied from another atlas, truncated, corrupt, written
+before chunks carried a fingerprint) is recomputed, and :func:`read_chunks`
+says which and why.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
 import sys
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,10 +53,14 @@ from ..trajectory import StraightLine
 from .population import Movement
 from .verdicts import Thresholds, run_row, self_motion_energy
 
-__all__ = ["CHUNK_FOLDER", "RobotSpec", "chunk_path", "run_chunk"]
+__all__ = ["CHUNK_FOLDER", "RobotSpec", "chunk_path", "executor", "read_chunks", "run_chunk", "run_chunks"]
 
 CHUNK_FOLDER = "chunks"
 BASELINE = "pinv"
+#: How long to try to reach a ``--scheduler`` before refusing it.
+SCHEDULER_TIMEOUT = "20s"
+#: The key of a chunk's Parquet schema metadata that proves it is this atlas's.
+CHUNK_KEY = b"torqueopt.atlas"
 
 
 def require(module: str, extra: str = "atlas"):
@@ -183,28 +199,83 @@ def config_digest(config: dict) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def write_chunk(out: Path, index: int, rows: list[dict]) -> None:
-    """Write one chunk's rows atomically as Parquet."""
+def rows_checksum(frame) -> str:
+    """SHA-256 of a chunk's rows as pandas hashes them (every column's values, in order), and of its column names."""
     pandas = require("pandas")
-    require("pyarrow")
-    frame = pandas.DataFrame(rows)
-    atomic_write(chunk_path(out, index), lambda handle: frame.to_parquet(handle, index=False))
+    digest = hashlib.sha256(json.dumps(list(frame.columns)).encode())
+    digest.update(pandas.util.hash_pandas_object(frame, index=False).to_numpy().tobytes())
+    return digest.hexdigest()
 
 
-def finished_chunks(out: Path, count: int) -> set[int]:
-    """Indices of the chunks already written (whole files only: partial ones never get their final name)."""
+def write_chunk(out: Path, index: int, rows: list[dict], digest: str):
+    """Write one chunk's rows atomically as Parquet, with its proof of origin; returns the rows as read back.
+
+    The schema metadata records the atlas fingerprint ``digest``, the
+    chunk's index, its row count and :func:`rows_checksum`; the data pages
+    carry Parquet's CRC32 page checksums. The same rows give the same file.
+    """
+    pandas = require("pandas")
+    arrow = require("pyarrow")
+    parquet = require("pyarrow.parquet")
+    table = arrow.Table.from_pandas(pandas.DataFrame(rows), preserve_index=False)
+    frame = table.to_pandas()  # what a reader gets back, which the checksum is of
+    proof = {"atlas": digest, "chunk": int(index), "rows": len(frame), "checksum": rows_checksum(frame)}
+    table = table.replace_schema_metadata({**table.schema.metadata, CHUNK_KEY: json.dumps(proof).encode()})
+    atomic_write(chunk_path(out, index), lambda handle: parquet.write_table(table, handle, write_page_checksum=True))
+    return frame
+
+
+def read_chunk(path: Path, digest: str, index: int):
+    """The rows of the chunk at ``path`` when it proves to be chunk ``index`` of the atlas ``digest``.
+
+    Returns:
+        (frame, None), or (None, why it does not match, in a few words).
+    """
+    parquet = require("pyarrow.parquet")
+    arrow = require("pyarrow")
+    try:
+        table = parquet.read_table(path, page_checksum_verification=True)
+        frame = table.to_pandas()
+    except (OSError, ValueError, arrow.ArrowException):
+        return None, "unreadable (truncated or corrupt)"
+    metadata = table.schema.metadata or {}
+    if CHUNK_KEY not in metadata:
+        return None, "written without the atlas fingerprint"
+    try:
+        proof = json.loads(metadata[CHUNK_KEY])
+        atlas, chunk, rows, checksum = proof["atlas"], proof["chunk"], proof["rows"], proof["checksum"]
+    except (ValueError, TypeError, KeyError):
+        return None, "its fingerprint is unreadable (corrupt)"
+    if atlas != digest:
+        return None, "written by another atlas (other settings)"
+    if chunk != index:
+        return None, f"it is chunk {chunk}, not chunk {index}"
+    if rows != len(frame) or checksum != rows_checksum(frame):
+        return None, "its rows do not match their checksum (corrupt)"
+    return frame, None
+
+
+def read_chunks(out: Path, count: int, digest: str) -> tuple[dict, list[str]]:
+    """The chunks already written that prove to be this atlas's, and a note on each that does not.
+
+    Returns:
+        ({index: rows as a DataFrame}, ["chunk-NNNNNN.parquet (why)", ...]);
+        only whole files are looked at (a partial one never gets its final name).
+    """
+    done, rejected = {}, []
     folder = out / CHUNK_FOLDER
     if not folder.is_dir():
-        return set()
-    done = set()
-    for path in folder.glob("chunk-*.parquet"):
-        try:
-            index = int(path.stem.split("-")[1])
-        except (IndexError, ValueError):
+        return done, rejected
+    for index in range(count):
+        path = chunk_path(out, index)
+        if not path.is_file():
             continue
-        if 0 <= index < count:
-            done.add(index)
-    return done
+        frame, why = read_chunk(path, digest, index)
+        if frame is None:
+            rejected.append(f"{path.name} ({why})")
+        else:
+            done[index] = frame
+    return done, rejected
 
 
 def remove_partial_chunks(out: Path) -> None:
@@ -215,30 +286,49 @@ def remove_partial_chunks(out: Path) -> None:
             path.unlink(missing_ok=True)
 
 
-def run_chunks(jobs: dict[int, dict], out: Path, *, scheduler, workers, progress, total_paths, done_paths) -> None:
-    """Send the pending chunks to Dask (or run them here when ``workers == 0``), writing each as it finishes."""
-    bar = _progress_bar(total_paths, done_paths, progress)
+@contextlib.contextmanager
+def executor(scheduler: str | None, workers: int | None) -> Iterator:
+    """Where the chunks run: a Dask client (to ``scheduler``, or a new LocalCluster), or None for this process.
+
+    Entered before anything is written, so that an unreachable scheduler
+    leaves no file behind; the cluster is closed on leaving.
+
+    Raises:
+        InvalidInput: the scheduler cannot be reached within :data:`SCHEDULER_TIMEOUT`.
+    """
+    if workers == 0 and scheduler is None:
+        yield None
+        return
+    distributed = require("distributed")
+    client, cluster = _client(distributed, scheduler, workers)
     try:
-        if workers == 0 and scheduler is None:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths) -> dict:
+    """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows."""
+    bar = _progress_bar(total_paths, done_paths, progress)
+    frames = {}
+    try:
+        if client is None:
             for index, job in jobs.items():
-                write_chunk(out, index, run_chunk(job))
+                frames[index] = write_chunk(out, index, run_chunk(job), job["digest"])
                 bar.update(len(job["movements"]))
-            return
+            return frames
         distributed = require("distributed")
-        client, cluster = _client(distributed, scheduler, workers)
-        try:
-            futures = {}
-            for index, job in jobs.items():
-                futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job['digest']}-{index}")] = index
-            for future in distributed.as_completed(list(futures)):
-                index = futures[future]
-                write_chunk(out, index, future.result())
-                bar.update(len(jobs[index]["movements"]))
-                future.release()
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        futures = {}
+        for index, job in jobs.items():
+            futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job['digest']}-{index}")] = index
+        for future in distributed.as_completed(list(futures)):
+            index = futures[future]
+            frames[index] = write_chunk(out, index, future.result(), jobs[index]["digest"])
+            bar.update(len(jobs[index]["movements"]))
+            future.release()
+        return frames
     finally:
         bar.close()
 
@@ -247,7 +337,7 @@ def _client(distributed, scheduler, workers):
     """A Dask client: to ``scheduler`` when given, else to a new LocalCluster (one process per core)."""
     if scheduler is not None:
         try:
-            return distributed.Client(scheduler, timeout="20s"), None
+            return distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
         except OSError as error:
             raise InvalidInput(f"cannot reach the Dask scheduler at '{scheduler}': {error}") from None
     import logging
