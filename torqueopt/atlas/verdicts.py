@@ -82,6 +82,7 @@ import pinocchio as pin
 from ..checks import positive_number
 from ..result import SimResult
 from ..robot import Robot
+from ..self_motion import self_motion
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 
 __all__ = [
@@ -125,23 +126,22 @@ def self_motion_energy(robot: Robot, result: SimResult) -> tuple[np.ndarray, np.
     r"""(kinetic energy :math:`\tfrac12\dot q^\top H\dot q`, self-motion energy :math:`E_N`) at every sample [J].
 
     Computed from a finished run with Pinocchio's CRBA and frame Jacobian at
-    each recorded state (the batched path computes the same figures as it
-    goes, :class:`torqueopt.batch.BatchExtras`).
+    each recorded state, by :func:`torqueopt.self_motion.self_motion` (the
+    figure ``energy-bounded-torque`` bounds; the batched path computes the
+    same figures as it goes, :class:`torqueopt.batch.BatchExtras`).
     """
     model, data = robot.model, robot.model.createData()
     count = len(result.t)
-    kinetic, self_motion = np.empty(count), np.empty(count)
+    kinetic, self_energy = np.empty(count), np.empty(count)
     for row in range(count):
         q, v = result.q[row], result.v[row]
         inertia = pin.crba(model, data, q)
         inertia = np.triu(inertia) + np.triu(inertia, 1).T
         jacobian = pin.computeFrameJacobian(model, data, q, robot.frame_id, _LWA)[robot.task_rows]
-        tip_velocity = jacobian @ v
-        task_inverse_inertia = jacobian @ np.linalg.solve(inertia, jacobian.T)
-        kinetic[row] = 0.5 * v @ inertia @ v
-        task = 0.5 * tip_velocity @ np.linalg.solve(task_inverse_inertia, tip_velocity)
-        self_motion[row] = max(kinetic[row] - task, 0.0)
-    return kinetic, self_motion
+        null_space_basis = np.linalg.svd(jacobian)[2][robot.m :].T
+        part = self_motion(inertia, null_space_basis, v)
+        kinetic[row], self_energy[row] = part.kinetic_energy, part.energy
+    return kinetic, self_energy
 
 
 def applied_rows(result: SimResult, *per_sample):

@@ -18,6 +18,8 @@ name                                 method                                     
 ``minmax-torque``                    the least largest normalised torque (an LP)                          Eq. (26), Eq. (28), the Discussion
 ``gradient-projection-acceleration`` Liégeois's gradient as a null-space acceleration, self-motion damped Eq. (4), criteria Eq. (5), Eq. (6)
 ``task-priority-acceleration``       task priority at the acceleration level                              Eq. (11) differentiated
+``energy-bounded-torque``            the torque criterion under torque bounds and a self-motion energy    Eq. (26), Eq. (29), Eq. (33)
+                                     barrier (a QP)
 ==================================== ==================================================================== ================================================
 
 All of them write the joint acceleration as Eq. (26) and the torque as
@@ -38,7 +40,7 @@ import difflib
 
 from ..errors import InvalidInput, ResolverNotFound
 from .base import NullSpaceResolver, Resolution, Resolver, Step
-from .bounded import BoundedTorque, MinMaxTorque
+from .bounded import BoundedTorque, EnergyBoundedTorque, MinMaxTorque
 from .damping import DampedNullSpaceTorque, SelfMotionDamping
 from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
@@ -63,6 +65,7 @@ __all__ = [
     "InverseInertiaSquaredTorque",
     "BoundedTorque",
     "MinMaxTorque",
+    "EnergyBoundedTorque",
     "RESOLVERS",
     "get_resolver",
     "resolver_names",
@@ -81,6 +84,7 @@ RESOLVERS: dict[str, type[Resolver]] = {
         InverseInertiaSquaredTorque,
         BoundedTorque,
         MinMaxTorque,
+        EnergyBoundedTorque,
     )
 }
 RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)

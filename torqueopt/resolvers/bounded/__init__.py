@@ -69,6 +69,7 @@ joints and the ``infeasible`` policies) and
 
 from .base import INFEASIBLE_OPTION, INFEASIBLE_POLICIES, torque_utilisation
 from .bounded_torque import TORQUE_WEIGHTS, BoundedTorque
+from .energy_bounded_torque import EnergyBoundedTorque
 from .minmax_torque import MinMaxTorque
 from .programs import BOUND_MARGIN, FEASIBILITY_TOLERANCE
 
@@ -76,6 +77,7 @@ __all__ = [
     "FEASIBILITY_TOLERANCE",
     "INFEASIBLE_POLICIES",
     "BoundedTorque",
+    "EnergyBoundedTorque",
     "MinMaxTorque",
     "torque_utilisation",
     "BOUND_MARGIN",

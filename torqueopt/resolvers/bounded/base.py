@@ -8,6 +8,8 @@ error, exceed the bounds least, stop), in the coordinates of Eq. (26).
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from ...errors import NoRedundancy, SolverFailure, TorqueBoundsInfeasible
@@ -21,6 +23,8 @@ from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeB
 
 __all__ = ["INFEASIBLE_OPTION", "INFEASIBLE_POLICIES", "torque_utilisation"]
 
+#: ``raised`` value of a program's rows on q̈ that gives up the resolver's own rows.
+_DROPPED = "dropped"
 #: What a bounded resolver does when no torque within bounds realises the task.
 INFEASIBLE_POLICIES = ("scale", "least-error", "exceed", "stop")
 
@@ -83,6 +87,26 @@ INFEASIBLE_OPTION = Option(
 )
 
 
+def _box(robot: Robot):
+    """(τ⁺, τ⁻) of every joint as the solver sees them (pulled in by :data:`BOUND_MARGIN`; ±inf when unbounded)."""
+    spread = robot.torque_upper - robot.torque_lower
+    margin = np.where(np.isfinite(spread), BOUND_MARGIN * spread, 0.0)
+    return robot.torque_upper - margin, robot.torque_lower + margin
+
+
+def _least_within_box(rows, inertia, bias_torque, box_upper, box_lower):
+    r"""The least value of each row of :math:`G\ddot q = G H^{-1}(\tau - b)` over the torques in the box.
+
+    Per row, with :math:`g = H^{-1}G^\top`: :math:`\sum_i \min(g_i\tau^+_i, g_i\tau^-_i) - g^\top b`,
+    the tip left free (−inf when a joint without limits moves the row).
+    """
+    weights = np.linalg.solve(inertia, rows.T)  # H⁻¹ Gᵀ, n × k
+    with np.errstate(invalid="ignore"):
+        ends = np.minimum(weights * box_upper[:, None], weights * box_lower[:, None])
+    ends = np.where(weights == 0.0, 0.0, ends)
+    return ends.sum(axis=0) - bias_torque.dot(weights)
+
+
 class _BoundedResolver(Resolver):
     """Shared checks, options and the infeasible-task policies of the two bounded resolvers."""
 
@@ -125,9 +149,12 @@ class _BoundedResolver(Resolver):
         midpoint = torque_midpoint(robot)
         decompose = JacobianSolver(m, n, self.singular_tolerance)
         limits = self.joint_limits_of(robot, dt)
-        nl = 0 if limits is None else limits.count
+        # The resolver's own constraints G q̈ <= h beside the joint limits (energy-bounded-torque's barrier).
+        own_count, constraints_at, constraint_names = self._acceleration_constraints(robot)
+        nl = (0 if limits is None else limits.count) + own_count
         optimum = self._optimum(robot, bounded, spread, midpoint, nl)
         nb = spread.size
+        box_upper, box_lower = _box(robot)
         # Largest scaling: max s over (s, y), 0 <= s <= 1 a simple bound on the first variable.
         rows_count = nb + nl
         scaling = _Program(
@@ -155,7 +182,7 @@ class _BoundedResolver(Resolver):
         least_error = least_error_program(rows_count)
         # With joint limits, torque and joint bounds may leave no q̈ at all: then the torque bounds alone.
         torque_least_error = least_error_program(nb) if nl else least_error
-        minmax = _MinMax(bounded, spread, midpoint, r) if self.infeasible == "exceed" else None
+        minmax = _MinMax(bounded, spread, midpoint, r, own_count) if self.infeasible == "exceed" else None
         range_basis = _RangeBasis(n, r)
         policy = self.infeasible
         name = self.name
@@ -183,19 +210,40 @@ class _BoundedResolver(Resolver):
             inertia = terms.inertia
             inertia_basis = inertia.dot(basis)
             tilde_torque = inertia.dot(particular) + terms.bias_torque  # Eq. (28)
-            joint_rows = joint_bounds = None
+            joint_rows = joint_bounds = constraints = None
             if limits is not None:
                 joint_bounds = limits(terms)
                 joint_scale = limits.scale(joint_bounds)
                 joints = limits.joints
+            if constraints_at is not None:
+                constraints = constraints_at(terms, basis)  # (G, h): G q̈ <= h, unit rows
+            if nl:
 
-                def joint_rows(offset, rows):
-                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā."""
-                    return (
-                        rows[joints] / joint_scale[:, None],
-                        (joint_bounds.upper - offset[joints]) / joint_scale,
-                        (joint_bounds.lower - offset[joints]) / joint_scale,
-                    )
+                def joint_rows(offset, rows, raised=None):
+                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā, then
+                    the resolver's own rows G q̈ <= h (h raised to ``raised`` where that is higher)."""
+                    parts = []
+                    if limits is not None:
+                        parts.append(
+                            (
+                                rows[joints] / joint_scale[:, None],
+                                (joint_bounds.upper - offset[joints]) / joint_scale,
+                                (joint_bounds.lower - offset[joints]) / joint_scale,
+                            )
+                        )
+                    if constraints is not None and raised is _DROPPED:
+                        # Rows that hold whatever x (DAQP needs a finite bound on a general row).
+                        parts.append((np.zeros((own_count, rows.shape[1])), np.ones(own_count), -np.ones(own_count)))
+                    elif constraints is not None:
+                        own_rows, own_upper = constraints
+                        if raised is not None:
+                            own_upper = np.maximum(own_upper, raised)
+                        parts.append(
+                            (own_rows.dot(rows), own_upper - own_rows.dot(offset), np.full(own_count, -np.inf))
+                        )
+                    if len(parts) == 1:
+                        return parts[0]
+                    return tuple(np.concatenate(part) for part in zip(*parts))
 
             found = optimum(terms, basis, inertia_basis, tilde_torque, particular, joint_rows)
             if found is not None:
@@ -205,11 +253,23 @@ class _BoundedResolver(Resolver):
                 raise TorqueBoundsInfeasible(
                     f"resolver '{name}' (infeasible='stop'): no torque within bounds realises the task "
                     f"acceleration {np.round(command, 6).tolist()}"
-                    + (" within the joint limits" if joint_rows is not None else "")
+                    + (" within the joint limits" if limits is not None else "")
+                    + (f" within its {', '.join(constraint_names)}" if constraints is not None else "")
                 )
             range_rows = range_basis(inertia_basis)  # U, orthonormal, spans the range of HZ
             if policy == "exceed":
-                z, _ = minmax(range_rows, tilde_torque)
+                # The task kept, and the resolver's own rows (always feasible with the torques free); not the joint limits.
+                own = None
+                if constraints is not None:
+                    own_rows, own_upper = constraints
+                    own = (
+                        own_rows.dot(np.linalg.solve(inertia, range_rows)),  # q̈ = p + H⁻¹U z
+                        own_upper - own_rows.dot(particular),
+                        np.full(own_count, -np.inf),
+                    )
+                z, utilisation = minmax(range_rows, tilde_torque, own)
+                if utilisation is None:  # pragma: no cover - the barrier alone is always feasible
+                    z, _ = minmax(range_rows, tilde_torque)
                 y = range_basis.coordinates(range_rows.dot(z))
                 torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
                 acceleration = particular + basis.dot(y)
@@ -219,7 +279,7 @@ class _BoundedResolver(Resolver):
                     inverse_condition,
                     0.0,
                     True,
-                    limiting_bounds(torque, acceleration, joint_bounds),
+                    limiting_bounds(torque, acceleration, joint_bounds, constraints),
                 )
             # τ = rest + H J⁺ a + U z realises the task acceleration a (J q̈ + J̇q̇ = a).
             pseudo_inverse = np.linalg.pinv(terms.jacobian)
@@ -231,9 +291,10 @@ class _BoundedResolver(Resolver):
             torque_rows, torque_upper_rows, torque_lower_rows = rows, row_upper, row_lower
             if joint_rows is not None:
                 # q̈ = H⁻¹(τ − b) = (p − J⁺ẍ) + J⁺ a + H⁻¹U z.
+                acceleration_offset = particular - pseudo_inverse.dot(command)
+                acceleration_coordinates = np.hstack([pseudo_inverse, np.linalg.solve(inertia, range_rows)])
                 acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
-                    particular - pseudo_inverse.dot(command),
-                    np.hstack([pseudo_inverse, np.linalg.solve(inertia, range_rows)]),
+                    acceleration_offset, acceleration_coordinates
                 )
                 rows = np.vstack([rows, acceleration_rows])
                 row_upper = np.r_[row_upper, acceleration_upper]
@@ -249,6 +310,25 @@ class _BoundedResolver(Resolver):
             # asks for it: give up the direction too, for the least task error.
             if found_task is None:
                 found_task = least_error_task(rows, row_upper, row_lower, command)
+            if found_task is None and constraints is not None:
+                # The resolver's own rows yield first: each raised to the least value a torque within
+                # bounds gives it, the tip left free (the barrier: energy out as fast as the bounds allow).
+                least = _least_within_box(constraints[0], inertia, terms.bias_torque, box_upper, box_lower)
+                stages = [least + 1e-9 * (1.0 + np.abs(least))]
+                if limits is not None:
+                    stages.append(_DROPPED)  # the joint limits kept, the resolver's own rows given up
+                all_rows = joint_rows
+                for raised in stages:
+                    joint_rows = partial(all_rows, raised=raised)
+                    acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
+                        acceleration_offset, acceleration_coordinates
+                    )
+                    rows = np.vstack([rows[:nb], acceleration_rows])
+                    row_upper = np.r_[row_upper[:nb], acceleration_upper]
+                    row_lower = np.r_[row_lower[:nb], acceleration_lower]
+                    found_task = least_error_task(rows, row_upper, row_lower, command)
+                    if found_task is not None:
+                        break
             within_joint_limits = found_task is not None or joint_rows is None
             if found_task is None:
                 # No q̈ within the joint limits has a torque within bounds: the torque bounds win.
@@ -276,20 +356,31 @@ class _BoundedResolver(Resolver):
             y, torque = found
             error = float(np.linalg.norm(achieved - command))
             acceleration = shifted_particular + basis.dot(y)
-            limiting = limiting_bounds(torque, acceleration, joint_bounds)
+            limiting = limiting_bounds(torque, acceleration, joint_bounds, constraints)
             if not within_joint_limits:
                 limiting = "joint limits given up for the torque limits; " + limiting
             return Resolution(torque, acceleration, inverse_condition, error, True, limiting)
 
-        def limiting_bounds(torque, acceleration, joint_bounds):
+        def limiting_bounds(torque, acceleration, joint_bounds, constraints):
             """The bounds the answer of an infeasible step lies on, in one line."""
             found = torque_bounds_active(torque)
             if joint_bounds is not None:
                 found += limits.active(joint_bounds, acceleration)
+            if constraints is not None:
+                own_rows, own_upper = constraints
+                slack = own_upper - own_rows.dot(acceleration)
+                found += [constraint_names[row] for row in np.flatnonzero(np.abs(slack) <= 1e-6)]
             return "; ".join(found) if found else "no bound within 1e-6 of its range"
 
         return step
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint):
-        """``(terms, Z, HZ, τ̃) -> (y, τ)`` of this resolver's criterion with τ within bounds, or None when none is."""
+    def _acceleration_constraints(self, robot: Robot):
+        """``(k, function, names)``: this resolver's own k constraints G q̈ <= h on the joint acceleration, beside
+        the torque bounds and the joint limits, as a function ``(terms, Z) -> (G (k × n), h (k))`` with unit rows,
+        and a name for each; ``(0, None, ())`` when it has none."""
+        return 0, None, ()
+
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
+        """``(terms, Z, HZ, τ̃, p, joint_rows) -> (y, τ)`` of this resolver's criterion with τ within bounds and
+        q̈ = p + Z y within the rows on q̈ (``joint_rows(offset, rows)``, None: none), or None when none is."""
         raise NotImplementedError

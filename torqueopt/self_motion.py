@@ -1,0 +1,122 @@
+r"""The kinetic energy of the self-motion, :math:`E_N`, and its exact rate along the dynamics.
+
+For a state :math:`(q, \dot q)` with inertia :math:`H` and task Jacobian
+:math:`J` (full rank m < n), the least kinetic energy of any joint motion with
+the tip velocity :math:`\dot x = J\dot q` is
+:math:`E_x = \tfrac12\dot x^\top\Lambda\dot x`, :math:`\Lambda = (J H^{-1} J^\top)^{-1}`,
+reached at :math:`u = H^{-1}J^\top\Lambda J\dot q` (the inertia-weighted
+pseudoinverse velocity, Eq. (16) with W = H, Eq. (17)). What is left,
+
+.. math::
+
+    w = \dot q - u = Z (Z^\top H Z)^{-1} Z^\top H \dot q,\qquad
+    E_N = \tfrac12\dot q^\top H\dot q - E_x = \tfrac12 w^\top H w
+        = \tfrac12 s^\top (Z^\top H Z)^{-1} s,\quad s = Z^\top H\dot q,
+
+is the self-motion: :math:`J w = 0`, and :math:`u^\top H w = 0` (the two parts
+are H-orthogonal, so their energies add). Z is any orthonormal basis of the
+null space of J; :math:`E_N` and :math:`w` do not depend on which.
+
+Its rate along any motion, :math:`\dot E_N = dE_N/dt`, follows from
+:math:`E_N = \tfrac12\dot q^\top M\dot q` with :math:`M = H - J^\top\Lambda J`
+(:math:`M\dot q = H w`):
+
+.. math::
+
+    \dot E_N = \dot q^\top M \ddot q + \tfrac12\dot q^\top\dot M\dot q,\qquad
+    \dot M = \dot H - \dot J^\top\Lambda J - J^\top\Lambda\dot J - J^\top\dot\Lambda J,\qquad
+    \dot\Lambda = -\Lambda\,(\dot J H^{-1}J^\top + J H^{-1}\dot J^\top - J H^{-1}\dot H H^{-1}J^\top)\,\Lambda,
+
+where :math:`\dot H = \sum_k \partial H/\partial q_k\,\dot q_k` and
+:math:`\dot J = \sum_k \partial J/\partial q_k\,\dot q_k` are the changes of H
+and J with q along :math:`\dot q`. With :math:`f = \Lambda J\dot q`
+(:math:`J^\top f = H u`, so :math:`f = J^{+\top} H u`) every term reduces to
+
+.. math::
+
+    \dot E_N = (H w)^\top \ddot q + \underbrace{(u + \tfrac12 w)^\top \dot H w
+        - f^\top \dot J w}_{c(q,\dot q)} .
+
+No term vanishes by the choice of definition: the basis Z drops out of
+:math:`E_N` altogether (so how it turns with q contributes nothing), while
+:math:`\dot H` and :math:`\dot J` enter through c, which is zero only when
+the self-motion is (w = 0). The rate is affine in :math:`\ddot q`, with the
+coefficient :math:`H w`; on :math:`\ddot q = p + Z y` (Eq. (26)) it is affine
+in the null-space coordinates y with the coefficient :math:`Z^\top H w = s`.
+:math:`\dot H = C + C^\top` with Pinocchio's Coriolis matrix C (whose
+:math:`\dot H - 2C` is skew), and :math:`\dot J` is Pinocchio's frame
+Jacobian time variation in the task's frame convention.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import pinocchio as pin
+
+from .robot import Robot
+
+__all__ = ["SelfMotion", "self_motion", "SelfMotionRate"]
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class SelfMotion(NamedTuple):
+    r"""The self-motion part of a joint velocity.
+
+    Attributes:
+        velocity: :math:`w`, the self-motion velocity (n) [rad/s]; :math:`Jw = 0`.
+        energy: :math:`E_N = \tfrac12 w^\top H w` [J].
+        kinetic_energy: :math:`\tfrac12\dot q^\top H\dot q` [J], of which :math:`E_N` is a part.
+    """
+
+    velocity: np.ndarray
+    energy: float
+    kinetic_energy: float
+
+
+def self_motion(inertia: np.ndarray, null_space_basis: np.ndarray, joint_velocity: np.ndarray) -> SelfMotion:
+    r"""The self-motion :math:`w` and its kinetic energy :math:`E_N` of the module docstring at one state.
+
+    Args:
+        inertia: H (n × n) [kg·m²].
+        null_space_basis: Z, an orthonormal basis of the null space of the task Jacobian (n × r).
+        joint_velocity: :math:`\dot q` (n) [rad/s].
+    """
+    momentum = inertia.dot(joint_velocity)  # H q̇
+    kinetic = 0.5 * float(joint_velocity.dot(momentum))
+    projected = null_space_basis.T.dot(momentum)  # s = Zᵀ H q̇
+    reduced = null_space_basis.T.dot(inertia).dot(null_space_basis)  # Zᵀ H Z
+    coordinates = np.linalg.solve(reduced, projected)
+    energy = 0.5 * float(projected.dot(coordinates))
+    return SelfMotion(null_space_basis.dot(coordinates), min(max(energy, 0.0), kinetic), kinetic)
+
+
+class SelfMotionRate:
+    r"""The rate :math:`\dot E_N = (Hw)^\top\ddot q + c(q, \dot q)` of the module docstring, on one robot.
+
+    Holds its own Pinocchio data (the Coriolis matrix and the Jacobian's time
+    variation are computed there, never in the data a run's terms are views of).
+    """
+
+    def __init__(self, robot: Robot):
+        self._model = robot.model
+        self._data = robot.model.createData()
+        self._frame_id = robot.frame_id
+        self._rows = robot.task_rows
+
+    def __call__(self, configuration, joint_velocity, inertia, jacobian, null_space_basis):
+        """``(SelfMotion, Hw, c)``: E_N and w, the coefficient Hw (n) [N·m·s] of q̈ and c [W] in Ė_N = (Hw)ᵀq̈ + c."""
+        part = self_motion(inertia, null_space_basis, joint_velocity)
+        w = part.velocity
+        model, data = self._model, self._data
+        coriolis = pin.computeCoriolisMatrix(model, data, configuration, joint_velocity)
+        inertia_rate_w = coriolis.dot(w) + coriolis.T.dot(w)  # Ḣ w, Ḣ = C + Cᵀ
+        pin.computeJointJacobiansTimeVariation(model, data, configuration, joint_velocity)
+        jacobian_rate = pin.getFrameJacobianTimeVariation(model, data, self._frame_id, _LWA)[self._rows]
+        u = joint_velocity - w
+        # f = Λ J q̇ solves Jᵀ f = H u; J has full row rank, so f = (J Jᵀ)⁻¹ J H u.
+        force = np.linalg.solve(jacobian.dot(jacobian.T), jacobian.dot(inertia.dot(u)))
+        constant = float((u + 0.5 * w).dot(inertia_rate_w) - force.dot(jacobian_rate.dot(w)))
+        return part, inertia.dot(w), constant
