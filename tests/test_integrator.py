@@ -134,3 +134,73 @@ def test_a_whole_run_replayed_by_the_reference_stays_on_the_simulated_one():
         q, v = rk4_reference_step(robot, q, v, result.tau[k], result.dt)
     np.testing.assert_allclose(q, result.q[-1], rtol=0, atol=1e-9)
     np.testing.assert_allclose(v, result.v[-1], rtol=0, atol=1e-9)
+
+
+# -- the integrator objects of the engine ------------------------------------------------
+
+
+def test_held_torque_rk4_on_stacks_equals_the_reference_step_row_by_row():
+    """step_stack (abaInParallel over the stack) and step (one movement) against the textbook stages."""
+    from torqueopt.integrators import HeldTorqueRK4
+
+    for robot in _robots():
+        integrator = HeldTorqueRK4(robot, 1e-3)
+        states = list(_random_states(robot, 6, seed=11))
+        q, v, tau = (np.array(column) for column in zip(*states))
+        k1 = np.array([robot.forward_dynamics(*state) for state in states])
+        stack_q, stack_v = integrator.step_stack(q, v, tau, k1)
+        for row, (q_i, v_i, tau_i) in enumerate(states):
+            ref_q, ref_v = integrator.reference_step(q_i, v_i, tau_i)
+            one_q, one_v = integrator.step(q_i, v_i, tau_i, k1[row])
+            scale = 1.0 + np.abs(ref_v).max()
+            for ours_q, ours_v in ((stack_q[row], stack_v[row]), (one_q, one_v)):
+                np.testing.assert_allclose(ours_q, ref_q, rtol=0, atol=1e-12, err_msg=robot.name)
+                np.testing.assert_allclose(ours_v, ref_v, rtol=0, atol=1e-12 * scale, err_msg=robot.name)
+
+
+def test_a_plant_with_its_own_step_plugs_into_the_loop_for_one_movement_and_for_stacks(planar3):
+    """Another plant (here Euler, deliberately not RK4) is called through its step(q, v, tau, dt), row by row."""
+    from torqueopt.integrators import HeldTorqueRK4, plant_stack_stepper, plant_stepper
+
+    class Euler:
+        name = "euler"
+
+        def step(self, q, v, tau, dt):
+            return q + dt * v, v + dt * planar3.forward_dynamics(q, v, tau)
+
+    states = list(_random_states(planar3, 4, seed=5))
+    q, v, tau = (np.array(column) for column in zip(*states))
+    stack_q, stack_v = plant_stack_stepper(Euler(), planar3, 1e-2)(q, v, tau, np.zeros_like(v))
+    advance = plant_stepper(Euler(), planar3, 1e-2)
+    rk4 = HeldTorqueRK4(planar3, 1e-2)
+    for row, (q_i, v_i, tau_i) in enumerate(states):
+        expected_v = v_i + 1e-2 * planar3.forward_dynamics(q_i, v_i, tau_i)
+        np.testing.assert_array_equal(stack_q[row], q_i + 1e-2 * v_i)
+        np.testing.assert_allclose(stack_v[row], expected_v, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(advance(q_i, v_i, tau_i, None)[1], expected_v, rtol=0, atol=1e-15)
+        assert np.abs(stack_v[row] - rk4.reference_step(q_i, v_i, tau_i)[1]).max() > 1e-6  # Euler is not RK4
+
+
+def test_velocity_rk4_step_equals_its_reference_step(planar3, panda):
+    """The velocity-level integrator's step (k1 given) against its textbook stages, on a velocity-level method."""
+    from torqueopt.integrators import VelocityRK4
+    from torqueopt.resolvers import get_resolver
+    from torqueopt.tasks import FrameTask, Kinematics
+
+    for robot in (planar3, panda):
+        resolver = get_resolver("velocity-pinv")
+        task = FrameTask.of_robot(robot, reference_rotation=np.eye(3))
+        kinematics = Kinematics(robot)
+        rates = resolver.rate_function(robot, task)
+        commands = np.random.default_rng(2).normal(size=(3, robot.m))
+
+        def f(q, index):
+            kinematics.update(q)
+            return rates(kinematics, commands[index])
+
+        integrator = VelocityRK4(robot, f, 1e-2)
+        for q, _, _ in _random_states(robot, 5, seed=3):
+            reference = integrator.reference_step(q, 0)
+            fast = integrator.step(q, f(q, 0)[0], 0)
+            np.testing.assert_allclose(fast, reference, rtol=0, atol=1e-12, err_msg=robot.name)
+            assert np.abs(reference - q).max() > 1e-4  # the step moved

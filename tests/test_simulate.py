@@ -343,3 +343,24 @@ def test_runs_in_threads_on_one_robot_give_the_serial_results():
     for alone, together in zip(serial, threaded):
         for field in ("q", "v", "tau", "x"):
             np.testing.assert_array_equal(getattr(together, field), getattr(alone, field))
+
+
+@pytest.mark.parametrize("resolver", ["null-space", "velocity-pinv"])
+def test_memory_follows_the_steps_taken_not_the_requested_duration(planar3, resolver):
+    """Issue 18 item 7: duration 1e5 s at 1 ms (1e8 steps, about 5 GB of reference at once) with no step
+    limit, stopped by the speed ceiling within a second: the run holds a few blocks of rows, not the duration."""
+    import tracemalloc
+
+    line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
+    tracemalloc.start()
+    try:
+        result = torqueopt.simulate(
+            planar3, resolver, line, PAPER_Q0, duration=1e5, max_steps=10**30, max_joint_speed=1.0
+        )
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert result.stop_reason is not None and "speed of joint" in result.stop_reason
+    assert len(result.t) < 1000
+    assert result.x_ref.shape == result.x.shape
+    assert peak < 10e6, peak

@@ -1,30 +1,57 @@
-r"""Classical fourth-order Runge-Kutta for the forward dynamics with the torque held over the step.
+r"""The engine's integrators: how a state moves over one step, for one movement or a (B, ...) stack.
 
-The state is :math:`(q, \dot q)` and the dynamics
-:math:`\dot q = v,\ \dot v = a(q, v) = \mathrm{ABA}(q, v, \tau)` with
-:math:`\tau` constant over the step :math:`h`. Configurations move by
-Pinocchio's ``integrate``, :math:`q \oplus \delta`, so continuous joints stay
-on their circle; for revolute and prismatic joints it is plain addition.
+Two integrators live here, each a small object with a readable reference
+step beside the fast one, held to it by the tests (1e-12 per step):
 
-Two implementations of the same step live here:
+* :class:`HeldTorqueRK4`, the acceleration level: classical fourth-order
+  Runge-Kutta of the forward dynamics with the torque held over the step.
+  The state is :math:`(q, \dot q)` and the dynamics
+  :math:`\dot q = v,\ \dot v = a(q, v) = \mathrm{ABA}(q, v, \tau)` with
+  :math:`\tau` constant over the step :math:`h`;
+* :class:`VelocityRK4`, the velocity level: classical RK4 of
+  :math:`\dot q = f(q, t)` (a velocity-level resolver's joint rates, the
+  reference sampled at the stage times), with the torques of the motion by
+  inverse dynamics (Pinocchio's RNEA), Eq. (20).
 
-* :func:`rk4_reference_step`, the textbook stages written out one by one,
-  to read and to test against;
-* :func:`rk4_stepper`, the step :func:`torqueopt.simulate` takes at every
-  step: the same arithmetic folded into a few small matrix products. The
-  tests hold it to the reference (to 1e-12 per step, and over whole runs).
+Configurations move by Pinocchio's ``integrate``, :math:`q \oplus \delta`,
+so continuous joints stay on their circle; for revolute and prismatic
+joints it is plain addition.
 
-Why the fast one is written as it is, and what it costs, is in
+How a plant plugs in
+--------------------
+
+The stepping loop advances the state through one function per run,
+``advance(q, v, tau, acceleration) -> (q, v)``, and through
+``advance_stack`` of the same shape on (B, nq) and (B, n) stacks;
+``acceleration`` is the resolver's :math:`\ddot q` at the step start,
+which RK4 on the resolver's own model reuses as its first stage
+(:math:`k_1`) and any other plant ignores. :func:`plant_stepper` and
+:func:`plant_stack_stepper` make them from a plant of
+:mod:`torqueopt.plants` (``step(q, v, tau, dt) -> (q, v)``): for the
+Pinocchio plant, :class:`HeldTorqueRK4`'s fast steps; for any other plant
+(MuJoCo), its own ``step``, row by row on stacks. A new plant is one more
+object with that ``step``; the loop does not change.
+
+Why the fast RK4 is written as it is, and what it costs, is in
 BENCHMARKS.md.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from .robot import Robot
 
-__all__ = ["rk4_reference_step", "rk4_step", "rk4_stepper"]
+__all__ = [
+    "HeldTorqueRK4",
+    "VelocityRK4",
+    "plant_stack_stepper",
+    "plant_stepper",
+    "rk4_reference_step",
+    "rk4_step",
+    "rk4_stepper",
+]
 
 
 def rk4_reference_step(robot: Robot, q, v, tau, dt: float, data=None):
@@ -171,3 +198,144 @@ def rk4_stepper(robot: Robot, dt: float, data=None):
         return integrate(q, combination[0]), combination[1]
 
     return rk4
+
+
+def plant_stepper(plant, robot: Robot, dt: float, data=None):
+    """The loop's ``advance(q, v, tau, acceleration) -> (q, v)`` for one movement on ``plant`` (see the module docstring).
+
+    The Pinocchio plant (:class:`torqueopt.plants.PinocchioPlant`) gets
+    :class:`HeldTorqueRK4`'s folded step computing in ``data``; another plant its own
+    ``step(q, v, tau, dt)``, whose state the next torque is computed from.
+    """
+    from .plants import PinocchioPlant
+
+    if plant is None or isinstance(plant, PinocchioPlant):
+        return HeldTorqueRK4(robot, dt, data).step
+    plant_step = plant.step
+
+    def advance(q, v, tau, _acceleration):
+        # The plant reports its own state; the resolver's next torque is computed from it.
+        return plant_step(q, v, tau, dt)
+
+    return advance
+
+
+def plant_stack_stepper(plant, robot: Robot, dt: float, threads: int = 1):
+    """The loop's ``advance_stack`` on (B, ...) stacks: :meth:`HeldTorqueRK4.step_stack`, or ``plant.step`` per row."""
+    from .plants import PinocchioPlant
+
+    if plant is None or isinstance(plant, PinocchioPlant):
+        return HeldTorqueRK4(robot, dt, threads=threads).step_stack
+    advance = plant_stepper(plant, robot, dt)
+
+    def advance_stack(q, v, tau, acceleration):
+        rows = [advance(*row) for row in zip(q, v, tau, acceleration)]
+        if not rows:
+            return q.copy(), v.copy()
+        next_q, next_v = zip(*rows)
+        return np.array(next_q), np.array(next_v)
+
+    return advance_stack
+
+
+class HeldTorqueRK4:
+    r"""Classical RK4 of the forward dynamics with the torque held over each step of ``dt`` [s].
+
+    :meth:`reference_step` is :func:`rk4_reference_step`, the textbook
+    stages; :meth:`step` is :func:`rk4_stepper`'s folded form, which takes
+    the resolver's :math:`\ddot q` as :math:`k_1` (it is ABA(q, v, τ));
+    :meth:`step_stack` is the folded form on (B, n) stacks, the three later
+    stages of the whole stack by one ``pin.abaInParallel`` call each (over a
+    ``pin.ModelPool`` of ``threads`` models), for robots whose joints all add
+    (:attr:`Robot.euclidean`; other robots' stacks go row by row through
+    :meth:`step`).
+
+    Args:
+        data: the Pinocchio data :meth:`step` computes in (a fresh one when
+            None); one integrator per run, so runs in threads never share one.
+        threads: OpenMP threads of ``abaInParallel`` for stacks.
+    """
+
+    def __init__(self, robot: Robot, dt: float, data=None, threads: int = 1):
+        self.robot, self.dt, self.threads = robot, float(dt), int(threads)
+        self.data = robot.model.createData() if data is None else data
+        # An instance attribute, not a method: one call per step, no bound-method frame.
+        self.step = rk4_stepper(robot, self.dt, self.data)
+        self._pool = None
+
+    def reference_step(self, q, v, tau):
+        """The textbook step of :func:`rk4_reference_step` (computes its own k1)."""
+        return rk4_reference_step(self.robot, q, v, tau, self.dt, self.data)
+
+    def _aba(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """ABA for every row of the (B, n) stacks in one ``pin.abaInParallel`` call; (B, n)."""
+        if self._pool is None:
+            self._pool = pin.ModelPool(self.robot.model, self.threads)
+        out = np.empty_like(v)
+        # Eigen's matrices are column-major: the transpose of a C-ordered (B, n) array is an (n, B) one, no copy.
+        pin.abaInParallel(self.threads, self._pool, q.T, v.T, tau.T, out.T)
+        return out
+
+    def step_stack(self, q, v, tau, acceleration):
+        r"""The folded step of :func:`rk4_stepper` on (B, n) stacks (see there for the weights); k1 = ``acceleration``."""
+        if not self.robot.euclidean:
+            rows = [self.step(*row) for row in zip(q, v, tau, acceleration)]
+            return np.array([row[0] for row in rows]).reshape(q.shape), np.array([row[1] for row in rows]).reshape(
+                v.shape
+            )
+        h, aba = self.dt, self._aba
+        k1 = acceleration
+        k2 = aba(q + (h / 2) * v, v + (h / 2) * k1, tau)
+        k3 = aba(q + ((h / 2) * v + (h * h / 4) * k1), v + (h / 2) * k2, tau)
+        k4 = aba(q + (h * v + (h * h / 2) * k2), v + h * k3, tau)
+        next_q = q + (h * v + (h * h / 6) * (k1 + k2 + k3))
+        next_v = v + ((h / 6) * k1 + (h / 3) * k2 + (h / 3) * k3 + (h / 6) * k4)
+        return next_q, next_v
+
+
+class VelocityRK4:
+    r"""Classical RK4 of the velocity-level system :math:`\dot q = f(q, t)`, torques by inverse dynamics.
+
+    ``rates(q, index) -> (q̇, σmin/σmax)`` is the resolver's map at the
+    reference sample ``index`` of a half-step grid (sample ``2k`` at
+    :math:`t_k`, ``2k + 1`` at :math:`t_k + h/2`), so a step from sample
+    ``index`` evaluates f at ``index``, ``index + 1`` and ``index + 2``:
+
+    .. math::
+
+        k_1 = f(q, t),\ k_2 = f(q \oplus \tfrac h2 k_1, t + \tfrac h2),\
+        k_3 = f(q \oplus \tfrac h2 k_2, t + \tfrac h2),\ k_4 = f(q \oplus h k_3, t + h),\qquad
+        q^+ = q \oplus \tfrac h6(k_1 + 2k_2 + 2k_3 + k_4).
+
+    :meth:`reference_step` computes every stage; :meth:`step` takes
+    :math:`k_1` from the caller, who has it from the row it recorded.
+    :meth:`torque` is Eq. (20) on the motion,
+    :math:`\tau = H\ddot q + \dot q\cdot C\cdot\dot q + g` (Pinocchio's RNEA).
+    """
+
+    def __init__(self, robot: Robot, rates, dt: float, data=None):
+        self.robot, self.rates, self.dt = robot, rates, float(dt)
+        self.model = robot.model
+        self.data = robot.model.createData() if data is None else data
+        self.integrate = robot.integrate
+
+    def reference_step(self, q: np.ndarray, index: int) -> np.ndarray:
+        """q after one step from reference sample ``index``, the four stages one by one."""
+        h, f, integrate = self.dt, self.rates, self.integrate
+        k1 = f(q, index)[0]
+        k2 = f(integrate(q, h / 2 * k1), index + 1)[0]
+        k3 = f(integrate(q, h / 2 * k2), index + 1)[0]
+        k4 = f(integrate(q, h * k3), index + 2)[0]
+        return integrate(q, h / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
+
+    def step(self, q: np.ndarray, k1: np.ndarray, index: int) -> np.ndarray:
+        """q after one step from reference sample ``index``, with ``k1`` = f(q, t) given."""
+        h, f, integrate = self.dt, self.rates, self.integrate
+        k2 = f(integrate(q, 0.5 * h * k1), index + 1)[0]
+        k3 = f(integrate(q, 0.5 * h * k2), index + 1)[0]
+        k4 = f(integrate(q, h * k3), index + 2)[0]
+        return integrate(q, (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4))
+
+    def torque(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        """The inverse-dynamics torque of the motion at (q, q̇, q̈) [N·m], Eq. (20)."""
+        return pin.rnea(self.model, self.data, q, v, acceleration).copy()  # Eq. (20) on the motion

@@ -47,9 +47,10 @@ import pinocchio as pin
 
 from .checks import configuration_vector, finite_vector, positive_number, trajectory_dimension, velocity_vector
 from .errors import InvalidInput, SingularJacobian
+from .integrators import VelocityRK4
 from .result import SimResult
 from .robot import Robot
-from .run_log import stop_ceilings, torque_stop_reason
+from .run_log import REFERENCE_BLOCK, ReferenceBlocks, StopRules, logged_row_bytes, run_result
 from .tasks import FrameTask, Kinematics
 from .trajectory import check_trajectory
 
@@ -103,7 +104,6 @@ def simulate_kinematic(
     by a ceiling ends with the row that passed it, one stopped where the
     method is undefined with the last row where it was.
     """
-    from .run_log import logged_row_bytes, run_result, task_reference
     from .simulate import DEFAULT_MAX_STEPS, step_budget
 
     _require_velocity_level(resolver)
@@ -129,40 +129,58 @@ def simulate_kinematic(
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
     trajectory = _anchored(robot, trajectory, placement)
-    # Reference at every step start and mid-step: RK4 evaluates f at t, t + h/2 and t + h.
-    half_times = 0.5 * dt * np.arange(2 * steps + 1)
-    reference = task_reference(robot, trajectory, half_times)
-    ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
-    times = half_times[::2]
+    # Reference at every step start and mid-step (RK4 evaluates f at t, t + h/2 and t + h), a block at a time.
+    reference = ReferenceBlocks(robot, trajectory, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK)
 
     task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
     kinematics = Kinematics(robot)
     rates = resolver.rate_function(robot, task)
     gain = resolver.position_gain
-    model = robot.model
-    dynamics_data = model.createData()
     integrate = robot.integrate
-    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
+    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
+    torque_ceiling, speed_ceiling = rules.torque_ceiling, rules.speed_ceiling
+    # The block's rows, refreshed as the run goes; sample ``index`` of the run is row ``index - offset``.
+    block = {"offset": 0, "end": 0}
+
+    def load(index: int) -> None:
+        """Sample the block that starts at ``index`` (even: a step start), with its step's mid and end samples."""
+        _, sample = reference.block(index)
+        block.update(
+            offset=index,
+            end=index + len(sample.position),
+            position=sample.position,
+            velocity=sample.velocity,
+            acceleration=sample.acceleration,
+        )
 
     def command(index: int) -> np.ndarray:
         """c(t, q) at the reference sample ``index`` (half steps), with kinematics at q."""
+        row = index - block["offset"]
         if gain == 0.0:
-            return ref_velocity[index]
-        return ref_velocity[index] + gain * (ref_position[index] - task.value(kinematics))
+            return block["velocity"][row]
+        return block["velocity"][row] + gain * (block["position"][row] - task.value(kinematics))
 
     def f(configuration: np.ndarray, index: int):
         kinematics.update(configuration)
         return rates(kinematics, command(index))
 
+    integrator = VelocityRK4(robot, f, dt)
     log = []
+    x_ref = []
     stop_reason = stop_time = None
-    for k, t in enumerate(times.tolist()):
+    for k in range(steps + 1):
+        t = dt * k
         index = 2 * k
+        if index + 2 >= block["end"] and block["end"] <= 2 * steps:
+            # A new block from this step start: it holds the step's own mid and end samples too.
+            load(index)
+        row = index - block["offset"]
+        x_ref.append(block["position"][row])
         try:
             velocity, inverse_condition = f(q, index)
             x = task.value(kinematics)
             # ∂f/∂c ∂c/∂t, exact for a map affine in c
-            time_rate = ref_acceleration[index] + gain * ref_velocity[index]
+            time_rate = block["acceleration"][row] + gain * block["velocity"][row]
             homogeneous = rates(kinematics, np.zeros(robot.m))[0]
             acceleration = rates(kinematics, time_rate)[0] - homogeneous
             speed = float(np.linalg.norm(velocity))
@@ -173,38 +191,34 @@ def simulate_kinematic(
                 backward = f(integrate(q, -DIFFERENCE_STEP * direction), index)[0]
                 acceleration = acceleration + speed * (forward - backward) / (2.0 * DIFFERENCE_STEP)
         except SingularJacobian as error:
-            stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
+            stop_reason, stop_time = rules.unresolved(error, t), t
             break
-        torque = pin.rnea(model, dynamics_data, q, velocity, acceleration).copy()  # Eq. (20) on the motion
+        torque = integrator.torque(q, velocity, acceleration)  # Eq. (20) on the motion
         # The row that passes a ceiling stays in the result: peaks and verdicts count it.
         log.append((q, velocity, acceleration, torque, x, inverse_condition))
         if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
-            stop_reason, stop_time = _speed_stop(robot, velocity, max_joint_speed, t), t
+            stop_reason, stop_time = rules.rates(velocity, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
-            stop_reason, stop_time = torque_stop_reason(robot, torque, max_torque_ratio, t), t
+            stop_reason, stop_time = rules.torque(torque, t), t
             stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
             break
         if k == steps:
             break
-        h = dt
         try:
-            k2 = f(integrate(q, 0.5 * h * velocity), index + 1)[0]
-            k3 = f(integrate(q, 0.5 * h * k2), index + 1)[0]
-            k4 = f(integrate(q, h * k3), index + 2)[0]
+            q = integrator.step(q, velocity, index)
         except SingularJacobian as error:
-            stop_reason, stop_time = f"{error} during the step from t = {t:.4f} s", t
+            stop_reason, stop_time = rules.unresolved_during_step(error, t), t
             break
-        q = integrate(q, (h / 6.0) * (velocity + 2.0 * k2 + 2.0 * k3 + k4))
 
     # the kinematic motion realises the task velocity itself: nothing is given up
     return run_result(
         robot,
         resolver,
         log,
-        times,
-        ref_position[::2],
+        dt * np.arange(len(log)),
+        np.array(x_ref).reshape(-1, robot.m),
         dt=dt,
         duration=duration,
         stop_reason=stop_reason,
@@ -228,13 +242,3 @@ def _with_diagnosis(reason: str, resolver, kinematics: Kinematics, task: FrameTa
     """The stop reason, followed by what the method says of its own state there (if anything)."""
     diagnosis = resolver.stop_diagnosis(kinematics, task)
     return reason if diagnosis is None else f"{reason}; {diagnosis}"
-
-
-def _speed_stop(robot: Robot, velocity: np.ndarray, max_joint_speed: float, t: float) -> str:
-    if not np.isfinite(velocity).all():
-        return f"joint rates became non-finite at t = {t:.4f} s"
-    joint = int(np.argmax(np.abs(velocity)))
-    return (
-        f"speed of joint {robot.joint_names[joint]} reached {velocity[joint]:.4g} rad/s, beyond "
-        f"{max_joint_speed:g} rad/s, at t = {t:.4f} s"
-    )

@@ -36,19 +36,12 @@ from .checks import (
     velocity_vector,
 )
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
-from .integrators import rk4_step, rk4_stepper
+from .integrators import plant_stepper, rk4_step
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .run_log import (
-    logged_row_bytes,
-    run_result,
-    speed_stop_reason,
-    stop_ceilings,
-    task_reference,
-    torque_stop_reason,
-)
+from .run_log import ReferenceBlocks, StopRules, logged_row_bytes, run_result
 from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -190,33 +183,24 @@ def simulate(
     if trajectory.start is None:
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 
-    times = dt * np.arange(steps + 1)
-    reference = task_reference(robot, trajectory, times)
+    # The reference a block of steps at a time, so memory follows the steps taken, not the duration asked for.
+    reference = ReferenceBlocks(robot, trajectory, dt, steps)
 
     n = robot.nv
     # One test per vector and step, all(|value| <= ceiling), on plain lists (cheaper than numpy at this size).
-    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
-    torque_ceiling, speed_ceiling = torque_ceiling.tolist(), [speed_ceiling] * n
+    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
+    torque_ceiling, speed_ceiling = rules.torque_ceiling.tolist(), [rules.speed_ceiling] * n
     within = partial(map, operator.le)
     # Built once per run: the resolver's per-robot constants and workspaces.
     solve = resolver.solver_for_run(robot, dt)
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
     data = robot.model.createData()
-    if isinstance(plant, PinocchioPlant):
-        advance = rk4_stepper(robot, dt, data)
-    else:
-        plant_step = plant.step
-
-        def advance(q, v, tau, _joint_acceleration):
-            # The plant reports its own state; the resolver's next torque is computed from it.
-            return plant_step(q, v, tau, dt)
-
+    advance = plant_stepper(plant, robot, dt, data)
     terms_at = robot.terms_function(data)
     task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
     # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
     position_rows = None if robot.task == "pose" else robot.task_rows
-    ref_position, ref_velocity, ref_acceleration = reference.position, reference.velocity, reference.acceleration
 
     # One tuple per recorded step (q, v, q̈, τ, x, σmin/σmax): appending is far
     # cheaper than writing six rows into preallocated arrays, and every array
@@ -227,45 +211,51 @@ def simulate(
     shortfalls = []
     stop_reason = None
     stop_time = None
-    # A list of row views: indexing a list costs far less than indexing an array.
-    command_rows = list(ref_acceleration)
     not_applied = np.full(n, np.nan)
-    for k, t in enumerate(times.tolist()):
-        terms = terms_at(q, v)
-        placement = terms.placement
-        x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
-        if k == steps:
-            # The final state: the movement is over, so no torque is applied from it.
-            log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
-            break
-        command = command_rows[k]
-        if feedback is not None:
-            command = (
-                command
-                + feedback.kd * (ref_velocity[k] - terms.task_velocity)
-                # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
-                # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
-                + feedback.kp * (ref_position[k] - x)
-            )
-        try:
-            tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = solve(terms, command)
-        except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
-            stop_reason, stop_time = f"{error} at t = {t:.4f} s", t
-            log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
-            break
-        if task_error or infeasible:
-            shortfalls.append((len(log), task_error, infeasible, limiting))
-        log.append((q, v, joint_acceleration, tau, x, inverse_condition))
-        if not all(within(map(abs, tau.tolist()), torque_ceiling)):
-            # The torque that ends the run stays in the result: peaks and verdicts count it.
-            stop_reason, stop_time = torque_stop_reason(robot, tau, max_torque_ratio, t), t
-            break
-        q, v = advance(q, v, tau, joint_acceleration)
-        # RK4 weighs every stage acceleration that moves q into v as well, so a
-        # finite v after the step means a finite q.
-        if not all(within(map(abs, v.tolist()), speed_ceiling)):
-            stop_reason, stop_time = speed_stop_reason(robot, v, max_joint_speed, t, dt), t + dt
-            break
+    start = 0
+    while stop_reason is None and start <= steps:
+        block_times, sample = reference.block(start)
+        ref_position, ref_velocity = sample.position, sample.velocity
+        # A list of row views: indexing a list costs far less than indexing an array.
+        command_rows = list(sample.acceleration)
+        final = steps - start  # the block's index of the final state (past the block until the last one)
+        for j, t in enumerate(block_times.tolist()):
+            terms = terms_at(q, v)
+            placement = terms.placement
+            x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
+            if j == final:
+                # The final state: the movement is over, so no torque is applied from it.
+                log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
+                break
+            command = command_rows[j]
+            if feedback is not None:
+                command = (
+                    command
+                    + feedback.kd * (ref_velocity[j] - terms.task_velocity)
+                    # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
+                    # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
+                    + feedback.kp * (ref_position[j] - x)
+                )
+            try:
+                tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = solve(terms, command)
+            except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
+                stop_reason, stop_time = rules.unresolved(error, t), t
+                log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
+                break
+            if task_error or infeasible:
+                shortfalls.append((len(log), task_error, infeasible, limiting))
+            log.append((q, v, joint_acceleration, tau, x, inverse_condition))
+            if not all(within(map(abs, tau.tolist()), torque_ceiling)):
+                # The torque that ends the run stays in the result: peaks and verdicts count it.
+                stop_reason, stop_time = rules.torque(tau, t), t
+                break
+            q, v = advance(q, v, tau, joint_acceleration)
+            # RK4 weighs every stage acceleration that moves q into v as well, so a
+            # finite v after the step means a finite q.
+            if not all(within(map(abs, v.tolist()), speed_ceiling)):
+                stop_reason, stop_time = rules.speed(v, t, dt), t + dt
+                break
+        start += len(block_times)
 
     task_error_log = np.zeros(len(log))
     infeasible_log = np.zeros(len(log), dtype=bool)
@@ -278,8 +268,8 @@ def simulate(
         robot,
         resolver,
         log,
-        times,
-        ref_position,
+        dt * np.arange(len(log)),
+        reference.positions(),
         dt=dt,
         duration=duration,
         stop_reason=stop_reason,
