@@ -347,7 +347,7 @@ def test_runs_in_threads_on_one_robot_give_the_serial_results():
 
 @pytest.mark.parametrize("resolver", ["null-space", "velocity-pinv"])
 def test_memory_follows_the_steps_taken_not_the_requested_duration(planar3, resolver):
-    """Issue 18 item 7: duration 1e5 s at 1 ms (1e8 steps, about 5 GB of reference at once) with no step
+    """Duration 1e5 s at 1 ms (1e8 steps, about 5 GB of reference at once) with no step
     limit, stopped by the speed ceiling within a second: the run holds a few blocks of rows, not the duration."""
     import tracemalloc
 
