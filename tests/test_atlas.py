@@ -671,3 +671,54 @@ def test_a_chunk_that_does_not_match_is_recomputed_and_the_run_says_so(tmp_path,
     assert main([*TINY, "--out", str(out)]) == 0  # the recomputed chunk is trusted now
     captured = capsys.readouterr()
     assert captured.err == "" and "4 chunks resumed" in captured.out
+
+
+# -- a grid counted before it is built ------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (
+            ["--grid-spacing", "1e-6"],
+            "the grid of spacing 1e-06 m has at least 2.29e+13 start points within 2.7 m of the base (x 8 "
+            "directions: 1.83e+14 movements per duration), more than the 1,000,000 movements per duration an "
+            "atlas takes: give a coarser --grid-spacing or fewer --grid-directions",
+        ),
+        (
+            ["--grid-spacing", "0.01"],
+            "the grid of spacing 0.01 m has at least 2.28e+05 start points within 2.7 m of the base (x 8 "
+            "directions: 1.82e+06 movements per duration), more than the 1,000,000 movements per duration an "
+            "atlas takes: give a coarser --grid-spacing or fewer --grid-directions",
+        ),
+        (
+            ["--grid-spacing", "0.01", "--grid-directions", "1", "--max-steps", "1e8"],
+            "the grid atlas would simulate up to 4.6e+08 trajectory-steps (228,977 start points x 1 direction, "
+            "durations 0.2, 0.3 s at dt 0.001 s, 4 resolvers, pinv included), more than max_steps=1e+08: a "
+            "coarser --grid-spacing, fewer --grid-directions, durations or resolvers, a larger dt, or raise "
+            "max_steps (--max-steps)",
+        ),
+    ],
+    ids=["212 TiB", "90 s of inverse kinematics", "steps"],
+)
+def test_a_grid_too_large_is_refused_before_it_is_built(tmp_path, capsys, monkeypatch, arguments, message):
+    from torqueopt.atlas import population
+
+    monkeypatch.setattr(population, "_inverse_kinematics", lambda *a, **k: pytest.fail("built the grid"))
+    out = tmp_path / "atlas"
+    assert main([*TINY, "--mode", "grid", "--out", str(out), *arguments]) == 2
+    assert capsys.readouterr().err == f"torqueopt atlas: error: {message}\n"
+    assert not out.exists()
+
+
+def test_the_grid_count_is_the_number_of_start_points_the_grid_tries(planar3, monkeypatch):
+    from torqueopt.atlas import population
+
+    tried = []
+    monkeypatch.setattr(population, "_inverse_kinematics", lambda robot, data, point, posture: tried.append(point))
+    for spacing in (0.25, 0.1, 0.3):
+        tried.clear()
+        spec = PopulationSpec(mode="grid", grid_spacing=spacing, durations=(0.2,))
+        with pytest.raises(InvalidInput, match="keeps no movement"):
+            draw_population(planar3, spec)
+        assert population.grid_start_points(planar3, spec) == len(tried) > 0

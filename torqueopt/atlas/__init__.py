@@ -54,7 +54,7 @@ from ..errors import InvalidInput, OutputError, TorqueoptWarning
 from ..io import atomic_write, writable_path, writable_paths, written_together
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
-from .population import Movement, PopulationSpec, draw_population
+from .population import Movement, PopulationSpec, draw_population, grid_start_points
 from .stats import claims, proportion, unstable_fractions, wilson_interval
 from .sweep import (
     RobotSpec,
@@ -206,6 +206,11 @@ def run_atlas(
     loaded = spec.load()
     for resolver in resolver_objects:
         resolver.check(loaded)
+    if population.mode == "grid":
+        # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
+        _check_grid_size(
+            grid_start_points(loaded, population), steps_per_run, max_steps, population, resolver_objects, dt
+        )
     movements = draw_population(loaded, population)
     total_steps = sum(steps_per_run[m.duration] for m in movements) * len(resolver_objects)
     _check_size(total_steps, max_steps, population, resolver_objects)
@@ -307,6 +312,22 @@ def _check_size(total_steps: int, max_steps: int, population: PopulationSpec, re
             f"the atlas would simulate {total_steps:.3g} trajectory-steps ({population.paths} paths x "
             f"{len(population.durations)} durations x {len(resolvers)} resolvers, pinv included), more than "
             f"max_steps={max_steps:.3g}: fewer paths, durations or resolvers, a larger dt, or raise max_steps (--max-steps)"
+        )
+
+
+def _check_grid_size(
+    points: int, steps_per_run: dict, max_steps: int, population: PopulationSpec, resolvers, dt
+) -> None:
+    directions = population.grid_directions
+    total_steps = points * directions * sum(steps_per_run.values()) * len(resolvers)
+    if total_steps > max_steps:
+        durations = ", ".join(f"{duration:g}" for duration in population.durations)
+        raise InvalidInput(
+            f"the grid atlas would simulate up to {total_steps:.3g} trajectory-steps ({points:,} start points x "
+            f"{directions} direction{'s' if directions != 1 else ''}, durations {durations} s at dt {dt:g} s, "
+            f"{len(resolvers)} resolvers, pinv included), more than max_steps={max_steps:.3g}: a coarser "
+            "--grid-spacing, fewer --grid-directions, durations or resolvers, a larger dt, or raise max_steps "
+            "(--max-steps)"
         )
 
 

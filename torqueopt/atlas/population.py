@@ -30,6 +30,10 @@ Grid mode (for maps)
     it converges and meets ``min_condition``; each point is paired with
     ``grid_directions`` directions evenly spread on the circle (or a
     Fibonacci set on the sphere), and the line must stay inside the reach.
+    The grid is counted before it is built (:func:`grid_start_points`, one
+    slab of the grid at a time, after a bound by the ball's volume), and a
+    grid of more than :data:`MAX_PATHS` movements per duration (start points
+    times directions) is refused before any inverse kinematics.
 
 The reach is the largest distance from the base (the origin of the first
 moving joint) to the task frame over 4096 seeded random configurations
@@ -48,7 +52,15 @@ from ..checks import joint_vector, number_in_range, positive_number, whole_numbe
 from ..errors import InvalidInput
 from ..robot import Robot
 
-__all__ = ["MAX_PATHS", "Movement", "PopulationSpec", "arm_reach", "draw_population", "path_length"]
+__all__ = [
+    "MAX_PATHS",
+    "Movement",
+    "PopulationSpec",
+    "arm_reach",
+    "draw_population",
+    "grid_start_points",
+    "path_length",
+]
 
 #: Largest number of movements per duration the atlas accepts.
 MAX_PATHS = 1_000_000
@@ -235,13 +247,55 @@ def _inverse_kinematics(robot: Robot, data, target, posture, iterations: int = 2
     return None
 
 
+def grid_start_points(robot: Robot, spec: PopulationSpec, base=None, reach=None) -> int:
+    """The number of grid points inside ``reach_fraction`` of the reach: the starts the grid tries, counted, not built.
+
+    Raises:
+        InvalidInput: the grid has more than :data:`MAX_PATHS` movements per
+            duration (start points x directions); when even the ball's volume
+            says so, without counting.
+    """
+    if base is None or reach is None:
+        base, reach = arm_reach(robot)
+    dimension = min(robot.m, 3)
+    limit = spec.reach_fraction * reach
+    radius = limit / spec.grid_spacing  # in grid steps
+    # The cubes of side one step centred on the points inside the ball cover the ball shrunk by half a diagonal.
+    inner = max(radius - math.sqrt(dimension) / 2, 0.0)
+    at_least = math.pi ** (dimension / 2) / math.gamma(dimension / 2 + 1) * inner**dimension
+    if at_least * spec.grid_directions > MAX_PATHS:
+        _refuse_grid(spec, f"at least {at_least:.3g}", at_least, limit)
+    count = sum(len(slab) for slab in _grid_slabs(spec, dimension, limit))
+    if count * spec.grid_directions > MAX_PATHS:
+        _refuse_grid(spec, f"{count:,}", count, limit)
+    return count
+
+
+def _refuse_grid(spec: PopulationSpec, count_text: str, count: float, limit: float):
+    raise InvalidInput(
+        f"the grid of spacing {spec.grid_spacing:g} m has {count_text} start points within {limit:.3g} m of the base "
+        f"(x {spec.grid_directions} direction{'s' if spec.grid_directions != 1 else ''}: "
+        f"{count * spec.grid_directions:.3g} movements per duration), more "
+        f"than the {MAX_PATHS:,} movements per duration an atlas takes: give a coarser --grid-spacing or fewer "
+        "--grid-directions"
+    )
+
+
+def _grid_slabs(spec: PopulationSpec, dimension: int, limit: float):
+    """The grid points (relative to the base) within ``limit``, one slab (first coordinate fixed) at a time."""
+    count = math.floor(limit / spec.grid_spacing)
+    axis = spec.grid_spacing * np.arange(-count, count + 1)
+    rest = np.stack(np.meshgrid(*([axis] * (dimension - 1)), indexing="ij"), axis=-1).reshape(-1, dimension - 1)
+    for first in axis:
+        slab = np.column_stack([np.full(len(rest), first), rest])
+        yield slab[np.linalg.norm(slab, axis=1) <= limit]
+
+
 def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
     dimension = min(robot.m, 3)
     limit = spec.reach_fraction * reach
-    count = math.floor(limit / spec.grid_spacing)
-    axis = spec.grid_spacing * np.arange(-count, count + 1)
-    mesh = np.stack(np.meshgrid(*([axis] * dimension), indexing="ij"), axis=-1).reshape(-1, dimension)
-    points = base + mesh[np.linalg.norm(mesh, axis=1) <= limit]
+    grid_start_points(robot, spec, base, reach)  # refuses a grid too large before it is built
+    points = base + np.concatenate(list(_grid_slabs(spec, dimension, limit)))
     if spec.grid_posture is not None:
         posture = joint_vector(robot, spec.grid_posture, "grid_posture")
     elif robot.name == "planar3":
