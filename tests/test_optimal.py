@@ -455,3 +455,55 @@ def test_cli_paper_study_checks_its_files_before_the_study(tmp_path, capsys, mon
         f"torqueopt optimize: error: cannot write '{tmp_path}/global.md': it is read-only; "
         "make it writable or write to a new name\n"
     )
+
+
+# -- the transcription's size, bounded before it is built ------------------------------
+
+
+@pytest.mark.parametrize("robot_name, torque_bounds", [("planar3", False), ("planar3", True), ("panda", True)])
+def test_the_size_counted_up_front_is_the_size_of_the_built_transcription(robot_name, torque_bounds):
+    from torqueopt.optimal import Transcription
+
+    robot = torqueopt.load_robot(robot_name)
+    if torque_bounds and not np.isfinite(robot.torque_upper).any():
+        robot = torqueopt.load_robot(robot_name, torque_limit=[10.0] * robot.nv)
+    intervals = 8
+    built = Transcription(
+        robot, 0.4, intervals, np.zeros((intervals + 1, robot.m)), robot.default_configuration,
+        np.eye(robot.nv), np.zeros(robot.nv), torque_bounds=torque_bounds,
+    )  # fmt: skip
+    size = Transcription.count(robot, intervals, torque_bounds=torque_bounds)
+    assert size.variables == built.size and size.constraints == built.constraint_count
+    assert size.jacobian_nonzeros == len(built.jacobian_rows) and size.hessian_nonzeros == len(built.hessian_rows)
+
+
+def test_a_transcription_too_large_is_refused_before_it_is_built(paper_arm, monkeypatch):
+    """--grid-step 1e-9 grew to 24 GB and was killed; now one line, before any array of that size."""
+    from torqueopt.optimal import whole_path
+
+    monkeypatch.setattr(whole_path.Transcription, "__init__", lambda *a, **k: pytest.fail("built the transcription"))
+    monkeypatch.setattr(whole_path, "simulate", lambda *a, **k: pytest.fail("simulated the warm start"))
+    with pytest.raises(InvalidInput) as refused:
+        optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=1e-9)
+    assert str(refused.value) == (
+        "the transcription of 500,000,000 intervals of 1e-09 s would have 4.5e+09 variables and 3.6e+10 "
+        "nonzeros (constraint Jacobian 1.35e+10, Hessian 2.25e+10), more than max_nonzeros=5e+06: give a "
+        "grid_step of at least 7.21e-06 s, or raise max_nonzeros (--max-nonzeros)"
+    )
+    with pytest.raises(InvalidInput, match="the transcription of 2 intervals of 0.25 s would have 24 variables"):
+        optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=0.25, max_nonzeros=100)
+    with pytest.raises(InvalidInput, match=r"the transcription of \d.* intervals of 1e-300 s would have"):
+        optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=1e-300)
+
+
+def test_cli_refuses_a_transcription_too_large_in_one_line(capsys):
+    from torqueopt.cli import main
+
+    assert main([*PAPER_CLI, "--duration", "0.5", "--grid-step", "0.005", "--max-nonzeros", "1000"]) == 2
+    assert capsys.readouterr().err == (
+        "torqueopt optimize: error: the transcription of 100 intervals of 0.005 s would have 906 variables and "
+        "7.2e+03 nonzeros (constraint Jacobian 2.7e+03, Hessian 4.5e+03), more than max_nonzeros=1e+03: give a "
+        "grid_step of at least 0.0417 s, or raise max_nonzeros (--max-nonzeros)\n"
+    )
+    assert main([*PAPER_CLI, "--duration", "0.5", "--max-nonzeros", "0"]) == 2
+    assert capsys.readouterr().err.startswith("torqueopt optimize: error: --max-nonzeros: ")

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
-from ..optimal import DEFAULT_GRID_STEP, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
+from ..optimal import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
@@ -79,6 +79,13 @@ def add_parser(subparsers) -> None:
     group.add_argument(
         "--max-iterations", default="500", metavar="N", help="IPOPT iteration limit of each run (default 500)"
     )
+    group.add_argument(
+        "--max-nonzeros",
+        default=f"{DEFAULT_MAX_NONZEROS:.0e}",
+        metavar="N",
+        help="refuse a transcription of more than N nonzeros (constraint Jacobian and Hessian, about 280 bytes "
+        f"each), counted before it is built (default {DEFAULT_MAX_NONZEROS:.0e})",
+    )
     group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
     group.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     group.add_argument(
@@ -106,6 +113,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     tolerance = parse_positive(args.tolerance, "tolerance")
     max_iterations = parse_whole(args.max_iterations, "max-iterations", minimum=1)
     max_time = None if args.max_time is None else parse_positive(args.max_time, "max-time")
+    max_nonzeros = parse_whole(args.max_nonzeros, "max-nonzeros", minimum=1)
     robot = robot_from_args(args)
     weight = args.weight if args.weight in WEIGHTS else parse_vector(args.weight, "weight", robot.nv)
     if args.q0 is None:
@@ -130,6 +138,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         tolerance=tolerance,
         max_iterations=max_iterations,
         max_time=max_time,
+        max_nonzeros=max_nonzeros,
         verbose=args.verbose,
     )
     # Files first, then the summary, so that a closed stdout cannot cost a result.

@@ -17,10 +17,12 @@ its summary and files), :mod:`~torqueopt.optimal.cost` (the cost of any run),
 from .cost import WEIGHTS, run_cost, torque_cost, weight_root
 from .ipopt import STATUSES
 from .replay import Replay, replay_torques
-from .transcription import Transcription
-from .whole_path import DEFAULT_GRID_STEP, ENDS, HESSIANS, OptimalResult, optimize
+from .transcription import Transcription, TranscriptionSize
+from .whole_path import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, OptimalResult, optimize
 
 __all__ = [
+    "DEFAULT_MAX_NONZEROS",
+    "TranscriptionSize",
     "DEFAULT_GRID_STEP",
     "ENDS",
     "HESSIANS",

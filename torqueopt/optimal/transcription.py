@@ -76,6 +76,7 @@ need manifold variables.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -83,12 +84,26 @@ import pinocchio as pin
 from ..errors import InvalidInput
 from ..robot import Robot
 
-__all__ = ["BOUND_FRACTIONS", "Evaluation", "Transcription"]
+__all__ = ["BOUND_FRACTIONS", "Evaluation", "Transcription", "TranscriptionSize"]
 
 #: Where in each interval, as a fraction of h, the torque bounds are imposed.
 BOUND_FRACTIONS = (0.0, 0.5, 1.0)
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class TranscriptionSize(NamedTuple):
+    """How large a transcription is, counted before it is built (:meth:`Transcription.count`)."""
+
+    intervals: int
+    variables: int
+    constraints: int
+    jacobian_nonzeros: int
+    hessian_nonzeros: int  # the upper triangle, as IPOPT takes it
+
+    @property
+    def nonzeros(self) -> int:
+        return self.jacobian_nonzeros + self.hessian_nonzeros
 
 
 @dataclass
@@ -168,6 +183,28 @@ class Transcription:
         self._last_w = None
         self._last = None
         self._build_patterns()
+
+    @staticmethod
+    def count(robot: Robot, intervals: int, *, torque_bounds: bool = False) -> TranscriptionSize:
+        """The size the transcription of ``intervals`` intervals would have, without building it.
+
+        Variables :math:`3nN + 2n`; constraints :math:`(2n + m + bF)N` (b joints
+        with finite limits under torque bounds, F = len(:data:`BOUND_FRACTIONS`));
+        nonzeros of the constraint Jacobian :math:`(7n + mn + 3nbF)N` and of the
+        Hessian's upper triangle :math:`\tfrac{3n(3n+1)}{2}N`, as
+        :meth:`_build_patterns` lays them out.
+        """
+        n, m, N = robot.nv, robot.m, int(intervals)
+        bounded = int(np.count_nonzero(np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)))
+        bounded = bounded if torque_bounds else 0
+        fractions = len(BOUND_FRACTIONS) if torque_bounds else 0
+        return TranscriptionSize(
+            intervals=N,
+            variables=3 * n * N + 2 * n,
+            constraints=(2 * n + m + bounded * fractions) * N,
+            jacobian_nonzeros=(7 * n + m * n + 3 * n * bounded * fractions) * N,
+            hessian_nonzeros=3 * n * (3 * n + 1) // 2 * N,
+        )
 
     # -- layout ----------------------------------------------------------------
     def q_index(self, k: int) -> np.ndarray:

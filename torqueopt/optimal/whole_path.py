@@ -49,7 +49,7 @@ from .replay import replay_torques
 from .result import OptimalResult
 from .transcription import Transcription
 
-__all__ = ["DEFAULT_GRID_STEP", "ENDS", "HESSIANS", "OptimalResult", "optimize"]
+__all__ = ["DEFAULT_GRID_STEP", "DEFAULT_MAX_NONZEROS", "ENDS", "HESSIANS", "OptimalResult", "optimize"]
 
 #: How the movement may end: at rest (v(T) = 0) or with any joint velocity.
 ENDS = ("rest", "free")
@@ -60,6 +60,40 @@ _AUTO = ("gauss-newton", "limited-memory")
 _FINAL = ("converged", "infeasible", "time limit")
 #: Longest interval of the transcription grid [s].
 DEFAULT_GRID_STEP = 0.005
+#: Largest transcription (nonzeros of the constraint Jacobian and the Hessian) optimize builds unless told
+#: otherwise: measured on planar3, each nonzero costs the solve about 280 bytes, so about 1.4 GB.
+DEFAULT_MAX_NONZEROS = 5_000_000
+
+
+def _intervals(duration: float, grid_step: float) -> int:
+    """The even number N of intervals with h = T/N <= grid_step (a Python int: it may be huge before the check)."""
+    ratio = duration / (2.0 * grid_step)
+    if not math.isfinite(ratio):
+        raise InvalidInput(
+            f"grid_step={grid_step!r} s is too small: the duration {duration:g} s has no finite count of its intervals"
+        )
+    return 2 * math.ceil(ratio - 1e-9)
+
+
+def _check_size(robot: Robot, duration, grid_step, intervals: int, torque_bounds: bool, max_nonzeros: int) -> None:
+    """Refuse, before any array is made, a transcription of more than ``max_nonzeros`` nonzeros."""
+    size = Transcription.count(robot, intervals, torque_bounds=torque_bounds)
+    if size.nonzeros <= max_nonzeros:
+        return
+    per_interval = size.nonzeros // intervals
+    most = 2 * (max_nonzeros // per_interval // 2)  # the most intervals within the bound (even)
+    if most >= 2:
+        step = duration / most
+        scale = 10.0 ** (math.floor(math.log10(step)) - 2)
+        remedy = f"give a grid_step of at least {math.ceil(step / scale) * scale:.3g} s, or raise max_nonzeros"
+    else:
+        remedy = f"raise max_nonzeros to at least {2 * per_interval} (two intervals)"
+    count = f"{intervals:,}" if intervals < 1e15 else f"{intervals:.3g}"
+    raise InvalidInput(
+        f"the transcription of {count} intervals of {duration / intervals:.3g} s would have {size.variables:.3g} "
+        f"variables and {size.nonzeros:.3g} nonzeros (constraint Jacobian {size.jacobian_nonzeros:.3g}, Hessian "
+        f"{size.hessian_nonzeros:.3g}), more than max_nonzeros={max_nonzeros:.3g}: {remedy} (--max-nonzeros)"
+    )
 
 
 def optimize(
@@ -78,6 +112,7 @@ def optimize(
     tolerance: float = 1e-8,
     max_iterations: int = 500,
     max_time: float | None = None,
+    max_nonzeros: int = DEFAULT_MAX_NONZEROS,
     verbose: bool = False,
 ) -> OptimalResult:
     r"""The joint motion that tracks ``trajectory`` and minimises :math:`\int\|S(\tau - \tau_{mid})\|^2 dt`.
@@ -106,6 +141,9 @@ def optimize(
         tolerance: IPOPT's tolerance on the scaled KKT error.
         max_iterations, max_time: bounds on the work (iterations of each IPOPT run; wall time [s]
             of all of them).
+        max_nonzeros: refuse a transcription with more nonzeros than this in its
+            constraint Jacobian and Hessian together (counted before anything is
+            built, :meth:`Transcription.count`; about 280 bytes each).
         verbose: print IPOPT's log.
 
     Raises:
@@ -121,6 +159,7 @@ def optimize(
     if max_time is not None:
         max_time = positive_number(max_time, "max_time", "s")
     max_iterations = whole_number(max_iterations, "max_iterations", minimum=1)
+    max_nonzeros = whole_number(max_nonzeros, "max_nonzeros", minimum=1)
     if robot.m > robot.nv:
         raise InvalidInput(
             f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints"
@@ -138,7 +177,8 @@ def optimize(
     if trajectory.start is None:
         trajectory = trajectory.anchored(robot.task_position(q_start)[:linear_dimension])
 
-    intervals = 2 * math.ceil(duration / (2.0 * grid_step) - 1e-9)
+    intervals = _intervals(duration, grid_step)
+    _check_size(robot, duration, grid_step, intervals, torque_bounds, max_nonzeros)
     nodes = np.linspace(0.0, duration, intervals + 1)
     problem = Transcription(
         robot,
