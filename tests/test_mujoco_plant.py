@@ -246,3 +246,58 @@ def test_bad_plant_options_are_refused_by_name(xarm7):
             simulate(xarm7, "pinv", LINE, xarm7.default_configuration, plant="mujoco", plant_options=options)
     with pytest.raises(InvalidInput, match=r"timestep=0.0003 s does not divide the control step dt=0.001 s; give "):
         simulate(xarm7, "pinv", LINE, xarm7.default_configuration, plant="mujoco", plant_options={"timestep": 3e-4})
+
+
+def test_meshes_are_found_from_the_package_folders_or_dropped_with_a_note(xarm7):
+    # xarm7's collision meshes are STL files under package://example-robot-data/...: MuJoCo reads all eight.
+    assert MujocoPlant(xarm7, contacts=True).model.nmesh == 8
+    kinova = MujocoPlant(torqueopt.load_robot("kinova"))  # COLLADA meshes, which MuJoCo does not read
+    assert kinova.model.nmesh == 0 and kinova.model.ngeom == 0
+    assert kinova.notes[0].startswith(
+        "9 meshes MuJoCo cannot read or find (arm.dae, base.dae, finger_distal.dae and 6 "
+    )
+
+
+@pytest.mark.slow
+def test_a_mobile_bases_refused_inertias_are_left_out_and_the_arm_still_matches(rng):
+    # tiago's antenna links, fixed to the base, have a negative principal moment (−3.5e-8 kg·m²).
+    tiago = torqueopt.load_robot("tiago")
+    plant = MujocoPlant(tiago, damping="zero")
+    assert any("(base_antenna_left_link, base_antenna_right_link) left out" in note for note in plant.notes)
+    for q, v in random_states(tiago, rng, 5):
+        inertia, bias = plant.terms(q, v)
+        terms = tiago.terms(q, v)
+        assert np.abs(inertia - terms.inertia).max() <= 1e-10 * np.abs(terms.inertia).max()
+        assert np.abs(bias - terms.bias_torque).max() <= 1e-10 * np.abs(terms.bias_torque).max()
+
+
+@pytest.mark.slow
+def test_contacts_on_act_where_the_collision_geometry_overlaps():
+    baxter = torqueopt.load_robot("baxter")
+    line = StraightLine(direction=[0, 0, 1], accel=0.2, duration=0.2)
+    runs = {
+        contacts: simulate(
+            baxter,
+            "pinv",
+            line,
+            baxter.default_configuration,
+            plant="mujoco",
+            plant_options={"contacts": contacts, "damping": "zero"},
+        )
+        for contacts in ("off", "on")
+    }
+    assert runs["off"].max_tip_error < 1e-3 < 0.1 < runs["on"].max_tip_error
+    assert any(note.startswith("with contacts on, MuJoCo found 6 contacts in the first step (right_lower_elbow-")
+               for note in runs["on"].plant["notes"])  # fmt: skip
+
+
+def test_feedback_from_the_command_line_works_with_the_mujoco_plant(capsys):
+    arguments = ["run", "--robot", "xarm7", "--resolver", "pinv", "--direction", "0,1,-1", "--accel", "1",
+                 "--duration", "0.5", "--plant", "mujoco", "--plant-option", "perturb=0.2,seed=1,damping=zero", "--no-dexterity"]  # fmt: skip
+    errors = {}
+    for feedback in ([], ["--feedback", "400,40"]):
+        assert main(arguments + feedback) == 0
+        printed = capsys.readouterr().out
+        errors[bool(feedback)] = float(printed.split("max tip error: ")[1].split(" mm")[0])
+        assert "plant perturbed: 7 link masses and inertias scaled by factors from U(0.8, 1.2), seed 1" in printed
+    assert errors[True] < errors[False] / 5

@@ -373,7 +373,7 @@ class MujocoPlant:
         an MJCF's own refusals come from MuJoCo's compiler.
         """
         floor = self.options.inertia_floor
-        raised = []
+        raised, static = [], []
         for body in spec.bodies:
             if not body.explicitinertial or body.mass <= 0 or np.isnan(body.fullinertia[0]):
                 continue
@@ -382,11 +382,17 @@ class MujocoPlant:
             moments, axes = np.linalg.eigh(tensor)
             if moments[0] > _SMALLEST_MOMENT and (floor is None or moments[0] >= floor):
                 continue
+            if not _moves(spec, body):
+                # No joint moves it (a mobile base's antenna): its inertia enters no equation of motion.
+                body.mass, body.fullinertia, body.inertia = 0.0, [np.nan] * 6, [0.0, 0.0, 0.0]
+                static.append(body.name)
+                continue
             shown = ", ".join(f"{value:.4g}" for value in moments)
             if floor is None:
+                kind = "zero (a thin rod)" if moments[0] > -_SMALLEST_MOMENT else "negative"
                 raise PlantError(
                     f"MuJoCo refuses {self.source}: link '{body.name}' has principal moments of inertia ({shown}) "
-                    "kg·m², one of them zero (a thin rod); give --plant-option inertia-floor=1e-6 (API: plant_options="
+                    f"kg·m², one of them {kind}; give --plant-option inertia-floor=1e-6 (API: plant_options="
                     "{'inertia-floor': 1e-6}) to raise every principal moment below that floor to it, recorded in the "
                     "run file"
                 )
@@ -394,6 +400,11 @@ class MujocoPlant:
             tensor = (axes * moments) @ axes.T
             body.fullinertia = [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]]
             raised.append(f"{body.name} ({shown})")
+        if static:
+            self.notes.append(
+                f"the inertias MuJoCo would refuse of links that no joint moves ({', '.join(static)}) left out: "
+                "they enter no equation of motion"
+            )
         if raised:
             self.notes.append(
                 f"principal moments of inertia below {show_number(floor)} kg·m² raised to it (inertia-floor) on links "
@@ -509,6 +520,8 @@ class MujocoPlant:
                     self._note_limit_forces(data, self._time + substep * model.opt.timestep)
         finally:
             mujoco.set_mju_user_warning(handler)
+        if self._time == 0 and data.ncon:
+            self._note_start_contacts(mujoco, model, data)
         self._time += dt
         if [data.warning[kind].number for kind in self._warnings] != warnings_before:
             if self._diverged is None:
@@ -518,6 +531,20 @@ class MujocoPlant:
             return np.full(robot.nq, np.nan), np.full(robot.nv, np.nan)
         angles = data.qpos[self._qpos] - self._offset
         return robot.configuration(angles), data.qvel[self._dof].copy()
+
+    def _note_start_contacts(self, mujoco, model, data) -> None:
+        """Say which links touch in the first step: a URDF's collision geometry often overlaps at rest."""
+        pairs = sorted(
+            {
+                tuple(sorted(model.body(model.geom_bodyid[geom]).name for geom in (contact.geom1, contact.geom2)))
+                for contact in data.contact[: data.ncon]
+            }
+        )
+        shown = ", ".join(f"{first}-{second}" for first, second in pairs[:4]) + (" ..." if len(pairs) > 4 else "")
+        self.notes.append(
+            f"with contacts on, MuJoCo found {data.ncon} contact{'s' if data.ncon != 1 else ''} in the first step "
+            f"({shown}): the model's collision geometry overlaps there"
+        )
 
     def _note_limit_forces(self, data, t: float) -> None:
         """Per joint, the joint-limit force MuJoCo applied in the step just taken (its efc rows of that type)."""
@@ -615,6 +642,15 @@ def _mesh_file(uri: str, base: Path, package_dirs) -> Path | None:
     else:
         candidates = [base / uri]
     return next((path.resolve() for path in candidates if path.is_file()), None)
+
+
+def _moves(spec, body) -> bool:
+    """True when a joint of ``body`` or of one of its ancestors moves it."""
+    while body is not None and body.name != spec.worldbody.name:
+        if len(body.joints):
+            return True
+        body = body.parent
+    return False
 
 
 def _mujoco_joint_kind(robot, name: str) -> str:
