@@ -301,3 +301,36 @@ def test_feedback_from_the_command_line_works_with_the_mujoco_plant(capsys):
         errors[bool(feedback)] = float(printed.split("max tip error: ")[1].split(" mm")[0])
         assert "plant perturbed: 7 link masses and inertias scaled by factors from U(0.8, 1.2), seed 1" in printed
     assert errors[True] < errors[False] / 5
+
+
+def test_an_mjcfs_extra_joints_are_welded_and_its_actuators_removed(xarm7, xarm7_mjcf, tmp_path):
+    # A Menagerie-like arm: a two-finger gripper (slides coupled by a tendon and an equality) under link7,
+    # a position servo on joint2 and a sensor: the plant keeps the seven arm joints and none of the rest.
+    gripper = """
+      <body name="left_finger" pos="0 0.02 0.05"><joint name="left_slide" type="slide" axis="0 1 0" ref="0.01"/>
+        <inertial pos="0 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/></body>
+      <body name="right_finger" pos="0 -0.02 0.05"><joint name="right_slide" type="slide" axis="0 -1 0"/>
+        <inertial pos="0 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/></body>"""
+    extras = """
+  <tendon><fixed name="split"><joint joint="left_slide" coef="0.5"/><joint joint="right_slide" coef="0.5"/></fixed></tendon>
+  <equality><joint joint1="left_slide" joint2="right_slide"/></equality>
+  <actuator><position name="servo" joint="joint2" kp="1000"/></actuator>
+  <sensor><jointpos joint="joint1"/></sensor>
+</mujoco>"""
+    text = xarm7_mjcf.read_text()
+    link7 = text.index("<joint", text.index('<body name="link7"'))
+    link7 = text.index("/>", link7) + 2
+    text = text[:link7] + gripper + text[link7:]
+    text = text[: text.rindex("</mujoco>")] + extras
+    path = tmp_path / "xarm7_gripper.xml"
+    path.write_text(text)
+    plant = MujocoPlant(xarm7, mjcf=path, damping="zero", joint_limits=False)
+    assert plant.model.nv == 7 and plant.model.nu == 0 and plant.model.ntendon == 0 and plant.model.neq == 0
+    assert any(
+        "joint 'left_slide' of the MJCF" in note and "welded at its reference 0.01" in note for note in plant.notes
+    )
+    assert any(note.startswith("the 1 actuator of the MJCF") for note in plant.notes)
+    # 0.1 kg more at the hand: the plant's inertia differs from the controller's, by more than the 6-digit file alone.
+    assert 1e-3 < plant.start_inertia_difference < 0.1
+    run = simulate(xarm7, "pinv", LINE, xarm7.default_configuration, plant=plant)
+    assert run.completed and run.max_tip_error > 1e-3

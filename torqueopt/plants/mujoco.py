@@ -323,8 +323,18 @@ class MujocoPlant:
                     f"joint {name} of {self.source} is a {kind} joint, but robot '{robot.name}' has a {expected} joint "
                     "of that name"
                 )
+        # The torque enters as generalised force; the model's own actuators would add theirs.
+        for kind, elements in (("actuator", spec.actuators), ("sensor", spec.sensors), ("keyframe", spec.keys)):
+            elements = list(elements)
+            for element in elements:
+                spec.delete(element)
+            if elements and kind == "actuator":
+                self.notes.append(
+                    f"the {len(elements)} actuator{'s' if len(elements) != 1 else ''} of {self.source} removed: the "
+                    "resolver's torque enters as generalised force"
+                )
         locked = _locked_angles(robot)
-        welded = []
+        welds = []
         for name, joint in joints.items():
             if name in wanted:
                 continue
@@ -342,20 +352,11 @@ class MujocoPlant:
                     f"joint '{name}' of {self.source} is not a joint of robot '{robot.name}': welded at its reference "
                     f"{show_number(angle)}"
                 )
+            welds.append((joint, angle))
+        # Tendons and equalities name their joints: they go before the joints do.
+        self._drop_welded_references(spec, {joint.name for joint, _ in welds})
+        for joint, angle in welds:
             _weld(mujoco, spec, joint, angle)
-            welded.append(name)
-        if welded:
-            self._drop_welded_references(spec, set(welded))
-        # The torque enters as generalised force; the model's own actuators would add theirs.
-        for kind, elements in (("actuator", spec.actuators), ("sensor", spec.sensors), ("keyframe", spec.keys)):
-            elements = list(elements)
-            for element in elements:
-                spec.delete(element)
-            if elements and kind == "actuator":
-                self.notes.append(
-                    f"the {len(elements)} actuator{'s' if len(elements) != 1 else ''} of {self.source} removed: the "
-                    "resolver's torque enters as generalised force"
-                )
 
     def _drop_welded_references(self, spec, welded: set[str]) -> None:
         """Remove the tendons and equality constraints that name a welded joint (they would name nothing)."""
@@ -363,7 +364,7 @@ class MujocoPlant:
             if equality.name1 in welded or equality.name2 in welded:
                 spec.delete(equality)
         for tendon in list(spec.tendons):
-            if any(name in welded for name in _tendon_joints(tendon)):
+            if any(name in welded for name in _tendon_joints(self._mujoco, tendon)):
                 spec.delete(tendon)
 
     def _floor_inertias(self, spec) -> None:
@@ -717,12 +718,6 @@ def _weld(mujoco, spec, joint, angle: float) -> None:
     spec.delete(joint)
 
 
-def _tendon_joints(tendon) -> list[str]:
-    """The joint names a fixed tendon's wraps name (spatial tendons wrap sites, not joints)."""
-    names = []
-    for wrap in getattr(tendon, "path", None) or []:
-        target = getattr(wrap, "target", None)
-        name = getattr(target, "name", None)
-        if name:
-            names.append(name)
-    return names
+def _tendon_joints(mujoco, tendon) -> list[str]:
+    """The joints a fixed tendon couples (the targets of its joint wraps; spatial tendons wrap sites and geoms)."""
+    return [wrap.target.name for wrap in tendon.path if wrap.type == mujoco.mjtWrap.mjWRAP_JOINT and wrap.target]
