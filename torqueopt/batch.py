@@ -48,11 +48,12 @@ from .batch_resolvers import BATCHED_RESOLVERS, batched_step
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .errors import InvalidInput
 from .forest import RobotForest
-from .linalg import singular_message
+from .linalg import inverse_condition_number, singular_message
 from .resolvers import Resolver, get_resolver
 from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .run_log import speed_stop_reason, stop_ceilings, torque_stop_reason
+from .self_motion import self_motion_energy
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
 from .simulate import simulate as simulate_one
 from .trajectory import Trajectory, check_trajectory, describe
@@ -82,8 +83,8 @@ class BatchExtras:
             same tip velocity has, i.e. the energy of the self-motion
             (zero exactly when :math:`\dot q` is the inertia-weighted
             pseudoinverse velocity :math:`J_H^\dagger\dot x`). See
-            :func:`torqueopt.atlas.verdicts.self_motion_energy` for the same
-            figure computed from a finished run.
+            :func:`torqueopt.self_motion.self_motion_energy`, which computes it
+            here and from a finished run.
     """
 
     __slots__ = ("kinetic_energy", "self_motion_energy")
@@ -254,16 +255,18 @@ def simulate_batch(
         recorded[where] = k + 1
         if k == steps:
             # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
-            inverse_condition_log[k, where] = _inverse_condition(J)
+            inverse_condition_log[k, where] = inverse_condition_number(J)
             if extras:
-                energy_log[k, where], self_energy_log[k, where] = _energies(H, J, v)
+                energy_log[k, where], self_energy_log[k, where] = self_motion_energy(H, v, jacobian=J)
             break
         command = reference_acceleration[k, where]
         torque, joint_acceleration, inverse_condition, singular, basis = step(H, b, J, Jd, command, v)
         if extras:
-            kinetic, self_motion = _null_space_energies(H, basis, v)
+            kinetic, self_motion = self_motion_energy(H, v, null_space_basis=basis)
             if singular.any():  # the QR basis of a singular J is not its null space
-                kinetic[singular], self_motion[singular] = _energies(H[singular], J[singular], v[singular])
+                kinetic[singular], self_motion[singular] = self_motion_energy(
+                    H[singular], v[singular], jacobian=J[singular]
+                )
             energy_log[k, where], self_energy_log[k, where] = kinetic, self_motion
         inverse_condition_log[k, where] = inverse_condition
         if singular.any():
@@ -363,50 +366,3 @@ def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> n
     # Eigen's matrices are column-major: the transpose of a C-ordered (B, n) array is an (n, B) one without a copy.
     pin.abaInParallel(threads, pool, q.T, v.T, tau.T, out.T)
     return out
-
-
-def _inverse_condition(jacobian: np.ndarray) -> np.ndarray:
-    """σ_min/σ_max per task Jacobian of the stack (0 for a zero one), for rows at which no resolver runs."""
-    singular_values = np.linalg.svd(jacobian, compute_uv=False)
-    largest = singular_values[:, 0]
-    return np.where(largest > 0, singular_values[:, -1] / np.where(largest > 0, largest, 1.0), 0.0)
-
-
-def _solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Batched solve; through the pseudoinverse when a matrix of the stack is exactly singular."""
-    try:
-        return np.linalg.solve(matrix, rhs)
-    except np.linalg.LinAlgError:
-        return np.linalg.pinv(matrix) @ rhs
-
-
-def _energies(inertia: np.ndarray, jacobian: np.ndarray, velocity: np.ndarray):
-    r"""Kinetic energy :math:`\tfrac12\dot q^\top H\dot q` and its self-motion part (see :class:`BatchExtras`), per row [J]."""
-    kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, inertia, velocity)
-    tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)
-    inverse_inertia_jt = np.linalg.solve(inertia, np.swapaxes(jacobian, 1, 2))  # H⁻¹Jᵀ, (B, n, m)
-    task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
-    task_energy = 0.5 * np.einsum(
-        "bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity[..., None])[..., 0]
-    )
-    return kinetic, np.maximum(kinetic - task_energy, 0.0)
-
-
-def _null_space_energies(inertia: np.ndarray, basis: np.ndarray | None, velocity: np.ndarray):
-    r"""The energies of :func:`_energies` from a null-space basis Z of J, without inverting H.
-
-    The least kinetic energy with the tip velocity :math:`J\dot q` is reached
-    at :math:`\dot q - Z\alpha`, :math:`\alpha = (Z^\top HZ)^{-1}Z^\top H\dot q`, so
-    :math:`E_N = \tfrac12 w^\top (Z^\top H Z)^{-1} w` with :math:`w = Z^\top H\dot q`.
-    """
-    momentum = np.einsum("bij,bj->bi", inertia, velocity)  # H q̇
-    kinetic = 0.5 * np.einsum("bi,bi->b", velocity, momentum)
-    if basis is None:
-        return kinetic, np.zeros_like(kinetic)
-    projected = np.einsum("bji,bj->bi", basis, momentum)  # w = Zᵀ H q̇
-    reduced = np.swapaxes(basis, 1, 2) @ inertia @ basis  # Zᵀ H Z
-    if reduced.shape[1] == 1:
-        self_motion = 0.5 * projected[:, 0] ** 2 / reduced[:, 0, 0]
-    else:
-        self_motion = 0.5 * np.einsum("bi,bi->b", projected, _solve(reduced, projected[..., None])[..., 0])
-    return kinetic, np.clip(self_motion, 0.0, kinetic)

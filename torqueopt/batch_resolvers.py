@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .forest import stacked_cross
+from .linalg import inverse_condition_number_of
 from .resolvers import Resolver
 from .resolvers.damping import DampedNullSpaceTorque, SelfMotionDamping
 from .resolvers.inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
@@ -44,14 +45,13 @@ def complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
     :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
     rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
     is the minimum-norm solution of :math:`J\ddot q = r`. The inverse condition comes
-    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J). Rows with a
-    singular J get a finite, unused answer.
+    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J), half the cost of an SVD of R
+    per row; squaring costs accuracy, a relative error of about :math:`\varepsilon/(\sigma_{min}/\sigma_{max})^2`
+    (2e-4 at the cutoff 1e-6, which it only has to decide). Rows with a singular J get a finite, unused answer.
     """
     m = J.shape[1]
-    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))
-    largest = squared[:, -1]
-    inverse_condition = np.sqrt(np.maximum(squared[:, 0], 0.0) / np.where(largest > 0, largest, 1.0))
-    inverse_condition = np.where(largest > 0, inverse_condition, 0.0)
+    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))  # σ² of J, smallest first
+    inverse_condition = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
     orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
     upper = triangular[:, :m, :]
     upper = np.where((inverse_condition < 1e-12)[:, None, None], np.eye(m), upper)

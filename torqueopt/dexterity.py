@@ -65,6 +65,7 @@ import numpy as np
 import pinocchio as pin
 
 from .checks import configuration_vector
+from .linalg import inverse_condition_number_of
 from .robot import Robot
 
 __all__ = ["DEXTERITY_COLUMNS", "Dexterity", "Ellipsoid", "dexterity", "dexterity_along"]
@@ -231,8 +232,7 @@ def _measures(jacobian, inertia, gravity, upper, lower):
         dynamic = np.prod(np.linalg.svd(yoshikawa, compute_uv=False), axis=-1)  # Eq. (25)
         khatib_values = np.linalg.svd(khatib, compute_uv=False)
         khatib_manipulability = np.prod(khatib_values, axis=-1)  # Eq. (25) with Khatib's W
-        largest = khatib_values[..., 0]
-        isotropy = np.divide(khatib_values[..., -1], largest, out=np.zeros_like(largest), where=largest > 0)
+        isotropy = inverse_condition_number_of(khatib_values)
     else:
         dynamic = khatib_manipulability = isotropy = np.full(len(jacobian), np.nan)
     measures = {

@@ -1,10 +1,15 @@
-r"""Small dense linear algebra on top of Eigen's SVD (through eigenpy).
+r"""Small dense linear algebra on top of Eigen's SVD (through eigenpy), and the inverse condition every loop records.
 
 The pseudoinverse is SVD-based with an explicit rank cutoff, as in the paper
 (which used LINPACK's SVD). The null space of the task Jacobian is kept as an
 orthonormal basis :math:`Z` (n × (n − m)), so that
 :math:`I - J^\dagger J = Z Z^\top` is never formed and never needs a second,
 round-off-sensitive pseudoinverse.
+
+The inverse condition :math:`\sigma_{min}/\sigma_{max}` of a matrix
+(:func:`inverse_condition_number`, or :func:`inverse_condition_number_of` its
+singular values) is computed here once, for one matrix or a stack of them,
+for every module that records or checks it.
 """
 
 from __future__ import annotations
@@ -18,6 +23,8 @@ __all__ = [
     "JacobianSolver",
     "LeastSquares",
     "DEFAULT_SINGULAR_TOLERANCE",
+    "inverse_condition_number",
+    "inverse_condition_number_of",
     "singular_message",
 ]
 
@@ -54,7 +61,7 @@ class JacobianSolver:
 
     def __call__(self, jacobian: np.ndarray, vector: np.ndarray):
         svd = self._svd.compute(jacobian)
-        inverse_condition = _inverse_condition(svd.singularValues().tolist(), self._tolerance)
+        inverse_condition = _checked_inverse_condition(svd.singularValues().tolist(), self._tolerance)
         particular = svd.solve(vector)
         if self._flatten:
             particular = particular.reshape(-1)
@@ -62,18 +69,36 @@ class JacobianSolver:
         return particular, basis, inverse_condition
 
 
-def _inverse_condition(singular_values, tolerance: float) -> float:
+def _checked_inverse_condition(singular_values, tolerance: float) -> float:
     r"""σ_min/σ_max of singular values sorted largest first, or SingularJacobian below ``tolerance``.
 
     Above the cutoff every singular value is far above Eigen's own rank
     threshold (min(m, n)·ε), so the SVD's ``solve`` is exactly
     :math:`V_m \Sigma^{-1} U^\top r`.
     """
+    ratio = inverse_condition_number_of(singular_values)
+    if not ratio >= tolerance:
+        raise SingularJacobian(singular_message(ratio, tolerance))
+    return ratio
+
+
+def inverse_condition_number_of(singular_values):
+    r""":math:`\sigma_{min}/\sigma_{max}` from singular values sorted largest first (along the last axis), 0 where
+    :math:`\sigma_{max} = 0`: the reciprocal of the condition number, in [0, 1].
+
+    A float for one sequence (a list or a 1-D array), an array for a stack of them (…, k).
+    """
+    if isinstance(singular_values, np.ndarray) and singular_values.ndim > 1:
+        largest = singular_values[..., 0]
+        return np.divide(singular_values[..., -1], largest, out=np.zeros_like(largest), where=largest > 0)
     largest = singular_values[0]
-    inverse_condition = singular_values[-1] / largest if largest > 0 else 0.0
-    if not inverse_condition >= tolerance:
-        raise SingularJacobian(singular_message(inverse_condition, tolerance))
-    return inverse_condition
+    return float(singular_values[-1] / largest) if largest > 0 else 0.0
+
+
+def inverse_condition_number(matrix: np.ndarray):
+    r""":math:`\sigma_{min}/\sigma_{max}` of a matrix (a float) or of each matrix of a stack (…, r, c) (an array),
+    0 for a zero matrix; by numpy's SVD (:func:`inverse_condition_number_of`)."""
+    return inverse_condition_number_of(np.linalg.svd(matrix, compute_uv=False))
 
 
 def singular_message(inverse_condition: float, tolerance: float) -> str:

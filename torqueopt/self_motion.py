@@ -57,7 +57,7 @@ import pinocchio as pin
 
 from .robot import Robot
 
-__all__ = ["SelfMotion", "self_motion", "SelfMotionRate"]
+__all__ = ["SelfMotion", "self_motion", "self_motion_energy", "SelfMotionRate"]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -91,6 +91,52 @@ def self_motion(inertia: np.ndarray, null_space_basis: np.ndarray, joint_velocit
     coordinates = np.linalg.solve(reduced, projected)
     energy = 0.5 * float(projected.dot(coordinates))
     return SelfMotion(null_space_basis.dot(coordinates), min(max(energy, 0.0), kinetic), kinetic)
+
+
+def self_motion_energy(inertia: np.ndarray, velocity: np.ndarray, *, jacobian=None, null_space_basis=None):
+    r"""Kinetic energy :math:`T = \tfrac12\dot q^\top H\dot q` and its self-motion part :math:`E_N` [J], per row of
+    stacks H (B, n, n), :math:`\dot q` (B, n).
+
+    :math:`E_N` is the kinetic energy the joints carry beyond the least that
+    gives the tip its velocity :math:`\dot x = J\dot q`:
+    :math:`E_N = T - \tfrac12\dot x^\top\Lambda\dot x` with the task-space
+    inertia :math:`\Lambda = (J H^{-1} J^\top)^{-1}` (from ``jacobian``, (B, m, n)).
+    With an orthonormal ``null_space_basis`` Z of J instead ((B, n, n − m)), the
+    same figure without inverting H: the least energy is reached at
+    :math:`\dot q - Z\alpha`, :math:`\alpha = (Z^\top HZ)^{-1}Z^\top H\dot q`, so
+    :math:`E_N = \tfrac12 w^\top (Z^\top H Z)^{-1} w` with :math:`w = Z^\top H\dot q`
+    (0 when J has no null space: give ``null_space_basis=None`` and no ``jacobian``).
+    The stacked form of :func:`self_motion`'s energy, for loops over many
+    states. Kept at or above 0 (and, from Z, at or below T) against round-off. A matrix of a stack that is exactly
+    singular is solved through its pseudoinverse.
+    """
+    if jacobian is not None:
+        kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, inertia, velocity)
+        tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)
+        inverse_inertia_jt = np.linalg.solve(inertia, np.swapaxes(jacobian, 1, 2))  # H⁻¹Jᵀ, (B, n, m)
+        task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
+        task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity))
+        return kinetic, np.maximum(kinetic - task_energy, 0.0)
+    momentum = np.einsum("bij,bj->bi", inertia, velocity)  # H q̇
+    kinetic = 0.5 * np.einsum("bi,bi->b", velocity, momentum)
+    if null_space_basis is None:
+        return kinetic, np.zeros_like(kinetic)
+    projected = np.einsum("bji,bj->bi", null_space_basis, momentum)  # w = Zᵀ H q̇
+    reduced = np.swapaxes(null_space_basis, 1, 2) @ inertia @ null_space_basis  # Zᵀ H Z
+    if reduced.shape[1] == 1:
+        energy = 0.5 * projected[:, 0] ** 2 / reduced[:, 0, 0]
+    else:
+        energy = 0.5 * np.einsum("bi,bi->b", projected, _solve(reduced, projected))
+    return kinetic, np.clip(energy, 0.0, kinetic)
+
+
+def _solve(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """x with A x = b per row of stacks A (B, k, k), b (B, k); through the pseudoinverse when the stack holds an
+    exactly singular A."""
+    try:
+        return np.linalg.solve(matrices, vectors[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return (np.linalg.pinv(matrices) @ vectors[..., None])[..., 0]
 
 
 class SelfMotionRate:

@@ -37,6 +37,7 @@ from .checks import (
 )
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
 from .integrators import plant_stepper, rk4_step
+from .linalg import inverse_condition_number
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
@@ -225,7 +226,7 @@ def simulate(
             x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
             if j == final:
                 # The final state: the movement is over, so no torque is applied from it.
-                log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
+                log.append((q, v, not_applied, not_applied, x, inverse_condition_number(terms.jacobian)))
                 break
             command = command_rows[j]
             if feedback is not None:
@@ -240,7 +241,7 @@ def simulate(
                 tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = solve(terms, command)
             except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
                 stop_reason, stop_time = rules.unresolved(error, t), t
-                log.append((q, v, not_applied, not_applied, x, _jacobian_inverse_condition(terms.jacobian)))
+                log.append((q, v, not_applied, not_applied, x, inverse_condition_number(terms.jacobian)))
                 break
             if task_error or infeasible:
                 shortfalls.append((len(log), task_error, infeasible, limiting))
@@ -297,7 +298,7 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
     """
     notes = []
     terms = robot.terms(q, np.zeros(robot.nv))
-    inverse_condition = _jacobian_inverse_condition(terms.jacobian)
+    inverse_condition = inverse_condition_number(terms.jacobian)
     if inverse_condition < NEAR_SINGULAR:
         notes.append(
             f"the start is near-singular: σmin/σmax of the task Jacobian is {inverse_condition:.3g} (below {NEAR_SINGULAR:g}); "
@@ -346,9 +347,3 @@ def step_budget(
         item_bytes=row_bytes,
     )
     return step_count(duration, dt)
-
-
-def _jacobian_inverse_condition(jacobian: np.ndarray) -> float:
-    """σ_min/σ_max of a task Jacobian (0 when it is zero), for rows at which no resolver runs."""
-    singular_values = np.linalg.svd(jacobian, compute_uv=False)
-    return float(singular_values[-1] / singular_values[0]) if singular_values[0] > 0 else 0.0

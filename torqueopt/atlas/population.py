@@ -50,6 +50,7 @@ import pinocchio as pin
 
 from ..checks import joint_vector, number_in_range, positive_number, whole_number
 from ..errors import InvalidInput
+from ..linalg import inverse_condition_number
 from ..robot import Robot
 
 __all__ = [
@@ -195,8 +196,7 @@ def _accept(robot, data, angles, direction, length, base, reach, spec):
     q = robot.configuration(angles)
     dimension = direction.size
     jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, _LWA)[robot.task_rows]
-    singular_values = np.linalg.svd(jacobian, compute_uv=False)
-    if not singular_values[-1] >= spec.min_condition * singular_values[0]:
+    if not inverse_condition_number(jacobian) >= spec.min_condition:
         return None
     pin.updateFramePlacements(robot.model, data)
     start = data.oMf[robot.frame_id].translation[:dimension].copy()
@@ -311,8 +311,7 @@ def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
             continue
         q = robot.configuration(angles)
         jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, _LWA)[robot.task_rows]
-        singular_values = np.linalg.svd(jacobian, compute_uv=False)
-        if singular_values[-1] >= spec.min_condition * singular_values[0]:
+        if inverse_condition_number(jacobian) >= spec.min_condition:
             starts.append((angles, point))
     movements: list[Movement] = []
     for duration in spec.durations:
