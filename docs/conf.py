@@ -19,15 +19,19 @@ exclude_patterns = ["_build", "README.md"]
 nitpicky = True
 myst_heading_anchors = 3
 myst_enable_extensions = ["dollarmath"]
-suppress_warnings = []
+# Objects of other packages are not links: intersphinx would need the network to fetch their inventories.
+nitpick_ignore_regex = [("py:.*", r"(numpy|pinocchio|collections|abc|typing|pathlib)\..*")]
 
 # Signatures carry the parameter names; the docstrings carry their units and meanings. Type hints
 # (numpy arrays, Pinocchio objects) would each need a target to link to.
 autodoc_typehints = "none"
 autodoc_member_order = "bysource"
 autodoc_default_options = {"member-order": "bysource"}
-napoleon_google_docstring = False
-napoleon_numpy_docstring = True
+# The docstrings use Google-style sections (Args:, Returns:, Attributes:).
+napoleon_google_docstring = True
+napoleon_numpy_docstring = False
+# Attributes as fields of their class: a NamedTuple's fields are documented once, not twice.
+napoleon_use_ivar = True
 
 # MathJax is the one script the pages load from a CDN; it is only needed to typeset the equations.
 html_theme = "furo"

@@ -1,5 +1,6 @@
 """The examples run as documented and print what they claim."""
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -94,3 +95,67 @@ def test_model_error_study_tells_the_exact_model_from_the_perturbed_plant():
     assert open_null[1] == "stopped" and closed_null[1] == "stopped"  # null-space diverges on xarm7 with no model error
     assert "xarm7: degrade gracefully: pinv\n" in printed
     assert "xarm7: unstable on the exact model already: null-space\n" in printed
+
+
+@pytest.mark.slow
+def test_paper_experiment_example_finds_every_claim_and_the_long_null_space_whip():
+    printed = run_example("paper_experiment.py")
+    assert printed.startswith("long null-space: peak |tau| = [509.8 331.9  75.7] N·m; unstable from t = 1.389 s")
+    claims = [line for line in printed.splitlines() if line.startswith("claim ")]
+    assert [line.split()[1] for line in claims] == ["1", "2", "3", "4", "5", "6"]
+    assert all(line.split()[2] == "holds:" for line in claims), claims
+
+
+@pytest.mark.slow
+def test_hard_torque_bounds_example_keeps_the_bounds_and_loses_the_path():
+    printed = run_example("hard_torque_bounds.py")
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in printed.splitlines()]
+    rows = {(row[0], row[1], row[2]): row for row in rows if row[0] in ("short", "medium", "long")}
+    # Within its bounds by construction: utilisation at most 1/2 (the torques never past their limits) ...
+    bounded = rows[("long", "bounded-torque", "kinematic_weight=0.0")]
+    assert float(bounded[4]) <= 0.5 + 1e-9 and bounded[5] == "no"
+    # ... at the price of the path, while null-space whips and the LP alone (exceed) whips sooner.
+    assert float(bounded[8]) > 0.1 and int(bounded[6].split()[0]) > 0
+    assert rows[("long", "null-space", "-")][5] == "from 1.389 s"
+    assert rows[("long", "minmax-torque", "infeasible=exceed")][5] == "from 1.105 s"
+
+
+@pytest.mark.slow
+def test_global_optimum_example_is_no_worse_than_any_local_resolver():
+    printed = run_example("global_optimum.py")
+    costs = {
+        line.split(":")[0].strip(): float(line.split("cost")[1].split(",")[0]) for line in printed.splitlines()[1:]
+    }
+    assert set(costs) == {"pinv", "null-space", "global"}
+    # The optimum of the whole movement cannot cost more than a local run that tracks the same path.
+    assert costs["global"] <= min(costs["pinv"], costs["null-space"]) + 1e-6
+    assert "IPOPT converged" in printed and (costs["pinv"], costs["null-space"]) == (102.70, 9.43)
+
+
+@pytest.mark.slow
+def test_small_atlas_example_counts_every_run_once():
+    pytest.importorskip("pandas", reason="the atlas extra is not installed")
+    printed = run_example("small_atlas.py", "--paths", "6")
+    lines = printed.splitlines()
+    assert lines[0].startswith("24 runs")
+    counts = {}
+    for line in lines[1:]:
+        name, duration, whips, total = re.fullmatch(r"\s*(\S+) T = (\S+) s:\s+(\d+)/(\d+) whip, .*", line).groups()
+        counts[(name, float(duration))] = (int(whips), int(total))
+    assert set(counts) == {(name, duration) for name in ("pinv", "null-space") for duration in (1.0, 2.0)}
+    assert all(0 <= whips <= total == 6 for whips, total in counts.values())
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+def test_screenshot_example_renders_the_whiplash(tmp_path):
+    from torqueopt import viewer
+    from torqueopt.errors import MissingDependency
+
+    try:
+        viewer.find_browser()
+    except MissingDependency as missing:
+        pytest.skip(f"headless browser test needs Chromium: {missing}")
+    printed = run_example("screenshot_whiplash.py", "--out", str(tmp_path / "whiplash.png"))
+    assert "joints over their limits: joint1, joint2, joint3" in printed, printed
+    assert (tmp_path / "whiplash.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

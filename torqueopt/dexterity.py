@@ -114,13 +114,13 @@ class Dexterity:
         manipulability: w of Eq. (6).
         min_singular_value: σ_min(J) (Klein).
         singular_values: σ(J), largest first, (m,).
-        dynamic_manipulability: Eq. (25) with Yoshikawa's W = diag(1/(τ⁺ᵢ − |gᵢ|)).
-        khatib_manipulability: Eq. (25) with Khatib's W = diag(1/min(|τ⁻ᵢ − gᵢ|, |τ⁺ᵢ − gᵢ|)).
+        dynamic_manipulability: Eq. (25) with Yoshikawa's W = ``diag(1/(τ⁺ᵢ − |gᵢ|))``.
+        khatib_manipulability: Eq. (25) with Khatib's W = ``diag(1/min(|τ⁻ᵢ − gᵢ|, |τ⁺ᵢ − gᵢ|))``.
         khatib_isotropy: σ_min/σ_max of J H̃⁻¹ with Khatib's W.
         operational_space_manipulability: sqrt(det(J H⁻¹ Jᵀ)) = det(Λ)^(−1/2).
         gravity_torque: g at this configuration [N·m], (n,).
-        torque_range: τ⁺ − |g|, clipped at 0 [N·m], Yoshikawa's normalisation (n,).
-        khatib_torque_range: min(|τ⁻ − g|, |τ⁺ − g|) [N·m] (n,), 0 where gravity exceeds a limit.
+        torque_range: ``τ⁺ − |g|``, clipped at 0 [N·m], Yoshikawa's normalisation (n,).
+        khatib_torque_range: ``min(|τ⁻ − g|, |τ⁺ − g|)`` [N·m] (n,), 0 where gravity exceeds a limit.
         velocity_ellipsoid: {J q̇ : ‖q̇‖ ≤ 1} over the position rows [m/s per rad/s].
         acceleration_ellipsoid: Eq. (24), {J H̃⁻¹ τ̂ : ‖τ̂‖ ≤ 1} with Yoshikawa's W, position rows [m/s²];
             None when a joint has no torque limit.
@@ -140,7 +140,7 @@ class Dexterity:
     acceleration_ellipsoid: Ellipsoid | None
 
     def measures(self) -> dict[str, float]:
-        """The scalar measures, keyed as :data:`DEXTERITY_COLUMNS`."""
+        """The scalar measures, keyed as :data:`~torqueopt.dexterity.DEXTERITY_COLUMNS`."""
         return {name: getattr(self, name) for name in DEXTERITY_COLUMNS}
 
 
@@ -170,7 +170,7 @@ def dexterity(robot: Robot, q) -> Dexterity:
 
 
 def dexterity_along(robot: Robot, q) -> dict[str, np.ndarray]:
-    """The measures of :data:`DEXTERITY_COLUMNS` at every row of ``q`` (configuration vectors, N×nq).
+    """The measures of :data:`~torqueopt.dexterity.DEXTERITY_COLUMNS` at every row of ``q`` (configuration vectors, N×nq).
 
     Pass ``result.q`` of a run simulated with ``robot``; the result is what
     ``simulate(..., dexterity=True)`` stores as ``SimResult.dexterity``. Rows

@@ -96,7 +96,7 @@ def rk4_reference_step(robot: Robot, q, v, tau, dt: float, data=None):
 
 
 def rk4_step(robot: Robot, q, v, tau, dt: float, acceleration=None):
-    """One classical RK4 step of the forward dynamics with the torque held, by :func:`rk4_stepper`.
+    """One classical RK4 step of the forward dynamics with the torque held, by :func:`~torqueopt.integrators.rk4_stepper`.
 
     Args:
         acceleration: ABA(q, v, tau) when the caller already has it.
@@ -111,7 +111,7 @@ def rk4_step(robot: Robot, q, v, tau, dt: float, acceleration=None):
 
 
 def rk4_stepper(robot: Robot, dt: float, data=None):
-    r"""The RK4 step of :func:`rk4_reference_step` for one robot and step, as a function ``(q, v, τ, k1) -> (q, v)``.
+    r"""The RK4 step of :func:`~torqueopt.integrators.rk4_reference_step` for one robot and step, as a function ``(q, v, τ, k1) -> (q, v)``.
 
     ``k1`` is the first stage's acceleration, ABA(q, v, τ), which a
     simulation already has from its resolver. Writing the stages in terms of

@@ -52,7 +52,7 @@ def load_robot(
             joints are held; defaults to the SRDF configuration or neutral.
 
     Raises:
-        RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput.
+        RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput: a bad source, file, frame, task or value.
     """
     robot_source = find_robot(source)
     mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)

@@ -39,7 +39,8 @@ class SimResult:
             condition number, in (0, 1], (N,); 0 near a singularity. (Called
             ``jacobian_condition`` in .npz files written before it was renamed;
             :func:`load_result` reads both.)
-        torque_upper, torque_lower: torque limits τ⁺, τ⁻ [N·m] (±inf: unbounded).
+        torque_upper: torque limits τ⁺ [N·m] (+inf: unbounded).
+        torque_lower: torque limits τ⁻ [N·m] (−inf: unbounded).
         duration: the requested simulated time [s].
         stop_reason: why the run ended early, None when it completed.
         stop_time: when it ended early [s], None when it completed.
@@ -54,10 +55,10 @@ class SimResult:
             as the bounded resolvers report them (None when no row has any; not kept in files).
         resolver_options: the resolver's option values, JSON-ready (None when unknown).
         dexterity: per-row dexterity measures keyed by name (each (N,)), as
-            :func:`torqueopt.dexterity.dexterity_along` gives them; None
+            :func:`torqueopt.dexterity_along` gives them; None
             unless asked for (``simulate(..., dexterity=True)``).
         joint_limits: the URDF's joint position and velocity limits, as
-            :func:`joint_limits_record` keeps them (``position_lower``,
+            ``joint_limits_record`` keeps them (``position_lower``,
             ``position_upper``, ``velocity``: one value per joint, None where
             unbounded); None when unknown. :attr:`first_position_violation` and
             :attr:`first_velocity_violation` say when a run first left them.
@@ -168,19 +169,19 @@ class SimResult:
 
     @property
     def peak_torque(self) -> np.ndarray:
-        """Per joint, the largest |τ| over the run [N·m]."""
+        """Per joint, the largest ``|τ|`` over the run [N·m]."""
         return _column_peak(np.abs(self.tau), self.n)
 
     @property
     def torque_ratio(self) -> np.ndarray:
-        """|τ| / limit per row and joint, (N, n); 0 for unbounded joints."""
+        """``|τ|`` / limit per row and joint, (N, n); 0 for unbounded joints."""
         upper = np.where(np.isfinite(self.torque_upper), self.torque_upper, np.inf)
         lower = np.where(np.isfinite(self.torque_lower), self.torque_lower, -np.inf)
         return np.where(self.tau >= 0, self.tau / upper, self.tau / lower)
 
     @property
     def peak_torque_ratio(self) -> np.ndarray:
-        """Per joint, the largest |τ|/limit over the run (above 1: the limit was exceeded)."""
+        """Per joint, the largest ``|τ|``/limit over the run (above 1: the limit was exceeded)."""
         return _column_peak(self.torque_ratio, self.n)
 
     @property

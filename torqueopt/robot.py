@@ -136,7 +136,7 @@ class Robot:
 
     @property
     def nv(self) -> int:
-        """Number of joint velocities n: the joints that move the task frame."""
+        """Number of joint velocities n (the joints that move the task frame)."""
         return self.model.nv
 
     @property

@@ -107,7 +107,7 @@ def simulate(
     Args:
         robot: from :func:`torqueopt.load_robot`.
         resolver: a registered name (see :func:`torqueopt.resolver_names`) or a Resolver.
-        trajectory: the tip reference, any :class:`torqueopt.trajectory.Trajectory`
+        trajectory: the tip reference, any :class:`torqueopt.Trajectory`
             (StraightLine, MinimumJerkLine, Circle, WaypointPath, or an object
             with the same members); anchored at the tip's position at q0
             when it has no start.
@@ -122,7 +122,7 @@ def simulate(
         resolver_options: the resolver's declared options, when ``resolver`` is a name
             (``simulate(robot, "damped-null-space", ..., resolver_options={"damping": 2.0})``).
         dexterity: also record the dexterity measures of every row
-            (:func:`torqueopt.dexterity.dexterity_along`, computed after the
+            (:func:`torqueopt.dexterity_along`, computed after the
             run from the stored configurations) as ``SimResult.dexterity``.
         max_steps: the most steps the run may take (checked before it starts,
             with the memory it would need), so that a mistyped duration or dt

@@ -3,7 +3,7 @@
 Work goes out in chunks of movements of one duration (``chunk_size``
 paths, default 64). A chunk runs every resolver on its movements (``pinv``
 first: it is the baseline of the runaway criterion), batched by
-:func:`torqueopt.batch.simulate_batch` where the resolver supports it, by
+``torqueopt.batch.simulate_batch`` where the resolver supports it, by
 :func:`torqueopt.simulate` otherwise. Each worker thread loads the robot once
 and keeps it; every run makes its own Pinocchio ``Data``.
 

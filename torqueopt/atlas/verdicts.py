@@ -128,7 +128,7 @@ def self_motion_energy(robot: Robot, result: SimResult) -> tuple[np.ndarray, np.
     Computed from a finished run with Pinocchio's CRBA and frame Jacobian at
     each recorded state, by :func:`torqueopt.self_motion.self_motion` (the
     figure ``energy-bounded-torque`` bounds; the batched path computes the
-    same figures as it goes, :class:`torqueopt.batch.BatchExtras`).
+    same figures as it goes, ``torqueopt.batch.BatchExtras``).
     """
     model, data = robot.model, robot.model.createData()
     count = len(result.t)

@@ -49,7 +49,7 @@ def joint_vector(robot, values, name: str) -> np.ndarray:
 
 
 def velocity_vector(robot, values, name: str = "v0") -> np.ndarray:
-    """A joint velocity vector of ``robot``: n finite values [rad/s] (:func:`joint_vector`)."""
+    """A joint velocity vector of ``robot``: n finite values [rad/s] (:func:`~torqueopt.checks.joint_vector`)."""
     return joint_vector(robot, values, name)
 
 

@@ -79,12 +79,12 @@ class OptimalResult:
 
     @property
     def peak_torque(self) -> np.ndarray:
-        """Per joint, the largest applied |τ| [N·m]."""
+        """Per joint, the largest applied ``|τ|`` [N·m]."""
         return np.abs(self.tau[:-1]).max(axis=0)
 
     @property
     def peak_torque_ratio(self) -> np.ndarray:
-        """Per joint, the largest applied |τ| / limit (0 where unbounded)."""
+        """Per joint, the largest applied ``|τ|`` / limit (0 where unbounded)."""
         upper = np.where(np.isfinite(self.torque_upper), self.torque_upper, np.inf)
         lower = np.where(np.isfinite(self.torque_lower), self.torque_lower, -np.inf)
         applied = self.tau[:-1]

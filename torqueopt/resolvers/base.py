@@ -93,7 +93,7 @@ SINGULAR_TOLERANCE_OPTION = Option(
 class Resolver(ABC):
     """Maps a desired task acceleration to joint torques.
 
-    Subclasses set :attr:`name`, declare their :attr:`options`, list the
+    Subclasses set ``name``, declare their :attr:`options`, list the
     paper's equations they compute in :attr:`equations` (cited as ``Eq. (N)``
     in their docstring and at the lines that compute them), and implement
     :meth:`solver`. The constructor takes the declared

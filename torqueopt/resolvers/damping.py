@@ -51,8 +51,8 @@ then scale alike with the robot's inertia and the weight, so one default
 serves any arm.
 
 The defaults, μ = 0.5 and K_D = 10 1/s, come from a sweep on the paper's
-arm (see :data:`DEFAULT_DAMPING`); the remedies study of ``torqueopt paper``
-(:mod:`torqueopt.studies.remedies`) reruns it and reports the trade-off.
+arm (see ``DEFAULT_DAMPING``); the remedies study of ``torqueopt paper``
+(``torqueopt.studies.remedies``) reruns it and reports the trade-off.
 """
 
 from __future__ import annotations
@@ -201,7 +201,7 @@ class DampedNullSpaceTorque(NullSpaceResolver):
         self.weight_root(robot)
 
     def weight_root(self, robot: Robot) -> np.ndarray:
-        """The diagonal of S (S² = W) [1/(N·m)]: see :func:`torque_weight_root`."""
+        """The diagonal of S (S² = W) [1/(N·m)]: see ``torque_weight_root``."""
         return torque_weight_root(self.torque_weight, robot, self.name)
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:

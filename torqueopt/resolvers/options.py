@@ -49,7 +49,7 @@ class Option:
         default: the value used when the option is not given (None: described by ``default_text``).
         meaning: one sentence: what the option does.
         convert: checks a value (a Python value or the CLI's text) and returns the normalised
-            value; raises :class:`OptionValueError` saying what it must be.
+            value; raises :class:`~torqueopt.resolvers.options.OptionValueError` saying what it must be.
         default_text: how the listing shows the default, when ``default`` alone does not say it.
     """
 

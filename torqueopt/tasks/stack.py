@@ -72,8 +72,8 @@ def prioritised_rates(
         damping: damped least squares λ for the lower-priority inverses (0: none).
 
     Returns:
-        (q̇, projector): the joint rates [rad/s] and :math:`P_K`, the projector
-        onto the freedom left after every task.
+        The joint rates q̇ [rad/s] and :math:`P_K`, the projector onto the
+        freedom left after every task, as a pair.
     """
     n = jacobians[0].shape[1]
     rates = np.zeros(n)

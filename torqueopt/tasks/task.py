@@ -101,7 +101,7 @@ class Kinematics:
 class Task(ABC):
     r"""A task: coordinates :math:`x(q)`, Jacobian :math:`J`, drift :math:`\dot J\dot q`, optional target.
 
-    Subclasses set :attr:`dimension` and implement :meth:`value`,
+    Subclasses set ``dimension`` and implement :meth:`value`,
     :meth:`jacobian` and :meth:`drift`.
 
     Args:

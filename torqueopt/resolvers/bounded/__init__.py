@@ -15,7 +15,7 @@ so every :math:`y` realises the task and the bounds
 on n − m variables (:math:`n_b` joints with finite limits; a joint without a
 limit has no bound rows). Each row is divided by the joint's torque range
 :math:`\tau^+_i - \tau^-_i`, so the solver's feasibility tolerance (DAQP's
-``primal_tol``, :data:`FEASIBILITY_TOLERANCE`) is a fraction of each range.
+``primal_tol``, :data:`~torqueopt.resolvers.bounded.programs.FEASIBILITY_TOLERANCE`) is a fraction of each range.
 
 The solver is DAQP (Arnström, Bemporad & Axehill, IEEE TAC 67(8), 2022), a
 dual active-set method for small dense QPs that also solves LPs, called
@@ -58,7 +58,7 @@ and the tip leaves its path, the step flagged with its task error. Only
 ``stop`` ends a run, and only ``exceed`` leaves the bounds.
 
 The LPs and the policies' programs use an orthonormal basis of the range of
-:math:`HZ` instead of :math:`y` itself (see :class:`_RangeBasis`).
+:math:`HZ` instead of :math:`y` itself (see ``_RangeBasis`` in :mod:`torqueopt.resolvers.bounded.programs`).
 
 Modules: :mod:`~torqueopt.resolvers.bounded.bounded_torque` (the QP),
 :mod:`~torqueopt.resolvers.bounded.minmax_torque` (the LP),

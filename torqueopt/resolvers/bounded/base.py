@@ -1,6 +1,6 @@
 r"""What the two bounded resolvers share: the bounded joints, the ``infeasible`` option and its policies.
 
-:class:`_BoundedResolver` writes the step of both: the resolver's own
+``_BoundedResolver`` writes the step of both: the resolver's own
 optimum within bounds (``_optimum``, one per resolver), and, when there is
 none, the policy the ``infeasible`` option names (scale the task, least task
 error, exceed the bounds least, stop), in the coordinates of Eq. (26).

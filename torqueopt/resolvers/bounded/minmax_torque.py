@@ -24,7 +24,7 @@ class MinMaxTorque(_BoundedResolver):
     over the joints with finite limits (an unbounded joint has no range to
     normalise by and is left out of the max; its torque is free). The
     optimum :math:`t^*` is the utilisation: every torque is within its bounds
-    iff :math:`t^* \le 1/2` (:data:`FEASIBILITY_TOLERANCE` allowed). When
+    iff :math:`t^* \le 1/2` (:data:`~torqueopt.resolvers.bounded.programs.FEASIBILITY_TOLERANCE` allowed). When
     :math:`t^* > 1/2` no torque within bounds realises the task and the
     ``infeasible`` policy applies (``exceed`` keeps the LP's torque, the
     least largest normalised excess, and flags the step).

@@ -1,9 +1,9 @@
 r"""The bounded resolvers' programs, solved by DAQP: one workspace per program, the min-max torque LP, the range basis.
 
-Each program is set up once per run (:class:`_Program`) and only its
+Each program is set up once per run (``_Program``) and only its
 numbers change at each step, with the previous step's active set as the
 warm start; every LP answer is certified by its own multipliers. The LPs
-run on an orthonormal basis of the range of :math:`HZ` (:class:`_RangeBasis`)
+run on an orthonormal basis of the range of :math:`HZ` (``_RangeBasis``)
 rather than on :math:`y` of Eq. (26) itself.
 """
 

@@ -46,7 +46,7 @@ class VelocityResolver(Resolver):
     paper's open loop) after its own options, and ``singular_tolerance``.
     """
 
-    #: The simulation loop that runs this resolver: joint rates integrated, torques by inverse dynamics.
+    #: The simulation loop that runs this resolver (joint rates integrated, torques by inverse dynamics).
     level: ClassVar[str] = "velocity"
     options: ClassVar[tuple[Option, ...]] = (POSITION_GAIN_OPTION,)
 

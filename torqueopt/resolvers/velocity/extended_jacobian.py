@@ -72,7 +72,7 @@ class ExtendedJacobian(VelocityResolver):
     path brings the joints back (the method is repeatable, unlike the
     pseudoinverse). :math:`\partial G/\partial q` is analytic: the
     criterion's Hessian and the derivative of :math:`n_J` through the
-    kinematic Hessian (:func:`null_vector_derivative`).
+    kinematic Hessian (:func:`~torqueopt.resolvers.velocity.null_vector_derivative`).
 
     The method has singularities of its own where :math:`J_{ex}` loses rank
     while J does not: where :math:`\partial G/\partial q` becomes orthogonal
