@@ -1,10 +1,13 @@
 """The documentation site covers what it must: every public name, every guide page, every tutorial.
 
-The build itself (Sphinx with warnings as errors, so a broken cross-reference fails) runs in `.ci/run`;
-these checks read the sources, so they need no Sphinx and run in the core install too.
+The build itself (Sphinx with warnings as errors, so a broken cross-reference fails) runs in `.ci/run`,
+and, with the dummy builder, in the last test here (slow, skipped without the docs extra); the other
+checks read the sources, so they need no Sphinx and run in the core install too.
 """
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -60,3 +63,18 @@ def test_every_page_that_teaches_links_to_its_tutorial(page):
     linked = re.findall(r"\(\.*/?(?:\.\./)?tutorials\.md#([a-z-]+)-py\)", text)
     assert linked, f"docs/{page} links to no tutorial"
     assert {name.replace("-", "_") + ".py" for name in linked} <= set(EXAMPLES)
+
+
+@pytest.mark.slow
+def test_the_site_builds_without_a_warning(tmp_path):
+    """The build `.ci/run` does, with Sphinx's dummy builder (every page read and every reference resolved,
+    no HTML written), so that a docstring's broken cross-reference fails the full suite too."""
+    pytest.importorskip("sphinx", reason="the docs extra is not installed")
+    pytest.importorskip("myst_parser", reason="the docs extra is not installed")
+    pytest.importorskip("furo", reason="the docs extra is not installed")
+    process = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "dummy", str(DOCS), str(tmp_path / "out"),
+         "-d", str(tmp_path / "doctrees")],
+        capture_output=True, text=True, timeout=600, check=False,
+    )  # fmt: skip
+    assert process.returncode == 0, process.stderr

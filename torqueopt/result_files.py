@@ -73,7 +73,7 @@ def run_files(path: str | os.PathLike) -> list[Path]:
 
 
 def write_result(result: SimResult, path: str | os.PathLike) -> Path:
-    """Write ``result`` to ``path``; :meth:`SimResult.to_csv` documents the formats."""
+    """Write ``result`` to ``path``; :meth:`torqueopt.SimResult.to_csv` documents the formats."""
     with written_together():
         return _write_result(result, Path(path))
 
