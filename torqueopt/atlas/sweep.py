@@ -259,7 +259,7 @@ def read_chunks(out: Path, count: int, digest: str) -> tuple[dict, list[str]]:
     """The chunks already written that prove to be this atlas's, and a note on each that does not.
 
     Returns:
-        ({index: rows as a DataFrame}, ["chunk-NNNNNN.parquet (why)", ...]);
+        The pair ``({index: rows as a DataFrame}, ["chunk-NNNNNN.parquet (why)", ...])``;
         only whole files are looked at (a partial one never gets its final name).
     """
     done, rejected = {}, []

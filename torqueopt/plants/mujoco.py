@@ -95,7 +95,7 @@ _ON_OFF = {"on": True, "off": False, "true": True, "false": False}
 
 
 def import_mujoco():
-    """The mujoco module, or a :class:`MissingDependency` that says how to install it."""
+    """The mujoco module, or a :class:`~torqueopt.MissingDependency` that says how to install it."""
     try:
         import mujoco
     except ImportError:
@@ -212,7 +212,7 @@ class MujocoPlant:
 
     Raises:
         MissingDependency: mujoco is not installed.
-        PlantError: the MJCF's joints do not match the robot's, or MuJoCo
+        torqueopt.errors.PlantError: the MJCF's joints do not match the robot's, or MuJoCo
             refuses the model (a zero principal moment of inertia, a bad file).
         InvalidInput: a bad option.
     """
@@ -304,7 +304,7 @@ class MujocoPlant:
         """Remove every joint the controller does not move, fixing its body at Pinocchio's locked angle.
 
         Raises:
-            PlantError: a joint of the robot's chain is missing, or of another kind, or a free or ball joint.
+            torqueopt.errors.PlantError: a joint of the robot's chain is missing, or of another kind, or a free or ball joint.
         """
         robot = self.robot
         wanted = set(robot.joint_names)
