@@ -247,7 +247,7 @@ class HeldTorqueRK4:
     :meth:`step_stack` is the folded form on (B, n) stacks, the three later
     stages of the whole stack by one ``pin.abaInParallel`` call each (over a
     ``pin.ModelPool`` of ``threads`` models), for robots whose joints all add
-    (:attr:`Robot.euclidean`; other robots' stacks go row by row through
+    (``Robot.euclidean``; other robots' stacks go row by row through
     :meth:`step`).
 
     Args:
@@ -260,6 +260,7 @@ class HeldTorqueRK4:
         self.robot, self.dt, self.threads = robot, float(dt), int(threads)
         self.data = robot.model.createData() if data is None else data
         # An instance attribute, not a method: one call per step, no bound-method frame.
+        #: The folded step ``(q, v, τ, k1) -> (q, v)`` of :func:`rk4_stepper`.
         self.step = rk4_stepper(robot, self.dt, self.data)
         self._pool = None
 
