@@ -143,7 +143,7 @@ def optimize(
             of all of them).
         max_nonzeros: refuse a transcription with more nonzeros than this in its
             constraint Jacobian and Hessian together (counted before anything is
-            built, :meth:`Transcription.count`; about 280 bytes each).
+            built, ``Transcription.count``; about 280 bytes each).
         verbose: print IPOPT's log.
 
     Raises:
