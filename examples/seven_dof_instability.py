@@ -6,7 +6,9 @@ task, n − m = 4, gravity on, open loop as in the paper) over a long
 straight-line movement from each arm's default configuration, and reports
 which runs stay within the torque limits, which exceed them, which the
 whiplash detector calls unstable (a joint needing more than twice its torque
-limit) and which diverge outright, each with when.
+limit), which lose their path (the tip more than 1 mm from it) and which diverge outright, each
+with when. Only a run that completed, stayed under the detector's thresholds and within the limits,
+and kept its tip on the path is "ok".
 
 Run: python examples/seven_dof_instability.py [--duration 2.0]
 """
@@ -37,10 +39,15 @@ def main() -> None:
         for name in torqueopt.resolver_names("torque"):
             result = torqueopt.simulate(robot, name, line, robot.default_configuration)
             whiplash = detect_whiplash(result)
+            # "ok" only for a run that is stable by torque, completed and kept its tip on the path.
             if whiplash.unstable:
                 verdict, when = "UNSTABLE", whiplash.time
+            elif whiplash.lost_path:
+                verdict, when = "OFF-PATH", None
+            elif not result.completed:
+                verdict, when = "STOPPED", None
             elif result.first_limit_violation is not None:
-                verdict, when = "over limit", result.first_limit_violation
+                verdict, when = "over-limit", result.first_limit_violation
             else:
                 verdict, when = "ok", None
             when_text = f"{when:9.3f}" if when is not None else f"{'-':>9}"
@@ -49,7 +56,7 @@ def main() -> None:
                 f"{robot_name:<8}{name:<{width}}{verdict:<12}{when_text}{diverged}{result.peak_torque_ratio.max():16.2f}"
                 f"{result.max_tip_error * 1e3:16.2f}"
             )
-            if whiplash.unstable:
+            if not whiplash.stable:
                 print(f"{'':<8}  {whiplash.reason}")
 
 

@@ -507,3 +507,17 @@ def test_cli_refuses_a_transcription_too_large_in_one_line(capsys):
     )
     assert main([*PAPER_CLI, "--duration", "0.5", "--max-nonzeros", "0"]) == 2
     assert capsys.readouterr().err.startswith("torqueopt optimize: error: --max-nonzeros: ")
+
+
+def test_a_local_run_that_leaves_its_path_is_never_problem_free():
+    """The README called the long minmax-torque movement problem-free: within its limits, stable by torque,
+    completed, but 833 mm off its path with 1,038 infeasible steps."""
+    from torqueopt.studies.local_global.study import Row
+
+    def row(tip_error):
+        return Row(movement="long", method="minmax-torque", kind="local", cost=4432.3, weighted_cost=3.07,
+                   peak_ratio=1.0, unstable=False, unstable_time=None, completed=True, status="completed",
+                   max_tip_error=tip_error)  # fmt: skip
+
+    assert not row(0.833).problem_free and row(0.833).verdict == "lost path (833 mm off)"
+    assert row(0.0005).problem_free and row(0.0005).verdict == "problem-free"

@@ -59,18 +59,21 @@ def test_trips_at_the_first_sample_beyond_twice_the_limit():
     tau = np.column_stack([ramp, 0.5 * ramp, np.zeros(31)])
     speed = np.tile([0.0, 0.0, 4.5], (31, 1))
     # Joint 2 needs 0.5 k N·m at sample k, at most 15 N·m: three quarters of twice its 10 N·m limit.
-    report = detect_whiplash(make_run(tau, [54.0, 10.0, 6.0], speed=speed, tip_error=0.002))
-    assert not report.unstable
+    report = detect_whiplash(make_run(tau, [54.0, 10.0, 6.0], speed=speed, tip_error=0.0005))
+    assert not report.unstable and report.stable and report.verdict == "stable"
     assert report.peak_demand == pytest.approx(15.0 / 20.0)
-    assert report.reason == "stable: the largest torque demand is 0.75 of the threshold (2 times the torque limit)"
+    assert report.reason == (
+        "stable: the largest torque demand is 0.75 of the threshold (2 times the torque limit), "
+        "and the tip stays within 1 mm of its path"
+    )
 
-    report = detect_whiplash(make_run(tau, [54.0, 5.0, 6.0], speed=speed, tip_error=0.002))
+    report = detect_whiplash(make_run(tau, [54.0, 5.0, 6.0], speed=speed, tip_error=0.0005))
     # Now joint 2 trips when 0.5 k > 10, first at k = 21 (t = 0.21 s).
     assert report.unstable and report.criterion == "limit" and report.joint == "j2"
     assert report.time == pytest.approx(0.21)
     assert report.reason == (
         "unstable from t = 0.210 s: joint j2 needs 10.5 N·m, 2.1 times its limit 5 N·m (threshold 2), "
-        "with joint j3 turning at 4.5 rad/s and the tip 2 mm from its path"
+        "with joint j3 turning at 4.5 rad/s and the tip 0.5 mm from its path"
     )
 
 
@@ -278,3 +281,37 @@ def test_a_fast_but_smooth_movement_is_flagged_from_its_first_sample(planar3):
                               PAPER_Q0)  # fmt: skip
     report = detect_whiplash(fast)
     assert report.unstable and report.time == 0.0 and "without any whip" in report.reason
+
+
+def test_a_run_that_leaves_its_path_is_never_stable():
+    """A run under every torque threshold whose tip leaves its path by more than the tolerance (a bounded
+    resolver giving up task acceleration) lost its path: not stable, and the reason says where and how far."""
+    tau = np.tile([1.0, 1.0, 1.0], (31, 1))
+    run = make_run(tau, [54.0, 24.0, 6.0], tip_error=0.0)
+    run.x[20:, 1] = np.linspace(0.002, 0.833, 11)  # off the path from t = 0.20 s, 833 mm at the end
+    run.infeasible[20:] = True
+    run.task_error[20:] = 3.5
+    report = detect_whiplash(run)
+    assert not report.unstable and not report.stable and report.lost_path
+    assert report.verdict == "lost path" and report.summary == "lost path"
+    assert report.max_tip_error == pytest.approx(0.833)
+    assert report.reason == (
+        "lost its path: the tip is more than 1 mm from its path from t = 0.200 s, 833 mm at most, "
+        "with 11 infeasible steps and up to 3.5 m/s² of task acceleration given up; "
+        "the largest torque demand is 0.08 of the threshold (2 times the torque limit)"
+    )
+    assert detect_whiplash(run, path_tolerance=1.0).stable  # the tolerance is the one stated
+    with pytest.raises(InvalidInput, match="path_tolerance"):
+        detect_whiplash(run, path_tolerance=0.0)
+
+
+def test_a_run_that_stopped_early_is_never_stable():
+    tau = np.tile([1.0, 1.0, 1.0], (31, 1))
+    run = make_run(tau, [54.0, 24.0, 6.0])
+    run.stop_reason, run.stop_time = "joint speed of joint j3 reached 1e4 rad/s at t = 0.300 s", 0.3
+    report = detect_whiplash(run)
+    assert not report.unstable and not report.stable and report.verdict == "stopped early"
+    assert report.reason == (
+        "stopped early, not stable: the largest torque demand is 0.08 of the threshold (2 times the torque limit); "
+        "the run stopped early: joint speed of joint j3 reached 1e4 rad/s at t = 0.300 s"
+    )

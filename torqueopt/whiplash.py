@@ -45,8 +45,18 @@ arm with other start points and directions (pinv, inertia-pinv and
 null-space, 0.5 to 2 s): there, with the limits ignored, it agrees with the
 ``limit_factor`` = 2 verdict on 98 % of the runs.
 
+Torque is not the whole verdict. A run is *stable* only when, besides
+staying under the torque thresholds, it completed and kept its tip within
+``path_tolerance`` (default 1 mm) of the path: a resolver under hard torque
+bounds never needs more torque than it has, it gives up task acceleration
+instead (``task_error``, ``infeasible`` steps) and can end far from its path;
+that run *lost its path*, whatever its torques. A run that stopped early
+(diverged, or went singular) before crossing any threshold is *stopped
+early*, never stable. :attr:`WhiplashReport.verdict` is one of
+:data:`VERDICTS`.
+
 The detector reads only the :class:`~torqueopt.result.SimResult` (torques,
-limits, joint speeds, tip error), so it works for any robot, any number of
+limits, joint speeds, tip and task error), so it works for any robot, any number of
 joints, runs read back from files, and runs with unbounded torque limits.
 """
 
@@ -63,6 +73,8 @@ from .result import SimResult
 __all__ = [
     "DEFAULT_LIMIT_FACTOR",
     "DEFAULT_GROWTH_FACTOR",
+    "DEFAULT_PATH_TOLERANCE",
+    "VERDICTS",
     "WhiplashReport",
     "torque_demand",
     "detect_whiplash",
@@ -72,6 +84,10 @@ __all__ = [
 DEFAULT_LIMIT_FACTOR = 2.0
 #: A joint without a limit trips when it needs more than this multiple of the starting torque.
 DEFAULT_GROWTH_FACTOR = 8.0
+#: A run whose tip leaves its path by more than this [m] lost its path, and is never stable.
+DEFAULT_PATH_TOLERANCE = 1e-3
+#: What :attr:`WhiplashReport.verdict` can say, in the order it is decided.
+VERDICTS = ("unstable", "lost path", "stopped early", "not judged", "stable")
 
 
 @dataclass(frozen=True)
@@ -88,6 +104,10 @@ class WhiplashReport:
         peak_demand: largest :math:`r_i(t)` over the run (above 1: tripped);
             nan when no joint could be judged.
         limit_factor, growth_factor: the thresholds used.
+        lost_path: True when the tip left its path by more than ``path_tolerance``.
+        max_tip_error: the largest tip distance from the path over the run [m].
+        path_tolerance: the tolerance used [m].
+        completed: False when the run stopped early.
     """
 
     unstable: bool
@@ -98,6 +118,34 @@ class WhiplashReport:
     peak_demand: float
     limit_factor: float
     growth_factor: float
+    lost_path: bool = False
+    max_tip_error: float = 0.0
+    path_tolerance: float = DEFAULT_PATH_TOLERANCE
+    completed: bool = True
+
+    @property
+    def verdict(self) -> str:
+        """One of :data:`VERDICTS`: ``"unstable"`` (a torque threshold crossed), else ``"lost path"``,
+        else ``"stopped early"``, else ``"not judged"`` (no yardstick), else ``"stable"``."""
+        if self.unstable:
+            return "unstable"
+        if self.lost_path:
+            return "lost path"
+        if not self.completed:
+            return "stopped early"
+        if math.isnan(self.peak_demand):
+            return "not judged"
+        return "stable"
+
+    @property
+    def stable(self) -> bool:
+        """Under every torque threshold, completed, and within the path tolerance."""
+        return self.verdict == "stable"
+
+    @property
+    def summary(self) -> str:
+        """A few words for tables and figure titles: ``unstable from t = 0.871 s``, ``lost path``, ``stable``, ..."""
+        return f"unstable from t = {self.time:.3f} s" if self.unstable else self.verdict
 
 
 def torque_demand(
@@ -127,20 +175,34 @@ def detect_whiplash(
     result: SimResult,
     limit_factor: float = DEFAULT_LIMIT_FACTOR,
     growth_factor: float = DEFAULT_GROWTH_FACTOR,
+    path_tolerance: float = DEFAULT_PATH_TOLERANCE,
 ) -> WhiplashReport:
-    """Whether and when the run went unstable, by the definition of the module docstring.
+    """Whether and when the run went unstable, or lost its path, by the definition of the module docstring.
 
     Args:
         result: any simulated run (or one read back by :func:`torqueopt.load_result`).
         limit_factor: a joint with a torque limit trips above this multiple of it.
         growth_factor: a joint without a limit trips above this multiple of
             the torque the movement started with.
+        path_tolerance: the tip's largest admissible distance from its path [m].
 
     Raises:
-        InvalidInput: a factor that is not a positive finite number.
+        InvalidInput: a factor or tolerance that is not a positive finite number.
     """
     demand = torque_demand(result, limit_factor, growth_factor)
-    factors = {"limit_factor": float(limit_factor), "growth_factor": float(growth_factor)}
+    path_tolerance = positive_number(path_tolerance, "path_tolerance", hint="a distance in m, such as 0.001")
+    tip_error = np.nan_to_num(result.tip_error, nan=np.inf) if len(result.t) else np.zeros(0)
+    max_tip_error = float(tip_error.max()) if len(tip_error) else 0.0
+    lost_path = bool(max_tip_error > path_tolerance)
+    factors = {
+        "limit_factor": float(limit_factor),
+        "growth_factor": float(growth_factor),
+        "lost_path": lost_path,
+        "max_tip_error": max_tip_error,
+        "path_tolerance": float(path_tolerance),
+        "completed": bool(result.completed),
+    }
+    lost = _lost_path_text(result, tip_error, path_tolerance) if lost_path else ""
     # A joint is judged when it has a yardstick; rows without a torque (the
     # final state) are NaN in every column and never trip.
     judged = ~np.isnan(demand).all(axis=0) if len(demand) else np.zeros(result.n, bool)
@@ -152,16 +214,24 @@ def detect_whiplash(
             why = "the run applied no torque (it stopped at its first sample)"
         else:
             why = "no joint has a torque limit and the run applies no torque at its start, so there is no yardstick"
-        return WhiplashReport(False, None, None, None, f"not judged: {why}{stopped}", math.nan, **factors)
+        head = f"lost its path: {lost}; torque not judged" if lost_path else "not judged"
+        return WhiplashReport(False, None, None, None, f"{head}: {why}{stopped}", math.nan, **factors)
 
     peak_demand = float(np.nanmax(demand))
     row_demand = np.where(np.isnan(demand), -np.inf, demand).max(axis=1)
     tripped = row_demand > 1.0
     if not tripped.any():
-        reason = (
-            f"stable: the largest torque demand is {peak_demand:.2f} of the threshold "
-            f"({_threshold_text(result, limit_factor, growth_factor)}){stopped}"
+        demand_text = (
+            f"the largest torque demand is {peak_demand:.2f} of the threshold "
+            f"({_threshold_text(result, limit_factor, growth_factor)})"
         )
+        if lost_path:
+            head = f"lost its path: {lost}; {demand_text}"
+        elif not result.completed:
+            head = f"stopped early, not stable: {demand_text}"
+        else:
+            head = f"stable: {demand_text}, and the tip stays within {path_tolerance * 1e3:g} mm of its path"
+        reason = f"{head}{stopped}"
         return WhiplashReport(False, None, None, None, reason, peak_demand, **factors)
 
     row = int(np.argmax(tripped))
@@ -188,8 +258,29 @@ def detect_whiplash(
         else f"with joint {result.joint_names[fastest]} turning at {speed[fastest]:.3g} rad/s "
         f"and the tip {result.tip_error[row] * 1e3:.3g} mm from its path"
     )
-    reason = f"unstable from t = {time:.3f} s: joint {name} needs {size}, {context}{stopped}"
+    lost = f"; it lost its path: {lost}" if lost_path else ""
+    reason = f"unstable from t = {time:.3f} s: joint {name} needs {size}, {context}{lost}{stopped}"
     return WhiplashReport(True, time, name, criterion, reason, peak_demand, **factors)
+
+
+def _lost_path_text(result: SimResult, tip_error: np.ndarray, path_tolerance: float) -> str:
+    """Where the tip left its path, how far it went, and the task acceleration given up on the way."""
+    row = int(np.argmax(tip_error > path_tolerance))
+    largest = float(tip_error.max())
+    text = (
+        f"the tip is more than {path_tolerance * 1e3:g} mm from its path from t = {result.t[row]:.3f} s, "
+        f"{_millimetres(largest)} at most"
+    )
+    if result.infeasible_steps or result.max_task_error > 0.0:
+        text += (
+            f", with {result.infeasible_steps} infeasible steps and up to "
+            f"{result.max_task_error:.3g} m/s² of task acceleration given up"
+        )
+    return text
+
+
+def _millimetres(distance: float) -> str:
+    return f"{distance * 1e3:.4g} mm" if math.isfinite(distance) else "a non-finite distance"
 
 
 def _limited(result: SimResult) -> np.ndarray:

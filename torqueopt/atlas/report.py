@@ -177,6 +177,8 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             "whiplash": "#d62728",
             "too demanding": "#ff7f0e",
             "singular": "#7f7f7f",
+            "lost path": "#9467bd",
+            "stopped early": "black",
         }
         longest = max(summary["durations"])
         columns = min(len(resolvers), 4)

@@ -1,4 +1,4 @@
-r"""Verdicts: whiplash, a path that is simply too demanding, or stable.
+r"""Verdicts: whiplash, a path that is simply too demanding, a lost path, or stable.
 
 Two criteria are computed for every (movement, resolver) run, and both are
 kept in the results table:
@@ -48,7 +48,13 @@ The verdict (column ``verdict``)
     * ``"singular"``: the run reached a singular Jacobian, the task's or an
       algorithmic one such as the extended Jacobian's (and stopped there, at
       t = 0 too), before failing the 2x-limit rule;
-    * ``"stable"``: otherwise (the runaway figures are still in the row).
+    * ``"lost path"``: none of the above, but the tip left its path by more than
+      :data:`~torqueopt.whiplash.DEFAULT_PATH_TOLERANCE` (1 mm): a resolver under
+      hard torque bounds gives up task acceleration instead of torque;
+    * ``"stopped early"``: none of the above, but the run stopped before its end
+      (it diverged);
+    * ``"stable"``: otherwise (the runaway figures are still in the row): a run that
+      left its path or stopped short is never stable.
 
 The thresholds 2 and 10 were read off a first look at 60 random paths of the
 paper's arm (0.5 to 2 s) and the paper's three movements before the atlas
@@ -83,7 +89,7 @@ from ..checks import positive_number
 from ..result import SimResult
 from ..robot import Robot
 from ..self_motion import self_motion
-from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
+from ..whiplash import DEFAULT_LIMIT_FACTOR, DEFAULT_PATH_TOLERANCE, detect_whiplash
 
 __all__ = [
     "DEFAULT_ENERGY_FACTOR",
@@ -98,7 +104,7 @@ __all__ = [
 DEFAULT_PINV_FACTOR = 2.0
 #: runaway when the self-motion's peak kinetic energy exceeds this multiple of the task's.
 DEFAULT_ENERGY_FACTOR = 10.0
-VERDICTS = ("stable", "whiplash", "too demanding", "singular")
+VERDICTS = ("stable", "whiplash", "too demanding", "singular", "lost path", "stopped early")
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _PER_JOINT_FIELDS = ("torque_upper", "torque_lower")
 
@@ -209,6 +215,10 @@ def run_row(
         verdict = "whiplash" if runaway and not from_the_start else "too demanding"
     elif singular:
         verdict = "singular"
+    elif tip_error > DEFAULT_PATH_TOLERANCE or math.isnan(tip_error):
+        verdict = "lost path"
+    elif not result.completed:
+        verdict = "stopped early"
     else:
         verdict = "stable"
 

@@ -91,12 +91,13 @@ def paper_command(args: argparse.Namespace) -> int:
     for (movement, name), result in results.runs.items():
         violation = result.first_limit_violation
         report = results.whiplash[movement, name]
-        if report.unstable:
-            verdict = f"UNSTABLE from t = {report.time:.3f} s"
-        else:
-            verdict = "not judged" if np.isnan(report.peak_demand) else "stable"
+        verdict = _shouted(report.summary)
+        if report.verdict == "lost path":
+            verdict += (
+                f" (the tip {report.max_tip_error * 1e3:.4g} mm off, tolerance {report.path_tolerance * 1e3:g} mm)"
+            )
         if not result.completed:
-            verdict += f" (stopped early: {result.stop_reason})"
+            verdict = verdict.replace("stopped early", "stopped") + f" (stopped early: {result.stop_reason})"
         violation_text = f"t = {violation:.3f} s" if violation is not None else "no"
         print(f"{movement:<9}{name:<21}{result.peak_torque_ratio.max():18.2f}{violation_text:>16}  {verdict}")
     for study in studies:
@@ -118,7 +119,7 @@ def print_remedies(study: RemediesStudy) -> None:
     for row in study.entries():
         if row["resolver"] not in study.remedies:
             continue
-        when = "stable" if row["instability_time"] is None else f"UNSTABLE from t = {row['instability_time']:.3f} s"
+        when = _shouted(study.verdict(row["movement"], row["resolver"]))
         kept = (
             ""
             if row["null_space_cut_kept"] is None
@@ -127,6 +128,14 @@ def print_remedies(study: RemediesStudy) -> None:
         print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
     for key, answer in study.summary()["answers"].items():
         print(f"{key.replace('_', ' ')}: " + " ".join(answer["sentences"]))
+
+
+def _shouted(verdict: str) -> str:
+    """A verdict as the console table prints it: the bad ones' first words in capitals (UNSTABLE from t = ...)."""
+    for word in ("unstable", "lost path"):
+        if verdict.startswith(word):
+            return word.upper() + verdict[len(word) :]
+    return verdict
 
 
 def scenario_from_args(args: argparse.Namespace) -> tuple[PaperScenario, float, float]:

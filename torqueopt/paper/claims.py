@@ -196,5 +196,5 @@ def _when(time: float | None) -> str:
 
 
 def verdict_text(report: WhiplashReport) -> str:
-    """ "unstable from t = ... s" or "stable", for summaries and figure titles."""
-    return f"unstable from t = {report.time:.3f} s" if report.unstable else "stable"
+    """ "unstable from t = ... s", "lost path", "stopped early" or "stable", for summaries and figure titles."""
+    return report.summary

@@ -39,7 +39,7 @@ def answer_paragraph(study: LocalGlobalStudy) -> str:
     sentences = [
         (
             f"On the paper's long movement {len(failed)} of the {len(local_long)} local methods run here fail "
-            f"({', '.join(failed) if failed else 'none'}: unstable, diverged or over a torque limit)."
+            f"({', '.join(failed) if failed else 'none'}: unstable, diverged, off their path or over a torque limit)."
         ),
         (
             "Null-space, the local torque optimum, is nearly globally optimal while the movement is short and "
@@ -58,7 +58,7 @@ def answer_paragraph(study: LocalGlobalStudy) -> str:
         f"Weighted by torque range, the optimum of the long movement exceeds a limit "
         f"(peak {weighted.peak_ratio:.2f}) unless the bounds are imposed, and with them it peaks at "
         f"{weighted_bounded.peak_ratio:.4f} and is "
-        f"{'stable' if not weighted_bounded.unstable else 'unstable'}: a quadratic criterion, local or "
+        f"{weighted_bounded.verdict}: a quadratic criterion, local or "
         "global, does not by itself keep torques within limits."
     )
     global_rows = [row for row in study.rows if row.kind == "global"]

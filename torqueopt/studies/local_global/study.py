@@ -9,6 +9,7 @@ from ...optimal import OptimalResult
 from ...paper import PaperScenario
 from ...result import SimResult
 from ...robot import Robot
+from ...whiplash import DEFAULT_PATH_TOLERANCE
 from .figures import write_figures
 from .report import answer_paragraph, markdown_text
 
@@ -67,6 +68,7 @@ class Row:
         return (
             self.completed
             and not self.unstable
+            and self.max_tip_error <= DEFAULT_PATH_TOLERANCE
             and self.peak_ratio <= _WITHIN
             and self.status in ("completed", "converged")
         )
@@ -79,6 +81,8 @@ class Row:
             return "diverged" + (f", unstable from {self.unstable_time:.3f} s" if self.unstable else "")
         if self.unstable:
             return f"unstable from {self.unstable_time:.3f} s"
+        if self.max_tip_error > DEFAULT_PATH_TOLERANCE:
+            return f"lost path ({self.max_tip_error * 1e3:.4g} mm off)"
         if self.peak_ratio > _WITHIN:
             return "over a limit"
         return "problem-free"

@@ -33,7 +33,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
     null_long = study.report("long", reference)
     sentences.append(
         f"Without a kinematic term (μ = 0, {reference}) the long movement is "
-        + (f"unstable from t = {null_long.time:.3f} s" if null_long.unstable else "stable")
+        + null_long.summary
         + f" (peak |τ|/limit {_peak_ratio(study.run('long', reference)):.3g})."
     )
     result = {"sentences": sentences}

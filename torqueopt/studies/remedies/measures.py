@@ -86,7 +86,7 @@ def torque_cost(result: SimResult, torque_weight: str = "unit") -> float:
 
 
 def _stable(result: SimResult, report: WhiplashReport) -> bool:
-    return result.completed and not report.unstable
+    return result.completed and report.stable
 
 
 def _peak_ratio(result: SimResult) -> float:

@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ...whiplash import DEFAULT_PATH_TOLERANCE
 from .answers import percent
 from .measures import SWEPT_RESOLVER
 
@@ -23,8 +24,9 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
         (
             "Every registered remedy on the three movements, beside pinv and null-space. Torque cost "
             "C = ∫‖τ − τ_mid‖² dt over the applied torques; *cut kept*: (C_pinv − C)/(C_pinv − C_null-space), "
-            "the share of null-space's reduction against pinv a remedy keeps; unstable: the whiplash detector "
-            "above."
+            "the share of null-space's reduction against pinv a remedy keeps; verdict: the whiplash detector "
+            f"above, which also calls a run whose tip leaves its path by more than {DEFAULT_PATH_TOLERANCE * 1e3:g} mm "
+            "*lost path*, never stable."
         ),
     ]
     if study.skipped:
@@ -32,15 +34,14 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
     lines += [
         "",
         (
-            "| movement | resolver | peak \\|τ\\|/limit | C [N²·m²·s] | cut kept | unstable from [s] "
+            "| movement | resolver | peak \\|τ\\|/limit | C [N²·m²·s] | cut kept | verdict "
             "| max tip error [mm] | infeasible steps |"
         ),
         "|---|---|---|---|---|---|---|---|",
     ]
     for row in study.entries():
-        when = "-" if row["instability_time"] is None else f"**{row['instability_time']:.3f}**"
-        if not row["completed"]:
-            when += " (stopped early)"
+        verdict = study.verdict(row["movement"], row["resolver"])
+        when = verdict if verdict == "stable" else f"**{verdict}**"
         kept = "-" if row["null_space_cut_kept"] is None else percent(row["null_space_cut_kept"])
         lines.append(
             f"| {row['movement']} | {row['resolver']} | {row['peak_torque_ratio']:.3g} | {row['torque_cost']:.4g} "

@@ -132,6 +132,7 @@ class RemediesStudy:
                         "peak_torque_ratio": _peak_ratio(result),
                         "unstable": report.unstable,
                         "instability_time": report.time,
+                        "verdict": report.verdict,
                         "torque_cost": cost,
                         "torque_cost_vs_pinv": cost / pinv_cost if pinv_cost > 0 else None,
                         "null_space_cut_kept": _json_float(self.cut_kept(movement, name)),
@@ -154,11 +155,11 @@ class RemediesStudy:
         return linear_programming_answer(self)
 
     def verdict(self, movement: str, name: str) -> str:
-        """How a run ended, in words: stopped early (and why), unstable from when, or stable."""
+        """How a run ended, in words: stopped early (and why), unstable from when, lost its path, or stable."""
         result, report = self.run(movement, name), self.report(movement, name)
         if not result.completed:
             return f"stopped early ({result.stop_reason})"
-        return f"unstable from t = {report.time:.3f} s" if report.unstable else "stable"
+        return report.summary
 
     def summary(self) -> dict:
         """The study's entry in ``summary.json``."""
