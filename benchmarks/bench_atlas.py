@@ -163,7 +163,7 @@ def count_instructions() -> dict:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--write", metavar="FILE")
     parser.add_argument("--count", action="store_true", help="count instructions with callgrind instead of timing")

@@ -32,7 +32,7 @@ RESOLVERS = ("null-space", "damped-null-space", "bounded-torque", "minmax-torque
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--repeats", type=int, default=9, help="interleaved rounds (default 9)")
     args = parser.parse_args(argv)
     planar3 = torqueopt.load_robot("planar3")

@@ -80,7 +80,7 @@ def scipy_case(method):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--scipy", action="store_true", help="also time scipy's SLSQP and trust-constr (slow)")
     args = parser.parse_args()

@@ -256,7 +256,7 @@ def highs_lp_factory(problems):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--count", type=int, default=200, help="problems per robot (default 200)")
     parser.add_argument("--repeats", type=int, default=7, help="interleaved rounds (default 7)")
     args = parser.parse_args(argv)

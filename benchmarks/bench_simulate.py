@@ -248,7 +248,7 @@ def pin_to_cpu(cpu: int) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument(
         "--repeats", type=int, default=7, help="timed runs per case (default 7); the median is reported"
     )

@@ -59,7 +59,7 @@ def strip_by_hand() -> Figure:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
     cases = {"constrained layout": constrained_strip, "axes placed by hand": strip_by_hand}

@@ -76,7 +76,7 @@ def instructions(robot: str, task: str, resolver: str, steps: int) -> int:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument("--robot", default="planar3")
     parser.add_argument("--task", default="-", help="task for the robot (its default when omitted)")
     parser.add_argument("--resolver", action="append", help="resolver (repeatable); all four by default")

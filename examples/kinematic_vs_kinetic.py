@@ -112,7 +112,7 @@ def figures(results, out):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--out", help="directory for the torque figure")
     args = parser.parse_args()
     robot = torqueopt.load_robot("planar3")

@@ -21,7 +21,7 @@ import torqueopt
 from torqueopt import plots
 from torqueopt.whiplash import detect_whiplash
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
 parser.add_argument("--out", type=Path, help="folder for stick figures with dexterity ellipses")
 args = parser.parse_args()
 

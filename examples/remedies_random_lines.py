@@ -33,7 +33,7 @@ CASES = [
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--lines", type=int, default=30, help="number of random lines (default 30)")
     parser.add_argument("--duration", type=float, default=1.5, help="movement duration [s] (default 1.5)")
     parser.add_argument("--seed", type=int, default=7, help="random seed (default 7)")

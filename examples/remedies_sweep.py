@@ -26,7 +26,7 @@ def numbers(text: str) -> list[float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--torque-weight", choices=("unit", "range"), default="unit")
     parser.add_argument(
         "--kinematic-weights", default=KINEMATIC_WEIGHTS, help=f"μ values (default {KINEMATIC_WEIGHTS})"

@@ -24,7 +24,7 @@ import numpy as np
 import torqueopt
 from torqueopt import viewer
 
-parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
 parser.add_argument("--at", type=float, default=1.5, help="simulated time of the screenshot [s] (default 1.5)")
 parser.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "docs" / "whiplash.png"))
 parser.add_argument("--html", help="also keep the HTML file here")

@@ -20,7 +20,7 @@ from torqueopt.whiplash import detect_whiplash
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--duration", type=float, default=2.0, help="movement duration [s] (default 2.0)")
     parser.add_argument("--robots", default="panda,xarm7", help="comma-separated arms (default panda,xarm7)")
     args = parser.parse_args()

@@ -733,3 +733,39 @@ def test_a_run_that_leaves_its_path_is_a_lost_path_verdict_not_stable():
     assert row["max_tip_error"] > 0.5 and row["infeasible_steps"] > 1000
     assert row["verdict"] == "lost path"
     assert rows[0, "pinv"]["verdict"] == "stable" and rows[0, "pinv"]["max_tip_error"] < 1e-3
+
+
+@pytest.mark.parametrize("address", ["notaurl", "tcp://", "http://10.0.0.5:8786", "tcp://host:port"])
+def test_a_scheduler_that_is_no_address_is_refused_before_any_work(tmp_path, capsys, address):
+    """--scheduler notaurl raised distributed's ValueError after the population was drawn."""
+    from torqueopt.cli import main
+
+    out = tmp_path / "atlas"
+    assert main(["atlas", "--robot", "planar3", "--paths", "2", "--durations", "0.2", "--scheduler", address,
+                 "--out", str(out)]) == 2  # fmt: skip
+    assert capsys.readouterr().err == (
+        f"torqueopt atlas: error: scheduler '{address}' is not a Dask scheduler address; "
+        "give tcp://HOST:PORT (or tls://HOST:PORT), e.g. tcp://10.0.0.5:8786\n"
+    )
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_ctrl_c_during_a_dask_atlas_is_one_line_from_the_main_process_only(tmp_path):
+    """Ctrl-C reaches the whole process group: the two Dask workers printed a KeyboardInterrupt traceback each
+    (about 30 lines) beside the main process's one-line 'interrupted'."""
+    out = tmp_path / "interrupted"
+    command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "200", "--durations",
+               "2", "--chunk-size", "8", "--workers", "2", "--no-progress", "--no-figures", "--out", str(out)]  # fmt: skip
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               start_new_session=True, text=True)  # fmt: skip
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None and not list((out / "chunks").glob("chunk-*")):
+        time.sleep(0.2)  # the workers are up once a chunk has landed
+    assert process.poll() is None, "the atlas ended before it could be interrupted"
+    os.killpg(process.pid, signal.SIGINT)  # what the terminal does on Ctrl-C
+    _, err = process.communicate(timeout=120)
+    time.sleep(1.0)  # a worker's traceback would come after the main process has gone
+    assert process.returncode == 130
+    assert err == "torqueopt atlas: interrupted\n"

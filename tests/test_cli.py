@@ -286,3 +286,63 @@ def test_resolvers_command_lists_every_resolver_and_option(capsys):
         main(["run", "--help"])
     help_text = " ".join(capsys.readouterr().out.split())
     assert "--option NAME=VALUE" in help_text and "weighted-null-space: weight [1/(N·m)²]" in help_text
+
+
+def test_no_parser_takes_an_abbreviated_option(capsys):
+    """argparse took any unambiguous prefix (--dur for --durations or --duration): every
+    parser of the CLI, the examples and the benchmarks is built with allow_abbrev=False."""
+    import re
+    from pathlib import Path
+
+    from torqueopt.cli import build_parser
+
+    parser = build_parser()
+    subparsers = next(action for action in parser._actions if action.choices and hasattr(action, "_name_parser_map"))
+    assert not parser.allow_abbrev
+    for name, subparser in subparsers.choices.items():
+        assert not subparser.allow_abbrev, name
+    for arguments, message in [
+        (["paper", "--dur", "2,1", "--out", "x"], "torqueopt paper: error: unrecognized arguments: --dur 2,1"),
+        (["run", "--robot", "planar3", "--resolver", "pinv", "--direction", "1,1", "--dur", "2"],
+         "torqueopt run: error: unrecognized arguments: --dur 2"),
+    ]:  # fmt: skip
+        with pytest.raises(SystemExit) as stop:
+            main(arguments)
+        assert stop.value.code == 2
+        assert capsys.readouterr().err == f"{message} (see {message.split(':')[0]} --help)\n"
+    root = Path(__file__).resolve().parent.parent
+    for script in [*root.glob("examples/*.py"), *root.glob("benchmarks/*.py")]:
+        for call in re.findall(r"ArgumentParser\((.*?)\)\n", script.read_text(), re.S):
+            assert "allow_abbrev=False" in call, script.name
+
+
+def _process(tmp_path, arguments, **environment):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {**os.environ, "PYTHONPATH": root, **environment}
+    return subprocess.run([sys.executable, "-m", "torqueopt", *arguments], capture_output=True, cwd=tmp_path,
+                          env=env, timeout=120, check=False)  # fmt: skip
+
+
+def test_an_ascii_terminal_gets_the_summary_with_replacements_not_a_traceback(tmp_path):
+    """PYTHONIOENCODING=ascii raised UnicodeEncodeError at the first N·m, after the file was written."""
+    process = _process(tmp_path, ["run", *PAPER, "--resolver", "pinv", "--duration", "0.2", "--out", "run.csv"],
+                       PYTHONIOENCODING="ascii")  # fmt: skip
+    assert process.returncode == 0, process.stderr
+    assert process.stderr == b""
+    out = process.stdout.decode("ascii")
+    assert "peak |tau| [N?m]" in out and out.endswith("wrote run.csv and run.csv.json\n")
+
+
+def test_an_unknown_matplotlib_backend_is_one_line_before_any_work(tmp_path):
+    """MPLBACKEND=nonexistent made matplotlib's import raise ValueError inside the plot."""
+    assert (
+        _process(tmp_path, ["run", *PAPER, "--resolver", "pinv", "--duration", "0.2", "--out", "run.csv"]).returncode
+        == 0
+    )
+    process = _process(tmp_path, ["plot", "run.csv"], MPLBACKEND="nonexistent")
+    assert process.returncode == 2
+    assert process.stderr.decode() == (
+        "torqueopt plot: error: MPLBACKEND='nonexistent' is not a matplotlib backend; unset it or give one such as "
+        "Agg (torqueopt draws its figures on its own canvas)\n"
+    )
+    assert not (tmp_path / "run.png").exists()

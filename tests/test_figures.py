@@ -59,7 +59,7 @@ def test_dpi_sets_the_png_resolution(saved_run, tmp_path):
     [
         (["--out", "FIG.jpg"], "figure '.*fig.jpg' has '.jpg'; give a name ending in .png, .pdf, .svg"),
         (["--out", "FIG"], "has no suffix; give a name ending in .png, .pdf, .svg"),
-        (["--dpi", "0"], "--dpi: 0 must be a positive finite number"),
+        (["--dpi", "0"], r"--dpi: 0 must be a number in \(0, 1200\]"),
     ],
 )
 def test_an_unknown_format_or_bad_dpi_is_refused_before_work(saved_run, tmp_path, capsys, arguments, message):

@@ -294,7 +294,8 @@ def test_unconverged_solve_says_so(paper_arm):
         ({"hessian": "exact"}, "hessian 'exact' is not one of"),
         ({"weight": "heavy"}, "unknown weight 'heavy': choose one of identity, range"),
         ({"grid_step": 0.0}, "grid_step=0.0 must be a positive finite number"),
-        ({"max_iterations": 0}, "max_iterations=0 must be a whole number >= 1"),
+        ({"max_iterations": 0}, "max_iterations=0 must be a whole number from 1 to 100,000"),
+        ({"max_iterations": 2147483648}, "max_iterations=2147483648 must be a whole number from 1 to 100,000"),
         ({"dt": 0.0007}, "does not divide the duration"),
     ],
 )
@@ -354,6 +355,11 @@ def test_cli_exits_3_when_the_solver_stops_short(capsys):
         (["--weight", "1,2"], "--weight has 2 values but needs 3"),
         (["--grid-step", "0"], "--grid-step: 0 must be a positive finite number"),
         (["--max-iterations", "many"], "--max-iterations: 'many' is not a whole number"),
+        (
+            ["--max-iterations", "2147483648"],
+            "error: --max-iterations: 2147483648 must be a whole number from 1 to 100,000\n",
+        ),
+        (["--max-iterations", "1e30"], "error: --max-iterations: 1e30 must be a whole number from 1 to 100,000\n"),
         (["--warm-start", "psychic"], "unknown resolver 'psychic': choose one of"),
         (["--direction", "1,1,0"], "trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"),
     ],

@@ -62,6 +62,15 @@ def test_replace_gives_another_scenario():
         ({"q0": (0.0, math.nan, 0.0)}, "q0 [0.0, nan, 0.0] must be finite numbers"),
         ({"torque_limit": (54.0, 0.0, 6.0)}, "torque_limit [54.0, 0.0, 6.0] must be positive numbers [N·m]"),
         ({"dt": 1.0}, "dt=1.0 s is longer than the shortest movement, 0.5 s"),
+        (
+            {"durations": (2.0, 1.0, 0.5)},
+            "durations [2.0, 1.0, 0.5] must increase from the short movement to the long one, e.g. 0.5,1.25,2",
+        ),
+        (
+            {"durations": (1.0, 2.0, 1e6)},
+            "duration 1e+06 s at dt 0.001 s needs 1e+09 steps, more than the limit of "
+            "1,000,000 steps; give a larger dt or a shorter duration",
+        ),
     ],
 )
 def test_bad_scenarios_are_refused(changes, message):
@@ -250,6 +259,15 @@ def test_paper_options_make_the_scenario():
     [
         (["--durations", "0.5,2"], "--durations has 2 values but needs 3"),
         (["--durations", "0.5,-1,2"], "--durations: -1.0 must be a positive finite number"),
+        (
+            ["--durations", "2,1,0.5"],
+            "durations [2.0, 1.0, 0.5] must increase from the short movement to the long one, e.g. 0.5,1.25,2",
+        ),
+        (
+            ["--durations", "1,2,1e6"],
+            "duration 1e+06 s at dt 0.001 s needs 1e+09 steps, more than the limit of "
+            "1,000,000 steps; give a larger dt or a shorter duration",
+        ),
         (["--q0=1,2"], "--q0 has 2 values but needs 3"),
         (["--direction", "1,x"], "--direction: 'x' is not a number (give comma-separated numbers, e.g. 1,1)"),
         (["--limit-factor", "0"], "--limit-factor: 0 must be a positive finite number"),

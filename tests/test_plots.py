@@ -299,3 +299,33 @@ def test_plot_command_refuses_missing_and_malformed_files(saved_runs, tmp_path, 
         assert err.startswith(f"torqueopt plot: error: {message}"), err
         assert err.count("\n") == 1, err
         assert not path.with_suffix(".png").exists()
+
+
+def test_plot_command_refuses_hostile_files_and_values_in_one_line(saved_runs, tmp_path, capsys):
+    """A header without rows (was IndexError), an inf torque (was OverflowError), --dpi 1e6 and a title that is
+    bad mathtext (were tracebacks): one line each, exit 2, no figure."""
+    good = (saved_runs / "short.csv").read_text().splitlines()
+    sidecar = (saved_runs / "short.csv.json").read_text()
+    empty = tmp_path / "empty.csv"
+    empty.write_text(good[0] + "\n")
+    (tmp_path / "empty.csv.json").write_text(sidecar)
+    header = good[0].split(",")
+    column = next(i for i, name in enumerate(header) if name.startswith("tau"))
+    row = good[5].split(",")
+    row[column] = "inf"
+    infinite = tmp_path / "inf.csv"
+    infinite.write_text("\n".join([*good[:5], ",".join(row), *good[6:]]) + "\n")
+    (tmp_path / "inf.csv.json").write_text(sidecar)
+    cases = [
+        ([str(empty)], f"run file '{empty}' has no rows: nothing to plot"),
+        ([str(infinite)], f"run file '{infinite}' holds an infinite torque (inf N·m at t = 0.004 s, joint "
+         f"joint{header[column][3:]}): nothing to plot"),
+        ([str(saved_runs / "short.csv"), "--out", str(tmp_path / "d.png"), "--dpi", "1e6"],
+         "--dpi: 1e6 must be a number in (0, 1200]"),
+        ([str(saved_runs / "short.csv"), "--out", str(tmp_path / "t.png"), "--title", "$\\frac{1}{$"],
+         "--title '$\\frac{1}{$' is not valid mathtext (put math between $...$, or escape a literal $ as \\$)"),
+    ]  # fmt: skip
+    for arguments, message in cases:
+        assert main(["plot", *arguments]) == 2, arguments
+        assert capsys.readouterr().err == f"torqueopt plot: error: {message}\n"
+    assert not list(tmp_path.glob("*.png"))

@@ -119,3 +119,30 @@ def test_every_catalogue_arm_passes_the_checks():
         with warnings.catch_warnings():
             warnings.simplefilter("error", TorqueoptWarning)
             assert torqueopt.load_robot(name).nv >= 3
+
+
+FLOATING_BASE = (
+    '<link name="base">',
+    '<link name="world_base"><inertial><mass value="5.0"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" '
+    'izz="0.1"/></inertial></link><joint name="float" type="floating"><parent link="world_base"/>'
+    '<child link="base"/></joint><link name="base"><inertial><mass value="5.0"/><inertia ixx="0.1" ixy="0" '
+    'ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>',
+)
+
+
+def test_a_floating_base_in_the_task_chain_is_refused_in_one_line(tmp_path, capsys):
+    """A floating (or planar) joint has degrees of freedom no actuator drives: with --task xy the run gave
+    LinAlgError at the default start, or torques on the free base and a "stable" verdict."""
+    from torqueopt.cli import main
+
+    path = variant(tmp_path, *FLOATING_BASE)
+    code = main(["run", "--robot", str(path), "--frame", "tip", "--task", "xy", "--resolver", "pinv",
+                 "--direction", "1,1", "--duration", "0.1"])  # fmt: skip
+    assert code == 2
+    assert capsys.readouterr().err == (
+        "torqueopt run: error: joint 'float' of robot 'arm' is a floating joint (6 degrees of freedom that no "
+        "actuator drives): torqueopt resolves fixed-base arms, every joint driven; make it a fixed joint in the "
+        "URDF, or lock it with --lock float\n"
+    )
+    robot = torqueopt.load_robot(str(path), frame="tip", task="xy", lock=["float"])
+    assert robot.nv == 3

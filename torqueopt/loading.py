@@ -88,6 +88,7 @@ def load_robot(
         model = full_model.copy()
     if model.nv == 0:
         raise InvalidInput(f"frame '{frame}' of robot '{robot_source.name}' is not moved by any joint")
+    _refuse_free_joints(model, robot_source.name)
     check_chain_moves_mass(robot_source.urdf, [model.names[j] for j in range(1, model.njoints)])
 
     default_configuration = _reduce_configuration(full_model, model, full_reference)
@@ -106,6 +107,23 @@ def load_robot(
     )
     check_task_rank(robot)  # a task the chain can never realise is an input mistake, not a failed run
     return robot
+
+
+#: Joints whose degrees of freedom no actuator drives: a floating base, a planar base.
+_FREE_JOINTS = {"JointModelFreeFlyer": "floating", "JointModelPlanar": "planar"}
+
+
+def _refuse_free_joints(model: pin.Model, robot_name: str) -> None:
+    """Every joint left in the model is driven by a torque; a free base would get one and be resolved as if driven."""
+    for j in range(1, model.njoints):
+        kind = _FREE_JOINTS.get(model.joints[j].shortname())
+        if kind is not None:
+            name = model.names[j]
+            raise InvalidInput(
+                f"joint '{name}' of robot '{robot_name}' is a {kind} joint ({model.joints[j].nv} degrees of freedom "
+                f"that no actuator drives): torqueopt resolves fixed-base arms, every joint driven; make it a fixed "
+                f"joint in the URDF, or lock it with --lock {name}"
+            )
 
 
 def _build_model(urdf: Path, mimic: bool) -> pin.Model:

@@ -324,7 +324,7 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
 
 
 def step_budget(
-    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str = "max_steps", row_bytes=None
+    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str | None = "max_steps", row_bytes=None
 ) -> int:
     """The steps of a run of ``duration`` [s] at ``dt`` [s], checked before any work starts.
 

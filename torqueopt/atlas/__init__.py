@@ -65,6 +65,7 @@ from .sweep import (
     require,
     resolvers_from,
     run_chunks,
+    scheduler_address,
 )
 from .verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR, VERDICTS, Thresholds
 
@@ -182,6 +183,7 @@ def run_atlas(
         grid_directions=grid_directions,
     )  # fmt: skip
     thresholds = Thresholds(limit_factor, pinv_factor, energy_factor)
+    scheduler = scheduler_address(scheduler)
     resolver_objects = resolvers_from(resolvers)
     chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
     workers = None if workers is None else whole_number(workers, "workers", 0, 1024)

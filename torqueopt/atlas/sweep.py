@@ -34,6 +34,8 @@ import hashlib
 import json
 import math
 import os
+import re
+import signal
 import sys
 import threading
 from collections.abc import Iterator
@@ -333,26 +335,55 @@ def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_path
         bar.close()
 
 
+_SCHEDULER_ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):[0-9]{1,5}$")
+
+
+def scheduler_address(value) -> str | None:
+    """``value`` when it reads as a Dask scheduler address (``tcp://HOST:PORT``, ``tls://``, or ``HOST:PORT``), else
+    InvalidInput; None stays None (a local cluster)."""
+    if value is None:
+        return None
+    text = str(value).strip()
+    if not _SCHEDULER_ADDRESS.match(text) or not 0 < int(text.rsplit(":", 1)[1]) < 65536:
+        raise InvalidInput(
+            f"scheduler '{value}' is not a Dask scheduler address; give tcp://HOST:PORT (or tls://HOST:PORT), "
+            "e.g. tcp://10.0.0.5:8786"
+        )
+    return text
+
+
 def _client(distributed, scheduler, workers):
     """A Dask client: to ``scheduler`` when given, else to a new LocalCluster (one process per core)."""
     if scheduler is not None:
         try:
             return distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
-        except OSError as error:
+        except (OSError, ValueError) as error:
             raise InvalidInput(f"cannot reach the Dask scheduler at '{scheduler}': {error}") from None
     import logging
 
     count = workers if workers else (os.cpu_count() or 1)
-    # Everything on the loopback interface: the embedded cluster serves no one else.
-    cluster = distributed.LocalCluster(
-        n_workers=count,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address="127.0.0.1:0",  # its HTTP server (health, metrics) on a free loopback port
-        silence_logs=logging.ERROR,
-    )
+    # Ctrl-C goes to the whole process group: the worker processes are started ignoring SIGINT (a disposition
+    # they inherit, and under which Python installs no KeyboardInterrupt handler), so only this process hears it
+    # and closes the cluster, instead of every worker printing its own KeyboardInterrupt traceback.
+    interrupt = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    try:
+        # Everything on the loopback interface: the embedded cluster serves no one else.
+        cluster = distributed.LocalCluster(
+            n_workers=count,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",  # its HTTP server (health, metrics) on a free loopback port
+            silence_logs=logging.ERROR,
+        )
+    finally:
+        if interrupt is not None:
+            signal.signal(signal.SIGINT, interrupt)
     return distributed.Client(cluster), cluster
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
 
 
 def _progress_bar(total: int, done: int, enabled: bool):

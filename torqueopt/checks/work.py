@@ -25,7 +25,8 @@ def bounded_count(
         limit: the largest count accepted.
         what: the request, e.g. ``"duration 1e+09 s at dt 0.001 s"``.
         noun: the items, plural, e.g. ``"steps"``.
-        option: the option that raises the limit, e.g. ``"--max-steps"`` or ``"max_steps"``.
+        option: the option that raises the limit, e.g. ``"--max-steps"`` or ``"max_steps"``; None where the
+            caller has no such option (the message then offers only ``remedy``).
         remedy: appended as ``"; remedy"``, e.g. "or give a larger dt".
         item_bytes: memory one item takes [bytes]; when given, the message
             says how much memory the request would need.
@@ -41,8 +42,11 @@ def bounded_count(
         raise InvalidInput(f"{option}={limit} must be a positive whole number")
     if not (math.isfinite(count) and count <= limit):
         shown = f"{count:.4g}" if math.isfinite(count) else "infinitely many"
-        extra = f"; {remedy}" if remedy else ""
         memory = f" (about {_bytes_text(count * item_bytes)} of memory)" if item_bytes and math.isfinite(count) else ""
+        if option is None:
+            extra = f"; {remedy.removeprefix('or ')}" if remedy else ""
+            raise InvalidInput(f"{what} needs {shown} {noun}{memory}, more than the limit of {limit:,} {noun}{extra}")
+        extra = f"; {remedy}" if remedy else ""
         raise InvalidInput(
             f"{what} needs {shown} {noun}{memory}, more than the limit of {limit:,} {noun} "
             f"(raise it with {option}){extra}"

@@ -31,7 +31,12 @@ _COMMANDS = ("run", "robots", "resolvers", "play", "paper", "plot", "atlas", "op
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (and exit code 2), not usage text."""
+    """argparse, but a usage error is one line (and exit code 2), not usage text, and no option is taken
+    by an abbreviation (``--dur`` for ``--durations``): a prefix is an unknown option."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -69,6 +74,11 @@ def main(argv: list[str] | None = None) -> int:
     # result: commands write their files before they print, and a closed
     # stdout only swallows the rest of what they print, so the command runs
     # to its end and exits with its own code.
+    _replace_what_the_terminal_cannot_show()
+    backend_problem = _unusable_matplotlib_backend()
+    if backend_problem:
+        print(f"torqueopt {args.command}: error: {backend_problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     stdout = sys.stdout
     sys.stdout = _ForgivingStdout(stdout)
     show_warning = warnings.showwarning
@@ -85,6 +95,38 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = show_warning
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+def _replace_what_the_terminal_cannot_show() -> None:
+    """On a stream whose encoding lacks the output's characters (N·m, σ, →; PYTHONIOENCODING=ascii), print them
+    as '?' rather than fail after the work is done."""
+    for stream in (sys.stdout, sys.stderr):
+        encoding = getattr(stream, "encoding", None) or "utf-8"
+        try:
+            "·σ→²".encode(encoding)
+        except (UnicodeEncodeError, LookupError):
+            reconfigure = getattr(stream, "reconfigure", None)
+            if reconfigure is not None:
+                reconfigure(errors="replace")
+
+
+def _unusable_matplotlib_backend() -> str | None:
+    """What is wrong with MPLBACKEND when matplotlib refuses it (its import then fails with ValueError), else None.
+
+    torqueopt draws on Agg canvases of its own and never needs the backend, but an invalid one breaks the import."""
+    backend = os.environ.get("MPLBACKEND")
+    if not backend:
+        return None
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return None  # the commands that draw say that matplotlib is missing
+    except ValueError:
+        return (
+            f"MPLBACKEND={backend!r} is not a matplotlib backend; unset it or give one such as Agg "
+            "(torqueopt draws its figures on its own canvas)"
+        )
+    return None
 
 
 def _note(command: str, fallback, message, category, *args, **kwargs) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
 from ..optimal import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
+from ..optimal.whole_path import MAX_ITERATIONS
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
@@ -111,7 +112,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     dt = parse_positive(args.dt, "dt")
     grid_step = parse_positive(args.grid_step, "grid-step")
     tolerance = parse_positive(args.tolerance, "tolerance")
-    max_iterations = parse_whole(args.max_iterations, "max-iterations", minimum=1)
+    max_iterations = parse_whole(args.max_iterations, "max-iterations", minimum=1, maximum=MAX_ITERATIONS)
     max_time = None if args.max_time is None else parse_positive(args.max_time, "max-time")
     max_nonzeros = parse_whole(args.max_nonzeros, "max-nonzeros", minimum=1)
     robot = robot_from_args(args)

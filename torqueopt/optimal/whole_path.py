@@ -55,6 +55,8 @@ __all__ = ["DEFAULT_GRID_STEP", "DEFAULT_MAX_NONZEROS", "ENDS", "HESSIANS", "Opt
 ENDS = ("rest", "free")
 #: Hessians of the Lagrangian: ``auto`` tries Gauss-Newton, then L-BFGS from where it stopped.
 HESSIANS = ("auto", "gauss-newton", "limited-memory")
+#: The most IPOPT iterations a run may take (IPOPT's own counter is a 32-bit int: 2**31 failed inside casadi).
+MAX_ITERATIONS = 100_000
 #: What ``auto`` tries, in order, and the statuses after which a second try cannot help.
 _AUTO = ("gauss-newton", "limited-memory")
 _FINAL = ("converged", "infeasible", "time limit")
@@ -158,7 +160,7 @@ def optimize(
     tolerance = positive_number(tolerance, "tolerance")
     if max_time is not None:
         max_time = positive_number(max_time, "max_time", "s")
-    max_iterations = whole_number(max_iterations, "max_iterations", minimum=1)
+    max_iterations = whole_number(max_iterations, "max_iterations", minimum=1, maximum=MAX_ITERATIONS)
     max_nonzeros = whole_number(max_nonzeros, "max_nonzeros", minimum=1)
     if robot.m > robot.nv:
         raise InvalidInput(

@@ -22,6 +22,7 @@ from ..checks import finite_values, joint_vector, positive_number
 from ..errors import InvalidInput
 from ..loading import load_robot
 from ..robot import Robot
+from ..simulate import step_budget
 from ..trajectory import StraightLine
 
 __all__ = ["MOVEMENTS", "PAPER", "PAPER_RESOLVERS", "PaperScenario"]
@@ -71,6 +72,14 @@ class PaperScenario:
             object.__setattr__(self, name, positive_number(getattr(self, name), name))
         if self.dt > min(durations):
             raise InvalidInput(f"dt={self.dt} s is longer than the shortest movement, {min(durations)} s")
+        if any(later <= earlier for earlier, later in zip(durations, durations[1:])):
+            # The movements are named by their order: a 2 s movement first would be called "short".
+            raise InvalidInput(
+                f"durations {list(durations)} must increase from the short movement to the long one, e.g. 0.5,1.25,2"
+            )
+        for duration in durations:
+            # The paper runs at the default step budget and has no option to raise it.
+            step_budget(duration, self.dt, option=None)
 
     def replace(self, **changes) -> PaperScenario:
         """The same scenario with some fields changed, e.g. ``PAPER.replace(durations=(0.4, 1.0, 1.6))``."""

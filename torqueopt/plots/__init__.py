@@ -23,7 +23,7 @@ The paper's figures are drawn in :mod:`torqueopt.paper.figures`, each
 study's in its own package (:mod:`torqueopt.studies`).
 """
 
-from .canvas import DEFAULT_DPI, FIGURE_FORMATS, figure_format
+from .canvas import DEFAULT_DPI, FIGURE_FORMATS, MAX_DPI, check_title, figure_format, parse_dpi
 from .comparison import plot_motion, plot_tip_path, plot_torques
 from .dexterity import dexterity_ellipses, draw_dexterity
 from .panels import RESOLVER_COLORS
@@ -32,6 +32,9 @@ from .stick import arm_points, plot_stick_strip
 
 __all__ = [
     "DEFAULT_DPI",
+    "MAX_DPI",
+    "check_title",
+    "parse_dpi",
     "FIGURE_FORMATS",
     "RESOLVER_COLORS",
     "figure_format",

@@ -20,6 +20,9 @@ from ..io import atomic_write
 
 __all__ = [
     "DEFAULT_DPI",
+    "MAX_DPI",
+    "check_title",
+    "parse_dpi",
     "FIGURE_FORMATS",
     "SYMLOG_ABOVE",
     "few_ticks",
@@ -31,6 +34,9 @@ __all__ = [
 
 #: Resolution of raster (PNG) figures [dots per inch]; PDF and SVG are vector output.
 DEFAULT_DPI = 170
+#: The finest resolution a figure takes: a 10-inch figure at 1200 dpi is 12,000 pixels wide, within
+#: what Agg draws (2¹⁶ pixels a side); 1e6 dpi made matplotlib raise.
+MAX_DPI = 1200
 #: The figure formats, by file suffix: the suffix of the path names the format.
 FIGURE_FORMATS = ("png", "pdf", "svg")
 #: No tick label is smaller than this [pt], so a figure stays readable when printed at its size.
@@ -104,3 +110,29 @@ def save_figure(fig, path: str | os.PathLike, dpi: float | None = None) -> Path:
     resolution = DEFAULT_DPI if dpi is None else dpi
     atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=resolution))
     return path
+
+
+def parse_dpi(text) -> float:
+    """The resolution of option ``--dpi``: a number in (0, :data:`MAX_DPI`]."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"--dpi: '{text}' is not a number") from None
+    if not (0.0 < value <= MAX_DPI):
+        raise InvalidInput(f"--dpi: {text} must be a number in (0, {MAX_DPI}]")
+    return value
+
+
+def check_title(title: str) -> None:
+    """Refuse a title whose math (text between pairs of $) matplotlib cannot parse, before any figure is drawn."""
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+
+    if not cbook.is_math_text(title):
+        return
+    try:
+        MathTextParser("path").parse(title)
+    except ValueError:
+        raise InvalidInput(
+            f"--title '{title}' is not valid mathtext (put math between $...$, or escape a literal $ as \\$)"
+        ) from None
