@@ -47,7 +47,7 @@ def first_failing_level(verdicts: dict[float, list[str]]) -> float | None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--robots", default="xarm7,panda", help="comma-separated arms (default xarm7,panda)")
     parser.add_argument("--resolvers", default=",".join((*PAPER_RESOLVERS, *REMEDIES)),
                         help="comma-separated resolvers (default: the paper's four and the remedies)")  # fmt: skip
