@@ -202,7 +202,9 @@ def mujoco_options(
 class MujocoPlant:
     """A MuJoCo model of ``robot``'s arm as the plant; see the module docstring for the model and options.
 
-    One plant holds one MuJoCo data: give each thread its own plant.
+    One plant holds one MuJoCo data: give each thread its own plant. While a
+    step runs, MuJoCo's warning handler (process-wide) is the plant's, so that
+    MuJoCo writes no ``MUJOCO_LOG.TXT``; the previous handler is restored after.
 
     Args:
         robot: the controller's :class:`~torqueopt.robot.Robot`; the plant's
