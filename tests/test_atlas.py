@@ -54,6 +54,25 @@ def test_wilson_interval_solves_the_score_equation(successes, trials):
     assert high == pytest.approx(min(roots[1], 1.0), abs=1e-12)
 
 
+def wilson_closed_form(k, n, z=1.959963984540054):
+    """The Wilson score interval as torqueopt.atlas.stats writes it (z: the normal quantile of the level)."""
+    p = k / n
+    denominator = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def test_wilson_interval_by_scipy_is_the_closed_form_score_interval():
+    """For every k of n <= 60, a few large n, and another level."""
+    cases = [(k, n) for n in range(1, 61) for k in range(n + 1)] + [(37, 1000), (0, 10000), (9999, 10000), (5, 40000)]
+    for k, n in cases:
+        assert wilson_interval(k, n) == pytest.approx(wilson_closed_form(k, n), abs=1e-14), (k, n)
+    assert wilson_interval(3, 10, confidence_level=0.99) == pytest.approx(
+        wilson_closed_form(3, 10, z=2.5758293035489004), abs=1e-14
+    )
+
+
 def test_wilson_interval_known_values():
     # 0 of 10: upper end z²/(n + z²) = 0.27753; 5 of 10: 0.5 ± 0.26342 (Wilson 1927 / Agresti & Coull 1998 tables).
     assert wilson_interval(0, 10) == pytest.approx((0.0, 0.2775328), abs=1e-6)

@@ -9,7 +9,8 @@ For k successes in n trials the Wilson score interval at level
     \qquad \hat p = k/n,
 
 which, unlike the normal approximation, stays inside [0, 1] and is not
-empty at k = 0 or k = n.
+empty at k = 0 or k = n. SciPy computes it
+(``scipy.stats.binomtest(k, n).proportion_ci(method="wilson")``).
 
 Every claim is computed twice, once for each instability criterion: the
 2x-limit rule (column ``unstable``) and the whiplash verdict
@@ -21,10 +22,18 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["CRITERIA", "Z_95", "Proportion", "claims", "proportion", "unstable_fractions", "wilson_interval"]
+__all__ = [
+    "CONFIDENCE_LEVEL",
+    "CRITERIA",
+    "Proportion",
+    "claims",
+    "proportion",
+    "unstable_fractions",
+    "wilson_interval",
+]
 
-#: The 97.5 % quantile of the standard normal distribution.
-Z_95 = 1.959963984540054
+#: The confidence level of every interval the atlas reports.
+CONFIDENCE_LEVEL = 0.95
 #: Instability criteria: column label -> description.
 CRITERIA = {
     "unstable": "2x-limit rule (a joint needs more than twice its torque limit)",
@@ -32,17 +41,16 @@ CRITERIA = {
 }
 
 
-def wilson_interval(successes: int, trials: int, z: float = Z_95) -> tuple[float, float]:
-    """Wilson score interval (low, high) for ``successes`` out of ``trials``; (nan, nan) when trials = 0."""
+def wilson_interval(successes: int, trials: int, confidence_level: float = CONFIDENCE_LEVEL) -> tuple[float, float]:
+    """Wilson score interval (low, high) for ``successes`` out of ``trials``, by SciPy; (nan, nan) when trials = 0."""
     if trials <= 0:
         return math.nan, math.nan
     if not 0 <= successes <= trials:
         raise ValueError(f"successes={successes} must be between 0 and trials={trials}")
-    p = successes / trials
-    denominator = 1.0 + z * z / trials
-    centre = (p + z * z / (2 * trials)) / denominator
-    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denominator
-    return max(0.0, centre - half), min(1.0, centre + half)
+    from scipy.stats import binomtest
+
+    interval = binomtest(int(successes), int(trials)).proportion_ci(confidence_level=confidence_level, method="wilson")
+    return float(interval.low), float(interval.high)
 
 
 @dataclass(frozen=True)
