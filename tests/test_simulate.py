@@ -63,15 +63,15 @@ def test_csv_has_the_named_columns_and_reads_back(tmp_path, short_pinv):
     np.testing.assert_allclose(back.torque_upper, [54, 24, 6])
 
 
-def test_files_written_before_the_task_columns_still_read_back(tmp_path, short_pinv):
-    """A CSV without the task_error and infeasible columns, and an .npz without those arrays (and
-    with the inverse condition under its old name), read back as runs that realised their task at every step."""
+def test_a_run_file_without_the_task_columns_is_refused_as_malformed(tmp_path, short_pinv):
+    """Every file this package writes has task_error and infeasible: one without them was not written by it."""
     path = short_pinv.to_csv(tmp_path / "run.csv")
     lines = path.read_text().splitlines()
     path.write_text("\n".join(line.rsplit(",", 2)[0] for line in lines) + "\n")
-    back = torqueopt.load_result(path)
-    np.testing.assert_allclose(back.tau, short_pinv.tau, rtol=1e-9, atol=1e-12)
-    assert back.task_error.shape == (501,) and not back.task_error.any() and not back.infeasible.any()
+    with pytest.raises(
+        torqueopt.InvalidInput, match=r"its header has no column task_error, infeasible; a run of 3 joints"
+    ):
+        torqueopt.load_result(path)
     archive = tmp_path / "old.npz"
     arrays = {name: getattr(short_pinv, name) for name in ("t", "q", "joint_angles", "v", "acceleration", "tau", "x",
                                                             "x_ref", "torque_upper", "torque_lower")}  # fmt: skip
@@ -80,9 +80,8 @@ def test_files_written_before_the_task_columns_still_read_back(tmp_path, short_p
                                                                                        "joint_names", "duration")}  # fmt: skip
     metadata.update(dt=short_pinv.dt, stop_reason=None, stop_time=None)
     np.savez_compressed(archive, metadata=json.dumps(metadata), **arrays)
-    old = torqueopt.load_result(archive)
-    assert old.max_task_error == 0.0 and old.infeasible_steps == 0 and old.resolver_options is None
-    np.testing.assert_array_equal(old.jacobian_inverse_condition, short_pinv.jacobian_inverse_condition)
+    with pytest.raises(torqueopt.InvalidInput, match=r"is malformed \(missing field .*jacobian_inverse_condition"):
+        torqueopt.load_result(archive)
 
 
 def test_task_error_and_infeasible_rows_are_kept_and_summarised(tmp_path, planar3):

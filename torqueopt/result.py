@@ -36,17 +36,15 @@ class SimResult:
         x: task coordinates of the tip [m, rad], (N, m).
         x_ref: reference task coordinates [m, rad], (N, m).
         jacobian_inverse_condition: σ_min/σ_max of the task Jacobian, the reciprocal of its
-            condition number, in (0, 1], (N,); 0 near a singularity. (Called
-            ``jacobian_condition`` in .npz files written before it was renamed;
-            :func:`load_result` reads both.)
+            condition number, in (0, 1], (N,); 0 near a singularity.
         torque_upper: torque limits τ⁺ [N·m] (+inf: unbounded).
         torque_lower: torque limits τ⁻ [N·m] (−inf: unbounded).
         duration: the requested simulated time [s].
         stop_reason: why the run ended early, None when it completed.
         stop_time: when it ended early [s], None when it completed.
         trajectory: what the tip followed, as :meth:`Trajectory.describe`
-            gives it (kind, parameters, start, duration); None in files
-            written before it was recorded.
+            gives it (kind, parameters, start, duration); None when unknown
+            (a result built by hand).
         task_error: per row, the task acceleration the resolver gave up,
             ‖J q̈ + J̇q̇ − ẍ‖ [m/s², rad/s²], (N,); zeros when not given.
         infeasible: per row, True where no admissible torque realised the task, (N,).
@@ -98,7 +96,7 @@ class SimResult:
     plant: dict | None = None
 
     def __post_init__(self):
-        # Runs written before these columns existed, and results built by hand, realised their task.
+        # A result built by hand without them realised its task at every row.
         rows = len(self.t)
         self.task_error = np.zeros(rows) if self.task_error is None else np.asarray(self.task_error, dtype=float)
         self.infeasible = (

@@ -15,8 +15,7 @@ Every file is written through :func:`torqueopt.io.atomic_write`, so it is
 never left half-written, and a run's files land together or not at all
 (:func:`torqueopt.io.written_together`); :func:`run_files` names them, for a
 command to check before it simulates. The sidecar goes beside the file the
-data went to (the target of a symbolic link). Files written before a column or field existed
-(the per-step task columns, a renamed array) are still read.
+data went to (the target of a symbolic link).
 """
 
 from __future__ import annotations
@@ -38,12 +37,10 @@ if TYPE_CHECKING:
 
 __all__ = ["csv_columns", "load_result", "run_files", "write_result"]
 
-#: The per-step columns after xref, in this order; files written before they existed lack them.
+#: The per-step columns after xref, in this order.
 _STEP_COLUMNS = ("task_error", "infeasible")
 #: Prefix of the dexterity arrays in a ``.npz`` run file.
 _DEXTERITY_KEY = "dexterity_"
-#: Fields renamed since files were first written: new name -> the name older .npz files use.
-_RENAMED = {"jacobian_inverse_condition": "jacobian_condition"}
 _ARRAY_FIELDS = (
     "t", "q", "joint_angles", "v", "acceleration", "tau", "x", "x_ref",
     "jacobian_inverse_condition", "torque_upper", "torque_lower", "task_error", "infeasible",
@@ -142,13 +139,7 @@ def _load_npz(path: Path) -> SimResult:
 
     with np.load(path, allow_pickle=False) as archive:
         metadata = json.loads(str(archive["metadata"]))
-        # Files written before a field was renamed keep its old name.
-        stored = {new: old for new, old in _RENAMED.items() if old in archive.files and new not in archive.files}
-        names = {stored.get(name, name): name for name in _ARRAY_FIELDS}
-        # Files written before the per-step task columns existed lack them: SimResult fills them in.
-        arrays = {
-            name: archive[key] for key, name in names.items() if key in archive.files or name not in _STEP_COLUMNS
-        }
+        arrays = {name: archive[name] for name in _ARRAY_FIELDS}
         dexterity = {
             key[len(_DEXTERITY_KEY) :]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)
         }
@@ -173,9 +164,8 @@ def _load_csv(path: Path, robot) -> SimResult:
         raise ValueError(f"its rows have {table.shape[1]} values but its header names {len(header)} columns")
     columns = _csv_columns_by_name(header, len(metadata["joint_names"]), metadata["task"])
     t, angles, v, tau, x, x_ref = (table[:, columns[group]] for group in ("t", "q", "v", "tau", "x", "xref"))
-    if "task_error" in columns:
-        metadata["task_error"] = table[:, columns["task_error"]][:, 0]
-        metadata["infeasible"] = table[:, columns["infeasible"]][:, 0] != 0
+    metadata["task_error"] = table[:, columns["task_error"]][:, 0]
+    metadata["infeasible"] = table[:, columns["infeasible"]][:, 0] != 0
     dexterity = {name: table[:, index[0]].copy() for name, index in columns.items() if name in _dexterity_names()}
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
@@ -206,8 +196,8 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
     """Column indices of each group of a run CSV's header, read by name, in any order.
 
     The contract: ``t``, ``q1..qn``, ``v1..vn``, ``tau1..taun``, ``x1..xm``,
-    ``xref1..xrefm`` (m from the task), optionally ``task_error`` and
-    ``infeasible`` together, and the dexterity measures by their names.
+    ``xref1..xrefm`` (m from the task), ``task_error``, ``infeasible``, and
+    optionally the dexterity measures by their names.
 
     Raises:
         InvalidInput: a missing, repeated or unknown column, naming it and the contract.
@@ -229,11 +219,10 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
         "tau": [f"tau{i}" for i in range(1, n + 1)],
         "x": [f"x{i}" for i in range(1, m + 1)],
         "xref": [f"xref{i}" for i in range(1, m + 1)],
+        **{name: [name] for name in _STEP_COLUMNS},
     }
-    optional = {name: [name] for name in (*_STEP_COLUMNS, *_dexterity_names()) if name in where}
-    if ("task_error" in optional) != ("infeasible" in optional):
-        groups.update(task_error=["task_error"], infeasible=["infeasible"])
-    contract = f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m} (then task_error, infeasible, dexterity)"
+    optional = {name: [name] for name in _dexterity_names() if name in where}
+    contract = f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m}, task_error, infeasible (then dexterity)"
     missing = [name for names in groups.values() for name in names if name not in where]
     if missing:
         raise ValueError(f"its header has no column {', '.join(missing)}; a run of {n} joints has {contract}")

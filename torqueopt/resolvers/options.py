@@ -24,7 +24,6 @@ from ..errors import InvalidInput
 
 __all__ = [
     "Option",
-    "OptionValueError",
     "number",
     "LARGEST_WEIGHT",
     "vector_or_matrix",
@@ -32,10 +31,6 @@ __all__ = [
     "validate_options",
     "format_value",
 ]
-
-
-#: Raised by an option's converter; its text completes "option NAME=VALUE of resolver 'R' ...".
-OptionValueError = Refused
 
 
 @dataclass(frozen=True)
@@ -49,7 +44,8 @@ class Option:
         default: the value used when the option is not given (None: described by ``default_text``).
         meaning: one sentence: what the option does.
         convert: checks a value (a Python value or the CLI's text) and returns the normalised
-            value; raises :class:`~torqueopt.resolvers.options.OptionValueError` saying what it must be.
+            value; raises :class:`~torqueopt.checks.Refused` saying what it must be (its text
+            completes "option NAME=VALUE of resolver 'R' ...").
         default_text: how the listing shows the default, when ``default`` alone does not say it.
     """
 
@@ -84,7 +80,7 @@ def vector_or_matrix(value) -> np.ndarray:
     """A converter accepting a vector (comma-separated on the CLI) or a square matrix of finite numbers."""
     array = finite_array(value, "a vector or a matrix")
     if array.ndim > 2 or (array.ndim == 2 and array.shape[0] != array.shape[1]):
-        raise OptionValueError(f"must be a vector or a square matrix, got shape {array.shape}")
+        raise Refused(f"must be a vector or a square matrix, got shape {array.shape}")
     return array
 
 
@@ -96,10 +92,10 @@ def choice_or_vector(*choices: str) -> Callable[[object], object]:
         if isinstance(value, str) and value.strip() in choices:
             return value.strip()
         if isinstance(value, str) and not any(ch.isdigit() for ch in value):
-            raise OptionValueError(f"must be {listed} or a vector of numbers")
+            raise Refused(f"must be {listed} or a vector of numbers")
         array = finite_array(value, f"{listed} or a vector")
         if array.ndim != 1:
-            raise OptionValueError(f"must be {listed} or a vector, got shape {array.shape}")
+            raise Refused(f"must be {listed} or a vector, got shape {array.shape}")
         return array
 
     return convert
@@ -141,7 +137,7 @@ def validate_options(resolver: str, declared: tuple[Option, ...], given: Mapping
         raw = given[option.name]
         try:
             values[option.name] = option.convert(raw)
-        except OptionValueError as error:
+        except Refused as error:
             shown = raw if isinstance(raw, str) else format_value(raw)
             unit = f" [{option.unit}]" if option.unit and option.unit not in str(error) else ""
             raise InvalidInput(f"option {option.name}={shown} of resolver '{resolver}' {error}{unit}") from None

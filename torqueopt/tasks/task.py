@@ -89,14 +89,6 @@ class Kinematics:
         hessian = np.asarray(pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA))
         return hessian.reshape(-1).reshape((6, n, n), order="F")
 
-    def joint_jacobian(self, joint_id: int) -> np.ndarray:
-        """6×n Jacobian of a joint frame at its origin, world-aligned axes."""
-        return pin.getJointJacobian(self.model, self.data, joint_id, _LWA)
-
-    def joint_position(self, joint_id: int) -> np.ndarray:
-        """World position of a joint's origin [m] (a copy)."""
-        return self.data.oMi[joint_id].translation.copy()
-
 
 class Task(ABC):
     r"""A task: coordinates :math:`x(q)`, Jacobian :math:`J`, drift :math:`\dot J\dot q`, optional target.

@@ -25,10 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import finite_numbers as point  # the check of a point, a direction, a normal
 from ..errors import InvalidInput
 
-__all__ = ["Reference", "Trajectory", "check_trajectory", "minimum_jerk", "point"]
+__all__ = ["Reference", "Trajectory", "check_trajectory", "minimum_jerk"]
 
 _MEMBERS = ("sample", "duration", "dimension", "start", "anchored")
 

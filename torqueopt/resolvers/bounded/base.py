@@ -12,12 +12,13 @@ from functools import partial
 
 import numpy as np
 
+from ...checks import Refused
 from ...errors import NoRedundancy, SolverFailure, TorqueBoundsInfeasible
 from ...linalg import JacobianSolver
 from ...robot import Robot, TaskTerms
 from ..base import Resolution, Resolver, Step
 from ..null_space import torque_midpoint
-from ..options import Option, OptionValueError
+from ..options import Option
 from .joint_limits import JointLimits
 from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
 
@@ -70,7 +71,7 @@ def _policy(value) -> str:
     """Converter of the ``infeasible`` option."""
     text = str(value).strip() if isinstance(value, str) else value
     if text not in INFEASIBLE_POLICIES:
-        raise OptionValueError(f"must be one of {', '.join(INFEASIBLE_POLICIES)}")
+        raise Refused(f"must be one of {', '.join(INFEASIBLE_POLICIES)}")
     return text
 
 

@@ -76,9 +76,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...checks import finite_array
+from ...checks import Refused, finite_array
 from ...robot import Robot, TaskTerms
-from ..options import Option, OptionValueError
+from ..options import Option
 
 __all__ = [
     "BOUND_KINDS",
@@ -113,7 +113,7 @@ def _on_off(value) -> str:
         return "on" if value else "off"
     text = str(value).strip().lower() if isinstance(value, str) else value
     if text not in ("on", "off"):
-        raise OptionValueError("must be 'on' or 'off'")
+        raise Refused("must be 'on' or 'off'")
     return text
 
 
@@ -121,10 +121,10 @@ def _acceleration_limit(value):
     if isinstance(value, str) and value.strip() == "torque":
         return "torque"
     if isinstance(value, str) and not any(ch.isdigit() for ch in value):
-        raise OptionValueError("must be 'torque' or a positive number or vector")
+        raise Refused("must be 'torque' or a positive number or vector")
     array = finite_array(value, "'torque' or a number or vector")
     if array.ndim > 1 or not (array > 0).all():
-        raise OptionValueError("must be 'torque' or a positive number or vector")
+        raise Refused("must be 'torque' or a positive number or vector")
     return float(array) if array.ndim == 0 else array
 
 

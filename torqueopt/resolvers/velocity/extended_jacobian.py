@@ -6,11 +6,11 @@ from functools import partial
 
 import numpy as np
 
-from ...checks import number_in_interval
+from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
-from ..options import Option, OptionValueError
+from ..options import Option
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import criterion_from
 from .options import criterion_spec
@@ -176,5 +176,5 @@ def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
 
 def _hessian_criterion(value):
     if value == "manipulability":
-        raise OptionValueError("has no Hessian here; the extended Jacobian needs one: use joint-limits or a callable")
+        raise Refused("has no Hessian here; the extended Jacobian needs one: use joint-limits or a callable")
     return value

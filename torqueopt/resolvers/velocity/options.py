@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...checks import finite_array
+from ...checks import Refused, finite_array
 from ...tasks import FrameTask, ObstacleTask, PostureTask, Task, TaskStack
-from ..options import OptionValueError
 
 __all__ = ["vector_or_callable", "task_stack", "obstacle", "criterion_spec"]
 
@@ -24,7 +23,7 @@ def vector_or_callable(value):
         try:
             np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise OptionValueError("is neither a vector of numbers nor a callable") from None
+            raise Refused("is neither a vector of numbers nor a callable") from None
     return _vector(value)
 
 
@@ -37,19 +36,17 @@ def task_stack(value) -> TaskStack:
         for spec in value.split(";"):
             frame, separator, numbers = spec.partition(":")
             if not separator or not frame.strip():
-                raise OptionValueError(
-                    "must be FRAME:x,y (xy target) or FRAME:x,y,z (position target), ';' between tasks"
-                )
+                raise Refused("must be FRAME:x,y (xy target) or FRAME:x,y,z (position target), ';' between tasks")
             target = _vector(numbers)
             if target.size not in (2, 3):
-                raise OptionValueError(f"target of frame '{frame.strip()}' must have 2 (xy) or 3 (position) values")
+                raise Refused(f"target of frame '{frame.strip()}' must have 2 (xy) or 3 (position) values")
             items.append(FrameTask(frame.strip(), "xy" if target.size == 2 else "position", target=target))
         return TaskStack(items)
     if isinstance(value, (Task, TaskStack)) or (
         isinstance(value, (list, tuple)) and value and all(isinstance(item, Task) for item in value)
     ):
         return TaskStack.of(value)
-    raise OptionValueError("must be a Task with a target, a TaskStack, a list of Tasks, or FRAME:x,y")
+    raise Refused("must be a Task with a target, a TaskStack, a list of Tasks, or FRAME:x,y")
 
 
 def obstacle(value) -> ObstacleTask:
@@ -58,7 +55,7 @@ def obstacle(value) -> ObstacleTask:
         return value
     numbers = _vector(value)
     if numbers.size not in (2, 3, 4):
-        raise OptionValueError("must be an ObstacleTask or 2-4 numbers: x,y[,z[,radius]] [m]")
+        raise Refused("must be an ObstacleTask or 2-4 numbers: x,y[,z[,radius]] [m]")
     return ObstacleTask.from_spec(numbers)
 
 
@@ -68,8 +65,8 @@ def criterion_spec(value):
 
     if isinstance(value, str):
         if value.strip() not in CRITERIA:
-            raise OptionValueError(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
+            raise Refused(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
         return value.strip()
     if isinstance(value, Criterion) or callable(value):
         return value
-    raise OptionValueError(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
+    raise Refused(f"must be one of {', '.join(CRITERIA)}, a Criterion or a callable p(joint_angles)")
