@@ -302,3 +302,20 @@ def test_a_trajectory_must_move_in_as_many_dimensions_as_the_task(planar3):
     assert refused(trajectory_dimension, planar3, StraightLine([1, 1, 0])) == (
         "trajectory StraightLine moves in 3 dimensions but task 'xy' moves the tip in 2"
     )
+
+
+def test_the_checks_never_import_the_robot_module():
+    """torqueopt.robot imports the checks; the checks read a robot through its attributes (the data flows one way)."""
+    import ast
+    from pathlib import Path
+
+    import torqueopt.checks
+
+    for path in Path(torqueopt.checks.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                module = "." * node.level + (node.module or "")
+                assert module not in ("..robot", "torqueopt.robot"), f"{path.name} imports {module}"
+                assert not (module == ".." and any(alias.name == "robot" for alias in node.names)), path.name
+            elif isinstance(node, ast.Import):
+                assert all(alias.name != "torqueopt.robot" for alias in node.names), path.name

@@ -31,11 +31,10 @@ import numpy as np
 import pinocchio as pin
 
 from .catalog import RobotSource
-from .checks import check_task_and_frame, finite_vector, torque_limit_vector, velocity_vector
+from .checks import TASK_DIMENSIONS, check_task_and_frame, finite_vector, torque_limit_vector
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "check_task_and_frame"]
 
-TASK_DIMENSIONS = {"xy": 2, "position": 3, "pose": 6}
 _TASK_ROWS = {"xy": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _WORLD = pin.Convention.WORLD
@@ -271,10 +270,6 @@ class Robot:
         if configurations.ndim == 1:
             return pin.difference(self.model, self._neutral, configurations)
         return np.array([pin.difference(self.model, self._neutral, row) for row in configurations]).reshape(-1, self.nv)
-
-    def check_velocity(self, velocity) -> np.ndarray:
-        """A validated joint velocity vector (n values, finite) [rad/s]: :func:`torqueopt.checks.velocity_vector`."""
-        return velocity_vector(self, velocity)
 
     # -- dynamics -------------------------------------------------------------
     def terms(self, q: np.ndarray, v: np.ndarray) -> TaskTerms:

@@ -12,7 +12,7 @@ numbers) written once:
 * :mod:`~torqueopt.checks.text`: the same rules on the text of command-line
   options, named ``--name: text`` (:func:`parse_vector`,
   :func:`parse_number`, :func:`parse_positive`, :func:`parse_whole`, :func:`parse_count`);
-* :mod:`~torqueopt.checks.work`: bounds on the work a request asks for
+* :mod:`~torqueopt.checks.request_size`: bounds on the size of the work a request asks for
   (:func:`bounded_count`, :func:`step_count`);
 * :mod:`~torqueopt.checks.robot`: checks that need the robot
   (:func:`configuration_vector`, :func:`joint_vector`, :func:`velocity_vector`,
@@ -36,8 +36,10 @@ from .numbers import (
     show_number,
     whole_number,
 )
+from .request_size import bounded_count, step_count
 from .robot import (
     RANK_SAMPLES,
+    TASK_DIMENSIONS,
     check_frame,
     check_task,
     check_task_and_frame,
@@ -51,7 +53,6 @@ from .robot import (
     weight_matrix_root,
 )
 from .text import parse_count, parse_number, parse_positive, parse_vector, parse_whole
-from .work import bounded_count, step_count
 
 __all__ = [
     "Refused",
@@ -86,4 +87,5 @@ __all__ = [
     "task_ranks",
     "check_task_rank",
     "RANK_SAMPLES",
+    "TASK_DIMENSIONS",
 ]

@@ -1,4 +1,4 @@
-"""Bounds on the work a request asks for, checked before the work starts."""
+"""Bounds on the size of the work a request asks for (steps, frames, sweep cells), checked before the work starts."""
 
 from __future__ import annotations
 

@@ -1,5 +1,10 @@
 """Checks that need the robot: one value per joint, a configuration, torque limits, a joint-space weight, a task
-and a frame it has, a task its joints can realise."""
+and a frame it has, a task its joints can realise.
+
+They read a robot through its attributes (``nv``, ``nq``, ``joint_names``, ``configuration``, ``model``, ...)
+and never import :mod:`torqueopt.robot`, which imports them: the task kinds and their dimensions,
+:data:`TASK_DIMENSIONS`, are defined here and re-exported there.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ from ..errors import FrameNotFound, InvalidInput, TaskNotFound
 from .numbers import count_values, finite_vector
 
 __all__ = [
+    "TASK_DIMENSIONS",
     "configuration_vector",
     "joint_vector",
     "velocity_vector",
@@ -25,6 +31,8 @@ __all__ = [
     "RANK_SAMPLES",
 ]
 
+#: The task kinds and their dimension m: planar tip position, 3-D position, position and orientation.
+TASK_DIMENSIONS = {"xy": 2, "position": 3, "pose": 6}
 #: Random configurations at which :func:`check_task_rank` looks for a full-rank task Jacobian.
 RANK_SAMPLES = 8
 
@@ -98,8 +106,6 @@ def task_ranks(robot, samples: int = RANK_SAMPLES, seed: int = 0) -> dict[str, i
     """
     import pinocchio as pin
 
-    from ..robot import TASK_DIMENSIONS
-
     generator = np.random.default_rng(seed)
     model = robot.model
     data = model.createData()
@@ -128,8 +134,6 @@ def check_task_rank(robot) -> None:
     The message names the rank the joints reach and the tasks this frame can
     do; it is an input mistake, found before any simulation.
     """
-    from ..robot import TASK_DIMENSIONS
-
     if robot.m > robot.nv:
         return  # fewer joints than task coordinates: the resolvers' own check says so
     ranks = task_ranks(robot)
@@ -187,8 +191,6 @@ def check_task_and_frame(model, frame: str, task: str, robot_name: str) -> None:
 
 def check_task(task: str, what: str = "task") -> None:
     """TaskNotFound naming the task kinds (``xy``, ``position``, ``pose``) unless ``task`` is one of them."""
-    from ..robot import TASK_DIMENSIONS
-
     if task not in TASK_DIMENSIONS:
         raise TaskNotFound(f"unknown {what} '{task}': choose one of {', '.join(TASK_DIMENSIONS)}")
 

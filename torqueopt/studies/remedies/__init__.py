@@ -25,12 +25,12 @@ The study's modules, one job each:
 * :mod:`~torqueopt.studies.remedies.measures`: what it runs and how it measures a run;
 * :mod:`~torqueopt.studies.remedies.runner`: running it (:func:`run_remedies`);
 * :mod:`~torqueopt.studies.remedies.study`: its record and numbers (:class:`RemediesStudy`, :class:`SweepPoint`);
-* :mod:`~torqueopt.studies.remedies.answers`: the answers as sentences;
+* :mod:`~torqueopt.studies.remedies.discussion_answers`: the answers as sentences;
 * :mod:`~torqueopt.studies.remedies.report`: its section of ``summary.md``;
 * :mod:`~torqueopt.studies.remedies.figures`: its figures.
 """
 
-from .answers import percent
+from .discussion_answers import percent
 from .figures import plot_long_torques, plot_tradeoff
 from .measures import (
     BASELINES,

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ...whiplash import DEFAULT_PATH_TOLERANCE
-from .answers import percent
+from .discussion_answers import percent
 from .measures import SWEPT_RESOLVER
 
 if TYPE_CHECKING:

@@ -11,7 +11,7 @@ from typing import ClassVar
 from ...paper import MOVEMENTS, PaperResults
 from ...result import SimResult
 from ...whiplash import WhiplashReport
-from .answers import kinematic_term_answer, linear_programming_answer
+from .discussion_answers import kinematic_term_answer, linear_programming_answer
 from .figures import plot_long_torques, plot_tradeoff
 from .measures import _WITHIN, BASELINES, SWEEP_REFERENCES, SWEPT_RESOLVER, _peak_ratio, _stable, torque_cost
 from .report import markdown_section
@@ -150,7 +150,7 @@ class RemediesStudy:
     def linear_programming_answer(self) -> dict:
         """The Discussion's second question: does the LP (minmax-torque) stay within bounds better than least squares?
 
-        See :func:`torqueopt.studies.remedies.answers.linear_programming_answer`.
+        See :func:`torqueopt.studies.remedies.discussion_answers.linear_programming_answer`.
         """
         return linear_programming_answer(self)
 
