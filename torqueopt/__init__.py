@@ -28,6 +28,7 @@ from .resolvers import NullSpaceResolver, Option, Resolution, Resolver, get_reso
 from .result import SimResult, load_result
 from .robot import Robot, TaskTerms
 from .simulate import Feedback, resolve, simulate
+from .stability import stability_margin
 from .trajectory import Circle, MinimumJerkLine, Reference, StraightLine, Trajectory, WaypointPath
 
 __version__ = "0.1.0"
@@ -45,6 +46,7 @@ __all__ = [
     "optimize",
     "OptimalResult",
     "simulate",
+    "stability_margin",
     "dexterity",
     "dexterity_along",
     "Dexterity",

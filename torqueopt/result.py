@@ -64,6 +64,9 @@ class SimResult:
             (:mod:`torqueopt.plants`): ``{"name": "pinocchio", ...}`` or the
             MuJoCo model, its options, notes and joint-limit events; None in
             files written before it was recorded.
+        stability_margin: per row, the growth rate of the linearised closed-loop
+            self-motion [1/s] (:func:`torqueopt.stability_margin`; NaN where no torque
+            was applied), (N,); None unless asked for (``simulate(..., margin=True)``).
     """
 
     robot: str
@@ -94,6 +97,7 @@ class SimResult:
     joint_limits: dict | None = None
     limiting: dict[int, str] | None = None
     plant: dict | None = None
+    stability_margin: np.ndarray | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.

@@ -4,12 +4,13 @@ Two formats, chosen by the path's suffix:
 
 * CSV (any other suffix): one row per step, columns ``t``, ``q1..qn`` (one
   angle per joint), ``v1..vn``, ``tau1..taun``, ``x1..xm``, ``xref1..xrefm``,
-  ``task_error``, ``infeasible``, then one column per dexterity measure;
-  beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
+  ``task_error``, ``infeasible``, then one column per dexterity measure
+  and ``stability_margin`` when the run recorded them; beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
   stop reason). The reader takes the columns by name, in any order, and
   refuses a header that is missing, repeats or adds a column.
 * NumPy ``.npz``: every array of the run, the dexterity measures as
-  ``dexterity_<name>``, and the same metadata as a JSON string.
+  ``dexterity_<name>``, ``stability_margin`` when recorded, and the same
+  metadata as a JSON string.
 
 Every file is written through :func:`torqueopt.io.atomic_write`, so it is
 never left half-written, and a run's files land together or not at all
@@ -39,6 +40,8 @@ __all__ = ["csv_columns", "load_result", "run_files", "write_result"]
 
 #: The per-step columns after xref, in this order.
 _STEP_COLUMNS = ("task_error", "infeasible")
+#: The stability margin's column (CSV) and array (.npz) [1/s], when the run recorded it.
+_MARGIN = "stability_margin"
 #: Prefix of the dexterity arrays in a ``.npz`` run file.
 _DEXTERITY_KEY = "dexterity_"
 _ARRAY_FIELDS = (
@@ -79,9 +82,13 @@ def _write_result(result: SimResult, path: Path) -> Path:
     if path.suffix.lower() == ".npz":
         arrays = {name: getattr(result, name) for name in _ARRAY_FIELDS}
         arrays.update({_DEXTERITY_KEY + name: values for name, values in (result.dexterity or {}).items()})
+        if result.stability_margin is not None:
+            arrays[_MARGIN] = result.stability_margin
         atomic_write(path, lambda handle: np.savez_compressed(handle, metadata=json.dumps(_metadata(result)), **arrays))
         return path
-    dexterity = result.dexterity or {}
+    dexterity = dict(result.dexterity or {})
+    if result.stability_margin is not None:
+        dexterity[_MARGIN] = result.stability_margin  # one more per-row column, after the dexterity measures
     table = np.column_stack(
         [
             result.t,
@@ -106,7 +113,9 @@ def _write_result(result: SimResult, path: Path) -> Path:
 
 
 def _metadata(result: SimResult) -> dict:
-    return {f.name: getattr(result, f.name) for f in fields(result) if f.name not in (*_ARRAY_FIELDS, "dexterity")}
+    return {
+        f.name: getattr(result, f.name) for f in fields(result) if f.name not in (*_ARRAY_FIELDS, "dexterity", _MARGIN)
+    }
 
 
 def load_result(path: str | os.PathLike, robot=None) -> SimResult:
@@ -143,7 +152,8 @@ def _load_npz(path: Path) -> SimResult:
         dexterity = {
             key[len(_DEXTERITY_KEY) :]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)
         }
-    return SimResult(**metadata, **arrays, dexterity=dexterity or None)
+        margin = archive[_MARGIN] if _MARGIN in archive.files else None
+    return SimResult(**metadata, **arrays, dexterity=dexterity or None, stability_margin=margin)
 
 
 def _load_csv(path: Path, robot) -> SimResult:
@@ -167,6 +177,7 @@ def _load_csv(path: Path, robot) -> SimResult:
     metadata["task_error"] = table[:, columns["task_error"]][:, 0]
     metadata["infeasible"] = table[:, columns["infeasible"]][:, 0] != 0
     dexterity = {name: table[:, index[0]].copy() for name, index in columns.items() if name in _dexterity_names()}
+    margin = table[:, columns[_MARGIN][0]].copy() if _MARGIN in columns else None
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
     return SimResult(
@@ -183,6 +194,7 @@ def _load_csv(path: Path, robot) -> SimResult:
         torque_upper=upper,
         torque_lower=lower,
         dexterity=dexterity or None,
+        stability_margin=margin,
     )
 
 
@@ -221,8 +233,11 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
         "xref": [f"xref{i}" for i in range(1, m + 1)],
         **{name: [name] for name in _STEP_COLUMNS},
     }
-    optional = {name: [name] for name in _dexterity_names() if name in where}
-    contract = f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m}, task_error, infeasible (then dexterity)"
+    optional = {name: [name] for name in (*_dexterity_names(), _MARGIN) if name in where}
+    contract = (
+        f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m}, task_error, infeasible "
+        "(then dexterity, stability_margin)"
+    )
     missing = [name for names in groups.values() for name in names if name not in where]
     if missing:
         raise ValueError(f"its header has no column {', '.join(missing)}; a run of {n} joints has {contract}")

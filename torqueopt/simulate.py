@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import operator
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -42,7 +42,7 @@ from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .run_log import ReferenceBlocks, StopRules, logged_row_bytes, run_result
+from .run_log import ReferenceBlocks, StopRules, logged_row_bytes, run_result, task_reference
 from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -101,6 +101,7 @@ def simulate(
     max_steps: int = DEFAULT_MAX_STEPS,
     plant: str | Plant = "pinocchio",
     plant_options: dict | None = None,
+    margin: bool = False,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -133,6 +134,10 @@ def simulate(
             torque from it with the robot's Pinocchio model, and lets MuJoCo
             advance), or a :class:`~torqueopt.plants.Plant`. The result's
             ``plant`` records it.
+        margin: also record the stability margin of every row with an applied torque
+            (:func:`torqueopt.stability_margin` at the logged state and task
+            acceleration, computed after the run, so the loop's cost is unchanged) as
+            ``SimResult.stability_margin`` [1/s] (NaN on the other rows).
         plant_options: the plant's options by name, for a plant name
             (``{"integrator": "euler", "joint-limits": "off", "mjcf": "arm.xml"}``;
             see :mod:`torqueopt.plants.mujoco`).
@@ -152,6 +157,11 @@ def simulate(
     """
     resolver = get_resolver(resolver, **(resolver_options or {}))
     if getattr(resolver, "level", None) == "velocity":
+        if margin:
+            raise InvalidInput(
+                f"resolver {resolver.name} works at the velocity level: the stability margin is of a torque "
+                "resolver's closed loop; give a torque resolver or leave margin off"
+            )
         if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
             raise InvalidInput(
                 f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
@@ -265,7 +275,7 @@ def simulate(
         task_error_log[row], infeasible_log[row] = task_error, infeasible
         if limiting:
             limiting_log[row] = limiting
-    return run_result(
+    result = run_result(
         robot,
         resolver,
         log,
@@ -282,6 +292,24 @@ def simulate(
         dexterity=dexterity,
         plant=plant.record(),
     )
+    if margin:
+        result = with_margins(robot, resolver.solver_for_run(robot, dt), result, trajectory, feedback)
+    return result
+
+
+def with_margins(robot: Robot, step, result: SimResult, trajectory: Trajectory, feedback: Feedback | None):
+    """``result`` with its ``stability_margin`` column: σ at each row's state and task acceleration [1/s]."""
+    from .stability import margins_along
+
+    sample = task_reference(robot, trajectory, result.t)
+    commands = sample.acceleration
+    if feedback is not None:
+        task_velocity = np.array([robot.terms(q, v).task_velocity for q, v in zip(result.q, result.v)])
+        commands = (
+            commands + feedback.kd * (sample.velocity - task_velocity) + feedback.kp * (sample.position - result.x)
+        )
+    applied = np.isfinite(result.tau).all(axis=1)
+    return replace(result, stability_margin=margins_along(robot, step, result.q, result.v, commands, applied))
 
 
 #: Below this σmin/σmax of the task Jacobian a start is called near-singular.

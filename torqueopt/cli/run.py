@@ -72,6 +72,12 @@ def add_parser(subparsers) -> None:
         help="record the dexterity measures of every step (manipulability, Eq. (25), ...) in the summary and "
         "the run file (default: on)",
     )
+    group.add_argument(
+        "--margin",
+        action="store_true",
+        help="record the stability margin of every step (growth rate of the linearised closed-loop self-motion "
+        "[1/s], computed after the run) in the summary and the run file, column stability_margin",
+    )
     group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
     add_plant_options(parser)
     add_playback_options(parser)
@@ -109,6 +115,7 @@ def run_command(args: argparse.Namespace) -> int:
         max_steps=max_steps,
         dexterity=args.dexterity,
         plant=plant,
+        margin=args.margin,
     )
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
@@ -151,6 +158,18 @@ def _steps_taken(result: SimResult) -> int:
     """Steps integrated: up to the last row, or up to the stop (which may follow the last row's step)."""
     end = result.stop_time if result.stop_time is not None else (result.t[-1] if len(result.t) else 0.0)
     return round(end / result.dt)
+
+
+def margin_summary(result: SimResult) -> str:
+    """One line: the largest stability margin and when it first turned positive."""
+    margin = result.stability_margin
+    known = np.isfinite(margin)
+    if not known.any():
+        return "stability margin: no step with an applied torque"
+    peak = int(np.nanargmax(margin))
+    positive = np.flatnonzero(known & (margin > 0))
+    first = f"first positive at t = {result.t[positive[0]]:.3f} s" if positive.size else "never positive"
+    return f"stability margin: largest {margin[peak]:.4g} 1/s at t = {result.t[peak]:.3f} s, {first}"
 
 
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
@@ -211,6 +230,8 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         lines.append(f"max orientation error: {math.degrees(result.max_orientation_error):.4f} deg")
     if result.dexterity:
         lines.extend(summarise_along(result.t, result.dexterity))
+    if result.stability_margin is not None:
+        lines.append(margin_summary(result))
     lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")
     lines.extend(plant_summary(result))
     lines.append("status: completed" if result.completed else f"status: STOPPED EARLY: {result.stop_reason}")
