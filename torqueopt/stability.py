@@ -167,7 +167,7 @@ def linearise(
 
 
 def _linearise(robot: Robot, step, q, v, command, difference_step) -> Linearisation:
-    """:func:`linearise` with the resolver's step already built and the inputs checked."""
+    """:func:`~torqueopt.stability.linearise` with the resolver's step already built and the inputs checked."""
     model, data = robot.model, robot.model.createData()
     n = robot.nv
     terms = robot.terms(q, v)
@@ -230,7 +230,7 @@ def stability_margin(
     resolver_options: dict | None = None,
     difference_step: float = DEFAULT_DIFFERENCE_STEP,
 ) -> float:
-    """The growth rate σ [1/s] of the linearised closed-loop self-motion at (q, v) (see :func:`linearise`).
+    """The growth rate σ [1/s] of the linearised closed-loop self-motion at (q, v) (see :func:`~torqueopt.stability.linearise`).
 
     Positive: a small self-motion grows like exp(σ t) under ``resolver``; negative: it decays.
     """
