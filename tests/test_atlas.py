@@ -542,14 +542,15 @@ def test_missing_dask_names_the_package(monkeypatch, tmp_path):
         run_atlas("planar3", out=tmp_path, **{**SMALL, "paths": 1, "durations": (0.2,)})
 
 
-def test_a_resolver_the_batch_does_not_cover_runs_through_simulate():
-    """A bounded resolver (the QP bounded-torque) has no batched twin: its rows
-    come from simulate, and its verdict columns are there like the others'."""
-    rows = _rows([(1.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "bounded-torque"])
-    assert rows[0, "pinv"]["batched"] and not rows[0, "bounded-torque"]["batched"]
+def test_a_resolver_without_a_vectorised_step_runs_batched_too():
+    """A bounded resolver (the QP bounded-torque) and a velocity-level one go through the batch (the QP's
+    single-state step row by row, the kinematic loop per movement): their rows equal simulate's runs."""
+    rows = _rows([(1.0, PAPER_Q0, (1, 1))], resolvers=["pinv", "bounded-torque", "velocity-pinv"])
+    assert all(rows[0, name]["batched"] for name in ("pinv", "bounded-torque", "velocity-pinv"))
     planar3 = torqueopt.load_robot("planar3")
-    run = torqueopt.simulate(planar3, "bounded-torque", torqueopt.StraightLine([1, 1], duration=1.0), PAPER_Q0)
-    assert rows[0, "bounded-torque"]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio))
+    for name in ("bounded-torque", "velocity-pinv"):
+        run = torqueopt.simulate(planar3, name, torqueopt.StraightLine([1, 1], duration=1.0), PAPER_Q0)
+        assert rows[0, name]["peak_torque_ratio"] == pytest.approx(np.nanmax(run.torque_ratio), rel=1e-12)
 
 
 @pytest.mark.slow

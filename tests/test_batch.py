@@ -6,8 +6,10 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
-from torqueopt.batch import BATCHED_RESOLVERS, batch_supports, simulate_batch, simulate_many
+from torqueopt.batch import batch_supports, simulate_batch, simulate_many
 from torqueopt.errors import InvalidInput
+from torqueopt.resolvers import RESOLVERS
+from torqueopt.resolvers.stacks import LoopedStackStep
 
 from .conftest import PAPER_Q0
 
@@ -136,11 +138,15 @@ def test_batch_leaves_the_robot_data_alone_and_refuses_what_it_cannot_do(planar3
     # A Robot holds no Pinocchio data (each run makes its own); its description is unchanged.
     assert not hasattr(planar3, "data")
     assert np.array_equal(planar3.gravity, gravity) and np.array_equal(planar3.torque_limit, limit)
-    with pytest.raises(InvalidInput, match="the batched path does not support resolver 'pinv' on robot 'panda'"):
+    with pytest.raises(InvalidInput, match="the batched path does not support task 'pose' \\(robot 'panda'\\)"):
         simulate_batch(panda_pose, "pinv", [StraightLine([0, 0, 1], duration=0.1)], [panda_pose.default_configuration])
     with pytest.raises(InvalidInput, match=r"a batch needs movements of one duration, got \[0.1, 0.2\] s"):
         simulate_batch(planar3, "pinv", [StraightLine([1, 1], duration=d) for d in (0.1, 0.2)], [PAPER_Q0] * 2)
-    assert {cls.name for cls in BATCHED_RESOLVERS} == set(PAPER_RESOLVERS + REMEDIES)
+    # The registry is the only list: every resolver has a step on stacks; the paper's and the remedies' are vectorised.
+    vectorised = {
+        name for name, cls in RESOLVERS.items() if not isinstance(cls().batch_solver(planar3, 1e-3), LoopedStackStep)
+    }
+    assert vectorised == set(PAPER_RESOLVERS + REMEDIES)
 
 
 def test_batch_energies_against_their_definition(planar3):
@@ -191,3 +197,82 @@ def test_damped_null_space_options_match_simulate(planar3, options):
     runs = simulate_batch(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
     for run, line, q0 in zip(runs, lines, q0s):
         assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0, max_torque_ratio=20.0))
+
+
+# -- every registered resolver through the batch ---------------------------------------------
+
+#: Options a resolver needs before it can run at all (the rest run with their defaults).
+_NEEDED_OPTIONS = {"obstacle-avoidance": {"obstacle": "1.2,0.3,0.0,0.1"}}
+#: Resolvers whose single steps are costly (programs per step, or velocity-level with differences): quick on planar3 only.
+_COSTLY = {
+    "bounded-torque", "minmax-torque", "energy-bounded-torque", "task-priority", "extended-jacobian",
+    "kinetic-energy-pinv", "obstacle-avoidance", "gradient-projection",
+}  # fmt: skip
+
+
+def _registered(name):
+    return torqueopt.get_resolver(name, **_NEEDED_OPTIONS.get(name, {}))
+
+
+@pytest.mark.parametrize("name", list(RESOLVERS))
+def test_every_registered_resolver_batched_equals_simulate_on_planar3(planar3, name):
+    """B movements through simulate_batch equal B simulate runs (1e-9, same stops, same shortfalls), for
+    every resolver of the registry: the vectorised steps and the single-state steps looped on stacks."""
+    resolver = _registered(name)
+    q0s, directions = _population(planar3, 4, seed=21)
+    q0s = np.vstack([q0s, PAPER_Q0])
+    directions = np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=0.5 if name in _COSTLY else 1.2) for d in directions]
+    runs = simulate_batch(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    assert len(runs) == len(lines)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0, max_torque_ratio=20.0))
+
+
+@pytest.mark.parametrize(
+    "name", [pytest.param(name, marks=pytest.mark.slow) if name in _COSTLY else name for name in RESOLVERS]
+)
+def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name):
+    """The same on panda (n = 7, position task, gravity on): the forest's terms and the stacked RK4 for the
+    vectorised steps, the single-state ones row by row."""
+    resolver = _registered(name)
+    try:
+        resolver.check(panda)
+    except InvalidInput as error:
+        pytest.skip(str(error))
+    rng = np.random.default_rng(4)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(3)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.25) for _ in q0s]
+    runs = simulate_batch(panda, resolver, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+
+
+def test_a_bounded_resolver_in_the_batch_keeps_its_shortfalls_and_stops(planar3):
+    """bounded-torque under limits of 3 N·m gives up part of the paper's movement (infeasible rows, task errors,
+    the bounds they lay on): the batch records them row for row as simulate does, beside an easier movement."""
+    weak = planar3.with_torque_limit(3.0)
+    lines = [StraightLine([1, 1], duration=0.6), StraightLine([0.2, -1], accel=0.1, duration=0.6)]
+    q0s = [PAPER_Q0, [0.4, 1.1, -0.7]]
+    runs = simulate_batch(weak, "bounded-torque", lines, q0s)
+    references = [torqueopt.simulate(weak, "bounded-torque", line, q0) for line, q0 in zip(lines, q0s)]
+    assert references[0].infeasible.any() and references[0].task_error.max() > 0.1 and references[0].limiting
+    for run, reference in zip(runs, references):
+        assert_same_run(run, reference)
+        assert run.limiting == reference.limiting
+
+
+def test_the_batch_memory_follows_the_steps_taken(planar3):
+    """duration 1e5 s (1e8 steps) and no step limit, every movement stopped within a second by the speed
+    ceiling: the batch's logs and reference grow by blocks, so it holds a few blocks, not the duration."""
+    import tracemalloc
+
+    lines = [StraightLine([1, 1], duration=1e5), StraightLine([1, -0.5], duration=1e5)]
+    tracemalloc.start()
+    try:
+        runs = simulate_batch(planar3, "null-space", lines, [PAPER_Q0, PAPER_Q0], max_steps=10**30, max_joint_speed=1.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert all(not run.completed and len(run.t) < 2000 for run in runs)
+    assert peak < 30e6, peak

@@ -1,40 +1,39 @@
-r"""Many movements advanced together: the batched twin of :func:`torqueopt.simulate`.
+r"""Many movements advanced together: the engine on a batch axis, and :func:`torqueopt.simulate`'s batched twin.
 
 :func:`simulate_batch` runs B movements of one robot and one resolver side
-by side, one time step for the whole batch at a time. It computes what
-:func:`~torqueopt.simulate` computes, in the same order, and the tests hold
-each of its runs to the matching ``simulate`` run to 1e-9:
+by side, one time step for the whole batch at a time, through the engine's
+three pieces:
 
-* the task terms :math:`H`, :math:`b = \dot q\cdot C\cdot\dot q + g`,
-  :math:`J`, :math:`\dot J\dot q` and the tip placement come from Pinocchio
-  through a :class:`~torqueopt.forest.RobotForest`: copies of the robot in one
-  Pinocchio model, so four calls give the terms of a whole pass of movements
-  (CRBA, RNEA, the joint Jacobians and their rate); the tests hold them to
-  ``simulate``'s per-movement frame calls;
-* the resolver's linear algebra runs on (B, ...) stacks at once: the complete
-  QR of the task Jacobians (or, for two task rows on two or three joints, its
-  closed form) gives :math:`J^\dagger r` and a null-space basis :math:`Z`,
-  then each resolver's choice of the null-space coordinates :math:`y` is a
-  batched solve (the formulas of :mod:`torqueopt.resolvers`, Eq. (31),
-  Eq. (33), Eq. (34), Eq. (35), Eq. (36), Eq. (37));
-* RK4 with the torque held (:func:`torqueopt.integrators.rk4_step`) takes the
-  resolver's :math:`\ddot q` as its first stage and computes the other three
-  stage accelerations of the whole batch with one ``pin.abaInParallel``
-  call each, over a ``pin.ModelPool``.
+* a terms provider (:mod:`torqueopt.terms`): :math:`H`,
+  :math:`b = \dot q\cdot C\cdot\dot q + g`, :math:`J`, :math:`\dot J\dot q`
+  and the task position of every running movement, from the forest of
+  :mod:`torqueopt.forest` (a few Pinocchio calls per pass of many states);
+* the resolver's step on stacks (:meth:`Resolver.batch_solver
+  <torqueopt.resolvers.base.Resolver.batch_solver>`): vectorised for the
+  paper's resolvers and the remedies, the single-state step row by row for
+  every other registered resolver (the bounded QP and LP ones included);
+* the integrator (:class:`torqueopt.integrators.HeldTorqueRK4`): RK4 with the
+  torque held, the resolver's :math:`\ddot q` as its first stage, the other
+  three stages of the whole stack by one ``pin.abaInParallel`` call each;
 
-A movement that stops early (singular Jacobian, runaway torque or speed,
-non-finite values, for the reasons and with the messages of ``simulate``)
-leaves the batch at once: the arrays are compacted, so the rest go on at
-the cost of the movements still running.
+with the stop rules and messages of :class:`torqueopt.run_log.StopRules` and
+the results of :func:`torqueopt.run_log.build_result`, as ``simulate``. The
+tests hold each of its runs to the matching ``simulate`` run to 1e-9, for
+every registered resolver.
 
-Supported: the four paper resolvers (``pinv``, ``inertia-pinv``,
-``null-space``, ``weighted-null-space``, with any weight) and the four
-remedies (``damped-null-space``, ``self-motion-damping``,
-``inverse-inertia-torque``, ``inverse-inertia-squared-torque``) on robots whose
-joints all add (revolute or prismatic, :attr:`Robot.euclidean`), for the
-``xy`` and ``position`` tasks, open loop. :func:`batch_supports` says
-whether a case is; :func:`simulate_many` runs any list of movements,
-batching what is supported and calling ``simulate`` for the rest.
+A movement that stops early (singular Jacobian, an infeasible program,
+runaway torque or speed, non-finite values) leaves the batch at once: the
+stacks are compacted, so the rest go on at the cost of the movements still
+running. The reference is sampled and the logs grow a block of steps at a
+time, so memory follows the steps taken.
+
+Velocity-level resolvers run through their own loop
+(:func:`torqueopt.kinematic.simulate_kinematic`), one movement after another.
+
+Supported: every registered resolver, for the ``xy`` and ``position`` tasks,
+open loop. :func:`batch_supports` says whether a case is;
+:func:`simulate_many` runs any list of movements, batching what is
+supported and calling ``simulate`` for the rest.
 """
 
 from __future__ import annotations
@@ -42,34 +41,33 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pinocchio as pin
 
-from .batch_resolvers import BATCHED_RESOLVERS, batched_step
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .errors import InvalidInput
-from .forest import RobotForest
-from .linalg import inverse_condition_number, singular_message
+from .integrators import HeldTorqueRK4
+from .linalg import inverse_condition_number
 from .resolvers import Resolver, get_resolver
+from .resolvers.stacks import LoopedStackStep
 from .result import SimResult, joint_limits_record
 from .robot import Robot
-from .run_log import speed_stop_reason, stop_ceilings, torque_stop_reason
+from .run_log import REFERENCE_BLOCK, ReferenceBlocks, StopRules, build_result
 from .self_motion import self_motion_energy
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
 from .simulate import simulate as simulate_one
+from .terms import PinocchioTerms, terms_provider
 from .trajectory import Trajectory, check_trajectory, describe
 
-__all__ = ["BATCHED_RESOLVERS", "BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
+__all__ = ["BatchExtras", "batch_supports", "simulate_batch", "simulate_many"]
 
 
 def batch_supports(robot: Robot, resolver: str | Resolver, feedback=None) -> bool:
-    """True when :func:`simulate_batch` can run ``resolver`` on ``robot`` (else use :func:`torqueopt.simulate`)."""
-    resolver = get_resolver(resolver)
-    return (
-        type(resolver) in BATCHED_RESOLVERS
-        and robot.euclidean
-        and robot.task in ("xy", "position")
-        and feedback is None
-    )
+    """True when :func:`simulate_batch` can run ``resolver`` on ``robot`` (else use :func:`torqueopt.simulate`).
+
+    Every registered resolver is supported on the position tasks (``xy``,
+    ``position``), open loop.
+    """
+    get_resolver(resolver)
+    return robot.task in ("xy", "position") and feedback is None
 
 
 class BatchExtras:
@@ -136,6 +134,39 @@ def simulate_many(
     return results
 
 
+class _Logs:
+    """The batch's records, time-major ([step, movement], a step writes one contiguous block), grown a block at a time."""
+
+    def __init__(self, count: int, n: int, nq: int, m: int, extras: bool, block: int = REFERENCE_BLOCK):
+        self.count, self.n, self.nq, self.m, self.extras, self.block = count, n, nq, m, extras, block
+        self.blocks: list[dict] = []
+
+    def grow(self, rows: int) -> dict:
+        """A new block of ``rows`` steps; rows past a movement's stop stay unused."""
+        count, n = self.count, self.n
+        block = {
+            "q": np.empty((rows, count, self.nq)),
+            "v": np.empty((rows, count, n)),
+            "acceleration": np.full((rows, count, n), np.nan),
+            "tau": np.full((rows, count, n), np.nan),
+            "x": np.empty((rows, count, self.m)),
+            "jacobian_inverse_condition": np.empty((rows, count)),
+            "task_error": np.zeros((rows, count)),
+            "infeasible": np.zeros((rows, count), dtype=bool),
+        }
+        if self.extras:
+            block["kinetic_energy"] = np.empty((rows, count))
+            block["self_motion_energy"] = np.empty((rows, count))
+        self.blocks.append(block)
+        return block
+
+    def column(self, name: str, movement: int, length: int) -> np.ndarray:
+        """The first ``length`` rows of field ``name`` of ``movement`` (a fresh array)."""
+        parts = [block[name][:, movement] for block in self.blocks]
+        joined = np.concatenate(parts) if len(parts) > 1 else parts[0].copy()
+        return joined[:length]
+
+
 def simulate_batch(
     robot: Robot,
     resolver: str | Resolver,
@@ -154,7 +185,7 @@ def simulate_batch(
     Args:
         robot: from :func:`torqueopt.load_robot`; its data is not touched
             (the batch makes its own Pinocchio Data).
-        resolver: a supported resolver (see :func:`batch_supports`).
+        resolver: any registered resolver (name or object).
         trajectories: any :class:`~torqueopt.trajectory.Trajectory` objects of one duration, anchored at the tip
             at their q0 when they have no start, as in ``simulate``.
         q0s: one start configuration per trajectory (nq values or n angles).
@@ -176,9 +207,8 @@ def simulate_batch(
     resolver.check(robot)
     if not batch_supports(robot, resolver):
         raise InvalidInput(
-            f"the batched path does not support resolver '{resolver.name}' on robot '{robot.name}' (task "
-            f"'{robot.task}'); it supports {', '.join(cls.name for cls in BATCHED_RESOLVERS)} on revolute/prismatic "
-            "joints for the xy and position tasks: use torqueopt.simulate or simulate_many"
+            f"the batched path does not support task '{robot.task}' (robot '{robot.name}'); it supports the xy "
+            "and position tasks: use torqueopt.simulate or simulate_many"
         )
     trajectories = list(trajectories)
     count = len(trajectories)
@@ -190,179 +220,198 @@ def simulate_batch(
     if len(durations) != 1:
         raise InvalidInput(f"a batch needs movements of one duration, got {sorted(durations)} s: use simulate_many")
     duration = durations.pop()
-    step_budget(duration, dt, max_steps)
+    steps = step_budget(duration, dt, max_steps)
     threads = whole_number(threads, "threads", 1)
+    if getattr(resolver, "level", None) == "velocity":
+        return _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras)
 
-    model = robot.model
-    data = model.createData()  # the batch's own: the robot's data is never written
-    forest = RobotForest(robot)
-    pool = pin.ModelPool(model, threads)
-
-    def aba(q, v, tau):
-        return _aba(pool, threads, q, v, tau)
-
-    n, m, frame_id, rows = robot.nv, robot.m, robot.frame_id, robot.task_rows
-    steps = step_budget(duration, dt)
-    times = dt * np.arange(steps + 1)
-
-    q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(count, n)
+    n, m = robot.nv, robot.m
+    q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(count, robot.nq)
     v = np.zeros((count, n))
-    reference_position = np.empty((count, steps + 1, m))
-    reference_acceleration = np.empty((count, steps + 1, m))
-    descriptions = []
+    references, descriptions = [], []
     for i, line in enumerate(trajectories):
         check_trajectory(line)
         linear_dimension = trajectory_dimension(robot, line)
         if line.start is None:
-            pin.framesForwardKinematics(model, data, q[i])
-            line = line.anchored(data.oMf[frame_id].translation[:linear_dimension].copy())
+            line = line.anchored(robot.frame_placement(q[i]).translation[:linear_dimension].copy())
         descriptions.append(describe(line))
-        sample = line.sample(times)
-        reference_position[i] = sample.position
-        reference_acceleration[i] = sample.acceleration
+        references.append(ReferenceBlocks(robot, line, dt, steps))
 
-    step = batched_step(robot, resolver)
-    torque_ceiling, speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
-
-    # Logs, time-major (a step writes one contiguous block): [step, movement]; rows past a stop stay unused.
-    q_log = np.empty((steps + 1, count, n))
-    v_log = np.empty((steps + 1, count, n))
-    acceleration_log = np.full((steps + 1, count, n), np.nan)
-    torque_log = np.full((steps + 1, count, n), np.nan)
-    x_log = np.empty((steps + 1, count, m))
-    inverse_condition_log = np.empty((steps + 1, count))
-    energy_log = np.empty((steps + 1, count)) if extras else None
-    self_energy_log = np.empty((steps + 1, count)) if extras else None
-    reference_acceleration = np.ascontiguousarray(np.swapaxes(reference_acceleration, 0, 1))
+    step = resolver.batch_solver(robot, dt)
+    integrator = HeldTorqueRK4(robot, dt, threads=threads)
+    if isinstance(step, LoopedStackStep):
+        # A single-state step row by row gains nothing from stacks: simulate's own terms and RK4, row by row.
+        provider, advance = PinocchioTerms(robot, integrator.data), integrator.step_rows
+    else:
+        provider, advance = terms_provider(robot, count), integrator.step_stack
+    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
+    logs = _Logs(count, n, robot.nq, m, extras)
     recorded = np.zeros(count, dtype=int)
     stop_reason: list[str | None] = [None] * count
     stop_time: list[float | None] = [None] * count
+    limiting: list[dict] = [{} for _ in range(count)]
 
     active = np.arange(count)  # movement index of each batch row
-    h = dt
-    for k, t in enumerate(times.tolist()):
-        size = active.size
-        if size == 0:
-            break
-        where = slice(None) if size == count else active  # plain slicing while no movement has stopped
-        # Task terms of every movement still running, a few Pinocchio calls per forest of copies.
-        H, b, jacobian, drift, tip = forest.terms(q, v)
-        J, Jd = jacobian[:, rows], drift[:, rows]
-        # Every state is recorded (q, v, x, inverse_condition); torque and q̈ only where the resolver ran.
-        q_log[k, where] = q
-        v_log[k, where] = v
-        x_log[k, where] = tip[:, rows]
-        recorded[where] = k + 1
-        if k == steps:
-            # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
-            inverse_condition_log[k, where] = inverse_condition_number(J)
-            if extras:
-                energy_log[k, where], self_energy_log[k, where] = self_motion_energy(H, v, jacobian=J)
-            break
-        command = reference_acceleration[k, where]
-        torque, joint_acceleration, inverse_condition, singular, basis = step(H, b, J, Jd, command, v)
-        if extras:
-            kinetic, self_motion = self_motion_energy(H, v, null_space_basis=basis)
-            if singular.any():  # the QR basis of a singular J is not its null space
-                kinetic[singular], self_motion[singular] = self_motion_energy(
-                    H[singular], v[singular], jacobian=J[singular]
-                )
-            energy_log[k, where], self_energy_log[k, where] = kinetic, self_motion
-        inverse_condition_log[k, where] = inverse_condition
-        if singular.any():
-            resolved = ~singular
-            acceleration_log[k, active[resolved]] = joint_acceleration[resolved]
-            torque_log[k, active[resolved]] = torque[resolved]
-            over = resolved & ~(np.abs(torque) <= torque_ceiling).all(axis=1)
-        else:
-            acceleration_log[k, where] = joint_acceleration
-            torque_log[k, where] = torque
-            over = ~(np.abs(torque) <= torque_ceiling).all(axis=1)
-        stopping = singular | over
-        for row in np.flatnonzero(stopping).tolist():
-            movement = int(active[row])
-            if singular[row]:
-                message = singular_message(inverse_condition[row], resolver.singular_tolerance)
-                stop_reason[movement] = f"{message} at t = {t:.4f} s"
-            else:
-                stop_reason[movement] = torque_stop_reason(robot, torque[row], max_torque_ratio, t)
-            stop_time[movement] = t
-        if stopping.any():
-            keep = ~stopping
-            active, q, v = active[keep], q[keep], v[keep]
-            torque, joint_acceleration = torque[keep], joint_acceleration[keep]
-            if active.size == 0:
+    start = 0
+    while active.size and start <= steps:
+        samples = [reference.block(start) for reference in references]
+        block_times = samples[0][0]
+        # Time-major: [step, movement, coordinate].
+        reference_acceleration = np.ascontiguousarray(
+            np.swapaxes(np.array([sample.acceleration for _, sample in samples]), 0, 1)
+        )
+        log = logs.grow(len(block_times))
+        for j, t in enumerate(block_times.tolist()):
+            k = start + j
+            size = active.size
+            if size == 0:
                 break
+            where = slice(None) if size == count else active  # plain slicing while no movement has stopped
+            terms, x = provider.terms(q, v)
+            # Every state is recorded (q, v, x, inverse_condition); torque and q̈ only where the resolver ran.
+            log["q"][j, where] = q
+            log["v"][j, where] = v
+            log["x"][j, where] = x
+            recorded[where] = k + 1
+            if k == steps:
+                # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
+                log["jacobian_inverse_condition"][j, where] = inverse_condition_number(terms.jacobian)
+                if extras:
+                    log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
+                        terms.inertia, v, jacobian=terms.jacobian
+                    )
+                break
+            resolution = step(terms, reference_acceleration[j, where], active)
+            torque, joint_acceleration = resolution.torque, resolution.joint_acceleration
+            failures = resolution.failures or {}
+            if extras:
+                log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = _step_energies(
+                    terms, resolution, v
+                )
+            log["jacobian_inverse_condition"][j, where] = resolution.jacobian_inverse_condition
+            if resolution.task_error is not None:
+                log["task_error"][j, where] = resolution.task_error
+                log["infeasible"][j, where] = resolution.infeasible
+            for row, bounds in (resolution.limiting or {}).items():
+                limiting[int(active[row])][k] = bounds
+            if failures:
+                failed = np.zeros(size, dtype=bool)
+                failed[list(failures)] = True
+                resolved = ~failed
+                log["acceleration"][j, active[resolved]] = joint_acceleration[resolved]
+                log["tau"][j, active[resolved]] = torque[resolved]
+                log["task_error"][j, active[failed]] = 0.0
+                log["infeasible"][j, active[failed]] = False
+                over = resolved & rules.torques_over(torque)
+            else:
+                failed = None
+                log["acceleration"][j, where] = joint_acceleration
+                log["tau"][j, where] = torque
+                over = rules.torques_over(torque)
+            stopping = over if failed is None else (failed | over)
+            if stopping.any():
+                for row in np.flatnonzero(stopping).tolist():
+                    movement = int(active[row])
+                    if row in failures:
+                        stop_reason[movement] = rules.unresolved(failures[row], t)
+                    else:
+                        # The torque that ends the run stays in the result: peaks and verdicts count it.
+                        stop_reason[movement] = rules.torque(torque[row], t)
+                    stop_time[movement] = t
+                keep = ~stopping
+                active, q, v = active[keep], q[keep], v[keep]
+                torque, joint_acceleration = torque[keep], joint_acceleration[keep]
+                if active.size == 0:
+                    break
 
-        # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
-        k1 = joint_acceleration
-        k2 = aba(q + (h / 2) * v, v + (h / 2) * k1, torque)
-        k3 = aba(q + ((h / 2) * v + (h * h / 4) * k1), v + (h / 2) * k2, torque)
-        k4 = aba(q + (h * v + (h * h / 2) * k2), v + h * k3, torque)
-        q = q + (h * v + (h * h / 6) * (k1 + k2 + k3))
-        v = v + ((h / 6) * k1 + (h / 3) * k2 + (h / 3) * k3 + (h / 6) * k4)
-        fast = ~(np.abs(v) <= speed_ceiling).all(axis=1)
-        if fast.any():
-            for row in np.flatnonzero(fast).tolist():
-                movement = int(active[row])
-                stop_reason[movement] = speed_stop_reason(robot, v[row], max_joint_speed, t, dt)
-                stop_time[movement] = t + dt
-            keep = ~fast
-            active, q, v = active[keep], q[keep], v[keep]
+            # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
+            q, v = advance(q, v, torque, joint_acceleration)
+            fast = rules.speeds_over(v)
+            if fast.any():
+                for row in np.flatnonzero(fast).tolist():
+                    movement = int(active[row])
+                    stop_reason[movement] = rules.speed(v[row], t, dt)
+                    stop_time[movement] = t + dt
+                keep = ~fast
+                active, q, v = active[keep], q[keep], v[keep]
+        start += len(block_times)
 
     results = []
-    joint_names = list(robot.joint_names)
-    limits = joint_limits_record(*robot.joint_limits)
+    joint_limits = joint_limits_record(*robot.joint_limits)
     options = resolver.settings_for_file()
+    times = dt * np.arange(int(recorded.max()))
     for i in range(count):
         length = int(recorded[i])
-        q_rows = q_log[:length, i].copy()
         results.append(
-            SimResult(
-                robot=robot.name,
-                frame=robot.frame,
-                task=robot.task,
-                resolver=resolver.name,
-                joint_names=joint_names,
+            build_result(
+                robot,
+                resolver,
+                q=logs.column("q", i, length),
+                v=logs.column("v", i, length),
+                acceleration=logs.column("acceleration", i, length),
+                tau=logs.column("tau", i, length),
+                x=logs.column("x", i, length),
+                jacobian_inverse_condition=logs.column("jacobian_inverse_condition", i, length),
+                times=times,
+                reference_position=references[i].positions(),
                 dt=dt,
-                t=times[:length].copy(),
-                q=q_rows,
-                joint_angles=robot.joint_angles(q_rows).reshape(length, n),
-                v=v_log[:length, i].copy(),
-                acceleration=acceleration_log[:length, i].copy(),
-                tau=torque_log[:length, i].copy(),
-                x=x_log[:length, i].copy(),
-                x_ref=reference_position[i, :length].copy(),
-                jacobian_inverse_condition=inverse_condition_log[:length, i].copy(),
-                torque_upper=robot.torque_upper.copy(),
-                torque_lower=robot.torque_lower.copy(),
                 duration=duration,
                 stop_reason=stop_reason[i],
                 stop_time=stop_time[i],
                 trajectory=descriptions[i],
-                joint_limits=limits,
-                task_error=np.zeros(length),
-                infeasible=np.zeros(length, dtype=bool),
+                task_error=logs.column("task_error", i, length),
+                infeasible=logs.column("infeasible", i, length),
+                limiting=limiting[i],
+                joint_limits=joint_limits,
                 resolver_options=options,
             )
         )
     if not extras:
         return results
     more = [
-        BatchExtras(energy_log[: recorded[i], i].copy(), self_energy_log[: recorded[i], i].copy()) for i in range(count)
+        BatchExtras(
+            logs.column("kinetic_energy", i, int(recorded[i])), logs.column("self_motion_energy", i, int(recorded[i]))
+        )
+        for i in range(count)
     ]
     return results, more
+
+
+def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras):
+    """A velocity-level resolver's movements, each through the kinematic loop; extras from the recorded states."""
+    results = [
+        simulate_one(
+            robot, resolver, line, q0, dt=dt, max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio
+        )
+        for line, q0 in zip(trajectories, q0s)
+    ]
+    if not extras:
+        return results
+    provider = PinocchioTerms(robot)
+    more = []
+    for result in results:
+        terms, _ = provider.terms(result.q, result.v)
+        more.append(BatchExtras(*self_motion_energy(terms.inertia, result.v, jacobian=terms.jacobian)))
+    return results, more
+
+
+def _step_energies(terms, resolution, v: np.ndarray):
+    """The energies of a resolved step: from the step's null-space basis when it has one, else from J."""
+    failures = resolution.failures or {}
+    basis = resolution.basis
+    if basis is None and terms.jacobian.shape[1] < terms.jacobian.shape[2]:
+        return self_motion_energy(terms.inertia, v, jacobian=terms.jacobian)
+    kinetic, self_motion = self_motion_energy(terms.inertia, v, null_space_basis=basis)
+    if failures:  # the QR basis of a singular J is not its null space
+        singular = np.zeros(v.shape[0], dtype=bool)
+        singular[list(failures)] = True
+        kinetic[singular], self_motion[singular] = self_motion_energy(
+            terms.inertia[singular], v[singular], jacobian=terms.jacobian[singular]
+        )
+    return kinetic, self_motion
 
 
 def _check_pairs(trajectories: Sequence[Trajectory], q0s) -> None:
     """InvalidInput unless there is one start configuration per trajectory."""
     if len(trajectories) != len(q0s):
         raise InvalidInput(f"{len(trajectories)} trajectories but {len(q0s)} start configurations")
-
-
-def _aba(pool, threads: int, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """ABA for every row of the (B, n) stacks in one ``pin.abaInParallel`` call; returns (B, n)."""
-    out = np.empty_like(v)
-    # Eigen's matrices are column-major: the transpose of a C-ordered (B, n) array is an (n, B) one without a copy.
-    pin.abaInParallel(threads, pool, q.T, v.T, tau.T, out.T)
-    return out

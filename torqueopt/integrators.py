@@ -277,6 +277,12 @@ class HeldTorqueRK4:
         pin.abaInParallel(self.threads, self._pool, q.T, v.T, tau.T, out.T)
         return out
 
+    def step_rows(self, q, v, tau, acceleration):
+        """:meth:`step` on every row of (B, ...) stacks, one movement at a time (the arithmetic of ``simulate``)."""
+        step = self.step
+        rows = [step(*row) for row in zip(q, v, tau, acceleration)]
+        return np.array([row[0] for row in rows]).reshape(q.shape), np.array([row[1] for row in rows]).reshape(v.shape)
+
     def step_stack(self, q, v, tau, acceleration):
         r"""The folded step of :func:`rk4_stepper` on (B, n) stacks (see there for the weights); k1 = ``acceleration``."""
         if not self.robot.euclidean:

@@ -3,8 +3,9 @@
 Work goes out in chunks of movements of one duration (``chunk_size``
 paths, default 64). A chunk runs every resolver on its movements (``pinv``
 first: it is the baseline of the runaway criterion), batched by
-``torqueopt.batch.simulate_batch`` where the resolver supports it, by
-:func:`torqueopt.simulate` otherwise. Each worker thread loads the robot once
+``torqueopt.batch.simulate_batch`` (every registered resolver on the
+position tasks: a vectorised step or its single-state step on stacks), by
+:func:`torqueopt.simulate` otherwise (``batch=False``, other tasks). Each worker thread loads the robot once
 and keeps it; every run makes its own Pinocchio ``Data``.
 
 The client writes each finished chunk to ``chunks/chunk-NNNNNN.parquet``

@@ -46,8 +46,17 @@ from ..errors import NoRedundancy
 from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
 from ..robot import Robot, TaskTerms
 from .options import Option, format_value, number, validate_options
+from .stacks import StackResolution, StackStep, StackTerms, looped_stack_step, singular_rows, task_factorisation
 
-__all__ = ["NullSpaceFunction", "NullSpaceResolver", "Resolution", "Resolver", "SINGULAR_TOLERANCE_OPTION", "Step"]
+__all__ = [
+    "NullSpaceFunction",
+    "NullSpaceResolver",
+    "Resolution",
+    "Resolver",
+    "SINGULAR_TOLERANCE_OPTION",
+    "StackStep",
+    "Step",
+]
 
 
 class Resolution(NamedTuple):
@@ -170,6 +179,16 @@ class Resolver(ABC):
         """The step of a run that holds each torque for ``dt`` [s]: :meth:`solver` unless the resolver looks a step ahead."""
         return self.solver(robot)
 
+    def batch_solver(self, robot: Robot, dt: float | None = None) -> StackStep:
+        """The step on stacks of B states, ``(StackTerms, ẍ (B, m), movements) -> StackResolution``.
+
+        By default :func:`~torqueopt.resolvers.stacks.looped_stack_step`: the
+        single-state step of a run of ``dt`` (:meth:`solver_for_run`; :meth:`solver`
+        when dt is None), row by row, one per movement. A resolver with a
+        vectorised step overrides this beside its :meth:`solver`.
+        """
+        return looped_stack_step(self, robot, dt)
+
     def __repr__(self) -> str:
         given = ", ".join(
             f"{option.name}={format_value(self.settings[option.name])}"
@@ -204,6 +223,45 @@ class NullSpaceResolver(Resolver):
 
         return solve
 
+    def batch_solver(self, robot: Robot, dt: float | None = None) -> StackStep:
+        r"""Eq. (26) and Eq. (20) on stacks, with this resolver's :meth:`stack_null_space_function`.
+
+        The looped default of :class:`Resolver` when the class that chooses y
+        for one state (:meth:`null_space_function`) has no stacked choice of
+        its own: a subclass that changes the choice never inherits its
+        parent's vectorised one.
+        """
+        owner = _defining_class(type(self), "null_space_function")
+        if _defining_class(type(self), "stack_null_space_function") is not owner:
+            return super().batch_solver(robot, dt)
+        redundant = robot.nv > robot.m
+        coordinates_at = self.stack_null_space_function(robot) if redundant else None
+        factor = task_factorisation(robot)
+        tolerance = self.singular_tolerance
+
+        def solve(terms: StackTerms, task_acceleration: np.ndarray, movements: np.ndarray) -> StackResolution:
+            H = terms.inertia
+            # Eq. (26)'s particular solution J⁺(ẍ − J̇q̇), a null-space basis Z and σ_min/σ_max of J.
+            particular, basis, inverse_condition = factor(terms.jacobian, task_acceleration - terms.drift, redundant)
+            acceleration = particular
+            if coordinates_at is not None:
+                y = coordinates_at(terms, basis, particular)
+                if y is not None:
+                    acceleration = particular + np.einsum("bij,bj->bi", basis, y)  # Eq. (26)
+            torque = np.einsum("bij,bj->bi", H, acceleration) + terms.bias_torque  # Eq. (20)
+            failures = singular_rows(inverse_condition, tolerance)
+            return StackResolution(torque, acceleration, inverse_condition, failures=failures, basis=basis)
+
+        return solve
+
+    def stack_null_space_function(self, robot: Robot):
+        r""":meth:`null_space_function` on stacks: ``(StackTerms, Z (B, n, n − m), particular (B, n)) -> y (B, n − m)``.
+
+        Returns None (y = 0 at every state) or the function; a resolver
+        without one is never asked (its stacks loop its single-state step).
+        """
+        return None
+
     @abstractmethod
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         r"""How this resolver picks the null-space coordinates on ``robot``.
@@ -214,3 +272,8 @@ class NullSpaceResolver(Resolver):
         or None for :math:`y = 0` at every state. What depends only on the
         robot (torque midpoint, weights, workspaces) is computed here, once.
         """
+
+
+def _defining_class(cls: type, name: str) -> type | None:
+    """The class of ``cls``'s method resolution order that defines attribute ``name``."""
+    return next((base for base in cls.__mro__ if name in vars(base)), None)

@@ -67,6 +67,7 @@ from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .null_space import torque_midpoint
 from .options import LARGEST_WEIGHT, Option, choice_or_vector, number
+from .stacks import least_squares
 
 __all__ = [
     "SelfMotionDamping",
@@ -133,6 +134,14 @@ class SelfMotionDamping(NullSpaceResolver):
 
     name = "self-motion-damping"
     options = (_DAMPING_OPTION,)
+
+    def stack_null_space_function(self, robot: Robot):
+        damping = self.damping
+
+        def coordinates(terms, null_space_basis, particular):
+            return -damping * np.einsum("bji,bj->bi", null_space_basis, terms.joint_velocity)  # y = −K_D Zᵀq̇
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         damping = self.damping
@@ -203,6 +212,24 @@ class DampedNullSpaceTorque(NullSpaceResolver):
     def weight_root(self, robot: Robot) -> np.ndarray:
         """The diagonal of S (S² = W) [1/(N·m)]: see ``torque_weight_root``."""
         return torque_weight_root(self.torque_weight, robot, self.name)
+
+    def stack_null_space_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+        relative_weight, damping, redundancy = self.kinematic_weight, self.damping, robot.redundancy
+
+        def coordinates(terms, null_space_basis, particular):
+            offset = midpoint - np.einsum("bij,bj->bi", terms.inertia, particular) - terms.bias_torque
+            weighted = root[None, :, None] * (terms.inertia @ null_space_basis)  # S H Z
+            if not relative_weight:
+                return least_squares(weighted, root * offset)  # Eq. (33)
+            # [SHZ; μ̄I] y ≈ [S(τ_mid − τ̃); −μ̄K_D Zᵀq̇], μ̄ = μ‖SHZ‖_F
+            weight = relative_weight * np.sqrt(np.einsum("bij,bij->b", weighted, weighted))
+            stacked = np.concatenate([weighted, weight[:, None, None] * np.eye(redundancy)], axis=1)
+            kinematic = (-damping * weight)[:, None] * np.einsum("bji,bj->bi", null_space_basis, terms.joint_velocity)
+            return least_squares(stacked, np.concatenate([root * offset, kinematic], axis=1))
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)

@@ -33,6 +33,8 @@ first is the inertia-weighted pseudoinverse (Eq. (35)) and the second is
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
@@ -51,6 +53,16 @@ class InverseInertiaTorque(NullSpaceResolver):
     """
 
     name = "inverse-inertia-torque"
+
+    def stack_null_space_function(self, robot: Robot):
+        def coordinates(terms, null_space_basis, particular):
+            # y = −(ZᵀHZ)⁻¹ Zᵀτ̃, τ̃ = H J⁺r + b (Eq. (28)); ZᵀHZ is positive definite
+            reduced_inertia = np.swapaxes(null_space_basis, 1, 2) @ terms.inertia @ null_space_basis
+            torque_tilde = np.einsum("bij,bj->bi", terms.inertia, particular) + terms.bias_torque
+            rhs = np.einsum("bji,bj->bi", null_space_basis, torque_tilde)
+            return -np.linalg.solve(reduced_inertia, rhs[..., None])[..., 0]
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         # Z^T H Z is symmetric positive definite; the SVD solve is as in inertia-pinv.
@@ -75,6 +87,15 @@ class InverseInertiaSquaredTorque(NullSpaceResolver):
     """
 
     name = "inverse-inertia-squared-torque"
+
+    def stack_null_space_function(self, robot: Robot):
+        def coordinates(terms, null_space_basis, particular):
+            # y = −Zᵀ H⁻¹ τ̃ (Eq. (28)'s τ̃)
+            torque_tilde = np.einsum("bij,bj->bi", terms.inertia, particular) + terms.bias_torque
+            inverse_inertia_torque = np.linalg.solve(terms.inertia, torque_tilde[..., None])[..., 0]
+            return -np.einsum("bji,bj->bi", null_space_basis, inverse_inertia_torque)
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         solve = LeastSquares(robot.nv, robot.nv)

@@ -11,6 +11,7 @@ from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, vector_or_matrix
+from .stacks import least_squares
 
 __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
 
@@ -45,6 +46,16 @@ class NullSpaceTorque(NullSpaceResolver):
     name = "null-space"
     equations = (28, 29, 30, 31, 36)
     needs_redundancy = True
+
+    def stack_null_space_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+
+        def coordinates(terms, null_space_basis, particular):
+            # offset (τ⁺ + τ⁻)/2 − H J⁺r − b; y minimises ‖H Z y − offset‖, Eq. (31)
+            offset = midpoint - np.einsum("bij,bj->bi", terms.inertia, particular) - terms.bias_torque
+            return least_squares(terms.inertia @ null_space_basis, offset)
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)
@@ -115,6 +126,20 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
                 "give at least one positive weight"
             )
         return weight_matrix_root(weight, n)
+
+    def stack_null_space_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+
+        def coordinates(terms, null_space_basis, particular):
+            # y minimises ‖S (H Z y − offset)‖, S² = W, Eq. (33)
+            offset = midpoint - np.einsum("bij,bj->bi", terms.inertia, particular) - terms.bias_torque
+            inertia_basis = terms.inertia @ null_space_basis
+            if root.ndim == 1:
+                return least_squares(root[None, :, None] * inertia_basis, root * offset)
+            return least_squares(root @ inertia_basis, np.einsum("ij,bj->bi", root, offset))
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         midpoint = torque_midpoint(robot)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
@@ -24,6 +26,9 @@ class PseudoInverse(NullSpaceResolver):
     name = "pinv"
     equations = (34,)
 
+    def stack_null_space_function(self, robot: Robot):
+        return None  # y = 0 on stacks too
+
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         return None
 
@@ -45,6 +50,16 @@ class InertiaWeightedPseudoInverse(NullSpaceResolver):
 
     name = "inertia-pinv"
     equations = (16, 19, 35)
+
+    def stack_null_space_function(self, robot: Robot):
+        def coordinates(terms, null_space_basis, particular):
+            # y = −(ZᵀHZ)⁻¹ ZᵀH J⁺r, Eq. (16), Eq. (35); ZᵀHZ is positive definite
+            inertia_basis = terms.inertia @ null_space_basis
+            reduced_inertia = np.swapaxes(null_space_basis, 1, 2) @ inertia_basis
+            rhs = np.einsum("bji,bj->bi", inertia_basis, particular)
+            return -np.linalg.solve(reduced_inertia, rhs[..., None])[..., 0]
+
+        return coordinates
 
     def null_space_function(self, robot: Robot) -> NullSpaceFunction | None:
         # Z^T H Z is symmetric positive definite (H is, Z has full column rank),

@@ -1,0 +1,248 @@
+r"""A resolver's step on stacks of B states: the contract, the default loop, and the stacked factorisations.
+
+:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`
+returns a :data:`StackStep`,
+
+.. math::
+
+    (\text{StackTerms}, \ddot x_{1..B}, \text{movements}) \mapsto \text{StackResolution},
+
+the resolver's :meth:`~torqueopt.resolvers.base.Resolver.solver` on (B, ...)
+stacks. ``movements`` names the movement of each row (rows leave the batch
+as their movements stop), so a resolver whose step keeps state from one step
+to the next (a warm-started program, a look-ahead) keeps it per movement.
+
+:func:`looped_stack_step` is the default: the single-state step, one step
+function per movement, row by row, so every registered resolver runs on
+stacks. A resolver with a vectorised step overrides ``batch_solver`` beside
+its single-state step (the paper's resolvers and the remedies, with the
+factorisations :func:`complete_qr` and :func:`two_rows` here); the tests
+hold each to its own single-state step through ``simulate``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import SingularJacobian, SolverFailure, TorqueBoundsInfeasible
+from ..forest import stacked_cross
+from ..linalg import inverse_condition_number, inverse_condition_number_of, singular_message
+from ..robot import Robot, TaskTerms
+
+__all__ = [
+    "LoopedStackStep",
+    "StackResolution",
+    "StackStep",
+    "StackTerms",
+    "complete_qr",
+    "least_squares",
+    "looped_stack_step",
+    "singular_rows",
+    "two_rows",
+]
+
+#: What ends a movement when its resolver cannot resolve its state (the run keeps what it computed).
+STOPPING_ERRORS = (SingularJacobian, TorqueBoundsInfeasible, SolverFailure)
+
+
+class StackTerms(NamedTuple):
+    r"""The task terms of B states, as :class:`~torqueopt.robot.TaskTerms` per row (no placement).
+
+    Attributes:
+        inertia: (B, n, n) :math:`H` [kg·m²]; bias_torque: (B, n) :math:`b` [N·m];
+        jacobian: (B, m, n) :math:`J`; drift: (B, m) :math:`\dot J\dot q` [m/s²];
+        joint_velocity: (B, n) :math:`\dot q` [rad/s]; configuration: (B, nq) q.
+    """
+
+    inertia: np.ndarray
+    bias_torque: np.ndarray
+    jacobian: np.ndarray
+    drift: np.ndarray
+    joint_velocity: np.ndarray
+    configuration: np.ndarray
+
+    def row(self, index: int) -> TaskTerms:
+        """Row ``index`` as the single-state :class:`TaskTerms` (placement None: the stacks carry positions only).
+
+        H is symmetric, so its transpose is H laid out column-major, as
+        Pinocchio's data holds it: a single-state step then makes the same
+        BLAS calls as inside ``simulate``, and gives the same numbers bit for bit.
+        """
+        return TaskTerms(
+            self.inertia[index].T,
+            self.bias_torque[index],
+            self.jacobian[index],
+            self.drift[index],
+            None,
+            self.joint_velocity[index],
+            self.configuration[index],
+        )
+
+
+class StackResolution(NamedTuple):
+    """What a resolver's step on stacks gives, per row (the fields of :class:`Resolution` stacked).
+
+    Attributes:
+        torque, joint_acceleration: (B, n) [N·m], [rad/s²]; unused where the row failed.
+        jacobian_inverse_condition: (B,) σmin/σmax of each task Jacobian.
+        task_error: (B,) the task acceleration given up (0 where realised), or None for all 0.
+        infeasible: (B,) bool, or None for all False.
+        failures: {row: why the resolver could not resolve it} (a singular Jacobian, an
+            infeasible program); such a row's movement stops there.
+        limiting: {row: the bounds an infeasible row's answer lay on}.
+        basis: (B, n, n − m) an orthonormal null-space basis per row when the step has one, else None.
+    """
+
+    torque: np.ndarray
+    joint_acceleration: np.ndarray
+    jacobian_inverse_condition: np.ndarray
+    task_error: np.ndarray | None = None
+    infeasible: np.ndarray | None = None
+    failures: dict | None = None
+    limiting: dict | None = None
+    basis: np.ndarray | None = None
+
+
+#: A robot-bound step on stacks: ``(terms, task_accelerations, movements) -> StackResolution``.
+StackStep = Callable[[StackTerms, np.ndarray, np.ndarray], StackResolution]
+
+
+def singular_rows(inverse_conditions: np.ndarray, tolerance: float) -> dict:
+    """{row: the singular-Jacobian message} for the rows whose σmin/σmax is below ``tolerance`` (or NaN)."""
+    singular = ~(inverse_conditions >= tolerance)
+    if not singular.any():
+        return {}
+    return {row: singular_message(inverse_conditions[row], tolerance) for row in np.flatnonzero(singular).tolist()}
+
+
+class LoopedStackStep:
+    """The default step on stacks: a resolver's single-state step (``solver_for_run``) row by row.
+
+    One single-state step function per movement, made when the movement
+    first comes, so a step that keeps state between calls keeps each
+    movement's own. A row whose step raises one of :data:`STOPPING_ERRORS`
+    is a failure (its message kept); its σmin/σmax comes from the SVD.
+    Such a step gains nothing from stacked terms, so the batch gives it the
+    single-state terms and RK4 of ``simulate``, row by row: its runs equal
+    ``simulate``'s bit for bit.
+    """
+
+    def __init__(self, resolver, robot: Robot, dt: float | None = None):
+        self.resolver, self.robot, self.dt = resolver, robot, dt
+        self._steps: dict[int, Callable] = {}
+
+    def _make_step(self):
+        resolver, robot = self.resolver, self.robot
+        return resolver.solver(robot) if self.dt is None else resolver.solver_for_run(robot, self.dt)
+
+    def __call__(self, terms: StackTerms, task_accelerations: np.ndarray, movements: np.ndarray) -> StackResolution:
+        count, n = task_accelerations.shape[0], self.robot.nv
+        torque = np.full((count, n), np.nan)
+        acceleration = np.full((count, n), np.nan)
+        conditions = np.empty(count)
+        task_error = np.zeros(count)
+        infeasible = np.zeros(count, dtype=bool)
+        failures, limiting = {}, {}
+        steps = self._steps
+        for row, movement in enumerate(movements.tolist()):
+            solve = steps.get(movement)
+            if solve is None:
+                solve = steps[movement] = self._make_step()
+            try:
+                resolution = solve(terms.row(row), task_accelerations[row])
+            except STOPPING_ERRORS as error:
+                failures[row] = str(error)
+                conditions[row] = inverse_condition_number(terms.jacobian[row])
+                continue
+            torque[row], acceleration[row] = resolution.torque, resolution.joint_acceleration
+            conditions[row] = resolution.jacobian_inverse_condition
+            task_error[row], infeasible[row] = resolution.task_error, resolution.infeasible
+            if resolution.limiting:
+                limiting[row] = resolution.limiting
+        return StackResolution(torque, acceleration, conditions, task_error, infeasible, failures, limiting)
+
+
+def looped_stack_step(resolver, robot: Robot, dt: float | None = None) -> StackStep:
+    """The default step on stacks, :class:`LoopedStackStep`: the single-state step row by row, one per movement."""
+    return LoopedStackStep(resolver, robot, dt)
+
+
+def complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
+    r"""``(J⁺r, Z, σ_min/σ_max)`` per row of a (B, m, n) stack, from the complete QR of :math:`J^\top`.
+
+    :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
+    rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
+    is the minimum-norm solution of :math:`J\ddot q = r`. The inverse condition comes
+    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J), half the cost of an SVD of R
+    per row; squaring costs accuracy, a relative error of about :math:`\varepsilon/(\sigma_{min}/\sigma_{max})^2`
+    (2e-4 at the cutoff 1e-6, which it only has to decide). Rows with a singular J get a finite, unused answer.
+    """
+    m = J.shape[1]
+    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))  # σ² of J, smallest first
+    conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
+    orthogonal, triangular = np.linalg.qr(np.swapaxes(J, 1, 2), mode="complete")
+    upper = triangular[:, :m, :]
+    upper = np.where((conditions < 1e-12)[:, None, None], np.eye(m), upper)
+    particular = np.einsum(
+        "bij,bj->bi", orthogonal[:, :, :m], np.linalg.solve(np.swapaxes(upper, 1, 2), residual[..., None])[..., 0]
+    )
+    return particular, orthogonal[:, :, m:] if redundant else None, conditions
+
+
+def two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
+    r""":func:`complete_qr` for two-row Jacobians of two or three joints (the planar arm's xy task), in closed form.
+
+    Gram-Schmidt with one re-orthogonalisation gives the row-space basis
+    :math:`q_1, q_2` and :math:`R = \begin{pmatrix} r_{11} & r_{12}\\ 0 & r_{22}\end{pmatrix}`
+    (:math:`J^\top = [q_1\ q_2] R`) to working accuracy; :math:`J^\dagger r = q_1 y_1 + q_2 y_2`
+    with :math:`R^\top y = r`; for three joints the null space is spanned by
+    :math:`z = q_1\times q_2`. The singular values of R are those of J:
+    :math:`\sigma_{max}^2 = (s + \sqrt{s^2 - 4d^2})/2` with
+    :math:`s = \|R\|_F^2`, :math:`d = r_{11}r_{22}`, and :math:`\sigma_{min} = d/\sigma_{max}`.
+    Equal to the QR path to round-off, without a LAPACK call per row.
+    """
+    first, second = J[:, 0], J[:, 1]
+    r11 = np.sqrt(np.einsum("bi,bi->b", first, first))
+    safe11 = np.where(r11 > 0.0, r11, 1.0)
+    q1 = first / safe11[:, None]
+    r12 = np.einsum("bi,bi->b", q1, second)
+    u = second - r12[:, None] * q1
+    u -= np.einsum("bi,bi->b", q1, u)[:, None] * q1  # twice is enough: orthogonal to working accuracy
+    r22 = np.sqrt(np.einsum("bi,bi->b", u, u))
+    safe22 = np.where(r22 > 0.0, r22, 1.0)
+    q2 = u / safe22[:, None]
+    y1 = residual[:, 0] / safe11
+    y2 = (residual[:, 1] - r12 * y1) / safe22
+    particular = q1 * y1[:, None] + q2 * y2[:, None]
+    frobenius = r11 * r11 + r12 * r12 + r22 * r22
+    determinant = r11 * r22
+    # σ_min/σ_max = d/σ_max² = 2d / (s + √(s² − 4d²)); 0 for a zero J (s = 0).
+    denominator = frobenius + np.sqrt(np.maximum(frobenius * frobenius - 4.0 * determinant * determinant, 0.0))
+    conditions = np.divide(2.0 * determinant, denominator, out=np.zeros_like(denominator), where=denominator > 0.0)
+    if not (redundant and J.shape[2] == 3):
+        return particular, None, conditions
+    basis = stacked_cross(q1, q2)[:, :, None]  # z = q1 × q2, (B, 3, 1), unit: q1 ⊥ q2
+    return particular, basis, conditions
+
+
+def task_factorisation(robot: Robot):
+    """The stacked factorisation for ``robot``'s task: :func:`two_rows` for two rows on two or three joints, else QR."""
+    return two_rows if robot.m == 2 and robot.nv in (2, 3) else complete_qr
+
+
+def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Minimum-norm least squares per row of (B, r, c) stacks, rank cutoff 1e-12 relative (as linalg.LeastSquares)."""
+    if matrix.shape[2] == 1:
+        # One column a: y = aᵀb / aᵀa, or 0 for a zero column (the minimum-norm answer).
+        column = matrix[:, :, 0]
+        norm2 = np.einsum("bi,bi->b", column, column)
+        safe = np.where(norm2 > 0.0, norm2, 1.0)
+        return np.where(norm2 > 0.0, np.einsum("bi,bi->b", column, rhs) / safe, 0.0)[:, None]
+    u, s, vt = np.linalg.svd(matrix, full_matrices=False)
+    keep = s > 1e-12 * s[:, :1]
+    inverse = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
+    projected = np.einsum("bji,bj->bi", u, rhs) * inverse
+    return np.einsum("bji,bj->bi", vt, projected)
