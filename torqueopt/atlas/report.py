@@ -176,6 +176,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             "stable": "#2ca02c",
             "whiplash": "#d62728",
             "too demanding": "#ff7f0e",
+            "joint limits": "#9467bd",
             "singular": "#7f7f7f",
             "lost path": "#9467bd",
             "stopped early": "black",

@@ -45,6 +45,10 @@ The verdict (column ``verdict``)
       torque is what ``pinv`` needs on the path too, and the self-motion is
       small), or it fails at the very first sample, before any self-motion
       could build up: the path asks more than the arm has;
+    * ``"joint limits"``: neither of those, but a joint left its URDF position
+      or velocity limits at some sample (the final state included): the
+      torques stayed within the 2x-limit rule, but a joint went outside its
+      range or faster than its limit;
     * ``"singular"``: the run reached a singular Jacobian, the task's or an
       algorithmic one such as the extended Jacobian's (and stopped there, at
       t = 0 too), before failing the 2x-limit rule;
@@ -69,6 +73,14 @@ A resolver under hard torque bounds (``bounded-torque``, ``minmax-torque``)
 cannot fail the 2x-limit rule: it gives up task acceleration instead, and
 the row keeps ``max_task_error`` [m/s²] and ``infeasible_steps`` beside
 ``max_tip_error`` [m], which show where such a resolver lost the path.
+
+When and where a run left its joint limits: ``first_position_limit_violation``
+and ``first_velocity_limit_violation`` [s] are the first samples outside the
+URDF's position and velocity limits (NaN when the run stayed inside them),
+``position_limit_joint`` and ``velocity_limit_joint`` the
+joints (None when none), as :attr:`SimResult.first_position_violation
+<torqueopt.result.SimResult.first_position_violation>` finds them. The
+columns are kept for every verdict: a whip usually leaves the limits too.
 
 Where the whip happened: at ``whip_time`` (the instability time, else the
 time of the peak torque demand) the row keeps the joint nearest to aligned
@@ -104,7 +116,7 @@ __all__ = [
 DEFAULT_PINV_FACTOR = 2.0
 #: runaway when the self-motion's peak kinetic energy exceeds this multiple of the task's.
 DEFAULT_ENERGY_FACTOR = 10.0
-VERDICTS = ("stable", "whiplash", "too demanding", "singular", "lost path", "stopped early")
+VERDICTS = ("stable", "whiplash", "too demanding", "joint limits", "singular", "lost path", "stopped early")
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _PER_JOINT_FIELDS = ("torque_upper", "torque_lower")
 
@@ -185,6 +197,8 @@ def run_row(
     its torque is never held over a step.
     """
     tip_error = float(result.max_tip_error)
+    # Every sample counts for the joint limits, the final state too: it is a state the arm reaches.
+    position_violation, velocity_violation = result.first_position_violation, result.first_velocity_violation
     result, kinetic_energy, self_energy = applied_rows(result, kinetic_energy, self_energy)
     report = detect_whiplash(result, limit_factor=thresholds.limit_factor)
     # Rows without an applied torque (a singular stop) hold NaN: they count as no demand.
@@ -213,6 +227,8 @@ def run_row(
     if report.unstable:
         from_the_start = report.time is not None and report.time <= result.t[0]
         verdict = "whiplash" if runaway and not from_the_start else "too demanding"
+    elif position_violation is not None or velocity_violation is not None:
+        verdict = "joint limits"
     elif singular:
         verdict = "singular"
     elif tip_error > DEFAULT_PATH_TOLERANCE or math.isnan(tip_error):
@@ -256,6 +272,10 @@ def run_row(
         "instability_joint": report.joint,
         "peak_torque_joint": peak_joint,
         "first_limit_violation_joint": result.first_limit_violation_joint,
+        "first_position_limit_violation": math.nan if position_violation is None else position_violation[0],
+        "position_limit_joint": None if position_violation is None else position_violation[1],
+        "first_velocity_limit_violation": math.nan if velocity_violation is None else velocity_violation[0],
+        "velocity_limit_joint": None if velocity_violation is None else velocity_violation[1],
         "runaway": runaway,
         "runaway_time": runaway_time,
         "torque_vs_pinv": torque_vs_pinv,
