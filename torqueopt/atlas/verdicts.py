@@ -79,7 +79,7 @@ and ``first_velocity_limit_violation`` [s] are the first samples outside the
 URDF's position and velocity limits (NaN when the run stayed inside them),
 ``position_limit_joint`` and ``velocity_limit_joint`` the
 joints (None when none), as :attr:`SimResult.first_position_violation
-<torqueopt.result.SimResult.first_position_violation>` finds them. The
+<torqueopt.SimResult.first_position_violation>` finds them. The
 columns are kept for every verdict: a whip usually leaves the limits too.
 
 Where the whip happened: at ``whip_time`` (the instability time, else the
