@@ -334,7 +334,15 @@ def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
     assert list(table.columns[: len(required)]) == required
     assert len(table) == 12 * 4 and table["path"].nunique() == 12
     assert list(table["resolver"][:4]) == PAPER_RESOLVERS
-    assert set(table["verdict"]) <= {"stable", "whiplash", "too demanding", "joint limits", "singular"}
+    assert set(table["verdict"]) <= {
+        "stable",
+        "whiplash",
+        "too demanding",
+        "joint limits",
+        "singular",
+        "lost path",
+        "stopped early",
+    }
 
 
 @pytest.mark.slow
