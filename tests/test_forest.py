@@ -139,3 +139,20 @@ def test_batches_in_threads_on_one_robot_give_the_serial_results(planar3):
         for run_alone, run_together in zip(alone, together):
             for field in ("q", "v", "tau", "x"):
                 np.testing.assert_array_equal(getattr(run_together, field), getattr(run_alone, field))
+
+
+def test_the_two_terms_providers_give_the_same_terms(planar3, panda):
+    """ForestTerms (the forest, B > 1) against PinocchioTerms (Pinocchio's frame calls on one data, row by row)."""
+    from torqueopt.terms import ForestTerms, PinocchioTerms, terms_provider
+
+    for robot in (planar3, panda):
+        rng = np.random.default_rng(8)
+        q = robot.default_configuration + rng.uniform(-1.0, 1.0, (9, robot.nv))
+        v = rng.uniform(-2.0, 2.0, (9, robot.nv))
+        forest_terms, forest_position = ForestTerms(robot).terms(q, v)
+        pinocchio_terms, pinocchio_position = PinocchioTerms(robot).terms(q, v)
+        for ours, theirs in zip((*forest_terms, forest_position), (*pinocchio_terms, pinocchio_position)):
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-11 * (1.0 + np.abs(theirs).max()))
+        assert np.abs(pinocchio_terms.drift).max() > 1e-3  # the velocities enter the drift
+        assert isinstance(terms_provider(robot, 9), ForestTerms)
+        assert isinstance(terms_provider(robot, 1), PinocchioTerms)

@@ -43,6 +43,7 @@ from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
 from .run_log import ReferenceBlocks, StopRules, logged_row_bytes, run_result, task_reference
+from .terms import PinocchioTerms
 from .trajectory import Trajectory, check_trajectory
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -208,7 +209,7 @@ def simulate(
     # outside this run writes into the views its terms hold.
     data = robot.model.createData()
     advance = plant_stepper(plant, robot, dt, data)
-    terms_at = robot.terms_function(data)
+    terms_at = PinocchioTerms(robot, data).one  # the engine's terms provider for B = 1
     task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
     # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
     position_rows = None if robot.task == "pose" else robot.task_rows
