@@ -123,7 +123,7 @@ class LoopedStackStep:
 
     One single-state step function per movement, made when the movement
     first comes, so a step that keeps state between calls keeps each
-    movement's own. A row whose step raises one of :data:`STOPPING_ERRORS`
+    movement's own. A row whose step raises one of ``STOPPING_ERRORS``
     is a failure (its message kept); its σmin/σmax comes from the SVD.
     Such a step gains nothing from stacked terms, so the batch gives it the
     single-state terms and RK4 of ``simulate``, row by row: its runs equal
