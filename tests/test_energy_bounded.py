@@ -97,20 +97,21 @@ class BarrierReference(Reference):
         return -self.rate * (self.energy - self.limit) - self.coefficient @ acceleration - self.constant
 
 
-def _reference_solve(ref, start):
+def _reference_solve(ref, start, root):
+    """SLSQP on ½‖S(τ − τ_mid)‖² (S = diag(root)) under the torque bounds and the barrier."""
     tilde = ref.tilde()
     rows = ref.G / ref.spread[:, None]
     size = np.linalg.norm(ref.coefficient)
     barrier_row = -ref.coefficient @ ref.Z / size
 
     # SLSQP's line search wants a criterion of order one: the same minimiser, scaled by 1/‖G‖_F².
-    weight = 1.0 / np.sum(ref.G**2)
+    weight = 1.0 / np.sum((root[:, None] * ref.G) ** 2)
 
     def cost(y):
-        return 0.5 * weight * np.sum((tilde + ref.G @ y - ref.mid) ** 2)
+        return 0.5 * weight * np.sum((root * (tilde + ref.G @ y - ref.mid)) ** 2)
 
     def gradient(y):
-        return weight * ref.G.T @ (tilde + ref.G @ y - ref.mid)
+        return weight * ref.G.T @ (root**2 * (tilde + ref.G @ y - ref.mid))
 
     constraints = [
         {"type": "ineq", "fun": lambda z: (ref.upper - tilde - ref.G @ z) / ref.spread, "jac": lambda z: -rows},
@@ -123,8 +124,9 @@ def _reference_solve(ref, start):
     return found, cost, gradient
 
 
+@pytest.mark.parametrize("torque_weight", ["range", "unit"])
 @pytest.mark.parametrize("robot_name", ["planar3", "panda"])
-def test_the_qp_meets_kkt_and_agrees_with_slsqp(robot_name, request):
+def test_the_qp_meets_kkt_and_agrees_with_slsqp(robot_name, torque_weight, request):
     robot = request.getfixturevalue(robot_name)
     if robot_name == "panda":
         robot = robot.with_torque_limit(robot.urdf_effort_limit / 3.0)
@@ -133,7 +135,12 @@ def test_the_qp_meets_kkt_and_agrees_with_slsqp(robot_name, request):
         energy = _energy_by_definition(robot, terms.configuration, terms.joint_velocity)
         # A bound below the state's energy: the barrier must take energy out.
         # Joint limits off: the reference is the barrier and the torque bounds.
-        options = {"energy_limit": 0.5 * energy, "energy_rate": 10.0, "joint_limits": "off"}
+        options = {
+            "energy_limit": 0.5 * energy,
+            "energy_rate": 10.0,
+            "joint_limits": "off",
+            "torque_weight": torque_weight,
+        }
         ref = BarrierReference(robot, terms, xdd, options["energy_limit"], options["energy_rate"])
         found = _step("energy-bounded-torque", robot, **options)(terms, xdd)
         if found.infeasible:
@@ -152,12 +159,13 @@ def test_the_qp_meets_kkt_and_agrees_with_slsqp(robot_name, request):
         columns = [ref.G[at_upper].T, -ref.G[at_lower].T]
         if barrier_on:
             columns.append((ref.Z.T @ ref.coefficient)[:, None])
-        g = ref.G.T @ (tau - ref.mid)
+        root = 1.0 / ref.spread if torque_weight == "range" else np.ones(robot.nv)
+        g = ref.G.T @ (root**2 * (tau - ref.mid))
         _, residual = nnls(np.hstack(columns), -g) if sum(c.shape[1] for c in columns) else (None, np.linalg.norm(g))
-        assert residual <= 1e-7 * (np.linalg.norm(ref.G.T @ np.abs(tau - ref.mid)) + 1.0)
+        assert residual <= 1e-7 * np.linalg.norm(np.abs(ref.G).T @ (root**2 * np.abs(tau - ref.mid))), residual
         barrier_active += bool(barrier_on)
         torque_active += bool(at_upper.size + at_lower.size)
-        other, cost, _ = _reference_solve(ref, np.zeros_like(y))
+        other, cost, _ = _reference_solve(ref, np.zeros_like(y), root)
         # SLSQP may stop on its line search at the optimum: hold its point to feasibility instead of its flag.
         assert ref.barrier(other.x) >= -1e-6 * scale and np.all(ref.tilde() + ref.G @ other.x <= ref.upper + 1e-6)
         assert cost(y) <= cost(other.x) + 1e-7 * max(1.0, abs(cost(other.x)))
