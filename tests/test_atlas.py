@@ -797,3 +797,26 @@ def test_ctrl_c_during_a_dask_atlas_is_one_line_from_the_main_process_only(tmp_p
     time.sleep(1.0)  # a worker's traceback would come after the main process has gone
     assert process.returncode == 130
     assert err == "torqueopt atlas: interrupted\n"
+
+
+def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_path, capsys):
+    """The claim lines said "unstable" beside the whiplash verdict's numbers; a long resolver name pushed its
+    row's cells out of their columns."""
+    out = tmp_path / "console"
+    assert main(["atlas", "--robot", "planar3", "--paths", "3", "--durations", "0.2,0.3", "--workers", "0",
+                 "--no-progress", "--no-figures", "--resolvers", "null-space,inverse-inertia-squared-torque",
+                 "--out", str(out)]) == 0  # fmt: skip
+    lines = capsys.readouterr().out.splitlines()
+    header = next(line for line in lines if line.startswith("resolver"))
+    rows = [
+        line for line in lines if line.split()[:1] in (["pinv"], ["null-space"], ["inverse-inertia-squared-torque"])
+    ]
+    assert len(rows) == 3
+    for title in ("T=0.2 s", "T=0.3 s"):
+        end = header.index(title) + len(title)
+        for row in rows:
+            assert row[end - 1] != " " and (len(row) == end or row[end] == " "), (title, row)
+    claims = [line for line in lines if line.startswith("claim")]
+    assert claims and all(line.startswith(("claim (yes, by the whiplash verdict)", "claim (no, by the whiplash "
+                                           "verdict)", "claim (undecided, by the whiplash verdict)")) for line in claims)  # fmt: skip
+    assert not any(" unstable " in line.split('": ', 1)[1] for line in claims)

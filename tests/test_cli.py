@@ -12,6 +12,8 @@ import torqueopt
 from torqueopt.catalog import find_robot
 from torqueopt.cli import main
 
+from .conftest import PAPER_Q0
+
 PAPER = ["--robot", "planar3", "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--direction", "1,1"]
 
 
@@ -346,3 +348,39 @@ def test_an_unknown_matplotlib_backend_is_one_line_before_any_work(tmp_path):
         "Agg (torqueopt draws its figures on its own canvas)\n"
     )
     assert not (tmp_path / "run.png").exists()
+
+
+def test_the_summary_columns_stay_apart_whatever_the_numbers(planar3):
+    """A runaway torque of 1.3e9 N·m ran into its limit column: "1305095808.068 54.00024168440.890"."""
+    from torqueopt.cli.run import format_summary
+
+    result = torqueopt.simulate(planar3, "pinv", torqueopt.StraightLine([1, 1], duration=0.1), PAPER_Q0)
+    result.tau = result.tau * 1e8
+    result.joint_names = ["joint1", "a_joint_with_a_name_longer_than_the_column", "joint3"]
+    lines = format_summary(planar3, result).splitlines()
+    header = lines[1]
+    rows = lines[2:5]
+    for row, name, peak, limit in zip(rows, result.joint_names, result.peak_torque, result.torque_upper):
+        fields = row.split()
+        assert fields[0] == name and float(fields[1]) == pytest.approx(peak, rel=1e-9)
+        assert float(fields[2]) == limit and float(fields[3]) == pytest.approx(peak / limit, rel=1e-6)
+        assert fields[4:] == ["OVER"]
+        # every number ends where its header ends: the columns are aligned
+        for title, value in zip(("peak |tau| [N·m]", "limit [N·m]", "peak/limit"), fields[1:4]):
+            assert row.index(value) + len(value) == header.index(title) + len(title), (title, row)
+
+
+def test_the_resolver_listing_is_plain_text(capsys):
+    """`torqueopt resolvers` showed kinetic-energy-pinv as "with :math:`W = H`"."""
+    assert main(["resolvers"]) == 0
+    printed = capsys.readouterr().out
+    assert "kinetic-energy-pinv: Weighted pseudoinverse with W = H: minimum kinetic energy" in printed
+    assert ":math:" not in printed and "``" not in printed
+
+
+def test_no_generated_sentence_speaks_of_study_motion():
+    """A rename of 'self' to 'study' had left "hold the study-motion down" in the remedies' answers."""
+    from pathlib import Path
+
+    package = Path(torqueopt.__file__).parent
+    assert not [path.name for path in package.rglob("*.py") if "study-motion" in path.read_text()]

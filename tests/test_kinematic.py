@@ -531,3 +531,15 @@ def test_task_priority_with_a_tiny_damping_keeps_the_torques_of_no_damping(plana
         )
         assert damped.completed
         np.testing.assert_allclose(np.abs(damped.tau).max(axis=0), np.abs(plain.tau).max(axis=0), rtol=1e-3)
+
+
+def test_extended_jacobian_on_a_robot_with_more_redundancy_says_what_would_work(capsys):
+    """On kinova (n = 6, position task) it suggested "a task with m = 5", which no task has."""
+    code = main(["run", "--robot", "kinova", "--resolver", "extended-jacobian", "--direction", "0,1,0",
+                 "--duration", "0.2"])  # fmt: skip
+    assert code == 2
+    assert capsys.readouterr().err == (
+        "torqueopt run: error: resolver 'extended-jacobian' needs exactly one degree of redundancy (n − m = 1); "
+        "task 'position' on robot 'kinova' leaves 3: lock 2 joints of the chain (--lock NAME,...) so that n = 4, "
+        "or choose a resolver that takes any redundancy (velocity-pinv, gradient-projection)\n"
+    )

@@ -399,3 +399,21 @@ def test_the_paper_figures_draw_the_runs_they_name(paper, tmp_path, saved_figure
         np.testing.assert_allclose(data(error_ax, f"{name} tip")[1], 1e3 * np.linalg.norm(run.x - run.x_ref, axis=1))
         along = (run.x - run.x_ref[0]) @ (np.array([1.0, 1.0]) / math.sqrt(2.0))
         np.testing.assert_allclose(data(path_ax, f"{name} tip")[0], along, atol=1e-12)
+
+
+def test_a_remedy_that_costs_more_than_pinv_keeps_none_of_the_cut(capsys):
+    """The console said "keeps -80% of null-space's cut" for a remedy costing more than pinv."""
+    from types import SimpleNamespace
+
+    from torqueopt.cli.paper import print_remedies
+
+    rows = [
+        {"movement": "short", "resolver": "damped-null-space", "peak_torque_ratio": 0.83, "null_space_cut_kept": 0.4},
+        {"movement": "medium", "resolver": "damped-null-space", "peak_torque_ratio": 0.94, "null_space_cut_kept": -0.8},
+    ]
+    study = SimpleNamespace(remedies=("damped-null-space",), skipped=(), entries=lambda: rows,
+                            verdict=lambda movement, name: "stable", summary=lambda: {"answers": {}})  # fmt: skip
+    print_remedies(study)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].endswith("stable, keeps 40% of null-space's cut")
+    assert lines[2].endswith("stable, keeps none of null-space's cut (it costs more than pinv)")

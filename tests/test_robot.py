@@ -158,3 +158,21 @@ def test_with_gravity_is_a_copy_and_leaves_the_robot_alone():
     q, zero = robot.configuration([0.3, 0.2, 0.1]), np.zeros(3)
     assert not robot.forward_dynamics(q, zero, zero).any()
     assert heavy.forward_dynamics(q, zero, zero).any()
+
+
+def test_a_folder_or_a_xacro_given_as_robot_says_what_it_is(tmp_path, monkeypatch):
+    """A folder was said not to exist, and an existing .xacro was an "unknown robot"."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "arm").mkdir()
+    (tmp_path / "arm" / "arm.urdf").write_text("<robot/>")
+    (tmp_path / "arm.urdf.xacro").write_text("<robot/>")
+    cases = [
+        ("arm", "robot 'arm' is a folder; give the URDF file in it, e.g. arm/arm.urdf"),
+        ("arm/", "robot 'arm/' is a folder; give the URDF file in it, e.g. arm/arm.urdf"),
+        ("arm.urdf.xacro", "robot 'arm.urdf.xacro' is a xacro file, which torqueopt does not expand; expand it to a "
+         "URDF first (xacro arm.urdf.xacro -o arm.urdf) and give that file"),
+    ]  # fmt: skip
+    for source, message in cases:
+        with pytest.raises(RobotNotFound) as error:
+            torqueopt.load_robot(source)
+        assert str(error.value) == message

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+import torqueopt
 from torqueopt import InvalidInput, StraightLine
 
 
@@ -61,3 +62,10 @@ def test_the_step_starting_at_half_time_decelerates():
     line = StraightLine([1, 0], accel=2.0, duration=1.0).anchored([0, 0])
     before, middle = line.sample(np.array([0.5 - 1e-3, 0.5])).acceleration[:, 0]
     assert before == 2.0 and middle == -2.0
+
+
+def test_a_huge_direction_is_a_direction_not_zero():
+    """--direction 1e308,1e308 was reported as "[0.0, 0.0] is zero": its norm overflowed."""
+    line = torqueopt.StraightLine((1e308, 1e308), duration=1.0)
+    np.testing.assert_allclose(line.direction, [2**-0.5, 2**-0.5], rtol=1e-15)
+    np.testing.assert_allclose(torqueopt.StraightLine((5e-324, 0.0), duration=1.0).direction, [1.0, 0.0])

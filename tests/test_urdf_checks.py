@@ -37,6 +37,8 @@ BROKEN = [
     ('lower="-6.283185307179586" upper="6.283185307179586" effort="54.0"', 'lower="1" upper="-1" effort="54.0"', "joint 'joint1' has lower position limit 1 above its upper limit -1"),
     ('lower="-6.283185307179586"', 'lower="-inf"', "joint 'joint1' has lower position limit -inf; give a finite number (a revolute joint without position limits is type=\"continuous\")"),
     ('<child link="link2"/>', '<child link="link3"/>', "link 'link3' is the child of both joint 'joint2' and joint 'joint3', which closes a kinematic loop"),
+    ('<link name="link3">', '<link name="link2"/><link name="link3">', "has two <link> elements named 'link2'; every link needs a name of its own"),
+    ('<joint name="joint3"', '<joint name="joint2" type="fixed"><parent link="link3"/><child link="extra"/></joint><link name="extra"/><joint name="joint3"', "has two <joint> elements named 'joint2'; every joint needs a name of its own"),
 ]  # fmt: skip
 
 

@@ -172,6 +172,7 @@ def find_robot(source: str | Path) -> RobotSource:
     path = Path(text).expanduser()
     looks_like_path = path.suffix.lower() == ".urdf" or "/" in text or "\\" in text
     if looks_like_path:
+        _refuse_what_is_no_urdf(text, path)
         if not path.is_file():
             raise RobotNotFound(f"URDF file '{text}' does not exist")
         return RobotSource(name=path.stem, urdf=path.resolve(), package_dirs=_package_dirs_for(path.resolve()))
@@ -207,6 +208,7 @@ def find_robot(source: str | Path) -> RobotSource:
             start=arm.start,
         )
 
+    _refuse_what_is_no_urdf(text, path)
     names = available_robots()
     shown = names[: len(names) - len(set(urdfs) - set(_KNOWN_ARMS))]
     hint = ", ".join(shown)
@@ -215,6 +217,23 @@ def find_robot(source: str | Path) -> RobotSource:
     if example_robot_data_dir() is None:
         hint += " (example-robot-data is not installed: pip install example-robot-data)"
     raise RobotNotFound(f"unknown robot '{text}': give a URDF path or one of {hint}")
+
+
+def _refuse_what_is_no_urdf(text: str, path: Path) -> None:
+    """A folder, or a xacro file, given where a URDF (or a robot's name) is expected: say what it is."""
+    from .errors import RobotNotFound
+
+    if path.is_dir():
+        inside = sorted(path.glob("*.urdf")) or sorted(path.glob("*/*.urdf"))
+        example = f", e.g. {inside[0].as_posix()}" if inside else " (it holds no .urdf)"
+        raise RobotNotFound(f"robot '{text}' is a folder; give the URDF file in it{example}")
+    if path.is_file() and path.suffix.lower() == ".xacro":
+        expanded = path.name[: -len(".xacro")]
+        expanded = expanded if expanded.lower().endswith(".urdf") else f"{expanded}.urdf"
+        raise RobotNotFound(
+            f"robot '{text}' is a xacro file, which torqueopt does not expand; expand it to a URDF first "
+            f"(xacro {path.name} -o {expanded}) and give that file"
+        )
 
 
 def _package_dirs_for(urdf: Path) -> tuple[Path, ...]:

@@ -81,6 +81,15 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
     notes: list[str] = []
     masses = {}
     inertia_traces = {}
+    for kind in ("link", "joint"):
+        seen = set()
+        for element in root.findall(kind):
+            name = element.get("name")
+            if name in seen:
+                raise UrdfError(
+                    f"{where} has two <{kind}> elements named '{name}'; every {kind} needs a name of its own"
+                )
+            seen.add(name)
     for link in root.findall("link"):
         name = link.get("name")
         mass, trace = _check_inertial(link, f"{where}: link '{name}'", notes)

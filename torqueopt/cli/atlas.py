@@ -154,10 +154,11 @@ def atlas_command(args: argparse.Namespace) -> int:
         max_steps=parse_whole(args.max_steps, "max-steps", 1),
     )
     summary = result.summary
+    width = max([22, *(len(resolver) + 2 for resolver in summary["resolvers"])])
     print(
-        f"{'resolver':<22}"
+        f"{'resolver':<{width}}"
         + "".join(f"{f'T={d:g} s':>12}" for d in summary["durations"])
-        + "   (unstable by the 2x-limit rule / whiplash)"
+        + "   (unstable by the 2x-limit rule / whiplash verdict)"
     )
     for resolver in summary["resolvers"]:
         cells = []
@@ -171,9 +172,11 @@ def atlas_command(args: argparse.Namespace) -> int:
                 )
                 parts.append(f"{item['fraction']:.0%}")
             cells.append(f"{'/'.join(parts):>12}")
-        print(f"{resolver:<22}" + "".join(cells))
+        print(f"{resolver:<{width}}" + "".join(cells))
     for claim in summary["claims"]["whiplash"]:
-        print(f'claim ({claim["holds"]}): "{claim["paper"]}": {claim["figure"]}: {claim["text"]}')
+        # These are the whiplash verdict's figures (the 2x-limit rule's are in atlas.md): the line says so.
+        figure = claim["figure"].replace(" unstable", " whips")
+        print(f'claim ({claim["holds"]}, by the whiplash verdict): "{claim["paper"]}": {figure}: {claim["text"]}')
     resumed = summary.get("resumed_chunks", 0)
     note = f", {resumed} chunks resumed from an earlier run" if resumed else ""
     print(

@@ -10,7 +10,8 @@ import numpy as np
 from ..io import writable_path, writable_paths
 from ..paper import MOVEMENTS, PAPER, PaperScenario, paper_files, run_paper, write_paper
 from ..plots import FIGURE_FORMATS
-from ..studies.remedies import RemediesStudy, percent, run_remedies
+from ..studies.remedies import RemediesStudy, run_remedies
+from ..studies.remedies.discussion_answers import kept_text
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector
@@ -123,7 +124,8 @@ def print_remedies(study: RemediesStudy) -> None:
         kept = (
             ""
             if row["null_space_cut_kept"] is None
-            else f", keeps {percent(row['null_space_cut_kept'])} of null-space's cut"
+            else f", keeps {kept_text(row['null_space_cut_kept'])} of null-space's cut"
+            + (" (it costs more than pinv)" if row["null_space_cut_kept"] < 0 else "")
         )
         print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
     for key, answer in study.summary()["answers"].items():

@@ -172,20 +172,40 @@ def margin_summary(result: SimResult) -> str:
     return f"stability margin: largest {margin[peak]:.4g} 1/s at t = {result.t[peak]:.3f} s, {first}"
 
 
+def _torque_table(result: SimResult) -> list[str]:
+    """The peak-torque table, its columns as wide as their widest cell (at least the usual 24, 18, 14, 12
+    characters) and two spaces apart, so a runaway torque of 1e9 N·m never runs into its limit."""
+    cells = [
+        (
+            str(name),
+            f"{peak:.3f}",
+            f"{limit:.3f}" if np.isfinite(limit) else "none",
+            f"{ratio:.3f}" if np.isfinite(limit) else "-",
+            "  OVER" if ratio > 1.0 else "",
+        )
+        for name, peak, limit, ratio in zip(
+            result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
+        )
+    ]
+    titles = ("joint", "peak |tau| [N·m]", "limit [N·m]", "peak/limit")
+    widths = [max([24, *(len(row[0]) + 2 for row in cells)])]
+    for column, usual in zip((1, 2, 3), (18, 14, 12)):
+        widths.append(max([usual, *(len(row[column]) + 2 for row in cells)]))
+    lines = [f"{titles[0]:<{widths[0]}}" + "".join(f"{title:>{width}}" for title, width in zip(titles[1:], widths[1:]))]
+    for row in cells:
+        lines.append(
+            f"{row[0]:<{widths[0]}}" + "".join(f"{cell:>{width}}" for cell, width in zip(row[1:4], widths[1:])) + row[4]
+        )
+    return lines
+
+
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
     """A short human-readable report of a run."""
     lines = [
         f"{result.robot}: resolver {result.resolver}, task {result.task} at frame '{result.frame}' "
         f"(n={robot.nv}, m={robot.m}), {_steps_taken(result)} steps of {result.dt * 1e3:g} ms",
-        f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
+        *_torque_table(result),
     ]
-    for name, peak, limit, ratio in zip(
-        result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
-    ):
-        limit_text = f"{limit:14.3f}" if np.isfinite(limit) else f"{'none':>14}"
-        ratio_text = f"{ratio:12.3f}" if np.isfinite(limit) else f"{'-':>12}"
-        flag = "  OVER" if ratio > 1.0 else ""
-        lines.append(f"{name:<24}{peak:18.3f}{limit_text}{ratio_text}{flag}")
     if robot.joints_without_torque_limit:
         lines.append(
             "no torque limit for joints "

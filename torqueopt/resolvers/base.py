@@ -36,6 +36,7 @@ keywords, and checks them.
 
 from __future__ import annotations
 
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import ClassVar, NamedTuple
@@ -130,8 +131,10 @@ class Resolver(ABC):
 
     @classmethod
     def summary(cls) -> str:
-        """The first line of the class docstring: what the resolver does, in one line."""
-        return (cls.__doc__ or cls.name).strip().splitlines()[0]
+        """The first line of the class docstring: what the resolver does, in one line, as plain text
+        (``:math:`W = H``` reads W = H, ````name```` reads name)."""
+        line = (cls.__doc__ or cls.name).strip().splitlines()[0]
+        return re.sub(r":\w+:`([^`]*)`|``([^`]*)``", lambda match: match.group(1) or match.group(2) or "", line)
 
     @property
     def needs_torque_limits(self) -> bool:

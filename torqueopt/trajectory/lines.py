@@ -34,10 +34,11 @@ __all__ = ["MinimumJerkLine", "StraightLine"]
 
 def _unit_direction(direction) -> np.ndarray:
     vector = finite_numbers(direction, "direction")
-    norm = float(np.linalg.norm(vector))
-    if norm == 0.0:
+    largest = float(np.abs(vector).max()) if vector.size else 0.0
+    if largest == 0.0:
         raise InvalidInput(f"direction {vector.tolist()} is zero; give a non-zero direction")
-    return vector / norm
+    scaled = vector / largest  # ‖(1e308, 1e308)‖ overflows to inf, and the direction would become zero
+    return scaled / float(np.linalg.norm(scaled))
 
 
 def _start_like(start, direction: np.ndarray) -> np.ndarray | None:

@@ -121,7 +121,7 @@ class ExtendedJacobian(VelocityResolver):
         if robot.redundancy != 1:
             raise NoRedundancy(
                 f"resolver 'extended-jacobian' needs exactly one degree of redundancy (n − m = 1); task "
-                f"'{robot.task}' on robot '{robot.name}' leaves {robot.redundancy}: choose a task with m = {robot.nv - 1}"
+                f"'{robot.task}' on robot '{robot.name}' leaves {robot.redundancy}: {_one_redundancy_hint(robot)}"
             )
         self.objective.check(robot)
 
@@ -178,3 +178,20 @@ def _hessian_criterion(value):
     if value == "manipulability":
         raise Refused("has no Hessian here; the extended Jacobian needs one: use joint-limits or a callable")
     return value
+
+
+def _one_redundancy_hint(robot: Robot) -> str:
+    """How to reach n − m = 1 with what torqueopt has: a task with m = n − 1, or locking joints."""
+    from ...robot import TASK_DIMENSIONS
+
+    n = robot.nv
+    fitting = [task for task, m in TASK_DIMENSIONS.items() if m == n - 1]
+    if fitting:
+        return f"choose the task {fitting[0]} (m = {n - 1})"
+    if robot.redundancy > 1:
+        extra = robot.redundancy - 1
+        return (
+            f"lock {extra} joint{'s' if extra > 1 else ''} of the chain (--lock NAME,...) so that n = {robot.m + 1}, "
+            "or choose a resolver that takes any redundancy (velocity-pinv, gradient-projection)"
+        )
+    return f"no task torqueopt has (m = {', '.join(str(m) for m in TASK_DIMENSIONS.values())}) has m = {n - 1}"

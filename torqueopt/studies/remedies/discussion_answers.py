@@ -46,7 +46,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
             sentences.append(
                 f"Yes on this arm: with μ = {best.kinematic_weight:g} and K_D = {best.damping:g} 1/s the long "
                 f"movement stays stable and within its torque limits (peak |τ|/limit {best.long_peak_ratio:.3g}), "
-                f"while the short movement keeps {percent(best.short_kept)} of the cut in "
+                f"while the short movement keeps {kept_text(best.short_kept)} of the cut in "
                 f"{study.sweep_cost_text()} that {reference} makes against pinv."
             )
         elif stable:
@@ -54,7 +54,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
             sentences.append(
                 f"Only in part: μ = {best.kinematic_weight:g}, K_D = {best.damping:g} 1/s keeps the long movement "
                 f"stable but not within its limits (peak |τ|/limit {best.long_peak_ratio:.3g}); it keeps "
-                f"{percent(best.short_kept)} of the short movement's cut."
+                f"{kept_text(best.short_kept)} of the short movement's cut."
             )
         else:
             best = None
@@ -73,7 +73,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
         if always_unstable:
             sentences.append(
                 f"With μ = {_listing(always_unstable)} every K_D swept leaves it unstable: the term must weigh "
-                "enough against the torque criterion to hold the study-motion down."
+                "enough against the torque criterion to hold the self-motion down."
             )
         if stable:
             kept = [p.short_kept for p in stable]
@@ -84,7 +84,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
                                                     key=lambda p: p.kinematic_weight))
             )  # fmt: skip
             sentences.append(
-                f"The stable settings keep between {percent(min(kept))} and {percent(max(kept))} of the short "
+                f"The stable settings keep between {kept_text(min(kept))} and {kept_text(max(kept))} of the short "
                 "movement's cut"
                 + (
                     "; at every K_D the share kept falls as μ grows: the more the term weighs, the less torque "
@@ -107,7 +107,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
         long = study.run("long", SWEPT_RESOLVER)
         sentences.append(
             f"The defaults of {SWEPT_RESOLVER} (μ = {defaults.kinematic_weight:g}, K_D = {defaults.damping:g} 1/s) "
-            f"keep {percent(study.cut_kept('short', SWEPT_RESOLVER))} of the short movement's cut"
+            f"keep {kept_text(study.cut_kept('short', SWEPT_RESOLVER))} of the short movement's cut"
             + (
                 ""
                 if study.sweep_torque_weight == "unit"
@@ -122,7 +122,7 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
             f"Self-motion damping alone (the μ → ∞ limit) leaves the long movement "
             f"{study.verdict('long', SELF_MOTION_DAMPING)} (peak |τ|/limit "
             f"{_peak_ratio(study.run('long', SELF_MOTION_DAMPING)):.3g}) but keeps "
-            f"{percent(study.cut_kept('short', SELF_MOTION_DAMPING))} of the short movement's cut: a kinematic method, "
+            f"{kept_text(study.cut_kept('short', SELF_MOTION_DAMPING))} of the short movement's cut: a kinematic method, "
             "like pinv."
         )
     return result
@@ -212,6 +212,14 @@ def linear_programming_answer(study: RemediesStudy) -> dict:
 def _listing(values: Sequence[float]) -> str:
     values = [f"{v:g}" for v in values]
     return values[0] if len(values) == 1 else ", ".join(values[:-1]) + " and " + values[-1]
+
+
+def kept_text(share: float) -> str:
+    """The share of null-space's cut a run keeps, in words: a percentage, or "none" for a run that costs more
+    than pinv (a negative share, which "keeps -80 %" would misstate)."""
+    if math.isfinite(share) and share < 0:
+        return "none"
+    return percent(share)
 
 
 def percent(share: float) -> str:

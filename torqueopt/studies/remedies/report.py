@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ...whiplash import DEFAULT_PATH_TOLERANCE
-from .discussion_answers import percent
+from .discussion_answers import kept_text, percent
 from .measures import SWEPT_RESOLVER
 
 if TYPE_CHECKING:
@@ -42,7 +42,7 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
     for row in study.entries():
         verdict = study.verdict(row["movement"], row["resolver"])
         when = verdict if verdict == "stable" else f"**{verdict}**"
-        kept = "-" if row["null_space_cut_kept"] is None else percent(row["null_space_cut_kept"])
+        kept = "-" if row["null_space_cut_kept"] is None else kept_text(row["null_space_cut_kept"])
         lines.append(
             f"| {row['movement']} | {row['resolver']} | {row['peak_torque_ratio']:.3g} | {row['torque_cost']:.4g} "
             f"| {kept} | {when} | {row['max_tip_error'] * 1e3:.3g} | {row['infeasible_steps']} |"
