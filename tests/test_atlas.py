@@ -820,3 +820,6 @@ def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_p
     assert claims and all(line.startswith(("claim (yes, by the whiplash verdict)", "claim (no, by the whiplash "
                                            "verdict)", "claim (undecided, by the whiplash verdict)")) for line in claims)  # fmt: skip
     assert not any(" unstable " in line.split('": ', 1)[1] for line in claims)
+    # --no-figures: no figure is written, and the last line does not say there are any
+    assert lines[-1].startswith(f"wrote {out}/results.parquet, atlas.md and atlas.json in ")
+    assert not list(out.glob("*.png"))

@@ -384,3 +384,13 @@ def test_no_generated_sentence_speaks_of_study_motion():
 
     package = Path(torqueopt.__file__).parent
     assert not [path.name for path in package.rglob("*.py") if "study-motion" in path.read_text()]
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out == f"torqueopt {torqueopt.__version__}\n"
+    from importlib.metadata import version
+
+    assert torqueopt.__version__ == version("torqueopt")  # the one in pyproject.toml

@@ -214,3 +214,20 @@ def test_run_command_reports_and_records_the_measures_unless_told_not_to(tmp_pat
     assert main([*base, "--no-dexterity", "--out", str(tmp_path / "without.npz")]) == 0
     assert "manipulability" not in capsys.readouterr().out
     assert torqueopt.load_result(tmp_path / "without.npz").dexterity is None
+
+
+def test_a_joint_without_a_torque_limit_gives_nan_dynamic_measures_without_a_warning():
+    """0 · inf in the torque-normalised map (a joint that does not move the task, without a limit) leaked
+    "RuntimeWarning: invalid value encountered in multiply" into the run's output."""
+    import warnings
+
+    from torqueopt.dexterity import _measures
+
+    jacobian = np.array([[[1.0, 0.0, 0.5], [0.0, 0.0, 1.0]]])  # joint 2 does not move the task
+    inertia, gravity = np.eye(3)[None], np.zeros((1, 3))
+    upper = np.array([54.0, np.inf, 6.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        measures = _measures(jacobian, inertia, gravity, upper, -upper)[0]
+    assert np.isnan(measures["dynamic_manipulability"]).all()
+    assert measures["manipulability"][0] == pytest.approx(1.0)

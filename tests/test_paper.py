@@ -417,3 +417,15 @@ def test_a_remedy_that_costs_more_than_pinv_keeps_none_of_the_cut(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[1].endswith("stable, keeps 40% of null-space's cut")
     assert lines[2].endswith("stable, keeps none of null-space's cut (it costs more than pinv)")
+
+
+def test_the_free_swing_gets_no_note_about_holding_its_start():
+    """The zero-torque swing was told that holding its start against gravity needs 1.23 times joint 3's limit."""
+    import warnings
+
+    from torqueopt.paper.free_swing import free_swing
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        swing = free_swing(PAPER, duration=0.05)
+    assert [str(w.message) for w in caught] == [] and np.all(swing.tau[:-1] == 0.0)

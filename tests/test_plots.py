@@ -329,3 +329,47 @@ def test_plot_command_refuses_hostile_files_and_values_in_one_line(saved_runs, t
         assert main(["plot", *arguments]) == 2, arguments
         assert capsys.readouterr().err == f"torqueopt plot: error: {message}\n"
     assert not list(tmp_path.glob("*.png"))
+
+
+@pytest.mark.parametrize("option, value", [("--ellipse", "acceleration"), ("--snapshots", "4")])
+def test_a_stick_figure_option_without_stick_figures_is_refused(saved_runs, tmp_path, capsys, option, value):
+    """--ellipse without --stick-figures was silently ignored."""
+    out = tmp_path / "fig.png"
+    assert main(["plot", str(saved_runs / "short.csv"), "--out", str(out), option, value]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt plot: error: {option} {value} shapes the stick figures, which are not drawn: add --stick-figures\n"
+    )
+    assert not out.exists()
+
+
+def test_plot_of_a_run_without_rows_is_one_line_in_a_process_too(saved_runs, tmp_path):
+    """numpy's "loadtxt: input contained no data" warning came before the error line."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    empty = tmp_path / "empty.csv"
+    empty.write_text((saved_runs / "short.csv").read_text().splitlines()[0] + "\n")
+    (tmp_path / "empty.csv.json").write_text((saved_runs / "short.csv.json").read_text())
+    root = Path(__file__).resolve().parent.parent
+    process = subprocess.run([sys.executable, "-m", "torqueopt", "plot", str(empty)], capture_output=True, text=True,
+                             env={**__import__("os").environ, "PYTHONPATH": str(root)}, timeout=120, check=False)  # fmt: skip
+    assert process.returncode == 2
+    assert process.stderr == f"torqueopt plot: error: run file '{empty}' has no rows: nothing to plot\n"
+
+
+def test_plot_of_an_unstable_run_marks_when_it_went_unstable(planar3, tmp_path, saved_figures, capsys):
+    """`torqueopt plot` drew the paper's long null-space run without marking its instability at 1.389 s."""
+    from torqueopt.whiplash import detect_whiplash
+
+    run = torqueopt.simulate(planar3, "null-space", torqueopt.StraightLine((1.0, 1.0), duration=2.0), PAPER_Q0)
+    run.to_csv(tmp_path / "long.csv")
+    report = detect_whiplash(run)
+    assert report.unstable
+    assert main(["plot", str(tmp_path / "long.csv"), "--out", str(tmp_path / "long.png")]) == 0
+    (figure,) = saved_figures
+    label = f"unstable by the whiplash detector ({report.time:.3f} s)"
+    marked = [ax for ax in figure.axes if label in vertical_marks(ax)]
+    assert len(marked) >= run.n + 1  # every torque panel and the velocity panel
+    for ax in marked:
+        assert vertical_marks(ax)[label] == pytest.approx(report.time)

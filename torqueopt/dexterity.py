@@ -225,8 +225,9 @@ def _measures(jacobian, inertia, gravity, upper, lower):
     khatib_range = np.where((upper > gravity) & (lower < gravity), khatib_range, 0.0)
     # J H̃⁻¹ = J H⁻¹ W⁻¹ with H̃ = W H, Eq. (23): the image of the unit ball ‖τ̂‖ ≤ 1 is the
     # ellipsoid of Eq. (24), and Π σᵢ(J H̃⁻¹) = sqrt(det(J (H̃ᵀH̃)⁻¹ Jᵀ)) is Eq. (25).
-    yoshikawa = mobility * torque_range[..., None, :]
-    khatib = mobility * khatib_range[..., None, :]
+    with np.errstate(invalid="ignore"):  # 0 · inf for a joint without a limit: NaN, and unused below
+        yoshikawa = mobility * torque_range[..., None, :]
+        khatib = mobility * khatib_range[..., None, :]
     bounded = bool(np.isfinite(upper).all() and np.isfinite(lower).all())
     if bounded:
         dynamic = np.prod(np.linalg.svd(yoshikawa, compute_uv=False), axis=-1)  # Eq. (25)

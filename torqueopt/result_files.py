@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 import zipfile
 from dataclasses import fields
 from pathlib import Path
@@ -167,7 +168,9 @@ def _load_csv(path: Path, robot) -> SimResult:
     metadata = json.loads(sidecar.read_text())
     with open(path) as handle:
         header = [name.strip() for name in handle.readline().strip().split(",")]
-    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="loadtxt: input contained no data")  # a run of no rows: said below
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     if table.size == 0:
         table = np.empty((0, len(header)))
     if table.shape[1] != len(header):

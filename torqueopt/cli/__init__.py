@@ -54,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
             "or the optimiser did not converge)."
         ),
     )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"torqueopt {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     subparsers.required = True
     for name in _COMMANDS:

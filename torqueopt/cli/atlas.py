@@ -179,7 +179,10 @@ def atlas_command(args: argparse.Namespace) -> int:
         print(f'claim ({claim["holds"]}, by the whiplash verdict): "{claim["paper"]}": {figure}: {claim["text"]}')
     resumed = summary.get("resumed_chunks", 0)
     note = f", {resumed} chunks resumed from an earlier run" if resumed else ""
-    print(
-        f"wrote {result.out}/results.parquet, atlas.md, atlas.json and figures in {time.perf_counter() - started:.1f} s{note}"
+    written = (
+        "results.parquet, atlas.md, atlas.json and figures"
+        if not args.no_figures
+        else ("results.parquet, atlas.md and atlas.json")
     )
+    print(f"wrote {result.out}/{written} in {time.perf_counter() - started:.1f} s{note}")
     return EXIT_OK

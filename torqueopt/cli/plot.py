@@ -11,8 +11,9 @@ from ..errors import InvalidInput
 from ..io import writable_path, written_together
 from ..plots import DEFAULT_DPI, MAX_DPI, check_title, figure_format, parse_dpi, plot_run
 from ..result import load_result
+from ..whiplash import detect_whiplash
 from . import EXIT_OK
-from .stick import add_stick_options, stick_figure_path, stick_robot, write_stick_figures
+from .stick import add_stick_options, check_stick_options, stick_figure_path, stick_robot, write_stick_figures
 
 __all__ = ["add_parser"]
 
@@ -46,6 +47,7 @@ def add_parser(subparsers) -> None:
 def plot_command(args: argparse.Namespace) -> int:
     out = args.out if args.out else Path(args.run).with_suffix(".png")
     figure_format(out)
+    check_stick_options(args)
     dpi = parse_dpi(args.dpi)
     if args.title is not None:
         check_title(args.title)
@@ -56,13 +58,19 @@ def plot_command(args: argparse.Namespace) -> int:
     _check_plottable(result, args.run)
     robot = stick_robot(args, result) if args.stick_figures else None
     with written_together():
-        path = plot_run(result, out, title=args.title, dpi=dpi)
+        path = plot_run(result, out, title=args.title, dpi=dpi, events=_instability(result))
         sticks = None if robot is None else write_stick_figures(args, robot, result, path)
     status = "" if result.completed else f" (the run stopped early at t = {result.stop_time:.3f} s)"
     print(f"wrote {path}{status}")
     if sticks is not None:
         print(f"wrote {sticks}")
     return EXIT_OK
+
+
+def _instability(result) -> dict[str, float]:
+    """When the whiplash detector (its default thresholds, as ``run`` reports them) finds the run unstable."""
+    report = detect_whiplash(result)
+    return {"unstable by the whiplash detector": report.time} if report.unstable else {}
 
 
 def _check_plottable(result, source) -> None:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InvalidInput
 from ..loading import load_robot
 from ..plots import plot_stick_strip
 from ..plots.stick import SNAPSHOTS_RANGE
@@ -14,7 +15,11 @@ from ..result import SimResult
 from ..robot import Robot
 from .common import add_robot_options, parse_vector
 
-__all__ = ["add_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
+__all__ = ["add_stick_options", "check_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
+
+#: The stick figures' defaults: a velocity ellipse at the tip, 8 snapshots.
+DEFAULT_ELLIPSE = "velocity"
+DEFAULT_SNAPSHOTS = 8
 
 ELLIPSES = ("velocity", "acceleration", "none")
 
@@ -29,14 +34,14 @@ def add_stick_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--ellipse",
         choices=ELLIPSES,
-        default="velocity",
+        default=None,
         help="with --stick-figures: velocity (J q̇, ‖q̇‖ ≤ 1), acceleration (Eq. (24), torque-normalised) or none "
         "(default velocity)",
     )
     group.add_argument(
         "--snapshots",
         type=_snapshots,
-        default=8,
+        default=None,
         help=f"with --stick-figures: how many ({SNAPSHOTS_RANGE[0]} to {SNAPSHOTS_RANGE[1]}, default 8)",
     )
     add_robot_options(parser, required=False)
@@ -49,11 +54,23 @@ def add_stick_options(parser: argparse.ArgumentParser) -> None:
 def write_stick_figures(args: argparse.Namespace, robot: Robot, result: SimResult, figure: Path) -> Path:
     """Draw the stick figures of ``result`` beside ``figure`` (as ``<stem>-stick.png``)."""
     path = stick_figure_path(figure)
-    ellipse = None if args.ellipse == "none" else args.ellipse
+    chosen = args.ellipse or DEFAULT_ELLIPSE
+    ellipse = None if chosen == "none" else chosen
     title = f"{result.robot}: resolver {result.resolver}, {len(result.t)} rows" + (
         f", {ellipse} ellipses" if ellipse else ""
     )
-    return plot_stick_strip(robot, result, path, title=title, snapshots=args.snapshots, ellipse=ellipse)
+    return plot_stick_strip(
+        robot, result, path, title=title, snapshots=args.snapshots or DEFAULT_SNAPSHOTS, ellipse=ellipse
+    )
+
+
+def check_stick_options(args: argparse.Namespace) -> None:
+    """--ellipse and --snapshots shape the stick figures: given without --stick-figures they would do nothing."""
+    if args.stick_figures:
+        return
+    for option, value in (("--ellipse", args.ellipse), ("--snapshots", args.snapshots)):
+        if value is not None:
+            raise InvalidInput(f"{option} {value} shapes the stick figures, which are not drawn: add --stick-figures")
 
 
 def stick_figure_path(figure) -> Path:

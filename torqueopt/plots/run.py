@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from .panels import (
     _draw_limits,
     _draw_tip_path,
     _joint_title,
+    _mark_events,
     _mark_stops,
     _suptitle,
 )
@@ -23,10 +25,18 @@ from .panels import (
 __all__ = ["plot_run"]
 
 
-def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = None, dpi: float | None = None) -> Path:
+def plot_run(
+    result: SimResult,
+    path: str | os.PathLike,
+    *,
+    title: str | None = None,
+    dpi: float | None = None,
+    events: Mapping[str, float] | None = None,
+) -> Path:
     """Overview of any saved run: torque of each joint with its limits, joint velocities, tip path and error.
 
-    ``path`` ends in .png, .pdf or .svg; ``dpi`` sets a PNG's resolution (default :data:`DEFAULT_DPI`).
+    ``path`` ends in .png, .pdf or .svg; ``dpi`` sets a PNG's resolution (default :data:`DEFAULT_DPI`);
+    ``events`` ({label: time [s]}, e.g. when the run went unstable) are marked on the time panels.
     """
     n = result.n
     fig = new_figure(13.0, max(6.0, 1.0 + 1.7 * n) + (1.8 if result.dexterity else 0.0))
@@ -45,6 +55,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
         _mark_stops(ax, [result])
+        _mark_events(ax, events)
         if joint < n - 1:
             ax.tick_params(labelbottom=False)
     torque_axes[-1].set_xlabel("time [s]")
@@ -55,6 +66,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
     for joint, name in enumerate(result.joint_names):
         speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2, label=name)
     _mark_stops(speed_ax, [result])
+    _mark_events(speed_ax, events)
     velocity_title = _draw_joint_limits(speed_ax, result)
     speed_ax.set_title("joint velocities" + velocity_title, fontsize=9, loc="left")
     speed_ax.set_xlabel("time [s]")
@@ -67,6 +79,7 @@ def plot_run(result: SimResult, path: str | os.PathLike, *, title: str | None = 
     error_ax = fig.add_subplot(right[2])
     error_ax.plot(result.t, result.tip_error * 1e3, color="tab:red", lw=1.2)
     _mark_stops(error_ax, [result])
+    _mark_events(error_ax, events)
     error_ax.set_title("tip distance from reference", fontsize=9, loc="left")
     error_ax.set_xlabel("time [s]")
     error_ax.set_ylabel("[mm]")
