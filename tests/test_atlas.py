@@ -405,6 +405,10 @@ def test_the_atlas_figures_draw_the_table(reference_atlas, planar3, tmp_path, sa
         assert x[0] == pytest.approx(np.median(ratios), rel=1e-12)
         assert y[0] == pytest.approx(whips / len(rows), rel=1e-12)
         assert (low[0], high[0]) == pytest.approx(wilson_interval(whips, len(rows)), abs=1e-12)
+    # the x = 1 reference line is drawn under every error bar (it hid pinv's, which sits on it)
+    (reference,) = [line for line in trade_ax.get_lines() if list(line.get_xdata()) == [1.0, 1.0]]
+    bars = [line for container in trade_ax.containers for line in container.lines[2]]
+    assert all(reference.get_zorder() < bar.get_zorder() for bar in bars)
 
 
 @pytest.mark.slow

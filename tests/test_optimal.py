@@ -527,3 +527,40 @@ def test_a_local_run_that_leaves_its_path_is_never_problem_free():
 
     assert not row(0.833).problem_free and row(0.833).verdict == "lost path (833 mm off)"
     assert row(0.0005).problem_free and row(0.0005).verdict == "problem-free"
+
+
+@pytest.mark.slow
+def test_the_docs_say_how_near_the_long_optimum_comes_to_the_alignment_as_the_run_does():
+    """The page said the global optimum "passes through the alignment of links 2 and 3 ... slowly"; the end-free
+    optimum keeps joint 3 between -135° and -50.8°. The sentence is generated from the run, and the page holds it."""
+    from pathlib import Path
+
+    from torqueopt.studies.local_global.report import alignment_sentence
+    from torqueopt.studies.local_global.study import STUDY_GRID_STEP
+
+    robot = PAPER.load_robot()
+    optimum = optimize(robot, PAPER.line("long"), PAPER.q0, end="free", dt=PAPER.dt, grid_step=STUDY_GRID_STEP)
+    sentence = alignment_sentence(optimum)
+    assert "keeps joint 3 between -135.0° and -50.8°" in sentence
+    page = Path(__file__).resolve().parent.parent / "docs" / "discussion" / "local-global.md"
+    assert sentence in " ".join(page.read_text().split())
+    assert "passes through the" not in " ".join(page.read_text().split())
+
+
+@pytest.mark.slow
+def test_the_docs_give_panda_s_joint_limited_optimum_as_the_run_does():
+    """The page said "converges in 80 iterations" where the run takes 90: its numbers are compared with the run."""
+    import re
+    from pathlib import Path
+
+    panda = torqueopt.load_robot("panda")
+    line = torqueopt.StraightLine((0.0, 1.0, 0.0), duration=0.5)
+    result = optimize(panda, line, panda.default_configuration, joint_limits=True)
+    page = " ".join(
+        (Path(__file__).resolve().parent.parent / "docs" / "discussion" / "local-global.md").read_text().split()
+    )
+    found = re.search(r"with `--joint-limits` the 0\.5 s line converges in (\d+) iterations to ∫‖τ‖² = ([\d.]+) against "
+                      r"pinv's (\d+\.\d)", page)  # fmt: skip
+    assert found, "the sentence is gone from the page"
+    assert result.status == "converged"
+    assert found.groups() == (str(result.iterations), f"{result.cost:.1f}", f"{result.warm_start_cost:.1f}")

@@ -80,7 +80,27 @@ def answer_paragraph(study: LocalGlobalStudy) -> str:
         + "a local optimum of a nonconvex problem, reached from pinv's motion, and it needs the whole path in "
         "advance and an NLP solve where a local method needs one instant."
     )
+    long_optimum = study.global_runs.get(("long", "global"))
+    if long_optimum is not None:
+        sentences.append(alignment_sentence(long_optimum))
     return " ".join(sentences)
+
+
+def alignment_sentence(optimum) -> str:
+    """How near the long movement's optimum brings links 2 and 3 to the line-up that whips the local methods,
+    from its joint-3 angles (links 2 and 3 are in line at joint 3 = 0)."""
+    angles = np.degrees(optimum.as_sim_result().joint_angles[:, 2])
+    low, high = float(angles.min()), float(angles.max())
+    if low <= 0.0 <= high:
+        return (
+            f"The whole-movement optimum of the long movement takes joint 3 from {low:.1f}° to {high:.1f}°, "
+            "through the alignment of links 2 and 3 that whips the local methods."
+        )
+    nearest = min(abs(low), abs(high))
+    return (
+        f"The whole-movement optimum of the long movement keeps joint 3 between {low:.1f}° and {high:.1f}°: "
+        f"links 2 and 3 come no nearer than {nearest:.1f}° to the alignment that whips the local methods."
+    )
 
 
 def markdown_text(study: LocalGlobalStudy, figures: list[str]) -> str:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ...paper import MOVEMENTS
 from ...whiplash import DEFAULT_PATH_TOLERANCE
 from .discussion_answers import kept_text, percent
 from .measures import SWEPT_RESOLVER
@@ -13,7 +15,7 @@ from .measures import SWEPT_RESOLVER
 if TYPE_CHECKING:
     from .study import RemediesStudy
 
-__all__ = ["markdown_section"]
+__all__ = ["OVERVIEW_RESOLVERS", "markdown_section", "overview_table"]
 
 
 def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
@@ -84,3 +86,41 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
     if shown:
         lines += ["", "Figures:", "", *shown]
     return "\n".join(lines) + "\n"
+
+
+#: The rows of the remedies page's overview table (docs/discussion/remedies.md), in its order.
+OVERVIEW_RESOLVERS = (
+    "pinv",
+    "null-space",
+    "damped-null-space",
+    "self-motion-damping",
+    "inverse-inertia-torque",
+    "inverse-inertia-squared-torque",
+)
+
+
+def overview_table(study: RemediesStudy, names: Sequence[str] = OVERVIEW_RESOLVERS) -> str:
+    """The overview table of the remedies page, every number from the study's runs at 3 significant digits.
+
+    Columns: the short movement's cut kept and peak |τ|/limit, the medium movement's peak, the long movement's
+    verdict and peak; ``damped-null-space`` and ``self-motion-damping`` are labelled with their settings.
+    """
+    lines = [
+        "| resolver | short: cut kept, peak \\|τ\\|/limit | medium: peak | long (2 s): verdict, peak |",
+        "| --- | --- | --- | --- |",
+    ]
+    for name in names:
+        options = study.run("short", name).resolver_options or {}
+        label = f"`{name}`"
+        if name == "damped-null-space":
+            label += f" (μ = {options['kinematic_weight']:g}, K_D = {options['damping']:g} 1/s)"
+        elif name == "self-motion-damping":
+            label += f" (K_D = {options['damping']:g} 1/s)"
+        kept = study.cut_kept("short", name)
+        kept_cell = "-" if not math.isfinite(kept) else kept_text(kept).replace("%", " %")
+        peaks = {movement: float(study.run(movement, name).peak_torque_ratio.max()) for movement in MOVEMENTS}
+        verdict = study.verdict("long", name).replace("t = ", "")
+        lines.append(
+            f"| {label} | {kept_cell}, {peaks['short']:.3g} | {peaks['medium']:.3g} | {verdict}, {peaks['long']:.3g} |"
+        )
+    return "\n".join(lines)
