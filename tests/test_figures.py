@@ -136,3 +136,26 @@ def test_the_tip_panel_of_a_straight_3d_line_shows_the_deviation_in_mm():
     np.testing.assert_allclose(tip.get_xdata(), 0.3 * t, atol=1e-12)  # along the line [m], from 0
     np.testing.assert_allclose(tip.get_ydata(), 2.0 * t**2, atol=1e-9)  # off it [mm]
     assert "[mm]" in ax.get_ylabel()
+
+
+def test_symlog_ticks_of_a_ratio_panel_keep_a_label_height_apart():
+    """remedies_long.png: τ/τ⁺ panels (limit 1, weighted-null-space peaks at 81) about 1.5 in high, where the
+    labels at ±1 and ±2 crowded."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from torqueopt.plots.canvas import symlog_scale
+
+    fig = Figure(figsize=(9.0, 1.5), dpi=DEFAULT_DPI)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot([0, 1, 2], [0, 81.45, -30.0])
+    symlog_scale(ax, 1.0, 81.45)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = sorted(
+        (label.get_window_extent(renderer) for label in ax.get_yticklabels() if label.get_text()), key=lambda b: b.y0
+    )
+    height = boxes[0].height
+    for lower, upper in itertools.pairwise(boxes):
+        assert upper.y0 - lower.y1 >= 0.25 * height, "tick labels crowd"

@@ -373,3 +373,14 @@ def test_plot_of_an_unstable_run_marks_when_it_went_unstable(planar3, tmp_path, 
     assert len(marked) >= run.n + 1  # every torque panel and the velocity panel
     for ax in marked:
         assert vertical_marks(ax)[label] == pytest.approx(report.time)
+
+
+def test_pinv_and_velocity_pinv_are_told_apart_by_colour():
+    """kinematic_vs_kinetic_torques.png drew pinv and velocity-pinv in near-identical blues."""
+    import matplotlib.colors
+
+    from torqueopt.plots import RESOLVER_COLORS
+
+    rgb = {name: np.array(matplotlib.colors.to_rgb(colour)) for name, colour in RESOLVER_COLORS.items()}
+    assert np.linalg.norm(rgb["pinv"] - rgb["velocity-pinv"]) > 0.5
+    assert len(set(RESOLVER_COLORS.values())) == len(RESOLVER_COLORS)

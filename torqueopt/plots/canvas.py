@@ -76,10 +76,21 @@ def symlog_scale(ax, linthresh: float, peak: float) -> None:
         for k in range(int(np.floor(np.log10(linthresh))), int(np.floor(np.log10(peak))) + 2)
         for step in (1.0, 2.0, 5.0)
     ]
+    # On a short panel even a factor 1.95 is too close (1 and 2 over a ±1 limit): a tick must also be at least
+    # one label height, with a margin, from the one below it on the scale the panel draws.
+    scale = ax.yaxis.get_transform()
+    low, high = scale.transform(np.array(ax.get_ylim(), float))
+    figure_height = ax.get_figure().get_figheight() * ax.get_position().height
+    label = 1.6 * _MIN_TICK_POINTS / 72.0  # a label's height and a gap [in]
+    gap = abs(high - low) * label / figure_height if figure_height > 0 else 0.0
+
+    def position(value: float) -> float:
+        return float(scale.transform(np.array([value]))[0])
+
     beyond = []
     last = linthresh
     for value in sorted(candidates):
-        if value >= 1.95 * last and value <= 1.3 * peak:
+        if value >= 1.95 * last and value <= 1.3 * peak and position(value) - position(last) >= gap:
             beyond.append(value)
             last = value
     ticks = sorted({0.0, linthresh, -linthresh, *beyond, *(-v for v in beyond)})

@@ -23,7 +23,7 @@ RESOLVER_COLORS = {
     "null-space": "tab:red",
     "weighted-null-space": "tab:green",
     # the velocity-level methods of Section 1.1
-    "velocity-pinv": "tab:cyan",
+    "velocity-pinv": "black",  # drawn beside pinv (tab:blue): tab:cyan was hard to tell from it
     "gradient-projection": "tab:purple",
     "task-priority": "tab:olive",
     "obstacle-avoidance": "tab:brown",
