@@ -165,3 +165,14 @@ def test_screenshot_example_renders_the_whiplash(tmp_path):
     printed = run_example("screenshot_whiplash.py", "--out", str(tmp_path / "whiplash.png"))
     assert "joints over their limits: joint1, joint2, joint3" in printed, printed
     assert (tmp_path / "whiplash.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.slow
+def test_energy_bounded_sweep_example_reports_every_run_of_its_setting():
+    pytest.importorskip("pandas", reason="the atlas extra is not installed")
+    printed = run_example("energy_bounded_sweep.py", "--paths", "2", "--limits", "1", "--rates", "20",
+                          "--torque-weights", "range")  # fmt: skip
+    line = next(line for line in printed.splitlines() if line.startswith("range, 1, 20: "))
+    share, low, high, runs = re.match(r"range, 1, 20: (\S+) \((\S+)-(\S+)\) of (\d+),", line).groups()
+    assert int(runs) == 2 * 4  # two paths for each of the four durations
+    assert float(low) <= float(share) <= float(high)  # the Wilson interval holds its own share
