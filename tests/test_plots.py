@@ -384,3 +384,21 @@ def test_pinv_and_velocity_pinv_are_told_apart_by_colour():
     rgb = {name: np.array(matplotlib.colors.to_rgb(colour)) for name, colour in RESOLVER_COLORS.items()}
     assert np.linalg.norm(rgb["pinv"] - rgb["velocity-pinv"]) > 0.5
     assert len(set(RESOLVER_COLORS.values())) == len(RESOLVER_COLORS)
+
+
+def test_the_velocity_legend_covers_no_curve_of_a_7_joint_arm(panda, tmp_path, saved_figures):
+    """The panda plot's velocity legend (7 joints) sat on top of the curves."""
+    line = torqueopt.StraightLine((0.0, 1.0, 0.0), accel=0.5, duration=0.4)
+    run = torqueopt.simulate(panda, "pinv", line, panda.default_configuration)
+    plots.plot_run(run, tmp_path / "panda.png")
+    (figure,) = saved_figures
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    speed_ax = next(ax for ax in figure.axes if ax.get_title(loc="left").startswith("joint velocities"))
+    box = speed_ax.get_legend().get_window_extent(canvas.get_renderer())
+    for curve in speed_ax.get_lines():
+        points = speed_ax.transData.transform(np.column_stack([curve.get_xdata(), curve.get_ydata()]))
+        inside = (points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)
+        assert not inside.any(), curve.get_label()

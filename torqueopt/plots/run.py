@@ -71,7 +71,8 @@ def plot_run(
     speed_ax.set_title("joint velocities" + velocity_title, fontsize=9, loc="left")
     speed_ax.set_xlabel("time [s]")
     speed_ax.set_ylabel("[rad/s]")
-    speed_ax.legend(fontsize=7, ncol=2)
+    # Beside the panel, not on it: seven joints' labels covered the curves they name.
+    speed_ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     speed_ax.grid(alpha=0.3)
     path_ax = fig.add_subplot(right[1])
     _draw_tip_path(path_ax, [result], single=True)
