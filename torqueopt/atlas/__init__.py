@@ -52,6 +52,7 @@ import numpy as np
 from ..checks import positive_number, step_count, whole_number
 from ..errors import InvalidInput, OutputError, TorqueoptWarning
 from ..io import atomic_write, writable_path, writable_paths, written_together
+from ..progress import said_if_slow
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from .population import Movement, PopulationSpec, draw_population, grid_start_points
@@ -175,7 +176,6 @@ def run_atlas(
     """
     pandas = require("pandas")
     require("pyarrow")
-    require("tqdm")
     spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
     population = PopulationSpec(
         mode=mode, paths=paths, durations=tuple(np.atleast_1d(np.asarray(durations, dtype=float)).tolist()), seed=seed,
@@ -205,7 +205,8 @@ def run_atlas(
             resolver_objects,
         )
 
-    loaded = spec.load()
+    with said_if_slow(f"torqueopt atlas: loading robot '{spec.source}'", enabled=progress):
+        loaded = spec.load()
     for resolver in resolver_objects:
         resolver.check(loaded)
     if population.mode == "grid":
@@ -267,7 +268,15 @@ def run_atlas(
         remove_partial_chunks(out)
         if jobs:
             frames.update(
-                run_chunks(jobs, out, client, progress=progress, total_paths=len(movements), done_paths=done_paths)
+                run_chunks(
+                    jobs,
+                    out,
+                    client,
+                    progress=progress,
+                    total_paths=len(movements),
+                    done_paths=done_paths,
+                    description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers",
+                )
             )
 
     table = _collect(pandas, [frames[index] for index in range(len(chunks))], [r.name for r in resolver_objects])

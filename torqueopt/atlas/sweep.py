@@ -49,6 +49,7 @@ from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..loading import load_robot
+from ..progress import progress_bar
 from ..resolvers import Resolver, get_resolver
 from ..robot import Robot
 from ..simulate import simulate
@@ -312,9 +313,13 @@ def executor(scheduler: str | None, workers: int | None) -> Iterator:
             cluster.close()
 
 
-def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths) -> dict:
-    """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows."""
-    bar = _progress_bar(total_paths, done_paths, progress)
+def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths, description) -> dict:
+    """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows.
+
+    With ``progress``, a bar of paths done on stderr (:func:`torqueopt.progress.progress_bar`: on a terminal;
+    one line ``description ...`` otherwise).
+    """
+    bar = progress_bar(description, total=total_paths, unit="path", enabled=progress, initial=done_paths)
     frames = {}
     try:
         if client is None:
@@ -385,20 +390,6 @@ def _client(distributed, scheduler, workers):
 
 def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
-
-
-def _progress_bar(total: int, done: int, enabled: bool):
-    tqdm = require("tqdm")
-    return tqdm.tqdm(
-        total=total,
-        initial=done,
-        unit="path",
-        desc="atlas",
-        disable=not enabled,
-        file=sys.stderr,
-        dynamic_ncols=True,
-        smoothing=0.1,
-    )
 
 
 def resolvers_from(names) -> list[Resolver]:

@@ -6,6 +6,7 @@ import argparse
 
 from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
 from ..loading import load_robot
+from ..progress import said_if_slow
 from ..robot import TASK_DIMENSIONS, Robot
 
 __all__ = [
@@ -68,11 +69,12 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
         None if args.torque_limit is None else parse_vector(args.torque_limit, "torque-limit", allow_infinite=True)
     )
     lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
-    return load_robot(
-        args.robot,
-        frame=args.frame,
-        task=args.task,
-        torque_limit=torque_limit,
-        gravity=args.gravity,
-        lock=lock,
-    )
+    with said_if_slow(f"torqueopt {args.command}: loading robot '{args.robot}'"):
+        return load_robot(
+            args.robot,
+            frame=args.frame,
+            task=args.task,
+            torque_limit=torque_limit,
+            gravity=args.gravity,
+            lock=lock,
+        )

@@ -9,7 +9,8 @@ import numpy as np
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
 from ..optimal import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
-from ..optimal.whole_path import MAX_ITERATIONS
+from ..optimal.whole_path import MAX_ITERATIONS, transcription_intervals
+from ..progress import progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
@@ -124,24 +125,43 @@ def optimize_command(args: argparse.Namespace) -> int:
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
     if args.out:
         writable_paths(OptimalResult.files(args.out))
-    result = optimize(
-        robot,
-        trajectory,
-        q0,
-        weight=weight,
-        end=args.end,
-        torque_bounds=args.torque_bounds,
-        joint_limits=args.joint_limits,
-        dt=dt,
-        grid_step=grid_step,
-        warm_start=args.warm_start,
-        hessian=args.hessian,
-        tolerance=tolerance,
-        max_iterations=max_iterations,
-        max_time=max_time,
-        max_nonzeros=max_nonzeros,
-        verbose=args.verbose,
+    intervals = transcription_intervals(trajectory.duration, grid_step)
+    description = (
+        f"torqueopt optimize: IPOPT on {intervals:,} intervals of {trajectory.duration / intervals * 1e3:.4g} ms "
+        f"(up to {max_iterations} iterations per run)"
     )
+    bars = []
+
+    def iteration(number: int) -> None:
+        # The bar (or its one line) starts with IPOPT's first iteration, after every check has passed.
+        if not bars:
+            bars.append(progress_bar(description, total=max_iterations, unit="iteration", enabled=not args.verbose))
+        bars[0].n = number  # each IPOPT run counts from 0
+        bars[0].refresh()
+
+    try:
+        result = optimize(
+            robot,
+            trajectory,
+            q0,
+            weight=weight,
+            end=args.end,
+            torque_bounds=args.torque_bounds,
+            joint_limits=args.joint_limits,
+            dt=dt,
+            grid_step=grid_step,
+            warm_start=args.warm_start,
+            hessian=args.hessian,
+            tolerance=tolerance,
+            max_iterations=max_iterations,
+            max_time=max_time,
+            max_nonzeros=max_nonzeros,
+            verbose=args.verbose,
+            progress=iteration,
+        )
+    finally:
+        for bar in bars:
+            bar.close()
     # Files first, then the summary, so that a closed stdout cannot cost a result.
     lines = []
     if args.out:

@@ -8,9 +8,11 @@ import time
 import numpy as np
 
 from ..io import writable_path, writable_paths
-from ..paper import MOVEMENTS, PAPER, PaperScenario, paper_files, run_paper, write_paper
+from ..paper import MOVEMENTS, PAPER, PAPER_RUNS, PaperScenario, paper_files, run_paper, write_paper
+from ..paper.runner import check_scenario
 from ..plots import FIGURE_FORMATS
-from ..studies.remedies import RemediesStudy, run_remedies
+from ..progress import progress_bar
+from ..studies.remedies import RemediesStudy, planned_runs, run_remedies
 from ..studies.remedies.discussion_answers import kept_text
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
@@ -84,8 +86,14 @@ def paper_command(args: argparse.Namespace) -> int:
     writable_path(args.out, directory=True)
     remedies, sweep = not args.no_remedies, not args.no_remedy_sweep
     writable_paths(paper_files(args.out, args.figure_format, remedies=remedies, sweep=sweep))
-    results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor)
-    studies = [run_remedies(results, sweep=sweep)] if remedies else []
+    check_scenario(scenario)  # a singular start is refused before the progress line
+    remedy_runs = planned_runs(sweep) if remedies else 0
+    then = f", then the remedies study ({remedy_runs} runs)" if remedies else ""
+    with progress_bar(
+        f"torqueopt paper: {PAPER_RUNS - 1} runs and the free swing{then}", total=PAPER_RUNS + remedy_runs
+    ) as bar:
+        results = run_paper(scenario, limit_factor=limit_factor, growth_factor=growth_factor, on_run=bar.update)
+        studies = [run_remedies(results, sweep=sweep, on_run=bar.update)] if remedies else []
     written = write_paper(results, args.out, studies, figure_format=args.figure_format)
 
     print(f"{'movement':<9}{'resolver':<21}{'peak |tau|/limit':>18}{'limit exceeded':>16}  verdict")

@@ -121,6 +121,40 @@ def _function_class(casadi):
     return NumpyFunction
 
 
+def _iteration_callback(casadi, size: int, count: int, on_iteration):
+    """A casadi Callback that nlpsol calls at each iteration with its outputs (x, f, g, multipliers)."""
+
+    class Iterations(casadi.Callback):
+        def __init__(self):
+            casadi.Callback.__init__(self)
+            self.iteration = 0
+            self.construct("iterations", {})
+
+        def get_n_in(self):
+            return casadi.nlpsol_n_out()
+
+        def get_n_out(self):
+            return 1
+
+        def get_name_in(self, i):
+            return casadi.nlpsol_out(i)
+
+        def get_name_out(self, i):
+            return "ret"
+
+        def get_sparsity_in(self, i):
+            name = casadi.nlpsol_out(i)
+            rows = {"f": 1, "x": size, "lam_x": size, "g": count, "lam_g": count}.get(name, 0)
+            return casadi.Sparsity.dense(rows, 1)
+
+        def eval(self, arguments):
+            on_iteration(self.iteration)
+            self.iteration += 1
+            return [0]
+
+    return Iterations()
+
+
 def solve_transcription(
     problem: Transcription,
     w0: np.ndarray,
@@ -130,6 +164,7 @@ def solve_transcription(
     max_iterations: int = 500,
     max_time: float | None = None,
     verbose: bool = False,
+    on_iteration=None,
 ) -> SolverOutput:
     """Solve ``problem`` from ``w0`` with IPOPT.
 
@@ -140,6 +175,8 @@ def solve_transcription(
         max_iterations, max_time: work bounds (iterations; wall time [s]).
             Reaching one ends the solve with that status and the last iterate.
         verbose: print IPOPT's iteration log.
+        on_iteration: called with the iteration number (0 for the start) at
+            each of IPOPT's iterations, through nlpsol's ``iteration_callback``.
     """
     casadi = _casadi()
     NumpyFunction = _function_class(casadi)
@@ -196,6 +233,10 @@ def solve_transcription(
     }
     if max_time is not None:
         options["ipopt.max_wall_time"] = float(max_time)
+    if on_iteration is not None:
+        counter = _iteration_callback(casadi, size, count, on_iteration)
+        keep.append(counter)
+        options["iteration_callback"] = counter
     if hessian == "limited-memory":
         options["ipopt.hessian_approximation"] = "limited-memory"
     else:

@@ -49,7 +49,15 @@ from .replay import replay_torques
 from .result import OptimalResult
 from .transcription import Transcription
 
-__all__ = ["DEFAULT_GRID_STEP", "DEFAULT_MAX_NONZEROS", "ENDS", "HESSIANS", "OptimalResult", "optimize"]
+__all__ = [
+    "DEFAULT_GRID_STEP",
+    "DEFAULT_MAX_NONZEROS",
+    "ENDS",
+    "HESSIANS",
+    "OptimalResult",
+    "optimize",
+    "transcription_intervals",
+]
 
 #: How the movement may end: at rest (v(T) = 0) or with any joint velocity.
 ENDS = ("rest", "free")
@@ -67,7 +75,7 @@ DEFAULT_GRID_STEP = 0.005
 DEFAULT_MAX_NONZEROS = 5_000_000
 
 
-def _intervals(duration: float, grid_step: float) -> int:
+def transcription_intervals(duration: float, grid_step: float) -> int:
     """The even number N of intervals with h = T/N <= grid_step (a Python int: it may be huge before the check)."""
     ratio = duration / (2.0 * grid_step)
     if not math.isfinite(ratio):
@@ -116,6 +124,7 @@ def optimize(
     max_time: float | None = None,
     max_nonzeros: int = DEFAULT_MAX_NONZEROS,
     verbose: bool = False,
+    progress=None,
 ) -> OptimalResult:
     r"""The joint motion that tracks ``trajectory`` and minimises :math:`\int\|S(\tau - \tau_{mid})\|^2 dt`.
 
@@ -147,6 +156,8 @@ def optimize(
             constraint Jacobian and Hessian together (counted before anything is
             built, ``Transcription.count``; about 280 bytes each).
         verbose: print IPOPT's log.
+        progress: called with the iteration number at each IPOPT iteration
+            (0 at the start of each run), e.g. to move a progress bar.
 
     Raises:
         InvalidInput: a bad option, robot or task (one line naming the value and the valid ones).
@@ -179,7 +190,7 @@ def optimize(
     if trajectory.start is None:
         trajectory = trajectory.anchored(robot.task_position(q_start)[:linear_dimension])
 
-    intervals = _intervals(duration, grid_step)
+    intervals = transcription_intervals(duration, grid_step)
     _check_size(robot, duration, grid_step, intervals, torque_bounds, max_nonzeros)
     nodes = np.linspace(0.0, duration, intervals + 1)
     problem = Transcription(
@@ -214,6 +225,7 @@ def optimize(
             max_iterations=max_iterations,
             max_time=remaining,
             verbose=verbose,
+            on_iteration=progress,
         )
         attempts.append((name, solved))
         spent += solved.seconds

@@ -29,10 +29,11 @@ from .claims import Claim, check_claims
 from .figures import write_figures
 from .free_swing import free_swing, free_swing_gravity
 from .report import format_summary_markdown, paper_files, summary_entries, write_paper
-from .runner import PaperResults, run_movement, run_paper
+from .runner import PAPER_RUNS, PaperResults, run_movement, run_paper
 from .scenario import MOVEMENTS, PAPER, PAPER_RESOLVERS, PaperScenario
 
 __all__ = [
+    "PAPER_RUNS",
     "paper_files",
     "MOVEMENTS",
     "PAPER_RESOLVERS",

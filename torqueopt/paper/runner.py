@@ -16,7 +16,7 @@ from .claims import Claim, check_claims
 from .free_swing import free_swing, free_swing_gravity
 from .scenario import MOVEMENTS, PAPER, PAPER_RESOLVERS, PaperScenario
 
-__all__ = ["PaperResults", "run_movement", "run_paper"]
+__all__ = ["PAPER_RUNS", "PaperResults", "check_scenario", "run_movement", "run_paper"]
 
 
 @dataclass
@@ -50,6 +50,10 @@ class PaperResults:
         return [key for key, result in self.runs.items() if not result.completed]
 
 
+#: The simulations of :func:`run_paper`: every paper resolver on every movement, and the free swing.
+PAPER_RUNS = len(MOVEMENTS) * len(PAPER_RESOLVERS) + 1
+
+
 def run_movement(scenario: PaperScenario, movement: str, resolver: str, robot: Robot | None = None) -> SimResult:
     """Simulate one resolver on one of the scenario's movements."""
     robot = robot or scenario.load_robot()
@@ -61,21 +65,26 @@ def run_paper(
     *,
     limit_factor: float = DEFAULT_LIMIT_FACTOR,
     growth_factor: float = DEFAULT_GROWTH_FACTOR,
+    on_run=None,
 ) -> PaperResults:
     """Simulate every resolver on every movement, and the free swing; judge and check the claims.
+
+    ``on_run``, when given, is called after each of the :data:`PAPER_RUNS`
+    simulations (a progress bar's ``update``).
 
     Raises:
         InvalidInput: q0 is a singular configuration, where no resolver can start.
     """
-    robot = scenario.load_robot()
-    _check_start(robot, scenario)
-    runs = {
-        (movement, name): run_movement(scenario, movement, name, robot)
-        for movement in MOVEMENTS
-        for name in PAPER_RESOLVERS
-    }
+    robot = check_scenario(scenario)
+    done = on_run or (lambda: None)
+    runs = {}
+    for movement in MOVEMENTS:
+        for name in PAPER_RESOLVERS:
+            runs[movement, name] = run_movement(scenario, movement, name, robot)
+            done()
     whiplash = {key: detect_whiplash(result, limit_factor, growth_factor) for key, result in runs.items()}
     swing = free_swing(scenario, robot)
+    done()
     results = PaperResults(
         scenario=scenario,
         robot=robot,
@@ -88,6 +97,17 @@ def run_paper(
     )
     results.claims = check_claims(results)
     return results
+
+
+def check_scenario(scenario: PaperScenario) -> Robot:
+    """The scenario's robot, after checking that its start is not singular (what :func:`run_paper` checks first).
+
+    Raises:
+        InvalidInput: q0 is a singular configuration, where no resolver can start.
+    """
+    robot = scenario.load_robot()
+    _check_start(robot, scenario)
+    return robot
 
 
 def _check_start(robot: Robot, scenario: PaperScenario) -> None:

@@ -46,10 +46,11 @@ from .measures import (
     registered_remedies,
     torque_cost,
 )
-from .runner import run_remedies
+from .runner import planned_runs, run_remedies
 from .study import RemediesStudy, SweepPoint
 
 __all__ = [
+    "planned_runs",
     "REMEDIES",
     "BASELINES",
     "SWEPT_RESOLVER",

@@ -34,8 +34,11 @@ def run_remedies(
     kinematic_weights: Sequence[float] = DEFAULT_KINEMATIC_WEIGHTS,
     dampings: Sequence[float] = DEFAULT_DAMPINGS,
     torque_weight: str = "unit",
+    on_run=None,
 ) -> RemediesStudy:
     """Run every registered remedy on the paper's movements and, with ``sweep``, the (μ, K_D) grid.
+
+    ``on_run``, when given, is called after each of the :func:`planned_runs` simulations.
 
     Uses the paper's scenario, robot and whiplash thresholds; the sweep runs
     ``damped-null-space`` with ``torque_weight`` (``unit`` or ``range``) on the
@@ -53,10 +56,12 @@ def run_remedies(
     kinematic_weights = _grid(kinematic_weights, "kinematic weight")
     dampings = _grid(dampings, "damping")
     remedies, skipped = registered_remedies()
+    done = on_run or (lambda: None)
     runs, whiplash = {}, {}
     for movement in MOVEMENTS:
         for name in remedies:
             result = run_movement(scenario, movement, name, robot)
+            done()
             runs[movement, name] = result
             whiplash[movement, name] = detect_whiplash(result, limit_factor, growth_factor)
     study = RemediesStudy(
@@ -80,6 +85,8 @@ def run_remedies(
                              resolver_options=options)  # fmt: skip
             long = simulate(robot, SWEPT_RESOLVER, scenario.line("long"), scenario.q0, dt=scenario.dt,
                             resolver_options=options)  # fmt: skip
+            done()
+            done()
             report = detect_whiplash(long, limit_factor, growth_factor)
             cost = torque_cost(short, torque_weight)
             point = SweepPoint(
@@ -97,6 +104,20 @@ def run_remedies(
                 at_zero = point
     study.sweep, study.kinematic_weights, study.dampings = points, kinematic_weights, dampings
     return study
+
+
+def planned_runs(
+    sweep: bool = True,
+    kinematic_weights: Sequence[float] = DEFAULT_KINEMATIC_WEIGHTS,
+    dampings: Sequence[float] = DEFAULT_DAMPINGS,
+) -> int:
+    """The simulations :func:`run_remedies` makes with these settings (for a progress bar's total)."""
+    remedies, _ = registered_remedies()
+    count = len(remedies) * len(MOVEMENTS)
+    if sweep and SWEPT_RESOLVER in RESOLVERS:
+        dampings = _grid(dampings, "damping")
+        count += 2 * sum(1 if mu == 0.0 else len(dampings) for mu in _grid(kinematic_weights, "kinematic weight"))
+    return count
 
 
 def _grid(values: Sequence[float], what: str) -> tuple[float, ...]:

@@ -1,0 +1,124 @@
+"""Progress on stderr: a bar that redraws itself on a terminal, one plain line in a pipe or a file."""
+
+import io
+
+import pytest
+
+from torqueopt.cli import main
+from torqueopt.progress import progress_bar
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_a_terminal_gets_a_bar_that_counts_to_its_total(monkeypatch):
+    terminal = _Terminal()
+    monkeypatch.setattr("sys.stderr", terminal)
+    with progress_bar("torqueopt paper: 13 runs", total=13) as bar:
+        for _ in range(13):
+            bar.update()
+    assert bar.n == 13
+    drawn = terminal.getvalue()
+    assert "\r" in drawn and "torqueopt paper: 13 runs" in drawn and "13/13" in drawn
+
+
+def test_a_pipe_gets_one_line_and_no_redraws(monkeypatch):
+    pipe = io.StringIO()
+    monkeypatch.setattr("sys.stderr", pipe)
+    with progress_bar("torqueopt paper: 13 runs", total=13) as bar:
+        for _ in range(13):
+            bar.update()
+    assert pipe.getvalue() == "torqueopt paper: 13 runs ...\n"
+    quiet = io.StringIO()
+    monkeypatch.setattr("sys.stderr", quiet)
+    with progress_bar("nothing", total=3, enabled=False) as bar:
+        bar.update(3)
+    assert quiet.getvalue() == ""
+
+
+PAPER_Q0 = "--q0=-0.7853981634,2.3561944902,-2.3561944902"
+
+
+def test_paper_says_what_it_does_before_its_work(tmp_path, capsys, monkeypatch):
+    """About 20 s of work: its first line is on stderr before the first run starts."""
+    import torqueopt.cli.paper as paper_module
+
+    seen = []
+
+    def first_run(*args, **kwargs):
+        seen.append(capsys.readouterr())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(paper_module, "run_paper", first_run)
+    assert main(["paper", "--out", str(tmp_path)]) == 130
+    assert seen[0].out == ""
+    assert seen[0].err.startswith("torqueopt paper: 12 runs and the free swing, then the remedies study (")
+    assert seen[0].err.endswith(" ...\n") and seen[0].err.count("\n") == 1
+
+
+def test_optimize_counts_ipopt_iterations_as_they_happen(capsys):
+    import torqueopt
+    from torqueopt.paper import PAPER
+
+    robot = torqueopt.load_robot("planar3")
+    calls = []
+    result = torqueopt.optimize(
+        robot, PAPER.line("short"), PAPER.q0, hessian="gauss-newton", max_iterations=4, progress=calls.append
+    )
+    assert result.iterations == 4 and calls == [0, 1, 2, 3, 4]  # IPOPT reports its start as iteration 0
+
+
+def test_optimize_says_what_it_does_when_ipopt_starts(capsys):
+    arguments = ["optimize", "--robot", "planar3", PAPER_Q0, "--direction", "1,1", "--duration", "0.5"]
+    assert main([*arguments, "--max-iterations", "2"]) == 3
+    assert capsys.readouterr().err == (
+        "torqueopt optimize: IPOPT on 100 intervals of 5 ms (up to 2 iterations per run) ...\n"
+    )
+
+
+@pytest.mark.parametrize("no_progress", [False, True])
+def test_the_atlas_bar_leaves_no_redraws_in_a_pipe(tmp_path, capsys, no_progress):
+    pytest.importorskip("pandas")
+    pytest.importorskip("distributed")
+    pytest.importorskip("pyarrow")
+    arguments = ["atlas", "--paths", "2", "--durations", "0.2", "--workers", "0", "--no-figures",
+                 "--out", str(tmp_path)]  # fmt: skip
+    assert main([*arguments, *(["--no-progress"] if no_progress else [])]) == 0
+    error = capsys.readouterr().err
+    assert "\r" not in error
+    assert error == ("" if no_progress else "torqueopt atlas: 2 paths x 4 resolvers ...\n")
+
+
+def test_loading_a_slow_robot_says_so_and_a_quick_one_stays_silent(capsys, monkeypatch):
+    """A URDF that takes seconds to load (a long chain, a cold import of yourdfpy) gets a line once it is slow."""
+    import threading
+
+    import torqueopt.cli.common as common
+    import torqueopt.progress as progress
+
+    monkeypatch.setattr(progress, "SLOW", 0.0)
+    loaded = threading.Event()
+    real_load = common.load_robot
+
+    def slow_load(*args, **kwargs):
+        loaded.wait(timeout=10)  # until the line has been written
+        return real_load(*args, **kwargs)
+
+    monkeypatch.setattr(common, "load_robot", slow_load)
+    real_print = print
+
+    def printed(*args, **kwargs):
+        real_print(*args, **kwargs)
+        loaded.set()
+
+    monkeypatch.setattr("builtins.print", printed)
+    arguments = ["run", "--robot", "planar3", PAPER_Q0, "--direction", "1,1", "--resolver", "pinv", "--duration", "0.1"]
+    assert main(arguments) == 0
+    monkeypatch.setattr("builtins.print", real_print)
+    assert capsys.readouterr().err == "torqueopt run: loading robot 'planar3' ...\n"
+    monkeypatch.setattr(progress, "SLOW", 30.0)
+    monkeypatch.setattr(common, "load_robot", real_load)
+    assert main(arguments) == 0
+    assert capsys.readouterr().err == ""

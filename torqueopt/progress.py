@@ -1,0 +1,83 @@
+"""Progress of long work, on stderr: a bar on a terminal, one line elsewhere.
+
+Work that can take more than a second (``paper``, ``optimize``'s IPOPT
+iterations, the atlas, loading a large URDF) says what it is doing before
+it starts. On a terminal, :func:`progress_bar` is a tqdm bar (done, rate,
+time left) that redraws itself in place; when stderr is a pipe or a file, it
+writes one line when the work starts and nothing more, since a bar's
+carriage-return redraws would be garbage in a log. Work whose length is
+not known before it starts (loading a URDF: seconds for a large one, most of
+them importing yourdfpy and checking the chain) goes in
+:func:`said_if_slow`, which writes its line only once the work has taken
+:data:`SLOW` seconds, so quick work stays silent. stdout is never touched,
+so ``torqueopt ... | head`` sees only the results.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import threading
+from collections.abc import Iterator
+
+__all__ = ["SLOW", "progress_bar", "said_if_slow"]
+
+#: Seconds after which work in :func:`said_if_slow` says what it is doing.
+SLOW = 1.0
+
+
+def progress_bar(description: str, total: int | None = None, unit: str = "run", enabled: bool = True, initial: int = 0):
+    """A tqdm bar on stderr when it is a terminal; otherwise a disabled one, after one line ``description ...``.
+
+    Args:
+        description: what the work is, e.g. ``"torqueopt paper: 13 runs"``;
+            the bar's label, or the line written when stderr is not a terminal.
+        total: the units of work, when known. unit: their name.
+        enabled: False: no bar and no line.
+        initial: units already done (a resumed sweep).
+    """
+    from tqdm import tqdm
+
+    stream = sys.stderr
+    terminal = enabled and stream is not None and _isatty(stream)
+    if enabled and not terminal and stream is not None:
+        print(f"{description} ...", file=stream, flush=True)
+    return tqdm(
+        total=total,
+        initial=initial,
+        desc=description,
+        unit=unit,
+        file=stream,
+        disable=not terminal,
+        dynamic_ncols=True,
+        smoothing=0.1,
+        leave=True,
+    )
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+@contextlib.contextmanager
+def said_if_slow(description: str, enabled: bool = True) -> Iterator[None]:
+    """Write ``description ...`` on stderr if the block is still running after :data:`SLOW` seconds."""
+    if not enabled:
+        yield
+        return
+    said = threading.Event()
+
+    def say() -> None:
+        said.set()
+        print(f"{description} ...", file=sys.stderr, flush=True)
+
+    timer = threading.Timer(SLOW, say)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
