@@ -37,7 +37,6 @@ import math
 import os
 import re
 import signal
-import sys
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
