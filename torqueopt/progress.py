@@ -8,8 +8,9 @@ writes one line when the work starts and nothing more, since a bar's
 carriage-return redraws would be garbage in a log. Work whose length is
 not known before it starts (loading a URDF: seconds for a large one, most of
 them importing yourdfpy and checking the chain) goes in
-:func:`said_if_slow`, which writes its line only once the work has taken
-:data:`SLOW` seconds, so quick work stays silent. stdout is never touched,
+:func:`said_if_slow`, which writes its line on a terminal only once the work
+has taken :data:`SLOW` seconds, so quick work stays silent (and a log never
+depends on how loaded the machine was). stdout is never touched,
 so ``torqueopt ... | head`` sees only the results.
 """
 
@@ -64,15 +65,16 @@ def _isatty(stream) -> bool:
 
 @contextlib.contextmanager
 def said_if_slow(description: str, enabled: bool = True) -> Iterator[None]:
-    """Write ``description ...`` on stderr if the block is still running after :data:`SLOW` seconds."""
-    if not enabled:
+    """Write ``description ...`` on stderr, when it is a terminal, if the block is still running after :data:`SLOW` seconds."""
+    stream = sys.stderr
+    if not enabled or stream is None or not _isatty(stream):
         yield
         return
     said = threading.Event()
 
     def say() -> None:
         said.set()
-        print(f"{description} ...", file=sys.stderr, flush=True)
+        print(f"{description} ...", file=stream, flush=True)
 
     timer = threading.Timer(SLOW, say)
     timer.daemon = True
