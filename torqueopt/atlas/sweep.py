@@ -315,7 +315,7 @@ def executor(scheduler: str | None, workers: int | None) -> Iterator:
 def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths, description) -> dict:
     """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows.
 
-    With ``progress``, a bar of paths done on stderr (:func:`torqueopt.progress.progress_bar`: on a terminal;
+    With ``progress``, a bar of paths done on stderr (``torqueopt.progress.progress_bar``: on a terminal;
     one line ``description ...`` otherwise).
     """
     bar = progress_bar(description, total=total_paths, unit="path", enabled=progress, initial=done_paths)
