@@ -38,7 +38,7 @@ def _rate(function) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=3)
     arguments = parser.parse_args()
     robot = torqueopt.load_robot("planar3")
