@@ -20,6 +20,12 @@ Files in the output folder:
     the settings, the unstable fractions and the claims.
 ``unstable_fraction.png``, ``workspace_map.png``, ``instability_time.png``, ``tradeoff.png``
     the figures.
+``explorer.html``
+    one self-contained page (Plotly, inlined): the workspace map by verdict,
+    and for a bounded sample of paths (``keep_traces``, whips first) the
+    torque of every resolver and the arm at the instability
+    (:mod:`torqueopt.atlas.explorer`). Written with the figures: not with
+    ``figures=False``.
 ``atlas-config.json``, ``chunks/``
     the settings the sweep was started with, and each finished chunk (with
     the atlas's fingerprint and its own checksum, :mod:`torqueopt.atlas.sweep`):
@@ -55,6 +61,8 @@ from ..io import atomic_write, writable_path, writable_paths, written_together
 from ..progress import said_if_slow
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
+from . import explorer
+from .explorer import DEFAULT_KEEP_TRACES
 from .population import Movement, PopulationSpec, draw_population, grid_start_points
 from .stats import claims, proportion, unstable_fractions, wilson_interval
 from .sweep import (
@@ -72,6 +80,7 @@ from .verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR, VERDICTS, Thre
 
 __all__ = [
     "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_KEEP_TRACES",
     "DEFAULT_MAX_STEPS",
     "VERDICTS",
     "AtlasResult",
@@ -94,7 +103,7 @@ _CONFIG = "atlas-config.json"
 #: The files written at the end, together: the table, the summaries, the figures.
 _RESULT_FILES = (
     "results.parquet", "atlas.json", "atlas.md",
-    "unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png",
+    "unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png", "explorer.html",
 )  # fmt: skip
 
 
@@ -135,6 +144,7 @@ def run_atlas(
     progress: bool = True,
     figures: bool = True,
     max_steps: int = DEFAULT_MAX_STEPS,
+    keep_traces: int = DEFAULT_KEEP_TRACES,
 ) -> AtlasResult:
     """Run the stability atlas and write its files into ``out``.
 
@@ -160,7 +170,11 @@ def run_atlas(
             :mod:`torqueopt.atlas.verdicts`.
         batch: use the batched simulation path where it applies.
         progress: show a progress bar (paths done, rate, time left) on stderr.
-        figures: draw the figures (needs matplotlib).
+        figures: draw the figures (needs matplotlib) and write explorer.html
+            (needs plotly); False writes neither and keeps no traces.
+        keep_traces: paths whose runs explorer.html keeps (every resolver's
+            torque, the arm at the instability): those where a resolver
+            whips first, then the others; simulated again after the sweep.
         max_steps: refuse a sweep of more trajectory-steps than this.
 
     A chunk already in ``out/chunks`` that does not prove to be this
@@ -183,6 +197,9 @@ def run_atlas(
         grid_directions=grid_directions,
     )  # fmt: skip
     thresholds = Thresholds(limit_factor, pinv_factor, energy_factor)
+    keep_traces = whole_number(keep_traces, "keep_traces", minimum=0)
+    if figures:
+        require("plotly", "atlas")
     scheduler = scheduler_address(scheduler)
     resolver_objects = resolvers_from(resolvers)
     chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
@@ -284,12 +301,23 @@ def run_atlas(
 
     summary = summarise(table, config)
     summary["resumed_chunks"] = len(done)
+    traces = (
+        explorer.keep_traces(
+            loaded, table, movements, resolver_objects, dt=float(dt), accel=float(accel), batch=bool(batch),
+            keep=keep_traces,
+        )
+        if figures
+        else {}
+    )  # fmt: skip
     with written_together():
         atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
         text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
         atomic_write(out / "atlas.json", lambda handle: handle.write(text))
         if figures:
             summary["figures"] = write_figures(table, summary, out, loaded)
+            summary["figures"]["explorer: the map, and the runs of each kept path"] = explorer.write_explorer(
+                out / "explorer.html", table, summary, traces, keep_traces
+            )
         markdown = write_markdown(summary).encode()
         atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
     return AtlasResult(table=table, summary=summary, out=out)

@@ -17,7 +17,7 @@ _PAPER_RESOLVERS = "pinv,inertia-pinv,null-space,weighted-null-space"
 
 
 def add_parser(subparsers) -> None:
-    from ..atlas import DEFAULT_CHUNK_SIZE, DEFAULT_MAX_STEPS
+    from ..atlas import DEFAULT_CHUNK_SIZE, DEFAULT_KEEP_TRACES, DEFAULT_MAX_STEPS
     from ..atlas.verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR
 
     parser = subparsers.add_parser(
@@ -27,7 +27,7 @@ def add_parser(subparsers) -> None:
             "Run every resolver on a seeded population of the paper's straight-line movements (random starts and "
             "directions, or a grid over the workspace), judge each run (the 2x-limit rule and a runaway criterion "
             "that separates whiplash from a path that is simply too demanding), and write results.parquet, "
-            "atlas.md, atlas.json and figures into DIR. Runs on a local Dask cluster (one worker per core) or on "
+            "atlas.md, atlas.json, figures and explorer.html (a page to explore the runs) into DIR. Runs on a local Dask cluster (one worker per core) or on "
             "--scheduler ADDRESS. Killed and started again with the same command, it resumes where it stopped."
         ),
     )
@@ -113,7 +113,19 @@ def add_parser(subparsers) -> None:
     )
     group.add_argument("--no-batch", action="store_true", help="simulate each movement alone (the reference path)")
     group.add_argument("--no-progress", action="store_true", help="no progress bar")
-    group.add_argument("--no-figures", action="store_true", help="skip the figures")
+    group.add_argument(
+        "--no-figures", action="store_true", help="skip the figures and explorer.html (no traces are kept)"
+    )
+    group.add_argument(
+        "--keep-traces",
+        default=str(DEFAULT_KEEP_TRACES),
+        metavar="N",
+        help=(
+            f"explorer.html keeps the runs of N paths (default {DEFAULT_KEEP_TRACES}): every resolver's torque, the "
+            "arm at the instability; paths where a resolver whips first, then the others, simulated again after "
+            "the sweep; 0: the map only"
+        ),
+    )
     parser.set_defaults(handler=atlas_command)
 
 
@@ -152,6 +164,7 @@ def atlas_command(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         figures=not args.no_figures,
         max_steps=parse_whole(args.max_steps, "max-steps", 1),
+        keep_traces=parse_whole(args.keep_traces, "keep-traces"),
     )
     summary = result.summary
     width = max([22, *(len(resolver) + 2 for resolver in summary["resolvers"])])
@@ -180,7 +193,7 @@ def atlas_command(args: argparse.Namespace) -> int:
     resumed = summary.get("resumed_chunks", 0)
     note = f", {resumed} chunks resumed from an earlier run" if resumed else ""
     written = (
-        "results.parquet, atlas.md, atlas.json and figures"
+        "results.parquet, atlas.md, atlas.json, figures and explorer.html"
         if not args.no_figures
         else ("results.parquet, atlas.md and atlas.json")
     )

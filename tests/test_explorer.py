@@ -1,0 +1,163 @@
+"""The atlas explorer (explorer.html): its figures hold the table's numbers; in Chromium it loads, filters and selects."""
+
+import importlib.util
+import json
+import math
+import re
+import subprocess
+import tempfile
+
+import numpy as np
+import pytest
+
+pandas = pytest.importorskip("pandas")
+pytest.importorskip("pyarrow")
+pytest.importorskip("tqdm")
+pytest.importorskip("plotly")
+if importlib.util.find_spec("distributed") is None:
+    pytest.skip("could not find 'distributed': the atlas needs dask[distributed]", allow_module_level=True)
+
+from torqueopt.atlas import run_atlas  # noqa: E402
+from torqueopt.atlas.explorer import choose_paths  # noqa: E402
+from torqueopt.errors import MissingDependency  # noqa: E402
+
+# Five movements of 1.8 s on the paper's arm, pinv and null-space: with seed 5, null-space whips on paths 1 and 2.
+TINY = {"paths": 5, "durations": (1.8,), "resolvers": ("pinv", "null-space"), "seed": 5, "workers": 0}
+KEEP = 3
+
+
+@pytest.fixture(scope="module")
+def atlas(tmp_path_factory):
+    out = tmp_path_factory.mktemp("explorer")
+    return run_atlas("planar3", out=out, progress=False, keep_traces=KEEP, **TINY)
+
+
+def page_data(path):
+    text = path.read_text()
+    match = re.search(r'<script type="application/json" id="explorer-data">(.*?)</script>', text, re.S)
+    return json.loads(match.group(1).replace("<\\/", "</"))
+
+
+def same(a, b):
+    return (a is None and (b is None or (isinstance(b, float) and math.isnan(b)))) or a == b
+
+
+def test_the_map_holds_the_tables_numbers(atlas):
+    data = page_data(atlas.out / "explorer.html")
+    table = atlas.table.set_index(["path", "resolver"])
+    seen = set()
+    for trace in data["map"]["data"]:
+        resolver, duration = trace["meta"]["resolver"], trace["meta"]["duration"]
+        for x, y, (path, peak, verdict, instability, aligned, row_resolver, row_duration) in zip(
+            trace["x"], trace["y"], trace["customdata"]
+        ):
+            row = table.loc[(path, resolver)]
+            assert (row_resolver, row_duration) == (resolver, duration) == (resolver, row["duration"])
+            assert (x, y) == (row["start_1"], row["start_2"])
+            assert verdict == row["verdict"] == trace["name"]
+            assert same(peak, row["peak_torque_ratio"]) and same(instability, row["instability_time"])
+            assert aligned == row["aligned_joint"]
+            seen.add((path, resolver))
+    assert seen == set(table.index)  # every run once
+
+
+def test_the_kept_traces_are_the_whips_first_and_peak_where_the_table_says(atlas):
+    table = atlas.table
+    whipped = sorted(set(table.loc[table["verdict"] == "whiplash", "path"]))
+    assert whipped, "the tiny atlas should have a whip"
+    assert choose_paths(table, KEEP)[: len(whipped)] == whipped
+    data = page_data(atlas.out / "explorer.html")
+    assert sorted(data["paths"], key=int) == [str(p) for p in sorted(choose_paths(table, KEEP))]
+    limits = np.array(atlas.summary["config"]["torque_limit"], dtype=float)
+    joints = len(limits)
+    for path, figures in data["paths"].items():
+        lines = figures["torque"]["data"]
+        assert len(lines) == 2 * joints
+        for resolver_index, resolver in enumerate(TINY["resolvers"]):
+            mine = lines[resolver_index * joints : (resolver_index + 1) * joints]
+            assert {line["name"] for line in mine} == {resolver}
+            # The re-simulated traces peak where the sweep's row says (|τ|/τ⁺, applied torques; kept to 1e-3 N·m).
+            peak = max(np.max(np.abs(line["y"])) / limit for line, limit in zip(mine, limits))
+            row = table[(table["path"] == int(path)) & (table["resolver"] == resolver)].iloc[0]
+            assert peak == pytest.approx(row["peak_torque_ratio"], abs=1e-3 / limits.min())
+
+
+@pytest.mark.slow
+def test_no_figures_writes_no_explorer_and_keep_traces_zero_keeps_none(tmp_path):
+    run_atlas("planar3", out=tmp_path / "a", progress=False, figures=False, **TINY)
+    assert not (tmp_path / "a" / "explorer.html").exists()
+    run_atlas("planar3", out=tmp_path / "b", progress=False, keep_traces=0, **TINY)
+    assert page_data(tmp_path / "b" / "explorer.html")["paths"] == {}
+
+
+# -- in a real browser ------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    from torqueopt import viewer
+
+    try:
+        return viewer.find_browser()
+    except MissingDependency as missing:
+        pytest.skip(f"headless browser test needs Chromium: {missing}")
+
+
+def dump_dom(chromium, page, fragment=""):
+    """The page's DOM after its scripts ran, in headless Chromium with every host name unresolvable (no network)."""
+    with tempfile.TemporaryDirectory() as profile:
+        done = subprocess.run(
+            [
+                chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                f"--user-data-dir={profile}", "--host-resolver-rules=MAP * ~NOTFOUND", "--virtual-time-budget=10000",
+                "--window-size=1200,2400", "--dump-dom", page.as_uri() + fragment,
+            ],
+            capture_output=True, text=True, timeout=180, check=True,
+        )  # fmt: skip
+    return done.stdout
+
+
+def drawn_lines(html):
+    """The 'd' of every plotted line (not a legend's sample line, which is d="M5,0h30")."""
+    return [d for d in re.findall(r'<path class="js-line" d="([^"]*)"', html) if d != "M5,0h30"]
+
+
+def section(dom, start, end):
+    return dom[dom.index(f'id="{start}"') : dom.index(f'id="{end}"')]
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+def test_the_page_loads_offline_filters_and_draws_a_selected_path(chromium, atlas):
+    page = atlas.out / "explorer.html"
+    assert not re.search(r"<script[^>]+src=", page.read_text())  # nothing to fetch
+    table = atlas.table
+    whip = int(table.loc[table["verdict"] == "whiplash", "path"].iloc[0])
+    dom = dump_dom(chromium, page, f"#select={whip}")
+    assert 'data-ready="yes"' in dom
+    assert re.search(r'<pre id="errors"[^>]*></pre>', dom), "the page raised a JavaScript error"
+    # Shown first: pinv's runs, one point per movement.
+    assert section(dom, "map", "selection").count('<path class="point') == TINY["paths"]
+    selected = section(dom, "selection", "errors")
+    assert f'data-path="{whip}">path {whip}: every resolver' in selected
+    joints = len(atlas.summary["config"]["joint_names"])
+    torque = section(dom, "torque", "arm")
+    lines = drawn_lines(torque)
+    kept = page_data(page)["paths"][str(whip)]["torque"]["data"]
+    # Every sample drawn (the page draws panel by panel, the data lists resolver by resolver).
+    assert sorted(line.count("L") + 1 for line in lines) == sorted(len(trace["x"]) for trace in kept)
+    assert re.findall(r'data-unformatted="([^"]+)"', torque).count("null-space") == 1  # in the legend
+    arm = section(dom, "arm", "errors")
+    assert [line.count("L") for line in drawn_lines(arm)] == [joints] * 3  # each resolver's arm and the start pose
+
+    # The resolver filter: null-space's runs, its whips drawn red (#d62728).
+    dom = dump_dom(chromium, page, "#resolver=null-space&duration=1.8")
+    points = re.findall(r'<path class="point[^>]*fill: rgb\(([0-9, ]+)\)', section(dom, "map", "selection"))
+    whips = int(((table["resolver"] == "null-space") & (table["verdict"] == "whiplash")).sum())
+    assert len(points) == TINY["paths"] and points.count("214, 39, 40") == whips
+    # A path whose traces were not kept says so.
+    skipped = next(p for p in range(TINY["paths"]) if p not in choose_paths(table, KEEP))
+    dom = dump_dom(chromium, page, f"#select={skipped}")
+    assert f"path {skipped}: no traces kept" in section(dom, "selection", "errors")
+    assert drawn_lines(section(dom, "torque", "errors")) == []
