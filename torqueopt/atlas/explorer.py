@@ -49,7 +49,7 @@ VERDICT_COLOURS = {
     "joint limits": "#9467bd",
     "singular": "#7f7f7f",
     "lost path": "#8c564b",
-    "stopped early": "#000000",
+    "stopped early": "black",
 }
 _RESOLVER_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 
