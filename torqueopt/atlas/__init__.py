@@ -24,7 +24,7 @@ Files in the output folder:
     one self-contained page (Plotly, inlined): the workspace map by verdict,
     and for a bounded sample of paths (``keep_traces``, whips first) the
     torque of every resolver and the arm at the instability
-    (:mod:`torqueopt.atlas.explorer`). Written with the figures: not with
+    (``torqueopt.atlas.explorer``). Written with the figures: not with
     ``figures=False``.
 ``atlas-config.json``, ``chunks/``
     the settings the sweep was started with, and each finished chunk (with
