@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import torqueopt
 from torqueopt.cli import build_parser, main
 from torqueopt.cli.paper import scenario_from_args
 from torqueopt.errors import InvalidInput
@@ -429,3 +430,21 @@ def test_the_free_swing_gets_no_note_about_holding_its_start():
         warnings.simplefilter("always")
         swing = free_swing(PAPER, duration=0.05)
     assert [str(w.message) for w in caught] == [] and np.all(swing.tau[:-1] == 0.0)
+
+
+def test_the_papers_arm_runs_its_bounded_resolvers_without_joint_limits(planar3):
+    """The paper's arm has no joint limits: the scenario turns off those planar3's URDF writes (±2π) for resolvers that take them."""
+    from torqueopt.paper import PAPER, run_movement
+
+    assert PAPER.resolver_options("pinv") == {}
+    assert PAPER.resolver_options("minmax-torque") == {"joint_limits": "off"}
+    paper_run = run_movement(PAPER, "medium", "minmax-torque")
+    limited = torqueopt.simulate(
+        PAPER.load_robot(), "minmax-torque", PAPER.line("medium"), PAPER.q0, resolver_options={"joint_limits": "on"}
+    )
+    unlimited = torqueopt.simulate(
+        PAPER.load_robot(), "minmax-torque", PAPER.line("medium"), PAPER.q0, resolver_options={"joint_limits": "off"}
+    )
+    np.testing.assert_array_equal(paper_run.q, unlimited.q)
+    # The URDF's limits would bind (the stopping-distance bound under the paper's torque limits).
+    assert np.sum(limited.infeasible) > np.sum(unlimited.infeasible)

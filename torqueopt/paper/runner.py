@@ -57,7 +57,14 @@ PAPER_RUNS = len(MOVEMENTS) * len(PAPER_RESOLVERS) + 1
 def run_movement(scenario: PaperScenario, movement: str, resolver: str, robot: Robot | None = None) -> SimResult:
     """Simulate one resolver on one of the scenario's movements."""
     robot = robot or scenario.load_robot()
-    return simulate(robot, resolver, scenario.line(movement), scenario.q0, dt=scenario.dt)
+    return simulate(
+        robot,
+        resolver,
+        scenario.line(movement),
+        scenario.q0,
+        dt=scenario.dt,
+        resolver_options=scenario.resolver_options(resolver) or None,
+    )
 
 
 def run_paper(

@@ -21,6 +21,7 @@ import numpy as np
 from ..checks import finite_values, joint_vector, positive_number
 from ..errors import InvalidInput
 from ..loading import load_robot
+from ..resolvers import RESOLVERS
 from ..robot import Robot
 from ..simulate import step_budget
 from ..trajectory import StraightLine
@@ -105,6 +106,19 @@ class PaperScenario:
     def line(self, movement: str) -> StraightLine:
         """The straight line of a movement, anchored by :func:`~torqueopt.simulate` at the tip's start."""
         return StraightLine(self.direction, accel=self.accel, duration=self.duration(movement))
+
+    def resolver_options(self, resolver: str) -> dict:
+        """The options the scenario runs ``resolver`` with: joint limits off where it has them.
+
+        The paper's arm has torque limits and no joint limits; planar3's URDF
+        writes ±2π position and 100 rad/s velocity limits only because a
+        revolute joint needs some. A bounded resolver (``joint_limits`` on by
+        default where the URDF has limits) would otherwise bound the paper's
+        movements by them: its stopping-distance bound on a joint turning fast
+        under the paper's small torque limits binds within 0.6 s.
+        """
+        declared = {option.name for option in RESOLVERS[resolver].declared_options()} if resolver in RESOLVERS else ()
+        return {"joint_limits": "off"} if "joint_limits" in declared else {}
 
     def load_robot(self) -> Robot:
         """The arm with the scenario's limits and gravity off."""

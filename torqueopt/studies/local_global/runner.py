@@ -38,7 +38,9 @@ def run_local_global(
         for name in (*LOCAL, *present):
             # Each method at its defaults, as the paper's runner does (weighted-null-space's
             # default 1/(τ⁺−τ⁻)² is the paper's W up to a scale, the same minimiser).
-            run = simulate(robot, get_resolver(name), line, scenario.q0, dt=scenario.dt)
+            run = simulate(
+                robot, get_resolver(name, **scenario.resolver_options(name)), line, scenario.q0, dt=scenario.dt
+            )
             report = detect_whiplash(run)
             local_runs[movement, name] = run
             rows.append(
