@@ -10,7 +10,14 @@ project = "torqueopt"
 author = "torqueopt developers"
 copyright = "torqueopt developers"
 
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.mathjax", "sphinx.ext.napoleon"]
+# sphinx-mathjax-offline copies MathJax into the site, so the equations typeset with no network.
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.mathjax",
+    "sphinx.ext.napoleon",
+    "sphinx-mathjax-offline",
+]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 root_doc = "index"
 exclude_patterns = ["_build", "README.md"]
@@ -33,7 +40,6 @@ napoleon_numpy_docstring = False
 # Attributes as fields of their class: a NamedTuple's fields are documented once, not twice.
 napoleon_use_ivar = True
 
-# MathJax is the one script the pages load from a CDN; it is only needed to typeset the equations.
 html_theme = "furo"
 html_title = "torqueopt"
 html_static_path = []
