@@ -402,3 +402,23 @@ def test_the_velocity_legend_covers_no_curve_of_a_7_joint_arm(panda, tmp_path, s
         points = speed_ax.transData.transform(np.column_stack([curve.get_xdata(), curve.get_ydata()]))
         inside = (points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)
         assert not inside.any(), curve.get_label()
+
+
+def test_torque_panel_titles_of_six_runs_stay_inside_the_figure(planar3, tmp_path, saved_figures):
+    """kinematic_vs_kinetic_torques.png compares six runs: its panel titles ran off the right edge."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    line = torqueopt.StraightLine([1, 1], accel=np.sqrt(2), duration=0.3)
+    names = ("pinv", "inertia-pinv", "null-space", "weighted-null-space", "damped-null-space", "self-motion-damping")
+    runs = [torqueopt.simulate(planar3, name, line, np.radians([-45, 135, -135])) for name in names]
+    plots.plot_torques(runs, tmp_path / "six.png", title="six runs")
+    (figure,) = saved_figures
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    width = figure.bbox.width
+    for ax in figure.axes:
+        title = ax.title if ax.title.get_text() else ax._left_title
+        assert title.get_text()
+        box = title.get_window_extent(canvas.get_renderer())
+        assert box.x0 >= 0.0 and box.x1 <= width, (title.get_text(), box.x1, width)
+        assert all(name in title.get_text() for name in names)  # every run's peak is still named

@@ -34,6 +34,10 @@ _JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple",
 _EVENT_COLORS = ("tab:purple", "0.25", "tab:olive")
 
 
+#: The most characters a panel title's line holds at 10 pt on a 9 in wide figure before it is wrapped.
+TITLE_CHARACTERS = 90
+
+
 def _nonempty(results: Sequence[SimResult]) -> list[SimResult]:
     results = list(results)
     if not results:
@@ -50,7 +54,15 @@ def _joint_title(result: SimResult, joint: int, peak_by_run=None) -> str:
     limit_text = f"limit ±{limit:g} N·m" if np.isfinite(limit) else "no torque limit"
     text = f"{result.joint_names[joint]} ({limit_text})"
     if peak_by_run:
-        text += ";  peak |τ|: " + ", ".join(f"{name} {peak:.3g}" for name, peak in peak_by_run)
+        # One line per few runs: a title of six runs' peaks ran past the figure's right edge.
+        lines, line = [], text + ";  peak |τ|: "
+        for index, (name, peak) in enumerate(peak_by_run):
+            entry = f"{name} {peak:.3g}" + ("," if index < len(peak_by_run) - 1 else "")
+            if len(line) + len(entry) > TITLE_CHARACTERS and not line.endswith(": "):
+                lines.append(line.rstrip())
+                line = ""
+            line += entry + " "
+        text = "\n".join([*lines, line.rstrip()])
     return text
 
 
