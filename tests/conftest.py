@@ -59,6 +59,18 @@ def saved_figures(monkeypatch):
     return figures
 
 
+@pytest.fixture(scope="session")
+def chromium():
+    """The headless Chromium the browser tests drive; the test skips, saying why, where none is found."""
+    from torqueopt import viewer
+    from torqueopt.errors import MissingDependency
+
+    try:
+        return viewer.find_browser()
+    except MissingDependency as missing:
+        pytest.skip(f"headless browser test needs Chromium: {missing}")
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261121)

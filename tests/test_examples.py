@@ -154,14 +154,7 @@ def test_small_atlas_example_counts_every_run_once():
 
 @pytest.mark.slow
 @pytest.mark.browser
-def test_screenshot_example_renders_the_whiplash(tmp_path):
-    from torqueopt import viewer
-    from torqueopt.errors import MissingDependency
-
-    try:
-        viewer.find_browser()
-    except MissingDependency as missing:
-        pytest.skip(f"headless browser test needs Chromium: {missing}")
+def test_screenshot_example_renders_the_whiplash(chromium, tmp_path):
     printed = run_example("screenshot_whiplash.py", "--out", str(tmp_path / "whiplash.png"))
     assert "joints over their limits: joint1, joint2, joint3" in printed, printed
     assert (tmp_path / "whiplash.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -19,7 +19,6 @@ if importlib.util.find_spec("distributed") is None:
 
 from torqueopt.atlas import run_atlas  # noqa: E402
 from torqueopt.atlas.explorer import choose_paths  # noqa: E402
-from torqueopt.errors import MissingDependency  # noqa: E402
 
 # Five movements of 1.8 s on the paper's arm, pinv and null-space: with seed 5, null-space whips on paths 1 and 2.
 TINY = {"paths": 5, "durations": (1.8,), "resolvers": ("pinv", "null-space"), "seed": 5, "workers": 0}
@@ -91,16 +90,6 @@ def test_no_figures_writes_no_explorer_and_keep_traces_zero_keeps_none(tmp_path)
 
 
 # -- in a real browser ------------------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def chromium():
-    from torqueopt import viewer
-
-    try:
-        return viewer.find_browser()
-    except MissingDependency as missing:
-        pytest.skip(f"headless browser test needs Chromium: {missing}")
 
 
 def dump_dom(chromium, page, fragment=""):

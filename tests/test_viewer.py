@@ -336,14 +336,6 @@ def test_live_server_listens_on_localhost_only_and_plays_to_a_browser(planar3, w
 # -- in a real browser ------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def chromium():
-    try:
-        return viewer.find_browser()
-    except MissingDependency as missing:
-        pytest.skip(f"headless browser test needs Chromium: {missing}")
-
-
 @pytest.mark.slow
 @pytest.mark.browser
 def test_html_export_draws_the_arm_in_headless_chromium(chromium, planar3, whiplash, tmp_path):
