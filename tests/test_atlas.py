@@ -149,7 +149,8 @@ def test_population_is_seeded_and_obeys_its_acceptance_rules(planar3):
         q = planar3.configuration(movement.q0)
         tip = planar3.task_position(q)
         assert np.allclose(tip, movement.start)
-        end = tip + path_length(spec.accel, movement.duration) * movement.direction
+        assert movement.accel == math.sqrt(2.0)  # the default on planar3: √2 m/s² x reach 3 m / 3 m
+        end = tip + path_length(movement.accel, movement.duration) * movement.direction
         assert np.linalg.norm(tip) <= 0.8 * 3.0 + 1e-12 and np.linalg.norm(end) <= 0.8 * 3.0 + 1e-12
         assert np.linalg.norm(movement.direction) == pytest.approx(1.0)
         jacobian = pin.computeFrameJacobian(planar3.model, data, q, planar3.frame_id, pin.LOCAL_WORLD_ALIGNED)[:2]

@@ -1,7 +1,8 @@
 r"""The stability atlas: how often, where and why local resolvers go unstable.
 
-:func:`run_atlas` draws a seeded population of the paper's straight-line
-movements (:mod:`torqueopt.atlas.population`), runs every resolver on each
+:func:`run_atlas` draws a seeded population of movements (the paper's
+straight lines, minimum-jerk lines or circles, :mod:`torqueopt.atlas.population`),
+runs every resolver on each
 (batched, on a Dask cluster, :mod:`torqueopt.atlas.sweep`), gives each run
 a verdict (:mod:`torqueopt.atlas.verdicts`: the 2x-limit rule and a runaway
 criterion that tells a whip from a path that is simply too demanding), and
@@ -13,7 +14,9 @@ Files in the output folder:
 
 ``results.parquet``
     one row per (movement, resolver): ``path``, ``duration``, ``resolver``,
-    ``q0_1..q0_n``, ``direction_1..direction_d``, ``unstable``, ``verdict``,
+    ``q0_1..q0_n``, ``direction_1..direction_d``, ``path_kind``, ``path_length``
+    [m] (and ``path_accel`` for a line; ``radius``, ``centre_1..d``,
+    ``normal_1..3`` for a circle), ``unstable``, ``verdict``,
     ``instability_time``, ``peak_torque_ratio``, ``first_limit_violation``,
     ``max_tip_error`` and more (see :func:`torqueopt.atlas.verdicts.run_row`).
 ``atlas.md``, ``atlas.json``
@@ -63,7 +66,7 @@ from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import explorer
 from .explorer import DEFAULT_KEEP_TRACES
-from .population import Movement, PopulationSpec, draw_population, grid_start_points
+from .population import Movement, PopulationSpec, arm_reach, draw_population, grid_start_points
 from .stats import claims, proportion, unstable_fractions, wilson_interval
 from .sweep import (
     RobotSpec,
@@ -135,7 +138,9 @@ def run_atlas(
     min_condition: float = 0.05,
     grid_spacing: float = 0.25,
     grid_directions: int = 8,
-    accel: float = math.sqrt(2.0),
+    accel: float | None = None,
+    path: str = "line",
+    length_range=(0.25, 1.0),
     dt: float = 1e-3,
     limit_factor: float = DEFAULT_LIMIT_FACTOR,
     pinv_factor: float = DEFAULT_PINV_FACTOR,
@@ -165,7 +170,15 @@ def run_atlas(
         chunk_size: movements per chunk of work.
         mode, reach_fraction, min_condition, grid_spacing, grid_directions:
             the population, :class:`~torqueopt.atlas.population.PopulationSpec`.
-        accel: tangential acceleration of the lines [m/s²]; dt: step [s].
+        accel: the lines' tangential acceleration a [m/s²]; None (the default)
+            sizes it to the arm, √2 m/s² × reach / 3 m
+            (:func:`~torqueopt.atlas.population.default_accel`: √2 on planar3).
+        path: ``line`` (the paper's), ``min-jerk`` (minimum-jerk lines of random
+            length) or ``circle`` (circles in random planes about random centres);
+            length_range: the min-jerk line's length, or the circle's
+            circumference, as a fraction of a·T²/4, drawn uniformly in this range
+            (:mod:`torqueopt.atlas.population`).
+        dt: step [s].
         limit_factor, pinv_factor, energy_factor: the verdict thresholds,
             :mod:`torqueopt.atlas.verdicts`.
         batch: use the batched simulation path where it applies.
@@ -193,8 +206,8 @@ def run_atlas(
     spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
     population = PopulationSpec(
         mode=mode, paths=paths, durations=tuple(np.atleast_1d(np.asarray(durations, dtype=float)).tolist()), seed=seed,
-        accel=accel, reach_fraction=reach_fraction, min_condition=min_condition, grid_spacing=grid_spacing,
-        grid_directions=grid_directions,
+        accel=accel, path=path, length_range=tuple(length_range), reach_fraction=reach_fraction,
+        min_condition=min_condition, grid_spacing=grid_spacing, grid_directions=grid_directions,
     )  # fmt: skip
     thresholds = Thresholds(limit_factor, pinv_factor, energy_factor)
     keep_traces = whole_number(keep_traces, "keep_traces", minimum=0)
@@ -231,6 +244,9 @@ def run_atlas(
         _check_grid_size(
             grid_start_points(loaded, population), steps_per_run, max_steps, population, resolver_objects, dt
         )
+    reach = arm_reach(loaded)[1]
+    accel_from_reach = population.accel is None
+    population = population.sized(reach)  # the acceleration, when not given, from the arm's reach
     movements = draw_population(loaded, population)
     total_steps = sum(steps_per_run[m.duration] for m in movements) * len(resolver_objects)
     _check_size(total_steps, max_steps, population, resolver_objects)
@@ -243,6 +259,8 @@ def run_atlas(
         "joint_names": list(loaded.joint_names),
         "torque_limit": [x if math.isfinite(x) else None for x in loaded.torque_upper.tolist()],
         "population": population.as_dict(),
+        "reach": float(reach),
+        "accel_from_reach": accel_from_reach,
         "resolvers": [_resolver_description(r) for r in resolver_objects],
         "thresholds": thresholds.as_dict(),
         "dt": float(dt),
@@ -262,11 +280,10 @@ def run_atlas(
             "robot": spec,
             "resolvers": resolver_objects,
             "dt": float(dt),
-            "accel": float(accel),
             "thresholds": thresholds.as_dict(),
             "batch": bool(batch),
             "digest": digest,
-            "movements": [(m.path, m.duration, m.q0, m.direction, m.start) for m in chunk],
+            "movements": chunk,
         }
         for index, chunk in enumerate(chunks)
         if index not in done
@@ -303,8 +320,7 @@ def run_atlas(
     summary["resumed_chunks"] = len(done)
     traces = (
         explorer.keep_traces(
-            loaded, table, movements, resolver_objects, dt=float(dt), accel=float(accel), batch=bool(batch),
-            keep=keep_traces,
+            loaded, table, movements, resolver_objects, dt=float(dt), batch=bool(batch), keep=keep_traces,
         )
         if figures
         else {}

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
-from ..trajectory import StraightLine
+from .population import movement_trajectory
 from .sweep import _simulate_all, require
 from .verdicts import applied_rows
 
@@ -62,7 +62,7 @@ def choose_paths(table, keep: int) -> list[int]:
     return ordered[: max(int(keep), 0)]
 
 
-def keep_traces(robot, table, movements, resolvers, *, dt: float, accel: float, batch: bool, keep: int) -> dict:
+def keep_traces(robot, table, movements, resolvers, *, dt: float, batch: bool, keep: int) -> dict:
     """Simulate the chosen paths again (the sweep's settings and code path) and keep what the page draws.
 
     Returns:
@@ -74,7 +74,7 @@ def keep_traces(robot, table, movements, resolvers, *, dt: float, accel: float, 
     picked = [m for m in movements if int(m.path) in chosen]
     if not picked:
         return {}
-    lines = [StraightLine(m.direction, accel=accel, duration=m.duration, start=m.start) for m in picked]
+    lines = [movement_trajectory(m) for m in picked]
     q0s = [m.q0 for m in picked]
     whip_times = table.set_index(["path", "resolver"])["whip_time"]
     kept: dict = {}

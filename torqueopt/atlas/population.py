@@ -1,25 +1,57 @@
 r"""The atlas's population of movements: seeded, documented, reproducible.
 
-A movement is the paper's rest-to-rest straight line (Section 3: constant
-tangential acceleration :math:`a` over the first half of the duration
-:math:`T`, deceleration over the second, length :math:`aT^2/4`) from a start
-configuration :math:`q_0` along a unit direction :math:`u`.
+A movement starts at rest at a start configuration :math:`q_0` and follows
+one of three kinds of tip path (``path``), each a trajectory class of
+:mod:`torqueopt.trajectory`:
+
+``line`` (the default)
+    the paper's rest-to-rest straight line (Section 3: constant tangential
+    acceleration :math:`a` over the first half of the duration :math:`T`,
+    deceleration over the second, length :math:`aT^2/4`) along a unit
+    direction :math:`u` (:class:`~torqueopt.trajectory.StraightLine`);
+``min-jerk``
+    a straight line along :math:`u` with the minimum-jerk profile
+    (:class:`~torqueopt.trajectory.MinimumJerkLine`) of random length
+    :math:`L = f\,aT^2/4`, :math:`f` uniform in ``length_range`` (default
+    0.25 to 1: at most the line's length, so its peak acceleration
+    :math:`5.77 L/T^2` is at most 1.44 a);
+``circle``
+    a rest-to-rest circle through the start, one turn with the minimum-jerk
+    phase (:class:`~torqueopt.trajectory.Circle`), in a random plane (normal
+    :math:`n` uniform on the sphere; the xy plane for the planar task) about
+    a random centre :math:`c = x_0 - r e_1` (:math:`e_1` uniform on the unit
+    circle of that plane), of circumference :math:`2\pi r = f\,aT^2/4`,
+    :math:`f` uniform in ``length_range``.
+
+The acceleration :math:`a`
+    given (``accel``), or by default sized to the arm: the paper's
+    :math:`\sqrt2` m/s² on its 3 m arm scaled by the arm's reach,
+    :math:`a = \sqrt2\,\mathrm{m/s^2} \times \mathrm{reach}/3\,\mathrm{m}`
+    (:func:`default_accel`): the same movements in units of the arm's size,
+    so the 2 s line spans 0.47 of the reach on every arm (planar3 keeps
+    exactly √2 m/s²; panda 0.404, xarm7 0.364, tiago 0.377, baxter 0.664).
 
 Random mode (the default)
     For each duration, draw :math:`q_0` uniformly in the joint ranges (each
     clipped to :math:`[-\pi, \pi]`) and :math:`u` uniformly on the circle
-    (``xy``) or sphere (``position``) as a normalised Gaussian vector; keep
-    the pair only when the acceptance rules hold, until ``paths`` are kept:
+    (``xy``) or sphere (``position``) as a normalised Gaussian vector (for
+    a circle, then :math:`n`, :math:`e_1` and :math:`f`; for a min-jerk
+    line, :math:`f`); keep the draw only when the acceptance rules hold,
+    until ``paths`` are kept:
 
-    * ``reach_fraction`` (default 0.9): both end points of the line, hence
-      (by convexity of the distance) the whole line, lie within that
-      fraction of the arm's reach from its base;
+    * ``reach_fraction`` (default 0.9): the whole path lies within that
+      fraction of the arm's reach from its base: for a line both end points
+      (hence, by convexity of the distance, the whole line); for a circle its
+      farthest point, at :math:`\sqrt{|d|^2 + r^2 + 2r|d_\parallel|}` from
+      the base, :math:`d = c - b` and :math:`d_\parallel` its part in the
+      circle's plane;
     * ``min_condition`` (default 0.05): the start is not near-singular,
       :math:`\sigma_{min}/\sigma_{max}(J(q_0))` at least this.
 
-    The stream of draws for one duration depends only on the seed and that
-    duration (a NumPy ``SeedSequence`` keyed by both), so adding a duration
-    leaves the others' movements unchanged.
+    The stream of draws for one duration depends only on the seed, that
+    duration and the path kind (a NumPy ``SeedSequence`` keyed by them; the
+    line's key is the seed and duration alone, as before paths had kinds),
+    so adding a duration leaves the others' movements unchanged.
 
 Grid mode (for maps)
     Start points on a square grid of ``grid_spacing`` [m] in the task space,
@@ -33,7 +65,8 @@ Grid mode (for maps)
     The grid is counted before it is built (:func:`grid_start_points`, one
     slab of the grid at a time, after a bound by the ball's volume), and a
     grid of more than :data:`MAX_PATHS` movements per duration (start points
-    times directions) is refused before any inverse kinematics.
+    times directions) is refused before any inverse kinematics. The grid
+    draws lines only (``path="line"``).
 
 The reach is the largest distance from the base (the origin of the first
 moving joint) to the task frame over 4096 seeded random configurations
@@ -43,7 +76,7 @@ moving joint) to the task frame over 4096 seeded random configurations
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -52,14 +85,18 @@ from ..checks import joint_vector, number_in_range, positive_number, whole_numbe
 from ..errors import InvalidInput
 from ..linalg import inverse_condition_number
 from ..robot import Robot
+from ..trajectory import Circle, MinimumJerkLine, StraightLine
 
 __all__ = [
     "MAX_PATHS",
+    "PATH_KINDS",
     "Movement",
     "PopulationSpec",
     "arm_reach",
+    "default_accel",
     "draw_population",
     "grid_start_points",
+    "movement_trajectory",
     "path_length",
 ]
 
@@ -67,6 +104,12 @@ __all__ = [
 MAX_PATHS = 1_000_000
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _MODES = ("random", "grid")
+#: The kinds of tip path a population draws (``--path``).
+PATH_KINDS = ("line", "min-jerk", "circle")
+#: Each kind's key in the seed of its stream of draws (the line has none: its stream predates the kinds).
+_KIND_KEYS = {"line": (), "min-jerk": (1,), "circle": (2,)}
+#: The paper's acceleration [m/s²] and its arm's reach [m]: the default acceleration scales the one by the other.
+PAPER_ACCEL, PAPER_REACH = math.sqrt(2.0), 3.0
 
 
 @dataclass(frozen=True)
@@ -77,7 +120,10 @@ class PopulationSpec:
     paths: int = 100
     durations: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0)
     seed: int = 0
-    accel: float = math.sqrt(2.0)
+    #: [m/s²]; None: sized to the arm by :func:`default_accel` (:meth:`sized` fills it in).
+    accel: float | None = None
+    path: str = "line"
+    length_range: tuple[float, float] = (0.25, 1.0)
     reach_fraction: float = 0.9
     min_condition: float = 0.05
     grid_spacing: float = 0.25
@@ -88,6 +134,19 @@ class PopulationSpec:
     def __post_init__(self):
         if self.mode not in _MODES:
             raise InvalidInput(f"unknown population mode '{self.mode}': choose one of {', '.join(_MODES)}")
+        if self.path not in PATH_KINDS:
+            raise InvalidInput(f"path '{self.path}' is not a kind of path: choose one of {', '.join(PATH_KINDS)}")
+        if self.mode == "grid" and self.path != "line":
+            raise InvalidInput(f"the grid draws lines only: path '{self.path}' needs mode 'random'")
+        try:
+            low, high = (float(x) for x in self.length_range)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"length_range {self.length_range!r} must be two numbers LOW,HIGH") from None
+        if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high <= 1):
+            raise InvalidInput(
+                f"length_range {[low, high]} must be two fractions 0 < LOW <= HIGH <= 1 of the line's length a·T²/4"
+            )
+        object.__setattr__(self, "length_range", (low, high))
         object.__setattr__(self, "paths", whole_number(self.paths, "paths", 1, MAX_PATHS))
         durations = tuple(float(d) for d in np.atleast_1d(np.asarray(self.durations, dtype=float)))
         if not durations or len(durations) > 100 or not all(math.isfinite(d) and 0 < d <= 600 for d in durations):
@@ -100,14 +159,29 @@ class PopulationSpec:
             self, "reach_fraction", number_in_range(self.reach_fraction, "reach_fraction", 0.0, 1.0, low_open=True)
         )
         object.__setattr__(self, "min_condition", number_in_range(self.min_condition, "min_condition", 0.0, 1.0))
-        for name in ("accel", "grid_spacing"):
-            object.__setattr__(self, name, positive_number(getattr(self, name), name))
+        if self.accel is not None:
+            object.__setattr__(self, "accel", positive_number(self.accel, "accel", "m/s²"))
+        object.__setattr__(self, "grid_spacing", positive_number(self.grid_spacing, "grid_spacing"))
         object.__setattr__(self, "grid_directions", whole_number(self.grid_directions, "grid_directions", 1, 360))
         if self.grid_posture is not None:
             object.__setattr__(self, "grid_posture", tuple(float(x) for x in self.grid_posture))
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+    def sized(self, reach: float) -> PopulationSpec:
+        """This spec with its acceleration given: its own, or :func:`default_accel` of ``reach`` [m]."""
+        return self if self.accel is not None else replace(self, accel=default_accel(reach))
+
+
+def default_accel(reach: float) -> float:
+    """The atlas's default acceleration [m/s²] for an arm of ``reach`` [m]: √2 m/s² × reach / 3 m.
+
+    The paper's √2 m/s² on its arm of 3 m reach, scaled by the arm's size:
+    movements of the same durations then span the same fraction of the reach
+    (the 2 s line 0.47 of it) on every arm; planar3 keeps exactly √2 m/s².
+    """
+    return PAPER_ACCEL * (float(reach) / PAPER_REACH)
 
 
 @dataclass(frozen=True)
@@ -118,8 +192,15 @@ class Movement:
         path: its number in the atlas (unique over all durations).
         duration: T [s].
         q0: start joint angles [rad], one per joint.
-        direction: unit direction of the line (2 or 3 values).
+        direction: unit direction of the line (2 or 3 values); for a circle, the
+            direction of travel at the start, :math:`e_2`.
         start: tip position at q0 [m].
+        kind: ``line``, ``min-jerk`` or ``circle``.
+        length: path length [m]: a·T²/4 for a line, L for a min-jerk line, 2πr for a circle.
+        accel: the line's acceleration a [m/s²] (the population's).
+        radius: the circle's radius r [m] (NaN for a line).
+        centre: the circle's centre [m] (None for a line).
+        normal: the circle's plane normal (3 values; None for a line and for a planar circle).
     """
 
     path: int
@@ -127,6 +208,29 @@ class Movement:
     q0: np.ndarray = field(repr=False)
     direction: np.ndarray = field(repr=False)
     start: np.ndarray = field(repr=False)
+    kind: str = "line"
+    length: float = math.nan
+    accel: float = PAPER_ACCEL
+    radius: float = math.nan
+    centre: np.ndarray | None = field(default=None, repr=False)
+    normal: np.ndarray | None = field(default=None, repr=False)
+
+
+def movement_trajectory(movement: Movement):
+    """The movement's tip path as a :mod:`torqueopt.trajectory` object, anchored at its start."""
+    if movement.kind == "line":
+        return StraightLine(movement.direction, accel=movement.accel, duration=movement.duration, start=movement.start)
+    if movement.kind == "min-jerk":
+        return MinimumJerkLine(
+            movement.direction, length=movement.length, duration=movement.duration, start=movement.start
+        )
+    return Circle(
+        movement.radius,
+        movement.duration,
+        normal=movement.normal,
+        centre_direction=np.asarray(movement.centre) - np.asarray(movement.start),
+        start=movement.start,
+    )
 
 
 def path_length(accel: float, duration: float) -> float:
@@ -156,11 +260,14 @@ def arm_reach(robot: Robot, samples: int = 4096) -> tuple[np.ndarray, float]:
 def draw_population(robot: Robot, spec: PopulationSpec) -> list[Movement]:
     """Every movement of the atlas, durations in the given order, paths numbered from 0.
 
+    A spec without an acceleration is sized to the arm first (:meth:`PopulationSpec.sized`).
+
     Raises:
         InvalidInput: the acceptance rules reject too many draws (loosen them),
             or the grid keeps no start point.
     """
     base, reach = arm_reach(robot)
+    spec = spec.sized(reach)
     if spec.mode == "grid":
         return _grid(robot, spec, base, reach)
     movements: list[Movement] = []
@@ -168,40 +275,91 @@ def draw_population(robot: Robot, spec: PopulationSpec) -> list[Movement]:
     dimension = min(robot.m, 3)
     data = robot.model.createData()
     for duration in spec.durations:
-        # One stream per (seed, duration in µs): other durations do not shift it.
-        rng = np.random.default_rng(np.random.SeedSequence([spec.seed, round(duration * 1e6)]))
-        length = path_length(spec.accel, duration)
+        # One stream per (seed, duration in µs, kind): other durations do not shift it.
+        key = [spec.seed, round(duration * 1e6), *_KIND_KEYS[spec.path]]
+        rng = np.random.default_rng(np.random.SeedSequence(key))
+        line_length = path_length(spec.accel, duration)
         kept, draws = 0, 0
         while kept < spec.paths:
             draws += 1
             if draws > spec.max_draws_per_path * spec.paths:
                 raise InvalidInput(
                     f"the acceptance rules kept only {kept} of {draws - 1} draws for duration {duration:g} s "
-                    f"(line length {length:.3g} m, reach {reach:.3g} m): lower min_condition ({spec.min_condition:g}) "
-                    f"or raise reach_fraction ({spec.reach_fraction:g}), or shorten the duration"
+                    f"({spec.path} paths, line length {line_length:.3g} m, reach {reach:.3g} m): lower min_condition "
+                    f"({spec.min_condition:g}) or raise reach_fraction ({spec.reach_fraction:g}), or shorten the duration"
                 )
             angles = rng.uniform(low, high)
             direction = rng.normal(size=dimension)
             direction /= np.linalg.norm(direction)
-            start = _accept(robot, data, angles, direction, length, base, reach, spec)
+            shape = _draw_shape(rng, spec, direction, line_length)
+            start = _accept(robot, data, angles, shape, base, reach, spec)
             if start is None:
                 continue
-            movements.append(Movement(len(movements), duration, angles, direction, start))
+            movements.append(_movement(len(movements), duration, angles, start, shape, spec.accel))
             kept += 1
     return movements
 
 
-def _accept(robot, data, angles, direction, length, base, reach, spec):
-    """The tip start point when (angles, direction) passes the acceptance rules, else None."""
-    q = robot.configuration(angles)
+def _draw_shape(rng, spec: PopulationSpec, direction: np.ndarray, line_length: float) -> dict:
+    """The path's shape relative to its start: kind, length and, for a circle, normal, e₁ and radius."""
+    if spec.path == "line":
+        return {"kind": "line", "direction": direction, "length": line_length}
+    fraction = rng.uniform(*spec.length_range)
+    if spec.path == "min-jerk":
+        return {"kind": "min-jerk", "direction": direction, "length": fraction * line_length}
+    # The circle: the normal is the direction drawn (uniform on the sphere), e₁ uniform in its plane.
     dimension = direction.size
+    if dimension == 3:
+        normal = direction
+        towards_start = rng.normal(size=3)
+        towards_start -= towards_start.dot(normal) * normal
+    else:
+        normal = None
+        towards_start = rng.normal(size=2)
+    towards_start /= np.linalg.norm(towards_start)
+    travel = np.array([-towards_start[1], towards_start[0]]) if dimension == 2 else np.cross(normal, towards_start)
+    radius = fraction * line_length / (2.0 * math.pi)
+    return {
+        "kind": "circle", "direction": travel, "length": 2.0 * math.pi * radius, "radius": radius,
+        "normal": normal, "towards_start": towards_start,
+    }  # fmt: skip
+
+
+def _movement(path: int, duration: float, angles, start, shape: dict, accel: float) -> Movement:
+    circle = shape["kind"] == "circle"
+    return Movement(
+        path, duration, angles, shape["direction"], start,
+        kind=shape["kind"], length=float(shape["length"]), accel=float(accel),
+        radius=float(shape["radius"]) if circle else math.nan,
+        centre=start - shape["radius"] * shape["towards_start"] if circle else None,
+        normal=shape["normal"] if circle else None,
+    )  # fmt: skip
+
+
+def farthest_distance(shape: dict, start: np.ndarray, base: np.ndarray) -> float:
+    """The largest distance [m] from ``base`` of the path of ``shape`` starting at ``start``."""
+    if shape["kind"] != "circle":
+        return max(
+            float(np.linalg.norm(start - base)),
+            float(np.linalg.norm(start + shape["length"] * shape["direction"] - base)),
+        )
+    radius = shape["radius"]
+    offset = start - radius * shape["towards_start"] - base  # d = c − b
+    in_plane = offset if shape["normal"] is None else offset - offset.dot(shape["normal"]) * shape["normal"]
+    # |c + r u − b|² = |d|² + r² + 2r d·u, largest for u along d's part in the plane.
+    return math.sqrt(float(offset.dot(offset)) + radius**2 + 2.0 * radius * float(np.linalg.norm(in_plane)))
+
+
+def _accept(robot, data, angles, shape, base, reach, spec):
+    """The tip start point when (angles, shape) passes the acceptance rules, else None."""
+    q = robot.configuration(angles)
+    dimension = shape["direction"].size
     jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, _LWA)[robot.task_rows]
     if not inverse_condition_number(jacobian) >= spec.min_condition:
         return None
     pin.updateFramePlacements(robot.model, data)
     start = data.oMf[robot.frame_id].translation[:dimension].copy()
-    limit = spec.reach_fraction * reach
-    if np.linalg.norm(start - base) > limit or np.linalg.norm(start + length * direction - base) > limit:
+    if farthest_distance(shape, start, base) > spec.reach_fraction * reach:
         return None
     return start
 
@@ -319,7 +477,12 @@ def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
         for angles, point in starts:
             for direction in directions:
                 if np.linalg.norm(point + length * direction - base) <= limit:
-                    movements.append(Movement(len(movements), duration, angles, direction.copy(), point.copy()))
+                    movements.append(
+                        Movement(
+                            len(movements), duration, angles, direction.copy(), point.copy(),
+                            length=length, accel=float(spec.accel),
+                        )
+                    )  # fmt: skip
     if not movements:
         raise InvalidInput(
             f"the grid of spacing {spec.grid_spacing:g} m keeps no movement inside {spec.reach_fraction:g} of the "

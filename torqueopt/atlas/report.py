@@ -69,7 +69,7 @@ def write_markdown(summary: dict) -> str:
             f"{summary['paths']} movements x {len(summary['resolvers'])} resolvers = {summary['rows']} runs; "
             f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
             f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
-            f"min start condition {population['min_condition']:g}); acceleration {population['accel']:.4g} m/s², "
+            f"min start condition {population['min_condition']:g}); {_path_text(population, config)}, "
             f"dt {config['dt'] * 1e3:g} ms, open loop: held-torque RK4 for the torque resolvers, RK4 on the joint "
             "velocities with inverse-dynamics torques for the velocity-level ones."
         ),
@@ -133,6 +133,25 @@ def write_markdown(summary: dict) -> str:
         lines += ["", "## Figures", ""] + [f"- {title}: `{name}`" for title, name in figures.items()]
     lines += ["", "Columns of `results.parquet`: see `torqueopt.atlas.verdicts` (docstring) and the docs.", ""]
     return "\n".join(lines)
+
+
+def _path_text(population: dict, config: dict) -> str:
+    """The path kind and its parameters, as the report's header says them."""
+    kind, accel = population.get("path", "line"), population["accel"]
+    if config.get("accel_from_reach"):
+        accel_text = f"{accel:.4g} m/s² (this arm's default: √2 m/s² x reach {config['reach']:.3g} m / 3 m)"
+    else:
+        accel_text = f"{accel:.4g} m/s²"
+    low, high = population.get("length_range", (0.25, 1.0))
+    fractions = f"{low:g} to {high:g} of a·T²/4" if low != high else f"{low:g} of a·T²/4"
+    if kind == "min-jerk":
+        return f"path `min-jerk` (minimum-jerk lines, length uniform in {fractions}, a = {accel_text})"
+    if kind == "circle":
+        return (
+            f"path `circle` (one minimum-jerk turn in a random plane about a random centre, circumference uniform "
+            f"in {fractions}, a = {accel_text})"
+        )
+    return f"path `line` (the paper's bang-bang line), acceleration {accel_text}"
 
 
 def write_figures(table, summary: dict, out: Path, robot) -> dict:

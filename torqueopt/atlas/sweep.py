@@ -52,8 +52,7 @@ from ..progress import progress_bar
 from ..resolvers import Resolver, get_resolver
 from ..robot import Robot
 from ..simulate import simulate
-from ..trajectory import StraightLine
-from .population import Movement
+from .population import Movement, movement_trajectory
 from .verdicts import Thresholds, run_row, self_motion_energy
 
 __all__ = ["CHUNK_FOLDER", "RobotSpec", "chunk_path", "executor", "read_chunks", "run_chunk", "run_chunks"]
@@ -124,17 +123,15 @@ def chunk_path(out: Path, index: int) -> Path:
 def run_chunk(job: dict) -> list[dict]:
     """Every resolver on every movement of one chunk: the chunk's rows (plain dicts), pinv's first.
 
-    ``job`` holds the robot spec, the resolvers, dt, acceleration, thresholds,
-    whether to batch, and the movements as (path, duration, q0, direction,
-    start) tuples. Deterministic: the same job gives the same rows.
+    ``job`` holds the robot spec, the resolvers, dt, thresholds, whether to
+    batch, and the movements: :class:`~torqueopt.atlas.population.Movement`
+    objects, or (path, duration, q0, direction, start) tuples of lines at the
+    job's ``accel``. Deterministic: the same job gives the same rows.
     """
     robot = _worker_robot(job["robot"])
     thresholds = Thresholds(**job["thresholds"])
-    movements = [
-        Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start))
-        for path, duration, q0, direction, start in job["movements"]
-    ]
-    lines = [StraightLine(m.direction, accel=job["accel"], duration=m.duration, start=m.start) for m in movements]
+    movements = [_as_movement(item, job.get("accel")) for item in job["movements"]]
+    lines = [movement_trajectory(m) for m in movements]
     q0s = [m.q0 for m in movements]
     resolvers: list[Resolver] = job["resolvers"]
     rows: list[dict] = []
@@ -147,10 +144,19 @@ def run_chunk(job: dict) -> list[dict]:
             row = _movement_columns(movement, resolver_label(resolver))
             row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
             row.update(_start_columns(movement))
+            row.update(_path_columns(movement))
             row["pinv_peak_torque_ratio"] = pinv_peak
             row["batched"] = bool(job["batch"] and batch_supports(robot, resolver))
             rows.append(row)
     return rows
+
+
+def _as_movement(item, accel) -> Movement:
+    """A job's movement: a Movement as it is, or a (path, duration, q0, direction, start) line at ``accel``."""
+    if isinstance(item, Movement):
+        return item
+    path, duration, q0, direction, start = item
+    return Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start), accel=float(accel))
 
 
 def resolver_label(resolver: Resolver) -> str:
@@ -191,6 +197,19 @@ def _movement_columns(movement: Movement, resolver: str) -> dict:
         row[f"q0_{i}"] = float(value)
     for i, value in enumerate(movement.direction, start=1):
         row[f"direction_{i}"] = float(value)
+    return row
+
+
+def _path_columns(movement: Movement) -> dict:
+    """The path's kind and parameters: length [m] (a·T²/4, L or 2πr) and, for a circle, radius, centre and normal."""
+    row = {"path_kind": movement.kind, "path_length": float(movement.length)}
+    if movement.kind == "line":
+        row["path_accel"] = float(movement.accel)
+    if movement.kind == "circle":
+        row["radius"] = float(movement.radius)
+        row.update({f"centre_{i}": float(value) for i, value in enumerate(movement.centre, start=1)})
+        if movement.normal is not None:
+            row.update({f"normal_{i}": float(value) for i, value in enumerate(movement.normal, start=1)})
     return row
 
 

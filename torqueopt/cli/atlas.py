@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
+from ..errors import InvalidInput
 from ..resolvers import resolver_names
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK
@@ -24,7 +24,7 @@ def add_parser(subparsers) -> None:
         "atlas",
         help="stability atlas: a seeded population of movements x resolvers, on a Dask cluster",
         description=(
-            "Run every resolver on a seeded population of the paper's straight-line movements (random starts and "
+            "Run every resolver on a seeded population of movements (the paper's straight lines by default; --path min-jerk or circle; random starts and "
             "directions, or a grid over the workspace), judge each run (the 2x-limit rule and a runaway criterion "
             "that separates whiplash from a path that is simply too demanding), and write results.parquet, "
             "atlas.md, atlas.json, figures and explorer.html (a page to explore the runs) into DIR. Runs on a local Dask cluster (one worker per core) or on "
@@ -68,7 +68,22 @@ def add_parser(subparsers) -> None:
         "--grid-directions", default="8", metavar="K", help="grid mode: directions per start point (default 8)"
     )
     group.add_argument(
-        "--accel", default=repr(math.sqrt(2.0)), metavar="A", help="tangential acceleration [m/s²] (default √2)"
+        "--path",
+        default="line",
+        metavar="KIND",
+        help="tip paths: line (the paper's bang-bang line), min-jerk (minimum-jerk lines of random length) or "
+        "circle (one turn in a random plane about a random centre); default line",
+    )
+    group.add_argument(
+        "--length-range",
+        default="0.25,1",
+        metavar="LOW,HIGH",
+        help="min-jerk: length, circle: circumference, uniform in LOW..HIGH times a·T²/4 (default 0.25,1)",
+    )
+    group.add_argument(
+        "--accel",
+        metavar="A",
+        help="tangential acceleration a [m/s²] (default: sized to the arm, √2 x reach / 3 m: √2 on planar3)",
     )
     group.add_argument("--dt", default="0.001", help="integration step [s] (default 0.001)")
     group = parser.add_argument_group("verdicts (see torqueopt.atlas.verdicts)")
@@ -129,6 +144,16 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(handler=atlas_command)
 
 
+def _path_kind(text: str) -> str:
+    from ..atlas.population import PATH_KINDS
+
+    if text not in PATH_KINDS:
+        raise InvalidInput(
+            f"--path: '{text}' is not a kind of path for the atlas; choose one of {', '.join(PATH_KINDS)}"
+        )
+    return text
+
+
 def atlas_command(args: argparse.Namespace) -> int:
     from ..atlas import run_atlas
     from ..atlas.sweep import RobotSpec
@@ -155,7 +180,9 @@ def atlas_command(args: argparse.Namespace) -> int:
         min_condition=parse_number(args.min_condition, "min-condition"),
         grid_spacing=parse_positive(args.grid_spacing, "grid-spacing"),
         grid_directions=parse_whole(args.grid_directions, "grid-directions", 1),
-        accel=parse_positive(args.accel, "accel"),
+        accel=None if args.accel is None else parse_positive(args.accel, "accel"),
+        path=_path_kind(args.path),
+        length_range=tuple(parse_vector(args.length_range, "length-range", 2).tolist()),
         dt=parse_positive(args.dt, "dt"),
         limit_factor=parse_positive(args.limit_factor, "limit-factor"),
         pinv_factor=parse_positive(args.pinv_factor, "pinv-factor"),
