@@ -1,23 +1,23 @@
 r"""The atlas's population of movements: seeded, documented, reproducible.
 
 A movement starts at rest at a start configuration :math:`q_0` and follows
-one of three kinds of tip path (``path``), each a trajectory class of
-:mod:`torqueopt.trajectory`:
+one of three kinds of tip path (``path``), each one of torqueopt's
+trajectory classes:
 
 ``line`` (the default)
     the paper's rest-to-rest straight line (Section 3: constant tangential
     acceleration :math:`a` over the first half of the duration :math:`T`,
     deceleration over the second, length :math:`aT^2/4`) along a unit
-    direction :math:`u` (:class:`~torqueopt.trajectory.StraightLine`);
+    direction :math:`u` (:class:`~torqueopt.StraightLine`);
 ``min-jerk``
     a straight line along :math:`u` with the minimum-jerk profile
-    (:class:`~torqueopt.trajectory.MinimumJerkLine`) of random length
+    (:class:`~torqueopt.MinimumJerkLine`) of random length
     :math:`L = f\,aT^2/4`, :math:`f` uniform in ``length_range`` (default
     0.25 to 1: at most the line's length, so its peak acceleration
     :math:`5.77 L/T^2` is at most 1.44 a);
 ``circle``
     a rest-to-rest circle through the start, one turn with the minimum-jerk
-    phase (:class:`~torqueopt.trajectory.Circle`), in a random plane (normal
+    phase (:class:`~torqueopt.Circle`), in a random plane (normal
     :math:`n` uniform on the sphere; the xy plane for the planar task) about
     a random centre :math:`c = x_0 - r e_1` (:math:`e_1` uniform on the unit
     circle of that plane), of circumference :math:`2\pi r = f\,aT^2/4`,
@@ -120,7 +120,7 @@ class PopulationSpec:
     paths: int = 100
     durations: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0)
     seed: int = 0
-    #: [m/s²]; None: sized to the arm by :func:`default_accel` (:meth:`sized` fills it in).
+    #: The acceleration a in m/s², or None to size it to the arm (``default_accel``; ``sized`` fills it in).
     accel: float | None = None
     path: str = "line"
     length_range: tuple[float, float] = (0.25, 1.0)
@@ -217,7 +217,7 @@ class Movement:
 
 
 def movement_trajectory(movement: Movement):
-    """The movement's tip path as a :mod:`torqueopt.trajectory` object, anchored at its start."""
+    """The movement's tip path as a trajectory object (StraightLine, MinimumJerkLine, Circle) anchored at its start."""
     if movement.kind == "line":
         return StraightLine(movement.direction, accel=movement.accel, duration=movement.duration, start=movement.start)
     if movement.kind == "min-jerk":
