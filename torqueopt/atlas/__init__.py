@@ -13,7 +13,10 @@ turns the table into the paper's claims with Wilson 95 % intervals
 Files in the output folder:
 
 ``results.parquet``
-    one row per (movement, resolver): ``path``, ``duration``, ``resolver``,
+    one row per (movement, resolver): ``path``, ``duration``, ``resolver``
+    (the resolver's label: its name, with the options that differ from their
+    defaults in brackets, ``bounded-torque[joint_limits=off]``),
+    ``resolver_options`` (those options as a JSON object, ``{}`` for the defaults),
     ``q0_1..q0_n``, ``direction_1..direction_d``, ``path_kind``, ``path_length``
     [m] (and ``path_accel`` for a line; ``radius``, ``centre_1..d``,
     ``normal_1..3`` for a circle), ``unstable``, ``verdict``,
@@ -158,8 +161,13 @@ def run_atlas(
             :class:`~torqueopt.atlas.sweep.RobotSpec` with frame, task, limits.
         paths: movements per duration (random mode).
         durations: movement durations T [s].
-        resolvers: names (or Resolver objects); ``pinv`` is always run, first,
-            as the baseline of the runaway criterion.
+        resolvers: names, labels with options (``"bounded-torque[joint_limits=off]"``,
+            read by ``torqueopt.resolvers.resolver_from_label``) or Resolver objects
+            (``get_resolver("bounded-torque", joint_limits="off")``); one resolver
+            may come with several settings, each its own resolver under its
+            :attr:`~torqueopt.Resolver.label` (the ``resolver`` column;
+            ``resolver_options`` holds the options as JSON). ``pinv`` (its
+            defaults) is always run, first, as the baseline of the runaway criterion.
         out: output folder; an existing atlas there with the same settings is
             resumed, one with other settings is refused.
         seed: seed of the population.
@@ -313,7 +321,7 @@ def run_atlas(
                 )
             )
 
-    table = _collect(pandas, [frames[index] for index in range(len(chunks))], [r.name for r in resolver_objects])
+    table = _collect(pandas, [frames[index] for index in range(len(chunks))], [r.label for r in resolver_objects])
     from .report import summarise, write_figures, write_markdown
 
     summary = summarise(table, config)
@@ -358,7 +366,12 @@ def _json_default(value):
 
 def _resolver_description(resolver: Resolver) -> dict:
     # The declared options as JSON values (a resolver's other attributes may be objects: task stacks, criteria).
-    return {"name": resolver.name, "class": type(resolver).__name__, "options": resolver.settings_for_file()}
+    return {
+        "name": resolver.name,
+        "label": resolver.label,
+        "class": type(resolver).__name__,
+        "options": resolver.settings_for_file(),
+    }
 
 
 def _check_size(total_steps: int, max_steps: int, population: PopulationSpec, resolvers) -> None:

@@ -83,9 +83,9 @@ def keep_traces(robot, table, movements, resolvers, *, dt: float, batch: bool, k
         for movement, result in zip(picked, results):
             result = applied_rows(result)[0]  # the torques the table's figures read: not the sample at t = T
             rows = _kept_rows(result)
-            whip_time = float(whip_times.get((int(movement.path), resolver.name), math.nan))
+            whip_time = float(whip_times.get((int(movement.path), resolver.label), math.nan))
             whip_row = int(np.argmin(np.abs(result.t - whip_time))) if math.isfinite(whip_time) else len(result.t) - 1
-            kept.setdefault(int(movement.path), {})[resolver.name] = {
+            kept.setdefault(int(movement.path), {})[resolver.label] = {
                 "t": result.t[rows],
                 "tau": result.tau[rows],
                 "arm": arm_points(robot, result.joint_angles[whip_row])[:, :2],

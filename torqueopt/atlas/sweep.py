@@ -49,7 +49,7 @@ from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..loading import load_robot
 from ..progress import progress_bar
-from ..resolvers import Resolver, get_resolver
+from ..resolvers import Resolver, get_resolver, resolver_from_label
 from ..robot import Robot
 from ..simulate import simulate
 from .population import Movement, movement_trajectory
@@ -138,10 +138,12 @@ def run_chunk(job: dict) -> list[dict]:
     pinv_peaks = None
     for resolver in resolvers:
         results, energies = _simulate_all(robot, resolver, lines, q0s, job["dt"], job["batch"])
+        options_text = json.dumps(resolver.changed_settings(), sort_keys=True)
         if pinv_peaks is None:  # the first resolver is pinv, the baseline
             pinv_peaks = [_peak_applied_ratio(result) for result in results]
         for movement, result, (kinetic, self_energy), pinv_peak in zip(movements, results, energies, pinv_peaks):
             row = _movement_columns(movement, resolver_label(resolver))
+            row["resolver_options"] = options_text
             row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
             row.update(_start_columns(movement))
             row.update(_path_columns(movement))
@@ -160,8 +162,10 @@ def _as_movement(item, accel) -> Movement:
 
 
 def resolver_label(resolver: Resolver) -> str:
-    """The resolver's name as the table writes it: its registered name (options are in atlas-config.json)."""
-    return resolver.name
+    """The resolver as the table's ``resolver`` column writes it: its :attr:`~torqueopt.Resolver.label`,
+    the name with the options that differ from their defaults (``bounded-torque[joint_limits=off]``), so each
+    setting of one resolver is a resolver of its own in every table, figure and summary."""
+    return resolver.label
 
 
 def _peak_applied_ratio(result) -> float:
@@ -411,13 +415,24 @@ def _main_thread() -> bool:
 
 
 def resolvers_from(names) -> list[Resolver]:
-    """Resolver objects from names or objects, pinv first (added when missing: it is the baseline), no repeats."""
-    resolvers = [get_resolver(name) for name in names]
-    labels = [resolver.name for resolver in resolvers]
-    if len(set(labels)) != len(labels):
-        raise InvalidInput(f"resolvers {labels} repeat a name; give each once")
+    """Resolver objects from names, labels (``bounded-torque[joint_limits=off]``) or objects, pinv first (added
+    when missing: it is the baseline, with its defaults), no label twice.
+
+    One resolver may come several times with different options: each setting is its own resolver of the
+    atlas, under its :attr:`~torqueopt.Resolver.label`.
+    """
+    if isinstance(names, (str, Resolver)):
+        names = [names]
+    resolvers = [resolver_from_label(name) for name in names]
+    labels = [resolver.label for resolver in resolvers]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise InvalidInput(
+            f"resolvers {', '.join(repeated)} given twice (the same options: a label names the options that differ "
+            "from the defaults); give each setting once"
+        )
     if not resolvers:
         raise InvalidInput("give at least one resolver")
-    baseline = [resolver for resolver in resolvers if resolver.name == BASELINE]
-    others = [resolver for resolver in resolvers if resolver.name != BASELINE]
+    baseline = [resolver for resolver in resolvers if resolver.label == BASELINE]
+    others = [resolver for resolver in resolvers if resolver.label != BASELINE]
     return (baseline or [get_resolver(BASELINE)]) + others

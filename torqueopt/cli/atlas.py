@@ -7,6 +7,7 @@ import time
 
 from ..errors import InvalidInput
 from ..resolvers import resolver_names
+from ..resolvers.options import split_resolver_list
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK
 from .common import parse_number, parse_positive, parse_vector, parse_whole
@@ -45,7 +46,12 @@ def add_parser(subparsers) -> None:
         "--resolvers",
         default=_PAPER_RESOLVERS,
         metavar="NAMES",
-        help=f"comma-separated resolvers, of {', '.join(resolver_names())} (default the paper's four; pinv is always run)",
+        help=(
+            f"comma-separated resolvers, of {', '.join(resolver_names())} (default the paper's four; pinv is always "
+            "run); a resolver with options as NAME[OPTION=VALUE,...], quoted for the shell, e.g. "
+            "'pinv,bounded-torque,bounded-torque[joint_limits=off]': each setting is its own resolver, labelled so "
+            "in every table (options: torqueopt resolvers)"
+        ),
     )
     parser.add_argument(
         "--out", required=True, metavar="DIR", help="output folder (created if missing; resumed if it holds this atlas)"
@@ -160,7 +166,7 @@ def atlas_command(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     durations = tuple(parse_vector(args.durations, "durations").tolist())
-    resolvers = [name.strip() for name in args.resolvers.split(",") if name.strip()]
+    resolvers = split_resolver_list(args.resolvers)
     torque_limit = (
         None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
     )

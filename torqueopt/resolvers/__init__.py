@@ -44,7 +44,7 @@ from .bounded import BoundedTorque, EnergyBoundedTorque, MinMaxTorque
 from .damping import DampedNullSpaceTorque, SelfMotionDamping
 from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
-from .options import Option
+from .options import Option, parse_resolver_spec
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
 from .velocity import VELOCITY_RESOLVERS
@@ -68,6 +68,7 @@ __all__ = [
     "EnergyBoundedTorque",
     "RESOLVERS",
     "get_resolver",
+    "resolver_from_label",
     "resolver_names",
 ]
 
@@ -128,3 +129,20 @@ def get_resolver(resolver: str | Resolver, **options) -> Resolver:
         hint = f" (did you mean '{close[0]}'?)" if close else ""
         raise ResolverNotFound(f"unknown resolver '{resolver}'{hint}: choose one of {', '.join(RESOLVERS)}") from None
     return cls(**options)
+
+
+def resolver_from_label(spec: str | Resolver) -> Resolver:
+    """A resolver from ``NAME`` or ``NAME[OPTION=VALUE,...]`` (its :attr:`~Resolver.label`), or the object itself.
+
+    ``resolver_from_label("bounded-torque[joint_limits=off,damping=2]")`` is
+    ``get_resolver("bounded-torque", joint_limits="off", damping="2")``: the
+    values are checked by the resolver's own options.
+
+    Raises:
+        ResolverNotFound: no resolver has that name.
+        InvalidInput: text not of that form, or an option or value the resolver refuses.
+    """
+    if isinstance(spec, Resolver):
+        return spec
+    name, options = parse_resolver_spec(spec)
+    return get_resolver(name, **options)

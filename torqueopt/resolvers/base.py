@@ -46,7 +46,7 @@ import numpy as np
 from ..errors import NoRedundancy
 from ..linalg import DEFAULT_SINGULAR_TOLERANCE, JacobianSolver
 from ..robot import Robot, TaskTerms
-from .options import Option, format_value, number, validate_options
+from .options import Option, format_value, number, resolver_label, validate_options
 from .stacks import StackResolution, StackStep, StackTerms, looped_stack_step, singular_rows, task_factorisation
 
 __all__ = [
@@ -140,6 +140,26 @@ class Resolver(ABC):
     def needs_torque_limits(self) -> bool:
         """True when, with these options, the resolver divides by torque ranges (so every joint needs a limit)."""
         return False
+
+    @property
+    def label(self) -> str:
+        """The name with, in brackets, the options that differ from their defaults, as ``bounded-torque[joint_limits=off]``.
+
+        The bare name with every default. Two resolvers with the same label have the same settings, and
+        ``torqueopt.resolvers.resolver_from_label`` makes one from it.
+        """
+        return resolver_label(self.name, self.declared_options(), self.settings)
+
+    def changed_settings(self) -> dict:
+        """The options whose values differ from their defaults (those :attr:`label` names), as JSON-ready values."""
+        from .options import label_value
+
+        declared = {option.name: option for option in self.declared_options()}
+        return {
+            key: value
+            for key, value in self.settings_for_file().items()
+            if label_value(self.settings[key]) != label_value(declared[key].default)
+        }
 
     def settings_for_file(self) -> dict:
         """The option values as JSON-ready values (vectors as lists), for a result's metadata."""

@@ -13,6 +13,7 @@ Checks that need the robot (a vector's length) are the resolver's, in its ``chec
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
@@ -30,6 +31,10 @@ __all__ = [
     "choice_or_vector",
     "validate_options",
     "format_value",
+    "label_value",
+    "resolver_label",
+    "parse_resolver_spec",
+    "split_resolver_list",
 ]
 
 
@@ -150,3 +155,115 @@ def unknown_option_message(resolver: str, name: str, valid: list[str]) -> str:
     hint = f" (did you mean '{close[0]}'?)" if close else ""
     listed = ", ".join(valid) if valid else "none"
     return f"unknown option '{name}' for resolver '{resolver}'{hint}; valid options: {listed}"
+
+
+def label_value(value) -> str:
+    """A value as a resolver's label writes it: exact (a float by its shortest text that reads back the same),
+    vectors comma-separated, a matrix's rows separated by ``;``."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            return str(value)
+        if array.ndim == 0:
+            return label_value(float(array))
+        if array.ndim == 1:
+            return ",".join(label_value(float(x)) for x in array)
+        return ";".join(label_value(row) for row in array)
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, (float, np.floating, int, np.integer)):
+        number = float(value)
+        short = f"{number:g}"
+        return short if float(short) == number else repr(number)
+    return str(value)
+
+
+def resolver_label(name: str, declared: tuple[Option, ...], settings: Mapping[str, object]) -> str:
+    """``name``, or ``name[OPTION=VALUE,...]`` with the options whose values differ from their defaults, in the
+    order they are declared: the same settings always give the same label, and :func:`parse_resolver_spec`
+    reads it back."""
+    changed = [
+        f"{option.name}={label_value(settings[option.name])}"
+        for option in declared
+        if label_value(settings[option.name]) != label_value(option.default)
+    ]
+    return f"{name}[{','.join(changed)}]" if changed else name
+
+
+def split_resolver_list(text: str) -> list[str]:
+    """The resolver specs of a comma-separated list, the commas inside ``[...]`` kept with their spec.
+
+    ``"pinv,bounded-torque[joint_limits=off,damping=2],null-space"`` gives three specs.
+
+    Raises:
+        InvalidInput: a ``[`` without its ``]`` or the reverse.
+    """
+    specs, depth, current = [], 0, []
+    for character in str(text):
+        if character == "[":
+            depth += 1
+            if depth > 1:
+                raise InvalidInput(f"resolver list '{text}' opens a '[' inside another; give NAME[OPTION=VALUE,...]")
+        elif character == "]":
+            depth -= 1
+            if depth < 0:
+                raise InvalidInput(f"resolver list '{text}' closes a ']' it did not open; give NAME[OPTION=VALUE,...]")
+        if character == "," and depth == 0:
+            specs.append("".join(current))
+            current = []
+        else:
+            current.append(character)
+    if depth:
+        raise InvalidInput(f"resolver list '{text}' leaves a '[' unclosed; give NAME[OPTION=VALUE,...]")
+    specs.append("".join(current))
+    return [spec.strip() for spec in specs if spec.strip()]
+
+
+_SPEC = re.compile(r"^\s*([^\[\]=,\s]+)\s*(?:\[(.*)\])?\s*$", re.DOTALL)
+
+
+def parse_resolver_spec(text: str) -> tuple[str, dict[str, str]]:
+    """``NAME`` or ``NAME[OPTION=VALUE,OPTION=VALUE]`` as (name, {option: value text}).
+
+    Inside the brackets the options are separated by commas; a comma followed by
+    no ``=`` before the next comma continues a vector value
+    (``weighted-null-space[weight=1,2,3,singular_tolerance=1e-6]``). The values
+    are text, checked by the resolver's own options.
+
+    Raises:
+        InvalidInput: text that is not of that form, an option given twice, or empty brackets.
+    """
+    match = _SPEC.match(str(text))
+    if not match:
+        raise InvalidInput(
+            f"resolver '{text}' is not NAME or NAME[OPTION=VALUE,...], e.g. bounded-torque[joint_limits=off]"
+        )
+    name, inside = match.group(1), match.group(2)
+    options: dict[str, str] = {}
+    if inside is None:
+        return name, options
+    if not inside.strip():
+        raise InvalidInput(f"resolver '{text}' has empty brackets; give NAME[OPTION=VALUE,...] or NAME alone")
+    last = None
+    for piece in inside.split(","):
+        option, separator, value = piece.partition("=")
+        if not separator:
+            if last is None or not piece.strip():
+                raise InvalidInput(
+                    f"resolver '{text}': '{piece.strip()}' is not OPTION=VALUE; give NAME[OPTION=VALUE,...], "
+                    "e.g. bounded-torque[joint_limits=off,damping=2]"
+                )
+            options[last] += "," + piece.strip()  # the next element of a vector value
+            continue
+        option = option.strip()
+        if not option or not value.strip():
+            raise InvalidInput(
+                f"resolver '{text}': '{piece.strip()}' is not OPTION=VALUE; give NAME[OPTION=VALUE,...], "
+                "e.g. bounded-torque[joint_limits=off,damping=2]"
+            )
+        if option in options:
+            raise InvalidInput(f"resolver '{text}' gives option {option} twice; give it once")
+        options[option] = value.strip()
+        last = option
+    return name, options
