@@ -5,7 +5,9 @@ Exit codes:
     2  bad input: the message names the bad value and what would be valid;
     3  the work stopped short: a simulation stopped early (diverged, or the
        Jacobian went singular), or ``optimize``'s solver did not converge;
-       everything computed up to then is still written and summarised.
+       everything computed up to then is still written and summarised;
+    4  ``tune`` found no setting that meets its criteria (its evidence is
+       still written).
 """
 
 from __future__ import annotations
@@ -19,15 +21,16 @@ from functools import partial
 
 from ..errors import TorqueoptError, TorqueoptWarning
 
-__all__ = ["main", "EXIT_OK", "EXIT_BAD_INPUT", "EXIT_STOPPED"]
+__all__ = ["main", "EXIT_OK", "EXIT_BAD_INPUT", "EXIT_STOPPED", "EXIT_NONE_QUALIFIES"]
 
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
 EXIT_STOPPED = 3
+EXIT_NONE_QUALIFIES = 4
 
 # One module per subcommand, each with ``add_parser(subparsers)`` that sets
 # ``handler`` (a function of the parsed arguments returning an exit code).
-_COMMANDS = ("run", "robots", "resolvers", "play", "paper", "plot", "atlas", "optimize")
+_COMMANDS = ("run", "robots", "resolvers", "play", "paper", "plot", "atlas", "optimize", "tune")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         epilog=(
             "Exit codes: 0 success, 2 bad input, 3 stopped short (a simulation diverged or went singular, "
-            "or the optimiser did not converge)."
+            "or the optimiser did not converge), 4 tune: no setting qualifies."
         ),
     )
     from .. import __version__

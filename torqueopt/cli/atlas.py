@@ -150,7 +150,8 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(handler=atlas_command)
 
 
-def _path_kind(text: str) -> str:
+def path_kind(text: str) -> str:
+    """``text`` when it names a kind of path of the atlas (``--path``), else InvalidInput listing them."""
     from ..atlas.population import PATH_KINDS
 
     if text not in PATH_KINDS:
@@ -187,7 +188,7 @@ def atlas_command(args: argparse.Namespace) -> int:
         grid_spacing=parse_positive(args.grid_spacing, "grid-spacing"),
         grid_directions=parse_whole(args.grid_directions, "grid-directions", 1),
         accel=None if args.accel is None else parse_positive(args.accel, "accel"),
-        path=_path_kind(args.path),
+        path=path_kind(args.path),
         length_range=tuple(parse_vector(args.length_range, "length-range", 2).tolist()),
         dt=parse_positive(args.dt, "dt"),
         limit_factor=parse_positive(args.limit_factor, "limit-factor"),

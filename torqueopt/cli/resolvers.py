@@ -73,6 +73,12 @@ def add_resolver_arguments(group) -> None:
         metavar="W",
         help="alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; default 1/(τ⁺−τ⁻)²)",
     )
+    group.add_argument(
+        "--options-from",
+        metavar="TUNE_JSON",
+        help="the options of the setting a torqueopt tune chose (its tune.json), for the same --resolver; "
+        "an --option given too is refused",
+    )
 
 
 def resolver_from_args(args: argparse.Namespace) -> Resolver:
@@ -90,4 +96,19 @@ def resolver_from_args(args: argparse.Namespace) -> Resolver:
         if "weight" in options:
             raise InvalidInput("--weight and --option weight= are the same option; give one")
         options["weight"] = args.weight
+    if getattr(args, "options_from", None):
+        from ..tune import tuned_options
+
+        tuned, chosen = tuned_options(args.options_from)
+        if get_resolver(args.resolver).name != tuned:
+            raise InvalidInput(
+                f"--options-from {args.options_from} holds options of {tuned}, not of --resolver {args.resolver}; "
+                f"give --resolver {tuned}"
+            )
+        both = sorted(set(options) & set(chosen))
+        if both:
+            raise InvalidInput(
+                f"--option {', '.join(both)} is also in --options-from {args.options_from}; give it once"
+            )
+        options.update(chosen)
     return get_resolver(args.resolver, **options)

@@ -1,0 +1,181 @@
+"""``torqueopt tune``: the choice against a brute-force pick, the evidence against the atlas's own rows,
+the screen against no screen, reproducibility, the options used back, and bad input."""
+
+# ruff: noqa: E402
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+
+import numpy as np
+import pytest
+
+pandas = pytest.importorskip("pandas")
+pytest.importorskip("pyarrow")
+pytest.importorskip("tqdm")
+if importlib.util.find_spec("distributed") is None:
+    pytest.skip("the atlas needs dask[distributed]", allow_module_level=True)
+
+import torqueopt
+from torqueopt.cli import main
+from torqueopt.errors import InvalidInput
+from torqueopt.tune import tune, tuned_options
+
+GRID = {"kinematic_weight": (0.0, 0.5, 2.0, 8.0), "damping": (10.0,)}
+SMALL = {
+    "grid": GRID, "paths": 8, "screen_paths": 3, "durations": (0.3, 0.5), "seed": 0, "whiplash_bound": 0.5,
+    "workers": 0, "progress": False,
+}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def tuned(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tune") / "planar3"
+    return tune("planar3", "damped-null-space", out=out, **SMALL)
+
+
+def _wilson_upper(successes: int, trials: int, z: float = 1.959963984540054) -> float:
+    """The Wilson score interval's upper end, from its formula (not SciPy's)."""
+    p = successes / trials
+    centre = p + z * z / (2 * trials)
+    spread = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials))
+    return (centre + spread) / (1 + z * z / trials)
+
+
+def test_the_choice_is_the_brute_force_pick_from_the_evidence_table(tuned):
+    written = json.loads((tuned.out / "tune.json").read_text())
+    rows = written["settings"]
+    assert len(rows) == 4 and written["chosen"] is not None
+    eligible = [
+        row for row in rows
+        if row["pinv_handles"] and _wilson_upper(row["whips"], row["pinv_handles"]) <= 0.5
+        and row["over_limits"] == 0 and row["saving"] is not None and row["saving"] > 0
+    ]  # fmt: skip
+    assert [row["qualifies"] for row in rows] == [row in eligible for row in rows]
+    best = max(eligible, key=lambda row: row["saving"])
+    assert written["chosen"]["options"] == best["options"] == {"kinematic_weight": 2.0, "damping": 10.0}
+    # Two settings qualify, with different savings: the pick is a choice, not the only candidate.
+    assert len(eligible) == 2 and eligible[0]["saving"] != eligible[1]["saving"]
+    markdown = (tuned.out / "tune.md").read_text()
+    assert "**Chosen:** kinematic_weight=2, damping=10" in markdown
+    assert "--resolver damped-null-space --option kinematic_weight=2 --option damping=10" in markdown
+    assert markdown.count("| kinematic_weight=") == 4
+
+
+def test_the_evidence_is_the_atlas_rows_counted_again(tuned):
+    """Recount a fully-run setting's figures from the atlas's results.parquet, by the criteria's words."""
+    table = pandas.read_parquet(tuned.out / "atlas" / "results.parquet")
+    pinv = table[table["resolver"] == "pinv"].set_index("path")
+    handled = [p for p, row in pinv.iterrows() if row["verdict"] == "stable" and row["peak_torque_ratio"] <= 1]
+    for row in tuned.settings:
+        if row["stage"] != "full":
+            continue
+        runs = table[table["resolver"] == row["label"]].set_index("path").loc[handled]
+        assert row["pinv_handles"] == len(handled) > 0
+        assert row["whips"] == int((runs["verdict"] == "whiplash").sum())
+        outside = [
+            p for p, run in runs.iterrows()
+            if not run["peak_torque_ratio"] <= 1 or not math.isnan(run["first_position_limit_violation"])
+            or not math.isnan(run["first_velocity_limit_violation"])
+        ]  # fmt: skip
+        assert row["over_limits"] == len(outside)
+        ratios = sorted(runs["torque_vs_pinv"])
+        middle = len(ratios) // 2
+        median = ratios[middle] if len(ratios) % 2 else (ratios[middle - 1] + ratios[middle]) / 2
+        assert row["saving"] == pytest.approx(1 - median, abs=1e-15)
+
+
+def test_the_screen_drops_only_settings_the_full_atlas_would_fail(tmp_path, tuned):
+    """Without a screen every setting runs on every path: the same choice, the same figures for the survivors,
+    and each dropped setting fails on the full atlas too."""
+    unscreened = tune("planar3", "damped-null-space", out=tmp_path, **{**SMALL, "screen_paths": 0})
+    assert unscreened.chosen["options"] == tuned.chosen["options"]
+    full = {row["label"]: row for row in unscreened.settings}
+    dropped = [row for row in tuned.settings if row["stage"] == "screen"]
+    assert dropped  # the screen did drop something here
+    for row in tuned.settings:
+        if row["stage"] == "full":
+            assert {k: v for k, v in row.items() if k != "stage"} == {
+                k: v for k, v in full[row["label"]].items() if k != "stage"
+            }
+        else:
+            assert not full[row["label"]]["qualifies"]
+
+
+def test_a_seeded_tune_reproduces_and_resumes(tmp_path, tuned):
+    again = tune("planar3", "damped-null-space", out=tmp_path / "again", **SMALL)
+    strip = lambda summary: {k: v for k, v in summary.items() if k != "atlas_config"}  # noqa: E731
+    assert json.dumps(strip(again.summary), default=str) == json.dumps(strip(tuned.summary), default=str)
+    before = (tmp_path / "again" / "tune.json").read_bytes()
+    resumed = tune("planar3", "damped-null-space", out=tmp_path / "again", **SMALL)  # every chunk is on disk
+    assert resumed.chosen == again.chosen and (tmp_path / "again" / "tune.json").read_bytes() == before
+
+
+def test_the_chosen_options_go_back_into_the_api_and_the_cli(tuned, planar3, capsys):
+    name, options = tuned_options(tuned.out / "tune.json")
+    resolver = torqueopt.get_resolver(name, **options)
+    assert resolver.label == tuned.chosen["label"] == "damped-null-space[kinematic_weight=2]"
+    line = torqueopt.StraightLine([1.0, 1.0], duration=0.5)
+    q0 = planar3.configuration([-0.78, 2.36, -2.36])
+    direct = torqueopt.simulate(planar3, resolver, line, q0)
+    through = torqueopt.simulate(planar3, name, line, q0, resolver_options=options)
+    assert np.array_equal(direct.tau, through.tau, equal_nan=True)
+    default = torqueopt.simulate(planar3, name, line, q0)
+    assert not np.array_equal(default.tau, direct.tau, equal_nan=True)  # the options changed the run
+    flags = ["run", "--robot", "planar3", "--resolver", "damped-null-space", "--direction", "1,1", "--duration", "0.5",
+             "--q0=-0.78,2.36,-2.36", "--no-dexterity"]  # fmt: skip
+    assert main([*flags, "--options-from", str(tuned.out / "tune.json")]) == 0
+    from_file = capsys.readouterr().out
+    assert main([*flags, *tuned.chosen["flags"].split()[2:]]) == 0
+    assert capsys.readouterr().out == from_file
+    assert main(flags) == 0
+    assert capsys.readouterr().out != from_file
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--resolver", "pinv"], "pinv is the baseline every setting is measured against; tune another resolver"),
+        (["--resolver", "null-space"], "resolver 'null-space' has no default grid"),
+        (["--values", "dampin=1,2"], "unknown option 'dampin' for resolver 'damped-null-space' (did you mean 'damping'?)"),
+        (["--values", "damping=1,x"], "option damping=x of resolver 'damped-null-space'"),
+        (["--values", "damping"], "--values 'damping' must be NAME=VALUE"),
+        (["--values", "damping=1", "--option", "damping=2"], "option damping is both held fixed and in the grid"),
+        (["--values", "damping=" + ",".join(str(i) for i in range(1, 66))], "the grid has 65 settings"),
+        (["--path", "square"], "--path: 'square' is not a kind of path for the atlas"),
+        (["--paths", "1000000", "--screen-paths", "0"], "the tune would simulate up to"),
+        (["--whiplash-bound", "2"], "whiplash_bound=2.0 must be a number in (0, 1]"),
+    ],
+)  # fmt: skip
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, arguments, message):
+    out = tmp_path / "t"
+    code = main(["tune", "--robot", "planar3", "--workers", "0", "--no-progress", "--out", str(out), *arguments])
+    error = capsys.readouterr().err
+    assert code == 2 and message in error and error.count("\n") == 1, error
+    assert not out.exists()
+
+
+def test_a_folder_that_is_not_a_tunes_is_refused(tmp_path, capsys, tuned):
+    (tmp_path / "notes.txt").write_text("mine")
+    code = main(["tune", "--robot", "planar3", "--workers", "0", "--no-progress", "--out", str(tmp_path)])
+    assert code == 2 and "is not empty and holds no tune" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    with pytest.raises(InvalidInput, match="holds a tune with other settings"):
+        tune("planar3", "damped-null-space", out=tuned.out, **{**SMALL, "seed": 1})
+
+
+def test_no_qualifying_setting_says_so_and_exits_4(tmp_path, capsys):
+    """A bound no count of these few paths can meet: every setting fails it, said in words, exit 4."""
+    code = main(["tune", "--robot", "planar3", "--values", "kinematic_weight=2", "--paths", "2", "--screen-paths", "0",
+                 "--durations", "0.3", "--whiplash-bound", "0.01", "--workers", "0", "--no-progress",
+                 "--out", str(tmp_path)])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 4 and "Traceback" not in captured.err
+    assert "no setting of damped-null-space qualifies on planar3: see the table" in captured.out
+    written = json.loads((tmp_path / "tune.json").read_text())
+    assert written["chosen"] is None and "whiplash upper bound" in written["settings"][0]["reason"]
+    assert "**No setting qualifies**" in (tmp_path / "tune.md").read_text()
+    with pytest.raises(InvalidInput, match="chose no setting"):
+        tuned_options(tmp_path / "tune.json")

@@ -1,0 +1,521 @@
+r"""Tuning a remedy per arm: the setting that saves the most torque without whipping or leaving a limit.
+
+:func:`tune` runs a seeded atlas (:func:`torqueopt.atlas.run_atlas`: batched runs, a Dask cluster, a progress
+bar, resumable) of ``pinv`` and every setting of a grid of a resolver's options on one arm, and chooses
+
+    the setting with the largest median torque saving against ``pinv``, among those that, on the paths ``pinv``
+    handles, whip with a 95 % Wilson upper bound of at most 1 % and stay within the torque, position and
+    velocity limits wherever ``pinv`` does, and save torque at all.
+
+In the atlas's terms, on one arm with one population:
+
+* the paths ``pinv`` handles, :math:`P`: those where ``pinv``'s verdict is ``stable`` (within the 2x-limit
+  rule, the joints' position and velocity limits, on its path to 1 mm, completed) and its peak
+  :math:`|\tau|/\tau^+` at most 1;
+* a setting's whiplash rate: its ``whiplash`` verdicts on :math:`P` over :math:`|P|`, with the Wilson score
+  interval (:func:`torqueopt.atlas.stats.wilson_interval`); it qualifies when the upper end is at most
+  ``whiplash_bound`` (1 %: no whip at all needs :math:`|P| \ge 381`);
+* within the limits where ``pinv`` is: on every path of :math:`P`, peak :math:`|\tau|/\tau^+ \le 1` and no
+  position or velocity limit passed (``first_position_limit_violation`` and ``first_velocity_limit_violation``
+  NaN); one path of :math:`P` outside a limit disqualifies the setting;
+* its saving: one minus the median over :math:`P` of ``torque_vs_pinv`` (its peak :math:`|\tau|/\tau^+` over
+  ``pinv``'s on the same path); it must be above 0.
+
+Ties go to the setting listed first. A path a setting leaves by more than 1 mm (``lost path``, how bounded
+resolvers give way) is counted in the evidence but does not disqualify.
+
+Screening (exact, not a heuristic). The atlas's populations are nested: with the same seed, the first
+:math:`k` movements of each duration are the same for every ``paths`` :math:`\ge k`, and so are their
+``pinv`` rows. :func:`tune` first runs every setting on ``screen_paths`` movements per duration, and drops
+the settings that are already certain to fail: one that leaves a limit on a path of the screen's
+:math:`P` (which is part of the full :math:`P`), or whose screen whips alone give a Wilson upper bound above
+``whiplash_bound`` even over every movement of the full population (for a fixed count the upper bound only
+falls as the trials grow). The rest run on all ``paths``. The choice is the one the full grid would give;
+the evidence table shows each dropped setting with its screen's figures, which fail the criteria as they
+stand.
+
+Files in ``out``: ``tune-config.json`` (the settings; what lets a killed tune resume), ``screen/`` and
+``atlas/`` (the two atlases, each resumable), and at the end, together, ``tune.json`` (criteria, every
+setting's evidence, the choice) and ``tune.md`` (the evidence table and the flags that reproduce the choice).
+Nothing is written before every check has passed, and only into a folder that is new, empty or this tune's.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .checks import number_in_range, whole_number
+from .errors import InvalidInput, OutputError
+from .io import atomic_write, writable_path, writable_paths, written_together
+from .resolvers import RESOLVERS, Resolver, get_resolver
+from .resolvers.options import label_value
+
+__all__ = [
+    "DEFAULT_GRIDS",
+    "DEFAULT_PATHS",
+    "DEFAULT_SCREEN_PATHS",
+    "MAX_SETTINGS",
+    "WHIPLASH_BOUND",
+    "TuneResult",
+    "evidence",
+    "choose",
+    "option_flags",
+    "tune",
+    "tuned_options",
+]
+
+#: The grid of each remedy's options tuned by default, μ (relative to ‖S H Z‖_F) and K_D in 1/s for
+#: damped-null-space, E_max in J and α in 1/s for energy-bounded-torque. Each spans the planar arm's
+#: defaults (0.5 and 10; 1 J and 20) by factors of 2 to 16 either way.
+DEFAULT_GRIDS = {
+    "damped-null-space": {"kinematic_weight": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0), "damping": (5.0, 10.0, 20.0, 40.0)},
+    "energy-bounded-torque": {"energy_limit": (0.1, 0.3, 1.0, 3.0), "energy_rate": (5.0, 20.0, 80.0)},
+}
+#: The most settings a grid may have.
+MAX_SETTINGS = 64
+#: A qualifying setting's whiplash rate on the paths pinv handles has a Wilson 95 % upper bound at most this.
+WHIPLASH_BOUND = 0.01
+DEFAULT_PATHS = 200
+DEFAULT_SCREEN_PATHS = 10
+#: Largest tune (trajectory-steps, screen and full atlas, every setting surviving) started without being told.
+DEFAULT_MAX_STEPS = 1_000_000_000
+BASELINE = "pinv"
+_FORMAT = 1
+_CONFIG = "tune-config.json"
+_RESULT_FILES = ("tune.json", "tune.md")
+
+
+@dataclass
+class TuneResult:
+    """What :func:`tune` found: every setting's evidence (dicts, as ``tune.json``), the choice, the folder.
+
+    ``chosen`` is the chosen setting's evidence row (its ``options``, ``label`` and ``flags``), None when no
+    setting qualifies.
+    """
+
+    resolver: str
+    settings: list[dict]
+    chosen: dict | None
+    summary: dict
+    out: Path
+
+
+def tune(
+    robot="panda",
+    resolver: str = "damped-null-space",
+    *,
+    grid: dict | None = None,
+    options: dict | None = None,
+    paths: int = DEFAULT_PATHS,
+    screen_paths: int = DEFAULT_SCREEN_PATHS,
+    durations=(0.5, 1.0, 1.5, 2.0),
+    seed: int = 0,
+    out: str | os.PathLike = "tune",
+    whiplash_bound: float = WHIPLASH_BOUND,
+    workers: int | None = None,
+    chunk_size: int | None = None,
+    accel: float | None = None,
+    path: str = "line",
+    dt: float = 1e-3,
+    progress: bool = True,
+    max_steps: int = DEFAULT_MAX_STEPS,
+) -> TuneResult:
+    """Choose ``resolver``'s options on ``robot`` from a seeded atlas (see the module docstring).
+
+    Args:
+        robot: a robot name or URDF, or a :class:`torqueopt.atlas.sweep.RobotSpec`.
+        resolver: the resolver to tune (its name).
+        grid: ``{option: values}``, the settings are every combination (at most ``MAX_SETTINGS``, 64);
+            default :data:`DEFAULT_GRIDS` of the resolver.
+        options: options held fixed in every setting (e.g. ``torque_weight="range"``).
+        paths: movements per duration of the full atlas; screen_paths: of the screen (0: no screen).
+        durations, seed, accel, path, dt: the population and the runs, as :func:`torqueopt.atlas.run_atlas`.
+        out: the folder (new, empty, or this tune's to resume it).
+        whiplash_bound: the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate.
+        workers: Dask worker processes (default the machine's cores; 0 runs in this process).
+        progress: progress bars on stderr. max_steps: refuse a larger tune (trajectory-steps, all stages).
+
+    Raises:
+        InvalidInput: bad settings, a resolver without a grid (give one), a grid too large, an ``out`` folder
+            that holds anything but this tune.
+        OutputError: a file cannot be written.
+    """
+    from .atlas import run_atlas
+    from .atlas.population import PopulationSpec
+    from .atlas.sweep import RobotSpec
+
+    spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
+    name, settings, fixed = settings_grid(resolver, grid, options)
+    grid_options = tuple(grid) if grid is not None else tuple(DEFAULT_GRIDS[name])
+    paths = whole_number(paths, "paths", 1)
+    screen_paths = whole_number(screen_paths, "screen_paths", 0)
+    if screen_paths >= paths:
+        screen_paths = 0  # a screen as large as the atlas would only run it twice
+    whiplash_bound = number_in_range(whiplash_bound, "whiplash_bound", 0.0, 1.0, low_open=True)
+    population = PopulationSpec(paths=paths, durations=tuple(np.atleast_1d(durations).tolist()), seed=seed, path=path)
+    steps = sum(round(d / dt) + 1 for d in population.durations)
+    total = (screen_paths + paths) * steps * (len(settings) + 1)
+    if total > max_steps:
+        raise InvalidInput(
+            f"the tune would simulate up to {total:.3g} trajectory-steps ({len(settings)} settings and pinv on "
+            f"{screen_paths} + {paths} paths x {len(population.durations)} durations), more than "
+            f"max_steps={max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
+        )
+    out = writable_path(out, directory=True)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"cannot write the tune to '{out}': it is a file; give a folder")
+    writable_paths(out / file for file in (_CONFIG, *_RESULT_FILES))
+    loaded = spec.load()
+    for setting in settings:
+        setting.check(loaded)
+    config = {
+        "format": _FORMAT,
+        "robot": spec.as_dict(),
+        "resolver": name,
+        "fixed_options": {key: _json_value(value) for key, value in fixed.items()},
+        "grid": [
+            {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in settings
+        ],
+        "paths": paths,
+        "screen_paths": screen_paths,
+        "durations": list(population.durations),
+        "seed": population.seed,
+        "accel": accel,
+        "path": population.path,
+        "dt": float(dt),
+        "whiplash_bound": whiplash_bound,
+    }
+    resume = _check_folder(out, config)
+    atlas_options = {
+        "durations": population.durations, "seed": population.seed, "accel": accel, "path": population.path,
+        "dt": dt, "workers": workers, "progress": progress, "figures": False,
+    }  # fmt: skip
+    if chunk_size is not None:
+        atlas_options["chunk_size"] = chunk_size
+    if not resume:
+        text = json.dumps(config, indent=2, sort_keys=True).encode()
+        atomic_write(out / _CONFIG, lambda handle: handle.write(text))
+
+    survivors, screened = settings, {}
+    if screen_paths:
+        screen = run_atlas(
+            spec, paths=screen_paths, resolvers=[BASELINE, *settings], out=out / "screen", **atlas_options
+        )
+        full_movements = paths * len(population.durations)
+        for row in evidence(screen.table, [s.label for s in settings], whiplash_bound):
+            if _certain_to_fail(row, full_movements, whiplash_bound):
+                screened[row["label"]] = {**row, "stage": "screen"}
+        survivors = [s for s in settings if s.label not in screened]
+    rows_by_label = dict(screened)
+    atlas_summary = None
+    if survivors:
+        full = run_atlas(spec, paths=paths, resolvers=[BASELINE, *survivors], out=out / "atlas", **atlas_options)
+        atlas_summary = full.summary["config"]
+        for row in evidence(full.table, [s.label for s in survivors], whiplash_bound):
+            rows_by_label[row["label"]] = {**row, "stage": "full"}
+    rows = []
+    for setting in settings:
+        row = rows_by_label[setting.label]
+        row["options"] = {key: _json_value(value) for key, value in options_of(setting, grid_options, fixed).items()}
+        row["flags"] = option_flags(name, row["options"])
+        rows.append(row)
+    if atlas_summary is None and screen_paths:
+        atlas_summary = screen.summary["config"]
+    chosen = choose(rows)
+    summary = {
+        "format": _FORMAT,
+        "config": config,
+        "robot_name": loaded.name,
+        "criteria": {
+            "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
+            "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
+            "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
+            "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
+        },
+        "atlas_config": atlas_summary,
+        "settings": rows,
+        "chosen": chosen,
+    }
+    markdown = write_markdown(summary).encode()
+    text = json.dumps(_finite(summary), indent=2, allow_nan=False).encode()
+    with written_together():
+        atomic_write(out / "tune.json", lambda handle: handle.write(text))
+        atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
+    return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def settings_grid(resolver: str, grid: dict | None, options: dict | None) -> tuple[str, list[Resolver], dict]:
+    """(the resolver's name, one Resolver per setting in grid order, the fixed options as checked values).
+
+    Raises:
+        InvalidInput: pinv (the baseline) or an unknown resolver, a resolver without a default grid and none
+            given, an option the resolver does not declare, a value it refuses, an option both fixed and in the
+            grid, an empty list of values, or more than ``MAX_SETTINGS`` (64) settings.
+    """
+    name = get_resolver(resolver).name
+    if name == BASELINE:
+        raise InvalidInput("pinv is the baseline every setting is measured against; tune another resolver")
+    if grid is None:
+        if name not in DEFAULT_GRIDS:
+            tunable = ", ".join(DEFAULT_GRIDS)
+            raise InvalidInput(
+                f"resolver '{name}' has no default grid (those with one: {tunable}); give the values to try, "
+                "e.g. --values damping=5,10,20"
+            )
+        grid = DEFAULT_GRIDS[name]
+    options = dict(options or {})
+    both = sorted(set(grid) & set(options))
+    if both:
+        raise InvalidInput(f"option {', '.join(both)} is both held fixed and in the grid; give it once")
+    declared = [option.name for option in RESOLVERS[name].declared_options()]
+    for option, values in grid.items():
+        if option not in declared:
+            get_resolver(name, **{option: None})  # the resolver's own one-line message for an unknown option
+        if not len(values):
+            raise InvalidInput(f"option {option} of the grid has no values; give at least one")
+    count = math.prod(len(values) for values in grid.values())
+    if count > MAX_SETTINGS:
+        sizes = " x ".join(f"{len(v)} {k}" for k, v in grid.items())
+        raise InvalidInput(f"the grid has {count} settings ({sizes}), more than {MAX_SETTINGS}: give fewer values")
+    fixed = get_resolver(name, **options).settings
+    fixed = {key: fixed[key] for key in options}
+    settings = [
+        get_resolver(name, **options, **dict(zip(grid, values))) for values in itertools.product(*grid.values())
+    ]
+    labels = [setting.label for setting in settings]
+    if len(set(labels)) != len(labels):
+        raise InvalidInput(f"the grid repeats a setting ({', '.join(labels)}); give each value once")
+    return name, settings, fixed
+
+
+def options_of(setting: Resolver, grid_options, fixed: dict) -> dict:
+    """The options that make the setting, spelled out: the grid's (defaults included) and the fixed ones."""
+    return {key: value for key, value in setting.settings.items() if key in grid_options or key in fixed}
+
+
+def option_flags(resolver: str, options: dict) -> str:
+    """The command-line flags that reproduce a setting: ``--resolver NAME --option NAME=VALUE ...``."""
+    return " ".join([f"--resolver {resolver}", *(f"--option {key}={label_value(v)}" for key, v in options.items())])
+
+
+def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND) -> list[dict]:
+    """Every setting's figures on the paths pinv handles (see the module docstring), one dict per label.
+
+    Keys: ``label``, ``paths`` (movements), ``pinv_handles`` (the count of P), ``whips`` and ``whip_rate``, ``whip_low``,
+    ``whip_high`` (on P), ``whips_all_paths``, ``over_torque``, ``over_position``, ``over_velocity`` and
+    ``over_limits`` (paths of P outside a limit), ``lost_path`` (on P), ``median_torque_vs_pinv``, ``saving``,
+    ``qualifies`` and ``reason`` (the first criterion it fails, or None).
+    """
+    from .atlas.stats import wilson_interval
+
+    pinv = table[table["resolver"] == BASELINE].set_index("path")
+    handled = pinv.index[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0)]
+    rows = []
+    for label in labels:
+        runs = table[table["resolver"] == label].set_index("path")
+        on_handled = runs.loc[runs.index.intersection(handled)]
+        count = len(on_handled)
+        whips = int((on_handled["verdict"] == "whiplash").sum())
+        low, high = wilson_interval(whips, count)
+        # NaN peak (no applied torque) is not "within": only a number at most 1 is.
+        over_torque = ~(on_handled["peak_torque_ratio"] <= 1.0)
+        over_position = on_handled["first_position_limit_violation"].notna()
+        over_velocity = on_handled["first_velocity_limit_violation"].notna()
+        ratios = on_handled["torque_vs_pinv"].to_numpy(dtype=float)
+        median = float(np.median(ratios)) if count and np.isfinite(ratios).all() else math.nan
+        row = {
+            "label": label,
+            "paths": len(runs),
+            "pinv_handles": count,
+            "whips": whips,
+            "whip_rate": whips / count if count else math.nan,
+            "whip_low": low,
+            "whip_high": high,
+            "whips_all_paths": int((runs["verdict"] == "whiplash").sum()),
+            "over_torque": int(over_torque.sum()),
+            "over_position": int(over_position.sum()),
+            "over_velocity": int(over_velocity.sum()),
+            "over_limits": int((over_torque | over_position | over_velocity).sum()),
+            "lost_path": int((on_handled["verdict"] == "lost path").sum()),
+            "median_torque_vs_pinv": median,
+            "saving": 1.0 - median,
+        }
+        row["reason"] = _failed_criterion(row, whiplash_bound)
+        row["qualifies"] = row["reason"] is None
+        rows.append(row)
+    return rows
+
+
+def _failed_criterion(row: dict, whiplash_bound: float) -> str | None:
+    """Every criterion the row fails, in words (None when it fails none)."""
+    if not row["pinv_handles"]:
+        return "pinv handles no path"
+    failed = []
+    if not row["whip_high"] <= whiplash_bound:
+        failed.append(f"whiplash upper bound {row['whip_high']:.2%} > {whiplash_bound:.0%}")
+    if row["over_limits"]:
+        failed.append(f"outside a limit on {row['over_limits']} of the paths pinv handles")
+    if not row["saving"] > 0:
+        failed.append("saves no torque")
+    return "; ".join(failed) or None
+
+
+def _certain_to_fail(row: dict, full_movements: int, whiplash_bound: float) -> bool:
+    """True when a setting's screen already decides that it fails on the full atlas (see the module docstring)."""
+    from .atlas.stats import wilson_interval
+
+    if row["over_limits"]:
+        return True
+    return bool(row["whips"]) and wilson_interval(row["whips"], full_movements)[1] > whiplash_bound
+
+
+def choose(rows: list[dict]) -> dict | None:
+    """The qualifying row with the largest saving (the first of equals), or None."""
+    best = None
+    for row in rows:
+        if row["qualifies"] and (best is None or row["saving"] > best["saving"]):
+            best = row
+    return best
+
+
+def tuned_options(path: str | os.PathLike) -> tuple[str, dict]:
+    """(resolver, options) of the setting a ``tune.json`` chose, for ``get_resolver(name, **options)``,
+    ``simulate(..., resolver_options=options)`` and ``torqueopt run --options-from``.
+
+    Raises:
+        InvalidInput: the file is not a tune's, or its tune chose no setting.
+    """
+    path = Path(path)
+    try:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+        resolver, chosen = summary["config"]["resolver"], summary["chosen"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise InvalidInput(f"'{path}' is not a tune.json written by torqueopt tune") from None
+    if chosen is None:
+        raise InvalidInput(f"the tune in '{path}' chose no setting (none qualified): it has no options to give")
+    return resolver, dict(chosen["options"])
+
+
+def write_markdown(summary: dict) -> str:
+    """tune.md: the settings, the criteria, the evidence table and the choice."""
+    config = summary["config"]
+    fixed = ", ".join(f"{k}={label_value(v)}" for k, v in config["fixed_options"].items()) or "none"
+    atlas = summary.get("atlas_config") or {}
+    accel = atlas.get("population", {}).get("accel", config["accel"])
+    accel_text = "sized to the arm" if accel is None else f"{accel:.4g} m/s²"
+    lines = [
+        f"# Tuning {config['resolver']} on {summary['robot_name']}",
+        "",
+        (
+            f"A seeded atlas (seed {config['seed']}, path `{config['path']}`, acceleration {accel_text}"
+            f"{' (the default for this arm: √2 m/s² x reach / 3 m)' if config['accel'] is None else ''}, durations "
+            f"{', '.join(f'{d:g}' for d in config['durations'])} s, {config['paths']} movements per duration, dt "
+            f"{config['dt'] * 1e3:g} ms) of pinv and {len(config['grid'])} settings of {config['resolver']} (fixed "
+            f"options: {fixed}); a screen of {config['screen_paths']} movements per duration first dropped the "
+            "settings it already showed to fail (`torqueopt.tune`)."
+        ),
+        "",
+        "A setting qualifies when, on the paths pinv handles (its verdict stable, its peak |τ|/limit at most 1):",
+        f"its whiplash rate's Wilson 95 % upper bound is at most {config['whiplash_bound']:.0%}; it stays within "
+        "the torque, position and velocity limits on every one of them; and its median peak |τ|/limit over "
+        "pinv's is below 1. The chosen setting saves the most (saving = 1 − that median).",
+        "",
+        "| setting | stage | paths pinv handles | whiplash [95 % CI] | over torque / position / velocity limits "
+        "| lost path | median peak torque vs pinv | saving | qualifies |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in summary["settings"]:
+        options = ", ".join(f"{k}={label_value(v)}" for k, v in row["options"].items()) or "defaults"
+        whiplash = (
+            f"{row['whips']} ({_percent(row['whip_rate'])} [{_percent(row['whip_low'])}, {_percent(row['whip_high'])}])"
+        )
+        limits = f"{row['over_torque']} / {row['over_position']} / {row['over_velocity']}"
+        verdict = "**yes**" if row["qualifies"] else f"no: {row['reason']}"
+        lines.append(
+            f"| {options} | {row['stage']} | {row['pinv_handles']} of {row['paths']} | {whiplash} | {limits} | "
+            f"{row['lost_path']} | {_number(row['median_torque_vs_pinv'])} | {_signed_percent(row['saving'])} | "
+            f"{verdict} |"
+        )
+    chosen = summary["chosen"]
+    lines.append("")
+    if chosen is None:
+        lines.append("**No setting qualifies** on this arm with this population: the table above shows why.")
+    else:
+        lines += [
+            f"**Chosen:** {', '.join(f'{k}={label_value(v)}' for k, v in chosen['options'].items()) or 'defaults'}: "
+            f"median peak torque {_number(chosen['median_torque_vs_pinv'])} of pinv's (saving "
+            f"{_signed_percent(chosen['saving'])}), whiplash {chosen['whips']} of {chosen['pinv_handles']} "
+            f"(95 % upper {_percent(chosen['whip_high'])}), within every limit where pinv is.",
+            "",
+            "Reproduce it (with a path of your own: `--direction`, `--duration`, ...; or `--options-from tune.json`):",
+            "",
+            "```",
+            f"torqueopt run --robot {config['robot']['source']} {chosen['flags']}",
+            "```",
+        ]
+    lines.append("")
+    return "\n".join(lines)
+
+
+def _percent(value) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1%}"
+
+
+def _signed_percent(value) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:+.1%}"
+
+
+def _number(value) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.3f}"
+
+
+def _json_value(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    return value
+
+
+def _finite(value):
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(item) for item in value]
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        return None
+    return _json_value(value)
+
+
+def _check_folder(out: Path, config: dict) -> bool:
+    """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing.
+
+    Raises:
+        InvalidInput: ``out`` holds a tune with other settings, or is not empty and holds no tune.
+    """
+    path = out / _CONFIG
+    if path.is_file():
+        try:
+            existing = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            raise InvalidInput(f"'{path}' is not a tune's configuration; choose another --out") from None
+        if existing != json.loads(json.dumps(config)):
+            changed = sorted(key for key in set(existing) | set(config) if existing.get(key) != config.get(key))
+            raise InvalidInput(
+                f"'{out}' holds a tune with other settings ({', '.join(changed)} differ); give another --out to "
+                "start a new tune, or the same settings to resume it"
+            )
+        return True
+    if out.is_dir() and any(out.iterdir()):
+        raise InvalidInput(
+            f"'{out}' is not empty and holds no tune (no {_CONFIG}), so it is not this tune's folder: give an "
+            "empty or new folder, or this tune's folder to resume it"
+        )
+    return False
