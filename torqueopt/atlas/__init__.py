@@ -69,6 +69,16 @@ from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
 from . import explorer
 from .explorer import DEFAULT_KEEP_TRACES
+from .global_optimum import (
+    DEFAULT_GLOBAL_CHUNK_SIZE,
+    DEFAULT_GLOBAL_MAX_ITERATIONS,
+    DEFAULT_GLOBAL_MAX_TIME,
+    GLOBAL_RESOLVER,
+    add_global_ratios,
+    check_transcription,
+)
+from .global_optimum import settings as global_settings
+from .margins import DEFAULT_MARGIN_EVERY, MARGIN_STEP_EQUIVALENT
 from .population import Movement, PopulationSpec, arm_reach, draw_population, grid_start_points
 from .stats import claims, proportion, unstable_fractions, wilson_interval
 from .sweep import (
@@ -110,6 +120,7 @@ _CONFIG = "atlas-config.json"
 _RESULT_FILES = (
     "results.parquet", "atlas.json", "atlas.md",
     "unstable_fraction.png", "workspace_map.png", "instability_time.png", "tradeoff.png", "explorer.html",
+    "margin_roc.png",
 )  # fmt: skip
 
 
@@ -153,6 +164,11 @@ def run_atlas(
     figures: bool = True,
     max_steps: int = DEFAULT_MAX_STEPS,
     keep_traces: int = DEFAULT_KEEP_TRACES,
+    global_optimum: bool = False,
+    global_max_iterations: int = DEFAULT_GLOBAL_MAX_ITERATIONS,
+    global_max_time: float = DEFAULT_GLOBAL_MAX_TIME,
+    margin: bool = False,
+    margin_every: float = DEFAULT_MARGIN_EVERY,
 ) -> AtlasResult:
     """Run the stability atlas and write its files into ``out``.
 
@@ -196,7 +212,18 @@ def run_atlas(
         keep_traces: paths whose runs explorer.html keeps (every resolver's
             torque, the arm at the instability): those where a resolver
             whips first, then the others; simulated again after the sweep.
-        max_steps: refuse a sweep of more trajectory-steps than this.
+        max_steps: refuse a sweep of more trajectory-steps than this (a global
+            optimum counts as :data:`GLOBAL_STEP_EQUIVALENT` runs of its path, a
+            margin evaluation as ``MARGIN_STEP_EQUIVALENT`` steps).
+        global_optimum: also run :func:`torqueopt.optimize` on every movement:
+            rows with resolver ``global-optimum``, judged from the open-loop
+            replay of the optimal torques, and the columns ``cost_vs_global``
+            and ``peak_vs_global`` on every row (:mod:`torqueopt.atlas.global_optimum`).
+        global_max_iterations, global_max_time: the optimiser's budget per path
+            (IPOPT iterations per Hessian tried; wall time of the solve [s]).
+        margin: record ``peak_stability_margin`` and ``margin_warning_time`` per
+            torque-resolver row (:mod:`torqueopt.atlas.margins`), the margin
+            evaluated every ``margin_every`` seconds of each run.
 
     A chunk already in ``out/chunks`` that does not prove to be this
     atlas's (another atlas's, truncated, corrupt) is recomputed, with a
@@ -224,6 +251,12 @@ def run_atlas(
     scheduler = scheduler_address(scheduler)
     resolver_objects = resolvers_from(resolvers)
     chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
+    global_optimum, margin = bool(global_optimum), bool(margin)
+    global_max_iterations = whole_number(global_max_iterations, "global_max_iterations", 1, 100_000)
+    global_max_time = positive_number(global_max_time, "global_max_time", "s")
+    margin_every = positive_number(margin_every, "margin_every", "s")
+    if margin and margin_every < dt:
+        raise InvalidInput(f"margin_every={margin_every:g} s is shorter than the step dt={dt:g} s; give at least dt")
     workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
     dt = positive_number(dt, "dt", "s")
     for duration in population.durations:
@@ -235,29 +268,25 @@ def run_atlas(
 
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
+    work = _Work(len(resolver_objects), global_optimum, margin, margin_every / dt)
     if population.mode == "random":
-        _check_size(
-            population.paths * sum(steps_per_run.values()) * len(resolver_objects),
-            max_steps,
-            population,
-            resolver_objects,
-        )
+        _check_size(population.paths * sum(steps_per_run.values()) * work.per_step, max_steps, population, work)
 
     with said_if_slow(f"torqueopt atlas: loading robot '{spec.source}'", enabled=progress):
         loaded = spec.load()
     for resolver in resolver_objects:
         resolver.check(loaded)
+    if global_optimum:
+        check_transcription(loaded, population.durations)
     if population.mode == "grid":
         # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
-        _check_grid_size(
-            grid_start_points(loaded, population), steps_per_run, max_steps, population, resolver_objects, dt
-        )
+        _check_grid_size(grid_start_points(loaded, population), steps_per_run, max_steps, population, work, dt)
     reach = arm_reach(loaded)[1]
     accel_from_reach = population.accel is None
     population = population.sized(reach)  # the acceleration, when not given, from the arm's reach
     movements = draw_population(loaded, population)
-    total_steps = sum(steps_per_run[m.duration] for m in movements) * len(resolver_objects)
-    _check_size(total_steps, max_steps, population, resolver_objects)
+    total_steps = sum(steps_per_run[m.duration] for m in movements) * work.per_step
+    _check_size(total_steps, max_steps, population, work)
 
     config = {
         "format": _FORMAT,
@@ -276,15 +305,26 @@ def run_atlas(
         "batch": bool(batch),
         "movements": len(movements),
     }
+    # Only when asked, so that an atlas without them keeps its fingerprint (and resumes).
+    if global_optimum:
+        config["global"] = global_settings(global_max_iterations, global_max_time)
+    if margin:
+        config["margin"] = {"every": float(margin_every)}
     config = json.loads(json.dumps(config, default=_json_default))  # as atlas-config.json will read back
     digest = config_digest(config)
     resume = _check_folder(out, config)
 
     chunks = _chunks(movements, chunk_size)
+    local_chunks = len(chunks)
+    if global_optimum:  # the global rows in chunks of their own, after the resolvers' (smaller: a path takes ~1 s)
+        chunks += _chunks(movements, min(chunk_size, DEFAULT_GLOBAL_CHUNK_SIZE))
     frames, rejected = read_chunks(out, len(chunks), digest) if resume else ({}, [])
     done = set(frames)
-    jobs = {
-        index: {
+    jobs = {}
+    for index, chunk in enumerate(chunks):
+        if index in done:
+            continue
+        jobs[index] = {
             "robot": spec,
             "resolvers": resolver_objects,
             "dt": float(dt),
@@ -293,9 +333,10 @@ def run_atlas(
             "digest": digest,
             "movements": chunk,
         }
-        for index, chunk in enumerate(chunks)
-        if index not in done
-    }
+        if index >= local_chunks:
+            jobs[index]["global"] = config["global"]
+        elif margin:
+            jobs[index]["margin"] = float(margin_every)
     done_paths = sum(len(chunks[index]) for index in done)
     if rejected:
         warnings.warn(
@@ -315,13 +356,17 @@ def run_atlas(
                     out,
                     client,
                     progress=progress,
-                    total_paths=len(movements),
+                    total_paths=len(movements) * (2 if global_optimum else 1),
                     done_paths=done_paths,
-                    description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers",
+                    description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers"
+                    + (", then the global optimum of each (a path counted twice)" if global_optimum else ""),
                 )
             )
 
-    table = _collect(pandas, [frames[index] for index in range(len(chunks))], [r.label for r in resolver_objects])
+    order = [r.label for r in resolver_objects] + ([GLOBAL_RESOLVER] if global_optimum else [])
+    table = _collect(pandas, [frames[index] for index in range(len(chunks))], order)
+    if global_optimum:
+        table = add_global_ratios(table)
     from .report import summarise, write_figures, write_markdown
 
     summary = summarise(table, config)
@@ -374,26 +419,53 @@ def _resolver_description(resolver: Resolver) -> dict:
     }
 
 
-def _check_size(total_steps: int, max_steps: int, population: PopulationSpec, resolvers) -> None:
+#: What one global optimum counts as in the bound on the work: this many runs of its path (measured: a solve of a
+#: 2 s planar3 path, ~1.4 s, is about 23 pinv runs of 2,001 steps at 33k steps/s).
+GLOBAL_STEP_EQUIVALENT = 25
+
+
+@dataclass(frozen=True)
+class _Work:
+    """What each trajectory-step of the population costs, in trajectory-steps: the resolvers' runs, the global
+    optimum's and the margin's equivalents."""
+
+    resolvers: int
+    global_optimum: bool
+    margin: bool
+    steps_between_margins: float
+
+    @property
+    def per_step(self) -> float:
+        margins = self.resolvers * MARGIN_STEP_EQUIVALENT / self.steps_between_margins if self.margin else 0.0
+        return self.resolvers + (GLOBAL_STEP_EQUIVALENT if self.global_optimum else 0) + margins
+
+    def describe(self) -> str:
+        text = f"{self.resolvers} resolvers, pinv included"
+        if self.global_optimum:
+            text += f", a global optimum counted as {GLOBAL_STEP_EQUIVALENT} runs"
+        if self.margin:
+            text += f", a margin every {self.steps_between_margins:.3g} steps counted as {MARGIN_STEP_EQUIVALENT} steps"
+        return text
+
+
+def _check_size(total_steps: float, max_steps: int, population: PopulationSpec, work: _Work) -> None:
     if total_steps > max_steps:
         raise InvalidInput(
             f"the atlas would simulate {total_steps:.3g} trajectory-steps ({population.paths} paths x "
-            f"{len(population.durations)} durations x {len(resolvers)} resolvers, pinv included), more than "
+            f"{len(population.durations)} durations x {work.describe()}), more than "
             f"max_steps={max_steps:.3g}: fewer paths, durations or resolvers, a larger dt, or raise max_steps (--max-steps)"
         )
 
 
-def _check_grid_size(
-    points: int, steps_per_run: dict, max_steps: int, population: PopulationSpec, resolvers, dt
-) -> None:
+def _check_grid_size(points: int, steps_per_run: dict, max_steps: int, population: PopulationSpec, work, dt) -> None:
     directions = population.grid_directions
-    total_steps = points * directions * sum(steps_per_run.values()) * len(resolvers)
+    total_steps = points * directions * sum(steps_per_run.values()) * work.per_step
     if total_steps > max_steps:
         durations = ", ".join(f"{duration:g}" for duration in population.durations)
         raise InvalidInput(
             f"the grid atlas would simulate up to {total_steps:.3g} trajectory-steps ({points:,} start points x "
             f"{directions} direction{'s' if directions != 1 else ''}, durations {durations} s at dt {dt:g} s, "
-            f"{len(resolvers)} resolvers, pinv included), more than max_steps={max_steps:.3g}: a coarser "
+            f"{work.describe()}), more than max_steps={max_steps:.3g}: a coarser "
             "--grid-spacing, fewer --grid-directions, durations or resolvers, a larger dt, or raise max_steps "
             "(--max-steps)"
         )

@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
+from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin_markdown, margin_summary
+from .global_optimum import GLOBAL_RESOLVER
 from .stats import CRITERIA, claims, proportion, unstable_fractions
 from .verdicts import VERDICTS
 
@@ -44,7 +46,7 @@ def summarise(table, config: dict) -> dict:
             "median_torque_vs_pinv": float(np.median(ratio)) if ratio.size else math.nan,
             "share_below_pinv": proportion(int((ratio < 1.0).sum()), int(ratio.size)).as_dict(),
         }
-    return {
+    summary = {
         "config": config,
         "rows": len(table),
         "paths": int(table["path"].nunique()),
@@ -57,6 +59,13 @@ def summarise(table, config: dict) -> dict:
         "whips": whips,
         "torque": torque,
     }
+    # With --global and --margin: the frontier and the margin's record as a predictor (torqueopt.atlas.frontier).
+    frontier, margins = global_summary(table), margin_summary(table)
+    if frontier is not None:
+        summary["global"] = frontier
+    if margins is not None:
+        summary["margin"] = margins
+    return summary
 
 
 def write_markdown(summary: dict) -> str:
@@ -128,6 +137,10 @@ def write_markdown(summary: dict) -> str:
                 f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} rad/s, "
                 f"median instability at {whip['median_instability_time_fraction']:.0%} of the movement"
             )
+    if "global" in summary:
+        lines += ["", *frontier_markdown(summary)]
+    if "margin" in summary:
+        lines += ["", *margin_markdown(summary)]
     figures = summary.get("figures") or {}
     if figures:
         lines += ["", "## Figures", ""] + [f"- {title}: `{name}`" for title, name in figures.items()]
@@ -271,8 +284,13 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     figure.tight_layout()
     made["histogram of instability times"] = _save(figure, out / "instability_time.png")
 
-    # 4. Trade-off: torque reduction (on the paths where the method and pinv are both stable) against instability rate.
-    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    # 4. Trade-off: torque reduction (on the paths where the method and pinv are both stable) against instability rate;
+    # with the global optimum, its point (a star) and a second panel: each method's median cost over the optimum's.
+    frontier = summary.get("global")
+    if frontier is None:
+        figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    else:
+        figure, (axis, distance) = plt.subplots(1, 2, figsize=(12, 4.8))
     pinv_stable = set(table.loc[(table["resolver"] == "pinv") & (table["verdict"] == "stable"), "path"])
     for resolver in resolvers:
         rows = table[table["resolver"] == resolver]
@@ -281,7 +299,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
         ratio = ratio[np.isfinite(ratio)]
         share = proportion(int((rows["verdict"] == "whiplash").sum()), len(rows))
         if ratio.size:
-            marker = "o" if resolver in _PAPER_RESOLVERS else "s"
+            marker = "*" if resolver == GLOBAL_RESOLVER else ("o" if resolver in _PAPER_RESOLVERS else "s")
             axis.errorbar(
                 np.median(ratio),
                 share.fraction,
@@ -291,6 +309,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
                 color=colours[resolver],
                 label=resolver,
                 linestyle="none",
+                markersize=14 if resolver == GLOBAL_RESOLVER else 6,
             )
     # pinv sits on x = 1 by definition: the reference line goes under the error bars, not over pinv's.
     axis.axvline(1.0, color="0.55", lw=0.8, ls="--", zorder=0.5)
@@ -298,9 +317,43 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     axis.set_ylabel("whiplash fraction, all durations")
     axis.legend(fontsize=8)
     axis.grid(alpha=0.3)
+    if frontier is not None:
+        _draw_distances(distance, frontier, colours)
     figure.tight_layout()
     made["torque reduction against instability rate"] = _save(figure, out / "tradeoff.png")
+    if "margin" in summary:
+        made["ROC of the stability margin as a whip predictor, held-out paths"] = draw_margin_roc(
+            summary, out / "margin_roc.png"
+        )
     return made
+
+
+def _draw_distances(axis, frontier: dict, colours: dict) -> None:
+    """Each local method's median cost over the global optimum's (x, log) against its share of problem-free paths."""
+    for resolver, item in frontier["local"].items():
+        cost = item["median_cost_vs_global"]
+        share = item["problem_free"]
+        if not math.isfinite(cost):
+            continue
+        marker = "o" if resolver in _PAPER_RESOLVERS else "s"
+        axis.errorbar(
+            cost, share["fraction"],
+            yerr=np.clip([[share["fraction"] - share["low"]], [share["high"] - share["fraction"]]], 0.0, None),
+            marker=marker, capsize=3, color=colours.get(resolver, "k"), linestyle="none", label=resolver,
+        )  # fmt: skip
+        axis.annotate(resolver, (cost, share["fraction"]), fontsize=6, xytext=(4, 3), textcoords="offset points")
+    own = frontier["problem_free"]
+    axis.errorbar(
+        1.0, own["fraction"],
+        yerr=np.clip([[own["fraction"] - own["low"]], [own["high"] - own["fraction"]]], 0.0, None),
+        marker="*", markersize=14, capsize=3, color=colours.get(GLOBAL_RESOLVER, "k"), linestyle="none",
+        label=GLOBAL_RESOLVER,
+    )  # fmt: skip
+    axis.set_xscale("log")
+    axis.set_xlabel("median ∫‖τ‖² dt relative to the global optimum, same path (log; the optimum at 1)")
+    axis.set_ylabel("problem-free share (stable, within the torque limits)")
+    axis.set_title("distance to the global optimum", fontsize=9)
+    axis.grid(alpha=0.3, which="both")
 
 
 def _save(figure, path: Path) -> str:

@@ -48,10 +48,12 @@ from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..loading import load_robot
+from ..optimal import run_cost
 from ..progress import progress_bar
 from ..resolvers import Resolver, get_resolver, resolver_from_label
 from ..robot import Robot
 from ..simulate import simulate
+from .margins import margin_columns
 from .population import Movement, movement_trajectory
 from .verdicts import Thresholds, run_row, self_motion_energy
 
@@ -128,8 +130,13 @@ def run_chunk(job: dict) -> list[dict]:
     objects, or (path, duration, q0, direction, start) tuples of lines at the
     job's ``accel``. Deterministic: the same job gives the same rows.
     """
+    if "global" in job:  # a chunk of global-optimum rows (torqueopt.atlas.global_optimum)
+        from .global_optimum import run_global_chunk
+
+        return run_global_chunk(job)
     robot = _worker_robot(job["robot"])
     thresholds = Thresholds(**job["thresholds"])
+    margin_every = job.get("margin")
     movements = [_as_movement(item, job.get("accel")) for item in job["movements"]]
     lines = [movement_trajectory(m) for m in movements]
     q0s = [m.q0 for m in movements]
@@ -141,10 +148,15 @@ def run_chunk(job: dict) -> list[dict]:
         options_text = json.dumps(resolver.changed_settings(), sort_keys=True)
         if pinv_peaks is None:  # the first resolver is pinv, the baseline
             pinv_peaks = [_peak_applied_ratio(result) for result in results]
-        for movement, result, (kinetic, self_energy), pinv_peak in zip(movements, results, energies, pinv_peaks):
+        for movement, line, result, (kinetic, self_energy), pinv_peak in zip(
+            movements, lines, results, energies, pinv_peaks
+        ):
             row = _movement_columns(movement, resolver_label(resolver))
             row["resolver_options"] = options_text
             row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
+            row["cost"] = run_cost(result, robot)  # ∫‖τ − τ_mid‖² dt, optimize's criterion, on the run's grid
+            if margin_every is not None:
+                row.update(margin_columns(robot, resolver, result, line, row, margin_every))
             row.update(_start_columns(movement))
             row.update(_path_columns(movement))
             row["pinv_peak_torque_ratio"] = pinv_peak

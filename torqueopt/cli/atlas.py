@@ -19,6 +19,8 @@ _PAPER_RESOLVERS = "pinv,inertia-pinv,null-space,weighted-null-space"
 
 def add_parser(subparsers) -> None:
     from ..atlas import DEFAULT_CHUNK_SIZE, DEFAULT_KEEP_TRACES, DEFAULT_MAX_STEPS
+    from ..atlas.global_optimum import DEFAULT_GLOBAL_MAX_ITERATIONS, DEFAULT_GLOBAL_MAX_TIME
+    from ..atlas.margins import DEFAULT_MARGIN_EVERY
     from ..atlas.verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR
 
     parser = subparsers.add_parser(
@@ -147,6 +149,39 @@ def add_parser(subparsers) -> None:
             "the sweep; 0: the map only"
         ),
     )
+    group = parser.add_argument_group("the global optimum and the stability margin")
+    group.add_argument(
+        "--global",
+        dest="global_optimum",
+        action="store_true",
+        help=(
+            "also run torqueopt.optimize on every movement: rows with resolver global-optimum (judged from the "
+            "open-loop replay of its torques) and the columns cost_vs_global, peak_vs_global on every row"
+        ),
+    )
+    group.add_argument(
+        "--global-max-iterations",
+        default=str(DEFAULT_GLOBAL_MAX_ITERATIONS),
+        metavar="N",
+        help=f"IPOPT iterations per Hessian tried, per path (default {DEFAULT_GLOBAL_MAX_ITERATIONS})",
+    )
+    group.add_argument(
+        "--global-max-time",
+        default=f"{DEFAULT_GLOBAL_MAX_TIME:g}",
+        metavar="S",
+        help=f"wall time of one path's solve [s] (default {DEFAULT_GLOBAL_MAX_TIME:g})",
+    )
+    group.add_argument(
+        "--margin",
+        action="store_true",
+        help="record peak_stability_margin and margin_warning_time per row (the margin on a subsample of each run)",
+    )
+    group.add_argument(
+        "--margin-every",
+        default=f"{DEFAULT_MARGIN_EVERY:g}",
+        metavar="S",
+        help=f"time between the states whose margin is evaluated [s] (default {DEFAULT_MARGIN_EVERY:g})",
+    )
     parser.set_defaults(handler=atlas_command)
 
 
@@ -199,6 +234,11 @@ def atlas_command(args: argparse.Namespace) -> int:
         figures=not args.no_figures,
         max_steps=parse_whole(args.max_steps, "max-steps", 1),
         keep_traces=parse_whole(args.keep_traces, "keep-traces"),
+        global_optimum=args.global_optimum,
+        global_max_iterations=parse_whole(args.global_max_iterations, "global-max-iterations", 1),
+        global_max_time=parse_positive(args.global_max_time, "global-max-time"),
+        margin=args.margin,
+        margin_every=parse_positive(args.margin_every, "margin-every"),
     )
     summary = result.summary
     width = max([22, *(len(resolver) + 2 for resolver in summary["resolvers"])])

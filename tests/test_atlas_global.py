@@ -1,0 +1,246 @@
+"""The atlas's global optimum (``--global``), the cost of every row, the stability-margin columns and the frontier.
+
+Each figure is checked against something computed apart from the atlas: ``torqueopt.optimize`` run directly on the
+same movement, a rectangle sum of a ``simulate`` run's torques in numpy, ``torqueopt.stability_margin`` at the
+sampled states, a brute-force pairwise count for the AUC.
+"""
+
+import importlib.util
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pandas = pytest.importorskip("pandas")
+if importlib.util.find_spec("distributed") is None:
+    pytest.skip("could not find 'distributed': the atlas needs dask[distributed]", allow_module_level=True)
+pytest.importorskip("pyarrow")
+pytest.importorskip("tqdm")
+
+import torqueopt
+from torqueopt import StraightLine
+from torqueopt.atlas import PopulationSpec, draw_population, run_atlas
+from torqueopt.atlas.frontier import auc, broader_answer, roc_curve
+from torqueopt.atlas.global_optimum import GLOBAL_RESOLVER
+from torqueopt.atlas.margins import margin_columns
+from torqueopt.atlas.verdicts import Thresholds, run_row, self_motion_energy
+from torqueopt.cli import main
+from torqueopt.errors import InvalidInput
+
+from .conftest import PAPER_Q0
+
+ROOT = Path(__file__).resolve().parents[1]
+ACCEL = math.sqrt(2.0)
+#: Three 0.5 s paths, pinv and null-space, the global optimum and the margins, in chunks of two.
+SETTINGS = {
+    "paths": 3,
+    "durations": (0.5,),
+    "resolvers": ("pinv", "null-space"),
+    "seed": 5,
+    "chunk_size": 2,
+    "progress": False,
+    "figures": False,
+    "global_optimum": True,
+    "margin": True,
+}
+
+
+def _table(out):
+    return pandas.read_parquet(Path(out) / "results.parquet")
+
+
+@pytest.fixture(scope="module")
+def global_atlas(tmp_path_factory):
+    out = tmp_path_factory.mktemp("global")
+    result = run_atlas("planar3", out=out, workers=0, **SETTINGS)
+    return result
+
+
+def _movements(planar3):
+    return draw_population(planar3, PopulationSpec(paths=3, durations=(0.5,), seed=5))
+
+
+def _line(movement):
+    return StraightLine(movement.direction, accel=ACCEL, duration=movement.duration, start=movement.start)
+
+
+def test_global_rows_equal_optimize_run_directly(global_atlas, planar3):
+    """Every path has one global-optimum row, and it is torqueopt.optimize on the same start, line and duration
+    (end free, pinv's warm start): its status, cost, peak torque ratio and replay tip error."""
+    table = global_atlas.table
+    rows = table[table["resolver"] == GLOBAL_RESOLVER].set_index("path")
+    assert sorted(rows.index) == [0, 1, 2]
+    for movement in _movements(planar3):
+        solved = torqueopt.optimize(planar3, _line(movement), movement.q0, end="free")
+        row = rows.loc[movement.path]
+        assert row["optimizer_status"] == solved.status == "converged"
+        assert row["optimizer_iterations"] == solved.iterations
+        assert row["cost"] == pytest.approx(solved.cost, rel=1e-9)
+        assert row["peak_torque_ratio"] == pytest.approx(float(solved.peak_torque_ratio.max()), rel=1e-12)
+        assert row["replay_tip_error"] == pytest.approx(solved.replay_tip_error, rel=1e-9)
+        # The verdict's tip error is the replay's too, and the replay stays on the path.
+        assert row["max_tip_error"] == pytest.approx(solved.replay_tip_error, rel=1e-6) and row["max_tip_error"] < 1e-4
+        assert row["verdict"] == "stable" and row["cost_vs_global"] == 1.0 and row["peak_vs_global"] == 1.0
+        assert math.isnan(row["peak_stability_margin"])  # no resolver closed loop
+
+
+def test_cost_is_the_rectangle_sum_of_a_simulate_runs_torques(global_atlas, planar3):
+    """cost = Σ_j dt ‖τ_j‖² over the applied torques (not the sample at T) of an independent simulate run,
+    τ_mid = 0 for planar3's symmetric limits; and the ratios to the global optimum are those costs' ratios."""
+    table = global_atlas.table.set_index(["path", "resolver"])
+    assert np.all(planar3.torque_upper == -planar3.torque_lower)
+    for movement in _movements(planar3):
+        global_cost = table.loc[(movement.path, GLOBAL_RESOLVER), "cost"]
+        for name in ("pinv", "null-space"):
+            run = torqueopt.simulate(planar3, name, _line(movement), movement.q0, dt=1e-3)
+            assert np.isnan(run.tau[-1]).all() and len(run.t) == 501
+            expected = 1e-3 * float(np.sum(run.tau[:-1] ** 2))
+            row = table.loc[(movement.path, name)]
+            assert row["cost"] == pytest.approx(expected, rel=1e-8)
+            assert row["cost_vs_global"] == pytest.approx(expected / global_cost, rel=1e-8)
+            assert row["peak_vs_global"] == pytest.approx(
+                row["peak_torque_ratio"] / table.loc[(movement.path, GLOBAL_RESOLVER), "peak_torque_ratio"]
+            )
+            # The optimum is the cheapest of the tracking runs, as its end is free.
+            assert row["cost_vs_global"] > 1.0
+
+
+def test_a_path_where_the_optimiser_does_not_converge_keeps_its_row(tmp_path):
+    """One IPOPT iteration per Hessian: the path's row is there, says how the solve ended, has no ratios, and the
+    report counts it."""
+    result = run_atlas(
+        "planar3", out=tmp_path, workers=0, **{**SETTINGS, "paths": 1, "margin": False, "global_max_iterations": 1}
+    )
+    table = result.table
+    row = table[table["resolver"] == GLOBAL_RESOLVER].iloc[0]
+    assert row["optimizer_status"] == "iteration limit" and row["optimizer_iterations"] == 2
+    assert math.isfinite(row["cost"]) and row["verdict"] in torqueopt.atlas.VERDICTS
+    assert table["cost_vs_global"].isna().all() and table["peak_vs_global"].isna().all()
+    frontier = result.summary["global"]
+    assert frontier["not_converged"] == 1 and frontier["optimizer_status"] == {"iteration limit": 1}
+    text = (tmp_path / "atlas.md").read_text()
+    assert "Optimiser: iteration limit 1;" in text and "(1 did not, counted as such)" in text
+
+
+def test_margin_columns_on_the_papers_long_movement(planar3):
+    """null-space whips on the paper's long movement (Fig. 4): its peak margin is the largest of
+    torqueopt.stability_margin at the states every 20 ms up to the instability, and the margin turned positive
+    well before it."""
+    line = StraightLine((1.0, 1.0), accel=ACCEL, duration=2.0)
+    run = torqueopt.simulate(planar3, "null-space", line, PAPER_Q0, dt=1e-3)
+    kinetic, self_energy = self_motion_energy(planar3, run)
+    pinv_peak = float(np.nanmax(torqueopt.simulate(planar3, "pinv", line, PAPER_Q0).torque_ratio[:-1]))
+    row = run_row(run, kinetic, self_energy, pinv_peak, Thresholds())
+    assert row["verdict"] == "whiplash" and 1.3 < row["instability_time"] < 1.5
+    resolver = torqueopt.get_resolver("null-space")
+    anchored = line.anchored(planar3.task_position(planar3.configuration(PAPER_Q0))[:2])
+    columns = margin_columns(planar3, resolver, run, anchored, row, every=0.02)
+    times = np.arange(0.0, row["instability_time"] + 1e-9, 0.02)
+    margins = []
+    for t in times:
+        j = round(t / 1e-3)
+        acceleration = anchored.sample(np.array([run.t[j]])).acceleration[0]
+        margins.append(torqueopt.stability_margin(planar3, "null-space", run.q[j], run.v[j], acceleration))
+    margins = np.array(margins)
+    assert columns["margin_samples"] == len(times)
+    assert columns["peak_stability_margin"] == pytest.approx(margins.max(), rel=1e-9)
+    first = times[np.argmax(margins > 0)]
+    assert columns["margin_warning_time"] == pytest.approx(row["instability_time"] - first, abs=1e-12)
+    assert columns["margin_warning_time"] > 0.3
+
+
+def test_the_atlas_margin_is_the_largest_stability_margin_of_the_sampled_states(global_atlas, planar3):
+    table = global_atlas.table.set_index(["path", "resolver"])
+    movement = _movements(planar3)[1]
+    run = torqueopt.simulate(planar3, "pinv", _line(movement), movement.q0)
+    acceleration = _line(movement).sample(run.t).acceleration
+    rows = np.arange(0, 500, 20)  # every 20 ms, the applied rows (not t = T)
+    expected = max(torqueopt.stability_margin(planar3, "pinv", run.q[j], run.v[j], acceleration[j]) for j in rows)
+    row = table.loc[(movement.path, "pinv")]
+    assert row["margin_samples"] == len(rows) and row["verdict"] != "whiplash"
+    assert row["peak_stability_margin"] == pytest.approx(expected, rel=1e-6)
+    assert math.isnan(row["margin_warning_time"])
+
+
+def test_auc_is_the_pairwise_probability_and_the_roc_is_monotone():
+    rng = np.random.default_rng(3)
+    labels = rng.random(300) < 0.3
+    scores = np.round(rng.normal(size=300) + 1.2 * labels, 1)  # rounded: ties
+    pairs = scores[labels][:, None] - scores[~labels][None, :]
+    expected = (np.count_nonzero(pairs > 0) + 0.5 * np.count_nonzero(pairs == 0)) / pairs.size
+    assert auc(scores, labels) == pytest.approx(expected, rel=1e-12)
+    fpr, tpr, thresholds = roc_curve(scores, labels)
+    assert fpr[0] == tpr[0] == 0 and fpr[-1] == tpr[-1] == 1
+    assert np.all(np.diff(fpr) >= 0) and np.all(np.diff(tpr) >= 0) and np.all(np.diff(thresholds) < 0)
+    assert math.isnan(auc(scores, np.ones(300, bool)))
+
+
+def test_the_global_work_is_bounded_up_front(tmp_path):
+    with pytest.raises(InvalidInput, match=r"a global optimum counted as 25 runs\), more than max_steps"):
+        run_atlas(
+            "planar3", out=tmp_path / "a", paths=1000, durations=(2.0,), global_optimum=True, max_steps=10_000_000
+        )
+    assert not (tmp_path / "a").exists()
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--global", "--global-max-time", "0"], "global-max-time"),
+        (["--global", "--global-max-iterations", "0"], "global-max-iterations"),
+        (["--margin", "--margin-every", "0.0001"], "margin_every=0.0001 s is shorter than the step"),
+    ],
+)
+def test_cli_bad_global_and_margin_options_are_one_line_and_exit_2(tmp_path, capsys, arguments, message):
+    code = main(["atlas", "--paths", "1", "--durations", "0.5", "--out", str(tmp_path / "x"), *arguments])
+    captured = capsys.readouterr()
+    assert code == 2 and message in captured.err and len(captured.err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_a_killed_global_sweep_resumes_and_keeps_its_global_rows(global_atlas, tmp_path):
+    """SIGKILL the CLI once a global chunk has landed, run the same command again: the table equals the
+    uninterrupted one, its global rows included."""
+    out = tmp_path / "killed"
+    command = [
+        sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "3", "--durations", "0.5",
+        "--resolvers", "pinv,null-space", "--seed", "5", "--chunk-size", "2", "--workers", "0", "--no-progress",
+        "--no-figures", "--global", "--margin", "--out", str(out),
+    ]  # fmt: skip
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    chunks = out / "chunks"
+    deadline = time.monotonic() + 120
+    # Chunks 0 and 1 are the resolvers', 2 and 3 the global optimum's (in that order without Dask).
+    while time.monotonic() < deadline and process.poll() is None:
+        if (chunks / "chunk-000002.parquet").is_file():
+            break
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    landed = len(list(chunks.glob("chunk-*.parquet")))
+    assert landed == 3 and not (out / "results.parquet").exists()
+    finished = subprocess.run(command, env=environment, capture_output=True, text=True, timeout=300, check=False)
+    assert finished.returncode == 0, finished.stderr
+    assert "3 chunks resumed from an earlier run" in finished.stdout
+    pandas.testing.assert_frame_equal(_table(out), _table(global_atlas.out))
+
+
+def test_the_readme_answer_is_generated_from_the_committed_global_atlas():
+    """The README's answer to the paper's broader question is what broader_answer writes from docs/atlas/global.json."""
+    summary = json.loads((ROOT / "docs" / "atlas" / "global.json").read_text())
+    readme = (ROOT / "README.md").read_text()
+    start, end = (
+        "<!-- broader-answer: generated by torqueopt.atlas.frontier.broader_answer -->\n",
+        "\n<!-- /broader-answer -->",
+    )
+    assert start in readme and end in readme
+    assert readme.split(start, 1)[1].split(end, 1)[0] == broader_answer(summary)

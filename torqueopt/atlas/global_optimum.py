@@ -1,0 +1,225 @@
+r"""The atlas's ``global-optimum`` rows: :func:`torqueopt.optimize` on every movement of the population.
+
+With ``--global`` (``run_atlas(..., global_optimum=True)``) each movement is
+also solved as a whole: :func:`torqueopt.optimize` on the same start, line
+and duration, with the settings below, warm-started from the movement's own
+``pinv`` run. Its row is judged like every resolver's, from the **open-loop
+replay** of the optimal torques (the torque held over each 1 ms step,
+integrated by the simulation's RK4 with no feedback, as a robot would play
+them back): the verdict, the peak torque ratio, the first limit violation and
+``max_tip_error`` (the replay's tip error, also in ``replay_tip_error``) are
+those of the replay, by :func:`torqueopt.atlas.verdicts.run_row`.
+
+Settings (recorded in ``atlas-config.json``):
+
+* the criterion is ``optimize``'s default, :math:`\int_0^T \|\tau - \tau_{mid}\|^2 dt`
+  (S = I; :math:`\tau_{mid} = 0` for symmetric limits), with no hard torque
+  bounds and no joint limits: the global counterpart of the paper's local
+  criterion, which the local resolvers minimise instant by instant;
+* ``end="free"``: the arm need not be at rest at T, so every local run that
+  tracks the line is a candidate of the same problem, and the optimum's cost
+  is a lower bound of theirs (when the solver finds the global optimum: it is
+  a local optimum of a nonconvex problem, found from pinv's motion);
+* the work is bounded per path: ``max_iterations`` IPOPT iterations per
+  Hessian tried and ``max_time`` seconds of solve in all (the default
+  ``hessian="auto"``: Gauss-Newton, then L-BFGS from its last iterate), and
+  the transcription's size is checked before the sweep starts
+  (:func:`check_transcription`).
+
+A path where the solver does not converge keeps its row: ``optimizer_status``
+says how it ended (``acceptable``, ``iteration limit``, ``time limit``,
+``infeasible``, ``failed``), and the row is the last iterate's replay, judged
+the same way. Only ``converged`` rows enter the ``*_vs_global`` ratios
+(:func:`add_global_ratios`); the others are counted in the report.
+
+A chunk of global rows is deterministic (the same movements give the same
+rows), except that a path which reaches ``max_time`` stops at a load-dependent
+iterate: its status says ``time limit``.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..optimal import optimize, run_cost
+from ..optimal.whole_path import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, _check_size, transcription_intervals
+from ..resolvers import get_resolver
+from ..result import SimResult, joint_limits_record
+from ..simulate import simulate
+from .population import Movement, movement_trajectory
+from .verdicts import Thresholds, run_row, self_motion_energy
+
+__all__ = [
+    "DEFAULT_GLOBAL_CHUNK_SIZE",
+    "DEFAULT_GLOBAL_MAX_ITERATIONS",
+    "DEFAULT_GLOBAL_MAX_TIME",
+    "GLOBAL_END",
+    "GLOBAL_RESOLVER",
+    "add_global_ratios",
+    "check_transcription",
+    "global_row",
+    "run_global_chunk",
+]
+
+#: The ``resolver`` column of the global rows.
+GLOBAL_RESOLVER = "global-optimum"
+#: How the optimised movement ends (see the module docstring).
+GLOBAL_END = "free"
+#: IPOPT iterations per Hessian tried, per path.
+DEFAULT_GLOBAL_MAX_ITERATIONS = 500
+#: Wall time of one path's solve [s].
+DEFAULT_GLOBAL_MAX_TIME = 60.0
+#: Movements per chunk of global rows (a solve takes ~1.4 s on a 2 s planar3 path: chunks of ~10 s).
+DEFAULT_GLOBAL_CHUNK_SIZE = 8
+
+
+def check_transcription(robot, durations, max_nonzeros: int = DEFAULT_MAX_NONZEROS) -> None:
+    """Refuse, before anything runs, a duration whose transcription is larger than ``optimize`` accepts."""
+    for duration in durations:
+        intervals = transcription_intervals(duration, DEFAULT_GRID_STEP)
+        _check_size(robot, duration, DEFAULT_GRID_STEP, intervals, False, max_nonzeros)
+
+
+def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, settings: dict) -> tuple[dict, float]:
+    """(the ``global-optimum`` columns of one movement without the movement's own, pinv's peak torque ratio)."""
+    line = movement_trajectory(movement)
+    pinv_run = simulate(robot, get_resolver("pinv"), line, movement.q0, dt=dt)
+    pinv_peak = _peak_ratio(pinv_run)
+    solved = optimize(
+        robot,
+        line,
+        movement.q0,
+        end=settings["end"],
+        dt=dt,
+        warm_start=pinv_run,
+        max_iterations=settings["max_iterations"],
+        max_time=settings["max_time"],
+    )
+    replayed = replay_result(robot, solved)
+    kinetic, self_energy = self_motion_energy(robot, replayed)
+    row = run_row(replayed, kinetic, self_energy, pinv_peak, thresholds)
+    row.update(
+        {
+            "cost": run_cost(replayed, robot),
+            "optimizer_status": solved.status,
+            "optimizer_iterations": int(solved.iterations),
+            "optimizer_seconds": float(solved.solve_seconds),
+            "optimizer_cost": float(solved.cost),
+            "replay_tip_error": float(solved.replay_tip_error),
+        }
+    )
+    return row, pinv_peak
+
+
+def replay_result(robot, solved) -> SimResult:
+    """The open-loop replay of an :class:`~torqueopt.optimal.OptimalResult`'s torques as a :class:`SimResult`.
+
+    Rows after the replay's state stopped being finite are cut, and the run is
+    then marked as stopped (``stop_reason``), as a diverged simulation is.
+    """
+    from ..optimal import replay_torques
+
+    applied = solved.tau[:-1]
+    replay = replay_torques(robot, solved.q[0], np.zeros(robot.nv), applied, solved.dt)
+    finite = np.isfinite(replay.q).all(axis=1) & np.isfinite(replay.v).all(axis=1)
+    count = int(np.argmin(finite)) if not finite.all() else len(finite)
+    data = robot.model.createData()
+    q, v = replay.q[:count], replay.v[:count]
+    tau = np.vstack([applied, np.full((1, robot.nv), np.nan)])[:count]
+    x = replay.tip[:count][:, robot.task_rows]
+    condition = np.array([_inverse_condition(robot, data, row) for row in q])
+    stop_reason, stop_time = None, None
+    if count < len(finite):
+        stop_reason = "the open-loop replay of the optimal torques diverged (non-finite state)"
+        stop_time = float(solved.t[count - 1])
+    lower, upper, velocity = robot.joint_limits
+    return SimResult(
+        robot=robot.name,
+        frame=robot.frame,
+        task=robot.task,
+        resolver=GLOBAL_RESOLVER,
+        joint_names=list(robot.joint_names),
+        dt=solved.dt,
+        t=solved.t[:count],
+        q=q,
+        joint_angles=robot.joint_angles(q).reshape(count, robot.nv),
+        v=v,
+        acceleration=solved.acceleration[:count],
+        tau=tau,
+        x=x,
+        x_ref=solved.x_ref[:count],
+        jacobian_inverse_condition=condition,
+        torque_upper=robot.torque_upper.copy(),
+        torque_lower=robot.torque_lower.copy(),
+        duration=solved.duration,
+        stop_reason=stop_reason,
+        stop_time=stop_time,
+        trajectory=solved.trajectory,
+        joint_limits=joint_limits_record(lower, upper, velocity),
+    )
+
+
+def _inverse_condition(robot, data, q) -> float:
+    import pinocchio as pin
+
+    from ..linalg import inverse_condition_number
+
+    jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+    return float(inverse_condition_number(jacobian[robot.task_rows]))
+
+
+def _peak_ratio(result) -> float:
+    from .sweep import _peak_applied_ratio
+
+    return _peak_applied_ratio(result)
+
+
+def run_global_chunk(job: dict) -> list[dict]:
+    """The ``global-optimum`` rows of one chunk of movements (``job`` as :func:`torqueopt.atlas.sweep.run_chunk`'s)."""
+    from .sweep import _as_movement, _movement_columns, _path_columns, _start_columns, _worker_robot
+
+    robot = _worker_robot(job["robot"])
+    thresholds = Thresholds(**job["thresholds"])
+    rows = []
+    for item in job["movements"]:
+        movement = _as_movement(item, job.get("accel"))
+        row = _movement_columns(movement, GLOBAL_RESOLVER)
+        row["resolver_options"] = json.dumps(job["global"], sort_keys=True)
+        columns, pinv_peak = global_row(robot, movement, dt=job["dt"], thresholds=thresholds, settings=job["global"])
+        row.update(columns)
+        row.update(_start_columns(movement))
+        row.update(_path_columns(movement))
+        row["pinv_peak_torque_ratio"] = pinv_peak
+        row["batched"] = False
+        rows.append(row)
+    return rows
+
+
+def add_global_ratios(table):
+    """``table`` with ``cost_vs_global`` and ``peak_vs_global``: each row's cost and peak torque ratio over those of
+    the converged global optimum on the same path (NaN where the path's optimiser did not converge; 1 on its own row).
+    """
+    rows = table[(table["resolver"] == GLOBAL_RESOLVER) & (table["optimizer_status"] == "converged")]
+    cost = table["path"].map(rows.set_index("path")["cost"])
+    peak = table["path"].map(rows.set_index("path")["peak_torque_ratio"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return table.assign(
+            cost_vs_global=table["cost"].to_numpy(float) / cost.to_numpy(float),
+            peak_vs_global=table["peak_torque_ratio"].to_numpy(float) / peak.to_numpy(float),
+        )
+
+
+def settings(max_iterations: int, max_time: float) -> dict:
+    """The global rows' settings as atlas-config.json records them."""
+    return {
+        "end": GLOBAL_END,
+        "weight": "identity",
+        "torque_bounds": False,
+        "joint_limits": False,
+        "grid_step": DEFAULT_GRID_STEP,
+        "warm_start": "pinv",
+        "max_iterations": int(max_iterations),
+        "max_time": float(max_time),
+    }
