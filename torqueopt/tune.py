@@ -25,8 +25,10 @@ Ties go to the setting listed first. A path a setting leaves by more than 1 mm (
 resolvers give way) is counted in the evidence but does not disqualify.
 
 Screening (exact, not a heuristic). The atlas's populations are nested: with the same seed, the first
-:math:`k` movements of each duration are the same for every ``paths`` :math:`\ge k`, and so are their
-``pinv`` rows. :func:`tune` first runs every setting on ``screen_paths`` movements per duration, and drops
+:math:`k` movements of a duration are the same for every ``paths`` :math:`\ge k` and whatever the other
+durations (each duration has its own stream of draws), and so are their ``pinv`` rows. :func:`tune`
+first runs every setting on the first ``screen_paths`` movements of the longest duration (where the
+whips and the joint-limit excursions build up; one batch, so it runs at the batched speed), and drops
 the settings that are already certain to fail: one that leaves a limit on a path of the screen's
 :math:`P` (which is part of the full :math:`P`), or whose screen whips alone give a Wilson upper bound above
 ``whiplash_bound`` even over every movement of the full population (for a fixed count the upper bound only
@@ -83,7 +85,7 @@ MAX_SETTINGS = 64
 #: A qualifying setting's whiplash rate on the paths pinv handles has a Wilson 95 % upper bound at most this.
 WHIPLASH_BOUND = 0.01
 DEFAULT_PATHS = 200
-DEFAULT_SCREEN_PATHS = 10
+DEFAULT_SCREEN_PATHS = 20
 #: Largest tune (trajectory-steps, screen and full atlas, every setting surviving) started without being told.
 DEFAULT_MAX_STEPS = 1_000_000_000
 BASELINE = "pinv"
@@ -135,7 +137,8 @@ def tune(
         grid: ``{option: values}``, the settings are every combination (at most ``MAX_SETTINGS``, 64);
             default :data:`DEFAULT_GRIDS` of the resolver.
         options: options held fixed in every setting (e.g. ``torque_weight="range"``).
-        paths: movements per duration of the full atlas; screen_paths: of the screen (0: no screen).
+        paths: movements per duration of the full atlas; screen_paths: of the screen, of the longest duration
+            only (0: no screen).
         durations, seed, accel, path, dt: the population and the runs, as :func:`torqueopt.atlas.run_atlas`.
         out: the folder (new, empty, or this tune's to resume it).
         whiplash_bound: the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate.
@@ -161,11 +164,13 @@ def tune(
     whiplash_bound = number_in_range(whiplash_bound, "whiplash_bound", 0.0, 1.0, low_open=True)
     population = PopulationSpec(paths=paths, durations=tuple(np.atleast_1d(durations).tolist()), seed=seed, path=path)
     steps = sum(round(d / dt) + 1 for d in population.durations)
-    total = (screen_paths + paths) * steps * (len(settings) + 1)
+    longest_steps = round(max(population.durations) / dt) + 1
+    total = (screen_paths * longest_steps + paths * steps) * (len(settings) + 1)
     if total > max_steps:
         raise InvalidInput(
             f"the tune would simulate up to {total:.3g} trajectory-steps ({len(settings)} settings and pinv on "
-            f"{screen_paths} + {paths} paths x {len(population.durations)} durations), more than "
+            f"{screen_paths} paths of the longest duration and {paths} paths x {len(population.durations)} "
+            "durations), more than "
             f"max_steps={max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
         )
     out = writable_path(out, directory=True)
@@ -205,9 +210,11 @@ def tune(
 
     survivors, screened = settings, {}
     if screen_paths:
+        longest = (max(population.durations),)
         screen = run_atlas(
-            spec, paths=screen_paths, resolvers=[BASELINE, *settings], out=out / "screen", **atlas_options
-        )
+            spec, paths=screen_paths, resolvers=[BASELINE, *settings], out=out / "screen",
+            **{**atlas_options, "durations": longest},
+        )  # fmt: skip
         full_movements = paths * len(population.durations)
         for row in evidence(screen.table, [s.label for s in settings], whiplash_bound):
             if _certain_to_fail(row, full_movements, whiplash_bound):
@@ -418,7 +425,7 @@ def write_markdown(summary: dict) -> str:
             f"{' (the default for this arm: √2 m/s² x reach / 3 m)' if config['accel'] is None else ''}, durations "
             f"{', '.join(f'{d:g}' for d in config['durations'])} s, {config['paths']} movements per duration, dt "
             f"{config['dt'] * 1e3:g} ms) of pinv and {len(config['grid'])} settings of {config['resolver']} (fixed "
-            f"options: {fixed}); a screen of {config['screen_paths']} movements per duration first dropped the "
+            f"options: {fixed}); a screen of the first {config['screen_paths']} movements of the longest duration first dropped the "
             "settings it already showed to fail (`torqueopt.tune`)."
         ),
         "",

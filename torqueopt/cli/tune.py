@@ -30,7 +30,7 @@ def add_parser(subparsers) -> None:
             "within its torque limits), whip with a Wilson 95 %% upper bound of at most --whiplash-bound and stay "
             "within the torque, position and velocity limits wherever pinv does. Prints the --option flags that "
             "reproduce it; writes tune.json and tune.md (the evidence table) into --out. A screen of "
-            "--screen-paths movements first drops the settings it shows to fail. Exit 4 when no setting "
+            "--screen-paths movements of the longest duration first drops the settings it shows to fail. Exit 4 when no setting "
             f"qualifies. Default grids: {grids}."
         ),
     )
@@ -61,7 +61,7 @@ def add_parser(subparsers) -> None:
         "--screen-paths",
         default=str(DEFAULT_SCREEN_PATHS),
         metavar="N",
-        help=f"movements per duration of the screen (default {DEFAULT_SCREEN_PATHS}; 0: no screen)",
+        help=f"movements of the longest duration in the screen (default {DEFAULT_SCREEN_PATHS}; 0: no screen)",
     )
     parser.add_argument(
         "--durations", default="0.5,1,1.5,2", metavar="T,...", help="movement durations [s] (default 0.5,1,1.5,2)"
