@@ -259,6 +259,101 @@ def test_play_bad_input_is_one_line_exit_2(arguments, message, run_csv, tmp_path
     assert not out.exists()
 
 
+def _listing(folder):
+    return sorted((p.name, p.is_symlink(), p.read_bytes() if p.is_file() else None) for p in folder.iterdir())
+
+
+#: What is at the --html path before ``play``, and what play must do: write (through a link), or refuse in one line.
+HTML_TARGETS = [
+    ("the user's file", "replaced, keeping its mode"),
+    ("a symbolic link", "written through"),
+    ("a read-only file", "it is read-only"),
+    ("a folder", "it is a folder"),
+    ("a dangling link", "which does not exist"),
+    ("a hard-linked file", "it has 2 hard links"),
+    ("the run itself", "it is the file this command reads"),
+    ("the run's sidecar", "it is the file this command reads"),
+    ("a link to the run", "it is the file 'RUN' this command reads"),
+]
+
+
+@pytest.mark.parametrize("what, outcome", HTML_TARGETS, ids=[case[0] for case in HTML_TARGETS])
+def test_play_html_follows_the_file_rules_and_checks_them_before_any_work(what, outcome, run_csv, tmp_path, capsys):
+    """The rules of torqueopt.io for --html: a page written through a link, never over what is not a plain file of
+    the user's, never over the run it shows (``play r.csv --html r.csv`` replaced the run by its own page), and
+    nothing written when it refuses."""
+    import os
+    import shutil
+
+    run = tmp_path / "run.csv"
+    shutil.copy(run_csv, run)
+    shutil.copy(f"{run_csv}.json", f"{run}.json")
+    original = run.read_bytes()
+    page = tmp_path / "page.html"
+    if what == "the user's file":
+        page.write_text("mine")
+        page.chmod(0o640)
+    elif what == "a symbolic link":
+        (tmp_path / "target.html").write_text("mine")
+        page.symlink_to("target.html")
+    elif what == "a read-only file":
+        page.write_text("mine")
+        page.chmod(0o444)
+    elif what == "a folder":
+        page.mkdir()
+    elif what == "a dangling link":
+        page.symlink_to("nowhere.html")
+    elif what == "a hard-linked file":
+        page.write_text("mine")
+        os.link(page, tmp_path / "other-name.html")
+    elif what == "the run itself":
+        page = run
+    elif what == "the run's sidecar":
+        page = Path(f"{run}.json")
+    elif what == "a link to the run":
+        page.symlink_to(run)
+    before = _listing(tmp_path)
+    code = main(["play", str(run), "--html", str(page), "--fps", "5"])
+    captured = capsys.readouterr()
+    assert run.read_bytes() == original
+    if outcome in ("replaced, keeping its mode", "written through"):
+        assert code == 0 and captured.err == ""
+        written = tmp_path / ("target.html" if what == "a symbolic link" else "page.html")
+        assert written.read_text().startswith("<!DOCTYPE html>")
+        assert page.is_symlink() == (what == "a symbolic link")
+        if what == "the user's file":
+            assert (page.stat().st_mode & 0o777) == 0o640
+        assert sorted(p.name for p in tmp_path.iterdir()) == sorted(name for name, *_ in before)  # no temporaries
+        return
+    message = outcome.replace("RUN", str(run))
+    assert code == 2 and captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("torqueopt play: error: cannot write") and message in lines[0]
+    assert _listing(tmp_path) == before  # nothing written, nothing left behind
+
+
+@pytest.mark.parametrize("html", ["RUN", "RUN.json", "LINK"])
+def test_run_refuses_an_html_page_at_its_own_run_file_before_simulating(html, tmp_path, capsys, monkeypatch):
+    """``run --out a.csv --html a.csv`` said it wrote the run and its sidecar and left only the page in a.csv."""
+    import torqueopt.cli.run as run_module
+
+    monkeypatch.setattr(run_module, "simulate", lambda *args, **kwargs: pytest.fail("simulated before the check"))
+    out = tmp_path / "a.csv"
+    if html == "LINK":
+        out.write_text("an earlier run")
+        (tmp_path / "link.html").symlink_to("a.csv")
+    page = {"RUN": str(out), "RUN.json": f"{out}.json", "LINK": str(tmp_path / "link.html")}[html]
+    code = main(["run", "--robot", "planar3", "--resolver", "pinv", "--direction", "1,1", "--duration", "0.1",
+                 "--out", str(out), "--html", page])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == ""
+    assert captured.err.startswith(f"torqueopt run: error: cannot write '{page}' as two of this command's files")
+    assert captured.err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == (["a.csv", "link.html"] if html == "LINK" else [])
+    if html == "LINK":
+        assert out.read_text() == "an earlier run"
+
+
 def test_without_meshcat_play_says_what_to_install_and_the_rest_works(run_csv, tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "meshcat", None)  # import meshcat now raises ImportError
     expected = "meshcat playback needs the 'meshcat' package, which is not installed: pip install meshcat"

@@ -20,6 +20,9 @@ The rule for what is already at the path (as a careful Unix tool does it):
   marked it as not to be changed;
 * anything else (a folder, a FIFO, a socket, a device): refused, since
   renaming over it would replace what is not ours by a regular file.
+* a file the command reads, or that another of its outputs is (through a
+  link too): refused by :func:`writable_paths`, since only one of the two
+  would be left.
 
 Every refusal is an :class:`~torqueopt.errors.OutputError` (exit 2 from the
 CLI) that names the path and what it is.
@@ -79,9 +82,45 @@ def writable_path(path: str | os.PathLike, directory: bool = False) -> Path:
     return path
 
 
-def writable_paths(paths: Iterable[str | os.PathLike]) -> list[Path]:
-    """Every path of ``paths`` checked by :func:`writable_path`: the files one command will write, before its work."""
-    return [writable_path(path) for path in paths]
+def writable_paths(paths: Iterable[str | os.PathLike], reading: Iterable[str | os.PathLike] = ()) -> list[Path]:
+    """Every path of ``paths`` checked by :func:`writable_path`: the files one command will write, before its work.
+
+    The files must also be distinct from each other and from the files the
+    command reads (``reading``), through symbolic links and hard links: two
+    outputs at one file would leave only the last one written (``run --out
+    a.csv --html a.csv`` said it wrote the run and left a page), and an
+    output at an input would replace the data it is made from.
+
+    Raises:
+        OutputError: a path cannot be written, or names the same file as
+            another output or as an input.
+    """
+    checked = [writable_path(path) for path in paths]
+    seen: dict[str, Path] = {}
+    for path in checked:
+        key = os.path.realpath(_replaceable(path))
+        if key in seen:
+            other = "" if str(seen[key]) == str(path) else f": it is the same file as '{seen[key]}'"
+            raise OutputError(
+                f"cannot write '{path}' as two of this command's files{other}; give each output its own name"
+            )
+        seen[key] = path
+    for source in reading:
+        for path in checked:
+            if _same_file(path, source):
+                other = "" if str(source) == str(path) else f" '{source}'"
+                raise OutputError(
+                    f"cannot write '{path}': it is the file{other} this command reads; give the output another name"
+                )
+    return checked
+
+
+def _same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:
+    """True when both paths exist and are one file (through links), or name the same place."""
+    try:
+        return os.path.samefile(first, second)
+    except OSError:
+        return os.path.realpath(first) == os.path.realpath(second)
 
 
 def sidecar_path(path: str | os.PathLike, suffix: str = ".json") -> Path:

@@ -12,9 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..checks import count_values
-from ..io import writable_path
+from ..io import writable_path, writable_paths
 from ..loading import load_robot
 from ..result import SimResult, load_result
+from ..result_files import run_files
 from ..robot import TASK_DIMENSIONS, Robot
 from . import EXIT_OK
 from .common import parse_count, parse_positive
@@ -134,6 +135,8 @@ def check_frames(options: PlaybackOptions, simulated_time: float) -> None:
 
 def play_command(args: argparse.Namespace) -> int:
     options = playback_options(args, live=args.html is None)
+    if options.html is not None:
+        writable_paths([options.html], reading=run_files(args.run))  # the page never replaces the run it shows
     result = load_result(args.run)
     if len(result.t):
         check_frames(options, float(result.t[-1] - result.t[0]))

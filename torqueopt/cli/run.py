@@ -103,8 +103,8 @@ def run_command(args: argparse.Namespace) -> int:
     else:
         angles = parse_vector(args.q0, "q0", robot.nv)
         q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
-    # Every file the run will write, checked before it starts (the HTML's by playback_options).
-    writable_paths(run_files(args.out) if args.out else [])
+    # Every file the run will write, checked before it starts, and no two of them one file.
+    writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
     result = simulate(
         robot,
         resolver,
