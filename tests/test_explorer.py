@@ -81,6 +81,64 @@ def test_the_kept_traces_are_the_whips_first_and_peak_where_the_table_says(atlas
             assert peak == pytest.approx(row["peak_torque_ratio"], abs=1e-3 / limits.min())
 
 
+def _path_figures_by_graph_objects(path, runs, robot_summary):
+    """The kept path's figures as plotly.graph_objects builds them (validating every value): the reference."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    colours = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+    joints, limits = robot_summary["joint_names"], robot_summary["torque_limit"]
+    torque = make_subplots(rows=len(joints), cols=1, shared_xaxes=True, subplot_titles=joints)
+    arm = go.Figure()
+    for index, (resolver, run) in enumerate(runs.items()):
+        colour = colours[index % len(colours)]
+        for joint in range(len(joints)):
+            torque.add_trace(go.Scatter(x=np.round(run["t"], 4).tolist(), y=np.round(run["tau"][:, joint], 3).tolist(),
+                                        mode="lines", name=resolver, legendgroup=resolver, showlegend=joint == 0,
+                                        line={"color": colour, "width": 1.4, "simplify": False}),
+                             row=joint + 1, col=1)  # fmt: skip
+        arm.add_trace(go.Scatter(x=np.round(run["arm"][:, 0], 4).tolist(), y=np.round(run["arm"][:, 1], 4).tolist(),
+                                 mode="lines+markers", name=f"{resolver} at {run['arm_time']:.3f} s",
+                                 line={"color": colour, "width": 3}))  # fmt: skip
+    first = next(iter(runs.values()))
+    arm.add_trace(go.Scatter(x=np.round(first["start_arm"][:, 0], 4).tolist(),
+                             y=np.round(first["start_arm"][:, 1], 4).tolist(), mode="lines", name="start pose",
+                             line={"color": "#aaaaaa", "width": 2, "dash": "dot"}))  # fmt: skip
+    for joint, limit in enumerate(limits):
+        if limit is not None:
+            for sign in (1, -1):
+                torque.add_hline(
+                    y=sign * limit, line={"color": "black", "dash": "dash", "width": 1}, row=joint + 1, col=1
+                )
+    torque.update_layout(title=f"path {path}: torque of every resolver [N·m], limits ±τ⁺ dashed",
+                         height=max(320, 190 * len(joints)), xaxis={"title": "t [s]"} if len(joints) == 1 else {})  # fmt: skip
+    torque.update_xaxes(title_text="t [s]", row=len(joints), col=1)
+    arm.update_layout(title=f"path {path}: the arm at each resolver's instability (else its peak demand)",
+                      xaxis={"title": "x [m]", "scaleanchor": "y"}, yaxis={"title": "y [m]"}, height=480)  # fmt: skip
+    return json.loads(json.dumps({"torque": torque.to_plotly_json(), "arm": arm.to_plotly_json()}, default=list))
+
+
+@pytest.mark.parametrize("limits", [[54.0, 24.0, None], [3.0], [87.0] * 4 + [12.0] * 3], ids=["3 joints", "1", "7"])
+def test_a_kept_path_s_figures_are_what_plotly_s_figure_objects_make(limits):
+    """The page writes the traces as plain JSON (through graph_objects, 200 kept paths took most of an atlas's
+    time): the same figures, value for value, as graph_objects builds them."""
+    from torqueopt.atlas.explorer import path_figures, path_layouts
+
+    rng = np.random.default_rng(3)
+    joints = [f"joint{i + 1}" for i in range(len(limits))]
+    runs = {
+        resolver: {"t": np.linspace(0, 1.8, 300), "tau": 20 * rng.normal(size=(300, len(joints))), "arm_time": 0.25 * i,
+                   "arm": rng.normal(size=(len(joints) + 1, 2)), "start_arm": rng.normal(size=(len(joints) + 1, 2))}
+        for i, resolver in enumerate(("pinv", "null-space", "weighted-null-space"))
+    }  # fmt: skip
+    summary = {"joint_names": joints, "torque_limit": limits}
+    expected = _path_figures_by_graph_objects(4, runs, summary)
+    assert json.loads(json.dumps(path_figures(4, runs, summary))) == expected
+    assert json.loads(json.dumps(path_figures(4, runs, summary, path_layouts(summary)))) == expected
+    shapes = expected["torque"]["layout"]["shapes"]
+    assert sorted(shape["y0"] for shape in shapes) == sorted(s * x for x in limits if x is not None for s in (1, -1))
+
+
 @pytest.mark.slow
 def test_no_figures_writes_no_explorer_and_keep_traces_zero_keeps_none(tmp_path):
     run_atlas("planar3", out=tmp_path / "a", progress=False, figures=False, **TINY)

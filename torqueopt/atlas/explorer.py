@@ -171,56 +171,69 @@ def _duration_label(value) -> str:
     return "all durations" if value == "all" else f"T = {value:g} s"
 
 
-def path_figures(path: int, runs: dict, robot_summary: dict) -> dict:
-    """The torque panels (one per joint, every resolver, the limits) and the stick figures of one kept path."""
+def path_figures(path: int, runs: dict, robot_summary: dict, layouts: tuple[dict, dict] | None = None) -> dict:
+    """The torque panels (one per joint, every resolver, the limits) and the stick figures of one kept path.
+
+    The traces are plain Plotly JSON: building each through ``plotly.graph_objects`` (which validates every
+    value) took about 1 s a path, most of the page's time for the default 200 kept paths. ``layouts`` are
+    :func:`path_layouts` of the robot, made once for every path when given.
+    """
+    torque_layout, arm_layout = layouts if layouts is not None else path_layouts(robot_summary)
+    joints = len(robot_summary["joint_names"])
+    torque, arm = [], []
+    for index, (resolver, run) in enumerate(runs.items()):
+        colour = _RESOLVER_COLOURS[index % len(_RESOLVER_COLOURS)]
+        t = np.round(run["t"], 4).tolist()
+        for joint in range(joints):
+            axis = "" if joint == 0 else str(joint + 1)
+            torque.append({
+                "type": "scatter", "x": t, "y": np.round(run["tau"][:, joint], 3).tolist(), "mode": "lines",
+                "name": resolver, "legendgroup": resolver, "showlegend": joint == 0,
+                "line": {"color": colour, "width": 1.4, "simplify": False}, "xaxis": f"x{axis}", "yaxis": f"y{axis}",
+            })  # fmt: skip
+        arm.append({
+            "type": "scatter", "x": np.round(run["arm"][:, 0], 4).tolist(), "y": np.round(run["arm"][:, 1], 4).tolist(),
+            "mode": "lines+markers", "name": f"{resolver} at {run['arm_time']:.3f} s", "line": {"color": colour, "width": 3},
+        })  # fmt: skip
+    first = next(iter(runs.values()))
+    arm.append({
+        "type": "scatter", "x": np.round(first["start_arm"][:, 0], 4).tolist(),
+        "y": np.round(first["start_arm"][:, 1], 4).tolist(), "mode": "lines", "name": "start pose",
+        "line": {"color": "#aaaaaa", "width": 2, "dash": "dot"},
+    })  # fmt: skip
+    torque_layout = {
+        **torque_layout,
+        "title": {"text": f"path {path}: torque of every resolver [N·m], limits ±τ⁺ dashed"},
+    }
+    arm_layout = {
+        **arm_layout,
+        "title": {"text": f"path {path}: the arm at each resolver's instability (else its peak demand)"},
+    }
+    return {"torque": {"data": torque, "layout": torque_layout}, "arm": {"data": arm, "layout": arm_layout}}
+
+
+def path_layouts(robot_summary: dict) -> tuple[dict, dict]:
+    """The layouts of :func:`path_figures` without their titles, by Plotly (one panel per joint, the limits dashed)."""
     go = require("plotly.graph_objects")
     subplots = require("plotly.subplots")
     joints = robot_summary["joint_names"]
     limits = robot_summary["torque_limit"]
     torque = subplots.make_subplots(rows=len(joints), cols=1, shared_xaxes=True, subplot_titles=joints)
-    arm = go.Figure()
-    for index, (resolver, run) in enumerate(runs.items()):
-        colour = _RESOLVER_COLOURS[index % len(_RESOLVER_COLOURS)]
-        for joint in range(len(joints)):
-            torque.add_trace(
-                go.Scatter(
-                    x=np.round(run["t"], 4).tolist(), y=np.round(run["tau"][:, joint], 3).tolist(), mode="lines",
-                    name=resolver, legendgroup=resolver, showlegend=joint == 0, line={"color": colour, "width": 1.4, "simplify": False},
-                ),
-                row=joint + 1, col=1,
-            )  # fmt: skip
-        arm.add_trace(
-            go.Scatter(
-                x=np.round(run["arm"][:, 0], 4).tolist(), y=np.round(run["arm"][:, 1], 4).tolist(),
-                mode="lines+markers", name=f"{resolver} at {run['arm_time']:.3f} s", line={"color": colour, "width": 3},
-            )
-        )  # fmt: skip
-    first = next(iter(runs.values()))
-    arm.add_trace(
-        go.Scatter(
-            x=np.round(first["start_arm"][:, 0], 4).tolist(), y=np.round(first["start_arm"][:, 1], 4).tolist(),
-            mode="lines", name="start pose", line={"color": "#aaaaaa", "width": 2, "dash": "dot"},
-        )
-    )  # fmt: skip
     for joint, limit in enumerate(limits):
         if limit is not None:
             for sign in (1, -1):
                 torque.add_hline(
-                    y=sign * limit, line={"color": "black", "dash": "dash", "width": 1}, row=joint + 1, col=1
+                    y=sign * limit,
+                    line={"color": "black", "dash": "dash", "width": 1},
+                    row=joint + 1,
+                    col=1,
+                    exclude_empty_subplots=False,  # the layout is made before any trace
                 )
-    torque.update_layout(
-        title=f"path {path}: torque of every resolver [N·m], limits ±τ⁺ dashed",
-        height=max(320, 190 * len(joints)),
-        xaxis={"title": "t [s]"} if len(joints) == 1 else {},
-    )
+    torque.update_layout(height=max(320, 190 * len(joints)), xaxis={"title": "t [s]"} if len(joints) == 1 else {})
     torque.update_xaxes(title_text="t [s]", row=len(joints), col=1)
-    arm.update_layout(
-        title=f"path {path}: the arm at each resolver's instability (else its peak demand)",
-        xaxis={"title": "x [m]", "scaleanchor": "y"},
-        yaxis={"title": "y [m]"},
-        height=480,
-    )
-    return {"torque": torque.to_plotly_json(), "arm": arm.to_plotly_json()}
+    arm = go.Figure()
+    arm.update_layout(xaxis={"title": "x [m]", "scaleanchor": "y"}, yaxis={"title": "y [m]"}, height=480)
+    return torque.to_plotly_json()["layout"], arm.to_plotly_json()["layout"]
 
 
 _SCRIPT = """
@@ -286,13 +299,14 @@ def explorer_html(table, summary: dict, traces: dict, keep: int) -> str:
     config = summary["config"]
     robot_summary = {"joint_names": config["joint_names"], "torque_limit": config["torque_limit"]}
     figure = map_figure(table, summary)
+    layouts = path_layouts(robot_summary) if traces else None
     kept_note = f"the traces of at most {keep} paths, those where a resolver whips first ({len(traces)} kept here)"
     spec = {
         "map": figure.to_plotly_json(),
         "resolvers": list(summary["resolvers"]),
         "durations": [float(d) for d in summary["durations"]],
         "shown": {"resolver": summary["resolvers"][0], "duration": float(max(summary["durations"]))},
-        "paths": {str(path): path_figures(path, runs, robot_summary) for path, runs in sorted(traces.items())},
+        "paths": {str(path): path_figures(path, runs, robot_summary, layouts) for path, runs in sorted(traces.items())},
         "keep_note": kept_note,
     }
     data = plotly_io.to_json(spec, validate=False).replace("</", "<\\/")
