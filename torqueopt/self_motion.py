@@ -166,3 +166,31 @@ class SelfMotionRate:
         force = np.linalg.solve(jacobian.dot(jacobian.T), jacobian.dot(inertia.dot(u)))
         constant = float((u + 0.5 * w).dot(inertia_rate_w) - force.dot(jacobian_rate.dot(w)))
         return part, inertia.dot(w), constant
+
+    def stacked(self, configurations, joint_velocities, inertia, jacobian, null_space_basis):
+        """``(E_N, Hw, c)`` of :meth:`__call__` for each row of stacks: q (B, nq), q̇ (B, n), H (B, n, n),
+        J (B, m, n) and Z (B, n, r); E_N and c (B,), Hw (B, n). The Pinocchio calls (C, J̇) row by row, the
+        rest on the stacks."""
+        v = joint_velocities
+        momentum = np.einsum("bij,bj->bi", inertia, v)  # H q̇
+        kinetic = 0.5 * np.einsum("bi,bi->b", v, momentum)
+        projected = np.einsum("bji,bj->bi", null_space_basis, momentum)  # s = Zᵀ H q̇
+        reduced = np.swapaxes(null_space_basis, 1, 2) @ inertia @ null_space_basis  # Zᵀ H Z
+        coordinates = np.linalg.solve(reduced, projected[..., None])[..., 0]
+        energy = np.minimum(np.maximum(0.5 * np.einsum("bi,bi->b", projected, coordinates), 0.0), kinetic)
+        w = np.einsum("bij,bj->bi", null_space_basis, coordinates)
+        model, data, frame, rows = self._model, self._data, self._frame_id, self._rows
+        inertia_rate_w = np.empty_like(w)
+        jacobian_rate_w = np.empty((w.shape[0], jacobian.shape[1]))
+        for row in range(w.shape[0]):
+            q, qdot, w_row = configurations[row], v[row], w[row]
+            coriolis = pin.computeCoriolisMatrix(model, data, q, qdot)
+            inertia_rate_w[row] = coriolis.dot(w_row) + coriolis.T.dot(w_row)  # Ḣ w, Ḣ = C + Cᵀ
+            pin.computeJointJacobiansTimeVariation(model, data, q, qdot)
+            jacobian_rate_w[row] = pin.getFrameJacobianTimeVariation(model, data, frame, _LWA)[rows].dot(w_row)
+        u = v - w
+        # f = Λ J q̇ solves Jᵀ f = H u; J has full row rank, so f = (J Jᵀ)⁻¹ J H u.
+        task_momentum = np.einsum("bij,bj->bi", jacobian, np.einsum("bij,bj->bi", inertia, u))
+        force = np.linalg.solve(jacobian @ np.swapaxes(jacobian, 1, 2), task_momentum[..., None])[..., 0]
+        constant = np.einsum("bi,bi->b", u + 0.5 * w, inertia_rate_w) - np.einsum("bi,bi->b", force, jacobian_rate_w)
+        return energy, np.einsum("bij,bj->bi", inertia, w), constant

@@ -4,6 +4,14 @@ r"""What the two bounded resolvers share: the bounded joints, the ``infeasible``
 optimum within bounds (``_optimum``, one per resolver), and, when there is
 none, the policy the ``infeasible`` option names (scale the task, least task
 error, exceed the bounds least, stop), in the coordinates of Eq. (26).
+
+Its step on stacks (``batch_solver``, :class:`BoundedStackStep`) builds every
+row's program with stacked numpy (null-space basis, criterion, torque-bound
+rows, joint-limit rows, the resolver's own rows: ``_stack_optimum`` and
+``_stack_acceleration_constraints``, one per resolver) and solves each row
+with DAQP in a loop, one warm-started program per movement; a row whose
+optimum is infeasible goes through the single-state step, whose policies,
+``limiting`` texts and stops are then those of ``simulate`` by construction.
 """
 
 from __future__ import annotations
@@ -16,9 +24,10 @@ from ...checks import Refused
 from ...errors import NoRedundancy, SolverFailure, TorqueBoundsInfeasible
 from ...linalg import JacobianSolver
 from ...robot import Robot, TaskTerms
-from ..base import Resolution, Resolver, Step
+from ..base import Resolution, Resolver, Step, _defining_class
 from ..null_space import torque_midpoint
 from ..options import Option
+from ..stacks import LoopedStackStep, StackResolution, StackStep, StackTerms, singular_rows, task_factorisation
 from .joint_limits import JointLimits
 from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
 
@@ -134,6 +143,18 @@ class _BoundedResolver(Resolver):
 
     def solver_for_run(self, robot: Robot, dt: float) -> Step:
         return self.solver(robot, dt)
+
+    def batch_solver(self, robot: Robot, dt: float | None = None) -> StackStep:
+        """The vectorised step on stacks, :class:`BoundedStackStep`; the looped default for a subclass that changes
+        its criterion (``_optimum``) or its own rows (``_acceleration_constraints``) without their stacked forms."""
+        cls = type(self)
+        for single, stacked in (
+            ("_optimum", "_stack_optimum"),
+            ("_acceleration_constraints", "_stack_acceleration_constraints"),
+        ):
+            if _defining_class(cls, stacked) is not _defining_class(cls, single):
+                return super().batch_solver(robot, dt)
+        return BoundedStackStep(self, robot, dt)
 
     def solver(self, robot: Robot, dt: float | None = None) -> Step:
         """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once.
@@ -385,3 +406,156 @@ class _BoundedResolver(Resolver):
         """``(terms, Z, HZ, τ̃, p, joint_rows) -> (y, τ)`` of this resolver's criterion with τ within bounds and
         q̈ = p + Z y within the rows on q̈ (``joint_rows(offset, rows)``, None: none), or None when none is."""
         raise NotImplementedError
+
+    def _stack_acceleration_constraints(self, robot: Robot):
+        """:meth:`_acceleration_constraints` on stacks: ``(k, function, names)`` with ``(StackTerms, Z (B, n, r))
+        -> (G (B, k, n), h (B, k))``; ``(0, None, ())`` when the resolver has none."""
+        return 0, None, ()
+
+    def _stack_optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int) -> StackOptimum:
+        """:meth:`_optimum` on stacks: the :class:`StackOptimum` of this resolver's criterion."""
+        raise NotImplementedError
+
+
+class StackOptimum:
+    """A bounded resolver's own program on stacks: built for every row at once, solved row by row.
+
+    ``program()`` makes one movement's workspace (warm-started from its
+    previous step, as in ``simulate``); ``build(terms, Z, HZ, τ̃, p, joint_rows)``
+    the numbers of every row (``joint_rows(offset, rows)``: the stacked rows on
+    q̈ = offset + rows · x, None: none); ``solve(program, problem, row)`` one row's
+    solution, None when infeasible; ``coordinates(problem, rows, solutions)`` the
+    null-space coordinates y (len(rows), r) of the solved rows.
+    """
+
+    def __init__(self, program, build, solve, coordinates=None):
+        self.program, self.build, self.solve = program, build, solve
+        self.coordinates = coordinates if coordinates is not None else (lambda problem, rows, solutions: solutions)
+
+
+def _rows_of(terms: StackTerms, rows) -> StackTerms:
+    """The stack of the given rows only."""
+    return StackTerms(*(field[rows] for field in terms))
+
+
+class BoundedStackStep:
+    r"""A bounded resolver's step on stacks: every row's program built at once, each solved by DAQP in a loop.
+
+    Per call: Eq. (26)'s particular solution and null-space basis of every
+    row (the stacked factorisation of the paper's resolvers), :math:`HZ` and
+    :math:`\tilde\tau` (Eq. (28)), the joint-limit bounds on q̈ (Del Prete's, on
+    the stacks) and the resolver's own rows, then its program's numbers
+    (:class:`StackOptimum`). Each row is solved in its movement's own DAQP
+    workspace; a row with no optimum within the bounds is handed, with its
+    movement, to the single-state step (:class:`~torqueopt.resolvers.stacks.LoopedStackStep`),
+    which applies the ``infeasible`` policy, says which bounds its answer lay
+    on (``limiting``) or stops, as in ``simulate``. A row with a singular
+    Jacobian fails with the paper's resolvers' message.
+    """
+
+    def __init__(self, resolver: _BoundedResolver, robot: Robot, dt: float | None = None):
+        resolver.check(robot)
+        self.robot = robot
+        self.factor = task_factorisation(robot)
+        self.tolerance = resolver.singular_tolerance
+        self.limits = resolver.joint_limits_of(robot, dt)
+        self.own_count, self.constraints_at, _ = resolver._stack_acceleration_constraints(robot)
+        rows_count = (0 if self.limits is None else self.limits.count) + self.own_count
+        bounded = _bounded_joints(robot)
+        _, _, spread = _solver_bounds(robot, bounded)
+        self.optimum = resolver._stack_optimum(robot, bounded, spread, torque_midpoint(robot), rows_count)
+        self.rows_count = rows_count
+        self.single = LoopedStackStep(resolver, robot, dt)
+        self.programs: dict = {}
+
+    def joint_rows(self, terms: StackTerms, basis: np.ndarray):
+        """The stacked ``joint_rows(offset, rows)`` of the joint limits and the resolver's own rows at these states,
+        or None when the resolver has neither (the single-state step's ``joint_rows``, row for row)."""
+        if not self.rows_count:
+            return None
+        limits, parts_at = self.limits, []
+        if limits is not None:
+            bounds = limits(terms)
+            scale = limits.scale(bounds)
+            joints = limits.joints
+
+            def joint_part(offset, rows):
+                return (
+                    rows[:, joints] / scale[..., None],
+                    (bounds.upper - offset[:, joints]) / scale,
+                    (bounds.lower - offset[:, joints]) / scale,
+                )
+
+            parts_at.append(joint_part)
+        if self.constraints_at is not None:
+            own_rows, own_upper = self.constraints_at(terms, basis)  # G q̈ <= h, unit rows
+            no_lower = np.full(own_upper.shape, -np.inf)
+
+            def own_part(offset, rows):
+                return own_rows @ rows, own_upper - np.einsum("bkn,bn->bk", own_rows, offset), no_lower
+
+            parts_at.append(own_part)
+
+        def joint_rows(offset, rows):
+            parts = [part(offset, rows) for part in parts_at]
+            if len(parts) == 1:
+                return parts[0]
+            return tuple(np.concatenate(part, axis=1) for part in zip(*parts))
+
+        return joint_rows
+
+    def __call__(self, terms: StackTerms, task_accelerations: np.ndarray, movements: np.ndarray) -> StackResolution:
+        count, n = task_accelerations.shape[0], self.robot.nv
+        particular, basis, conditions = self.factor(terms.jacobian, task_accelerations - terms.drift, True)
+        failures = singular_rows(conditions, self.tolerance)
+        torque, acceleration = np.full((count, n), np.nan), np.full((count, n), np.nan)
+        task_error, infeasible, limiting = np.zeros(count), np.zeros(count, dtype=bool), {}
+        if failures:
+            failed = np.zeros(count, dtype=bool)
+            failed[list(failures)] = True
+            kept = np.flatnonzero(~failed)
+            states, kept_particular, kept_basis = _rows_of(terms, kept), particular[kept], basis[kept]
+        else:
+            kept, states, kept_particular, kept_basis = np.arange(count), terms, particular, basis
+        if kept.size:
+            inertia = states.inertia
+            inertia_basis = inertia @ kept_basis  # HZ
+            tilde_torque = np.einsum("bij,bj->bi", inertia, kept_particular) + states.bias_torque  # Eq. (28)
+            optimum = self.optimum
+            problem = optimum.build(
+                states, kept_basis, inertia_basis, tilde_torque, kept_particular, self.joint_rows(states, kept_basis)
+            )
+            programs, solve, make = self.programs, optimum.solve, optimum.program
+            solved, solutions, hard = [], [], []
+            for index, movement in enumerate(movements[kept].tolist()):
+                program = programs.get(movement)
+                if program is None:
+                    program = programs[movement] = make()
+                try:
+                    solution = solve(program, problem, index)
+                except SolverFailure as error:
+                    failures[int(kept[index])] = str(error)
+                    continue
+                if solution is None:
+                    hard.append(index)
+                else:
+                    solved.append(index)
+                    solutions.append(solution)
+            if solved:
+                y = optimum.coordinates(problem, solved, np.array(solutions))
+                rows = kept[solved]
+                torque[rows] = tilde_torque[solved] + np.einsum("bij,bj->bi", inertia_basis[solved], y)  # Eq. (27)
+                # Eq. (26)
+                acceleration[rows] = kept_particular[solved] + np.einsum("bij,bj->bi", kept_basis[solved], y)
+            if hard:
+                # No optimum within the bounds: the single-state step's policy, row for row, as in simulate.
+                rows = kept[hard]
+                resolution = self.single(_rows_of(terms, rows), task_accelerations[rows], movements[rows])
+                torque[rows], acceleration[rows] = resolution.torque, resolution.joint_acceleration
+                task_error[rows], infeasible[rows] = resolution.task_error, resolution.infeasible
+                conditions[rows] = resolution.jacobian_inverse_condition
+                for index, text in resolution.failures.items():
+                    failures[int(rows[index])] = text
+                for index, text in resolution.limiting.items():
+                    limiting[int(rows[index])] = text
+        return StackResolution(torque, acceleration, conditions, task_error, infeasible, failures, limiting, basis)

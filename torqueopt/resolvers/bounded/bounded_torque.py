@@ -7,7 +7,7 @@ import numpy as np
 from ...robot import Robot, TaskTerms
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
-from .base import INFEASIBLE_OPTION, _BoundedResolver, _solver_bounds
+from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver, _solver_bounds
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
 from .programs import _EXIT_INFEASIBLE, _Program
 
@@ -131,6 +131,60 @@ class BoundedTorque(_BoundedResolver):
             return y, tilde_torque + inertia_basis.dot(y)
 
         return optimum
+
+    def _stack_optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int) -> StackOptimum:
+        """:meth:`_optimum`'s QP for every row of a stack at once (the same numbers, row for row), solved row by row."""
+        r = robot.redundancy
+        rows_count = spread.size + joint_rows_count
+        root = self.weight_root(robot)
+        relative_weight2 = self.kinematic_weight**2
+        damping = self.damping
+        upper, lower, _ = _solver_bounds(robot, bounded)
+        inverse_spread = 1.0 / spread
+
+        def program():
+            return _Program(
+                np.eye(r), np.zeros(r), np.zeros((rows_count, r)), np.ones(rows_count), -np.ones(rows_count)
+            )
+
+        def build(terms, basis, inertia_basis, tilde_torque, particular, joint_rows):
+            weighted_basis = root[:, None] * inertia_basis  # S H Z, (B, n, r)
+            offset = (tilde_torque - midpoint) * root  # S(τ̃ − τ_mid), Eq. (29), Eq. (32)
+            hessian = np.swapaxes(weighted_basis, 1, 2) @ weighted_basis
+            cost = np.einsum("bki,bk->bi", weighted_basis, offset)
+            trace = np.einsum("bii->b", hessian)
+            if relative_weight2:
+                # μ̄² = μ²‖SHZ‖_F², damped-null-space's normalisation.
+                mu2 = relative_weight2 * trace
+                hessian = hessian + mu2[:, None, None] * np.eye(r)
+                cost = cost + (mu2 * damping)[:, None] * np.einsum("bki,bk->bi", basis, terms.joint_velocity)
+                trace = np.einsum("bii->b", hessian)
+            scale = r / trace  # a unit Hessian trace, as the single-state step
+            rows = inertia_basis[:, bounded] * inverse_spread[:, None]
+            base = tilde_torque[:, bounded]
+            row_upper, row_lower = (upper - base) / spread, (lower - base) / spread
+            if joint_rows_count:
+                # q̈ = p + Z y within the joint limits' bounds and the resolver's own rows.
+                extra = joint_rows(particular, basis)
+                rows = np.concatenate([rows, extra[0]], axis=1)
+                row_upper = np.concatenate([row_upper, extra[1]], axis=1)
+                row_lower = np.concatenate([row_lower, extra[2]], axis=1)
+            return (
+                np.ascontiguousarray(scale[:, None, None] * hessian),
+                np.ascontiguousarray(scale[:, None] * cost),
+                np.ascontiguousarray(rows),
+                np.ascontiguousarray(row_upper),
+                np.ascontiguousarray(row_lower),
+            )
+
+        def solve(program, problem, row):
+            hessian, cost, rows, row_upper, row_lower = problem
+            y, flag, _ = program.solve(
+                H=hessian[row], f=cost[row], A=rows[row], bupper=row_upper[row], blower=row_lower[row]
+            )
+            return None if flag == _EXIT_INFEASIBLE else y
+
+        return StackOptimum(program, build, solve)
 
 
 def _free_rows(count: int, columns: int):

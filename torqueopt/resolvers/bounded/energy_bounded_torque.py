@@ -167,3 +167,22 @@ class EnergyBoundedTorque(BoundedTorque):
             return (coefficient / size)[None, :], np.array([right_side / size])
 
         return 1, barrier, ("self-motion energy barrier",)
+
+    def _stack_acceleration_constraints(self, robot: Robot):
+        """The barrier of :meth:`_acceleration_constraints` for every row of a stack: ``(B, 1, n)`` rows and ``(B, 1)``
+        bounds, the same numbers row for row (a zero row with bound 1 where there is no self-motion)."""
+        rate_of = SelfMotionRate(robot)
+        limit, rate = self.energy_limit, self.energy_rate
+
+        def barrier(terms, basis):
+            energy, coefficient, constant = rate_of.stacked(
+                terms.configuration, terms.joint_velocity, terms.inertia, terms.jacobian, basis
+            )
+            size = np.linalg.norm(coefficient, axis=1)
+            moving = size != 0.0  # no self-motion: Ė_N = 0 <= α E_max whatever q̈
+            divisor = np.where(moving, size, 1.0)
+            rows = np.where(moving[:, None], coefficient / divisor[:, None], 0.0)
+            right_side = np.where(moving, (-rate * (energy - limit) - constant) / divisor, 1.0)
+            return rows[:, None, :], right_side[:, None]
+
+        return 1, barrier, ("self-motion energy barrier",)

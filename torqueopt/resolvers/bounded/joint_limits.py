@@ -175,9 +175,10 @@ def stopping_deceleration(terms: TaskTerms, torque_limit: np.ndarray) -> np.ndar
     r"""The maximum deceleration :math:`\bar a_i` [rad/s²] derived from the torque limits [N·m] and H at a state.
 
     :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`; inf where the torque is unbounded.
+    One state (n values) or, from :class:`~torqueopt.resolvers.stacks.StackTerms`, one row per state (B × n).
     """
     available = np.maximum(torque_limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * torque_limit)
-    return STOPPING_FRACTION * available / np.diag(terms.inertia)
+    return STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
 
 
 def _pick(candidates, choose):
@@ -193,7 +194,8 @@ def acceleration_bounds(
     r"""Del Prete's bounds on :math:`\ddot q` (module docstring) for joints at ``angle`` [rad], ``velocity`` [rad/s].
 
     All arguments are arrays of one value per joint (±inf where a joint has
-    no such limit), but ``step``, δ [s]. ``deceleration`` is :math:`\bar a`
+    no such limit), but ``step``, δ [s]; ``angle``, ``velocity`` and
+    ``deceleration`` may be stacks of states (B × joints), the limits broadcast along them. ``deceleration`` is :math:`\bar a`
     [rad/s²] (inf: the joint stops at once), ``acceleration_limit``
     :math:`\ddot q^{max}` [rad/s²] (inf: none).
     """
@@ -274,19 +276,24 @@ class JointLimits:
         return self.joints.size
 
     def __call__(self, terms: TaskTerms) -> AccelerationBounds:
-        """The bounds on q̈ of the limited joints at the state of ``terms``."""
+        """The bounds on q̈ of the limited joints at the state of ``terms``.
+
+        One state (:class:`~torqueopt.robot.TaskTerms`: arrays of one value per
+        limited joint) or a stack (:class:`~torqueopt.resolvers.stacks.StackTerms`:
+        B × limited joints), by the same element-wise formulas.
+        """
         joints = self.joints
         configuration = terms.configuration
         angles = configuration - self._neutral if self._euclidean else self.robot.joint_angles(configuration)
         if self.derived:
             deceleration = stopping_deceleration(terms, np.minimum(self.robot.torque_upper, -self.robot.torque_lower))[
-                joints
+                ..., joints
             ]
         else:
             deceleration = self._limit
         return acceleration_bounds(
-            angles[joints],
-            terms.joint_velocity[joints],
+            angles[..., joints],
+            terms.joint_velocity[..., joints],
             self.step,
             self._lower,
             self._upper,

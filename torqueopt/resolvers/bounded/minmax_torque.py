@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot, TaskTerms
-from .base import INFEASIBLE_OPTION, _BoundedResolver
+from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
-from .programs import BOUND_MARGIN, _MinMax, _RangeBasis
+from .programs import _EXIT_OPTIMAL, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
 
 __all__ = ["MinMaxTorque"]
 
@@ -50,3 +50,57 @@ class MinMaxTorque(_BoundedResolver):
             return y, tilde_torque + inertia_basis.dot(y)
 
         return optimum
+
+    def _stack_optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int) -> StackOptimum:
+        r""":meth:`_optimum`'s LP for every row of a stack at once, solved row by row.
+
+        The range basis is the Q of the thin QR :math:`HZ = QR` (any
+        orthonormal basis of the range serves; the single-state step takes
+        the SVD's U), so :math:`y = R^{-1}z`.
+        """
+        r, nb = robot.redundancy, spread.size
+        ceiling = 0.5 - BOUND_MARGIN  # the LP's t may exceed its true value by DAQP's tolerance
+        inverse_spread = 1.0 / spread
+        middle = midpoint[bounded]
+        total = 2 * nb + joint_rows_count
+        sign = np.r_[-np.ones(nb), np.ones(nb)][:, None]
+
+        def program():
+            rows = np.hstack([np.zeros((total, r)), np.r_[sign[:, 0], np.zeros(joint_rows_count)][:, None]])
+            upper = np.r_[np.zeros(nb), np.full(nb + joint_rows_count, np.inf)]
+            lower = np.r_[np.full(nb, -np.inf), np.zeros(nb), np.full(joint_rows_count, -np.inf)]
+            return _Program(np.zeros((r + 1, r + 1)), np.r_[np.zeros(r), 1.0], rows, upper, lower, linear=True)
+
+        def build(terms, basis, inertia_basis, tilde_torque, particular, joint_rows):
+            count = inertia_basis.shape[0]
+            range_rows, triangular = np.linalg.qr(inertia_basis)  # U (B, n, r) and R: HZ = U R
+            rows = np.zeros((count, total, r + 1))
+            upper = np.empty((count, total))
+            lower = np.empty((count, total))
+            scaled = range_rows[:, bounded] * inverse_spread[:, None]
+            rows[:, :nb, :r], rows[:, nb : 2 * nb, :r] = scaled, scaled
+            rows[:, : 2 * nb, r] = sign[:, 0]
+            # Row i: (U_i z − t) <= −c_i and (U_i z + t) >= −c_i, c_i = τ̃_i − τ_mid,i, divided by the range.
+            centre = (middle - tilde_torque[:, bounded]) * inverse_spread
+            upper[:, :nb], lower[:, :nb] = centre, -np.inf
+            upper[:, nb : 2 * nb], lower[:, nb : 2 * nb] = np.inf, centre
+            if joint_rows_count:
+                # τ = τ̃ + U z gives q̈ = p + H⁻¹U z: the joint limits' rows in z.
+                extra_rows, upper[:, 2 * nb :], lower[:, 2 * nb :] = joint_rows(
+                    particular, np.linalg.solve(terms.inertia, range_rows)
+                )
+                rows[:, 2 * nb :, :r] = extra_rows
+            return rows, upper, lower, triangular
+
+        def solve(program, problem, row):
+            rows, upper, lower, _ = problem
+            x, flag, _ = program.solve(A=rows[row], bupper=upper[row], blower=lower[row])
+            if flag != _EXIT_OPTIMAL or x[r] > ceiling:
+                return None
+            return x[:r]
+
+        def coordinates(problem, rows, solutions):
+            triangular = problem[3][rows]
+            return np.linalg.solve(triangular, solutions[..., None])[..., 0]  # R y = z: H Z y = U z
+
+        return StackOptimum(program, build, solve, coordinates)
