@@ -218,16 +218,18 @@ def test_a_killed_global_sweep_resumes_and_keeps_its_global_rows(global_atlas, t
     process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     chunks = out / "chunks"
     deadline = time.monotonic() + 120
-    # Chunks 0 and 1 are the resolvers', 2 and 3 the global optimum's (in that order without Dask).
+    # Chunks 0 and 1 are the resolvers' (paths 0-1, path 2), 2 and 3 the global optimum's of the same paths, sent
+    # path by path: 0, 2, 1, 3 (in that order without Dask).
     while time.monotonic() < deadline and process.poll() is None:
         if (chunks / "chunk-000002.parquet").is_file():
             break
         time.sleep(0.02)
     process.send_signal(signal.SIGKILL)
     process.wait()
-    landed = len(list(chunks.glob("chunk-*.parquet")))
-    assert landed == 3 and not (out / "results.parquet").exists()
+    landed = sorted(path.name for path in chunks.glob("chunk-*.parquet"))
+    assert landed[:2] == ["chunk-000000.parquet", "chunk-000002.parquet"] and len(landed) < 4
+    assert not (out / "results.parquet").exists()
     finished = subprocess.run(command, env=environment, capture_output=True, text=True, timeout=300, check=False)
     assert finished.returncode == 0, finished.stderr
-    assert "3 chunks resumed from an earlier run" in finished.stdout
+    assert f"{len(landed)} chunks resumed from an earlier run" in finished.stdout
     pandas.testing.assert_frame_equal(_table(out), _table(global_atlas.out))

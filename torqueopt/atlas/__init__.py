@@ -337,6 +337,9 @@ def run_atlas(
             jobs[index]["global"] = config["global"]
         elif margin:
             jobs[index]["margin"] = float(margin_every)
+    # Sent in the order of their first path, each resolver chunk before the global chunks of its paths: the paths
+    # finish in order, both halves of a path together, so a sweep stopped early leaves a whole prefix of paths.
+    jobs = dict(sorted(jobs.items(), key=lambda item: (item[1]["movements"][0].path, "global" in item[1])))
     done_paths = sum(len(chunks[index]) for index in done)
     if rejected:
         warnings.warn(
@@ -359,7 +362,7 @@ def run_atlas(
                     total_paths=len(movements) * (2 if global_optimum else 1),
                     done_paths=done_paths,
                     description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers"
-                    + (", then the global optimum of each (a path counted twice)" if global_optimum else ""),
+                    + (" and the global optimum of each (a path counted twice)" if global_optimum else ""),
                 )
             )
 

@@ -33,8 +33,9 @@ the same way. Only ``converged`` rows enter the ``*_vs_global`` ratios
 (:func:`add_global_ratios`); the others are counted in the report.
 
 A chunk of global rows is deterministic (the same movements give the same
-rows), except that a path which reaches ``max_time`` stops at a load-dependent
-iterate: its status says ``time limit``.
+rows: the solve's wall time is not a column, its iterations are), except that
+a path which reaches ``max_time`` stops at a load-dependent iterate: its
+status says ``time limit``.
 """
 
 from __future__ import annotations
@@ -105,7 +106,6 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
             "cost": run_cost(replayed, robot),
             "optimizer_status": solved.status,
             "optimizer_iterations": int(solved.iterations),
-            "optimizer_seconds": float(solved.solve_seconds),
             "optimizer_cost": float(solved.cost),
             "replay_tip_error": float(solved.replay_tip_error),
         }
