@@ -1,5 +1,5 @@
 """``torqueopt tune``: the choice against a brute-force pick, the evidence against the atlas's own rows,
-the screen against no screen, reproducibility, the options used back, and bad input."""
+dropping settings early against running them all, reproducibility, the options used back, and bad input."""
 
 # ruff: noqa: E402
 
@@ -25,7 +25,7 @@ from torqueopt.tune import tune, tuned_options
 
 GRID = {"kinematic_weight": (0.0, 0.5, 2.0, 8.0), "damping": (10.0,)}
 SMALL = {
-    "grid": GRID, "paths": 8, "screen_paths": 3, "durations": (0.3, 0.5), "seed": 0, "whiplash_bound": 0.5,
+    "grid": GRID, "paths": 8, "chunk_size": 4, "durations": (0.3, 0.5), "seed": 0, "whiplash_bound": 0.5,
     "workers": 0, "progress": False,
 }  # fmt: skip
 
@@ -48,9 +48,10 @@ def test_the_choice_is_the_brute_force_pick_from_the_evidence_table(tuned):
     written = json.loads((tuned.out / "tune.json").read_text())
     rows = written["settings"]
     assert len(rows) == 4 and written["chosen"] is not None
+    everywhere = written["pinv_handles"]  # a qualifying setting ran on every path pinv handles
     eligible = [
         row for row in rows
-        if row["pinv_handles"] and _wilson_upper(row["whips"], row["pinv_handles"]) <= 0.5
+        if row["pinv_handles"] == everywhere and _wilson_upper(row["whips"], row["pinv_handles"]) <= 0.5
         and row["over_limits"] == 0 and row["saving"] is not None and row["saving"] > 0
     ]  # fmt: skip
     assert [row["qualifies"] for row in rows] == [row in eligible for row in rows]
@@ -65,13 +66,19 @@ def test_the_choice_is_the_brute_force_pick_from_the_evidence_table(tuned):
 
 
 def test_the_evidence_is_the_atlas_rows_counted_again(tuned):
-    """Recount a fully-run setting's figures from the atlas's results.parquet, by the criteria's words."""
-    table = pandas.read_parquet(tuned.out / "atlas" / "results.parquet")
-    pinv = table[table["resolver"] == "pinv"].set_index("path")
+    """Recount a fully-run setting's figures from the rows on disk (pinv's atlas, the settings' chunks), by the
+    criteria's words."""
+    pinv = pandas.read_parquet(tuned.out / "pinv" / "results.parquet").set_index("path")
     handled = [p for p, row in pinv.iterrows() if row["verdict"] == "stable" and row["peak_torque_ratio"] <= 1]
+    table = pandas.concat(
+        [pandas.read_parquet(path) for path in sorted((tuned.out / "settings" / "chunks").glob("*.parquet"))]
+    )
+    assert sorted(set(table["path"])) == handled  # the settings ran on those paths and no other
+    counted = 0
     for row in tuned.settings:
-        if row["stage"] != "full":
+        if not row["stage"].startswith("all "):
             continue
+        counted += 1
         runs = table[table["resolver"] == row["label"]].set_index("path").loc[handled]
         assert row["pinv_handles"] == len(handled) > 0
         assert row["whips"] == int((runs["verdict"] == "whiplash").sum())
@@ -85,23 +92,24 @@ def test_the_evidence_is_the_atlas_rows_counted_again(tuned):
         middle = len(ratios) // 2
         median = ratios[middle] if len(ratios) % 2 else (ratios[middle - 1] + ratios[middle]) / 2
         assert row["saving"] == pytest.approx(1 - median, abs=1e-15)
+    assert counted >= 2
 
 
-def test_the_screen_drops_only_settings_the_full_atlas_would_fail(tmp_path, tuned):
-    """Without a screen every setting runs on every path: the same choice, the same figures for the survivors,
-    and each dropped setting fails on the full atlas too."""
-    unscreened = tune("planar3", "damped-null-space", out=tmp_path, **{**SMALL, "screen_paths": 0})
-    assert unscreened.chosen["options"] == tuned.chosen["options"]
-    full = {row["label"]: row for row in unscreened.settings}
-    dropped = [row for row in tuned.settings if row["stage"] == "screen"]
-    assert dropped  # the screen did drop something here
+def test_dropping_settings_early_changes_nothing(tmp_path, tuned):
+    """Without dropping, every setting runs on every path: the same choice, the same figures for the settings
+    that ran to the end, and each dropped setting fails on all the paths too."""
+    everything = tune("planar3", "damped-null-space", out=tmp_path, **{**SMALL, "eliminate": False})
+    assert everything.chosen["options"] == tuned.chosen["options"]
+    full = {row["label"]: row for row in everything.settings}
+    dropped = [row for row in tuned.settings if row["stage"].startswith("dropped")]
+    assert dropped  # something was dropped early here
     for row in tuned.settings:
-        if row["stage"] == "full":
+        if row in dropped:
+            assert not full[row["label"]]["qualifies"] and row["pinv_handles"] < full[row["label"]]["pinv_handles"]
+        else:
             assert {k: v for k, v in row.items() if k != "stage"} == {
                 k: v for k, v in full[row["label"]].items() if k != "stage"
             }
-        else:
-            assert not full[row["label"]]["qualifies"]
 
 
 def test_a_seeded_tune_reproduces_and_resumes(tmp_path, tuned):
@@ -145,7 +153,7 @@ def test_the_chosen_options_go_back_into_the_api_and_the_cli(tuned, planar3, cap
         (["--values", "damping=1", "--option", "damping=2"], "option damping is both held fixed and in the grid"),
         (["--values", "damping=" + ",".join(str(i) for i in range(1, 66))], "the grid has 65 settings"),
         (["--path", "square"], "--path: 'square' is not a kind of path for the atlas"),
-        (["--paths", "1000000", "--screen-paths", "0"], "the tune would simulate up to"),
+        (["--paths", "1000000"], "the tune would simulate up to"),
         (["--whiplash-bound", "2"], "whiplash_bound=2.0 must be a number in (0, 1]"),
     ],
 )  # fmt: skip
@@ -167,15 +175,16 @@ def test_a_folder_that_is_not_a_tunes_is_refused(tmp_path, capsys, tuned):
 
 
 def test_no_qualifying_setting_says_so_and_exits_4(tmp_path, capsys):
-    """A bound no count of these few paths can meet: every setting fails it, said in words, exit 4."""
-    code = main(["tune", "--robot", "planar3", "--values", "kinematic_weight=2", "--paths", "2", "--screen-paths", "0",
+    """A bound no count of these few paths can meet: no setting is run, the table says why, exit 4."""
+    code = main(["tune", "--robot", "planar3", "--values", "kinematic_weight=2", "--paths", "2",
                  "--durations", "0.3", "--whiplash-bound", "0.01", "--workers", "0", "--no-progress",
                  "--out", str(tmp_path)])  # fmt: skip
     captured = capsys.readouterr()
     assert code == 4 and "Traceback" not in captured.err
     assert "no setting of damped-null-space qualifies on planar3: see the table" in captured.out
     written = json.loads((tmp_path / "tune.json").read_text())
-    assert written["chosen"] is None and "whiplash upper bound" in written["settings"][0]["reason"]
+    assert written["chosen"] is None and "no whip at all needs 381 for the bound" in written["settings"][0]["reason"]
+    assert written["settings"][0]["stage"] == "not run" and not (tmp_path / "settings").exists()
     assert "**No setting qualifies**" in (tmp_path / "tune.md").read_text()
     with pytest.raises(InvalidInput, match="chose no setting"):
         tuned_options(tmp_path / "tune.json")

@@ -24,20 +24,21 @@ In the atlas's terms, on one arm with one population:
 Ties go to the setting listed first. A path a setting leaves by more than 1 mm (``lost path``, how bounded
 resolvers give way) is counted in the evidence but does not disqualify.
 
-Screening (exact, not a heuristic). The atlas's populations are nested: with the same seed, the first
-:math:`k` movements of a duration are the same for every ``paths`` :math:`\ge k` and whatever the other
-durations (each duration has its own stream of draws), and so are their ``pinv`` rows. :func:`tune`
-first runs every setting on the first ``screen_paths`` movements of the longest duration (where the
-whips and the joint-limit excursions build up; one batch, so it runs at the batched speed), and drops
-the settings that are already certain to fail: one that leaves a limit on a path of the screen's
-:math:`P` (which is part of the full :math:`P`), or whose screen whips alone give a Wilson upper bound above
-``whiplash_bound`` even over every movement of the full population (for a fixed count the upper bound only
-falls as the trials grow). The rest run on all ``paths``. The choice is the one the full grid would give;
-the evidence table shows each dropped setting with its screen's figures, which fail the criteria as they
-stand.
+How it runs, and why dropping settings early is exact. First ``pinv`` alone on the whole population (an
+atlas in ``out/pinv``): that gives :math:`P`, and the whiplash bound then says how many paths a setting
+needs at the least (381 for 1 %); with fewer in :math:`P` no setting can qualify, and none is run. Then
+the settings (with ``pinv`` beside them, the baseline of ``torque_vs_pinv``) run on the paths of
+:math:`P` only, longest movements first, in chunks of ``chunk_size``, a wave of chunks at a time. After
+each wave a setting is dropped when it is already certain to fail: it left a limit on a path of
+:math:`P` (one such path disqualifies), or its whips so far put the Wilson upper bound above the bound
+even with no more whips over all of :math:`P` (for a fixed count the upper bound only falls as the
+trials grow). Neither can be undone by the paths still to come, so the choice is the one every setting
+on every path would give (``eliminate=False`` runs that, and a test compares them); the table shows a
+dropped setting's figures on the paths it ran, which fail the criteria as they stand.
 
-Files in ``out``: ``tune-config.json`` (the settings; what lets a killed tune resume), ``screen/`` and
-``atlas/`` (the two atlases, each resumable), and at the end, together, ``tune.json`` (criteria, every
+Files in ``out``: ``tune-config.json`` (the settings; what lets a killed tune resume), ``pinv/`` (the
+baseline's atlas), ``settings/chunks/`` (each chunk of the settings' rows, with a fingerprint of the tune
+and of the settings it ran: a killed tune resumes from them), and at the end, together, ``tune.json`` (criteria, every
 setting's evidence, the choice) and ``tune.md`` (the evidence table and the flags that reproduce the choice).
 Nothing is written before every check has passed, and only into a folder that is new, empty or this tune's.
 """
@@ -62,7 +63,7 @@ from .resolvers.options import label_value
 __all__ = [
     "DEFAULT_GRIDS",
     "DEFAULT_PATHS",
-    "DEFAULT_SCREEN_PATHS",
+    "DEFAULT_CHUNK_SIZE",
     "MAX_SETTINGS",
     "WHIPLASH_BOUND",
     "TuneResult",
@@ -85,8 +86,8 @@ MAX_SETTINGS = 64
 #: A qualifying setting's whiplash rate on the paths pinv handles has a Wilson 95 % upper bound at most this.
 WHIPLASH_BOUND = 0.01
 DEFAULT_PATHS = 200
-DEFAULT_SCREEN_PATHS = 20
-#: Largest tune (trajectory-steps, screen and full atlas, every setting surviving) started without being told.
+DEFAULT_CHUNK_SIZE = 64
+#: Largest tune (trajectory-steps: pinv, then every setting surviving on every path) started without being told.
 DEFAULT_MAX_STEPS = 1_000_000_000
 BASELINE = "pinv"
 _FORMAT = 1
@@ -116,13 +117,13 @@ def tune(
     grid: dict | None = None,
     options: dict | None = None,
     paths: int = DEFAULT_PATHS,
-    screen_paths: int = DEFAULT_SCREEN_PATHS,
     durations=(0.5, 1.0, 1.5, 2.0),
     seed: int = 0,
     out: str | os.PathLike = "tune",
     whiplash_bound: float = WHIPLASH_BOUND,
     workers: int | None = None,
-    chunk_size: int | None = None,
+    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    eliminate: bool = True,
     accel: float | None = None,
     path: str = "line",
     dt: float = 1e-3,
@@ -137,8 +138,9 @@ def tune(
         grid: ``{option: values}``, the settings are every combination (at most ``MAX_SETTINGS``, 64);
             default :data:`DEFAULT_GRIDS` of the resolver.
         options: options held fixed in every setting (e.g. ``torque_weight="range"``).
-        paths: movements per duration of the full atlas; screen_paths: of the screen, of the longest duration
-            only (0: no screen).
+        paths: movements per duration.
+        chunk_size: paths (of those pinv handles) per chunk of the settings' runs; eliminate: drop a setting
+            as soon as a chunk shows it certain to fail (False: every setting on every path; the same choice).
         durations, seed, accel, path, dt: the population and the runs, as :func:`torqueopt.atlas.run_atlas`.
         out: the folder (new, empty, or this tune's to resume it).
         whiplash_bound: the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate.
@@ -158,19 +160,14 @@ def tune(
     name, settings, fixed = settings_grid(resolver, grid, options)
     grid_options = tuple(grid) if grid is not None else tuple(DEFAULT_GRIDS[name])
     paths = whole_number(paths, "paths", 1)
-    screen_paths = whole_number(screen_paths, "screen_paths", 0)
-    if screen_paths >= paths:
-        screen_paths = 0  # a screen as large as the atlas would only run it twice
+    chunk_size = whole_number(chunk_size, "chunk_size", 1)
     whiplash_bound = number_in_range(whiplash_bound, "whiplash_bound", 0.0, 1.0, low_open=True)
     population = PopulationSpec(paths=paths, durations=tuple(np.atleast_1d(durations).tolist()), seed=seed, path=path)
-    steps = sum(round(d / dt) + 1 for d in population.durations)
-    longest_steps = round(max(population.durations) / dt) + 1
-    total = (screen_paths * longest_steps + paths * steps) * (len(settings) + 1)
+    total = paths * sum(round(d / dt) + 1 for d in population.durations) * (len(settings) + 2)
     if total > max_steps:
         raise InvalidInput(
-            f"the tune would simulate up to {total:.3g} trajectory-steps ({len(settings)} settings and pinv on "
-            f"{screen_paths} paths of the longest duration and {paths} paths x {len(population.durations)} "
-            "durations), more than "
+            f"the tune would simulate up to {total:.3g} trajectory-steps (pinv, then {len(settings)} settings with "
+            f"pinv beside them, on {paths} paths x {len(population.durations)} durations), more than "
             f"max_steps={max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
         )
     out = writable_path(out, directory=True)
@@ -189,52 +186,48 @@ def tune(
             {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in settings
         ],
         "paths": paths,
-        "screen_paths": screen_paths,
         "durations": list(population.durations),
         "seed": population.seed,
         "accel": accel,
         "path": population.path,
         "dt": float(dt),
         "whiplash_bound": whiplash_bound,
+        "chunk_size": chunk_size,
+        "eliminate": bool(eliminate),
     }
     resume = _check_folder(out, config)
-    atlas_options = {
-        "durations": population.durations, "seed": population.seed, "accel": accel, "path": population.path,
-        "dt": dt, "workers": workers, "progress": progress, "figures": False,
-    }  # fmt: skip
-    if chunk_size is not None:
-        atlas_options["chunk_size"] = chunk_size
     if not resume:
         text = json.dumps(config, indent=2, sort_keys=True).encode()
         atomic_write(out / _CONFIG, lambda handle: handle.write(text))
 
-    survivors, screened = settings, {}
-    if screen_paths:
-        longest = (max(population.durations),)
-        screen = run_atlas(
-            spec, paths=screen_paths, resolvers=[BASELINE, *settings], out=out / "screen",
-            **{**atlas_options, "durations": longest},
+    # 1. pinv on the whole population: the paths it handles.
+    baseline = run_atlas(
+        spec, paths=paths, resolvers=[BASELINE], out=out / "pinv", durations=population.durations,
+        seed=population.seed, accel=accel, path=population.path, dt=dt, workers=workers, progress=progress,
+        figures=False,
+    )  # fmt: skip
+    atlas_config = baseline.summary["config"]
+    handled = handled_paths(baseline.table)
+    needed = least_trials(whiplash_bound)
+    labels = [setting.label for setting in settings]
+    if len(handled) < needed:
+        rows_by_label = {label: _not_run(label, len(handled), needed) for label in labels}
+    else:
+        # 2. The settings on those paths, longest movements first, chunk by chunk, each setting dropped as
+        # soon as it is certain to fail (the module docstring).
+        by_path = {movement.path: movement for movement in _draw(loaded, population)}  # run_atlas's draw
+        ordered = sorted(handled, key=lambda path: (-by_path[path].duration, path))
+        chunks = [[by_path[path] for path in ordered[i : i + chunk_size]] for i in range(0, len(ordered), chunk_size)]
+        rows_by_label = _run_settings(
+            spec, settings, chunks, handled, out / "settings", config, dt=dt, workers=workers,
+            progress=progress, whiplash_bound=whiplash_bound, eliminate=eliminate,
         )  # fmt: skip
-        full_movements = paths * len(population.durations)
-        for row in evidence(screen.table, [s.label for s in settings], whiplash_bound):
-            if _certain_to_fail(row, full_movements, whiplash_bound):
-                screened[row["label"]] = {**row, "stage": "screen"}
-        survivors = [s for s in settings if s.label not in screened]
-    rows_by_label = dict(screened)
-    atlas_summary = None
-    if survivors:
-        full = run_atlas(spec, paths=paths, resolvers=[BASELINE, *survivors], out=out / "atlas", **atlas_options)
-        atlas_summary = full.summary["config"]
-        for row in evidence(full.table, [s.label for s in survivors], whiplash_bound):
-            rows_by_label[row["label"]] = {**row, "stage": "full"}
     rows = []
     for setting in settings:
         row = rows_by_label[setting.label]
         row["options"] = {key: _json_value(value) for key, value in options_of(setting, grid_options, fixed).items()}
         row["flags"] = option_flags(name, row["options"])
         rows.append(row)
-    if atlas_summary is None and screen_paths:
-        atlas_summary = screen.summary["config"]
     chosen = choose(rows)
     summary = {
         "format": _FORMAT,
@@ -246,7 +239,10 @@ def tune(
             "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
             "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
         },
-        "atlas_config": atlas_summary,
+        "atlas_config": atlas_config,
+        "pinv_handles": len(handled),
+        "movements": len(baseline.table),
+        "least_paths_for_the_bound": needed,
         "settings": rows,
         "chosen": chosen,
     }
@@ -256,6 +252,97 @@ def tune(
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
     return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def handled_paths(table) -> list[int]:
+    """The paths pinv handles: its verdict ``stable`` and its peak |τ|/τ⁺ at most 1 (``table``: an atlas's rows)."""
+    pinv = table[table["resolver"] == BASELINE]
+    return sorted(int(p) for p in pinv.loc[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0), "path"])
+
+
+def least_trials(bound: float) -> int:
+    """The fewest paths on which no whip at all has a Wilson 95 % upper bound of at most ``bound``."""
+    from .atlas.stats import wilson_interval
+
+    z2 = 1.959963984540054**2
+    count = max(1, math.floor(z2 * (1.0 - bound) / bound) - 1)  # z²/(n + z²) <= bound, from just below
+    while wilson_interval(0, count)[1] > bound:
+        count += 1
+    return count
+
+
+def _draw(robot, population):
+    from .atlas.population import draw_population
+
+    return draw_population(robot, population)
+
+
+def _not_run(label: str, handled: int, needed: int) -> dict:
+    return {
+        "label": label, "paths": 0, "pinv_handles": 0, "whips": 0, "whip_rate": math.nan, "whip_low": math.nan,
+        "whip_high": math.nan, "over_torque": 0, "over_position": 0, "over_velocity": 0, "over_limits": 0,
+        "lost_path": 0, "median_torque_vs_pinv": math.nan, "saving": math.nan, "qualifies": False,
+        "reason": f"pinv handles {handled} paths; no whip at all needs {needed} for the bound", "stage": "not run",
+    }  # fmt: skip
+
+
+def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, workers, progress, whiplash_bound, eliminate):
+    """Every setting on the chunks of paths pinv handles, in order, dropping the certain failures between waves.
+
+    A wave is as many chunks as there are workers. Each chunk's rows are written (``folder/chunks``,
+    with a fingerprint of the tune, the chunk and the settings it ran), so a killed tune resumes.
+    """
+    import pandas
+
+    from .atlas.sweep import chunk_path, config_digest, executor, read_chunk, remove_partial_chunks, run_chunks
+    from .atlas.verdicts import Thresholds
+
+    alive = list(settings)
+    frames, dropped = [], {}
+    wave_size = (os.cpu_count() or 1) if workers is None else max(workers, 1)
+    tune_digest = config_digest(config)
+    done_paths = 0
+    with executor(None, workers) as client:
+        remove_partial_chunks(folder)
+        for start in range(0, len(chunks), wave_size):
+            if not alive:
+                break
+            resolvers = [get_resolver(BASELINE), *alive]
+            digest = config_digest({"tune": tune_digest, "settings": [r.label for r in resolvers]})
+            jobs = {}
+            for index in range(start, min(start + wave_size, len(chunks))):
+                frame = (
+                    read_chunk(chunk_path(folder, index), digest, index)[0]
+                    if chunk_path(folder, index).is_file()
+                    else None
+                )
+                if frame is not None:
+                    frames.append(frame)
+                    continue
+                jobs[index] = {
+                    "robot": spec, "resolvers": resolvers, "dt": float(dt), "thresholds": Thresholds().as_dict(),
+                    "batch": True, "digest": digest, "movements": chunks[index],
+                }  # fmt: skip
+            if jobs:
+                written = run_chunks(
+                    jobs, folder, client, progress=progress, total_paths=len(handled), done_paths=done_paths,
+                    description=f"torqueopt tune: {len(alive)} settings on the {len(handled)} paths pinv handles",
+                )  # fmt: skip
+                frames.extend(written[index] for index in sorted(written))
+            done_paths += sum(len(chunks[index]) for index in range(start, min(start + wave_size, len(chunks))))
+            if not eliminate:
+                continue
+            table = pandas.concat(frames, ignore_index=True)
+            for row in evidence(table, [s.label for s in alive], whiplash_bound, handled=handled):
+                if _certain_to_fail(row, len(handled), whiplash_bound):
+                    dropped[row["label"]] = {**row, "stage": f"dropped after {row['pinv_handles']} paths"}
+            alive = [s for s in alive if s.label not in dropped]
+    rows = dict(dropped)
+    if alive:
+        table = pandas.concat(frames, ignore_index=True)
+        for row in evidence(table, [s.label for s in alive], whiplash_bound, handled=handled):
+            rows[row["label"]] = {**row, "stage": f"all {len(handled)} paths"}
+    return rows
 
 
 def settings_grid(resolver: str, grid: dict | None, options: dict | None) -> tuple[str, list[Resolver], dict]:
@@ -312,18 +399,19 @@ def option_flags(resolver: str, options: dict) -> str:
     return " ".join([f"--resolver {resolver}", *(f"--option {key}={label_value(v)}" for key, v in options.items())])
 
 
-def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND) -> list[dict]:
+def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND, handled=None) -> list[dict]:
     """Every setting's figures on the paths pinv handles (see the module docstring), one dict per label.
 
+    ``handled``: those paths (default: from the pinv rows of ``table``, :func:`handled_paths`).
+
     Keys: ``label``, ``paths`` (movements), ``pinv_handles`` (the count of P), ``whips`` and ``whip_rate``, ``whip_low``,
-    ``whip_high`` (on P), ``whips_all_paths``, ``over_torque``, ``over_position``, ``over_velocity`` and
+    ``whip_high`` (on P), ``over_torque``, ``over_position``, ``over_velocity`` and
     ``over_limits`` (paths of P outside a limit), ``lost_path`` (on P), ``median_torque_vs_pinv``, ``saving``,
     ``qualifies`` and ``reason`` (the first criterion it fails, or None).
     """
     from .atlas.stats import wilson_interval
 
-    pinv = table[table["resolver"] == BASELINE].set_index("path")
-    handled = pinv.index[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0)]
+    handled = handled_paths(table) if handled is None else list(handled)
     rows = []
     for label in labels:
         runs = table[table["resolver"] == label].set_index("path")
@@ -345,7 +433,6 @@ def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND) -
             "whip_rate": whips / count if count else math.nan,
             "whip_low": low,
             "whip_high": high,
-            "whips_all_paths": int((runs["verdict"] == "whiplash").sum()),
             "over_torque": int(over_torque.sum()),
             "over_position": int(over_position.sum()),
             "over_velocity": int(over_velocity.sum()),
@@ -374,13 +461,13 @@ def _failed_criterion(row: dict, whiplash_bound: float) -> str | None:
     return "; ".join(failed) or None
 
 
-def _certain_to_fail(row: dict, full_movements: int, whiplash_bound: float) -> bool:
-    """True when a setting's screen already decides that it fails on the full atlas (see the module docstring)."""
+def _certain_to_fail(row: dict, handled: int, whiplash_bound: float) -> bool:
+    """True when the paths run so far already decide that a setting fails (see the module docstring)."""
     from .atlas.stats import wilson_interval
 
     if row["over_limits"]:
         return True
-    return bool(row["whips"]) and wilson_interval(row["whips"], full_movements)[1] > whiplash_bound
+    return bool(row["whips"]) and wilson_interval(row["whips"], handled)[1] > whiplash_bound
 
 
 def choose(rows: list[dict]) -> dict | None:
@@ -425,8 +512,9 @@ def write_markdown(summary: dict) -> str:
             f"{' (the default for this arm: √2 m/s² x reach / 3 m)' if config['accel'] is None else ''}, durations "
             f"{', '.join(f'{d:g}' for d in config['durations'])} s, {config['paths']} movements per duration, dt "
             f"{config['dt'] * 1e3:g} ms) of pinv and {len(config['grid'])} settings of {config['resolver']} (fixed "
-            f"options: {fixed}); a screen of the first {config['screen_paths']} movements of the longest duration first dropped the "
-            "settings it already showed to fail (`torqueopt.tune`)."
+            f"options: {fixed}): pinv on every movement, then the settings on the {summary['pinv_handles']} of the "
+            f"{summary['movements']} movements pinv handles, longest first, each dropped as soon as it was certain "
+            "to fail (`torqueopt.tune`)."
         ),
         "",
         "A setting qualifies when, on the paths pinv handles (its verdict stable, its peak |τ|/limit at most 1):",
@@ -434,7 +522,7 @@ def write_markdown(summary: dict) -> str:
         "the torque, position and velocity limits on every one of them; and its median peak |τ|/limit over "
         "pinv's is below 1. The chosen setting saves the most (saving = 1 − that median).",
         "",
-        "| setting | stage | paths pinv handles | whiplash [95 % CI] | over torque / position / velocity limits "
+        "| setting | stage | paths run (of those pinv handles) | whiplash [95 % CI] | over torque / position / velocity limits "
         "| lost path | median peak torque vs pinv | saving | qualifies |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
@@ -446,7 +534,7 @@ def write_markdown(summary: dict) -> str:
         limits = f"{row['over_torque']} / {row['over_position']} / {row['over_velocity']}"
         verdict = "**yes**" if row["qualifies"] else f"no: {row['reason']}"
         lines.append(
-            f"| {options} | {row['stage']} | {row['pinv_handles']} of {row['paths']} | {whiplash} | {limits} | "
+            f"| {options} | {row['stage']} | {row['pinv_handles']} | {whiplash} | {limits} | "
             f"{row['lost_path']} | {_number(row['median_torque_vs_pinv'])} | {_signed_percent(row['saving'])} | "
             f"{verdict} |"
         )

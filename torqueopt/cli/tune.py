@@ -15,7 +15,7 @@ __all__ = ["add_parser"]
 
 
 def add_parser(subparsers) -> None:
-    from ..tune import DEFAULT_GRIDS, DEFAULT_MAX_STEPS, DEFAULT_PATHS, DEFAULT_SCREEN_PATHS, MAX_SETTINGS
+    from ..tune import DEFAULT_CHUNK_SIZE, DEFAULT_GRIDS, DEFAULT_MAX_STEPS, DEFAULT_PATHS, MAX_SETTINGS
 
     grids = "; ".join(
         f"{name}: " + " x ".join(f"{option} {','.join(f'{v:g}' for v in values)}" for option, values in grid.items())
@@ -29,8 +29,8 @@ def add_parser(subparsers) -> None:
             "the largest median torque saving against pinv among those that, on the paths pinv handles (stable, "
             "within its torque limits), whip with a Wilson 95 %% upper bound of at most --whiplash-bound and stay "
             "within the torque, position and velocity limits wherever pinv does. Prints the --option flags that "
-            "reproduce it; writes tune.json and tune.md (the evidence table) into --out. A screen of "
-            "--screen-paths movements of the longest duration first drops the settings it shows to fail. Exit 4 when no setting "
+            "reproduce it; writes tune.json and tune.md (the evidence table) into --out. pinv runs first; the "
+            "settings then run on the paths it handles, longest first, each dropped once it is certain to fail. Exit 4 when no setting "
             f"qualifies. Default grids: {grids}."
         ),
     )
@@ -58,10 +58,11 @@ def add_parser(subparsers) -> None:
         "--paths", default=str(DEFAULT_PATHS), metavar="N", help=f"movements per duration (default {DEFAULT_PATHS})"
     )
     parser.add_argument(
-        "--screen-paths",
-        default=str(DEFAULT_SCREEN_PATHS),
+        "--chunk-size",
+        default=str(DEFAULT_CHUNK_SIZE),
         metavar="N",
-        help=f"movements of the longest duration in the screen (default {DEFAULT_SCREEN_PATHS}; 0: no screen)",
+        help=f"paths per chunk of the settings' runs; settings certain to fail are dropped between chunks "
+        f"(default {DEFAULT_CHUNK_SIZE})",
     )
     parser.add_argument(
         "--durations", default="0.5,1,1.5,2", metavar="T,...", help="movement durations [s] (default 0.5,1,1.5,2)"
@@ -88,7 +89,7 @@ def add_parser(subparsers) -> None:
         "--max-steps",
         default=f"{DEFAULT_MAX_STEPS:.0e}",
         metavar="N",
-        help="refuse tunes of more trajectory-steps, screen and atlas (default 1e9)",
+        help="refuse tunes of more trajectory-steps, pinv and every setting on every path (default 1e9)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     parser.set_defaults(handler=tune_command)
@@ -128,7 +129,7 @@ def tune_command(args: argparse.Namespace) -> int:
         grid=grid,
         options=options,
         paths=parse_whole(args.paths, "paths", 1),
-        screen_paths=parse_whole(args.screen_paths, "screen-paths"),
+        chunk_size=parse_whole(args.chunk_size, "chunk-size", 1),
         durations=tuple(parse_vector(args.durations, "durations").tolist()),
         seed=parse_whole(args.seed, "seed"),
         out=out,
