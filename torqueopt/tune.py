@@ -255,7 +255,7 @@ def tune(
 
 
 def handled_paths(table) -> list[int]:
-    """The paths pinv handles: its verdict ``stable`` and its peak |τ|/τ⁺ at most 1 (``table``: an atlas's rows)."""
+    """The paths pinv handles: its verdict ``stable`` and its peak torque ratio at most 1 (``table``: an atlas's rows)."""
     pinv = table[table["resolver"] == BASELINE]
     return sorted(int(p) for p in pinv.loc[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0), "path"])
 
