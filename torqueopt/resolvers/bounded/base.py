@@ -425,11 +425,14 @@ class StackOptimum:
     the numbers of every row (``joint_rows(offset, rows)``: the stacked rows on
     q̈ = offset + rows · x, None: none); ``solve(program, problem, row)`` one row's
     solution, None when infeasible; ``coordinates(problem, rows, solutions)`` the
-    null-space coordinates y (len(rows), r) of the solved rows.
+    null-space coordinates y (len(rows), r) of the solved rows. ``free(problem)``,
+    for a strictly convex QP, gives every row's unconstrained minimiser and
+    whether it meets every row's bounds: there it is the program's optimum, and
+    the row needs no solver call (None: every row is solved).
     """
 
-    def __init__(self, program, build, solve, coordinates=None):
-        self.program, self.build, self.solve = program, build, solve
+    def __init__(self, program, build, solve, coordinates=None, free=None):
+        self.program, self.build, self.solve, self.free = program, build, solve, free
         self.coordinates = coordinates if coordinates is not None else (lambda problem, rows, solutions: solutions)
 
 
@@ -527,7 +530,17 @@ class BoundedStackStep:
             )
             programs, solve, make = self.programs, optimum.solve, optimum.program
             solved, solutions, hard = [], [], []
-            for index, movement in enumerate(movements[kept].tolist()):
+            if optimum.free is not None:
+                # Rows whose unconstrained minimiser meets every bound: that is their optimum, no solver call.
+                free_solutions, inside = optimum.free(problem)
+                solved = np.flatnonzero(inside).tolist()
+                solutions = list(free_solutions[inside])
+                pending = np.flatnonzero(~inside).tolist()
+            else:
+                pending = range(kept.size)
+            kept_movements = movements[kept]
+            for index in pending:
+                movement = int(kept_movements[index])
                 program = programs.get(movement)
                 if program is None:
                     program = programs[movement] = make()
@@ -542,6 +555,7 @@ class BoundedStackStep:
                     solved.append(index)
                     solutions.append(solution)
             if solved:
+                solved = np.asarray(solved)
                 y = optimum.coordinates(problem, solved, np.array(solutions))
                 rows = kept[solved]
                 torque[rows] = tilde_torque[solved] + np.einsum("bij,bj->bi", inertia_basis[solved], y)  # Eq. (27)

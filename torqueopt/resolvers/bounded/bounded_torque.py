@@ -184,7 +184,17 @@ class BoundedTorque(_BoundedResolver):
             )
             return None if flag == _EXIT_INFEASIBLE else y
 
-        return StackOptimum(program, build, solve)
+        def free(problem):
+            # The Hessian is positive definite (S without zeros or μ > 0, class docstring): y = −H⁻¹f, the optimum
+            # wherever it meets every bound (DAQP's answer there, with no row active).
+            hessian, cost, rows, row_upper, row_lower = problem
+            y = -np.linalg.solve(hessian, cost[..., None])[..., 0]
+            values = np.einsum("bkr,br->bk", rows, y)
+            inside = ((values <= row_upper) & (values >= row_lower)).all(axis=1) & np.isfinite(y).all(axis=1)
+            return y, inside
+
+        definite = bool(relative_weight2) or bool((root != 0.0).all())
+        return StackOptimum(program, build, solve, free=free if definite else None)
 
 
 def _free_rows(count: int, columns: int):
