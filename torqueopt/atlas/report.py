@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
+from .arms import pinv_paths_markdown, pinv_paths_summary
 from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin_markdown, margin_summary
 from .global_optimum import GLOBAL_RESOLVER
 from .stats import CRITERIA, claims, proportion, unstable_fractions
@@ -58,6 +59,7 @@ def summarise(table, config: dict) -> dict:
         "verdicts": verdicts,
         "whips": whips,
         "torque": torque,
+        "pinv_paths": pinv_paths_summary(table),
     }
     # With --global and --margin: the frontier and the margin's record as a predictor (torqueopt.atlas.frontier).
     frontier, margins = global_summary(table), margin_summary(table)
@@ -128,6 +130,8 @@ def write_markdown(summary: dict) -> str:
     for resolver, counts in summary["verdicts"].items():
         median = summary["torque"][resolver]["median_torque_vs_pinv"]
         lines.append(f"| {resolver} | " + " | ".join(str(counts[v]) for v in VERDICTS) + f" | {median:.3g} |")
+    if summary.get("pinv_paths"):
+        lines += ["", *pinv_paths_markdown(summary["pinv_paths"])]
     if summary["whips"]:
         lines += ["", "## Where the whips happened", ""]
         for resolver, whip in summary["whips"].items():
@@ -176,7 +180,11 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
 
     made = {}
     resolvers = summary["resolvers"]
-    colours = {resolver: f"C{i}" for i, resolver in enumerate(resolvers)}
+    # Ten resolvers or fewer: the default cycle; more (every setting of every resolver): tab20, so none repeats.
+    colours = {
+        resolver: f"C{i}" if len(resolvers) <= 10 else plt.get_cmap("tab20")(i % 20)
+        for i, resolver in enumerate(resolvers)
+    }
 
     # 1. Unstable fraction against duration, per resolver, with Wilson intervals, for both criteria.
     figure, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)

@@ -1,0 +1,324 @@
+r"""On the paths ``pinv`` handles: which resolvers are stable, within every limit, and save torque; across arms.
+
+The question a user with a seven-joint arm asks of the atlas is "which
+resolver, with which settings, is safe on my arm, and what does it save?".
+:func:`pinv_paths_summary` answers it from one atlas's table, with the same
+definitions as ``torqueopt tune``:
+
+* the paths ``pinv`` handles, :math:`P`: those where ``pinv``'s verdict is
+  ``stable`` (within the 2x-limit rule, the joints' position and velocity
+  limits, on its path to 1 mm, completed) and its peak :math:`|\tau|/\tau^+`
+  is at most 1;
+* **stable**: the resolver's ``whiplash`` verdicts on :math:`P`, with the
+  Wilson 95 % interval; it passes when the upper end is at most 1 %
+  (:data:`WHIPLASH_BOUND`; with no whip at all that needs :math:`|P| \ge 381`);
+* **within all limits**: the paths of :math:`P` on which its peak
+  :math:`|\tau|/\tau^+` exceeds 1 or it passes a position or velocity limit
+  (``first_position_limit_violation``, ``first_velocity_limit_violation``),
+  with the Wilson interval; it passes when there is none (as pinv, which is
+  within them on every path of :math:`P` by definition);
+* **saving torque**: the median over :math:`P` of ``torque_vs_pinv`` (its peak
+  :math:`|\tau|/\tau^+` over pinv's on the same path), with the
+  distribution-free 95 % interval of a median (order statistics,
+  ``scipy.stats.quantile_test``); it passes when the median is below 1.
+
+The runs it loses the path on (``lost path``: more than 1 mm off, how the
+bounded resolvers give way) are counted beside, but decide nothing: the
+issue's bar is stability, the limits and the saving.
+
+:func:`summarise <torqueopt.atlas.report.summarise>` stores the result in
+``atlas.json`` under ``pinv_paths``; :func:`cross_arm_table` turns the
+``atlas.json`` of several arms into one Markdown table (the README's, checked
+by the tests against what it generates).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .stats import wilson_interval
+
+__all__ = [
+    "WHIPLASH_BOUND",
+    "cross_arm_table",
+    "load_summaries",
+    "merge_atlases",
+    "pinv_paths_markdown",
+    "pinv_paths_summary",
+    "readme_block",
+]
+
+BASELINE = "pinv"
+#: A resolver is stable on an arm when its whiplash rate on the paths pinv handles has a Wilson 95 % upper bound
+#: at most this.
+WHIPLASH_BOUND = 0.01
+#: The README's table sits between these two lines (what :func:`readme_block` replaces).
+BEGIN, END = "<!-- cross-arm table: begin -->", "<!-- cross-arm table: end -->"
+
+
+def _median_interval(values: np.ndarray) -> tuple[float, float, float]:
+    """(median, low, high): the median and its distribution-free 95 % interval (order statistics)."""
+    if not values.size:
+        return math.nan, math.nan, math.nan
+    median = float(np.median(values))
+    if values.size < 6:  # fewer than 6 values cannot bracket a median at 95 %
+        return median, math.nan, math.nan
+    from scipy.stats import quantile_test
+
+    interval = quantile_test(values, q=median, p=0.5).confidence_interval(confidence_level=0.95)
+    return median, float(interval.low), float(interval.high)
+
+
+def pinv_paths_summary(table) -> dict:
+    """Each resolver's figures on the paths pinv handles (see the module docstring).
+
+    Returns:
+        ``{"paths": movements, "pinv_handles": |P|, "resolvers": {label: {...}}}``; per label:
+        ``whips``, ``whip_rate``, ``whip_low``, ``whip_high``, ``stable``; ``over_limits`` (with
+        ``over_torque``, ``over_position``, ``over_velocity``), ``over_rate``, ``over_low``, ``over_high``,
+        ``within_limits``; ``median_torque_vs_pinv``, ``median_low``, ``median_high``, ``saves_torque``;
+        ``lost_path``; and ``meets_bar`` (all three).
+    """
+    pinv = table[table["resolver"] == BASELINE].set_index("path")
+    handled = pinv.index[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0)]
+    out = {"paths": int(table["path"].nunique()), "pinv_handles": len(handled), "resolvers": {}}
+    for label in dict.fromkeys(table["resolver"]):
+        runs = table[table["resolver"] == label].set_index("path")
+        on = runs.loc[runs.index.intersection(handled)]
+        count = len(on)
+        whips = int((on["verdict"] == "whiplash").sum())
+        whip_low, whip_high = wilson_interval(whips, count)
+        # A NaN peak (no applied torque) is not "within": only a number at most 1 is.
+        over_torque = ~(on["peak_torque_ratio"] <= 1.0)
+        over_position = on["first_position_limit_violation"].notna()
+        over_velocity = on["first_velocity_limit_violation"].notna()
+        over = int((over_torque | over_position | over_velocity).sum())
+        over_low, over_high = wilson_interval(over, count)
+        ratios = on["torque_vs_pinv"].to_numpy(dtype=float)
+        ratios = ratios[np.isfinite(ratios)]
+        median, low, high = _median_interval(ratios)
+        entry = {
+            "paths": count,
+            "whips": whips,
+            "whip_rate": whips / count if count else math.nan,
+            "whip_low": whip_low,
+            "whip_high": whip_high,
+            "stable": bool(count and whip_high <= WHIPLASH_BOUND),
+            "over_limits": over,
+            "over_torque": int(over_torque.sum()),
+            "over_position": int(over_position.sum()),
+            "over_velocity": int(over_velocity.sum()),
+            "over_rate": over / count if count else math.nan,
+            "over_low": over_low,
+            "over_high": over_high,
+            "within_limits": bool(count and over == 0),
+            "median_torque_vs_pinv": median,
+            "median_low": low,
+            "median_high": high,
+            "saves_torque": bool(math.isfinite(median) and median < 1.0),
+            "lost_path": int((on["verdict"] == "lost path").sum()),
+        }
+        entry["meets_bar"] = entry["stable"] and entry["within_limits"] and entry["saves_torque"]
+        out["resolvers"][label] = entry
+    return out
+
+
+def _percent(value: float) -> str:
+    if not math.isfinite(value):
+        return "–"
+    text = f"{100 * value:.1f}"
+    return text[:-2] if text.endswith(".0") else text
+
+
+def _whips(entry: dict) -> str:
+    return f"{_percent(entry['whip_rate'])} % [{_percent(entry['whip_low'])}, {_percent(entry['whip_high'])}]"
+
+
+def _over(entry: dict) -> str:
+    return f"{_percent(entry['over_rate'])} % [{_percent(entry['over_low'])}, {_percent(entry['over_high'])}]"
+
+
+def _median(entry: dict) -> str:
+    low, high = entry["median_low"], entry["median_high"]
+    interval = f" [{low:.3g}, {high:.3g}]" if math.isfinite(low) and math.isfinite(high) else ""
+    return f"{entry['median_torque_vs_pinv']:.3g}{interval}"
+
+
+def pinv_paths_markdown(block: dict) -> list[str]:
+    """The lines of atlas.md's section on the paths pinv handles: one row per resolver."""
+    lines = [
+        "## On the paths pinv handles",
+        "",
+        f"pinv handles {block['pinv_handles']} of {block['paths']} movements (its verdict stable and its peak "
+        "|τ|/τ⁺ at most 1). On those: a resolver is stable when its whiplash rate's 95 % upper bound is at most "
+        f"{WHIPLASH_BOUND:.0%}, within all limits when no run passes a torque, position or velocity limit, and "
+        "saves torque when its median peak torque ratio against pinv is below 1 (95 % interval of the median). "
+        "Lost path (more than 1 mm off) is counted, not judged.",
+        "",
+        "| resolver | whiplash [95 % CI] | outside a limit [95 % CI] (torque / position / velocity) | median peak "
+        "torque vs pinv [95 % CI] | lost path | stable, within limits, saving |",
+        "|---|---|---|---|---|---|",
+    ]
+    for label, entry in block["resolvers"].items():
+        marks = "".join("yes " if entry[key] else "no " for key in ("stable", "within_limits", "saves_torque"))
+        lines.append(
+            f"| {label} | {_whips(entry)} | {_over(entry)} ({entry['over_torque']} / {entry['over_position']} / "
+            f"{entry['over_velocity']}) | {_median(entry)} | {entry['lost_path']} | "
+            f"{'**all three**' if entry['meets_bar'] else marks.strip().replace(' ', ', ')} |"
+        )
+    return lines
+
+
+def cross_arm_table(summaries: dict[str, dict]) -> str:
+    """One Markdown table over arms from each arm's ``atlas.json`` summary (``{arm: summary}``, in that order).
+
+    One row per arm: the paths pinv handles; the resolvers stable there (whiplash's 95 % upper bound at most 1 %);
+    of those, the ones also within every limit on every such path; of those, the ones that save torque (median
+    peak torque ratio against pinv below 1, with its 95 % interval), best first; and the resolver nearest the
+    bar when none meets it (the fewest runs outside a limit among the stable ones that save torque).
+    """
+    lines = [
+        "| arm | paths pinv handles | stable: whiplash ≤ 1 % (95 % upper bound) | and within all limits "
+        "(torque, position, velocity) on every one | and saving torque: median peak vs pinv [95 % CI] |",
+        "|---|---|---|---|---|",
+    ]
+    for arm, summary in summaries.items():
+        block = summary["pinv_paths"]
+        entries = {label: e for label, e in block["resolvers"].items() if label != BASELINE}
+        stable = [label for label, e in entries.items() if e["stable"]]
+        within = [label for label in stable if entries[label]["within_limits"]]
+        saving = sorted(
+            (label for label in within if entries[label]["saves_torque"]),
+            key=lambda label: entries[label]["median_torque_vs_pinv"],
+        )
+        stable_text = ", ".join(f"`{label}`" for label in stable) or "none"
+        within_text = ", ".join(f"`{label}`" for label in within) or "none"
+        if saving:
+            saving_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in saving)
+        else:
+            # Nearest the bar: stable and saving torque, the fewest paths outside a limit.
+            near = sorted(
+                (label for label in stable if entries[label]["saves_torque"]),
+                key=lambda label: (entries[label]["over_limits"], entries[label]["median_torque_vs_pinv"]),
+            )
+            saving_text = "none" + (
+                f" (nearest: `{near[0]}` {_median(entries[near[0]])}, outside a limit on "
+                f"{_over(entries[near[0]])} of them)"
+                if near
+                else ""
+            )
+        lines.append(
+            f"| {arm} | {block['pinv_handles']} of {block['paths']} | {stable_text} | {within_text} | {saving_text} |"
+        )
+    return "\n".join(lines)
+
+
+def load_summaries(paths: dict[str, str | os.PathLike]) -> dict[str, dict]:
+    """``{arm: atlas.json's summary}`` from ``{arm: path of its atlas.json}``."""
+    return {arm: json.loads(Path(path).read_text()) for arm, path in paths.items()}
+
+
+def readme_block(text: str, table: str) -> str:
+    """``text`` with the lines between the markers ``BEGIN`` and ``END`` replaced by ``table``.
+
+    Raises:
+        ValueError: the markers are missing.
+    """
+    if BEGIN not in text or END not in text:
+        raise ValueError(f"the text has no '{BEGIN}' ... '{END}' block")
+    before, rest = text.split(BEGIN, 1)
+    after = rest.split(END, 1)[1]
+    return f"{before}{BEGIN}\n{table}\n{END}{after}"
+
+
+#: The settings two atlases must share to be merged into one (the same population, thresholds, step and robot).
+_SHARED = ("format", "robot", "robot_name", "task", "joint_names", "torque_limit", "population", "thresholds", "dt")
+
+
+def merge_atlases(folders, out: str | os.PathLike, *, figures: bool = True) -> dict:
+    """One atlas's report from several finished atlases of the same population that ran different resolvers.
+
+    A sweep that runs the cheap resolvers first and the costly ones later (each its own resumable atlas, both
+    with pinv, the baseline) ends as one report: the tables are joined (pinv's rows once, after checking that
+    every atlas's pinv rows are the same), summarised, and ``atlas.json``, ``atlas.md`` and (with ``figures``)
+    the figures are written into ``out``. No ``results.parquet`` and no explorer are written (each atlas keeps
+    its own).
+
+    Returns:
+        The merged summary.
+
+    Raises:
+        InvalidInput: an atlas that is missing or unfinished, or atlases that differ in a shared setting, in
+            their pinv rows, or that repeat a resolver.
+    """
+    import pandas
+
+    from ..errors import InvalidInput
+    from ..io import atomic_write, written_together
+    from . import _finite, _json_default
+    from .report import summarise, write_figures, write_markdown
+    from .sweep import RobotSpec
+
+    configs, tables = [], []
+    for folder in map(Path, folders):
+        try:
+            configs.append(json.loads((folder / "atlas-config.json").read_text()))
+            tables.append(pandas.read_parquet(folder / "results.parquet"))
+        except (OSError, ValueError) as error:
+            raise InvalidInput(f"'{folder}' holds no finished atlas ({error})") from None
+    first = configs[0]
+    for folder, config in zip(folders, configs):
+        differ = [key for key in _SHARED if config.get(key) != first.get(key)]
+        if differ:
+            raise InvalidInput(f"atlas '{folder}' differs from '{folders[0]}' in {', '.join(differ)}; cannot merge")
+    baseline = tables[0][tables[0]["resolver"] == BASELINE].reset_index(drop=True)
+    columns = [c for c in ("path", "verdict", "peak_torque_ratio", "max_tip_error") if c in baseline]
+    parts, labels, described = [tables[0]], list(dict.fromkeys(tables[0]["resolver"])), list(first["resolvers"])
+    for folder, config, table in zip(folders[1:], configs[1:], tables[1:]):
+        own = table[table["resolver"] == BASELINE].reset_index(drop=True)
+        if not own[columns].equals(baseline[columns]):
+            raise InvalidInput(f"atlas '{folder}' has other pinv rows than '{folders[0]}'; cannot merge")
+        others = [label for label in dict.fromkeys(table["resolver"]) if label != BASELINE]
+        repeated = sorted(set(others) & set(labels))
+        if repeated:
+            raise InvalidInput(f"atlas '{folder}' repeats {', '.join(repeated)}; cannot merge")
+        parts.append(table[table["resolver"] != BASELINE])
+        labels += others
+        described += [r for r in config["resolvers"] if r.get("label", r["name"]) != BASELINE]
+    merged = pandas.concat(parts, ignore_index=True, sort=False)
+    rank = {label: i for i, label in enumerate(labels)}
+    merged = merged.assign(_rank=merged["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")
+    merged = merged.drop(columns="_rank").reset_index(drop=True)
+    config = {**first, "resolvers": described, "merged_from": [str(Path(folder)) for folder in folders]}
+    summary = summarise(merged, config)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    robot = RobotSpec(**first["robot"]).load() if figures else None
+    with written_together():
+        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        atomic_write(out / "atlas.json", lambda handle: handle.write(text))
+        if figures:
+            summary["figures"] = write_figures(merged, summary, out, robot)
+        markdown = write_markdown(summary).encode()
+        atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
+    return summary
+
+
+def main(argv=None) -> int:
+    """``python -m torqueopt.atlas.arms README.md ARM=atlas.json ...``: rewrite the README's cross-arm table."""
+    import sys
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    readme, pairs = Path(args[0]), [arg.split("=", 1) for arg in args[1:]]
+    table = cross_arm_table(load_summaries(dict(pairs)))
+    readme.write_text(readme_block(readme.read_text(), table))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
