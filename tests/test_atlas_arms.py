@@ -23,6 +23,7 @@ from torqueopt.atlas.arms import (
     merge_atlases,
     pinv_paths_summary,
     readme_block,
+    write_arm_page,
 )
 from torqueopt.atlas.arms import _median_interval as median_interval
 from torqueopt.errors import InvalidInput
@@ -152,3 +153,19 @@ def test_two_atlases_merged_equal_one_that_ran_every_resolver(tmp_path):
         merge_atlases([tmp_path / "a", tmp_path / "d"], tmp_path / "n", figures=False)
     with pytest.raises(InvalidInput, match="repeats null-space; cannot merge"):
         merge_atlases([tmp_path / "a", tmp_path / "c"], tmp_path / "n", figures=False)
+
+
+@pytest.mark.slow
+def test_an_arms_page_shows_its_figures_and_the_commands_that_made_it(tmp_path):
+    pytest.importorskip("matplotlib")
+    settings = {"paths": 3, "durations": (0.3,), "seed": 5, "workers": 0, "progress": False, "figures": False}
+    run_atlas("planar3", resolvers=["pinv", "null-space"], out=tmp_path / "a", **settings)
+    run_atlas("planar3", resolvers=["pinv", "bounded-torque[joint_limits=off]"], out=tmp_path / "b", **settings)
+    page = write_arm_page([tmp_path / "a", tmp_path / "b"], "planar3", tmp_path / "docs")
+    text = page.read_text()
+    assert page == tmp_path / "docs" / "planar3.md" and not (tmp_path / "docs" / "planar3" / "atlas.md").exists()
+    for name in ("unstable_fraction.png", "instability_time.png", "tradeoff.png"):
+        assert f"](planar3/{name})" in text and (tmp_path / "docs" / "planar3" / name).is_file()
+    assert "--resolvers 'pinv,bounded-torque[joint_limits=off]'" in text and "--out a" in text
+    summary = json.loads((tmp_path / "docs" / "planar3" / "atlas.json").read_text())
+    assert summary["resolvers"] == ["pinv", "null-space", "bounded-torque[joint_limits=off]"]

@@ -51,6 +51,7 @@ __all__ = [
     "pinv_paths_markdown",
     "pinv_paths_summary",
     "readme_block",
+    "write_arm_page",
 ]
 
 BASELINE = "pinv"
@@ -309,11 +310,58 @@ def merge_atlases(folders, out: str | os.PathLike, *, figures: bool = True) -> d
     return summary
 
 
+def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas") -> Path:
+    """The docs' page of one arm's atlas: :func:`merge_atlases` of ``folders`` into ``docs/ARM/`` (atlas.json and
+    the figures), and ``docs/ARM.md``: its atlas.md with the figures shown and the commands that made it."""
+    docs = Path(docs)
+    folder = docs / arm
+    merge_atlases(folders, folder)
+    text = (folder / "atlas.md").read_text()
+    (folder / "atlas.md").unlink()
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("- ") and line.endswith(".png`"):
+            title, name = line[2:].rsplit(": `", 1)
+            line = f"![{title}]({arm}/{name[:-1]})"
+        lines.append(line)
+    commands = []
+    for path in map(Path, folders):
+        config = json.loads((path / "atlas-config.json").read_text())
+        population = config["population"]
+        labels = ",".join(r.get("label", r["name"]) for r in config["resolvers"])
+        durations = ",".join(f"{d:g}" for d in population["durations"])
+        commands.append(
+            f"torqueopt atlas --robot {config['robot']['source']} --task {config['task']} --paths "
+            f"{population['paths']} --durations {durations} --seed {population['seed']} --path {population['path']} "
+            f"--resolvers '{labels}' --workers 2 --out {path.name}"
+        )
+    lines += [
+        "",
+        "## How it was made",
+        "",
+        f"{len(commands)} atlases of the same population (the same seed, paths, durations and acceleration: "
+        "their pinv rows are the same), merged by `torqueopt.atlas.arms.merge_atlases`; the summary is "
+        f"`{arm}/atlas.json`:",
+        "",
+        "```text",
+        *commands,
+        "```",
+        "",
+    ]
+    page = docs / f"{arm}.md"
+    page.write_text("\n".join(lines))
+    return page
+
+
 def main(argv=None) -> int:
-    """``python -m torqueopt.atlas.arms README.md ARM=atlas.json ...``: rewrite the README's cross-arm table."""
+    """``python -m torqueopt.atlas.arms readme README.md ARM=atlas.json ...``: rewrite the README's cross-arm table;
+    ``python -m torqueopt.atlas.arms page ARM DOCS FOLDER ...``: write an arm's page (:func:`write_arm_page`)."""
     import sys
 
-    args = list(sys.argv[1:] if argv is None else argv)
+    command, *args = list(sys.argv[1:] if argv is None else argv)
+    if command == "page":
+        write_arm_page(args[2:], args[0], args[1])
+        return 0
     readme, pairs = Path(args[0]), [arg.split("=", 1) for arg in args[1:]]
     table = cross_arm_table(load_summaries(dict(pairs)))
     readme.write_text(readme_block(readme.read_text(), table))
