@@ -32,7 +32,8 @@ the settings (with ``pinv`` beside them, the baseline of ``torque_vs_pinv``) run
 each wave a setting is dropped when it is already certain to fail: it left a limit on a path of
 :math:`P` (one such path disqualifies), or its whips so far put the Wilson upper bound above the bound
 even with no more whips over all of :math:`P` (for a fixed count the upper bound only falls as the
-trials grow). Neither can be undone by the paths still to come, so the choice is the one every setting
+trials grow), or more than half of all of :math:`P` has already cost it at least ``pinv``'s peak torque
+(then so does the median). None can be undone by the paths still to come, so the choice is the one every setting
 on every path would give (``eliminate=False`` runs that, and a test compares them); the table shows a
 dropped setting's figures on the paths it ran, which fail the criteria as they stand.
 
@@ -281,7 +282,7 @@ def _not_run(label: str, handled: int, needed: int) -> dict:
     return {
         "label": label, "paths": 0, "pinv_handles": 0, "whips": 0, "whip_rate": math.nan, "whip_low": math.nan,
         "whip_high": math.nan, "over_torque": 0, "over_position": 0, "over_velocity": 0, "over_limits": 0,
-        "lost_path": 0, "median_torque_vs_pinv": math.nan, "saving": math.nan, "qualifies": False,
+        "lost_path": 0, "not_below_pinv": 0, "median_torque_vs_pinv": math.nan, "saving": math.nan, "qualifies": False,
         "reason": f"pinv handles {handled} paths; no whip at all needs {needed} for the bound", "stage": "not run",
     }  # fmt: skip
 
@@ -406,7 +407,8 @@ def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND, h
 
     Keys: ``label``, ``paths`` (movements), ``pinv_handles`` (the count of P), ``whips`` and ``whip_rate``, ``whip_low``,
     ``whip_high`` (on P), ``over_torque``, ``over_position``, ``over_velocity`` and
-    ``over_limits`` (paths of P outside a limit), ``lost_path`` (on P), ``median_torque_vs_pinv``, ``saving``,
+    ``over_limits`` (paths of P outside a limit), ``lost_path`` (on P), ``not_below_pinv`` (paths where
+    ``torque_vs_pinv`` is not below 1), ``median_torque_vs_pinv``, ``saving``,
     ``qualifies`` and ``reason`` (the first criterion it fails, or None).
     """
     from .atlas.stats import wilson_interval
@@ -438,6 +440,7 @@ def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND, h
             "over_velocity": int(over_velocity.sum()),
             "over_limits": int((over_torque | over_position | over_velocity).sum()),
             "lost_path": int((on_handled["verdict"] == "lost path").sum()),
+            "not_below_pinv": int((~(ratios < 1.0)).sum()),
             "median_torque_vs_pinv": median,
             "saving": 1.0 - median,
         }
@@ -466,6 +469,9 @@ def _certain_to_fail(row: dict, handled: int, whiplash_bound: float) -> bool:
     from .atlas.stats import wilson_interval
 
     if row["over_limits"]:
+        return True
+    # More than half of all the paths at or above pinv's torque: the median is too, whatever the rest do.
+    if row["not_below_pinv"] > handled / 2:
         return True
     return bool(row["whips"]) and wilson_interval(row["whips"], handled)[1] > whiplash_bound
 
