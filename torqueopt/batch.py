@@ -2,7 +2,8 @@ r"""Many movements advanced together: the engine on a batch axis, and :func:`tor
 
 :func:`simulate_batch` runs B movements of one robot and one resolver side
 by side, one time step for the whole batch at a time, through the engine's
-three pieces:
+one loop body (:func:`torqueopt.engine.run_movements`, the loop of
+``simulate`` too) with the stacked forms of its pieces (:class:`MovementStack`):
 
 * a terms provider (:mod:`torqueopt.terms`): :math:`H`,
   :math:`b = \dot q\cdot C\cdot\dot q + g`, :math:`J`, :math:`\dot J\dot q`
@@ -43,6 +44,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
+from .engine import run_movements
 from .errors import InvalidInput
 from .integrators import HeldTorqueRK4
 from .linalg import inverse_condition_number
@@ -225,9 +227,7 @@ def simulate_batch(
     if getattr(resolver, "level", None) == "velocity":
         return _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras)
 
-    n, m = robot.nv, robot.m
     q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(count, robot.nq)
-    v = np.zeros((count, n))
     references, descriptions = [], []
     for i, line in enumerate(trajectories):
         check_trajectory(line)
@@ -237,144 +237,198 @@ def simulate_batch(
         descriptions.append(describe(line))
         references.append(ReferenceBlocks(robot, line, dt, steps))
 
-    step = resolver.batch_solver(robot, dt)
-    integrator = HeldTorqueRK4(robot, dt, threads=threads)
-    if isinstance(step, LoopedStackStep):
-        # A single-state step row by row gains nothing from stacks: simulate's own terms and RK4, row by row.
-        provider, advance = PinocchioTerms(robot, integrator.data), integrator.step_rows
-    else:
-        provider, advance = terms_provider(robot, count), integrator.step_stack
-    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-    logs = _Logs(count, n, robot.nq, m, extras)
-    recorded = np.zeros(count, dtype=int)
-    stop_reason: list[str | None] = [None] * count
-    stop_time: list[float | None] = [None] * count
-    limiting: list[dict] = [{} for _ in range(count)]
+    lanes = MovementStack(robot, resolver, q, dt, steps, references, threads, extras, max_torque_ratio, max_joint_speed)
+    run_movements(lanes, steps)
+    results = lanes.results(duration, descriptions)
+    return (results, lanes.extras()) if extras else results
 
-    active = np.arange(count)  # movement index of each batch row
-    start = 0
-    while active.size and start <= steps:
-        samples = [reference.block(start) for reference in references]
-        block_times = samples[0][0]
+
+class MovementStack:
+    """The engine's lanes for B movements at the torque level: (B, ...) stacks (see :mod:`torqueopt.engine`).
+
+    The stacked forms of the engine's pieces: the forest's terms
+    (:class:`~torqueopt.terms.ForestTerms`), the resolver's step on stacks
+    (:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`),
+    :meth:`HeldTorqueRK4.step_stack <torqueopt.integrators.HeldTorqueRK4.step_stack>`,
+    time-major logs grown a block at a time and the ceiling tests of
+    :class:`~torqueopt.run_log.StopRules` on stacks. A resolver whose step is its
+    single-state one looped row by row gains nothing from stacked terms: it gets
+    ``simulate``'s own terms and RK4, row by row, so its runs equal ``simulate``'s
+    bit for bit. Row r of every stack is movement ``active[r]``; a movement that
+    stops leaves the stacks.
+    """
+
+    resolves_final = False
+
+    def __init__(
+        self, robot: Robot, resolver: Resolver, q: np.ndarray, dt: float, steps: int, references: list,
+        threads: int, extras: bool, max_torque_ratio: float, max_joint_speed: float,
+    ):  # fmt: skip
+        count = q.shape[0]
+        self.robot, self.resolver, self.dt, self.steps, self.references = robot, resolver, dt, steps, references
+        self.count, self.with_extras = count, extras
+        self.q, self.v = q, np.zeros((count, robot.nv))
+        self.solve = resolver.batch_solver(robot, dt)
+        integrator = HeldTorqueRK4(robot, dt, threads=threads)
+        if isinstance(self.solve, LoopedStackStep):
+            self.provider, self.advance = PinocchioTerms(robot, integrator.data), integrator.step_rows
+        else:
+            self.provider, self.advance = terms_provider(robot, count), integrator.step_stack
+        #: The terms provider's ``(q, v) -> (StackTerms, task positions)``.
+        self.terms = self.provider.terms
+        self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
+        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
+        self.recorded = np.zeros(count, dtype=int)
+        self.stop_reason: list[str | None] = [None] * count
+        self.stop_time: list[float | None] = [None] * count
+        self.limiting: list[dict] = [{} for _ in range(count)]
+        self.active = np.arange(count)  # movement index of each batch row
+        self.running = count > 0
+        self.where = slice(None)  # the rows of the running movements: plain slicing while none has stopped
+        self._keep = None
+
+    def block(self, start: int) -> list[float]:
+        samples = [reference.block(start) for reference in self.references]
+        self.start = start
         # Time-major: [step, movement, coordinate].
-        reference_acceleration = np.ascontiguousarray(
+        self.reference_acceleration = np.ascontiguousarray(
             np.swapaxes(np.array([sample.acceleration for _, sample in samples]), 0, 1)
         )
-        log = logs.grow(len(block_times))
-        for j, t in enumerate(block_times.tolist()):
-            k = start + j
-            size = active.size
-            if size == 0:
-                break
-            where = slice(None) if size == count else active  # plain slicing while no movement has stopped
-            terms, x = provider.terms(q, v)
-            # Every state is recorded (q, v, x, inverse_condition); torque and q̈ only where the resolver ran.
-            log["q"][j, where] = q
-            log["v"][j, where] = v
-            log["x"][j, where] = x
-            recorded[where] = k + 1
-            if k == steps:
-                # The final state: the movement is over, no torque is applied from it (NaN rows, as simulate).
-                log["jacobian_inverse_condition"][j, where] = inverse_condition_number(terms.jacobian)
-                if extras:
-                    log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
-                        terms.inertia, v, jacobian=terms.jacobian
-                    )
-                break
-            resolution = step(terms, reference_acceleration[j, where], active)
-            torque, joint_acceleration = resolution.torque, resolution.joint_acceleration
-            failures = resolution.failures or {}
-            if extras:
-                log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = _step_energies(
-                    terms, resolution, v
-                )
-            log["jacobian_inverse_condition"][j, where] = resolution.jacobian_inverse_condition
-            if resolution.task_error is not None:
-                log["task_error"][j, where] = resolution.task_error
-                log["infeasible"][j, where] = resolution.infeasible
-            for row, bounds in (resolution.limiting or {}).items():
-                limiting[int(active[row])][k] = bounds
-            if failures:
-                failed = np.zeros(size, dtype=bool)
-                failed[list(failures)] = True
-                resolved = ~failed
-                log["acceleration"][j, active[resolved]] = joint_acceleration[resolved]
-                log["tau"][j, active[resolved]] = torque[resolved]
-                log["task_error"][j, active[failed]] = 0.0
-                log["infeasible"][j, active[failed]] = False
-                over = resolved & rules.torques_over(torque)
+        self.log = self.logs.grow(len(samples[0][0]))
+        return samples[0][0].tolist()
+
+    def command(self, j: int, terms, x):
+        return self.reference_acceleration[j, self.where]
+
+    def _record_state(self, j: int, q, v, x) -> None:
+        """Every state is recorded (q, v, x); torque and q̈ only where the resolver ran."""
+        where, log = self.where, self.log
+        log["q"][j, where] = q
+        log["v"][j, where] = v
+        log["x"][j, where] = x
+        self.recorded[where] = self.start + j + 1
+
+    def resolve(self, terms, command, j: int):
+        return self.solve(terms, command, self.active)
+
+    def record(self, j: int, t: float, q, v, x, terms, resolution) -> bool:
+        self._record_state(j, q, v, x)
+        log, where, active, rules = self.log, self.where, self.active, self.rules
+        torque, joint_acceleration = resolution.torque, resolution.joint_acceleration
+        failures = resolution.failures or {}
+        if self.with_extras:
+            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = _step_energies(terms, resolution, v)
+        log["jacobian_inverse_condition"][j, where] = resolution.jacobian_inverse_condition
+        if resolution.task_error is not None:
+            log["task_error"][j, where] = resolution.task_error
+            log["infeasible"][j, where] = resolution.infeasible
+        k = self.start + j
+        for row, bounds in (resolution.limiting or {}).items():
+            self.limiting[int(active[row])][k] = bounds
+        if failures:
+            failed = np.zeros(active.size, dtype=bool)
+            failed[list(failures)] = True
+            resolved = ~failed
+            log["acceleration"][j, active[resolved]] = joint_acceleration[resolved]
+            log["tau"][j, active[resolved]] = torque[resolved]
+            log["task_error"][j, active[failed]] = 0.0
+            log["infeasible"][j, active[failed]] = False
+            stopping = failed | (resolved & rules.torques_over(torque))
+        else:
+            log["acceleration"][j, where] = joint_acceleration
+            log["tau"][j, where] = torque
+            stopping = rules.torques_over(torque)
+        if not stopping.any():
+            return False
+        for row in np.flatnonzero(stopping).tolist():
+            movement = int(active[row])
+            if row in failures:
+                self.stop_reason[movement] = rules.unresolved(failures[row], t)
             else:
-                failed = None
-                log["acceleration"][j, where] = joint_acceleration
-                log["tau"][j, where] = torque
-                over = rules.torques_over(torque)
-            stopping = over if failed is None else (failed | over)
-            if stopping.any():
-                for row in np.flatnonzero(stopping).tolist():
-                    movement = int(active[row])
-                    if row in failures:
-                        stop_reason[movement] = rules.unresolved(failures[row], t)
-                    else:
-                        # The torque that ends the run stays in the result: peaks and verdicts count it.
-                        stop_reason[movement] = rules.torque(torque[row], t)
-                    stop_time[movement] = t
-                keep = ~stopping
-                active, q, v = active[keep], q[keep], v[keep]
-                torque, joint_acceleration = torque[keep], joint_acceleration[keep]
-                if active.size == 0:
-                    break
+                # The torque that ends the run stays in the result: peaks and verdicts count it.
+                self.stop_reason[movement] = rules.torque(torque[row], t)
+            self.stop_time[movement] = t
+        self._keep = ~stopping
+        return True
 
-            # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
-            q, v = advance(q, v, torque, joint_acceleration)
-            fast = rules.speeds_over(v)
-            if fast.any():
-                for row in np.flatnonzero(fast).tolist():
-                    movement = int(active[row])
-                    stop_reason[movement] = rules.speed(v[row], t, dt)
-                    stop_time[movement] = t + dt
-                keep = ~fast
-                active, q, v = active[keep], q[keep], v[keep]
-        start += len(block_times)
-
-    results = []
-    joint_limits = joint_limits_record(*robot.joint_limits)
-    options = resolver.settings_for_file()
-    times = dt * np.arange(int(recorded.max()))
-    for i in range(count):
-        length = int(recorded[i])
-        results.append(
-            build_result(
-                robot,
-                resolver,
-                q=logs.column("q", i, length),
-                v=logs.column("v", i, length),
-                acceleration=logs.column("acceleration", i, length),
-                tau=logs.column("tau", i, length),
-                x=logs.column("x", i, length),
-                jacobian_inverse_condition=logs.column("jacobian_inverse_condition", i, length),
-                times=times,
-                reference_position=references[i].positions(),
-                dt=dt,
-                duration=duration,
-                stop_reason=stop_reason[i],
-                stop_time=stop_time[i],
-                trajectory=descriptions[i],
-                task_error=logs.column("task_error", i, length),
-                infeasible=logs.column("infeasible", i, length),
-                limiting=limiting[i],
-                joint_limits=joint_limits,
-                resolver_options=options,
+    def record_final(self, j: int, q, v, x, terms) -> None:
+        # No torque is applied from the final state (NaN rows, as simulate).
+        self._record_state(j, q, v, x)
+        log, where = self.log, self.where
+        log["jacobian_inverse_condition"][j, where] = inverse_condition_number(terms.jacobian)
+        if self.with_extras:
+            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
+                terms.inertia, v, jacobian=terms.jacobian
             )
-        )
-    if not extras:
+
+    def compact(self, q, v, resolution):
+        keep = self._keep
+        self.active = self.where = self.active[keep]
+        self.running = self.active.size > 0
+        if resolution is not None:
+            resolution = resolution._replace(
+                torque=resolution.torque[keep], joint_acceleration=resolution.joint_acceleration[keep]
+            )
+        return q[keep], v[keep], resolution
+
+    def step(self, q, v, resolution, j: int, t: float):
+        # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
+        q, v = self.advance(q, v, resolution.torque, resolution.joint_acceleration)
+        fast = self.rules.speeds_over(v)
+        if not fast.any():
+            return q, v, False
+        for row in np.flatnonzero(fast).tolist():
+            movement = int(self.active[row])
+            self.stop_reason[movement] = self.rules.speed(v[row], t, self.dt)
+            self.stop_time[movement] = t + self.dt
+        self._keep = ~fast
+        return q, v, True
+
+    def results(self, duration: float, descriptions: list[dict]) -> list[SimResult]:
+        """One :class:`SimResult` per movement from the logs."""
+        robot, dt, logs, recorded = self.robot, self.dt, self.logs, self.recorded
+        joint_limits = joint_limits_record(*robot.joint_limits)
+        options = self.resolver.settings_for_file()
+        times = dt * np.arange(int(recorded.max()))
+        results = []
+        for i in range(self.count):
+            length = int(recorded[i])
+            results.append(
+                build_result(
+                    robot,
+                    self.resolver,
+                    q=logs.column("q", i, length),
+                    v=logs.column("v", i, length),
+                    acceleration=logs.column("acceleration", i, length),
+                    tau=logs.column("tau", i, length),
+                    x=logs.column("x", i, length),
+                    jacobian_inverse_condition=logs.column("jacobian_inverse_condition", i, length),
+                    times=times,
+                    reference_position=self.references[i].positions(),
+                    dt=dt,
+                    duration=duration,
+                    stop_reason=self.stop_reason[i],
+                    stop_time=self.stop_time[i],
+                    trajectory=descriptions[i],
+                    task_error=logs.column("task_error", i, length),
+                    infeasible=logs.column("infeasible", i, length),
+                    limiting=self.limiting[i],
+                    joint_limits=joint_limits,
+                    resolver_options=options,
+                )
+            )
         return results
-    more = [
-        BatchExtras(
-            logs.column("kinetic_energy", i, int(recorded[i])), logs.column("self_motion_energy", i, int(recorded[i]))
-        )
-        for i in range(count)
-    ]
-    return results, more
+
+    def extras(self) -> list[BatchExtras]:
+        """One :class:`BatchExtras` per movement from the logs."""
+        logs, recorded = self.logs, self.recorded
+        return [
+            BatchExtras(
+                logs.column("kinetic_energy", i, int(recorded[i])),
+                logs.column("self_motion_energy", i, int(recorded[i])),
+            )
+            for i in range(self.count)
+        ]
 
 
 def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras):

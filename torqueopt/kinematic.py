@@ -38,6 +38,9 @@ motion is the kinematic one. A run stops, keeping what it computed, where
 the method is undefined (a singular task Jacobian, an algorithmic
 singularity of the extended Jacobian), or where joint speeds or torques
 pass the same ceilings as :func:`torqueopt.simulate`.
+
+The loop is the engine's (:func:`torqueopt.engine.run_movements`), with the
+velocity level's pieces (:class:`KinematicMovement`).
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ import numpy as np
 import pinocchio as pin
 
 from .checks import configuration_vector, finite_vector, positive_number, trajectory_dimension, velocity_vector
+from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian
 from .integrators import VelocityRK4
 from .result import SimResult
@@ -132,102 +136,150 @@ def simulate_kinematic(
     # Reference at every step start and mid-step (RK4 evaluates f at t, t + h/2 and t + h), a block at a time.
     reference = ReferenceBlocks(robot, trajectory, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK)
 
-    task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
-    kinematics = Kinematics(robot)
-    rates = resolver.rate_function(robot, task)
-    gain = resolver.position_gain
-    integrate = robot.integrate
-    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-    torque_ceiling, speed_ceiling = rules.torque_ceiling, rules.speed_ceiling
-    # The block's rows, refreshed as the run goes; sample ``index`` of the run is row ``index - offset``.
-    block = {"offset": 0, "end": 0}
+    lanes = KinematicMovement(
+        robot, resolver, trajectory, q, dt, steps, reference, reference_rotation,
+        StopRules(robot, max_torque_ratio, max_joint_speed),
+    )  # fmt: skip
+    run_movements(lanes, steps)
+    return lanes.result(duration, dexterity)
 
-    def load(index: int) -> None:
-        """Sample the block that starts at ``index`` (even: a step start), with its step's mid and end samples."""
-        _, sample = reference.block(index)
-        block.update(
-            offset=index,
-            end=index + len(sample.position),
-            position=sample.position,
-            velocity=sample.velocity,
-            acceleration=sample.acceleration,
-        )
 
-    def command(index: int) -> np.ndarray:
-        """c(t, q) at the reference sample ``index`` (half steps), with kinematics at q."""
-        row = index - block["offset"]
-        if gain == 0.0:
-            return block["velocity"][row]
-        return block["velocity"][row] + gain * (block["position"][row] - task.value(kinematics))
+class KinematicMovement:
+    """The engine's lanes for one movement of a velocity-level resolver (see :mod:`torqueopt.engine`).
 
-    def f(configuration: np.ndarray, index: int):
-        kinematics.update(configuration)
-        return rates(kinematics, command(index))
+    The state is q alone (the joint rates are f(q, t)); the "terms" are the
+    kinematics at q; the resolver's step gives q̇ = f(q, t), q̈ and the
+    inverse-dynamics torque (see the module docstring), also at the final
+    sample; the integrator is :class:`~torqueopt.integrators.VelocityRK4`. The
+    reference is sampled on the half-step grid RK4 reads (sample 2k at t_k,
+    2k + 1 mid-step), a block of steps at a time with each step's own mid and
+    end samples.
+    """
 
-    integrator = VelocityRK4(robot, f, dt)
-    log = []
-    x_ref = []
-    stop_reason = stop_time = None
-    for k in range(steps + 1):
-        t = dt * k
-        index = 2 * k
-        if index + 2 >= block["end"] and block["end"] <= 2 * steps:
-            # A new block from this step start: it holds the step's own mid and end samples too.
-            load(index)
-        row = index - block["offset"]
-        x_ref.append(block["position"][row])
+    resolves_final = True
+
+    def __init__(
+        self, robot: Robot, resolver, trajectory, q, dt: float, steps: int, reference: ReferenceBlocks,
+        reference_rotation, rules: StopRules,
+    ):  # fmt: skip
+        self.robot, self.resolver, self.trajectory, self.dt, self.steps = robot, resolver, trajectory, dt, steps
+        self.reference, self.rules = reference, rules
+        self.q, self.v = q, None
+        self.running = True
+        self.stop_reason: str | None = None
+        self.stop_time: float | None = None
+        self.log: list[tuple] = []
+        self.x_ref: list[np.ndarray] = []
+        self.task = task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
+        self.kinematics = kinematics = Kinematics(robot)
+        self.rates = rates = resolver.rate_function(robot, task)
+        self.gain = gain = resolver.position_gain
+        self.zero = np.zeros(robot.m)
+        self.offset = 0
+
+        def f(configuration: np.ndarray, index: int):
+            """f(q, t) at the reference sample ``index`` of the block (half steps)."""
+            kinematics.update(configuration)
+            velocity = self.velocity[index]
+            if gain != 0.0:
+                velocity = velocity + gain * (self.position[index] - task.value(kinematics))
+            return rates(kinematics, velocity)
+
+        self.f = f
+        self.integrator = VelocityRK4(robot, f, dt)
+
+    def block(self, start: int) -> list[float]:
+        # The block's steps: those whose end sample it holds, and the final sample once it holds it.
+        _, sample = self.reference.block(2 * start)
+        self.position, self.velocity, self.acceleration = sample.position, sample.velocity, sample.acceleration
+        samples = len(sample.position)
+        stop = start + (samples - 1) // 2 + (2 * start + samples - 1 == 2 * self.steps)
+        self.x_ref.extend(sample.position[0 : 2 * (stop - start) : 2])
+        return (self.dt * np.arange(start, stop)).tolist()
+
+    def terms(self, q, v):
+        kinematics = self.kinematics.update(q)
+        return kinematics, self.task.value(kinematics)
+
+    def command(self, j: int, kinematics, x):
+        """c(t, q) at the step's sample, with the kinematics at q."""
+        if self.gain == 0.0:
+            return self.velocity[2 * j]
+        return self.velocity[2 * j] + self.gain * (self.position[2 * j] - x)
+
+    def resolve(self, kinematics, command, j: int):
+        rates, f, index = self.rates, self.f, 2 * j
+        q = kinematics.q  # the differences below move the kinematics off q
         try:
-            velocity, inverse_condition = f(q, index)
-            x = task.value(kinematics)
+            velocity, inverse_condition = rates(kinematics, command)
             # ∂f/∂c ∂c/∂t, exact for a map affine in c
-            time_rate = block["acceleration"][row] + gain * block["velocity"][row]
-            homogeneous = rates(kinematics, np.zeros(robot.m))[0]
+            time_rate = self.acceleration[index] + self.gain * self.velocity[index]
+            homogeneous = rates(kinematics, self.zero)[0]
             acceleration = rates(kinematics, time_rate)[0] - homogeneous
             speed = float(np.linalg.norm(velocity))
             if speed > 0.0:
                 # ∂f/∂q q̇ by a central difference along q̇/|q̇|, at the same reference sample
+                integrate = self.robot.integrate
                 direction = velocity / speed
                 forward = f(integrate(q, DIFFERENCE_STEP * direction), index)[0]
                 backward = f(integrate(q, -DIFFERENCE_STEP * direction), index)[0]
                 acceleration = acceleration + speed * (forward - backward) / (2.0 * DIFFERENCE_STEP)
         except SingularJacobian as error:
-            stop_reason, stop_time = rules.unresolved(error, t), t
-            break
-        torque = integrator.torque(q, velocity, acceleration)  # Eq. (20) on the motion
-        # The row that passes a ceiling stays in the result: peaks and verdicts count it.
-        log.append((q, velocity, acceleration, torque, x, inverse_condition))
-        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= speed_ceiling):
-            stop_reason, stop_time = rules.rates(velocity, t), t
-            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
-            break
-        if not (np.isfinite(torque).all() and (np.abs(torque) <= torque_ceiling).all()):
-            stop_reason, stop_time = rules.torque(torque, t), t
-            stop_reason = _with_diagnosis(stop_reason, resolver, kinematics.update(q), task)
-            break
-        if k == steps:
-            break
-        try:
-            q = integrator.step(q, velocity, index)
-        except SingularJacobian as error:
-            stop_reason, stop_time = rules.unresolved_during_step(error, t), t
-            break
+            return error
+        torque = self.integrator.torque(q, velocity, acceleration)  # Eq. (20) on the motion
+        return torque, acceleration, velocity, inverse_condition
 
-    # the kinematic motion realises the task velocity itself: nothing is given up
-    return run_result(
-        robot,
-        resolver,
-        log,
-        dt * np.arange(len(log)),
-        np.array(x_ref).reshape(-1, robot.m),
-        dt=dt,
-        duration=duration,
-        stop_reason=stop_reason,
-        stop_time=stop_time,
-        trajectory=trajectory,
-        task_error=np.zeros(len(log)),
-        infeasible=np.zeros(len(log), dtype=bool),
-        dexterity=dexterity,
-    )
+    def record(self, j: int, t: float, q, v, x, kinematics, resolution) -> bool:
+        rules = self.rules
+        if isinstance(resolution, Exception):
+            self.stop_reason, self.stop_time = rules.unresolved(resolution, t), t
+            return True
+        torque, acceleration, velocity, inverse_condition = resolution
+        # The row that passes a ceiling stays in the result: peaks and verdicts count it.
+        self.log.append((q, velocity, acceleration, torque, x, inverse_condition))
+        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= rules.speed_ceiling):
+            self.stop_reason, self.stop_time = self._diagnosed(rules.rates(velocity, t), q), t
+            return True
+        if not (np.isfinite(torque).all() and (np.abs(torque) <= rules.torque_ceiling).all()):
+            self.stop_reason, self.stop_time = self._diagnosed(rules.torque(torque, t), q), t
+            return True
+        return False
+
+    def _diagnosed(self, reason: str, q) -> str:
+        return _with_diagnosis(reason, self.resolver, self.kinematics.update(q), self.task)
+
+    def record_final(self, j: int, q, v, x, terms) -> None:
+        raise AssertionError("the velocity level resolves its final sample")
+
+    def compact(self, q, v, resolution):
+        self.running = False
+        return q, v, resolution
+
+    def step(self, q, v, resolution, j: int, t: float):
+        try:
+            return self.integrator.step(q, resolution[2], 2 * j), v, False
+        except SingularJacobian as error:
+            self.stop_reason, self.stop_time = self.rules.unresolved_during_step(error, t), t
+            return q, v, True
+
+    def result(self, duration: float, dexterity: bool) -> SimResult:
+        """The run's :class:`SimResult`; the kinematic motion realises the task velocity itself: nothing is given up."""
+        log = self.log
+        return run_result(
+            self.robot,
+            self.resolver,
+            log,
+            self.dt * np.arange(len(log)),
+            np.array(self.x_ref).reshape(-1, self.robot.m),
+            dt=self.dt,
+            duration=duration,
+            stop_reason=self.stop_reason,
+            stop_time=self.stop_time,
+            trajectory=self.trajectory,
+            task_error=np.zeros(len(log)),
+            infeasible=np.zeros(len(log), dtype=bool),
+            dexterity=dexterity,
+        )
 
 
 def _anchored(robot: Robot, trajectory, placement: pin.SE3):

@@ -13,6 +13,10 @@ A run stops early, keeping every row computed so far, when the task Jacobian
 becomes singular, when a torque or the state stops being finite, or when the
 motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
 ``max_torque_ratio`` times its limit).
+
+The loop is the engine's (:func:`torqueopt.engine.run_movements`, the same
+loop body as the batch's and the velocity-level methods'), with the B = 1
+forms of its pieces (:class:`OneMovement`).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from .checks import (
     trajectory_dimension,
     velocity_vector,
 )
+from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
 from .integrators import plant_stepper, rk4_step
 from .linalg import inverse_condition_number
@@ -198,104 +203,145 @@ def simulate(
     # The reference a block of steps at a time, so memory follows the steps taken, not the duration asked for.
     reference = ReferenceBlocks(robot, trajectory, dt, steps)
 
-    n = robot.nv
-    # One test per vector and step, all(|value| <= ceiling), on plain lists (cheaper than numpy at this size).
-    rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-    torque_ceiling, speed_ceiling = rules.torque_ceiling.tolist(), [rules.speed_ceiling] * n
-    within = partial(map, operator.le)
-    # Built once per run: the resolver's per-robot constants and workspaces.
-    solve = resolver.solver_for_run(robot, dt)
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
-    data = robot.model.createData()
-    advance = plant_stepper(plant, robot, dt, data)
-    terms_at = PinocchioTerms(robot, data).one  # the engine's terms provider for B = 1
-    task_coordinates = partial(robot.task_coordinates, reference_rotation=reference_rotation)
-    # Position tasks read x straight off the step's placement, a fresh SE3 that nothing writes again.
-    position_rows = None if robot.task == "pose" else robot.task_rows
-
-    # One tuple per recorded step (q, v, q̈, τ, x, σmin/σmax): appending is far
-    # cheaper than writing six rows into preallocated arrays, and every array
-    # in it is fresh at each step, so nothing is overwritten later.
-    log = []
-    # (row, task error, infeasible, limiting bounds) of the rows whose task was not realised exactly:
-    # most resolvers never give any up, so the common row costs one test.
-    shortfalls = []
-    stop_reason = None
-    stop_time = None
-    not_applied = np.full(n, np.nan)
-    start = 0
-    while stop_reason is None and start <= steps:
-        block_times, sample = reference.block(start)
-        ref_position, ref_velocity = sample.position, sample.velocity
-        # A list of row views: indexing a list costs far less than indexing an array.
-        command_rows = list(sample.acceleration)
-        final = steps - start  # the block's index of the final state (past the block until the last one)
-        for j, t in enumerate(block_times.tolist()):
-            terms = terms_at(q, v)
-            placement = terms.placement
-            x = task_coordinates(placement) if position_rows is None else placement.translation[position_rows]
-            if j == final:
-                # The final state: the movement is over, so no torque is applied from it.
-                log.append((q, v, not_applied, not_applied, x, inverse_condition_number(terms.jacobian)))
-                break
-            command = command_rows[j]
-            if feedback is not None:
-                command = (
-                    command
-                    + feedback.kd * (ref_velocity[j] - terms.task_velocity)
-                    # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
-                    # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
-                    + feedback.kp * (ref_position[j] - x)
-                )
-            try:
-                tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = solve(terms, command)
-            except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
-                stop_reason, stop_time = rules.unresolved(error, t), t
-                log.append((q, v, not_applied, not_applied, x, inverse_condition_number(terms.jacobian)))
-                break
-            if task_error or infeasible:
-                shortfalls.append((len(log), task_error, infeasible, limiting))
-            log.append((q, v, joint_acceleration, tau, x, inverse_condition))
-            if not all(within(map(abs, tau.tolist()), torque_ceiling)):
-                # The torque that ends the run stays in the result: peaks and verdicts count it.
-                stop_reason, stop_time = rules.torque(tau, t), t
-                break
-            q, v = advance(q, v, tau, joint_acceleration)
-            # RK4 weighs every stage acceleration that moves q into v as well, so a
-            # finite v after the step means a finite q.
-            if not all(within(map(abs, v.tolist()), speed_ceiling)):
-                stop_reason, stop_time = rules.speed(v, t, dt), t + dt
-                break
-        start += len(block_times)
-
-    task_error_log = np.zeros(len(log))
-    infeasible_log = np.zeros(len(log), dtype=bool)
-    limiting_log = {}
-    for row, task_error, infeasible, limiting in shortfalls:
-        task_error_log[row], infeasible_log[row] = task_error, infeasible
-        if limiting:
-            limiting_log[row] = limiting
-    result = run_result(
-        robot,
-        resolver,
-        log,
-        dt * np.arange(len(log)),
-        reference.positions(),
-        dt=dt,
-        duration=duration,
-        stop_reason=stop_reason,
-        stop_time=stop_time,
-        trajectory=trajectory,
-        task_error=task_error_log,
-        infeasible=infeasible_log,
-        limiting=limiting_log,
-        dexterity=dexterity,
-        plant=plant.record(),
-    )
+    lanes = OneMovement(
+        robot, resolver, trajectory, q, v, dt, steps, reference, reference_rotation, feedback,
+        StopRules(robot, max_torque_ratio, max_joint_speed), plant, robot.model.createData(),
+    )  # fmt: skip
+    run_movements(lanes, steps)
+    result = lanes.result(duration, dexterity, plant.record())
     if margin:
         result = with_margins(robot, resolver.solver_for_run(robot, dt), result, trajectory, feedback)
     return result
+
+
+class OneMovement:
+    """The engine's lanes for B = 1 at the torque level: one state as plain vectors (see :mod:`torqueopt.engine`).
+
+    The B = 1 forms of the engine's pieces: the terms of Pinocchio on one
+    data (:class:`~torqueopt.terms.PinocchioTerms`), the resolver's
+    single-state step (a step that raises ends the movement), the plant's
+    step (:func:`~torqueopt.integrators.plant_stepper`), a log of one tuple
+    per step and the ceiling tests on plain lists (cheaper than numpy at this
+    size).
+    """
+
+    resolves_final = False
+
+    def __init__(
+        self, robot: Robot, resolver: Resolver, trajectory: Trajectory, q, v, dt: float, steps: int,
+        reference: ReferenceBlocks, reference_rotation, feedback: Feedback | None, rules: StopRules, plant, data,
+    ):  # fmt: skip
+        self.robot, self.resolver, self.trajectory, self.dt, self.reference = robot, resolver, trajectory, dt, reference
+        self.q, self.v, self.feedback, self.rules = q, v, feedback, rules
+        self.running = True
+        self.stop_reason: str | None = None
+        self.stop_time: float | None = None
+        # One tuple per recorded step (q, v, q̈, τ, x, σmin/σmax): appending is far
+        # cheaper than writing six rows into preallocated arrays, and every array
+        # in it is fresh at each step, so nothing is overwritten later.
+        self.log: list[tuple] = []
+        # (row, task error, infeasible, limiting bounds) of the rows whose task was not realised exactly:
+        # most resolvers never give any up, so the common row costs one test.
+        self.shortfalls: list[tuple] = []
+        self.not_applied = np.full(robot.nv, np.nan)
+        # One test per vector and step, all(|value| <= ceiling), on plain lists.
+        self.torque_ceiling = rules.torque_ceiling.tolist()
+        self.speed_ceiling = [rules.speed_ceiling] * robot.nv
+        self.within = partial(map, operator.le)
+        # Built once per run: the resolver's per-robot constants and workspaces.
+        self.solve = resolver.solver_for_run(robot, dt)
+        self.advance = plant_stepper(plant, robot, dt, data)
+        #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
+        self.terms = PinocchioTerms(robot, data).with_position(reference_rotation)
+        self.command = self._command if feedback is not None else self._reference_command
+
+    def block(self, start: int) -> list[float]:
+        block_times, sample = self.reference.block(start)
+        self.reference_position, self.reference_velocity = sample.position, sample.velocity
+        # A list of row views: indexing a list costs far less than indexing an array.
+        self.command_rows = list(sample.acceleration)
+        return block_times.tolist()
+
+    def _reference_command(self, j: int, terms, x):
+        return self.command_rows[j]
+
+    def _command(self, j: int, terms, x):
+        feedback = self.feedback
+        return (
+            self.command_rows[j]
+            + feedback.kd * (self.reference_velocity[j] - terms.task_velocity)
+            # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
+            # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
+            + feedback.kp * (self.reference_position[j] - x)
+        )
+
+    def resolve(self, terms, command, j: int):
+        try:
+            return self.solve(terms, command)
+        except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
+            return error
+
+    def record(self, j: int, t: float, q, v, x, terms, resolution) -> bool:
+        log = self.log
+        if isinstance(resolution, Exception):
+            self.stop_reason, self.stop_time = self.rules.unresolved(resolution, t), t
+            log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
+            return True
+        tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = resolution
+        if task_error or infeasible:
+            self.shortfalls.append((len(log), task_error, infeasible, limiting))
+        log.append((q, v, joint_acceleration, tau, x, inverse_condition))
+        if not all(self.within(map(abs, tau.tolist()), self.torque_ceiling)):
+            # The torque that ends the run stays in the result: peaks and verdicts count it.
+            self.stop_reason, self.stop_time = self.rules.torque(tau, t), t
+            return True
+        return False
+
+    def record_final(self, j: int, q, v, x, terms) -> None:
+        self.log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
+
+    def compact(self, q, v, resolution):
+        self.running = False
+        return q, v, resolution
+
+    def step(self, q, v, resolution, j: int, t: float):
+        q, v = self.advance(q, v, resolution[0], resolution[1])
+        # RK4 weighs every stage acceleration that moves q into v as well, so a
+        # finite v after the step means a finite q.
+        if not all(self.within(map(abs, v.tolist()), self.speed_ceiling)):
+            self.stop_reason, self.stop_time = self.rules.speed(v, t, self.dt), t + self.dt
+            return q, v, True
+        return q, v, False
+
+    def result(self, duration: float, dexterity: bool, plant: dict) -> SimResult:
+        """The run's :class:`SimResult` from what was recorded."""
+        log = self.log
+        task_error_log = np.zeros(len(log))
+        infeasible_log = np.zeros(len(log), dtype=bool)
+        limiting_log = {}
+        for row, task_error, infeasible, limiting in self.shortfalls:
+            task_error_log[row], infeasible_log[row] = task_error, infeasible
+            if limiting:
+                limiting_log[row] = limiting
+        return run_result(
+            self.robot,
+            self.resolver,
+            log,
+            self.dt * np.arange(len(log)),
+            self.reference.positions(),
+            dt=self.dt,
+            duration=duration,
+            stop_reason=self.stop_reason,
+            stop_time=self.stop_time,
+            trajectory=self.trajectory,
+            task_error=task_error_log,
+            infeasible=infeasible_log,
+            limiting=limiting_log,
+            dexterity=dexterity,
+            plant=plant,
+        )
 
 
 def with_margins(robot: Robot, step, result: SimResult, trajectory: Trajectory, feedback: Feedback | None):

@@ -38,6 +38,31 @@ class PinocchioTerms:
         #: ``(q, v) -> TaskTerms`` of one state; its inertia and bias are views of the data (see Robot.terms_function).
         self.one = robot.terms_function(self.data)
 
+    def with_position(self, reference_rotation: np.ndarray | None = None):
+        """``(q, v) -> (TaskTerms, x)``: :attr:`one` and the task coordinates x of the state.
+
+        The B = 1 form of :meth:`terms`, what :func:`torqueopt.simulate` calls at
+        every step. Position tasks read x straight off the frame's placement, a
+        fresh SE3 that nothing writes again; ``pose`` gets
+        :meth:`Robot.task_coordinates` about ``reference_rotation``.
+        """
+        robot, one = self.robot, self.one
+        if robot.task == "pose":
+            task_coordinates = robot.task_coordinates
+
+            def terms_with_pose(q: np.ndarray, v: np.ndarray):
+                terms = one(q, v)
+                return terms, task_coordinates(terms.placement, reference_rotation)
+
+            return terms_with_pose
+        rows = robot.task_rows
+
+        def terms_with_position(q: np.ndarray, v: np.ndarray):
+            terms = one(q, v)
+            return terms, terms.placement.translation[rows]
+
+        return terms_with_position
+
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, nq) and (B, n) stacks, one state at a time."""
         robot, one = self.robot, self.one
