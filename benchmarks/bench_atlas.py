@@ -17,7 +17,7 @@ interleaved round by round so the shared machine's load hits all alike:
 
 Also measured once: the task terms per movement by simulate's own calls (one
 movement at a time) against the batch's forest
-(:class:`torqueopt.forest.RobotForest`), and the batch against simulate on
+(:class:`torqueopt.robot_copies.RobotForest`), and the batch against simulate on
 panda (n = 7) to show how the cost grows with the number of joints.
 
 ``--count`` instead counts instructions with valgrind's callgrind (figures
@@ -55,7 +55,7 @@ from torqueopt.atlas import PopulationSpec, draw_population
 from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds
 from torqueopt.batch import simulate_batch
-from torqueopt.forest import RobotForest
+from torqueopt.robot_copies import RobotForest
 
 BEGIN, END = "<!-- bench_atlas:begin -->", "<!-- bench_atlas:end -->"
 PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])

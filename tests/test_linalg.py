@@ -6,8 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from torqueopt.batch_resolvers import complete_qr, two_rows
 from torqueopt.linalg import JacobianSolver, inverse_condition_number, inverse_condition_number_of
+from torqueopt.resolvers.stacks import complete_qr, two_row_qr
 from torqueopt.self_motion import self_motion, self_motion_energy
 
 
@@ -43,7 +43,7 @@ def test_the_batch_factorisations_report_the_same_inverse_condition(joints, rng)
     relative_error = np.abs(complete_qr(matrices, residual, joints > 2)[2] / ratios - 1.0)
     assert (relative_error <= 4e-16 / ratios**2 + 1e-12).all()
     if joints <= 3:  # the closed form of the planar arm's two-row task
-        np.testing.assert_allclose(two_rows(matrices, residual, joints > 2)[2], ratios, rtol=1e-8)
+        np.testing.assert_allclose(two_row_qr(matrices, residual, joints > 2)[2], ratios, rtol=1e-8)
 
 
 def least_energy(inertia, jacobian, velocity):

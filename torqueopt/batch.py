@@ -8,7 +8,7 @@ one loop body (:func:`torqueopt.engine.run_movements`, the loop of
 * a terms provider (:mod:`torqueopt.terms`): :math:`H`,
   :math:`b = \dot q\cdot C\cdot\dot q + g`, :math:`J`, :math:`\dot J\dot q`
   and the task position of every running movement, from the forest of
-  :mod:`torqueopt.forest` (a few Pinocchio calls per pass of many states);
+  :mod:`torqueopt.robot_copies` (a few Pinocchio calls per pass of many states);
 * the resolver's step on stacks (:meth:`Resolver.batch_solver
   <torqueopt.resolvers.base.Resolver.batch_solver>`): vectorised for the
   paper's resolvers and the remedies, the single-state step row by row for
@@ -17,8 +17,8 @@ one loop body (:func:`torqueopt.engine.run_movements`, the loop of
   torque held, the resolver's :math:`\ddot q` as its first stage, the other
   three stages of the whole stack by one ``pin.abaInParallel`` call each;
 
-with the stop rules and messages of :class:`torqueopt.run_log.StopRules` and
-the results of :func:`torqueopt.run_log.build_result`, as ``simulate``. The
+with the stop rules and messages of :class:`torqueopt.stop_rules.StopRules` and
+the results of :func:`torqueopt.run_records.build_result`, as ``simulate``. The
 tests hold each of its runs to the matching ``simulate`` run to 1e-9, for
 every registered resolver.
 
@@ -52,10 +52,11 @@ from .resolvers import Resolver, get_resolver
 from .resolvers.stacks import LoopedStackStep
 from .result import SimResult, joint_limits_record
 from .robot import Robot
-from .run_log import REFERENCE_BLOCK, ReferenceBlocks, StopRules, build_result
+from .run_records import REFERENCE_BLOCK, ReferenceBlocks, build_result
 from .self_motion import self_motion_energy
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
 from .simulate import simulate as simulate_one
+from .stop_rules import StopRules
 from .terms import PinocchioTerms, terms_provider
 from .trajectory import Trajectory, check_trajectory, describe
 
@@ -251,7 +252,7 @@ class MovementStack:
     (:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`),
     :meth:`HeldTorqueRK4.step_stack <torqueopt.integrators.HeldTorqueRK4.step_stack>`,
     time-major logs grown a block at a time and the ceiling tests of
-    :class:`~torqueopt.run_log.StopRules` on stacks. A resolver whose step is its
+    :class:`~torqueopt.stop_rules.StopRules` on stacks. A resolver whose step is its
     single-state one looped row by row gains nothing from stacked terms: it gets
     ``simulate``'s own terms and RK4, row by row, so its runs equal ``simulate``'s
     bit for bit. Row r of every stack is movement ``active[r]``; a movement that

@@ -31,8 +31,8 @@ the data layout (one state as plain vectors for B = 1, (B, ...) stacks for
 B > 1), the terms provider (Pinocchio on one data, or the forest), the
 resolver's step (its single-state step, or its step on stacks), the
 integrator (:mod:`torqueopt.integrators`) and the log. Their stop tests and
-messages are those of ``torqueopt.run_log.StopRules``, and every run's
-:class:`~torqueopt.SimResult` is made by ``torqueopt.run_log.build_result``.
+messages are those of ``torqueopt.stop_rules.StopRules``, and every run's
+:class:`~torqueopt.SimResult` is made by ``torqueopt.run_records.build_result``.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ class Lanes(Protocol):
     """The movements a run advances, in the layout of its batch size, and the pieces that step them.
 
     ``q`` and ``v`` are the start state (one configuration and velocity for
-    B = 1, (B, nq) and (B, n) stacks for B > 1); :attr:`running` is False once
+    B = 1, (B, nq) and (B, n) stacks for B > 1); ``running`` is False once
     every movement stopped. ``j`` is a sample's index in the current block,
     ``t`` its time [s].
     """

@@ -54,7 +54,8 @@ from .errors import InvalidInput, SingularJacobian
 from .integrators import VelocityRK4
 from .result import SimResult
 from .robot import Robot
-from .run_log import REFERENCE_BLOCK, ReferenceBlocks, StopRules, logged_row_bytes, run_result
+from .run_records import REFERENCE_BLOCK, ReferenceBlocks, logged_row_bytes, run_result
+from .stop_rules import StopRules
 from .tasks import FrameTask, Kinematics
 from .trajectory import check_trajectory
 

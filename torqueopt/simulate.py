@@ -47,7 +47,8 @@ from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
 from .result import SimResult
 from .robot import Robot
-from .run_log import ReferenceBlocks, StopRules, logged_row_bytes, run_result, task_reference
+from .run_records import ReferenceBlocks, logged_row_bytes, run_result, task_reference
+from .stop_rules import StopRules
 from .terms import PinocchioTerms
 from .trajectory import Trajectory, check_trajectory
 

@@ -10,7 +10,7 @@ providers compute the same numbers:
   (:meth:`Robot.terms_function`): :meth:`PinocchioTerms.one` is what
   :func:`torqueopt.simulate` calls at every step (B = 1), and its
   :meth:`~PinocchioTerms.terms` loops it over a stack's rows;
-* :class:`ForestTerms`, the forest of :mod:`torqueopt.forest` (copies of the
+* :class:`ForestTerms`, the forest of :mod:`torqueopt.robot_copies` (copies of the
   robot in one Pinocchio model: a few calls per pass of many states), for
   B > 1 on robots whose joints all add.
 
@@ -22,9 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .forest import RobotForest
 from .resolvers.stacks import StackTerms
 from .robot import Robot
+from .robot_copies import RobotForest
 
 __all__ = ["ForestTerms", "PinocchioTerms", "terms_provider"]
 
@@ -80,7 +80,7 @@ class PinocchioTerms:
 
 
 class ForestTerms:
-    """Task terms of whole stacks from a :class:`~torqueopt.forest.RobotForest` (robots whose joints all add)."""
+    """Task terms of whole stacks from a :class:`~torqueopt.robot_copies.RobotForest` (robots whose joints all add)."""
 
     def __init__(self, robot: Robot):
         self.robot = robot

@@ -16,7 +16,7 @@ to the next (a warm-started program, a look-ahead) keeps it per movement.
 function per movement, row by row, so every registered resolver runs on
 stacks. A resolver with a vectorised step overrides ``batch_solver`` beside
 its single-state step (the paper's resolvers and the remedies, with the
-factorisations :func:`complete_qr` and :func:`two_rows` here); the tests
+factorisations :func:`complete_qr` and :func:`two_row_qr` here); the tests
 hold each to its own single-state step through ``simulate``.
 """
 
@@ -28,9 +28,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SingularJacobian, SolverFailure, TorqueBoundsInfeasible
-from ..forest import stacked_cross
 from ..linalg import inverse_condition_number, inverse_condition_number_of, singular_message
 from ..robot import Robot, TaskTerms
+from ..robot_copies import stacked_cross
 
 __all__ = [
     "LoopedStackStep",
@@ -41,7 +41,7 @@ __all__ = [
     "least_squares",
     "looped_stack_step",
     "singular_rows",
-    "two_rows",
+    "two_row_qr",
 ]
 
 #: What ends a movement when its resolver cannot resolve its state (the run keeps what it computed).
@@ -192,7 +192,7 @@ def complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
     return particular, orthogonal[:, :, m:] if redundant else None, conditions
 
 
-def two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
+def two_row_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
     r""":func:`complete_qr` for two-row Jacobians of two or three joints (the planar arm's xy task), in closed form.
 
     Gram-Schmidt with one re-orthogonalisation gives the row-space basis
@@ -229,8 +229,8 @@ def two_rows(J: np.ndarray, residual: np.ndarray, redundant: bool):
 
 
 def task_factorisation(robot: Robot):
-    """The stacked factorisation for ``robot``'s task: :func:`two_rows` for two rows on two or three joints, else QR."""
-    return two_rows if robot.m == 2 and robot.nv in (2, 3) else complete_qr
+    """The stacked factorisation for ``robot``'s task: :func:`two_row_qr` for two rows on two or three joints, else QR."""
+    return two_row_qr if robot.m == 2 and robot.nv in (2, 3) else complete_qr
 
 
 def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:

@@ -1,6 +1,6 @@
 """The batch's fast pieces against Pinocchio's single-robot calls and numpy's QR.
 
-:class:`torqueopt.forest.RobotForest` computes a whole batch's task terms from
+:class:`torqueopt.robot_copies.RobotForest` computes a whole batch's task terms from
 one forest model; each copy must give what Pinocchio's frame calls give for
 that copy alone. The batch's closed-form two-row factorisation must agree
 with the complete QR it replaces, and with the SVD's condition.
@@ -11,9 +11,9 @@ import pinocchio as pin
 import pytest
 
 import torqueopt
-from torqueopt.batch_resolvers import complete_qr, two_rows
 from torqueopt.errors import InvalidInput
-from torqueopt.forest import RobotForest
+from torqueopt.resolvers.stacks import complete_qr, two_row_qr
+from torqueopt.robot_copies import RobotForest
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -93,7 +93,7 @@ def test_two_row_closed_form_equals_thecomplete_qr(joints):
     jacobian = u @ (singular_values[:, :, None] * np.swapaxes(w, 1, 2))  # U Σ Wᵀ, known σ
     residual = rng.normal(size=(count, 2))
     redundant = joints > 2
-    particular, basis, condition = two_rows(jacobian, residual, redundant)
+    particular, basis, condition = two_row_qr(jacobian, residual, redundant)
     reference, reference_basis, _ = complete_qr(jacobian, residual, redundant)
     # The minimum-norm solution is amplified by 1/σmin: compare relative to its size, allowing κ·ε.
     scale = np.linalg.norm(reference, axis=1)
