@@ -324,7 +324,8 @@ class VelocityRK4:
         self.robot, self.rates, self.dt = robot, rates, float(dt)
         self.model = robot.model
         self.data = robot.model.createData() if data is None else data
-        self.integrate = robot.integrate
+        # q ⊕ δ is q + δ when every joint adds (Pinocchio's integrate does that addition for them).
+        self.integrate = np.add if robot.euclidean else robot.integrate
 
     def reference_step(self, q: np.ndarray, index: int) -> np.ndarray:
         """q after one step from reference sample ``index``, the four stages one by one."""

@@ -45,6 +45,9 @@ velocity level's pieces (:class:`KinematicMovement`).
 
 from __future__ import annotations
 
+import operator
+from functools import partial
+
 import numpy as np
 import pinocchio as pin
 
@@ -170,6 +173,9 @@ class KinematicMovement:
         self.stop_reason: str | None = None
         self.stop_time: float | None = None
         self.log: list[tuple] = []
+        self.torque_ceiling = rules.torque_ceiling.tolist()
+        self.speed_ceiling = [rules.speed_ceiling] * robot.nv
+        self.within = partial(map, operator.le)
         self.x_ref: list[np.ndarray] = []
         self.task = task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
         self.kinematics = kinematics = Kinematics(robot)
@@ -187,6 +193,8 @@ class KinematicMovement:
             return rates(kinematics, velocity)
 
         self.f = f
+        #: q̈ in closed form, when the resolver has one (else a central difference of f).
+        self.closed_form = resolver.acceleration_function(robot, task)
         self.integrator = VelocityRK4(robot, f, dt)
 
     def block(self, start: int) -> list[float]:
@@ -213,8 +221,18 @@ class KinematicMovement:
         q = kinematics.q  # the differences below move the kinematics off q
         try:
             velocity, inverse_condition = rates(kinematics, command)
-            # ∂f/∂c ∂c/∂t, exact for a map affine in c
+            # ∂c/∂t: ẍ_ref + K ẋ_ref
             time_rate = self.acceleration[index] + self.gain * self.velocity[index]
+            if self.closed_form is not None:
+                # ċ = ∂c/∂t − K J q̇ (the position feedback moves with q)
+                command_rate = (
+                    time_rate
+                    if self.gain == 0.0
+                    else time_rate - self.gain * self.task.jacobian(kinematics).dot(velocity)
+                )
+                acceleration = self.closed_form(kinematics, velocity, command, command_rate)
+                return self.integrator.torque(q, velocity, acceleration), acceleration, velocity, inverse_condition
+            # ∂f/∂c ∂c/∂t, exact for a map affine in c
             homogeneous = rates(kinematics, self.zero)[0]
             acceleration = rates(kinematics, time_rate)[0] - homogeneous
             speed = float(np.linalg.norm(velocity))
@@ -238,10 +256,11 @@ class KinematicMovement:
         torque, acceleration, velocity, inverse_condition = resolution
         # The row that passes a ceiling stays in the result: peaks and verdicts count it.
         self.log.append((q, velocity, acceleration, torque, x, inverse_condition))
-        if not (np.isfinite(velocity).all() and np.abs(velocity).max() <= rules.speed_ceiling):
+        # One test per vector, all(|value| <= ceiling) on plain lists, which also fails inf and NaN.
+        if not all(self.within(map(abs, velocity.tolist()), self.speed_ceiling)):
             self.stop_reason, self.stop_time = self._diagnosed(rules.rates(velocity, t), q), t
             return True
-        if not (np.isfinite(torque).all() and (np.abs(torque) <= rules.torque_ceiling).all()):
+        if not all(self.within(map(abs, torque.tolist()), self.torque_ceiling)):
             self.stop_reason, self.stop_time = self._diagnosed(rules.torque(torque, t), q), t
             return True
         return False

@@ -69,6 +69,17 @@ class JacobianSolver:
         return particular, basis, inverse_condition
 
 
+class PseudoInverse:
+    r""":math:`J^\dagger = V_m \Sigma^{-1} U^\top` (n×m) of m×n matrices of full row rank, by Eigen's SVD, one workspace."""
+
+    def __init__(self, rows: int, columns: int):
+        self._svd = eigenpy.HhJacobiSVD(rows, columns, _THIN_UV)
+        self._identity = np.eye(rows)
+
+    def __call__(self, matrix: np.ndarray) -> np.ndarray:
+        return self._svd.compute(matrix).solve(self._identity)
+
+
 def _checked_inverse_condition(singular_values, tolerance: float) -> float:
     r"""σ_min/σ_max of singular values sorted largest first, or SingularJacobian below ``tolerance``.
 

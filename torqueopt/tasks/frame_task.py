@@ -79,6 +79,10 @@ class FrameTask(Task):
     def drift(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.frame_drift(self.frame_id(kinematics))[self.rows].copy()
 
+    def jacobian_rate(self, kinematics: Kinematics, v: np.ndarray) -> np.ndarray:
+        r""":math:`\dot J` of the task rows at the kinematics' configuration, moving at joint velocity v."""
+        return kinematics.frame_jacobian_time_variation(self.frame_id(kinematics), v)[self.rows]
+
     def jacobian_derivative(self, kinematics: Kinematics) -> np.ndarray:
         r"""(m, n, n) array D with :math:`D[:, i, k] = \partial J_{:,i}/\partial q_k` (kinematic Hessian)."""
         return kinematics.frame_jacobian_derivative(self.frame_id(kinematics))[self.rows]

@@ -74,6 +74,18 @@ class Kinematics:
             raise InvalidInput("a task drift J̇q̇ needs the joint velocity: call Kinematics.update(q, v)")
         return pin.getFrameClassicalAcceleration(self.model, self.data, frame_id, _LWA).vector
 
+    def frame_jacobian_time_variation(self, frame_id: int, v: np.ndarray) -> np.ndarray:
+        r""":math:`\dot J` (6×n) of a frame's Jacobian (:meth:`frame_jacobian`) moving at joint velocity v, world-aligned.
+
+        From Pinocchio's ``computeJointJacobiansTimeVariation`` at the
+        configuration of the last :meth:`update`, so
+        :math:`\dot J v` is the frame's classical acceleration at zero q̈
+        (:meth:`frame_drift`); the tests hold it to a central difference of
+        :meth:`frame_jacobian` along v.
+        """
+        pin.computeJointJacobiansTimeVariation(self.model, self.data, self.q, v)
+        return pin.getFrameJacobianTimeVariation(self.model, self.data, frame_id, _LWA)
+
     def frame_jacobian_derivative(self, frame_id: int) -> np.ndarray:
         r"""Derivatives of the frame Jacobian: array D (6, n, n) with
         :math:`D[:, i, k] = \partial J_{:,i} / \partial q_k`, from Pinocchio's kinematic Hessian.

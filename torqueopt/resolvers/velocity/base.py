@@ -64,6 +64,18 @@ class VelocityResolver(Resolver):
         SingularJacobian where the method is undefined.
         """
 
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""The joint acceleration of the motion in closed form, or None (the default).
+
+        A function ``(kinematics, q̇, c, ċ) -> q̈``: :math:`\ddot q = \frac{d}{dt} f(q(t), c(t))`
+        at the kinematics' configuration, with :math:`\dot q = f(q, c)` the
+        rates this resolver gave for the command c and :math:`\dot c` the
+        command's total rate. With None the loop takes q̈ by a central
+        difference of f along q̇ (:mod:`torqueopt.kinematic`), the reference
+        a closed form is held to.
+        """
+        return None
+
     def settings_for_file(self) -> dict:
         """The option values as JSON-ready values: vectors as lists, task objects and callables by their repr."""
         settings = {}

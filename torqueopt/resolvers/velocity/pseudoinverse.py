@@ -6,6 +6,7 @@ import numpy as np
 import pinocchio as pin
 
 from ...checks import finite_numbers
+from ...linalg import PseudoInverse
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
 from ..options import Option
@@ -66,6 +67,36 @@ class VelocityPseudoInverse(VelocityResolver):
             return particular + basis.dot(basis.T.dot(phi)), inverse_condition  # Eq. (2): (I − J⁺J)φ̇ = Z Zᵀφ̇
 
         return rates
+
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""q̈ of :math:`\dot q = J^\dagger c` in closed form, for φ̇ = 0 on a position task (else None).
+
+        With :math:`G = JJ^\top` and :math:`w = G^{-1}c` (so :math:`\dot q = J^\top w`),
+        differentiating Eq. (3) for a J of full row rank,
+
+        .. math::
+
+            \ddot q = J^\dagger(\dot c - \dot J\dot q) + (I - J^\dagger J)\dot J^\top w,
+
+        from :math:`\frac{d}{dt}J^\dagger = \dot J^\top G^{-1} - J^\top G^{-1}(\dot J J^\top + J\dot J^\top)G^{-1}`;
+        :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇).
+        """
+        if self.self_motion is not None or task.kind == "pose":
+            return None
+
+        pseudoinverse_of = PseudoInverse(robot.m, robot.nv)
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            jacobian = task.jacobian(kinematics)
+            jacobian_rate = task.jacobian_rate(kinematics, velocity)
+            pseudoinverse = pseudoinverse_of(jacobian)  # Eq. (3)
+            # w = G⁻¹c = J⁺ᵀJ⁺c = J⁺ᵀq̇, so the second term is (I − J⁺J)J̇ᵀJ⁺ᵀq̇
+            rate_of_rates = jacobian_rate.T.dot(pseudoinverse.T.dot(velocity))
+            return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
+                rate_of_rates - pseudoinverse.dot(jacobian.dot(rate_of_rates))
+            )
+
+        return acceleration
 
 
 class KineticEnergyPseudoInverse(VelocityResolver):
