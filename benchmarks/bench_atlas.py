@@ -23,13 +23,15 @@ panda (n = 7) to show how the cost grows with the number of joints.
 ``--count`` instead counts instructions with valgrind's callgrind (figures
 that do not move with the host's load): one process per case and length,
 the difference between a 150-step and a 50-step run divided by the
-trajectory-steps between them, for the batch (64 and 256 movements,
-null-space, with the energy extras) and for one ``simulate`` run (null-space).
+trajectory-steps between them, for the batch (256 movements, null-space,
+with the energy extras) and for one ``simulate`` run (null-space), on
+planar3 or (``--robot panda``) panda's position task, each with the part
+spent inside Pinocchio's library.
 
 Run::
 
     python benchmarks/bench_atlas.py [--rounds 3] [--write BENCHMARKS.md]
-    python benchmarks/bench_atlas.py --count
+    python benchmarks/bench_atlas.py --count [--robot panda]
 
 ``--write`` replaces only the block between the ``bench_atlas:begin`` and
 ``bench_atlas:end`` markers.
@@ -126,8 +128,8 @@ os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population
 from torqueopt.batch import simulate_batch
-mode, steps, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-robot = torqueopt.load_robot("planar3")
+robot_name, mode, steps, count = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+robot = torqueopt.load_robot(robot_name, task=None if robot_name == "planar3" else "position")
 movements = draw_population(robot, PopulationSpec(paths=count, durations=(2.0,), seed=1))
 lines = [torqueopt.StraightLine(m.direction, duration=steps * 1e-3, start=m.start) for m in movements]
 if mode == "batch":
@@ -137,12 +139,18 @@ else:
 """
 
 
-def count_instructions() -> dict:
-    """Instructions per trajectory-step of the batch (64 movements) and of one simulate run, by callgrind."""
+def count_instructions(robot: str = "planar3") -> dict:
+    """Instructions per trajectory-step of the batch (256 movements) and of one simulate run, by callgrind.
+
+    Each figure is (total, Pinocchio's own): the second sums the instructions
+    spent inside Pinocchio's library (its functions' self cost, by
+    ``callgrind_annotate``), the floor no Python or numpy change can go under.
+    """
     import re
     import subprocess
     import sys
     import tempfile
+    from concurrent.futures import ThreadPoolExecutor
 
     def total(mode, steps, count):
         with tempfile.TemporaryDirectory() as folder:
@@ -150,16 +158,30 @@ def count_instructions() -> dict:
             script.write_text(_COUNT_RUN)
             done = subprocess.run(
                 ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, str(script),
-                 mode, str(steps), str(count)],
+                 robot, mode, str(steps), str(count)],
                 capture_output=True, text=True, check=True,
             )  # fmt: skip
-        return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
+            annotated = subprocess.run(
+                ["callgrind_annotate", "--inclusive=no", "--threshold=100", f"{folder}/out"],
+                capture_output=True,
+                text=True,
+                check=True,
+            ).stdout
+        pinocchio = 0
+        for line in annotated.splitlines():
+            # "count (share) file:function [object]": the object is Pinocchio's library or its bindings
+            match = re.match(r"\s*([\d,]+)\s.*\[([^\]]*)\]\s*$", line)
+            if match and "pinocchio" in match.group(2):
+                pinocchio += int(match.group(1).replace(",", ""))
+        return int(re.search(r"Collected : (\d+)", done.stderr).group(1)), pinocchio
 
-    counts = {
-        f"batch of {size}": (total("batch", 150, size) - total("batch", 50, size)) / (100 * size) for size in (64, 256)
+    cases = [("batch", 150, 256), ("batch", 50, 256), ("simulate", 150, 1), ("simulate", 50, 1)]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        (long_batch, short_batch, long_one, short_one) = pool.map(lambda case: total(*case), cases)
+    return {
+        "batch of 256": [(a - b) / (100 * 256) for a, b in zip(long_batch, short_batch)],
+        "simulate": [(a - b) / 100 for a, b in zip(long_one, short_one)],
     }
-    counts["simulate"] = (total("simulate", 150, 1) - total("simulate", 50, 1)) / 100
-    return counts
 
 
 def main(argv=None):
@@ -167,12 +189,16 @@ def main(argv=None):
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--write", metavar="FILE")
     parser.add_argument("--count", action="store_true", help="count instructions with callgrind instead of timing")
+    parser.add_argument("--robot", default="planar3", choices=["planar3", "panda"], help="robot of --count")
     args = parser.parse_args(argv)
     if args.count:
-        counts = count_instructions()
-        print("instructions per trajectory-step (planar3, null-space, with the energy extras):")
-        for name, value in counts.items():
-            print(f"  {name}: {value:,.0f} ({counts['simulate'] / value:.2f}x fewer than simulate)")
+        counts = count_instructions(args.robot)
+        print(f"instructions per trajectory-step ({args.robot}, null-space, the batch with the energy extras):")
+        for name, (value, pinocchio) in counts.items():
+            print(
+                f"  {name}: {value:,.0f} ({counts['simulate'][0] / value:.2f}x fewer than simulate), "
+                f"of which inside Pinocchio {pinocchio:,.0f}"
+            )
         return
 
     import distributed
