@@ -6,11 +6,18 @@ seeded: numpy generators from :func:`rng`, Pinocchio's ``randomConfiguration``
 after ``pin.seed``.
 """
 
+import os
+
 import numpy as np
 import pytest
 
 import torqueopt
 from torqueopt.paper import PAPER, run_paper
+
+# Work that takes more than a second says so on stderr (torqueopt.progress.said_if_slow): a loaded machine
+# would then add lines to what the tests compare. Never here, and in no subprocess of a test, unless the test
+# asks for it (tests/test_progress.py).
+os.environ["TORQUEOPT_SLOW_SECONDS"] = "3600"
 
 #: The paper's start configuration, q0 = (-45°, 135°, -135°) [rad].
 PAPER_Q0 = np.array(PAPER.q0)

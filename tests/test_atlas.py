@@ -783,25 +783,89 @@ def test_a_scheduler_that_is_no_address_is_refused_before_any_work(tmp_path, cap
     assert not out.exists()
 
 
+#: Where Ctrl-C lands: (the stderr line, or chunk, to wait for before it; whether the atlas's folder exists after).
+CTRL_C_POINTS = {
+    "loading the robot": ("torqueopt atlas: loading robot 'planar3' ...", False),
+    "starting the cluster": ("torqueopt atlas: starting 2 Dask workers ...", False),
+    "during the sweep": ("a chunk", True),
+}
+
+
 @pytest.mark.slow
-def test_ctrl_c_during_a_dask_atlas_is_one_line_from_the_main_process_only(tmp_path):
+@pytest.mark.parametrize("point", list(CTRL_C_POINTS))
+def test_ctrl_c_at_any_point_of_a_dask_atlas_is_one_line_and_exit_130(tmp_path, point):
     """Ctrl-C reaches the whole process group: the two Dask workers printed a KeyboardInterrupt traceback each
-    (about 30 lines) beside the main process's one-line 'interrupted'."""
+    (about 30 lines), and during the cluster's start it was ignored, or failed the start with a traceback
+    ('Nanny failed to start', exit 1). Now: exit 130, the main process's one line, no process left behind."""
+    import threading
+
+    awaited, folder_made = CTRL_C_POINTS[point]
     out = tmp_path / "interrupted"
     command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "200", "--durations",
-               "2", "--chunk-size", "8", "--workers", "2", "--no-progress", "--no-figures", "--out", str(out)]  # fmt: skip
-    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+               "2", "--chunk-size", "8", "--workers", "2", "--no-figures", "--out", str(out)]  # fmt: skip
+    # Every said-if-slow line at once: they mark where the atlas is.
+    environment = {**os.environ, "PYTHONPATH": str(ROOT), "TORQUEOPT_SLOW_SECONDS": "0"}
     process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                start_new_session=True, text=True)  # fmt: skip
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
+    reader.start()
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and process.poll() is None and not list((out / "chunks").glob("chunk-*")):
-        time.sleep(0.2)  # the workers are up once a chunk has landed
-    assert process.poll() is None, "the atlas ended before it could be interrupted"
+    while time.monotonic() < deadline and process.poll() is None:
+        if awaited == "a chunk" and list((out / "chunks").glob("chunk-*")):
+            break
+        if f"{awaited}\n" in lines:
+            break
+        time.sleep(0.05)
+    assert process.poll() is None, f"the atlas ended before it could be interrupted: {lines}"
     os.killpg(process.pid, signal.SIGINT)  # what the terminal does on Ctrl-C
-    _, err = process.communicate(timeout=120)
-    time.sleep(1.0)  # a worker's traceback would come after the main process has gone
+    process.wait(timeout=120)
+    reader.join(timeout=60)  # stderr closes when every process holding it (the workers too) has gone
     assert process.returncode == 130
-    assert err == "torqueopt atlas: interrupted\n"
+    error = "".join(lines)
+    assert "Traceback" not in error and error.endswith("torqueopt atlas: interrupted\n"), error
+    assert all(line.startswith("torqueopt atlas: ") for line in lines), error
+    assert out.exists() == folder_made  # interrupted before the cluster was up: nothing written
+    # No worker of the atlas is left; multiprocessing's fork server and resource tracker end once they see the
+    # main process gone (a second or two on a loaded machine).
+    deadline = time.monotonic() + 60
+    while _live_processes_of_group(process.pid) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert _live_processes_of_group(process.pid) == []
+
+
+def _live_processes_of_group(group: int) -> list[str]:
+    """The command lines of the processes in process group ``group`` that are not zombies."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+                if int(fields[2]) == group and fields[0] != "Z":
+                    found.append((entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace"))
+            except (OSError, IndexError, ValueError):
+                continue  # gone meanwhile
+    return found
+
+
+def test_a_ctrl_c_while_the_command_imports_its_modules_is_one_line_and_exit_130():
+    """Before the CLI's own handler, a Ctrl-C cut an import short with a traceback of numpy's or Pinocchio's."""
+    code = (
+        "import os, signal, sys\n"
+        "sys.argv[0] = os.path.join(os.path.dirname(sys.executable), 'torqueopt')  # the console script\n"
+        "import torqueopt.cli\n"  # the package's first line installs the handler
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "signal.pause()\n"
+    )
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
+                             timeout=120, check=False)  # fmt: skip
+    assert (process.returncode, process.stderr) == (130, "torqueopt: interrupted\n")
+    # A program that imports torqueopt keeps Python's own handler (KeyboardInterrupt).
+    library = "import signal, torqueopt\nprint(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    process = subprocess.run([sys.executable, "-c", library], env=environment, capture_output=True, text=True,
+                             timeout=120, check=False)  # fmt: skip
+    assert process.stdout == "True\n"
 
 
 def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_path, capsys):

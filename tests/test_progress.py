@@ -1,6 +1,8 @@
 """Progress on stderr: a bar that redraws itself on a terminal, one plain line in a pipe or a file."""
 
 import io
+import math
+import re
 
 import pytest
 
@@ -91,23 +93,29 @@ def test_the_atlas_bar_leaves_no_redraws_in_a_pipe(tmp_path, capsys, no_progress
     assert error == ("" if no_progress else "torqueopt atlas: 2 paths x 4 resolvers ...\n")
 
 
-def test_loading_a_slow_robot_says_so_on_a_terminal_and_a_quick_one_stays_silent(monkeypatch):
-    """A URDF that takes seconds to load (a long chain, a cold import of yourdfpy) gets a line once it is slow;
-    a pipe never gets it, so a log does not depend on the machine's load."""
+@pytest.mark.parametrize("stream", ["terminal", "pipe"])
+def test_loading_a_slow_robot_says_so_within_a_second_and_a_quick_one_stays_silent(monkeypatch, stream):
+    """A URDF that takes seconds to load (a long chain, a cold import of yourdfpy) gets a plain line once it is
+    slow, on a terminal and in a pipe or a log alike (it was a terminal's only: a log waited in silence)."""
     import threading
 
     import torqueopt.cli.common as common
-    import torqueopt.progress as progress
+    from torqueopt.progress import SLOW, SLOW_VARIABLE, slow_after
 
-    terminal = _Terminal()
-    monkeypatch.setattr("sys.stderr", terminal)
-    monkeypatch.setattr(progress, "SLOW", 0.0)
+    monkeypatch.delenv(SLOW_VARIABLE)
+    assert slow_after() == SLOW <= 1.0  # "within a second"
+    for text, seconds in (("0", 0.0), ("2.5", 2.5), ("-1", SLOW), ("soon", SLOW), ("nan", SLOW)):
+        monkeypatch.setenv(SLOW_VARIABLE, text)
+        assert slow_after() == seconds
+    error = _Terminal() if stream == "terminal" else io.StringIO()
+    monkeypatch.setattr("sys.stderr", error)
+    monkeypatch.setenv(SLOW_VARIABLE, "0")
     real_load = common.load_robot
 
     def slow_load(*args, **kwargs):
         waited = threading.Event()
         for _ in range(1000):  # until the line is there (the timer fires at once), at most 10 s
-            if "loading" in terminal.getvalue():
+            if "loading" in error.getvalue():
                 break
             waited.wait(0.01)
         return real_load(*args, **kwargs)
@@ -115,13 +123,26 @@ def test_loading_a_slow_robot_says_so_on_a_terminal_and_a_quick_one_stays_silent
     monkeypatch.setattr(common, "load_robot", slow_load)
     arguments = ["run", "--robot", "planar3", PAPER_Q0, "--direction", "1,1", "--resolver", "pinv", "--duration", "0.1"]
     assert main(arguments) == 0
-    assert terminal.getvalue() == "torqueopt run: loading robot 'planar3' ...\n"
-    pipe = io.StringIO()
-    monkeypatch.setattr("sys.stderr", pipe)
+    assert error.getvalue() == "torqueopt run: loading robot 'planar3' ...\n"
+    quick = _Terminal() if stream == "terminal" else io.StringIO()
+    monkeypatch.setattr("sys.stderr", quick)
     monkeypatch.setattr(common, "load_robot", real_load)
+    monkeypatch.setenv(SLOW_VARIABLE, "30")
     assert main(arguments) == 0
-    assert pipe.getvalue() == ""
-    monkeypatch.setattr("sys.stderr", terminal := _Terminal())
-    monkeypatch.setattr(progress, "SLOW", 30.0)
+    assert quick.getvalue() == ""
+
+
+def test_the_grid_atlas_says_it_is_solving_its_inverse_kinematics(tmp_path, capsys):
+    """The grid's inverse kinematics (a minute and more for a fine grid) ran before any line: now a bar on a
+    terminal, one line in a pipe, before the sweep's."""
+    pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    arguments = ["atlas", "--mode", "grid", "--paths", "1", "--grid-spacing", "1.2", "--grid-directions", "2", "--durations", "0.2",
+                 "--workers", "0", "--no-figures", "--resolvers", "pinv", "--out", str(tmp_path / "grid")]  # fmt: skip
     assert main(arguments) == 0
-    assert terminal.getvalue() == ""
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and "\r" not in lines[0]
+    count = int(re.fullmatch(r"torqueopt atlas: inverse kinematics of (\d+) grid points \.\.\.", lines[0]).group(1))
+    # The grid points of spacing 1.2 m within 0.9 of planar3's 3 m reach, counted here.
+    assert count == sum(1.2 * math.hypot(i, j) <= 2.7 for i in range(-2, 3) for j in range(-2, 3)) == 21
+    assert re.fullmatch(r"torqueopt atlas: \d+ paths x 1 resolvers \.\.\.", lines[1])

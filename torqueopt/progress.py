@@ -1,30 +1,34 @@
 """Progress of long work, on stderr: a bar on a terminal, one line elsewhere.
 
 Work that can take more than a second (``paper``, ``optimize``'s IPOPT
-iterations, the atlas, loading a large URDF) says what it is doing before
-it starts. On a terminal, :func:`progress_bar` is a tqdm bar (done, rate,
-time left) that redraws itself in place; when stderr is a pipe or a file, it
-writes one line when the work starts and nothing more, since a bar's
-carriage-return redraws would be garbage in a log. Work whose length is
-not known before it starts (loading a URDF: seconds for a large one, most of
-them importing yourdfpy and checking the chain) goes in
-:func:`said_if_slow`, which writes its line on a terminal only once the work
-has taken :data:`SLOW` seconds, so quick work stays silent (and a log never
-depends on how loaded the machine was). stdout is never touched,
-so ``torqueopt ... | head`` sees only the results.
+iterations, the atlas, the grid atlas's inverse kinematics, loading a large
+URDF) says what it is doing before it starts. On a terminal,
+:func:`progress_bar` is a tqdm bar (done, rate, time left) that redraws itself
+in place; when stderr is a pipe or a file, it writes one line when the work
+starts and nothing more, since a bar's carriage-return redraws would be
+garbage in a log. Work whose length is not known before it starts (loading a
+URDF: seconds for a large one, most of them importing yourdfpy and checking
+the chain; starting a Dask cluster) goes in :func:`said_if_slow`, which
+writes its line, on a terminal and in a log alike, once the work has taken
+:func:`slow_after` seconds, so quick work stays silent. stdout is never
+touched, so ``torqueopt ... | head`` sees only the results.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
+import os
 import sys
 import threading
 from collections.abc import Iterator
 
-__all__ = ["SLOW", "progress_bar", "said_if_slow"]
+__all__ = ["SLOW", "SLOW_VARIABLE", "progress_bar", "said_if_slow", "slow_after"]
 
 #: Seconds after which work in :func:`said_if_slow` says what it is doing.
 SLOW = 1.0
+#: The environment variable that sets those seconds instead (e.g. ``0``: say it always; a large number: never).
+SLOW_VARIABLE = "TORQUEOPT_SLOW_SECONDS"
 
 
 def progress_bar(description: str, total: int | None = None, unit: str = "run", enabled: bool = True, initial: int = 0):
@@ -63,20 +67,34 @@ def _isatty(stream) -> bool:
         return False
 
 
+def slow_after() -> float:
+    """Seconds after which :func:`said_if_slow` speaks: ``$TORQUEOPT_SLOW_SECONDS`` when it is a number >= 0, else
+    :data:`SLOW`."""
+    text = os.environ.get(SLOW_VARIABLE)
+    if text is not None:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if value >= 0:
+            return value
+    return SLOW
+
+
 @contextlib.contextmanager
 def said_if_slow(description: str, enabled: bool = True) -> Iterator[None]:
-    """Write ``description ...`` on stderr, when it is a terminal, if the block is still running after :data:`SLOW` seconds."""
+    """Write ``description ...`` on stderr (a terminal, a pipe or a file) if the block is still running after
+    :func:`slow_after` seconds: a plain line, once, whatever the stream."""
     stream = sys.stderr
-    if not enabled or stream is None or not _isatty(stream):
+    if not enabled or stream is None:
         yield
         return
-    said = threading.Event()
 
     def say() -> None:
-        said.set()
-        print(f"{description} ...", file=stream, flush=True)
+        with contextlib.suppress(OSError, ValueError):  # a closed or broken stderr costs no result
+            print(f"{description} ...", file=stream, flush=True)
 
-    timer = threading.Timer(SLOW, say)
+    timer = threading.Timer(slow_after(), say)
     timer.daemon = True
     timer.start()
     try:

@@ -284,7 +284,7 @@ def run_atlas(
     reach = arm_reach(loaded)[1]
     accel_from_reach = population.accel is None
     population = population.sized(reach)  # the acceleration, when not given, from the arm's reach
-    movements = draw_population(loaded, population)
+    movements = draw_population(loaded, population, progress=progress)
     total_steps = sum(steps_per_run[m.duration] for m in movements) * work.per_step
     _check_size(total_steps, max_steps, population, work)
 
@@ -348,7 +348,7 @@ def run_atlas(
             stacklevel=2,
         )
     # The scheduler is reached (or the cluster started) before the first file is written.
-    with executor(scheduler, workers) if jobs else contextlib.nullcontext() as client:
+    with executor(scheduler, workers, progress) if jobs else contextlib.nullcontext() as client:
         if not resume:
             _claim_folder(out, config)
         remove_partial_chunks(out)

@@ -84,6 +84,7 @@ import pinocchio as pin
 from ..checks import joint_vector, number_in_range, positive_number, whole_number
 from ..errors import InvalidInput
 from ..linalg import inverse_condition_number
+from ..progress import progress_bar
 from ..robot import Robot
 from ..trajectory import Circle, MinimumJerkLine, StraightLine
 
@@ -257,8 +258,10 @@ def arm_reach(robot: Robot, samples: int = 4096) -> tuple[np.ndarray, float]:
     return base, reach
 
 
-def draw_population(robot: Robot, spec: PopulationSpec) -> list[Movement]:
+def draw_population(robot: Robot, spec: PopulationSpec, progress: bool = False) -> list[Movement]:
     """Every movement of the atlas, durations in the given order, paths numbered from 0.
+
+    ``progress``: the grid's inverse kinematics says what it does on stderr (a bar, or one line in a log).
 
     A spec without an acceleration is sized to the arm first (:meth:`PopulationSpec.sized`).
 
@@ -269,7 +272,7 @@ def draw_population(robot: Robot, spec: PopulationSpec) -> list[Movement]:
     base, reach = arm_reach(robot)
     spec = spec.sized(reach)
     if spec.mode == "grid":
-        return _grid(robot, spec, base, reach)
+        return _grid(robot, spec, base, reach, progress)
     movements: list[Movement] = []
     low, high = _joint_ranges(robot)
     dimension = min(robot.m, 3)
@@ -449,7 +452,7 @@ def _grid_slabs(spec: PopulationSpec, dimension: int, limit: float):
         yield slab[np.linalg.norm(slab, axis=1) <= limit]
 
 
-def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
+def _grid(robot: Robot, spec: PopulationSpec, base, reach, progress: bool = False) -> list[Movement]:
     dimension = min(robot.m, 3)
     limit = spec.reach_fraction * reach
     grid_start_points(robot, spec, base, reach)  # refuses a grid too large before it is built
@@ -463,14 +466,17 @@ def _grid(robot: Robot, spec: PopulationSpec, base, reach) -> list[Movement]:
     data = robot.model.createData()
     directions = _grid_directions(spec.grid_directions, dimension)
     starts = []
-    for point in points:
-        angles = _inverse_kinematics(robot, data, point, posture)
-        if angles is None:
-            continue
-        q = robot.configuration(angles)
-        jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, _LWA)[robot.task_rows]
-        if inverse_condition_number(jacobian) >= spec.min_condition:
-            starts.append((angles, point))
+    description = f"torqueopt atlas: inverse kinematics of {len(points):,} grid points"
+    with progress_bar(description, total=len(points), unit="point", enabled=progress) as bar:
+        for point in points:
+            angles = _inverse_kinematics(robot, data, point, posture)
+            bar.update()
+            if angles is None:
+                continue
+            q = robot.configuration(angles)
+            jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, _LWA)[robot.task_rows]
+            if inverse_condition_number(jacobian) >= spec.min_condition:
+                starts.append((angles, point))
     movements: list[Movement] = []
     for duration in spec.durations:
         length = path_length(spec.accel, duration)

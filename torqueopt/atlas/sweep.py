@@ -49,7 +49,7 @@ from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..loading import load_robot
 from ..optimal import run_cost
-from ..progress import progress_bar
+from ..progress import progress_bar, said_if_slow
 from ..resolvers import Resolver, get_resolver, resolver_from_label
 from ..robot import Robot
 from ..simulate import simulate
@@ -325,11 +325,13 @@ def remove_partial_chunks(out: Path) -> None:
 
 
 @contextlib.contextmanager
-def executor(scheduler: str | None, workers: int | None) -> Iterator:
+def executor(scheduler: str | None, workers: int | None, progress: bool = False) -> Iterator:
     """Where the chunks run: a Dask client (to ``scheduler``, or a new LocalCluster), or None for this process.
 
     Entered before anything is written, so that an unreachable scheduler
-    leaves no file behind; the cluster is closed on leaving.
+    leaves no file behind; the cluster is closed on leaving. With ``progress``,
+    a start that takes more than a second says so on stderr
+    (``torqueopt.progress.said_if_slow``).
 
     Raises:
         InvalidInput: the scheduler cannot be reached within :data:`SCHEDULER_TIMEOUT`.
@@ -338,13 +340,17 @@ def executor(scheduler: str | None, workers: int | None) -> Iterator:
         yield None
         return
     distributed = require("distributed")
-    client, cluster = _client(distributed, scheduler, workers)
+    count = workers if workers else (os.cpu_count() or 1)
+    what = f"reaching the Dask scheduler at {scheduler}" if scheduler else f"starting {count} Dask workers"
+    with said_if_slow(f"torqueopt atlas: {what}", enabled=progress):  # seconds, more on a loaded machine
+        client, cluster = _client(distributed, scheduler, workers)
     try:
         yield client
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        with interrupt_deferred():  # a Ctrl-C while the cluster closes waits for it, then ends the run
+            client.close()
+            if cluster is not None:
+                cluster.close()
 
 
 def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths, description) -> dict:
@@ -402,24 +408,60 @@ def _client(distributed, scheduler, workers):
     import logging
 
     count = workers if workers else (os.cpu_count() or 1)
-    # Ctrl-C goes to the whole process group: the worker processes are started ignoring SIGINT (a disposition
-    # they inherit, and under which Python installs no KeyboardInterrupt handler), so only this process hears it
-    # and closes the cluster, instead of every worker printing its own KeyboardInterrupt traceback.
-    interrupt = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    # Ctrl-C goes to the whole process group. The workers must not hear it (each printed a KeyboardInterrupt
+    # traceback, or failed the cluster's start with one): multiprocessing's fork server forks them with SIGINT
+    # ignored (torqueopt.atlas._fork_server). This process holds a Ctrl-C while the cluster starts (a start cut
+    # short would leave processes behind), then closes the cluster and ends.
+    dask = require("dask")
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+        _fork_server_with_workers_deaf_to_interrupts()
+        with interrupt_deferred() as interrupted:
+            # Everything on the loopback interface: the embedded cluster serves no one else.
+            cluster = distributed.LocalCluster(
+                n_workers=count,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",  # its HTTP server (health, metrics) on a free loopback port
+                silence_logs=logging.ERROR,
+            )
+            try:
+                client = distributed.Client(cluster)
+            except BaseException:
+                cluster.close()
+                raise
+            if interrupted:
+                client.close()
+                cluster.close()
+    return client, cluster
+
+
+def _fork_server_with_workers_deaf_to_interrupts() -> None:
+    """Dask's forkserver context, its server to preload torqueopt.atlas._fork_server (and distributed, as Dask
+    does), when it has not started yet."""
+    from distributed.utils import get_mp_context
+
+    context = get_mp_context()
+    context.set_forkserver_preload(["distributed", "torqueopt.atlas._fork_server"])
+
+
+@contextlib.contextmanager
+def interrupt_deferred() -> Iterator[list]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise KeyboardInterrupt; yields the list of those held.
+
+    Outside the main thread (where Python runs no signal handler), nothing is held.
+    """
+    held: list[int] = []
+    if not _main_thread():
+        yield held
+        return
+    previous = signal.signal(signal.SIGINT, lambda number, frame: held.append(number))
     try:
-        # Everything on the loopback interface: the embedded cluster serves no one else.
-        cluster = distributed.LocalCluster(
-            n_workers=count,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",  # its HTTP server (health, metrics) on a free loopback port
-            silence_logs=logging.ERROR,
-        )
+        yield held
     finally:
-        if interrupt is not None:
-            signal.signal(signal.SIGINT, interrupt)
-    return distributed.Client(cluster), cluster
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        raise KeyboardInterrupt
 
 
 def _main_thread() -> bool:

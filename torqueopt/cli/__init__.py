@@ -7,7 +7,8 @@ Exit codes:
        Jacobian went singular), or ``optimize``'s solver did not converge;
        everything computed up to then is still written and summarised;
     4  ``tune`` found no setting that meets its criteria (its evidence is
-       still written).
+       still written);
+    130  interrupted (Ctrl-C), with one line ``torqueopt COMMAND: interrupted``.
 """
 
 from __future__ import annotations
@@ -71,7 +72,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
-    parser = build_parser()
+    from .._interrupt_at_start import release
+
+    release()  # a Ctrl-C is a KeyboardInterrupt again, which the lines below turn into one line
+    try:
+        parser = build_parser()  # imports every command's module: a second or more on a loaded machine
+    except KeyboardInterrupt:
+        print("torqueopt: interrupted", file=sys.stderr)
+        return 130
     args, unknown = parser.parse_known_args(argv)
     if unknown:
         # Name the subcommand's own help, where its options are listed.
