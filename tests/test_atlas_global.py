@@ -233,3 +233,29 @@ def test_a_killed_global_sweep_resumes_and_keeps_its_global_rows(global_atlas, t
     assert finished.returncode == 0, finished.stderr
     assert f"{len(landed)} chunks resumed from an earlier run" in finished.stdout
     pandas.testing.assert_frame_equal(_table(out), _table(global_atlas.out))
+
+
+def test_the_report_of_a_stopped_sweep_is_its_whole_prefix_of_paths(global_atlas, tmp_path):
+    """Without the chunks of path 2 (a sweep stopped before them), prefix_report writes the report of paths 0-1,
+    whose rows are the finished atlas's rows of those paths."""
+    import shutil
+
+    from torqueopt.atlas.prefix import prefix_report
+
+    copy = tmp_path / "stopped"
+    shutil.copytree(global_atlas.out, copy)
+    for name in ("chunk-000001.parquet", "chunk-000003.parquet", "results.parquet"):
+        (copy / "chunks" / name).unlink(missing_ok=True)
+    (copy / "results.parquet").unlink()
+    summary = prefix_report(copy, tmp_path / "report", note="The first {paths} paths.")
+    assert summary["partial"] == {"paths": 2, "of": 3} and summary["paths"] == 2
+    expected = _table(global_atlas.out)
+    expected = expected[expected["path"] < 2].reset_index(drop=True)
+
+    def plain(frame):  # an all-missing text column reads back as None from one file and NaN from the other
+        return frame.astype(object).where(frame.notna(), None)
+
+    pandas.testing.assert_frame_equal(plain(_table(tmp_path / "report")), plain(expected))
+    text = (tmp_path / "report" / "atlas.md").read_text()
+    assert text.splitlines()[2] == "The first 2 paths." and "## The global optimum against the local methods" in text
+    assert (tmp_path / "report" / "tradeoff.png").is_file() and (tmp_path / "report" / "margin_roc.png").is_file()

@@ -212,43 +212,49 @@ def _share(item: dict) -> str:
     return f"{item['fraction']:.1%} [{item['low']:.1%}, {item['high']:.1%}]"
 
 
+def _percent(item: dict) -> str:
+    """A share as the README writes it: ``40 % [28, 54]`` (Wilson 95 %)."""
+    return f"{item['fraction']:.0%} [{100 * item['low']:.0f}, {100 * item['high']:.0f}]".replace("%", " %")
+
+
 def broader_answer(summary: dict) -> str:
-    """The README's answer to "can any local algorithm be completely successful?", written from ``atlas.json``."""
+    """The README's answer to "can any local algorithm be completely successful?", written from ``atlas.json``.
+
+    A local method is completely successful when it is problem-free (stable and within the torque limits) on
+    every path on which the global optimum is; the paragraph says which, or that none is, and the costs.
+    """
     frontier = summary["global"]
     config = summary["config"]
     durations = ", ".join(f"{d:g}" for d in summary["durations"])
     best = frontier["most_successful_local"]
     best_item = frontier["local"][best]
     winners = frontier["completely_successful"]
-    free = frontier["problem_free"]
-    head = (
-        f"- **Can any local algorithm be completely successful?** On {frontier['paths']:,} random {durations} s "
-        f"movements of {config['robot_name']} ({len(frontier['local'])} local methods and the global optimum, "
-        f"`torqueopt atlas --global`):"
+    where = (
+        f"{frontier['paths']:,} random {durations} s movements of {config['robot_name']} (`torqueopt atlas --global`)"
     )
     if winners:
         names = ", ".join(f"`{name}`" for name in winners)
-        verdict = (
-            f" yes, here: {names} {'is' if len(winners) == 1 else 'are'} problem-free on every path on which the "
-            f"global optimum is ({_share(free)} of the paths)."
+        answer = (
+            f"Yes, on {where}: {names} {'is' if len(winners) == 1 else 'are'} problem-free (stable, within the "
+            f"torque limits) on every path on which the whole-movement optimum is."
         )
     else:
-        verdict = (
-            f" not one is. The global optimum is problem-free on {_share(free)} of the paths; the most successful "
-            f"local method, `{best}`, on {_share(best_item['problem_free'])}, and it fails on "
-            f"{best_item['fails_where_global_is_problem_free']} paths where the global optimum does not."
+        count = len(frontier["local"])
+        answer = (
+            f"Not on {where}: each of the {count} local methods has a problem (a whip, a torque over its limit, a "
+            f"lost path) on some path where the whole-movement optimum has none."
         )
-    cost = f" The global optimum's median ∫‖τ‖² dt is {frontier['median_global_cost_vs_pinv']:.2f} of `pinv`'s"
-    if best != "pinv":
-        cost += f" and {frontier['median_global_cost_vs_most_successful']:.2f} of `{best}`'s"
-    cheapest = frontier["cheapest_local"]
-    if cheapest != best:
-        cost += f" (the cheapest local method, `{cheapest}`, costs {frontier['local'][cheapest]['median_cost_vs_global']:.2f} times it)"
-    cost += "."
-    status = f" The optimiser converged on {frontier['converged']:,} paths" + (
-        f" ({frontier['not_converged']} did not, counted as such)." if frontier["not_converged"] else "."
+    answer += (
+        f" The most successful, `{best}`, is problem-free on {_percent(best_item['problem_free'])} of the paths, the "
+        f"optimum on {_percent(frontier['problem_free'])} (stable on {_percent(frontier['stable'])}: its criterion "
+        f"has no torque limit). The optimum's median ∫‖τ‖² dt is {frontier['median_global_cost_vs_pinv']:.2f} of "
+        f"`pinv`'s"
     )
-    text = head + verdict + cost + status + f" ([The global optimum on every path]({ACCOUNT_PAGE}))"
+    if best != "pinv":
+        answer += f" and {frontier['median_global_cost_vs_most_successful']:.2f} of `{best}`'s"
+    answer += f"; it converged on {frontier['converged']:,} paths"
+    answer += f" ({frontier['not_converged']:,} did not, counted as such)." if frontier["not_converged"] else "."
+    text = f"- **Can any local algorithm be completely successful?** {answer} ([The global optimum on every path]({ACCOUNT_PAGE}))"
     return textwrap.fill(text, width=78, subsequent_indent="  ", break_long_words=False, break_on_hyphens=False)
 
 

@@ -70,8 +70,9 @@ GLOBAL_RESOLVER = "global-optimum"
 GLOBAL_END = "free"
 #: IPOPT iterations per Hessian tried, per path.
 DEFAULT_GLOBAL_MAX_ITERATIONS = 500
-#: Wall time of one path's solve [s].
-DEFAULT_GLOBAL_MAX_TIME = 60.0
+#: Wall time of one path's solve [s]: a guard against a hang, far above the ~1.4 s a 2 s planar3 path takes on a
+#: quiet core (on a loaded machine a solve takes longer: the iterations are the budget that does not depend on it).
+DEFAULT_GLOBAL_MAX_TIME = 600.0
 #: Movements per chunk of global rows (a solve takes ~1.4 s on a 2 s planar3 path: chunks of ~10 s).
 DEFAULT_GLOBAL_CHUNK_SIZE = 8
 

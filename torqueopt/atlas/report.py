@@ -298,7 +298,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     if frontier is None:
         figure, axis = plt.subplots(figsize=(6.5, 4.5))
     else:
-        figure, (axis, distance) = plt.subplots(1, 2, figsize=(12, 4.8))
+        figure, (axis, distance) = plt.subplots(1, 2, figsize=(13.5, 5.2))
     pinv_stable = set(table.loc[(table["resolver"] == "pinv") & (table["verdict"] == "stable"), "path"])
     for resolver in resolvers:
         rows = table[table["resolver"] == resolver]
@@ -358,7 +358,7 @@ def _draw_distances(axis, frontier: dict, colours: dict) -> None:
         label=GLOBAL_RESOLVER,
     )  # fmt: skip
     axis.set_xscale("log")
-    axis.set_xlabel("median ∫‖τ‖² dt relative to the global optimum, same path (log; the optimum at 1)")
+    axis.set_xlabel("median ∫‖τ‖² dt / the global optimum's on the same path (log)")
     axis.set_ylabel("problem-free share (stable, within the torque limits)")
     axis.set_title("distance to the global optimum", fontsize=9)
     axis.grid(alpha=0.3, which="both")

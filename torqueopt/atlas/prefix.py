@@ -1,0 +1,84 @@
+"""The report of an atlas stopped before its end: the whole prefix of paths its landed chunks cover.
+
+The sweep sends its chunks path by path (each resolver chunk before the
+global-optimum chunks of the same paths), so a sweep stopped early has
+finished every run of paths 0 .. P-1 for some P and a few runs beyond.
+:func:`prefix_report` reads the chunks that prove to be the atlas's
+(:func:`torqueopt.atlas.sweep.read_chunk`), keeps the paths below the first
+path that lacks a run, and writes ``atlas.md``, ``atlas.json``,
+``results.parquet`` and the figures of those paths into another folder, with
+the same functions as a finished atlas (:mod:`torqueopt.atlas.report`).
+``atlas.json``'s ``partial`` says how many paths of how many it covers; the
+sweep itself is left as it was, to be resumed with its own command.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import InvalidInput
+from ..io import atomic_write, written_together
+from .global_optimum import GLOBAL_RESOLVER, add_global_ratios
+from .sweep import CHUNK_FOLDER, config_digest, read_chunk, require
+
+__all__ = ["prefix_report"]
+
+
+def prefix_report(out, dest, *, note: str = "") -> dict:
+    """Write the report of the paths 0 .. P-1 whose runs have all landed in the atlas folder ``out`` into ``dest``.
+
+    Args:
+        out: the folder of a sweep (``atlas-config.json``, ``chunks/``).
+        dest: a new or empty folder for the report.
+        note: a paragraph put under the report's title (``{paths}`` is replaced by P).
+
+    Returns:
+        The summary, as ``dest/atlas.json`` holds it.
+    """
+    from . import _collect, _finite, _json_default
+    from .report import summarise, write_figures, write_markdown
+
+    pandas = require("pandas")
+    out, dest = Path(out), Path(dest)
+    config = json.loads((out / "atlas-config.json").read_text())
+    if dest.exists() and any(dest.iterdir()):
+        raise InvalidInput(f"'{dest}' is not empty: give a new or empty folder for the report")
+    digest = config_digest(config)
+    frames = []
+    for path in sorted((out / CHUNK_FOLDER).glob("chunk-*.parquet")):
+        frame, _ = read_chunk(path, digest, int(path.stem.split("-")[1]))
+        if frame is not None:
+            frames.append(frame)
+    if not frames:
+        raise InvalidInput(f"'{out}' has no finished chunk of this atlas yet")
+    table = pandas.concat(frames, ignore_index=True)
+    resolvers = [item.get("label", item["name"]) for item in config["resolvers"]]
+    order = resolvers + ([GLOBAL_RESOLVER] if "global" in config else [])
+    runs = table.groupby("path")["resolver"].nunique()
+    whole = set(runs.index[runs == len(order)])
+    paths = 0
+    while paths in whole:
+        paths += 1
+    if not paths:
+        raise InvalidInput(f"'{out}' has not finished every run of its first path yet")
+    table = _collect(pandas, [table[table["path"] < paths]], order)
+    if "global" in config:
+        table = add_global_ratios(table)
+    summary = summarise(table, config)
+    summary["partial"] = {"paths": paths, "of": int(config["movements"])}
+    dest.mkdir(parents=True, exist_ok=True)
+    from ..loading import load_robot
+
+    robot = load_robot(config["robot"]["source"], frame=config["robot"]["frame"], task=config["robot"]["task"])
+    with written_together():
+        atomic_write(dest / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
+        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        atomic_write(dest / "atlas.json", lambda handle: handle.write(text))
+        summary["figures"] = write_figures(table, summary, dest, robot)
+        markdown = write_markdown(summary)
+        if note:
+            title, rest = markdown.split("\n", 1)
+            markdown = f"{title}\n\n{note.replace('{paths}', str(paths))}\n{rest}"
+        atomic_write(dest / "atlas.md", lambda handle: handle.write(markdown.encode()))
+    return summary
