@@ -784,6 +784,8 @@ def test_a_scheduler_that_is_no_address_is_refused_before_any_work(tmp_path, cap
 
 
 #: Where Ctrl-C lands: (the stderr line, or chunk, to wait for before it; whether the atlas's folder exists after).
+#: While the cluster starts, once a worker process exists (forked by the fork server: two processes with its
+#: command line), before the cluster is up.
 CTRL_C_POINTS = {
     "loading the robot": ("torqueopt atlas: loading robot 'planar3' ...", False),
     "starting the cluster": ("torqueopt atlas: starting 2 Dask workers ...", False),
@@ -806,7 +808,7 @@ def test_ctrl_c_at_any_point_of_a_dask_atlas_is_one_line_and_exit_130(tmp_path, 
     # Every said-if-slow line at once: they mark where the atlas is.
     environment = {**os.environ, "PYTHONPATH": str(ROOT), "TORQUEOPT_SLOW_SECONDS": "0"}
     process = subprocess.Popen(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                               start_new_session=True, text=True)  # fmt: skip
+                               start_new_session=True, text=True, preexec_fn=_hears_ctrl_c)  # fmt: skip
     lines: list[str] = []
     reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
     reader.start()
@@ -814,7 +816,11 @@ def test_ctrl_c_at_any_point_of_a_dask_atlas_is_one_line_and_exit_130(tmp_path, 
     while time.monotonic() < deadline and process.poll() is None:
         if awaited == "a chunk" and list((out / "chunks").glob("chunk-*")):
             break
-        if f"{awaited}\n" in lines:
+        workers_forked = (
+            point != "starting the cluster"
+            or sum("multiprocessing.forkserver" in line for line in _live_processes_of_group(process.pid)) >= 2
+        )
+        if f"{awaited}\n" in lines and workers_forked:
             break
         time.sleep(0.05)
     assert process.poll() is None, f"the atlas ended before it could be interrupted: {lines}"
@@ -832,6 +838,12 @@ def test_ctrl_c_at_any_point_of_a_dask_atlas_is_one_line_and_exit_130(tmp_path, 
     while _live_processes_of_group(process.pid) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert _live_processes_of_group(process.pid) == []
+
+
+def _hears_ctrl_c() -> None:
+    """In the child, before it runs: SIGINT as a terminal's process has it, even when the tests run where it is
+    ignored (a shell's background job, nohup), a disposition a process inherits and keeps."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _live_processes_of_group(group: int) -> list[str]:
@@ -859,12 +871,12 @@ def test_a_ctrl_c_while_the_command_imports_its_modules_is_one_line_and_exit_130
     )
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
-                             timeout=120, check=False)  # fmt: skip
+                             timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
     assert (process.returncode, process.stderr) == (130, "torqueopt: interrupted\n")
     # A program that imports torqueopt keeps Python's own handler (KeyboardInterrupt).
     library = "import signal, torqueopt\nprint(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
     process = subprocess.run([sys.executable, "-c", library], env=environment, capture_output=True, text=True,
-                             timeout=120, check=False)  # fmt: skip
+                             timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
     assert process.stdout == "True\n"
 
 
