@@ -593,3 +593,22 @@ def test_the_batch_keeps_each_infeasible_policy_and_its_stops(name, policy):
         assert runs[0].limiting
         # 'exceed' keeps the task (and leaves the bounds), the others give part of it up.
         assert runs[0].task_error.max() == 0.0 if policy == "exceed" else runs[0].task_error.max() > 0.1
+
+
+def test_a_torque_row_the_null_space_barely_moves_is_not_ignored(planar3):
+    """A state of an atlas run (planar3, seed 2026, path 38 of 1 s, t = 0.857 s): joint 3's row of HZ is 5e-5 of
+    the largest and the task holds that torque beyond its bound, so no y meets it.
+    DAQP's warm-started workspace reported the QP optimal at the unconstrained minimiser, 23 % over joint 3's
+    limit, unflagged; the answer is now checked against every row, and the step is infeasible."""
+    q = np.array([7.2589171892533222e-02, -4.4058951335041783e-07, 2.7528701234034694e00])
+    v = np.array([-0.01891796972520747, 0.06048436588736141, -0.02898020035582756])
+    terms = planar3.terms(q, v)
+    command = np.array([-0.6575764648592475, 1.2520356196463485])
+    # Independently (HiGHS): no y puts τ̃ + HZ y within the bounds; joint 3's row of HZ is all but zero.
+    ref = Reference(planar3, terms, command)
+    assert not ref.feasible(command)
+    assert abs(ref.G[2, 0]) < 1e-3 * np.abs(ref.G).max()
+    for name in ("bounded-torque", "energy-bounded-torque"):
+        found = get_resolver(name).solver(planar3, 1e-3)(terms, command)
+        assert found.infeasible and "torque limit (lower) of joint joint3" in found.limiting
+        assert torque_utilisation(found.torque, planar3.torque_lower, planar3.torque_upper) <= 0.5 + BOUND_SLACK
