@@ -4,6 +4,7 @@ import os
 import stat
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from torqueopt.cli import main
 
 from .conftest import PAPER_Q0
 
+ROOT = Path(__file__).resolve().parents[1]
 PAPER = ["--robot", "planar3", "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--direction", "1,1"]
 
 
@@ -394,3 +396,48 @@ def test_version(capsys):
     from importlib.metadata import version
 
     assert torqueopt.__version__ == version("torqueopt")  # the one in pyproject.toml
+
+
+#: Commands run under ``python -W error::Warning`` (every warning an error), in order, in one folder.
+UNDER_W_ERROR = [
+    pytest.param(["robots"], id="robots"),  # cmeel's import left a temporary folder: a ResourceWarning at exit
+    pytest.param(
+        [
+            "run",
+            "--robot",
+            "panda",
+            "--direction",
+            "1,0,0",
+            "--duration",
+            "0.1",
+            "--resolver",
+            "pinv",
+            "--dexterity",
+            "--out",
+            "panda.csv",
+        ],
+        id="run panda",
+        marks=pytest.mark.slow,
+    ),
+    pytest.param(["plot", "panda.csv", "--out", "panda.png", "--stick-figures"], id="plot", marks=pytest.mark.slow),
+    # meshcat's import warned that pyzmq's zmq.eventloop.ioloop is deprecated (a traceback under -W error)
+    pytest.param(["play", "panda.csv", "--html", "panda.html", "--fps", "5"], id="play --html", marks=pytest.mark.slow),
+]
+
+
+@pytest.fixture(scope="module")
+def warnings_folder(tmp_path_factory):
+    return tmp_path_factory.mktemp("warnings")
+
+
+@pytest.mark.parametrize("arguments", UNDER_W_ERROR)
+def test_no_python_warning_leaks_into_the_output(arguments, warnings_folder):
+    """A warning of a library we use (or of ours) is fixed at its cause or said in our own words: none reaches
+    stderr, and none breaks a command when every warning is an error."""
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    environment.pop("PYTHONWARNINGS", None)
+    process = subprocess.run([sys.executable, "-W", "error::Warning", "-m", "torqueopt", *arguments],
+                             cwd=warnings_folder, env=environment, capture_output=True, text=True, timeout=300,
+                             check=False)  # fmt: skip
+    assert process.returncode == 0, process.stderr
+    assert "Warning" not in process.stderr and "Exception ignored" not in process.stderr, process.stderr

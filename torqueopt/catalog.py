@@ -10,6 +10,7 @@ when the user names none.
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -125,12 +126,10 @@ def example_robot_data_dir() -> Path | None:
     ``cmeel.prefix/share/example-robot-data/robots`` in site-packages.
     """
     candidates = [Path(entry) for entry in sys.path if entry]
-    try:
-        import cmeel
-
-        candidates.insert(0, Path(cmeel.__file__).resolve().parent.parent)
-    except ImportError:
-        pass
+    # Found, not imported: cmeel's import makes a temporary folder it never removes (a ResourceWarning at exit).
+    spec = importlib.util.find_spec("cmeel")
+    if spec is not None and spec.origin:
+        candidates.insert(0, Path(spec.origin).resolve().parent.parent)
     for base in candidates:
         robots = base / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
         if robots.is_dir():

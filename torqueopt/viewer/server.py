@@ -21,7 +21,11 @@ __all__ = ["main"]
 def main() -> None:
     """Serve meshcat's ZMQ/websocket bridge on 127.0.0.1 until stdin closes."""
     import tornado.web
-    from meshcat.servers import zmqserver
+
+    from .dependency import quiet_meshcat_import
+
+    with quiet_meshcat_import():
+        from meshcat.servers import zmqserver
 
     class LocalhostApplication(tornado.web.Application):
         def listen(self, port, address=None, **kwargs):
