@@ -251,6 +251,42 @@ def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name)
         assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
 
 
+@pytest.mark.parametrize(
+    ("options", "ceilings", "stop"),
+    [
+        ({"singular_tolerance": 0.15}, {}, "task Jacobian is singular"),
+        ({}, {"max_joint_speed": 2.0}, "speed of joint"),
+        ({}, {"max_torque_ratio": 1.0}, "torque of joint"),
+        ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
+    ],
+)
+def test_velocity_pinv_on_stacks_stops_where_the_kinematic_loop_does(planar3, options, ceilings, stop):
+    """velocity-pinv's stacked form (forest kinematics, closed-form q̈, RK4 on the stack) equals its kinematic
+    loop run by run, through each of its stops: the method undefined, its rates and its torques past a ceiling."""
+    from torqueopt.batch import KinematicStack
+    from torqueopt.engine import run_movements
+
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    resolver = torqueopt.get_resolver("velocity-pinv", **options)
+    q0s, directions = _population(planar3, 8, seed=5)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.5) for d in directions]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(planar3, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    singles = [torqueopt.simulate(planar3, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run(run, single)
+    assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
+    assert any(single.stop_reason is None for single in singles)
+
+
 def test_a_bounded_resolver_in_the_batch_keeps_its_shortfalls_and_stops(planar3):
     """bounded-torque under limits of 3 N·m gives up part of the paper's movement (infeasible rows, task errors,
     the bounds they lay on): the batch records them row for row as simulate does, beside an easier movement."""

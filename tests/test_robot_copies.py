@@ -156,3 +156,32 @@ def test_the_two_terms_providers_give_the_same_terms(planar3, panda):
         assert np.abs(pinocchio_terms.drift).max() > 1e-3  # the velocities enter the drift
         assert isinstance(terms_provider(robot, 9), ForestTerms)
         assert isinstance(terms_provider(robot, 1), PinocchioTerms)
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda"])
+def test_the_forest_kinematics_and_inverse_dynamics_are_pinocchios_per_state(name):
+    """J, J̇ along v and the tip of 13 states (three passes of 5 copies) against the frame calls on one data,
+    and RNEA of the stack against pin.rnea state by state."""
+    robot = torqueopt.load_robot(name, task=None if name == "planar3" else "position")
+    rng = np.random.default_rng(3)
+    q = np.array([robot.configuration(rng.uniform(-1, 1, robot.nv)) for _ in range(13)])
+    v, acceleration = rng.normal(size=(13, robot.nv)), rng.normal(size=(13, robot.nv))
+    forest = RobotForest(robot, copies=5)
+    jacobian, rate, tip = forest.kinematics(q, v)
+    alone, none, _ = forest.kinematics(q)
+    torque = forest.inverse_dynamics(q, v, acceleration)
+    assert none is None
+    data = robot.model.createData()
+    for row in range(13):
+        pin.computeJointJacobiansTimeVariation(robot.model, data, q[row], v[row])
+        pin.updateFramePlacements(robot.model, data)
+        frame = robot.frame_id
+        np.testing.assert_allclose(jacobian[row], pin.getFrameJacobian(robot.model, data, frame, _LWA), atol=1e-12)
+        np.testing.assert_allclose(alone[row], jacobian[row], atol=1e-12)
+        np.testing.assert_allclose(
+            rate[row], pin.getFrameJacobianTimeVariation(robot.model, data, frame, _LWA), atol=1e-12
+        )
+        np.testing.assert_allclose(tip[row], data.oMf[frame].translation, atol=1e-12)
+        np.testing.assert_allclose(
+            torque[row], pin.rnea(robot.model, data, q[row], v[row], acceleration[row]), atol=1e-10
+        )

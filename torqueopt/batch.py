@@ -28,7 +28,10 @@ stacks are compacted, so the rest go on at the cost of the movements still
 running. The reference is sampled and the logs grow a block of steps at a
 time, so memory follows the steps taken.
 
-Velocity-level resolvers run through their own loop
+Velocity-level resolvers run on the same loop body with the velocity level's
+lanes: on stacks (:class:`KinematicStack`: the forest's kinematics and
+inverse dynamics, the resolver's stacked rates and closed-form q̈) when the
+resolver has a stacked form (velocity-pinv), else through the kinematic loop
 (:func:`torqueopt.kinematic.simulate_kinematic`), one movement after another.
 
 Supported: every registered resolver, for the ``xy`` and ``position`` tasks,
@@ -52,6 +55,7 @@ from .resolvers import Resolver, get_resolver
 from .resolvers.stacks import LoopedStackStep
 from .result import SimResult, joint_limits_record
 from .robot import Robot
+from .robot_copies import RobotForest
 from .run_records import REFERENCE_BLOCK, ReferenceBlocks, build_result
 from .self_motion import self_motion_energy
 from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
@@ -226,7 +230,12 @@ def simulate_batch(
     steps = step_budget(duration, dt, max_steps)
     threads = whole_number(threads, "threads", 1)
     if getattr(resolver, "level", None) == "velocity":
-        return _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras)
+        stacked = resolver.stack_rate_function(robot) if robot.euclidean and count > 1 else None
+        if stacked is None:
+            return _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras)
+        return _kinematic_stack(
+            robot, resolver, stacked, trajectories, q0s, dt, steps, max_joint_speed, max_torque_ratio, extras
+        )
 
     q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(count, robot.nq)
     references, descriptions = [], []
@@ -430,6 +439,197 @@ class MovementStack:
             )
             for i in range(self.count)
         ]
+
+
+def _kinematic_stack(robot, resolver, stacked, trajectories, q0s, dt, steps, max_joint_speed, max_torque_ratio, extras):
+    """A velocity-level resolver's movements advanced together on stacks (:class:`KinematicStack`)."""
+    q = np.array([configuration_vector(robot, q0) for q0 in q0s], dtype=float).reshape(len(q0s), robot.nq)
+    references, descriptions = [], []
+    for i, line in enumerate(trajectories):
+        check_trajectory(line)
+        if line.start is None:
+            line = line.anchored(robot.frame_placement(q[i]).translation[: trajectory_dimension(robot, line)].copy())
+        descriptions.append(describe(line))
+        # Every step start and mid-step (RK4 reads f at t, t + h/2 and t + h), a block at a time.
+        references.append(ReferenceBlocks(robot, line, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK))
+    lanes = KinematicStack(robot, resolver, stacked, q, dt, steps, references, max_torque_ratio, max_joint_speed)
+    run_movements(lanes, steps)
+    results = lanes.results(trajectories[0].duration, descriptions)
+    return (results, _recorded_energies(robot, results)) if extras else results
+
+
+class _EvenRows:
+    """A half-step reference's rows at the step starts (samples 0, 2, 4, ...), for the results."""
+
+    def __init__(self, reference: ReferenceBlocks):
+        self.reference = reference
+
+    def positions(self) -> np.ndarray:
+        return self.reference.positions()[::2]
+
+
+class KinematicStack(MovementStack):
+    """The engine's lanes for B movements of a velocity-level resolver on stacks (see :mod:`torqueopt.engine`).
+
+    The stacked form of :class:`torqueopt.kinematic.KinematicMovement`: the
+    state is q (B, n); the kinematics of every row (J, J̇, the tip) and the
+    inverse-dynamics torques come from the forest
+    (:meth:`RobotForest.kinematics <torqueopt.robot_copies.RobotForest.kinematics>`,
+    :meth:`~torqueopt.robot_copies.RobotForest.inverse_dynamics`); the rates
+    and q̈ from the resolver's stacked form (:meth:`VelocityResolver.stack_rate_function
+    <torqueopt.resolvers.velocity.base.VelocityResolver.stack_rate_function>`);
+    RK4 of q̇ = f(q, t) on the whole stack. A movement stops as in the
+    kinematic loop: where the method is undefined (no row recorded), where
+    its rates or torques pass a ceiling (the row kept), or where a stage of
+    its step is undefined.
+    """
+
+    resolves_final = True
+
+    def __init__(
+        self, robot: Robot, resolver, stacked, q: np.ndarray, dt: float, steps: int, references: list,
+        max_torque_ratio: float, max_joint_speed: float,
+    ):  # fmt: skip
+        count = q.shape[0]
+        self.robot, self.resolver, self.stacked, self.dt, self.steps = robot, resolver, stacked, dt, steps
+        self.half_references = references
+        self.references = [_EvenRows(reference) for reference in references]
+        self.count, self.with_extras = count, False
+        self.q, self.v = q, None
+        self.forest = RobotForest(robot)
+        self.rows = robot.task_rows
+        self.gain = resolver.position_gain
+        self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
+        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, False)
+        self.recorded = np.zeros(count, dtype=int)
+        self.stop_reason: list[str | None] = [None] * count
+        self.stop_time: list[float | None] = [None] * count
+        self.limiting: list[dict] = [{} for _ in range(count)]
+        self.active = np.arange(count)
+        self.running = count > 0
+        self.where = slice(None)
+        self._keep = None
+
+    def block(self, start: int) -> list[float]:
+        samples = [reference.block(2 * start)[1] for reference in self.half_references]
+        self.start = start
+        # Time-major: [half-step sample, movement, coordinate].
+        stack = lambda name: np.ascontiguousarray(np.swapaxes(np.array([getattr(s, name) for s in samples]), 0, 1))  # noqa: E731
+        self.position, self.velocity, self.acceleration = stack("position"), stack("velocity"), stack("acceleration")
+        length = self.position.shape[0]
+        # The block's steps: those whose end sample it holds, and the final sample once it holds it.
+        stop = start + (length - 1) // 2 + (2 * start + length - 1 == 2 * self.steps)
+        self.log = self.logs.grow(stop - start)
+        return (self.dt * np.arange(start, stop)).tolist()
+
+    def _task(self, q, v=None):
+        jacobian, rate, tip = self.forest.kinematics(q, v)
+        rows = self.rows
+        return jacobian[:, rows], None if rate is None else rate[:, rows], tip[:, rows]
+
+    def terms(self, q, v):
+        self._q = q  # the configurations the step's q̈ and torques are taken at
+        jacobian, _, x = self._task(q)
+        return jacobian, x
+
+    def _command(self, index: int, x):
+        if self.gain == 0.0:
+            return self.velocity[index, self.where]
+        return self.velocity[index, self.where] + self.gain * (self.position[index, self.where] - x)
+
+    def command(self, j: int, jacobian, x):
+        return self._command(2 * j, x)
+
+    def resolve(self, jacobian, command, j: int):
+        index, where = 2 * j, self.where
+        velocity, conditions, failures, state = self.stacked.rates(jacobian, command)
+        # ċ = ẍ_ref + K(ẋ_ref − J q̇)
+        command_rate = self.acceleration[index, where] + self.gain * self.velocity[index, where]
+        if self.gain != 0.0:
+            command_rate = command_rate - self.gain * np.einsum("bij,bj->bi", jacobian, velocity)
+        _, jacobian_rate, _ = self._task(self._q, velocity)
+        acceleration = self.stacked.acceleration(jacobian, jacobian_rate, velocity, command_rate, state)
+        torque = self.forest.inverse_dynamics(self._q, velocity, acceleration)  # Eq. (20) on the motion
+        return torque, acceleration, velocity, conditions, failures
+
+    def record(self, j: int, t: float, q, v, x, jacobian, resolution) -> bool:
+        torque, acceleration, velocity, conditions, failures = resolution
+        log, where, active, rules = self.log, self.where, self.active, self.rules
+        log["q"][j, where] = q
+        log["v"][j, where] = velocity
+        log["x"][j, where] = x
+        log["acceleration"][j, where] = acceleration
+        log["tau"][j, where] = torque
+        log["jacobian_inverse_condition"][j, where] = conditions
+        # A row where the method is undefined is not recorded (as in the kinematic loop).
+        failed = np.zeros(active.size, dtype=bool)
+        if failures:
+            failed[list(failures)] = True
+        self.recorded[active[~failed]] = self.start + j + 1
+        fast = ~failed & rules.speeds_over(velocity)
+        over = ~failed & ~fast & rules.torques_over(torque)
+        stopping = failed | fast | over
+        if not stopping.any():
+            return False
+        for row in np.flatnonzero(stopping).tolist():
+            movement = int(active[row])
+            if failed[row]:
+                self.stop_reason[movement] = rules.unresolved(failures[row], t)
+            elif fast[row]:
+                self.stop_reason[movement] = self._diagnosed(rules.rates(velocity[row], t), q[row])
+            else:
+                self.stop_reason[movement] = self._diagnosed(rules.torque(torque[row], t), q[row])
+            self.stop_time[movement] = t
+        self._keep = ~stopping
+        return True
+
+    def _diagnosed(self, reason: str, q) -> str:
+        from .kinematic import _with_diagnosis
+        from .tasks import FrameTask, Kinematics
+
+        task = FrameTask.of_robot(self.robot, reference_rotation=self.robot.frame_placement(q).rotation)
+        return _with_diagnosis(reason, self.resolver, Kinematics(self.robot).update(q), task)
+
+    def compact(self, q, v, resolution):
+        keep = self._keep
+        self.active = self.where = self.active[keep]
+        self.running = self.active.size > 0
+        if resolution is not None:
+            resolution = (*(part[keep] for part in resolution[:4]), {})
+        return q[keep], v, resolution
+
+    def _rates(self, q, index: int):
+        jacobian, _, x = self._task(q)
+        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, x))
+        return velocity, failures
+
+    def step(self, q, v, resolution, j: int, t: float):
+        h, index = self.dt, 2 * j
+        k1 = resolution[2]
+        k2, failed2 = self._rates(q + (0.5 * h) * k1, index + 1)
+        k3, failed3 = self._rates(q + (0.5 * h) * k2, index + 1)
+        k4, failed4 = self._rates(q + h * k3, index + 2)
+        next_q = q + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        failures = {**failed4, **failed3, **failed2}
+        if not failures:
+            return next_q, v, False
+        for row, message in failures.items():
+            movement = int(self.active[row])
+            self.stop_reason[movement], self.stop_time[movement] = self.rules.unresolved_during_step(message, t), t
+        keep = np.ones(self.active.size, dtype=bool)
+        keep[list(failures)] = False
+        self._keep = keep
+        return next_q, v, True
+
+
+def _recorded_energies(robot: Robot, results: list[SimResult]) -> list[BatchExtras]:
+    """The kinetic and self-motion energies of every recorded state of each run (H from the forest)."""
+    provider = terms_provider(robot, 2)
+    more = []
+    for result in results:
+        terms, _ = provider.terms(result.q, result.v)
+        more.append(BatchExtras(*self_motion_energy(terms.inertia, result.v, jacobian=terms.jacobian)))
+    return more
 
 
 def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras):

@@ -160,13 +160,77 @@ class RobotForest:
             world_rate *= self._mask
         return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
 
+    def kinematics(self, q: np.ndarray, v: np.ndarray | None = None):
+        r"""The task frame's Jacobian :math:`J` (S, 6, n) in LOCAL_WORLD_ALIGNED, linear rows first, and its position (S, 3);
+        with joint velocities v, also :math:`\dot J` (S, 6, n), the Jacobian's rate along v (else None).
+
+        One joint-Jacobian pass per forest pass (with its time variation when v
+        is given), no dynamics: what a velocity-level method needs at a state.
+        The point's :math:`\dot J` is the rate of its :math:`J = J_v + J_\omega\times p`:
+        :math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot p = J\dot q`.
+        """
+        count = q.shape[0]
+        model, copies = self.model, self.copies
+        q = np.ascontiguousarray(q)
+        passes = -(-count // copies)
+        while len(self._pool) < passes:
+            self._pool.append(_Pass(model, copies, self.n))
+        used = self._pool[:passes]
+        for index, forest_pass in enumerate(used):
+            rows = slice(index * copies, (index + 1) * copies)
+            q_forest = self._padded(q[rows])
+            if v is None:
+                pin.computeJointJacobians(model, forest_pass.data, q_forest)
+            else:
+                pin.computeJointJacobiansTimeVariation(model, forest_pass.data, q_forest, self._padded(v[rows]))
+            pin.updateFramePlacements(model, forest_pass.data)
+        world = np.concatenate([forest_pass.jacobian for forest_pass in used])[:count]
+        tip = np.array(
+            [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
+        )[:count]
+        if self._mask is not None:
+            world *= self._mask
+        jacobian = world
+        angular = world[:, 3:].copy()
+        jacobian[:, :3] += stacked_cross(angular, tip[:, :, None])
+        if v is None:
+            return jacobian, None, tip
+        rate = np.concatenate([forest_pass.jacobian_rate for forest_pass in used])[:count]
+        if self._mask is not None:
+            rate *= self._mask
+        tip_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
+        rate[:, :3] += stacked_cross(rate[:, 3:], tip[:, :, None]) + stacked_cross(angular, tip_velocity[:, :, None])
+        return jacobian, rate, tip
+
+    def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""
+        count = q.shape[0]
+        model, copies, n = self.model, self.copies, self.n
+        passes = -(-count // copies)
+        while len(self._pool) < passes:
+            self._pool.append(_Pass(model, copies, n))
+        torques = []
+        for index, forest_pass in enumerate(self._pool[:passes]):
+            rows = slice(index * copies, (index + 1) * copies)
+            tau = pin.rnea(
+                model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])),
+                self._padded(np.ascontiguousarray(v[rows])), self._padded(np.ascontiguousarray(acceleration[rows])),
+            )  # fmt: skip
+            torques.append(tau.reshape(copies, n))
+        return np.concatenate(torques)[:count]
+
 
 def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b along axis 1 of (B, 3, ...) stacks (broadcast), by components: numpy's cross and matmul on stacks of
     3-vectors cost several times more per row (BENCHMARKS.md)."""
     a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
     b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+    first = a1 * b2 - a2 * b1
+    out = np.empty((first.shape[0], 3, *first.shape[1:]))
+    out[:, 0] = first
+    out[:, 1] = a2 * b0 - a0 * b2
+    out[:, 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):

@@ -71,8 +71,19 @@ class VelocityResolver(Resolver):
         at the kinematics' configuration, with :math:`\dot q = f(q, c)` the
         rates this resolver gave for the command c and :math:`\dot c` the
         command's total rate. With None the loop takes q̈ by a central
-        difference of f along q̇ (:mod:`torqueopt.kinematic`), the reference
+        difference of f along q̇ (``torqueopt.kinematic``), the reference
         a closed form is held to.
+        """
+        return None
+
+    def stack_rate_function(self, robot: Robot):
+        r"""The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time).
+
+        An object with ``rates(J, c) -> (q̇, σmin/σmax, failures, state)`` (J (B, m, n),
+        c (B, m); ``failures`` {row: why the method is undefined there}) and
+        ``acceleration(J, J̇, q̇, ċ, state) -> q̈``, the stacked forms of
+        :meth:`rate_function` and :meth:`acceleration_function` (``state`` is
+        what ``rates`` computed that ``acceleration`` reuses).
         """
         return None
 

@@ -6,10 +6,11 @@ import numpy as np
 import pinocchio as pin
 
 from ...checks import finite_numbers
-from ...linalg import PseudoInverse
+from ...linalg import PseudoInverse, inverse_condition_number_of
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
 from ..options import Option
+from ..stacks import singular_rows
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import vector_or_callable
 
@@ -97,6 +98,41 @@ class VelocityPseudoInverse(VelocityResolver):
             )
 
         return acceleration
+
+    def stack_rate_function(self, robot: Robot):
+        """Eq. (3) and the closed-form q̈ of :meth:`acceleration_function` on stacks (φ̇ = 0 on a position task)."""
+        if self.self_motion is not None or robot.task == "pose":
+            return None
+        return StackedPseudoInverse(self.singular_tolerance)
+
+
+class StackedPseudoInverse:
+    r""":math:`\dot q = J^\dagger c` and its :math:`\ddot q` per row of (B, m, n) stacks, :math:`J^\dagger = J^\top(JJ^\top)^{-1}`."""
+
+    def __init__(self, tolerance: float):
+        self.tolerance = tolerance
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray):
+        """(q̇ (B, n), σmin/σmax (B,), failures, J⁺ (B, n, m)); a singular row gets a finite, unused answer."""
+        jacobian_t = np.swapaxes(jacobian, 1, 2)
+        gram = jacobian @ jacobian_t
+        # σ² of J are the eigenvalues of JJᵀ (relative error ε/(σmin/σmax)², far below what the cutoff decides)
+        squared = np.linalg.eigvalsh(gram)
+        conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
+        failures = singular_rows(conditions, self.tolerance)
+        if failures:
+            gram[list(failures)] = np.eye(gram.shape[1])
+        pseudoinverse = jacobian_t @ np.linalg.inv(gram)  # Eq. (3)
+        return np.einsum("bij,bj->bi", pseudoinverse, command), conditions, failures, pseudoinverse
+
+    @staticmethod
+    def acceleration(jacobian, jacobian_rate, velocity, command_rate, pseudoinverse) -> np.ndarray:
+        """J⁺(ċ − J̇q̇) + (I − J⁺J)J̇ᵀJ⁺ᵀq̇ per row (see :meth:`VelocityPseudoInverse.acceleration_function`)."""
+        rate_of_rates = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, velocity))
+        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
+        return np.einsum("bij,bj->bi", pseudoinverse, residual) + (
+            rate_of_rates - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, rate_of_rates))
+        )
 
 
 class KineticEnergyPseudoInverse(VelocityResolver):
