@@ -359,6 +359,26 @@ def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
 
 
 @pytest.mark.slow
+def test_an_atlas_where_nothing_went_unstable_says_so_in_its_histogram(
+    reference_atlas, planar3, tmp_path, saved_figures
+):
+    """With no unstable run, the histogram called legend() on nothing: matplotlib's warning "No artists with
+    labels found to put in legend" in the atlas's output, and an empty figure."""
+    import warnings
+
+    from torqueopt.atlas.report import summarise, write_figures
+
+    table = reference_atlas.assign(unstable=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        write_figures(table, summarise(table, {}), tmp_path, planar3)
+    assert [str(warning.message) for warning in caught] == []
+    (hist_ax,) = saved_figures[2].axes
+    assert hist_ax.get_legend() is None and not hist_ax.patches
+    assert [text.get_text() for text in hist_ax.texts] == ["no run went unstable by the 2x-limit rule"]
+
+
+@pytest.mark.slow
 def test_the_atlas_figures_draw_the_table(reference_atlas, planar3, tmp_path, saved_figures):
     """Each figure read back against a direct count over the table's rows."""
     from torqueopt.atlas.report import summarise, write_figures

@@ -287,7 +287,11 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
             )
     axis.set_xlabel("instability time / duration (2x-limit rule)")
     axis.set_ylabel("runs")
-    axis.legend(fontsize=8)
+    if axis.get_legend_handles_labels()[0]:
+        axis.legend(fontsize=8)
+    else:  # a legend of nothing was matplotlib's "No artists with labels found" warning, and an empty figure
+        axis.text(0.5, 0.5, "no run went unstable by the 2x-limit rule", ha="center", va="center",
+                  transform=axis.transAxes, fontsize=10)  # fmt: skip
     axis.grid(alpha=0.3)
     figure.tight_layout()
     made["histogram of instability times"] = _save(figure, out / "instability_time.png")
