@@ -15,6 +15,8 @@ def run_example(name, *arguments):
         [sys.executable, str(EXAMPLES / name), *arguments], capture_output=True, text=True, timeout=300, check=False
     )
     assert process.returncode == 0, process.stderr
+    # A Python warning (matplotlib's legend of nothing, numpy's, a library's) never reaches the reader.
+    assert "Warning" not in process.stderr, process.stderr
     return process.stdout
 
 
