@@ -193,7 +193,6 @@ def tune(
         "path": population.path,
         "dt": float(dt),
         "whiplash_bound": whiplash_bound,
-        "chunk_size": chunk_size,
         "eliminate": bool(eliminate),
     }
     resume = _check_folder(out, config)
@@ -309,7 +308,11 @@ def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, worker
             if not alive:
                 break
             resolvers = [get_resolver(BASELINE), *alive]
-            digest = config_digest({"tune": tune_digest, "settings": [r.label for r in resolvers]})
+            # The chunk size only sets when settings are dropped, not the result: it is in the chunks'
+            # fingerprint, not in the tune's, so a tune resumes with another one (its pinv atlas kept).
+            digest = config_digest(
+                {"tune": tune_digest, "chunk_size": len(chunks[0]), "settings": [r.label for r in resolvers]}
+            )
             jobs = {}
             for index in range(start, min(start + wave_size, len(chunks))):
                 frame = (
