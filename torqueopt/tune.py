@@ -338,8 +338,11 @@ def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, worker
                 continue
             table = pandas.concat(frames, ignore_index=True)
             for row in evidence(table, [s.label for s in alive], whiplash_bound, handled=handled):
-                if _certain_to_fail(row, len(handled), whiplash_bound):
-                    dropped[row["label"]] = {**row, "stage": f"dropped after {row['pinv_handles']} paths"}
+                failures = _certain_failures(row, len(handled), whiplash_bound)
+                if failures:
+                    # Only what is decided: the other criteria are not, on the paths run so far.
+                    stage = f"dropped after {row['pinv_handles']} paths"
+                    dropped[row["label"]] = {**row, "stage": stage, "reason": "; ".join(failures)}
             alive = [s for s in alive if s.label not in dropped]
     rows = dict(dropped)
     if alive:
@@ -469,14 +472,22 @@ def _failed_criterion(row: dict, whiplash_bound: float) -> str | None:
 
 def _certain_to_fail(row: dict, handled: int, whiplash_bound: float) -> bool:
     """True when the paths run so far already decide that a setting fails (see the module docstring)."""
+    return bool(_certain_failures(row, handled, whiplash_bound))
+
+
+def _certain_failures(row: dict, handled: int, whiplash_bound: float) -> list[str]:
+    """What the paths run so far already decide against a setting, whatever the rest of the paths give."""
     from .atlas.stats import wilson_interval
 
+    failures = []
     if row["over_limits"]:
-        return True
+        failures.append(f"outside a limit on {row['over_limits']} of the paths pinv handles")
     # More than half of all the paths at or above pinv's torque: the median is too, whatever the rest do.
     if row["not_below_pinv"] > handled / 2:
-        return True
-    return bool(row["whips"]) and wilson_interval(row["whips"], handled)[1] > whiplash_bound
+        failures.append(f"at or above pinv's peak torque on {row['not_below_pinv']} of the {handled} paths")
+    if row["whips"] and wilson_interval(row["whips"], handled)[1] > whiplash_bound:
+        failures.append(f"{row['whips']} whips: the upper bound stays above {whiplash_bound:.0%} on all {handled}")
+    return failures
 
 
 def choose(rows: list[dict]) -> dict | None:
