@@ -20,6 +20,7 @@ from torqueopt.atlas.arms import (
     BEGIN,
     END,
     cross_arm_table,
+    load_summaries,
     merge_atlases,
     pinv_paths_summary,
     readme_block,
@@ -120,6 +121,7 @@ def test_the_cross_arm_table_lists_each_bar_and_the_nearest_when_none_meets_it()
     arm1 = lines[2].split(" | ")
     assert arm1[1] == "1000 of 1000"
     assert arm1[2] == "`bounded-torque`, `damped-null-space`, `inertia-pinv`"  # not null-space, not pinv
+    assert arm1[3] == "`bounded-torque` 0.9 [0.89, 0.91]; `damped-null-space` 0.8 [0.79, 0.81]; `inertia-pinv` 1.1 [1, 1]"
     assert arm1[4] == "`damped-null-space` 0.8 [0.79, 0.81]; `bounded-torque` 0.9 [0.89, 0.91] |"  # best first
     arm2 = lines[3].split(" | ")
     assert arm2[1] == "900 of 1000" and arm2[3] == "none"
@@ -169,3 +171,18 @@ def test_an_arms_page_shows_its_figures_and_the_commands_that_made_it(tmp_path):
     assert "--resolvers 'pinv,bounded-torque[joint_limits=off]'" in text and "--out a" in text
     summary = json.loads((tmp_path / "docs" / "planar3" / "atlas.json").read_text())
     assert summary["resolvers"] == ["pinv", "null-space", "bounded-torque[joint_limits=off]"]
+
+
+def test_the_readmes_cross_arm_table_is_what_the_committed_atlases_generate():
+    """Every arm whose atlas is committed (docs/atlas/ARM/atlas.json), in the README's order; panda's at least."""
+    paths = {arm: ROOT / "docs" / "atlas" / arm / "atlas.json" for arm in ARMS}
+    paths = {arm: path for arm, path in paths.items() if path.is_file()}
+    assert "panda" in paths
+    readme = (ROOT / "README.md").read_text()
+    table = cross_arm_table(load_summaries(paths))
+    assert readme_block(readme, table) == readme, (
+        "README's cross-arm table is stale: python -m torqueopt.atlas.arms readme README.md "
+        + " ".join(f"{arm}=docs/atlas/{arm}/atlas.json" for arm in paths)
+    )
+    for arm in paths:
+        assert f"| {arm} | " in readme and f"(docs/atlas/{arm}.md)" in readme

@@ -179,13 +179,14 @@ def cross_arm_table(summaries: dict[str, dict]) -> str:
     """One Markdown table over arms from each arm's ``atlas.json`` summary (``{arm: summary}``, in that order).
 
     One row per arm: the paths pinv handles; the resolvers stable there (whiplash's 95 % upper bound at most 1 %);
-    of those, the ones also within every limit on every such path; of those, the ones that save torque (median
-    peak torque ratio against pinv below 1, with its 95 % interval), best first; and the resolver nearest the
-    bar when none meets it (the fewest runs outside a limit among the stable ones that save torque).
+    of those, the ones also within every limit on every such path, each with its median peak torque ratio
+    against pinv and that median's 95 % interval; of those, the ones that save torque (the median below 1), best
+    first; and the resolver nearest the bar when none meets it (the fewest runs outside a limit among the stable
+    ones that save torque, with that share's Wilson interval).
     """
     lines = [
         "| arm | paths pinv handles | stable: whiplash ≤ 1 % (95 % upper bound) | and within all limits "
-        "(torque, position, velocity) on every one | and saving torque: median peak vs pinv [95 % CI] |",
+        "(torque, position, velocity) on every one: median peak vs pinv [95 % CI] | and saving torque (median below 1) |",
         "|---|---|---|---|---|",
     ]
     for arm, summary in summaries.items():
@@ -198,7 +199,7 @@ def cross_arm_table(summaries: dict[str, dict]) -> str:
             key=lambda label: entries[label]["median_torque_vs_pinv"],
         )
         stable_text = ", ".join(f"`{label}`" for label in stable) or "none"
-        within_text = ", ".join(f"`{label}`" for label in within) or "none"
+        within_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in within) or "none"
         if saving:
             saving_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in saving)
         else:
