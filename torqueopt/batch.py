@@ -513,9 +513,16 @@ class KinematicStack(MovementStack):
     def block(self, start: int) -> list[float]:
         samples = [reference.block(2 * start)[1] for reference in self.half_references]
         self.start = start
+
         # Time-major: [half-step sample, movement, coordinate].
-        stack = lambda name: np.ascontiguousarray(np.swapaxes(np.array([getattr(s, name) for s in samples]), 0, 1))  # noqa: E731
-        self.position, self.velocity, self.acceleration = stack("position"), stack("velocity"), stack("acceleration")
+        def stacked(name):
+            return np.ascontiguousarray(np.swapaxes(np.array([getattr(sample, name) for sample in samples]), 0, 1))
+
+        self.position, self.velocity, self.acceleration = (
+            stacked("position"),
+            stacked("velocity"),
+            stacked("acceleration"),
+        )
         length = self.position.shape[0]
         # The block's steps: those whose end sample it holds, and the final sample once it holds it.
         stop = start + (length - 1) // 2 + (2 * start + length - 1 == 2 * self.steps)
@@ -584,11 +591,11 @@ class KinematicStack(MovementStack):
         return True
 
     def _diagnosed(self, reason: str, q) -> str:
-        from .kinematic import _with_diagnosis
+        from .kinematic import with_diagnosis
         from .tasks import FrameTask, Kinematics
 
         task = FrameTask.of_robot(self.robot, reference_rotation=self.robot.frame_placement(q).rotation)
-        return _with_diagnosis(reason, self.resolver, Kinematics(self.robot).update(q), task)
+        return with_diagnosis(reason, self.resolver, Kinematics(self.robot).update(q), task)
 
     def compact(self, q, v, resolution):
         keep = self._keep

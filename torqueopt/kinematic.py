@@ -266,7 +266,7 @@ class KinematicMovement:
         return False
 
     def _diagnosed(self, reason: str, q) -> str:
-        return _with_diagnosis(reason, self.resolver, self.kinematics.update(q), self.task)
+        return with_diagnosis(reason, self.resolver, self.kinematics.update(q), self.task)
 
     def record_final(self, j: int, q, v, x, terms) -> None:
         raise AssertionError("the velocity level resolves its final sample")
@@ -310,7 +310,7 @@ def _anchored(robot: Robot, trajectory, placement: pin.SE3):
     return trajectory
 
 
-def _with_diagnosis(reason: str, resolver, kinematics: Kinematics, task: FrameTask) -> str:
+def with_diagnosis(reason: str, resolver, kinematics: Kinematics, task: FrameTask) -> str:
     """The stop reason, followed by what the method says of its own state there (if anything)."""
     diagnosis = resolver.stop_diagnosis(kinematics, task)
     return reason if diagnosis is None else f"{reason}; {diagnosis}"
