@@ -168,7 +168,7 @@ class SelfMotionRate:
         return part, inertia.dot(w), constant
 
     def stacked(self, configurations, joint_velocities, inertia, jacobian, null_space_basis):
-        """``(E_N, Hw, c)`` of :meth:`__call__` for each row of stacks: q (B, nq), q̇ (B, n), H (B, n, n),
+        """``(E_N, Hw, c)`` of calling it for each row of stacks: q (B, nq), q̇ (B, n), H (B, n, n),
         J (B, m, n) and Z (B, n, r); E_N and c (B,), Hw (B, n). The Pinocchio calls (C, J̇) row by row, the
         rest on the stacks."""
         v = joint_velocities

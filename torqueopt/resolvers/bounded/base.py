@@ -5,7 +5,7 @@ optimum within bounds (``_optimum``, one per resolver), and, when there is
 none, the policy the ``infeasible`` option names (scale the task, least task
 error, exceed the bounds least, stop), in the coordinates of Eq. (26).
 
-Its step on stacks (``batch_solver``, :class:`BoundedStackStep`) builds every
+Its step on stacks (``batch_solver``, ``BoundedStackStep``) builds every
 row's program with stacked numpy (null-space basis, criterion, torque-bound
 rows, joint-limit rows, the resolver's own rows: ``_stack_optimum`` and
 ``_stack_acceleration_constraints``, one per resolver) and solves each row
@@ -145,7 +145,7 @@ class _BoundedResolver(Resolver):
         return self.solver(robot, dt)
 
     def batch_solver(self, robot: Robot, dt: float | None = None) -> StackStep:
-        """The vectorised step on stacks, :class:`BoundedStackStep`; the looped default for a subclass that changes
+        """The vectorised step on stacks, ``BoundedStackStep``; the looped default for a subclass that changes
         its criterion (``_optimum``) or its own rows (``_acceleration_constraints``) without their stacked forms."""
         cls = type(self)
         for single, stacked in (
