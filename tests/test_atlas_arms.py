@@ -121,10 +121,13 @@ def test_the_cross_arm_table_lists_each_bar_and_the_nearest_when_none_meets_it()
     arm1 = lines[2].split(" | ")
     assert arm1[1] == "1000 of 1000"
     assert arm1[2] == "`bounded-torque`, `damped-null-space`, `inertia-pinv`"  # not null-space, not pinv
-    assert arm1[3] == "`bounded-torque` 0.9 [0.89, 0.91]; `damped-null-space` 0.8 [0.79, 0.81]; `inertia-pinv` 1.1 [1, 1]"
+    assert (
+        arm1[3] == "`bounded-torque` 0.9 [0.89, 0.91]; `damped-null-space` 0.8 [0.79, 0.81]; `inertia-pinv` 1.1 [1, 1]"
+    )
     assert arm1[4] == "`damped-null-space` 0.8 [0.79, 0.81]; `bounded-torque` 0.9 [0.89, 0.91] |"  # best first
     arm2 = lines[3].split(" | ")
-    assert arm2[1] == "900 of 1000" and arm2[3] == "none"
+    assert arm2[1] == "900 of 1000"
+    assert arm2[3] == "none (nearest: `damped-null-space` outside a limit on 3 % [2.1, 4.3] of them, 0.8 [0.79, 0.81])"
     assert (
         arm2[4] == "none (nearest: `damped-null-space` 0.8 [0.79, 0.81], outside a limit on 3 % [2.1, 4.3] of them) |"
     )

@@ -199,7 +199,18 @@ def cross_arm_table(summaries: dict[str, dict]) -> str:
             key=lambda label: entries[label]["median_torque_vs_pinv"],
         )
         stable_text = ", ".join(f"`{label}`" for label in stable) or "none"
-        within_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in within) or "none"
+        within_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in within)
+        if not within:
+            # Nearest: the stable one outside a limit on the fewest paths.
+            near = sorted(
+                stable, key=lambda label: (entries[label]["over_limits"], entries[label]["median_torque_vs_pinv"])
+            )
+            within_text = "none" + (
+                f" (nearest: `{near[0]}` outside a limit on {_over(entries[near[0]])} of them, "
+                f"{_median(entries[near[0]])})"
+                if near
+                else ""
+            )
         if saving:
             saving_text = "; ".join(f"`{label}` {_median(entries[label])}" for label in saving)
         else:
