@@ -213,7 +213,7 @@ def run_atlas(
             torque, the arm at the instability): those where a resolver
             whips first, then the others; simulated again after the sweep.
         max_steps: refuse a sweep of more trajectory-steps than this (a global
-            optimum counts as :data:`GLOBAL_STEP_EQUIVALENT` runs of its path, a
+            optimum counts as ``GLOBAL_STEP_EQUIVALENT`` (25) runs of its path, a
             margin evaluation as ``MARGIN_STEP_EQUIVALENT`` steps).
         global_optimum: also run :func:`torqueopt.optimize` on every movement:
             rows with resolver ``global-optimum``, judged from the open-loop

@@ -217,7 +217,7 @@ def _percent(item: dict) -> str:
     return f"{item['fraction']:.0%} [{100 * item['low']:.0f}, {100 * item['high']:.0f}]".replace("%", " %")
 
 
-def broader_answer(summary: dict) -> str:
+def broader_answer(summary: dict, *, link: bool = True) -> str:
     """The README's answer to "can any local algorithm be completely successful?", written from ``atlas.json``.
 
     A local method is completely successful when it is problem-free (stable and within the torque limits) on
@@ -254,7 +254,9 @@ def broader_answer(summary: dict) -> str:
         answer += f" and {frontier['median_global_cost_vs_most_successful']:.2f} of `{best}`'s"
     answer += f"; it converged on {frontier['converged']:,} paths"
     answer += f" ({frontier['not_converged']:,} did not, counted as such)." if frontier["not_converged"] else "."
-    text = f"- **Can any local algorithm be completely successful?** {answer} ([The global optimum on every path]({ACCOUNT_PAGE}))"
+    text = f"- **Can any local algorithm be completely successful?** {answer}"
+    if link:  # the README's link to the full account (a report elsewhere has no such page beside it)
+        text += f" ([The global optimum on every path]({ACCOUNT_PAGE}))"
     return textwrap.fill(text, width=78, subsequent_indent="  ", break_long_words=False, break_on_hyphens=False)
 
 
@@ -303,7 +305,7 @@ def frontier_markdown(summary: dict) -> list[str]:
             f"{_ratio(item['median_peak_vs_global'])} | {_ratio(item['median_cost_vs_global_problem_free'])} |"
         )
     lines.append(f"| {GLOBAL_RESOLVER} | {_share(frontier['problem_free'])} | - | - | 1 | 1 | 1 |")
-    lines += ["", "Generated answer (the README's):", "", broader_answer(summary)]
+    lines += ["", "Generated answer (the README's, without its link):", "", broader_answer(summary, link=False)]
     return lines
 
 

@@ -70,8 +70,8 @@ GLOBAL_RESOLVER = "global-optimum"
 GLOBAL_END = "free"
 #: IPOPT iterations per Hessian tried, per path.
 DEFAULT_GLOBAL_MAX_ITERATIONS = 500
-#: Wall time of one path's solve [s]: a guard against a hang, far above the ~1.4 s a 2 s planar3 path takes on a
-#: quiet core (on a loaded machine a solve takes longer: the iterations are the budget that does not depend on it).
+#: The most wall time of one path's solve [s], a guard against a hang far above the ~1.4 s a 2 s planar3 path takes
+#: on a quiet core (a loaded machine takes longer; the iterations are the budget that does not depend on the load).
 DEFAULT_GLOBAL_MAX_TIME = 600.0
 #: Movements per chunk of global rows (a solve takes ~1.4 s on a 2 s planar3 path: chunks of ~10 s).
 DEFAULT_GLOBAL_CHUNK_SIZE = 8
@@ -115,7 +115,7 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
 
 
 def replay_result(robot, solved) -> SimResult:
-    """The open-loop replay of an :class:`~torqueopt.optimal.OptimalResult`'s torques as a :class:`SimResult`.
+    """The open-loop replay of an ``OptimalResult``'s torques as a :class:`~torqueopt.SimResult`.
 
     Rows after the replay's state stopped being finite are cut, and the run is
     then marked as stopped (``stop_reason``), as a diverged simulation is.

@@ -5,7 +5,7 @@ row gets
 
 ``peak_stability_margin`` [1/s]
     the largest margin σ (the growth rate of the linearised closed-loop
-    self-motion, :mod:`torqueopt.stability`) over the sampled states before
+    self-motion, ``torqueopt.stability``) over the sampled states before
     the instability (the row's ``instability_time``) of a run whose verdict is
     ``whiplash``, over the whole run otherwise;
 ``margin_warning_time`` [s]

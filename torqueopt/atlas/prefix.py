@@ -4,7 +4,7 @@ The sweep sends its chunks path by path (each resolver chunk before the
 global-optimum chunks of the same paths), so a sweep stopped early has
 finished every run of paths 0 .. P-1 for some P and a few runs beyond.
 :func:`prefix_report` reads the chunks that prove to be the atlas's
-(:func:`torqueopt.atlas.sweep.read_chunk`), keeps the paths below the first
+(``torqueopt.atlas.sweep.read_chunk``), keeps the paths below the first
 path that lacks a run, and writes ``atlas.md``, ``atlas.json``,
 ``results.parquet`` and the figures of those paths into another folder, with
 the same functions as a finished atlas (:mod:`torqueopt.atlas.report`).
