@@ -171,3 +171,30 @@ def test_energy_bounded_sweep_example_reports_every_run_of_its_setting():
     share, low, high, runs = re.match(r"range, 1, 20: (\S+) \((\S+)-(\S+)\) of (\d+),", line).groups()
     assert int(runs) == 2 * 4  # two paths for each of the four durations
     assert float(low) <= float(share) <= float(high)  # the Wilson interval holds its own share
+
+
+@pytest.mark.slow
+def test_global_local_arms_example_writes_its_table_from_the_runs(tmp_path):
+    """One short panda line: the table's pinv cost is a fresh simulate's, every 'vs global' is the row's cost over
+    the rest-to-rest optimum's, and the optimum's row names IPOPT's status."""
+    import numpy as np
+
+    import torqueopt
+    from torqueopt.atlas.population import arm_reach, default_accel
+    from torqueopt.optimal import run_cost
+
+    run_example(
+        "global_local_arms.py", "--robots", "panda", "--durations", "0.3", "--no-circle", "--out", str(tmp_path)
+    )
+    cells = [line.split(" | ") for line in (tmp_path / "global-local-arms.md").read_text().splitlines()[2:]]
+    rows = {cell[2]: (float(cell[3]), float(cell[4]), cell[6]) for cell in cells}
+    assert len(rows) == 5 and "IPOPT converged" in rows["global, joint limits, end at rest"][2]
+    robot = torqueopt.load_robot("panda")
+    line = torqueopt.StraightLine([0.0, 1.0, 0.0], accel=default_accel(arm_reach(robot)[1]), duration=0.3)
+    pinv = torqueopt.simulate(robot, "pinv", line, robot.default_configuration)
+    assert rows["pinv"][0] == pytest.approx(run_cost(pinv, robot), abs=0.05)
+    rest = rows["global, joint limits, end at rest"][0]
+    for cost, versus, _ in rows.values():
+        assert versus == pytest.approx(cost / rest, abs=6e-4)
+    assert (tmp_path / "global-local-arms.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert np.isfinite(rest)
