@@ -325,6 +325,7 @@ def test_in_process_atlas_files_and_columns(reference_atlas, tmp_path):
         "q0_3",
         "direction_1",
         "direction_2",
+        "resolver_options",
         "unstable",
         "verdict",
         "instability_time",

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import json
 import os
 import secrets
 import stat
@@ -51,7 +52,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from .errors import OutputError
+from .errors import InvalidInput, OutputError
 
 __all__ = ["atomic_write", "sidecar_path", "writable_path", "writable_paths", "written_together"]
 
@@ -346,3 +347,35 @@ def _kind(path: Path) -> str:
         if test(mode):
             return words.split(" (")[0].split(",")[0]
     return "a file"
+
+
+def resumable_folder(out: Path, config_name: str, config: dict, what: str) -> bool:
+    """True when ``out`` holds the work ``config`` describes (resume), False when it is new or empty.
+
+    ``what`` names the work in the messages ("atlas", "tune"). Writes nothing.
+
+    Raises:
+        InvalidInput: ``out`` holds such work with other settings (naming the settings that
+            differ), its configuration cannot be read, or ``out`` is not empty and holds no
+            ``config_name``: never adopt a folder that is not ours.
+    """
+    article = "an" if what[:1] in "aeiou" else "a"
+    path = out / config_name
+    if path.is_file():
+        try:
+            existing = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            raise InvalidInput(f"'{path}' is not {article} {what}'s configuration; choose another --out") from None
+        if existing != json.loads(json.dumps(config)):
+            changed = sorted(key for key in set(existing) | set(config) if existing.get(key) != config.get(key))
+            raise InvalidInput(
+                f"'{out}' holds {article} {what} with other settings ({', '.join(changed)} differ); give another "
+                f"--out to start a new {what}, or the same settings to resume it"
+            )
+        return True
+    if out.is_dir() and any(out.iterdir()):
+        raise InvalidInput(
+            f"'{out}' is not empty and holds no {what} (no {config_name}), so it is not this {what}'s folder: give "
+            f"an empty or new folder, or this {what}'s folder to resume it"
+        )
+    return False

@@ -57,7 +57,7 @@ import numpy as np
 
 from .checks import number_in_range, whole_number
 from .errors import InvalidInput, OutputError
-from .io import atomic_write, writable_path, writable_paths, written_together
+from .io import atomic_write, resumable_folder, writable_path, writable_paths, written_together
 from .resolvers import RESOLVERS, Resolver, get_resolver
 from .resolvers.options import label_value
 
@@ -610,27 +610,5 @@ def _finite(value):
 
 
 def _check_folder(out: Path, config: dict) -> bool:
-    """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing.
-
-    Raises:
-        InvalidInput: ``out`` holds a tune with other settings, or is not empty and holds no tune.
-    """
-    path = out / _CONFIG
-    if path.is_file():
-        try:
-            existing = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            raise InvalidInput(f"'{path}' is not a tune's configuration; choose another --out") from None
-        if existing != json.loads(json.dumps(config)):
-            changed = sorted(key for key in set(existing) | set(config) if existing.get(key) != config.get(key))
-            raise InvalidInput(
-                f"'{out}' holds a tune with other settings ({', '.join(changed)} differ); give another --out to "
-                "start a new tune, or the same settings to resume it"
-            )
-        return True
-    if out.is_dir() and any(out.iterdir()):
-        raise InvalidInput(
-            f"'{out}' is not empty and holds no tune (no {_CONFIG}), so it is not this tune's folder: give an "
-            "empty or new folder, or this tune's folder to resume it"
-        )
-    return False
+    """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing."""
+    return resumable_folder(out, _CONFIG, config, "tune")

@@ -63,7 +63,7 @@ import numpy as np
 
 from ..checks import positive_number, step_count, whole_number
 from ..errors import InvalidInput, OutputError, TorqueoptWarning
-from ..io import atomic_write, writable_path, writable_paths, written_together
+from ..io import atomic_write, resumable_folder, writable_path, writable_paths, written_together
 from ..progress import said_if_slow
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
@@ -486,31 +486,8 @@ def _chunks(movements: list[Movement], size: int) -> list[list[Movement]]:
 
 
 def _check_folder(out: Path, config: dict) -> bool:
-    """True when ``out`` holds this atlas (resume), False when it is new or empty; writes nothing.
-
-    Raises:
-        InvalidInput: ``out`` holds an atlas with other settings, or is not
-            empty and holds no atlas: never adopt a folder that is not ours.
-    """
-    path = out / _CONFIG
-    if path.is_file():
-        try:
-            existing = json.loads(path.read_text())
-        except (OSError, ValueError):
-            raise InvalidInput(f"'{path}' is not an atlas configuration; choose another --out") from None
-        if existing != config:
-            changed = sorted(key for key in set(existing) | set(config) if existing.get(key) != config.get(key))
-            raise InvalidInput(
-                f"'{out}' holds an atlas with other settings ({', '.join(changed)} differ); give another --out to "
-                "start a new atlas, or the same settings to resume it"
-            )
-        return True
-    if out.is_dir() and any(out.iterdir()):
-        raise InvalidInput(
-            f"'{out}' is not empty and holds no atlas (no {_CONFIG}), so it is not this atlas's folder: give an "
-            "empty or new folder, or this atlas's folder to resume it"
-        )
-    return False
+    """True when ``out`` holds this atlas (resume), False when it is new or empty; writes nothing."""
+    return resumable_folder(out, _CONFIG, config, "atlas")
 
 
 def _claim_folder(out: Path, config: dict) -> None:
