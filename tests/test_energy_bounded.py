@@ -312,3 +312,38 @@ def test_when_the_torque_bounds_cannot_meet_the_barrier_each_policy_says_what_it
         with pytest.raises(TorqueBoundsInfeasible, match="within its self-motion energy barrier"):
             steps["stop"](terms, xdd)
     assert conflicts >= 3 and relaxed >= 1, (conflicts, relaxed)
+
+
+# A panda line (path 88 of the 2 s panda atlas, seed 2026) on which the joint limits and the torque limits leave no
+# common q̈ from t = 0.42 s on: the joint limits are given up there, and the barrier must not go with them.
+_PANDA_Q0 = [1.5842278610995986, -0.2418074838058415, 2.5684426908063878, -0.422201131645509, 1.713213281903156,
+             0.31276174197959355, -2.2517535386888543]  # fmt: skip
+_PANDA_DIRECTION = [0.9110470846245826, 0.2292285594713353, -0.34270610896181175]
+
+
+def test_when_the_joint_limits_are_given_up_for_the_torque_limits_the_barrier_stays(panda):
+    """Priority torque bounds > joint limits > barrier: a step that gives up the joint limits keeps the barrier (met,
+    or raised to the fastest decrease of E_N the torque box allows, from HiGHS over τ), and E_N stays near E_max.
+    Before the fix such steps dropped the barrier with the joint limits, and E_N on this line reached 484 J."""
+    line = torqueopt.StraightLine(_PANDA_DIRECTION, accel=0.40410877188615857, duration=2.0)
+    run = torqueopt.simulate(panda, "energy-bounded-torque", line, _PANDA_Q0, duration=0.7)
+    given_up = [row for row, text in (run.limiting or {}).items() if text.startswith("joint limits given up")]
+    assert len(given_up) >= 50, len(given_up)
+    resolver = get_resolver("energy-bounded-torque")
+    limit, rate_factor = resolver.energy_limit, resolver.energy_rate
+    rate_of = SelfMotionRate(panda)
+    for row in given_up:
+        q, v = run.q[row], run.v[row]
+        terms = panda.terms(q, v)
+        part, coefficient, constant = rate_of(q, v, terms.inertia, terms.jacobian, null_space(terms.jacobian))
+        inverse_inertia = np.linalg.inv(terms.inertia)
+        bounds = list(zip(panda.torque_lower, panda.torque_upper))
+        fastest = (
+            linprog(inverse_inertia @ coefficient, bounds=bounds, method="highs").fun
+            - coefficient @ inverse_inertia @ terms.bias_torque
+            + constant
+        )
+        rate = coefficient @ run.acceleration[row] + constant
+        wanted = -rate_factor * (part.energy - limit)
+        assert rate <= max(wanted, fastest) + 1e-6 * (1 + abs(fastest)) * np.linalg.norm(coefficient), (row, rate)
+    assert _run_energies(panda, run).max() <= 1.02 * limit

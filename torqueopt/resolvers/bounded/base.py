@@ -241,11 +241,16 @@ class _BoundedResolver(Resolver):
                 constraints = constraints_at(terms, basis)  # (G, h): G q̈ <= h, unit rows
             if nl:
 
-                def joint_rows(offset, rows, raised=None):
+                def joint_rows(offset, rows, raised=None, free_joints=False):
                     """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā, then
-                    the resolver's own rows G q̈ <= h (h raised to ``raised`` where that is higher)."""
+                    the resolver's own rows G q̈ <= h (h raised to ``raised`` where that is higher); with
+                    ``free_joints`` the joint limits' rows hold whatever x (the joint limits given up)."""
                     parts = []
-                    if limits is not None:
+                    if limits is not None and free_joints:
+                        parts.append(
+                            (np.zeros((joints.size, rows.shape[1])), np.ones(joints.size), -np.ones(joints.size))
+                        )
+                    elif limits is not None:
                         parts.append(
                             (
                                 rows[joints] / joint_scale[:, None],
@@ -332,16 +337,21 @@ class _BoundedResolver(Resolver):
             # asks for it: give up the direction too, for the least task error.
             if found_task is None:
                 found_task = least_error_task(rows, row_upper, row_lower, command)
+            within_joint_limits = True
             if found_task is None and constraints is not None:
                 # The resolver's own rows yield first: each raised to the least value a torque within
                 # bounds gives it, the tip left free (the barrier: energy out as fast as the bounds allow).
                 least = _least_within_box(constraints[0], inertia, terms.bias_torque, box_upper, box_lower)
-                stages = [least + 1e-9 * (1.0 + np.abs(least))]
+                least_raised = least + 1e-9 * (1.0 + np.abs(least))
+                stages = [(least_raised, False)]
                 if limits is not None:
-                    stages.append(_DROPPED)  # the joint limits kept, the resolver's own rows given up
+                    # The joint limits kept, the resolver's own rows given up; then the joint limits given up
+                    # for the torque limits, and the resolver's own rows back, raised (always feasible: the
+                    # least over the box).
+                    stages += [(_DROPPED, False), (least_raised, True)]
                 all_rows = joint_rows
-                for raised in stages:
-                    joint_rows = partial(all_rows, raised=raised)
+                for raised, free_joints in stages:
+                    joint_rows = partial(all_rows, raised=raised, free_joints=free_joints)
                     acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
                         acceleration_offset, acceleration_coordinates
                     )
@@ -350,9 +360,13 @@ class _BoundedResolver(Resolver):
                     row_lower = np.r_[row_lower[:nb], acceleration_lower]
                     found_task = least_error_task(rows, row_upper, row_lower, command)
                     if found_task is not None:
+                        within_joint_limits = not free_joints
                         break
-            within_joint_limits = found_task is not None or joint_rows is None
+            # The rows the resolver's own optimum below keeps: none when the torque bounds alone are left.
+            final_rows = joint_rows
             if found_task is None:
+                within_joint_limits = joint_rows is None
+                final_rows = None
                 # No q̈ within the joint limits has a torque within bounds: the torque bounds win.
                 found_task = least_error_task(
                     torque_rows, torque_upper_rows, torque_lower_rows, command, program=torque_least_error
@@ -370,7 +384,7 @@ class _BoundedResolver(Resolver):
                 inertia_basis,
                 shifted_tilde,
                 shifted_particular,
-                joint_rows if within_joint_limits else None,
+                final_rows,
             )
             if found is None:
                 y = range_basis.coordinates(range_rows.dot(z))

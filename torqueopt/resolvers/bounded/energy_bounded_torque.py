@@ -98,7 +98,10 @@ class EnergyBoundedTorque(BoundedTorque):
     :math:`\dot E_N` any torque within bounds reaches, the energy taken out
     as fast as the bounds allow, and the least task error under that; if
     the joint limits still leave nothing, the barrier is given up for that
-    step, then the joint limits (``bounded-torque``'s rule). Every such
+    step with the joint limits kept; if that leaves nothing either, the joint
+    limits are given up for the torque limits (``bounded-torque``'s rule)
+    and the barrier comes back, raised as above (the torque bounds alone
+    always meet it). Every such
     step is flagged infeasible with its task error and the bounds its
     answer lay on (``Resolution.limiting``: "self-motion energy barrier"
     among them when it binds).
