@@ -344,3 +344,34 @@ def test_the_frontier_counts_against_a_hand_made_table():
     assert summary["local"]["b"]["median_cost_vs_global"] == 1.5
     assert summary["cheapest_local"] == "b"
     assert summary["median_global_cost_vs_most_successful"] == pytest.approx(np.median([1 / 90, 1 / 1.5, 1 / 1.5]))
+
+
+def test_the_answer_says_how_the_method_with_the_energy_bound_fares():
+    """With energy-bounded-torque among the local methods (not the most successful), the README's answer gives its
+    whips, its problem-free share and its lost paths, counted from the rows."""
+    from torqueopt.atlas.frontier import GUARANTEED, broader_answer, global_summary
+    from torqueopt.atlas.global_optimum import add_global_ratios
+
+    rows = []
+    for path in range(5):
+        lost = path < 3
+        for name, verdict, peak in (
+            ("pinv", "stable", 0.9),
+            (GUARANTEED, "lost path" if lost else "stable", 0.8),
+            (GLOBAL_RESOLVER, "stable", 0.7),
+        ):
+            rows.append({"path": path, "resolver": name, "verdict": verdict, "peak_torque_ratio": peak, "cost": 2.0})
+    table = pandas.DataFrame(rows)
+    table["optimizer_status"] = np.where(table["resolver"] == GLOBAL_RESOLVER, "converged", None)
+    for column in ("optimizer_iterations", "replay_tip_error", "torque_vs_pinv"):
+        table[column] = 1.0
+    frontier = global_summary(add_global_ratios(table))
+    assert frontier["local"][GUARANTEED]["lost_path"] == 3 and frontier["local"]["pinv"]["lost_path"] == 0
+    text = " ".join(
+        broader_answer({"global": frontier, "config": {"robot_name": "planar3"}, "durations": [2.0]}).split()
+    )
+    assert "Yes, on 5 random 2 s movements of planar3" in text and "`pinv` is problem-free" in text
+    assert (
+        f"`{GUARANTEED}`, the local method with a bound on the self-motion energy, whips on 0 % [0, 43] of the paths "
+        "but is problem-free on 40 % [12, 77]: it leaves the path (the tip more than 1 mm off) on 3 of 5." in text
+    )

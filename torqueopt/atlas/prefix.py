@@ -9,7 +9,9 @@ path that lacks a run, and writes ``atlas.md``, ``atlas.json``,
 ``results.parquet`` and the figures of those paths into another folder, with
 the same functions as a finished atlas (:mod:`torqueopt.atlas.report`).
 ``atlas.json``'s ``partial`` says how many paths of how many it covers; the
-sweep itself is left as it was, to be resumed with its own command.
+sweep itself is left as it was, to be resumed with its own command. On a
+finished atlas it writes the whole atlas's report again, with the summary
+this version of the package computes (and no ``partial``).
 """
 
 from __future__ import annotations
@@ -66,7 +68,8 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
     if "global" in config:
         table = add_global_ratios(table)
     summary = summarise(table, config)
-    summary["partial"] = {"paths": paths, "of": int(config["movements"])}
+    if paths < int(config["movements"]):  # the report of a finished atlas is no part of one
+        summary["partial"] = {"paths": paths, "of": int(config["movements"])}
     dest.mkdir(parents=True, exist_ok=True)
     from ..loading import load_robot
 
