@@ -23,17 +23,35 @@ position
     The same, mirrored, at :math:`q^-_i`.
 viability
     the next state can still stop before the limit decelerating at
-    :math:`\bar a_i`: :math:`q_i^+ + (\dot q_i^+)^2/(2\bar a_i) \le q^+_i`,
+    :math:`\bar a_i`. Del Prete's condition is :math:`q_i^+ + (\dot q_i^+)^2/(2\bar a_i) \le q^+_i`,
+    the braking parabola :math:`\dot q \le \sqrt{2\bar a_i d}` at the distance
+    :math:`d = q^+_i - q` from the limit. Its slope is infinite at the limit: a
+    joint pushed into the limit arrives there with speed, and a held torque
+    whose acceleration drifts inside the step by a few percent then rebounds
+    from it step after step (the torque chatters by tens of N·m on panda). Here
+    the parabola is offset so that it meets the limit with the finite slope
+    :math:`k = 1/(N\delta)` (:data:`APPROACH_STEPS` N = 10),
+
+    .. math::
+
+        \dot q \le \sqrt{2\bar a_i (d + d_0)} - w,\qquad w = \bar a_i/k,\quad d_0 = w^2/(2\bar a_i),
+
+    a curve inside Del Prete's (every state under it can stop at
+    :math:`\bar a_i`), that needs no more than :math:`\bar a_i` to ride
+    (:math:`f f' \le \bar a_i`) and that brings a joint to rest on its limit
+    along :math:`\dot q \approx k d` without rebounding. The bound is its
+    condition on the next state, :math:`(\dot q_i^+ + w)^2 \le 2\bar a_i(q^+_i + d_0 - q_i^+)`,
     a quadratic in a whose larger root is
 
     .. math::
 
-        a \le \frac{-b + \sqrt{b^2 - 4\delta^2 c}}{2\delta^2},\quad
-        b = 2\delta\dot q_i + \bar a_i\delta^2,\quad
-        c = \dot q_i^2 - 2\bar a_i(q^+_i - q_i - \delta\dot q_i),
+        a \le \frac{-2c}{b + \sqrt{b^2 - 4\delta^2 c}},\quad
+        b = 2\delta(\dot q_i + w) + \bar a_i\delta^2,\quad
+        c = (\dot q_i + w)^2 - 2\bar a_i(q^+_i + d_0 - q_i - \delta\dot q_i),
 
-    and never below :math:`-\dot q_i/\delta` (stopping within the step is
-    always allowed); mirrored at :math:`q^-_i`.
+    (Del Prete's root, written without cancellation; w = 0 gives his bound
+    exactly), and never below :math:`-\dot q_i/\delta` (stopping within the
+    step is always allowed); mirrored at :math:`q^-_i`.
 velocity
     :math:`|\dot q_i^+| \le \dot q^{max}_i`:
     :math:`(-\dot q^{max}_i - \dot q_i)/\delta \le a \le (\dot q^{max}_i - \dot q_i)/\delta`.
@@ -82,6 +100,7 @@ from ...robot import Robot, TaskTerms
 from ..options import Option
 
 __all__ = [
+    "APPROACH_STEPS",
     "BOUND_KINDS",
     "DEFAULT_STEP",
     "JOINT_ACCELERATION_LIMIT_OPTION",
@@ -103,6 +122,9 @@ DEFAULT_STEP = 1e-3
 VELOCITY_MARGIN = 0.01
 #: How far inside each position limit [rad or m] the bounds keep the joint (the same drift).
 POSITION_MARGIN = 1e-4
+#: The viability bound's approach to a limit: within about ā·(APPROACH_STEPS·δ)²/2 of it, a joint's speed towards it
+#: is at most its distance over APPROACH_STEPS steps, so that it comes to rest on the limit without rebounding.
+APPROACH_STEPS = 10
 #: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
 STOPPING_FRACTION = 0.5
 #: The least share of the torque limit counted as available to stop, when the bias torque takes more.
@@ -188,8 +210,23 @@ def _pick(candidates, choose):
     return value, np.where(np.isfinite(value), kind, _NONE)
 
 
+def _larger_root(dt, b, c):
+    """The larger root of δ²a² + b a + c = 0 (NaN where there is none), as −2c/(b + √(b² − 4δ²c)) where b > 0."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        discriminant = np.sqrt(b**2 - 4.0 * dt**2 * c)
+        return np.where(b > 0.0, -2.0 * c / (b + discriminant), (discriminant - b) / (2.0 * dt**2))
+
+
 def acceleration_bounds(
-    angle, velocity, step, position_lower, position_upper, velocity_limit, deceleration, acceleration_limit
+    angle,
+    velocity,
+    step,
+    position_lower,
+    position_upper,
+    velocity_limit,
+    deceleration,
+    acceleration_limit,
+    approach: bool = True,
 ) -> AccelerationBounds:
     r"""Del Prete's bounds on :math:`\ddot q` (module docstring) for joints at ``angle`` [rad], ``velocity`` [rad/s].
 
@@ -197,7 +234,8 @@ def acceleration_bounds(
     no such limit), but ``step``, δ [s]; ``angle``, ``velocity`` and
     ``deceleration`` may be stacks of states (B × joints), the limits broadcast along them. ``deceleration`` is :math:`\bar a`
     [rad/s²] (inf: the joint stops at once), ``acceleration_limit``
-    :math:`\ddot q^{max}` [rad/s²] (inf: none).
+    :math:`\ddot q^{max}` [rad/s²] (inf: none). ``approach=False`` is Del Prete's braking parabola
+    without the offset (w = 0), kept for comparison: it rebounds from a limit it is pushed into.
     """
     q, v, dt = np.asarray(angle, float), np.asarray(velocity, float), float(step)
     lower, upper = np.asarray(position_lower, float), np.asarray(position_upper, float)
@@ -213,13 +251,17 @@ def acceleration_bounds(
         turns_down = (v < 0) & (lower_next >= stop_in_step) & (q > lower)
         upper_position = np.where(turns_up, upper_turn, upper_next)
         lower_position = np.where(turns_down, lower_turn, lower_next)
-        # Viability: q⁺ + (q̇⁺)²/(2ā) <= q⁺_max, the larger root of δ²a² + b a + c = 0.
-        b_up = 2.0 * dt * v + brake * dt**2
-        c_up = v**2 - 2.0 * brake * (upper - q - dt * v)
-        root_up = (-b_up + np.sqrt(b_up**2 - 4.0 * dt**2 * c_up)) / (2.0 * dt**2)
-        b_down = 2.0 * dt * v - brake * dt**2
-        c_down = v**2 - 2.0 * brake * (q + dt * v - lower)
-        root_down = (-b_down - np.sqrt(b_down**2 - 4.0 * dt**2 * c_down)) / (2.0 * dt**2)
+        # Viability: (q̇⁺ + w)² <= 2ā(q⁺_max + d − q⁺), Del Prete's braking parabola offset so that it meets the
+        # limit with the finite slope 1/(APPROACH_STEPS·δ) (w = ā·APPROACH_STEPS·δ, d = w²/(2ā)); w = 0 is the
+        # parabola itself. The larger root of δ²a² + B a + C = 0, in the form without cancellation where B > 0.
+        offset = brake * (APPROACH_STEPS * dt) if approach else np.zeros_like(brake)
+        reach = 0.5 * offset**2 / brake
+        root_up = _larger_root(
+            dt, 2.0 * dt * (v + offset) + brake * dt**2, (v + offset) ** 2 - 2.0 * brake * (upper + reach - q - dt * v)
+        )
+        root_down = -_larger_root(
+            dt, 2.0 * dt * (offset - v) + brake * dt**2, (offset - v) ** 2 - 2.0 * brake * (q + dt * v - lower + reach)
+        )
     stops_at_once = ~np.isfinite(brake)
     upper_viability = np.where(stops_at_once, np.inf, np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step))
     lower_viability = np.where(stops_at_once, -np.inf, np.fmin(np.nan_to_num(root_down, nan=np.inf), stop_in_step))
