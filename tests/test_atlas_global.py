@@ -375,3 +375,53 @@ def test_the_answer_says_how_the_method_with_the_energy_bound_fares():
         f"`{GUARANTEED}`, the local method with a bound on the self-motion energy, whips on 0 % [0, 43] of the paths "
         "but is problem-free on 40 % [12, 77]: it leaves the path (the tip more than 1 mm off) on 3 of 5." in text
     )
+
+
+def test_a_diverging_replay_stops_at_simulates_speed_ceiling_without_warnings(planar3):
+    """A global row's open-loop replay that runs away is cut where ``simulate`` would stop it.
+
+    Joint 3 of planar3 driven by a torque growing as e^(800 t) spins past
+    1000 rad/s and, unstopped, to states whose kinetic energy overflows a
+    float (the three runaway replays of the 1000-path global atlas did): the
+    rows must end at the last state under the ceiling, with the speed stop's
+    words, and the verdict's energies must come out without a floating-point
+    warning.
+    """
+    import warnings
+    from types import SimpleNamespace
+
+    from torqueopt.atlas.global_optimum import replay_result
+    from torqueopt.optimal import replay_torques
+
+    dt, steps = 1e-3, 500
+    t = np.arange(steps + 1) * dt
+    tau = np.zeros((steps + 1, 3))
+    tau[:, 2] = 1e3 * np.exp(800.0 * t)
+    q0 = np.radians([-45.0, 135.0, -135.0])
+    line = StraightLine(direction=[1, 1], accel=np.sqrt(2), duration=steps * dt)
+    solved = SimpleNamespace(
+        tau=tau,
+        q=np.tile(q0, (steps + 1, 1)),
+        dt=dt,
+        t=t,
+        acceleration=np.zeros((steps + 1, 3)),
+        x_ref=np.zeros((steps + 1, 2)),
+        duration=steps * dt,
+        trajectory=line,
+    )
+    raw = replay_torques(planar3, q0, np.zeros(3), tau[:-1], dt)
+    with np.errstate(invalid="ignore", over="ignore"):
+        first_over = int(np.argmax(~(np.abs(raw.v) <= 1e3).all(axis=1)))
+    assert 5 < first_over < steps  # the drive does run away inside the movement
+    with np.errstate(over="ignore"):
+        assert not np.isfinite(0.5 * (raw.v**2).sum(axis=1)).all()  # and beyond float range unstopped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = replay_result(planar3, solved)
+        kinetic, self_energy = self_motion_energy(planar3, result)
+        row = run_row(result, kinetic, self_energy, 1.0, Thresholds())
+    assert len(result.t) == first_over
+    assert np.abs(result.v).max() <= 1e3
+    assert result.stop_time == pytest.approx(t[first_over])
+    assert "speed of joint joint" in result.stop_reason and "beyond 1000 rad/s" in result.stop_reason
+    assert math.isfinite(row["peak_self_motion_energy"])

@@ -48,7 +48,8 @@ from ..optimal import optimize, run_cost
 from ..optimal.whole_path import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, _check_size, transcription_intervals
 from ..resolvers import get_resolver
 from ..result import SimResult, joint_limits_record
-from ..simulate import simulate
+from ..simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, simulate
+from ..stop_rules import StopRules
 from .population import Movement, movement_trajectory
 from .verdicts import Thresholds, run_row, self_motion_energy
 
@@ -117,24 +118,31 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
 def replay_result(robot, solved) -> SimResult:
     """The open-loop replay of an ``OptimalResult``'s torques as a :class:`~torqueopt.SimResult`.
 
-    Rows after the replay's state stopped being finite are cut, and the run is
-    then marked as stopped (``stop_reason``), as a diverged simulation is.
+    The replay stops where a simulation of the same movement would: at the
+    first state whose joint speed fails ``simulate``'s divergence ceiling
+    (``DEFAULT_MAX_JOINT_SPEED``, or a state that is not finite). As in
+    ``simulate``, the rows end at the state before it (its torque applied), and
+    the run is marked as stopped (``stop_reason``, ``stop_time``: the time of
+    the state that failed) in the words of a simulation's speed stop.
     """
     from ..optimal import replay_torques
 
     applied = solved.tau[:-1]
     replay = replay_torques(robot, solved.q[0], np.zeros(robot.nv), applied, solved.dt)
-    finite = np.isfinite(replay.q).all(axis=1) & np.isfinite(replay.v).all(axis=1)
-    count = int(np.argmin(finite)) if not finite.all() else len(finite)
+    rules = StopRules(robot, DEFAULT_MAX_TORQUE_RATIO, DEFAULT_MAX_JOINT_SPEED)
+    with np.errstate(invalid="ignore", over="ignore"):
+        diverged = rules.speeds_over(replay.v) | ~np.isfinite(replay.q).all(axis=1)
+    count = int(np.argmax(diverged)) if diverged.any() else len(diverged)
     data = robot.model.createData()
     q, v = replay.q[:count], replay.v[:count]
     tau = np.vstack([applied, np.full((1, robot.nv), np.nan)])[:count]
     x = replay.tip[:count][:, robot.task_rows]
     condition = np.array([_inverse_condition(robot, data, row) for row in q])
     stop_reason, stop_time = None, None
-    if count < len(finite):
-        stop_reason = "the open-loop replay of the optimal torques diverged (non-finite state)"
-        stop_time = float(solved.t[count - 1])
+    if count < len(diverged):  # the start (at rest, finite) never fails, so count >= 1
+        step_start = float(solved.t[count - 1])
+        stop_reason = "open-loop replay of the optimal torques: " + rules.speed(replay.v[count], step_start, solved.dt)
+        stop_time = float(solved.t[count])
     lower, upper, velocity = robot.joint_limits
     return SimResult(
         robot=robot.name,
