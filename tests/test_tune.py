@@ -68,6 +68,11 @@ def test_the_choice_is_the_brute_force_pick_from_the_evidence_table(tuned):
 def test_the_evidence_is_the_atlas_rows_counted_again(tuned):
     """Recount a fully-run setting's figures from the rows on disk (pinv's atlas, the settings' chunks), by the
     criteria's words."""
+    assert _recounted(tuned) >= 2
+
+
+def _recounted(tuned) -> int:
+    """How many fully-run settings of ``tuned`` have the figures its rows on disk give again (asserted)."""
     pinv = pandas.read_parquet(tuned.out / "pinv" / "results.parquet").set_index("path")
     handled = [p for p, row in pinv.iterrows() if row["verdict"] == "stable" and row["peak_torque_ratio"] <= 1]
     table = pandas.concat(
@@ -92,7 +97,34 @@ def test_the_evidence_is_the_atlas_rows_counted_again(tuned):
         middle = len(ratios) // 2
         median = ratios[middle] if len(ratios) % 2 else (ratios[middle - 1] + ratios[middle]) / 2
         assert row["saving"] == pytest.approx(1 - median, abs=1e-15)
-    assert counted >= 2
+    return counted
+
+
+@pytest.mark.slow
+def test_energy_bounded_torque_is_tuned_by_the_same_rules(tmp_path):
+    """The guaranteed resolver's E_max and α (issue 19 item 2): its evidence recounted from the rows, the pick the
+    brute-force one, and its flags run."""
+    options = {**SMALL, "grid": {"energy_limit": (0.03, 1.0), "energy_rate": (20.0,)}}
+    tuned = tune("planar3", "energy-bounded-torque", out=tmp_path / "energy", **options)
+    assert [row["options"]["energy_limit"] for row in tuned.settings] == [0.03, 1.0]
+    assert _recounted(tuned) == 2
+    # Each setting ran with its own E_max: the runs without an infeasible step keep E_N at it (to the held
+    # torque's overshoot), and the 1 J setting's self-motion goes above the 0.03 J one's.
+    table = pandas.concat(pandas.read_parquet(path) for path in (tuned.out / "settings" / "chunks").glob("*.parquet"))
+    peaks = {}
+    for row in tuned.settings:
+        runs = table[(table["resolver"] == row["label"]) & (table["infeasible_steps"] == 0)]
+        assert len(runs) >= 4
+        assert runs["peak_self_motion_energy"].max() <= 1.01 * row["options"]["energy_limit"]
+        peaks[row["options"]["energy_limit"]] = runs["peak_self_motion_energy"].max()
+    assert peaks[1.0] > 0.1 > peaks[0.03]
+    eligible = [row for row in tuned.settings if row["qualifies"]]
+    assert tuned.chosen == (max(eligible, key=lambda row: row["saving"]) if eligible else None)
+    assert all(
+        row["flags"] == f"--resolver energy-bounded-torque --option energy_limit={row['options']['energy_limit']:g} "
+        "--option energy_rate=20"
+        for row in tuned.settings
+    )
 
 
 def test_dropping_settings_early_changes_nothing(tmp_path, tuned):
