@@ -1,5 +1,6 @@
 """The rule for what is already where a file is written: real special files, made in tmp_path."""
 
+import math
 import os
 import re
 import socket
@@ -278,3 +279,25 @@ def test_plot_checks_the_stick_figure_file_before_it_draws(tmp_path, capsys):
     assert code == 2
     assert capsys.readouterr().err.startswith(f"torqueopt plot: error: cannot write '{tmp_path}/figure-stick.png'")
     assert not (tmp_path / "figure.png").exists()
+
+
+def test_json_value_is_what_a_json_file_holds():
+    """The atlas's and tune's summaries go through it: NaN and infinities (numpy's too, inside arrays too) become
+    null, numpy scalars and arrays Python numbers and lists, tuples lists, through dicts; the rest as it was."""
+    import json
+
+    import numpy as np
+
+    from torqueopt.io import json_value
+
+    value = {
+        "ratio": np.float64(0.5), "count": np.int64(3), "flag": np.bool_(True), "none": math.nan, "top": -math.inf,
+        "limits": np.array([[1.0, np.inf], [np.nan, 2.0]]), "pair": (np.float32(0.25), "a"), "name": "pinv", "n": 7,
+    }  # fmt: skip
+    converted = json_value(value)
+    assert converted == {
+        "ratio": 0.5, "count": 3, "flag": True, "none": None, "top": None, "limits": [[1.0, None], [None, 2.0]],
+        "pair": [0.25, "a"], "name": "pinv", "n": 7,
+    }  # fmt: skip
+    assert [type(converted[key]) for key in ("ratio", "count", "flag")] == [float, int, bool]
+    assert json.loads(json.dumps(converted, allow_nan=False)) == converted

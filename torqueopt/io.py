@@ -45,12 +45,15 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import json
+import math
 import os
 import secrets
 import stat
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+import numpy as np
 
 from .errors import InvalidInput, OutputError
 
@@ -379,3 +382,19 @@ def resumable_folder(out: Path, config_name: str, config: dict, what: str) -> bo
             f"an empty or new folder, or this {what}'s folder to resume it"
         )
     return False
+
+
+def json_value(value):
+    """``value`` as a JSON file holds it, through dicts, lists and tuples: numpy arrays and scalars as Python
+    lists and numbers, and every NaN or infinite float as None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {key: json_value(item) for key, item in value.items()}
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [json_value(item) for item in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

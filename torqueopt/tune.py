@@ -57,7 +57,7 @@ import numpy as np
 
 from .checks import number_in_range, whole_number
 from .errors import InvalidInput, OutputError
-from .io import atomic_write, resumable_folder, writable_path, writable_paths, written_together
+from .io import atomic_write, json_value, resumable_folder, writable_path, writable_paths, written_together
 from .resolvers import RESOLVERS, Resolver, get_resolver
 from .resolvers.options import label_value
 
@@ -247,7 +247,7 @@ def tune(
         "chosen": chosen,
     }
     markdown = write_markdown(summary).encode()
-    text = json.dumps(_finite(summary), indent=2, allow_nan=False).encode()
+    text = json.dumps(json_value(summary), indent=2, allow_nan=False).encode()
     with written_together():
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
@@ -597,16 +597,6 @@ def _json_value(value):
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     return value
-
-
-def _finite(value):
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(item) for item in value]
-    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
-        return None
-    return _json_value(value)
 
 
 def _check_folder(out: Path, config: dict) -> bool:

@@ -64,6 +64,7 @@ import numpy as np
 from ..checks import positive_number, step_count, whole_number
 from ..errors import InvalidInput, OutputError, TorqueoptWarning
 from ..io import atomic_write, resumable_folder, writable_path, writable_paths, written_together
+from ..io import json_value as _finite  # the name the atlas's writers (arms, prefix, guarantee) import
 from ..progress import said_if_slow
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
@@ -393,17 +394,6 @@ def run_atlas(
         markdown = write_markdown(summary).encode()
         atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
     return AtlasResult(table=table, summary=summary, out=out)
-
-
-def _finite(value):
-    """``value`` with every NaN or infinite float replaced by None (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(item) for item in value]
-    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _json_default(value):
