@@ -4,6 +4,11 @@ Session robots are shared by every test that asks for them: a test that
 changes a robot (torque limits, gravity) loads its own. Random draws are
 seeded: numpy generators from :func:`rng`, Pinocchio's ``randomConfiguration``
 after ``pin.seed``.
+
+The README's test command runs the suite on every core (pytest-xdist, ``-n auto --dist loadfile``): each
+test file runs whole on one worker, in file order, so a module-scoped fixture is computed once and a test
+that reads what an earlier one of its file wrote (tests/test_readme.py's page commands) still finds it.
+Session fixtures are computed once per worker that needs them.
 """
 
 import os

@@ -74,8 +74,16 @@ def test_the_readme_stays_the_first_five_minutes():
     first_block = re.search(r"```bash\n(.*?)```", text, re.S).group(1).splitlines()
     assert first_block == [
         "python3 -m venv .venv && . .venv/bin/activate && pip install . && torqueopt paper --out paper-out",
-        "python3 -m venv .venv && . .venv/bin/activate && pip install '.[test]' && python -m pytest -q",
+        "python3 -m venv .venv && . .venv/bin/activate && pip install '.[test]' && python -m pytest -q -n auto --dist loadfile",
     ]
+
+
+def test_ci_runs_the_readmes_test_command():
+    """`.ci/run`'s full-install job runs the README's test command as the README gives it."""
+    first_block = re.search(r"```bash\n(.*?)```", (ROOT / "README.md").read_text(), re.S).group(1).splitlines()
+    command = first_block[1].split(" && ", 2)[2]  # after the venv's creation and activation
+    assert command.startswith("pip install '.[test]' && python -m pytest")
+    assert command in (ROOT / ".ci" / "run").read_text().splitlines()
 
 
 @pytest.fixture(scope="module")
