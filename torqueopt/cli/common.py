@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
 from ..loading import load_robot
 from ..progress import said_if_slow
@@ -13,6 +15,7 @@ __all__ = [
     "add_robot_options",
     "add_start_options",
     "robot_from_args",
+    "start_from_args",
     "parse_vector",
     "parse_number",
     "parse_positive",
@@ -29,6 +32,14 @@ def add_start_options(group: argparse._ArgumentGroup) -> None:
         help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
     )
     group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
+
+
+def start_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray:
+    """The start configuration ``--q0`` and ``--degrees`` give (one value per joint), else the robot's default."""
+    if args.q0 is None:
+        return robot.default_configuration
+    angles = parse_vector(args.q0, "q0", robot.nv)
+    return robot.configuration(np.radians(angles) if args.degrees else angles)
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:

@@ -14,7 +14,15 @@ from ..progress import progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, add_start_options, parse_positive, parse_vector, parse_whole, robot_from_args
+from .common import (
+    add_robot_options,
+    add_start_options,
+    parse_positive,
+    parse_vector,
+    parse_whole,
+    robot_from_args,
+    start_from_args,
+)
 from .paths import add_path_options, trajectory_from_args
 
 __all__ = ["add_parser", "format_optimal_summary"]
@@ -118,11 +126,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     max_nonzeros = parse_whole(args.max_nonzeros, "max-nonzeros", minimum=1)
     robot = robot_from_args(args)
     weight = args.weight if args.weight in WEIGHTS else parse_vector(args.weight, "weight", robot.nv)
-    if args.q0 is None:
-        q0 = robot.default_configuration
-    else:
-        angles = parse_vector(args.q0, "q0", robot.nv)
-        q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
+    q0 = start_from_args(args, robot)
     if args.out:
         writable_paths(OptimalResult.files(args.out))
     intervals = transcription_intervals(trajectory.duration, grid_step)

@@ -18,7 +18,15 @@ from ..robot import Robot
 from ..simulate import DEFAULT_MAX_STEPS, Feedback, simulate, step_budget
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
-from .common import add_robot_options, add_start_options, parse_count, parse_positive, parse_vector, robot_from_args
+from .common import (
+    add_robot_options,
+    add_start_options,
+    parse_count,
+    parse_positive,
+    parse_vector,
+    robot_from_args,
+    start_from_args,
+)
 from .paths import add_path_options, trajectory_from_args
 from .plant import add_plant_options, plant_from_args, plant_summary
 from .play import add_playback_options, check_frames, play_live, playback_options, prepare_playback
@@ -98,11 +106,7 @@ def run_command(args: argparse.Namespace) -> int:
     resolver.check(robot)
     check_torque_limits(robot, resolver)
     plant = plant_from_args(args, robot)
-    if args.q0 is None:
-        q0 = robot.default_configuration
-    else:
-        angles = parse_vector(args.q0, "q0", robot.nv)
-        q0 = robot.configuration(np.radians(angles) if args.degrees else angles)
+    q0 = start_from_args(args, robot)
     # Every file the run will write, checked before it starts, and no two of them one file.
     writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
     result = simulate(
