@@ -20,6 +20,11 @@ movement at a time) against the batch's forest
 (:class:`torqueopt.robot_copies.RobotForest`), and the batch against simulate on
 panda (n = 7) to show how the cost grows with the number of joints.
 
+``--panda-sweep`` adds the same sweeps on panda (its default position task,
+pinv and null-space on 2 x 256 random 0.5 s lines of the atlas's population,
+seed 1, the acceleration sized to the arm), interleaved with one ``simulate``
+run of null-space on the first of those lines, round by round.
+
 ``--count`` instead counts instructions with valgrind's callgrind (figures
 that do not move with the host's load): one process per case and length,
 the difference between a 150-step and a 50-step run divided by the
@@ -61,6 +66,7 @@ from torqueopt.robot_copies import RobotForest
 
 BEGIN, END = "<!-- bench_atlas:begin -->", "<!-- bench_atlas:end -->"
 PAPER_Q0 = np.radians([-45.0, 135.0, -135.0])
+PAPER_ACCEL = float(np.sqrt(2.0))  # the paper's line [m/s²]
 
 
 def _cpu_ticks():
@@ -71,13 +77,13 @@ def _cpu_ticks():
     return fields[7], sum(fields)
 
 
-def _jobs(robot_name, movements, resolvers, chunk):
+def _jobs(robot_name, movements, resolvers, chunk, accel=PAPER_ACCEL):
     return [
         {
             "robot": RobotSpec(robot_name),
             "resolvers": resolvers_from(resolvers),
             "dt": 1e-3,
-            "accel": float(np.sqrt(2.0)),
+            "accel": accel,
             "thresholds": Thresholds().as_dict(),
             "batch": True,
             "digest": "bench",
@@ -139,8 +145,10 @@ else:
 """
 
 
-def count_instructions(robot: str = "planar3") -> dict:
+def count_instructions(robot: str = "planar3", steps: tuple[int, int] = (150, 50), cases=("batch", "simulate")) -> dict:
     """Instructions per trajectory-step of the batch (256 movements) and of one simulate run, by callgrind.
+
+    ``steps`` are the (long, short) run lengths whose difference is counted; ``cases`` which of the two to count.
 
     Each figure is (total, Pinocchio's own): the second sums the instructions
     spent inside Pinocchio's library (its functions' self cost, by
@@ -160,6 +168,7 @@ def count_instructions(robot: str = "planar3") -> dict:
                 ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, str(script),
                  robot, mode, str(steps), str(count)],
                 capture_output=True, text=True, check=True,
+                env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
             )  # fmt: skip
             annotated = subprocess.run(
                 ["callgrind_annotate", "--inclusive=no", "--threshold=100", f"{folder}/out"],
@@ -175,12 +184,14 @@ def count_instructions(robot: str = "planar3") -> dict:
                 pinocchio += int(match.group(1).replace(",", ""))
         return int(re.search(r"Collected : (\d+)", done.stderr).group(1)), pinocchio
 
-    cases = [("batch", 150, 256), ("batch", 50, 256), ("simulate", 150, 1), ("simulate", 50, 1)]
+    long, short = steps
+    runs = [(mode, length, 256 if mode == "batch" else 1) for mode in cases for length in (long, short)]
     with ThreadPoolExecutor(max_workers=2) as pool:
-        (long_batch, short_batch, long_one, short_one) = pool.map(lambda case: total(*case), cases)
+        totals = list(pool.map(lambda case: total(*case), runs))
+    names = {"batch": "batch of 256", "simulate": "simulate"}
     return {
-        "batch of 256": [(a - b) / (100 * 256) for a, b in zip(long_batch, short_batch)],
-        "simulate": [(a - b) / 100 for a, b in zip(long_one, short_one)],
+        names[mode]: [(a - b) / ((long - short) * count) for a, b in zip(totals[2 * i], totals[2 * i + 1])]
+        for i, (mode, _, count) in enumerate(runs[::2])
     }
 
 
@@ -188,17 +199,26 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--write", metavar="FILE")
+    parser.add_argument("--panda-sweep", action="store_true", help="also time the sweeps on panda")
     parser.add_argument("--count", action="store_true", help="count instructions with callgrind instead of timing")
     parser.add_argument("--robot", default="planar3", choices=["planar3", "panda"], help="robot of --count")
+    parser.add_argument(
+        "--steps", type=int, nargs=2, default=(150, 50), metavar=("LONG", "SHORT"), help="run lengths of --count"
+    )
+    parser.add_argument(
+        "--cases", choices=["batch", "simulate", "both"], default="both", help="what --count counts (default both)"
+    )
     args = parser.parse_args(argv)
     if args.count:
-        counts = count_instructions(args.robot)
-        print(f"instructions per trajectory-step ({args.robot}, null-space, the batch with the energy extras):")
+        cases = ("batch", "simulate") if args.cases == "both" else (args.cases,)
+        counts = count_instructions(args.robot, tuple(args.steps), cases)
+        print(
+            f"instructions per trajectory-step ({args.robot}, null-space, the batch with the energy extras, "
+            f"{args.steps[0]} against {args.steps[1]} steps):"
+        )
         for name, (value, pinocchio) in counts.items():
-            print(
-                f"  {name}: {value:,.0f} ({counts['simulate'][0] / value:.2f}x fewer than simulate), "
-                f"of which inside Pinocchio {pinocchio:,.0f}"
-            )
+            ratio = f" ({counts['simulate'][0] / value:.2f}x fewer than simulate)" if "simulate" in counts else ""
+            print(f"  {name}: {value:,.0f}{ratio}, of which inside Pinocchio {pinocchio:,.0f}")
         return
 
     import distributed
@@ -238,6 +258,35 @@ def main(argv=None):
                 _sweep(clusters[workers][1], jobs, distributed)
             )
     ticks_after = _cpu_ticks()
+    panda_sweeps = {"simulate": [], "sweep 1 worker": [], "sweep 2 workers": []}
+    panda_loads = []
+    if args.panda_sweep:
+        from torqueopt.atlas.population import arm_reach, default_accel
+
+        sweep_panda = torqueopt.load_robot("panda")
+        accel = default_accel(arm_reach(sweep_panda)[1])
+        spec = PopulationSpec(paths=512, durations=(0.5,), seed=1, accel=accel)
+        panda_movements = draw_population(sweep_panda, spec)
+        panda_jobs = _jobs("panda", panda_movements, ["pinv", "null-space"], 256, accel)
+        first = panda_movements[0]
+        first_line = torqueopt.StraightLine(first.direction, accel=accel, duration=0.5, start=first.start)
+        for _, client in clusters.values():
+            client.gather(
+                [
+                    client.submit(run_chunk, job, pure=False)
+                    for job in _jobs("panda", panda_movements[:8], ["pinv"], 4, accel)
+                ]
+            )
+        torqueopt.simulate(sweep_panda, "null-space", first_line, first.q0)  # warm-up
+        for _ in range(args.rounds):
+            panda_loads.append(os.getloadavg()[0])
+            started = time.perf_counter()
+            run = torqueopt.simulate(sweep_panda, "null-space", first_line, first.q0)
+            panda_sweeps["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
+            for workers in (1, 2):
+                panda_sweeps[f"sweep {workers} worker{'s' if workers > 1 else ''}"].append(
+                    _sweep(clusters[workers][1], panda_jobs, distributed)
+                )
     for cluster, client in clusters.values():
         client.close()
         cluster.close()
@@ -293,8 +342,19 @@ def main(argv=None):
         "|---|---|",
         f"| simulate | {cell(panda_rates['simulate'])} |",
         f"| batch (128 movements) | {cell(panda_rates['batch'])} |",
-        END,
     ]
+    if args.panda_sweep:
+        panda_median = statistics.median(panda_sweeps["simulate"])
+        lines_out += [
+            "",
+            "1-minute load average at the panda rounds' starts " + ", ".join(f"{x:.1f}" for x in panda_loads) + ".",
+            "",
+            "| panda, pinv and null-space, 0.5 s movements | trajectory-steps/s, median of rounds | vs one simulate run |",
+            "|---|---|---|",
+        ]
+        for name, values in panda_sweeps.items():
+            lines_out.append(f"| {name} | {cell(values)} | {statistics.median(values) / panda_median:.2f}x |")
+    lines_out.append(END)
     text = "\n".join(lines_out)
     print(text)
     if args.write:

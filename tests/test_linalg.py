@@ -7,7 +7,13 @@ import pinocchio as pin
 import pytest
 
 from torqueopt.linalg import JacobianSolver, inverse_condition_number, inverse_condition_number_of
-from torqueopt.resolvers.stacks import complete_qr, two_row_qr
+from torqueopt.resolvers.stacks import (
+    complete_qr,
+    complete_qr_by_lapack,
+    least_squares,
+    least_squares_by_svd,
+    two_row_qr,
+)
 from torqueopt.self_motion import self_motion, self_motion_energy
 
 
@@ -85,3 +91,40 @@ def test_the_self_motion_energy_by_the_jacobian_and_by_a_null_space_basis_is_a_d
         )
     # Without a null space (no redundancy) there is no self-motion.
     assert not self_motion_energy(inertia, velocity, null_space_basis=None)[1].any()
+
+
+@pytest.mark.parametrize("rows, columns", [(2, 7), (3, 7), (6, 7), (3, 4), (1, 7)])
+def test_the_householder_factorisation_on_the_batch_axis_equals_lapack_row_by_row(rows, columns, rng):
+    """complete_qr (Householder reflections on the whole stack) against numpy's QR per row: the same minimum-norm
+    solution (to κ·ε), the same null space (projectors ZZᵀ; a basis is unique only up to rotation), J Z = 0,
+    ZᵀZ = I, and the same σmin/σmax; with singular rows (σmin/σmax down to 1e-7) among them."""
+    matrices, _ = known_matrices(rng, 300, rows, columns) if rows > 1 else (rng.normal(size=(300, 1, columns)), None)
+    residual = rng.normal(size=(300, rows))
+    particular, basis, conditions = complete_qr(matrices, residual, True)
+    reference, reference_basis, reference_conditions = complete_qr_by_lapack(matrices, residual, True)
+    ratios = inverse_condition_number(matrices)
+    scale = np.linalg.norm(reference, axis=1)
+    assert np.all(np.linalg.norm(particular - reference, axis=1) <= 1e-14 * scale / ratios + 1e-14)
+    np.testing.assert_array_equal(conditions, reference_conditions)
+    assert np.max(np.abs(matrices @ basis)) < 1e-14
+    assert np.max(np.abs(np.swapaxes(basis, 1, 2) @ basis - np.eye(columns - rows))) < 1e-14
+    well = ratios > 1e-3
+    projector = basis @ np.swapaxes(basis, 1, 2)
+    reference_projector = reference_basis @ np.swapaxes(reference_basis, 1, 2)
+    assert np.max(np.abs(projector - reference_projector)[well]) < 1e-12
+
+
+@pytest.mark.parametrize("shape", [(200, 7, 4), (200, 10, 4), (200, 3, 2), (200, 3, 5), (200, 7, 1)])
+def test_the_householder_least_squares_equals_the_svd_one(shape, rng):
+    """least_squares on the batch axis against the SVD reference, with rank-deficient rows (two equal columns, a zero
+    column: the minimum-norm answer, which only the SVD path gives) mixed in."""
+    matrix = rng.normal(size=shape)
+    if shape[2] > 1:
+        matrix[:20, :, -1] = matrix[:20, :, 0]
+        matrix[20:30, :, 0] = 0.0
+    rhs = rng.normal(size=shape[:2])
+    np.testing.assert_allclose(least_squares(matrix, rhs), least_squares_by_svd(matrix, rhs), rtol=0, atol=1e-12)
+    # and the normal equations at the full-rank rows: Aᵀ(Ay − b) = 0
+    y = least_squares(matrix[30:], rhs[30:])
+    gradient = np.einsum("bji,bj->bi", matrix[30:], np.einsum("bij,bj->bi", matrix[30:], y) - rhs[30:])
+    assert np.max(np.abs(gradient)) < 1e-12

@@ -33,12 +33,15 @@ from ..robot import Robot, TaskTerms
 from ..robot_copies import stacked_cross
 
 __all__ = [
+    "HouseholderStack",
     "LoopedStackStep",
     "StackResolution",
     "StackStep",
     "StackTerms",
     "complete_qr",
+    "complete_qr_by_lapack",
     "least_squares",
+    "least_squares_by_svd",
     "looped_stack_step",
     "singular_rows",
     "two_row_qr",
@@ -170,16 +173,118 @@ def looped_stack_step(resolver, robot: Robot, dt: float | None = None) -> StackS
     return LoopedStackStep(resolver, robot, dt)
 
 
+class HouseholderStack:
+    r"""The Householder QR of every matrix of a (B, r, c) stack (r ≥ c), on the batch axis: c reflections,
+    each a few numpy operations on the whole stack, instead of one LAPACK call per row.
+
+    Column k's reflection :math:`P_k = I - 2 v_k v_k^\top` (:math:`\|v_k\| = 1`, acting on rows k..r−1)
+    maps what is left of column k to :math:`\alpha_k e_k`, :math:`|\alpha_k|` its norm, with the sign
+    that avoids cancellation (LAPACK's ``dgeqrf`` makes the same choice); so
+    :math:`A = QR` with :math:`Q = P_0 P_1 \cdots P_{c-1}` orthogonal and R upper
+    triangular. A zero column leaves its reflection the identity. Equal to
+    numpy's ``qr`` to round-off (tests), and backward stable as it is.
+
+    The work is laid out batch-last, (r, c, B), so that numpy's inner loops
+    run over the B rows, not over c or r (a handful of entries each, where
+    numpy's per-loop overhead would dominate): ``upper`` is R as (c, c, B), the
+    vectors the methods take and give are (r, B) or (r, k, B).
+    """
+
+    __slots__ = ("reflectors", "upper")
+
+    def __init__(self, matrix: np.ndarray):
+        work = np.ascontiguousarray(np.moveaxis(matrix, 0, -1), dtype=float)  # (r, c, B), a copy reduced in place
+        columns = work.shape[1]
+        self.reflectors = []
+        for k in range(columns):
+            x = work[k:, k]
+            norm = np.sqrt((x * x).sum(axis=0))
+            lead = x[0]
+            alpha = np.where(lead >= 0.0, -norm, norm)
+            v = x.copy()
+            v[0] -= alpha
+            # ‖x − αe₁‖² = 2‖x‖(‖x‖ + |x₀|), without cancellation
+            length = np.sqrt(2.0 * norm * (norm + np.abs(lead)))
+            v /= np.where(length > 0.0, length, 1.0)
+            if k + 1 < columns:
+                rest = work[k:, k + 1 :]
+                rest -= (2.0 * v)[:, None] * (v[:, None] * rest).sum(axis=0)
+            work[k, k] = alpha
+            self.reflectors.append(v)
+        self.upper = np.triu(work[:columns].transpose(2, 0, 1)).transpose(1, 2, 0)
+
+    def apply_transpose(self, vector: np.ndarray) -> np.ndarray:
+        r""":math:`Q^\top b` for (r, B) ``vector`` (a new array)."""
+        out = np.array(vector, dtype=float)
+        for k, v in enumerate(self.reflectors):
+            part = out[k:]
+            part -= (2.0 * (v * part).sum(axis=0)) * v
+        return out
+
+    def apply(self, vector: np.ndarray) -> np.ndarray:
+        r""":math:`Q b` for (r, B) ``vector``, or for the columns of an (r, k, B) stack (a new array)."""
+        out = np.array(vector, dtype=float)
+        for k in range(len(self.reflectors) - 1, -1, -1):
+            v, part = self.reflectors[k], out[k:]
+            if part.ndim == 2:
+                part -= (2.0 * (v * part).sum(axis=0)) * v
+            else:
+                part -= (2.0 * v)[:, None] * (v[:, None] * part).sum(axis=0)
+        return out
+
+    def trailing_columns(self) -> np.ndarray:
+        r"""The last r − c columns of Q, (r, r − c, B): an orthonormal basis of what the columns of A do not span."""
+        rows, count = self.reflectors[0].shape
+        columns = len(self.reflectors)
+        unit = np.zeros((rows, rows - columns, count))
+        unit[columns:] = np.eye(rows - columns)[:, :, None]
+        return self.apply(unit)
+
+
+def upper_solve(upper: np.ndarray, rhs: np.ndarray, transpose: bool = False) -> np.ndarray:
+    r"""x with :math:`Rx = b` (or :math:`R^\top x = b`) for (c, c, B) upper-triangular R and (c, B) b, batch-last,
+    by substitution on the batch axis; R's diagonal must have no zero (the callers guard it)."""
+    size = rhs.shape[0]
+    x = np.empty(rhs.shape)
+    for i in range(size) if transpose else range(size - 1, -1, -1):
+        if transpose:  # row i of Rᵀ: R[:i, i] · x[:i] + R[i, i] x[i]
+            known = (upper[:i, i] * x[:i]).sum(axis=0) if i else 0.0
+        else:
+            known = (upper[i, i + 1 :] * x[i + 1 :]).sum(axis=0) if i + 1 < size else 0.0
+        x[i] = (rhs[i] - known) / upper[i, i]
+    return x
+
+
 def complete_qr(J: np.ndarray, residual: np.ndarray, redundant: bool):
     r"""``(J⁺r, Z, σ_min/σ_max)`` per row of a (B, m, n) stack, from the complete QR of :math:`J^\top`.
 
-    :math:`J^\top = QR`: the first m columns of Q span the row space of J, the
-    rest (Z, orthonormal) its null space, and :math:`J^\dagger r = Q_m R^{-\top} r`
-    is the minimum-norm solution of :math:`J\ddot q = r`. The inverse condition comes
-    from the eigenvalues of the m×m :math:`JJ^\top` (σ² of J), half the cost of an SVD of R
-    per row; squaring costs accuracy, a relative error of about :math:`\varepsilon/(\sigma_{min}/\sigma_{max})^2`
-    (2e-4 at the cutoff 1e-6, which it only has to decide). Rows with a singular J get a finite, unused answer.
+    :math:`J^\top = QR` (:class:`HouseholderStack`, on the batch axis): the first m
+    columns of Q span the row space of J, the rest (Z, orthonormal) its null
+    space, and :math:`J^\dagger r = Q_m R^{-\top} r` is the minimum-norm
+    solution of :math:`J\ddot q = r`. The inverse condition comes from the
+    eigenvalues of the m×m :math:`JJ^\top` (σ² of J), half the cost of an SVD of R
+    per row; squaring costs accuracy, a relative error of about
+    :math:`\varepsilon/(\sigma_{min}/\sigma_{max})^2` (2e-4 at the cutoff 1e-6, which it only has to decide).
+    Rows with a singular J get a finite, unused answer. :func:`complete_qr_by_lapack` is the
+    same by numpy's LAPACK calls per row, the reference the tests hold it to.
     """
+    m = J.shape[1]
+    squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))  # σ² of J, smallest first
+    conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
+    factor = HouseholderStack(np.swapaxes(J, 1, 2))
+    upper = factor.upper
+    singular = conditions < 1e-12
+    if singular.any():
+        upper = np.where(singular, np.eye(m)[:, :, None], upper)
+    coordinates = np.zeros((J.shape[2], J.shape[0]))
+    coordinates[:m] = upper_solve(upper, residual.T, transpose=True)
+    particular = factor.apply(coordinates).T  # Q [R⁻ᵀr; 0]
+    return particular, factor.trailing_columns().transpose(2, 0, 1) if redundant else None, conditions
+
+
+def complete_qr_by_lapack(J: np.ndarray, residual: np.ndarray, redundant: bool):
+    r""":func:`complete_qr` by numpy's ``qr`` (LAPACK per row) and σ² from the eigenvalues of :math:`JJ^\top`: the
+    readable reference of the batch's factorisation."""
     m = J.shape[1]
     squared = np.linalg.eigvalsh(J @ np.swapaxes(J, 1, 2))  # σ² of J, smallest first
     conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
@@ -234,13 +339,39 @@ def task_factorisation(robot: Robot):
 
 
 def least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Minimum-norm least squares per row of (B, r, c) stacks, rank cutoff 1e-12 relative (as linalg.LeastSquares)."""
+    r"""Minimum-norm least squares per row of (B, r, c) stacks, rank cutoff 1e-12 relative (as linalg.LeastSquares).
+
+    One column a: :math:`y = a^\top b / a^\top a` (0 for a zero column). More
+    columns (r ≥ c): :math:`y = R^{-1}(Q^\top b)_{1..c}` from the Householder QR
+    on the batch axis (:class:`HouseholderStack`), for the rows whose R has
+    every :math:`|r_{kk}|` above 1e-8 of the largest (full column rank, far
+    above the cutoff); the others, and wide stacks, by :func:`least_squares_by_svd`.
+    """
     if matrix.shape[2] == 1:
         # One column a: y = aᵀb / aᵀa, or 0 for a zero column (the minimum-norm answer).
         column = matrix[:, :, 0]
         norm2 = np.einsum("bi,bi->b", column, column)
         safe = np.where(norm2 > 0.0, norm2, 1.0)
         return np.where(norm2 > 0.0, np.einsum("bi,bi->b", column, rhs) / safe, 0.0)[:, None]
+    columns = matrix.shape[2]
+    if matrix.shape[1] < columns or matrix.shape[0] == 0:
+        return least_squares_by_svd(matrix, rhs)
+    factor = HouseholderStack(matrix)
+    diagonal = np.abs(np.diagonal(factor.upper))  # (B, c)
+    full_rank = diagonal.min(axis=1) > 1e-8 * diagonal.max(axis=1)
+    upper = factor.upper
+    if not full_rank.all():
+        upper = np.where(full_rank, upper, np.eye(columns)[:, :, None])
+    y = upper_solve(upper, factor.apply_transpose(rhs.T)[:columns]).T
+    if not full_rank.all():
+        rows = ~full_rank
+        y[rows] = least_squares_by_svd(matrix[rows], rhs[rows])
+    return y
+
+
+def least_squares_by_svd(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Minimum-norm least squares per row of (B, r, c) stacks by numpy's SVD, singular values below 1e-12 of the
+    largest dropped: the reference of :func:`least_squares`."""
     u, s, vt = np.linalg.svd(matrix, full_matrices=False)
     keep = s > 1e-12 * s[:, :1]
     inverse = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
