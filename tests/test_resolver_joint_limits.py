@@ -13,6 +13,7 @@ from scipy.optimize import linprog, minimize, nnls
 
 import torqueopt
 from torqueopt import StraightLine
+from torqueopt.batch import simulate_batch
 from torqueopt.errors import InvalidInput, TorqueBoundsInfeasible
 from torqueopt.resolvers import get_resolver
 from torqueopt.resolvers.bounded.joint_limits import APPROACH_STEPS, JointLimits, acceleration_bounds
@@ -330,3 +331,128 @@ def test_a_run_reports_its_first_infeasible_step_and_its_bounds(arms):
     assert result.t[np.argmax(result.infeasible)] == time
     assert "limit" in limiting and "of joint" in limiting
     assert result.summary()["first_infeasible_step"] == {"t": time, "limiting": limiting}
+
+
+# -- the atlas paths that left a limit before the approach curve ------------------------------------
+
+#: Movements of the four arms' 0.5 s atlases (seed 19, docs/atlas/<arm>.md): (q0, direction) of the lines at the
+#: arm's acceleration [m/s²]. With joint limits on, every one but xarm7's left a position or velocity limit in
+#: the atlas (the run drifted out of Del Prete's viable set by about 5e-8 rad, next to a position limit at a few
+#: mm/s, where his turning-point bound asks for 1700-2000 rad/s²; the step then gave up every joint limit, the
+#: velocity ones too). xarm7 left none: its three paths with the most infeasible steps.
+ATLAS_PATHS = {
+    ("panda", "bounded-torque", 0.40410877188615857): {
+        181: ([2.5084842759516097, -0.5753655121292893, -2.8681414605912368, -0.8166491355622529, -0.9634956945597464, 1.3267535839728961, -0.9901464384053345], [0.7313700363611394, -0.0006310348537844023, 0.6819805508283349]),  # position 0.472 s, velocity 0.471 s
+        264: ([-0.12129020124141254, -1.0287215126225044, -2.2032720459029953, -0.4583116905899809, -2.5761064084928846, 0.6261890280250023, 1.6310654296455582], [-0.9030075571733706, 0.4290678145767151, -0.02186691981381111]),  # position 0.349 s, velocity 0.406 s
+        432: ([-1.882579862421904, -0.8530658044926396, 2.518467875273465, -1.8180161414496019, 1.9179783591825657, 0.27309850790455487, 0.9577677161582803], [-0.05684986490497412, -0.9067774762508904, -0.41775914283753474]),  # velocity 0.279 s
+        721: ([-2.209614027728453, -0.9458608351048781, 1.3466477830535948, -1.4685086815536421, 2.4028585547378074, 1.6163447718816324, -1.9298595088287427], [-0.16432931010725857, 0.4509601708901749, 0.8772860434945815]),  # velocity 0.239 s
+        883: ([0.21795362780380367, 1.0955633930799893, 0.9487216450728893, -1.2364154367408866, -1.9331859613334095, 0.44180717798338803, 2.3602841969990966], [-0.35950029363751745, -0.12791098080091287, 0.9243366918310055]),  # velocity 0.425 s
+    },
+    ("panda", "minmax-torque", 0.40410877188615857): {
+        1: ([-0.37054815828766197, 1.708671616458771, 0.543876711690519, -2.347644356218571, -1.511075150440768, 2.480300938271837, -1.4501223100516951], [-0.37518443776784455, -0.048634142354710544, -0.9256734617856601]),  # velocity 0.371 s
+        158: ([2.0274175661263247, 1.6601341865692727, 2.777556478568298, -0.5230394720406708, -0.9062916101410636, 1.3230330370564012, 2.874039676840155], [0.055359470238871535, -0.7724641364517357, 0.6326408830851399]),  # position 0.08 s, velocity 0.08 s
+        775: ([0.5631093201007911, -0.583301294249909, 2.1357531750718644, -0.7738638216268598, 2.436378829757279, 0.603171934704594, 2.5557783974374284], [-0.6857633468824214, 0.391146132971401, 0.6137860659335131]),  # position 0.353 s, velocity 0.341 s
+    },
+    ("tiago", "bounded-torque", 0.37674961801481927): {
+        105: ([2.2115246193248566, 1.0351565378927408, -3.0537864534385872, -0.12863712026190532, -0.7649382252974091, 0.8312569267228846, -1.8516675533517255], [0.5782522313002678, 0.6262835211169602, -0.522870259408205]),  # velocity 0.361 s
+        555: ([2.031505040860857, -0.2956295367486905, 1.128648103902755, 1.5515916556120153, -1.6210205744446455, -0.18512564032855128, -1.954952326736759], [-0.6998078757700749, -0.06805018587807063, 0.711082350513733]),  # position 0.386 s
+        796: ([1.6602996460112809, 0.8384235229033465, 1.2714994680200897, 0.5867778566726156, -0.5428197411894911, 1.3962942707422916, 0.6612424652999116], [-0.7262739332114272, -0.5974194790669427, 0.34002373442009337]),  # position and velocity 0.235 s
+    },
+    ("baxter", "bounded-torque", 0.6640135914214277): {
+        51: ([1.6684038669163983, -0.951456405667974, 1.6274297444744343, 1.8150416386190944, 2.657274518442696, 0.5327546425602723, 2.3181875627230664], [0.6868834525801922, -0.47531061343849673, 0.5497917272242596]),  # velocity 0.133 s
+        389: ([-0.8935056693542126, -2.011814668155757, 0.32062328960391673, 0.2582911191449445, -1.1364899158745727, 2.0699791568528076, 2.674971296339164], [-0.08334312867622028, 0.9317449094758904, -0.35341950507608333]),  # position 0.497 s
+        670: ([-1.10467585539056, 0.07311332567868956, 2.694438463321374, 0.31248943479942454, 1.9905225493628853, -1.4918114534600722, 2.097176973830181], [0.5883851087392409, 0.5881363386390561, 0.5548861243409832]),  # position 0.494 s, velocity 0.49 s
+        751: ([-0.9232730819642925, -0.43324531406119937, -0.8423549616547206, 1.2844014803811115, 2.0455004896780187, 0.8554240823745363, -0.7339250464658655], [0.6355616284310591, 0.30794309784157553, -0.7079777291396913]),  # velocity 0.454 s
+    },
+    ("xarm7", "bounded-torque", 0.36385376445276046): {
+        603: ([-1.7136455689717947, 0.6449752716659609, 1.1919716932601805, 1.5841262941551661, -1.2689350200127392, 2.8269445186762674, -3.018915404662803], [0.7311248418483032, -0.6302233073667298, 0.26129494538554365]),  # 53 infeasible steps
+        559: ([-2.7944807579742275, 1.536035476925842, -0.05512061240542376, 1.688495100986344, -3.0153134430049517, -1.379069380079903, 1.9341399723433579], [-0.9402039096013868, -0.030718520774299627, 0.339224086485182]),  # 47 infeasible steps
+        911: ([-0.5488467269264654, -0.364852998302285, 2.261467407401703, 0.7471188493649544, -2.342771968394767, -1.5790280931046852, 0.14431914074093388], [-0.7758681708273478, 0.6263991671985938, -0.07518420598725262]),  # 20 infeasible steps
+    },
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(ATLAS_PATHS), ids=lambda case: f"{case[0]}-{case[1]}")
+def test_the_atlas_paths_that_left_a_limit_stay_inside_every_limit_at_every_sample(arms, case):
+    """The batch, as the atlas runs them: inside the URDF's position and velocity limits at every sample; with
+    bounded-torque (a strictly convex QP: one answer) equal to simulate's run of the first path to 1e-9 (minmax-torque's
+    LP leaves the torques below the largest free: its vertex may differ between the two by 3e-7 N·m)."""
+    name, resolver, accel = case
+    robot = arms[name]
+    movements = ATLAS_PATHS[case]
+    lines = [StraightLine(direction, accel=accel, duration=0.5) for _, direction in movements.values()]
+    q0s = [np.asarray(q0) for q0, _ in movements.values()]
+    runs = simulate_batch(robot, resolver, lines, q0s, DT)
+    for path, run in zip(movements, runs):
+        assert run.completed, path
+        assert _excess(robot, run) == (0.0, 0.0), path
+    if resolver != "bounded-torque":
+        return
+    single = torqueopt.simulate(robot, resolver, lines[0], q0s[0], dt=DT)
+    np.testing.assert_allclose(runs[0].q, single.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(runs[0].tau[:-1], single.tau[:-1], rtol=1e-9, atol=1e-9 * robot.torque_upper.max())
+
+
+#: baxter's path 720 of its atlas: right_s1's gravity torque (56 N·m) beyond its limit (50 N·m) from 0.2 s on, the
+#: torque and joint limits leave no common q̈ at some steps.
+BAXTER_CONFLICT = (
+    [0.6192284411102289, 0.03821655110625022, 2.486689884286954, 0.15574273312836256, 2.971416895640364, 0.8807044248811366, -1.4827147537194052],
+    [-0.22451721406607394, 0.6527007304752616, 0.7235839806304922],
+)  # fmt: skip
+
+
+def test_where_torque_and_joint_limits_conflict_the_step_exceeds_the_joint_limits_least_and_says_which(arms):
+    """At a step of baxter's path 720 where no q̈ within the joint limits has a torque within bounds: the torque
+    stays within its bounds, the answer exceeds the joint rows (in units of each joint's ā) by their least sum
+    (HiGHS over q̈ and the excesses, built from H, b and the bounds), and the step names each bound it exceeds."""
+    robot = arms["baxter"]
+    q0, direction = BAXTER_CONFLICT
+    line = StraightLine(direction, accel=0.6640135914214277, duration=0.5)
+    run = torqueopt.simulate(robot, "bounded-torque", line, q0, dt=DT)
+    rows = [row for row, text in sorted((run.limiting or {}).items()) if text.startswith("joint limits exceeded least")]
+    assert len(rows) >= 10, len(rows)
+    assert _excess(robot, run)[0] == 0.0  # the positions stay inside: right_e0's velocity gives way (1.5 rad/s)
+    limits = JointLimits(robot, DT)
+    step = get_resolver("bounded-torque").solver(robot, DT)
+    lower_box, upper_box = robot.torque_lower, robot.torque_upper
+    margin = 1e-8 * (upper_box - lower_box)
+    checked = 0
+    for row in rows[:: max(1, len(rows) // 6)]:
+        terms = robot.terms(run.q[row], run.v[row])
+        command = line.anchored(run.x[0]).sample(run.t[row]).acceleration
+        resolution = step(terms, command)
+        if not resolution.limiting.startswith("joint limits exceeded least"):
+            continue  # (a fresh program: the warm start differs from the run's)
+        bounds = limits(terms)
+        scale = limits.scale(bounds)
+        n = robot.nv
+        # HiGHS: min Σ t over (q̈, t), τ = H q̈ + b in the box, lower − t ā <= q̈ <= upper + t ā, t >= 0.
+        finite_upper, finite_lower = np.isfinite(bounds.upper), np.isfinite(bounds.lower)
+        a_ub = np.vstack(
+            [
+                np.hstack([terms.inertia, np.zeros((n, n))]),
+                np.hstack([-terms.inertia, np.zeros((n, n))]),
+                np.hstack([np.eye(n)[finite_upper], -np.diag(scale)[finite_upper]]),
+                np.hstack([-np.eye(n)[finite_lower], -np.diag(scale)[finite_lower]]),
+            ]
+        )
+        b_ub = np.r_[
+            upper_box - margin - terms.bias_torque,
+            terms.bias_torque - lower_box - margin,
+            bounds.upper[finite_upper],
+            -bounds.lower[finite_lower],
+        ]
+        lp = linprog(np.r_[np.zeros(n), np.ones(n)], A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * n + [(0, None)] * n)
+        assert lp.status == 0
+        a = resolution.joint_acceleration
+        excess = np.maximum(np.maximum(a - bounds.upper, bounds.lower - a), 0.0) / scale
+        if lp.fun <= 1e-9:
+            # No conflict after all (DAQP's warm-started least-error program can say infeasible): within them.
+            assert excess.max() <= 1e-6 and not resolution.limiting.startswith("joint limits"), resolution.limiting
+            continue
+        assert lp.fun - 1e-7 <= excess.sum() <= lp.fun * (1 + 1e-3) + 1e-5 * n, (row, excess.sum(), lp.fun)
+        assert np.all(resolution.torque <= upper_box) and np.all(resolution.torque >= lower_box)
+        for joint in np.flatnonzero(excess > 1e-6 + 1e-3 * lp.fun):
+            assert f"of joint {robot.joint_names[joint]} by " in resolution.limiting, resolution.limiting
+        checked += 1
+    assert checked >= 3

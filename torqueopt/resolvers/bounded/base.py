@@ -204,11 +204,47 @@ class _BoundedResolver(Resolver):
         least_error = least_error_program(rows_count)
         # With joint limits, torque and joint bounds may leave no q̈ at all: then the torque bounds alone.
         torque_least_error = least_error_program(nb) if nl else least_error
+        # The least excess of the joint limits' rows a torque within bounds allows: min Σ tᵢ over (t, a, z),
+        # t >= 0 simple bounds, row i within its bounds widened by tᵢ (in units of its joint's ā).
+        nj = 0 if limits is None else limits.count
+        excess_program = (
+            _Program(
+                np.zeros((nj + n, nj + n)),
+                np.r_[np.ones(nj), np.zeros(n)],
+                np.zeros((nb + 2 * nj, nj + n)),
+                np.r_[np.full(nj, np.inf), np.ones(nb + 2 * nj)],
+                np.r_[np.zeros(nj), -np.ones(nb + 2 * nj)],
+                bounds=nj,
+                linear=True,
+            )
+            if nj
+            else None
+        )
         minmax = _MinMax(bounded, spread, midpoint, r, own_count) if self.infeasible == "exceed" else None
         range_basis = _RangeBasis(n, r)
         policy = self.infeasible
         name = self.name
         joint_names = robot.joint_names
+
+        def least_joint_excess(torque_rows, torque_upper, torque_lower, joint_part):
+            """(t, (a, z)): the least widenings t >= 0 (Σ t least, one per row) of the joint limits' rows
+            (``joint_part``: rows, upper, lower on x = (a, z), divided by ā) that leave a torque within bounds, and
+            a point x there; None when DAQP finds none."""
+            rows, upper, lower = joint_part
+            finite_upper, finite_lower = np.isfinite(upper), np.isfinite(lower)
+            # Each row twice, one side each (a row with no finite side holds whatever x: zeros within ±1).
+            slack = np.eye(nj)
+            above = np.hstack([-slack * finite_upper, np.where(finite_upper[:, None], rows, 0.0)])
+            below = np.hstack([slack * finite_lower, np.where(finite_lower[:, None], rows, 0.0)])
+            program_rows = np.vstack([np.hstack([np.zeros((nb, nj)), torque_rows]), above, below])
+            program_upper = np.r_[
+                np.full(nj, np.inf), torque_upper, np.where(finite_upper, upper, 1.0), np.full(nj, np.inf)
+            ]
+            program_lower = np.r_[np.zeros(nj), torque_lower, np.full(nj, -np.inf), np.where(finite_lower, lower, -1.0)]
+            x, flag, _ = excess_program.solve(A=program_rows, bupper=program_upper, blower=program_lower)
+            if flag == _EXIT_INFEASIBLE:  # pragma: no cover - H is invertible: the box holds some torque
+                return None
+            return np.maximum(x[:nj], 0.0), (x[nj : nj + m], x[nj + m :])
 
         def least_error_task(rows, row_upper, row_lower, command, program=least_error):
             """(a, z) of min ½‖a − ẍ‖² with τ = (rest) + H J⁺ a + U z within bounds, or None when there is none."""
@@ -241,10 +277,11 @@ class _BoundedResolver(Resolver):
                 constraints = constraints_at(terms, basis)  # (G, h): G q̈ <= h, unit rows
             if nl:
 
-                def joint_rows(offset, rows, raised=None, free_joints=False):
-                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā, then
-                    the resolver's own rows G q̈ <= h (h raised to ``raised`` where that is higher); with
-                    ``free_joints`` the joint limits' rows hold whatever x (the joint limits given up)."""
+                def joint_rows(offset, rows, raised=None, free_joints=False, widen=0.0):
+                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā (and
+                    widened by ``widen`` on both sides), then the resolver's own rows G q̈ <= h (h raised to
+                    ``raised`` where that is higher); with ``free_joints`` the joint limits' rows hold whatever x
+                    (the joint limits given up)."""
                     parts = []
                     if limits is not None and free_joints:
                         parts.append(
@@ -254,8 +291,8 @@ class _BoundedResolver(Resolver):
                         parts.append(
                             (
                                 rows[joints] / joint_scale[:, None],
-                                (joint_bounds.upper - offset[joints]) / joint_scale,
-                                (joint_bounds.lower - offset[joints]) / joint_scale,
+                                (joint_bounds.upper - offset[joints]) / joint_scale + widen,
+                                (joint_bounds.lower - offset[joints]) / joint_scale - widen,
                             )
                         )
                     if constraints is not None and raised is _DROPPED:
@@ -338,20 +375,42 @@ class _BoundedResolver(Resolver):
             if found_task is None:
                 found_task = least_error_task(rows, row_upper, row_lower, command)
             within_joint_limits = True
+            widened = 0.0  # by how much (in units of each joint's ā) each joint limits' row was widened
+
+            def least_excess():
+                """The least widening of the joint limits' rows a torque within bounds allows (a hair more)."""
+                joint_part = (
+                    acceleration_coordinates[joints] / joint_scale[:, None],
+                    (joint_bounds.upper - acceleration_offset[joints]) / joint_scale,
+                    (joint_bounds.lower - acceleration_offset[joints]) / joint_scale,
+                )
+                least = least_joint_excess(torque_rows, torque_upper_rows, torque_lower_rows, joint_part)
+                if least is None:  # pragma: no cover - H is invertible: the box holds some torque
+                    return None, None
+                widen, point = least
+                if widen.max() <= 1e-9:
+                    # Within the joint limits after all (DAQP's least-error program called them infeasible).
+                    return np.zeros_like(widen), point
+                return widen * (1.0 + 1e-3) + 1e-6, point
+
             if found_task is None and constraints is not None:
                 # The resolver's own rows yield first: each raised to the least value a torque within
                 # bounds gives it, the tip left free (the barrier: energy out as fast as the bounds allow).
                 least = _least_within_box(constraints[0], inertia, terms.bias_torque, box_upper, box_lower)
                 least_raised = least + 1e-9 * (1.0 + np.abs(least))
-                stages = [(least_raised, False)]
+                stages = [(least_raised, False, 0.0)]
                 if limits is not None:
-                    # The joint limits kept, the resolver's own rows given up; then the joint limits given up
-                    # for the torque limits, and the resolver's own rows back, raised (always feasible: the
-                    # least over the box).
-                    stages += [(_DROPPED, False), (least_raised, True)]
+                    # The joint limits kept, the resolver's own rows given up; then the joint limits widened
+                    # least for the torque limits, and the resolver's own rows back, raised; then the joint
+                    # limits given up (always feasible: the least over the box).
+                    stages += [(_DROPPED, False, 0.0), (least_raised, False, None), (least_raised, True, 0.0)]
                 all_rows = joint_rows
-                for raised, free_joints in stages:
-                    joint_rows = partial(all_rows, raised=raised, free_joints=free_joints)
+                for raised, free_joints, widen in stages:
+                    if widen is None:
+                        widen, _ = least_excess()
+                        if widen is None:  # pragma: no cover - H is invertible: the box holds some torque
+                            continue
+                    joint_rows = partial(all_rows, raised=raised, free_joints=free_joints, widen=widen)
                     acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
                         acceleration_offset, acceleration_coordinates
                     )
@@ -360,13 +419,36 @@ class _BoundedResolver(Resolver):
                     row_lower = np.r_[row_lower[:nb], acceleration_lower]
                     found_task = least_error_task(rows, row_upper, row_lower, command)
                     if found_task is not None:
-                        within_joint_limits = not free_joints
+                        within_joint_limits = not free_joints and not np.any(widen)
+                        widened = widen
                         break
+            elif found_task is None and limits is not None:
+                # No q̈ within the joint limits has a torque within bounds: the joint limits widened least
+                # (every row by the same multiple of its joint's ā), for the least task error within them.
+                widen, point = least_excess()
+                if widen is not None:
+                    joint_rows = partial(joint_rows, widen=widen)
+                    acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
+                        acceleration_offset, acceleration_coordinates
+                    )
+                    found_task = least_error_task(
+                        np.vstack([torque_rows, acceleration_rows]),
+                        np.r_[torque_upper_rows, acceleration_upper],
+                        np.r_[torque_lower_rows, acceleration_lower],
+                        command,
+                    )
+                    if found_task is None:
+                        # DAQP's warm-started least-error program can call a feasible set infeasible (its
+                        # proximal iterations; measured on baxter, where HiGHS and a cold start solve it): the
+                        # LP's own point.
+                        found_task = point
+                    within_joint_limits, widened = not np.any(widen), widen
             # The rows the resolver's own optimum below keeps: none when the torque bounds alone are left.
             final_rows = joint_rows
             if found_task is None:
                 within_joint_limits = joint_rows is None
                 final_rows = None
+                widened = 0.0
                 # No q̈ within the joint limits has a torque within bounds: the torque bounds win.
                 found_task = least_error_task(
                     torque_rows, torque_upper_rows, torque_lower_rows, command, program=torque_least_error
@@ -393,8 +475,14 @@ class _BoundedResolver(Resolver):
             error = float(np.linalg.norm(achieved - command))
             acceleration = shifted_particular + basis.dot(y)
             limiting = limiting_bounds(torque, acceleration, joint_bounds, constraints)
-            if not within_joint_limits:
-                limiting = "joint limits given up for the torque limits; " + limiting
+            if np.any(widened):
+                exceeded = "; ".join(limits.exceeded(joint_bounds, acceleration)) or "none beyond 1e-6 of ā"
+                limiting = f"joint limits exceeded least for the torque limits ({exceeded}); " + limiting
+            elif not within_joint_limits:
+                exceeded = "; ".join(limits.exceeded(joint_bounds, acceleration)) if limits is not None else ""
+                limiting = (
+                    "joint limits given up for the torque limits" + (f" ({exceeded})" if exceeded else "") + "; "
+                ) + limiting
             return Resolution(torque, acceleration, inverse_condition, error, True, limiting)
 
         def limiting_bounds(torque, acceleration, joint_bounds, constraints):

@@ -363,6 +363,22 @@ class JointLimits:
                 found.append(f"{describe_kind(kinds[row])} ({side}) of joint {names[self.joints[row]]}")
         return found
 
+    def exceeded(self, bounds: AccelerationBounds, acceleration: np.ndarray, tolerance: float = 1e-6) -> list[str]:
+        """The joint bounds ``acceleration`` (n) [rad/s²] exceeds, as "position limit (upper) of joint J by X rad/s²"."""
+        found = []
+        joint_acceleration = acceleration[self.joints]
+        scale = self.scale(bounds)
+        names = self.robot.joint_names
+        for side, beyond, kinds in (
+            ("upper", joint_acceleration - bounds.upper, bounds.upper_kind),
+            ("lower", bounds.lower - joint_acceleration, bounds.lower_kind),
+        ):
+            for row in np.flatnonzero(beyond > tolerance * scale):
+                found.append(
+                    f"{describe_kind(kinds[row])} ({side}) of joint {names[self.joints[row]]} by {beyond[row]:.3g} rad/s²"
+                )
+        return found
+
 
 def describe_kind(kind: int) -> str:
     """'position limit', 'position limit (stopping distance)', 'velocity limit', 'acceleration limit'."""
