@@ -102,7 +102,7 @@ def _recounted(tuned) -> int:
 
 @pytest.mark.slow
 def test_energy_bounded_torque_is_tuned_by_the_same_rules(tmp_path):
-    """The guaranteed resolver's E_max and α (issue 19 item 2): its evidence recounted from the rows, the pick the
+    """The guaranteed resolver's E_max and α: its evidence recounted from the rows, the pick the
     brute-force one, and its flags run."""
     options = {**SMALL, "grid": {"energy_limit": (0.03, 1.0), "energy_rate": (20.0,)}}
     tuned = tune("planar3", "energy-bounded-torque", out=tmp_path / "energy", **options)
