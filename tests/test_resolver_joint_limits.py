@@ -456,3 +456,14 @@ def test_where_torque_and_joint_limits_conflict_the_step_exceeds_the_joint_limit
             assert f"of joint {robot.joint_names[joint]} by " in resolution.limiting, resolution.limiting
         checked += 1
     assert checked >= 3
+
+
+def test_the_batch_of_minmax_torque_on_tiago_solves_the_rows_daqp_cycles_on(arms):
+    """tiago's 1 s line: DAQP cycles on the stacked LP of a row at 0.505 s (the batch stopped there); that row goes
+    through the single-state step, and the batch completes, equal to simulate's run to 1e-9 rad."""
+    robot = arms["tiago"]
+    line = StraightLine(LINES["tiago"], duration=1.0)
+    batch = simulate_batch(robot, "minmax-torque", [line], [robot.default_configuration], DT)[0]
+    single = torqueopt.simulate(robot, "minmax-torque", line, robot.default_configuration, dt=DT)
+    assert batch.completed and single.completed, batch.stop_reason
+    np.testing.assert_allclose(batch.q, single.q, rtol=0, atol=1e-9)

@@ -648,8 +648,10 @@ class BoundedStackStep:
                     program = programs[movement] = make()
                 try:
                     solution = solve(program, problem, index)
-                except SolverFailure as error:
-                    failures[int(kept[index])] = str(error)
+                except SolverFailure:
+                    # DAQP failed on the stacked program (cycling on minmax-torque's LP, measured on tiago):
+                    # the single-state step solves the row, or says why it cannot.
+                    hard.append(index)
                     continue
                 if solution is None:
                     hard.append(index)
