@@ -260,9 +260,11 @@ def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name)
         ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
     ],
 )
-def test_velocity_pinv_on_stacks_stops_where_the_kinematic_loop_does(planar3, options, ceilings, stop):
-    """velocity-pinv's stacked form (forest kinematics, closed-form q̈, RK4 on the stack) equals its kinematic
-    loop run by run, through each of its stops: the method undefined, its rates and its torques past a ceiling."""
+@pytest.mark.parametrize("name", ["velocity-pinv", "gradient-projection"])
+def test_velocity_level_stacks_stop_where_the_kinematic_loop_does(planar3, name, options, ceilings, stop):
+    """velocity-pinv's and gradient projection's stacked forms (forest kinematics, closed-form q̈, RK4 on the
+    stack) equal their kinematic loop run by run, through each of its stops: the method undefined, its rates
+    and its torques past a ceiling."""
     from torqueopt.batch import KinematicStack
     from torqueopt.engine import run_movements
 
@@ -272,7 +274,7 @@ def test_velocity_pinv_on_stacks_stops_where_the_kinematic_loop_does(planar3, op
         seen.append(type(lanes))
         run_movements(lanes, steps)
 
-    resolver = torqueopt.get_resolver("velocity-pinv", **options)
+    resolver = torqueopt.get_resolver(name, **options)
     q0s, directions = _population(planar3, 8, seed=5)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.5) for d in directions]
@@ -285,6 +287,19 @@ def test_velocity_pinv_on_stacks_stops_where_the_kinematic_loop_does(planar3, op
         assert_same_run(run, single)
     assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
     assert any(single.stop_reason is None for single in singles)
+
+
+@pytest.mark.parametrize("options", [{}, {"k": 40.0, "position_gain": 4.0}])
+def test_gradient_projection_on_stacks_equals_the_kinematic_loop_on_panda(panda, options):
+    """Seven joints with limits, three task rows: the stacked Eq. (4) and its closed-form q̈ run by run."""
+    resolver = torqueopt.get_resolver("gradient-projection", **options)
+    assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
+    rng = np.random.default_rng(8)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
+    runs = simulate_batch(panda, resolver, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
 
 
 def test_a_bounded_resolver_in_the_batch_keeps_its_shortfalls_and_stops(planar3):

@@ -51,11 +51,15 @@ def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng)
         np.testing.assert_allclose(joint_rates(planar3, with_self_motion, q, xdot), expected, atol=1e-12)
 
 
-def test_velocity_pinv_closed_form_joint_acceleration_is_the_time_derivative_of_its_rates(planar3, panda, rng):
-    """q̈ = d/dt J⁺(q) c(t) against a five-point difference along q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11)."""
+@pytest.mark.parametrize(
+    "name, options", [("velocity-pinv", {}), ("gradient-projection", {}), ("gradient-projection", {"k": 40.0})]
+)
+def test_the_closed_form_joint_acceleration_is_the_time_derivative_of_the_rates(planar3, panda, rng, name, options):
+    """q̈ = d/dt f(q, c(t)) against a five-point difference along q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11):
+    velocity-pinv's J⁺c and gradient projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5))."""
     pin.seed(int(rng.integers(2**31)))
     for robot in (planar3, panda):
-        resolver = torqueopt.get_resolver("velocity-pinv")
+        resolver = torqueopt.get_resolver(name, **options)
         task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
         rates = resolver.rate_function(robot, task)
         closed_form = resolver.acceleration_function(robot, task)
@@ -109,6 +113,30 @@ def test_velocity_pinv_runs_with_the_closed_form_equal_those_with_the_central_di
     ]
     for robot, q0, line in cases:
         closed = torqueopt.simulate(robot, "velocity-pinv", line, q0, resolver_options={"position_gain": gain})
+        differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
+        np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
+        scale = np.abs(differenced.acceleration).max()
+        np.testing.assert_allclose(closed.acceleration, differenced.acceleration, rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(closed.tau, differenced.tau, rtol=0, atol=1e-8 * np.abs(differenced.tau).max())
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_gradient_projection_runs_with_the_closed_form_equal_those_with_the_central_difference(planar3, panda, gain):
+    """As for velocity-pinv above: the closed-form q̈ of gradient projection (joint limits) against the loop's
+    central difference, run for run, on the paper's movement and a panda line."""
+    from torqueopt.resolvers.velocity.gradient_projection import GradientProjection
+
+    class Differenced(GradientProjection):
+        def acceleration_function(self, robot, task):
+            return None
+
+    cases = [
+        (planar3, PAPER_Q0, LONG),
+        (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
+    ]
+    for robot, q0, line in cases:
+        closed = torqueopt.simulate(robot, "gradient-projection", line, q0, resolver_options={"position_gain": gain})
+        assert closed.completed
         differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
         np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
         scale = np.abs(differenced.acceleration).max()

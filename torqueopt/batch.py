@@ -31,7 +31,7 @@ time, so memory follows the steps taken.
 Velocity-level resolvers run on the same loop body with the velocity level's
 lanes: on stacks (:class:`KinematicStack`: the forest's kinematics and
 inverse dynamics, the resolver's stacked rates and closed-form q̈) when the
-resolver has a stacked form (velocity-pinv), else through the kinematic loop
+resolver has a stacked form (velocity-pinv, gradient projection on joint limits), else through the kinematic loop
 (:func:`torqueopt.kinematic.simulate_kinematic`), one movement after another.
 
 Supported: every registered resolver, for the ``xy`` and ``position`` tasks,
@@ -549,7 +549,7 @@ class KinematicStack(MovementStack):
 
     def resolve(self, jacobian, command, j: int):
         index, where = 2 * j, self.where
-        velocity, conditions, failures, state = self.stacked.rates(jacobian, command)
+        velocity, conditions, failures, state = self.stacked.rates(jacobian, command, self._q)
         # ċ = ẍ_ref + K(ẋ_ref − J q̇)
         command_rate = self.acceleration[index, where] + self.gain * self.velocity[index, where]
         if self.gain != 0.0:
@@ -607,7 +607,7 @@ class KinematicStack(MovementStack):
 
     def _rates(self, q, index: int):
         jacobian, _, x = self._task(q)
-        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, x))
+        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, x), q)
         return velocity, failures
 
     def step(self, q, v, resolution, j: int, t: float):

@@ -79,8 +79,8 @@ class VelocityResolver(Resolver):
     def stack_rate_function(self, robot: Robot):
         r"""The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time).
 
-        An object with ``rates(J, c) -> (q̇, σmin/σmax, failures, state)`` (J (B, m, n),
-        c (B, m); ``failures`` {row: why the method is undefined there}) and
+        An object with ``rates(J, c, q) -> (q̇, σmin/σmax, failures, state)`` (J (B, m, n),
+        c (B, m), q (B, nq) the configurations; ``failures`` {row: why the method is undefined there}) and
         ``acceleration(J, J̇, q̇, ċ, state) -> q̈``, the stacked forms of
         :meth:`rate_function` and :meth:`acceleration_function` (``state`` is
         what ``rates`` computed that ``acceleration`` reuses).

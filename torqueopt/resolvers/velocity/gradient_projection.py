@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...linalg import PseudoInverse
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
-from .criteria import criterion_from
+from .criteria import JointLimits, criterion_from
 from .options import criterion_spec
+from .pseudoinverse import StackedPseudoInverse
 
 __all__ = ["GradientProjection", "CriterionGain", "CRITERION_OPTION", "DEFAULT_GAINS", "gain_option"]
 
@@ -99,3 +101,79 @@ class GradientProjection(CriterionGain, VelocityResolver):
             return particular - k * basis.dot(basis.T.dot(gradient)), inverse_condition
 
         return rates
+
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""q̈ of Eq. (4) in closed form, for the joint-limit criterion (analytic Hessian) on a position task, else None.
+
+        With :math:`P = I - J^\dagger J`, :math:`u = J^\dagger c`, g = ∂p/∂q and its Hessian
+        :math:`\nabla^2 p`, so that :math:`\dot q = u - kPg`, differentiating along the motion
+        (:math:`\frac{d}{dt}J^\dagger = P\dot J^\top(JJ^\top)^{-1} - J^\dagger\dot J J^\dagger`,
+        :math:`\dot P = -P\dot J^\top J^{\dagger\top} - J^\dagger\dot J P`):
+
+        .. math::
+
+            \ddot q = J^\dagger(\dot c - \dot J\dot q) + P\big(\dot J^\top J^{\dagger\top}(u + k g)
+            - k\,\nabla^2 p\,\dot q\big),
+
+        which for k = 0 is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇).
+        The other criteria (manipulability, callables) have no Hessian in closed form here: None, and the loop
+        takes q̈ by its central difference.
+        """
+        if task.kind == "pose" or not isinstance(self.objective, JointLimits):
+            return None
+        pseudoinverse_of = PseudoInverse(robot.m, robot.nv)
+        criterion, k = self.objective, self.gain
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            jacobian = task.jacobian(kinematics)
+            jacobian_rate = task.jacobian_rate(kinematics, velocity)
+            pseudoinverse = pseudoinverse_of(jacobian)  # Eq. (3)
+            shifted = pseudoinverse.dot(command) + k * criterion.gradient(kinematics, task)  # u + k ∂p/∂q
+            inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.hessian(kinematics, task).dot(
+                velocity
+            )
+            # the derivative of Eq. (4) along the motion; P·inner = inner − J⁺J·inner
+            return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
+                inner - pseudoinverse.dot(jacobian.dot(inner))
+            )
+
+        return acceleration
+
+    def stack_rate_function(self, robot: Robot):
+        """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
+        if robot.task == "pose" or not isinstance(self.objective, JointLimits):
+            return None
+        return StackedGradientProjection(robot, self.singular_tolerance, self.objective, self.gain)
+
+
+class StackedGradientProjection(StackedPseudoInverse):
+    r"""Eq. (4) with the joint-limit criterion, :math:`\dot q = J^\dagger c - k(I - J^\dagger J)\,\partial p/\partial q`,
+    and its :math:`\ddot q` per row of (B, m, n) stacks (:class:`StackedPseudoInverse` for :math:`J^\dagger`)."""
+
+    def __init__(self, robot: Robot, tolerance: float, criterion: JointLimits, gain: float):
+        super().__init__(tolerance)
+        index, middle, half_range = criterion._limits(robot.model)
+        self.q_index, self.v_index, self.middle, self.half_range = index[:, 0], index[:, 1], middle, half_range
+        self.n, self.gain = robot.nv, gain
+        self.curvature = 2.0 / half_range**2  # the diagonal of ∂²p/∂q², Eq. (5)
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
+        """(q̇, σmin/σmax, failures, (J⁺, u + k ∂p/∂q)); a singular row gets a finite, unused answer."""
+        particular, conditions, failures, pseudoinverse = super().rates(jacobian, command)
+        gradient = np.zeros((configuration.shape[0], self.n))
+        # ∂/∂θ of Eq. (5)
+        gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.middle)
+        # (I − J⁺J) ∂p/∂q, Eq. (4)
+        projected = gradient - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, gradient))
+        k = self.gain
+        return particular - k * projected, conditions, failures, (pseudoinverse, particular + k * gradient)
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state) -> np.ndarray:
+        """J⁺(ċ − J̇q̇) + (I − J⁺J)(J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∂²p/∂q² q̇) per row (see :meth:`GradientProjection.acceleration_function`)."""
+        pseudoinverse, shifted = state
+        inner = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, shifted))
+        inner[:, self.v_index] -= self.gain * self.curvature * velocity[:, self.v_index]
+        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
+        return np.einsum("bij,bj->bi", pseudoinverse, residual) + (
+            inner - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, inner))
+        )

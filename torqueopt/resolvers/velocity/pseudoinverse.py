@@ -112,8 +112,10 @@ class StackedPseudoInverse:
     def __init__(self, tolerance: float):
         self.tolerance = tolerance
 
-    def rates(self, jacobian: np.ndarray, command: np.ndarray):
-        """(q̇ (B, n), σmin/σmax (B,), failures, J⁺ (B, n, m)); a singular row gets a finite, unused answer."""
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray | None = None):
+        """(q̇ (B, n), σmin/σmax (B,), failures, J⁺ (B, n, m)); a singular row gets a finite, unused answer.
+
+        J⁺c depends on q only through J: ``configuration`` is not read."""
         jacobian_t = np.swapaxes(jacobian, 1, 2)
         gram = jacobian @ jacobian_t
         # σ² of J are the eigenvalues of JJᵀ (relative error ε/(σmin/σmax)², far below what the cutoff decides)
