@@ -358,3 +358,32 @@ def test_when_the_joint_limits_are_given_up_for_the_torque_limits_the_barrier_st
     # Where even the fastest decrease the torque box allows is an increase, E_N rises: to 2.16 J (E_max 1 J) on
     # this line, measured; the rate condition above holds at every such step.
     assert _run_energies(panda, run).max() <= 2.5 * limit
+
+
+# The panda line of the 2 s panda atlas's path 88 (seed 2026).
+_PANDA_Q0 = [1.5842278610995986, -0.2418074838058415, 2.5684426908063878, -0.422201131645509, 1.713213281903156,
+             0.31276174197959355, -2.2517535386888543]  # fmt: skip
+_PANDA_DIRECTION = [0.9110470846245826, 0.2292285594713353, -0.34270610896181175]
+
+
+def test_the_barrier_holds_at_every_step_start_on_a_panda_line(panda):
+    """At every feasible step of a panda run the commanded q̈ meets the barrier row (the rate from the exact
+    formula, itself held to finite differences above). What E_N gains within a step beyond that is the held
+    torque's: the run's E_N exceeds E_max by the step's second-order term, ½Δt² q̈ᵀMq̈ and the change of q̈
+    under the held torque, which this resolver's large null-space accelerations on panda make visible."""
+    line = torqueopt.StraightLine(_PANDA_DIRECTION, accel=0.40410877188615857, duration=2.0)
+    limit, rate_factor = 0.03, 20.0
+    run = torqueopt.simulate(panda, "energy-bounded-torque", line, _PANDA_Q0, duration=0.2,
+                             resolver_options={"energy_limit": limit})  # fmt: skip
+    rate_of = SelfMotionRate(panda)
+    feasible = np.flatnonzero(~run.infeasible[:-1])
+    assert feasible.size >= 150
+    bound_met = 0
+    for row in feasible:
+        q, v = run.q[row], run.v[row]
+        terms = panda.terms(q, v)
+        part, coefficient, constant = rate_of(q, v, terms.inertia, terms.jacobian, null_space(terms.jacobian))
+        slack = -rate_factor * (part.energy - limit) - (coefficient @ run.acceleration[row] + constant)
+        assert slack >= -1e-7 * (1.0 + np.linalg.norm(coefficient)), (row, slack)
+        bound_met += slack <= 1e-6 * (1.0 + np.linalg.norm(coefficient))
+    assert bound_met >= 50  # the barrier binds: E_N rides at E_max
