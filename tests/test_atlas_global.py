@@ -273,6 +273,10 @@ def test_the_readme_answer_is_generated_from_the_committed_global_atlas():
     assert readme.split(ANSWER_BEGIN + "\n", 1)[1].split("\n" + ANSWER_END, 1)[0] == broader_answer(summary)
     assert readme_answer(readme, summary) == readme
     assert broader_answer(summary, link=False) in (ROOT / "docs" / "atlas" / "global.md").read_text()
+    # The committed rows are the atlas the page and its summary were made from.
+    rows = pandas.read_parquet(ROOT / "docs" / "atlas" / "global" / "results.parquet")
+    assert len(rows) == summary["rows"] and rows["path"].nunique() == summary["paths"]
+    assert (rows["resolver"] == GLOBAL_RESOLVER).sum() == summary["global"]["paths"]
 
 
 def test_the_page_and_the_readme_answer_are_rewritten_from_an_atlas_folder(global_atlas, tmp_path):
@@ -293,6 +297,12 @@ def test_the_page_and_the_readme_answer_are_rewritten_from_an_atlas_folder(globa
     assert json.loads((docs / "global.json").read_text()) == json.loads((report / "atlas.json").read_text())
     pandas.testing.assert_frame_equal(
         pandas.read_parquet(docs / "global" / "results.parquet"), pandas.read_parquet(report / "results.parquet")
+    )
+    # Given the sweep's own folder, the page is the same (the report of its paths written again).
+    assert frontier(["page", str(global_atlas.out), str(tmp_path / "again"), "global", "What ran."]) == 0
+    assert (tmp_path / "again" / "global.md").read_text() == page
+    assert json.loads((tmp_path / "again" / "global.json").read_text()) == json.loads(
+        (docs / "global.json").read_text()
     )
     readme = tmp_path / "README.md"
     readme.write_text(f"# title\n\n{ANSWER_BEGIN}\nthe old answer\n{ANSWER_END}\n\nthe rest\n")

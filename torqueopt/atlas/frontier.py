@@ -38,7 +38,11 @@ a finished atlas (or the report of a stopped one,
     python -m torqueopt.atlas.frontier page FOLDER docs/atlas global [NOTE]
     python -m torqueopt.atlas.frontier readme README.md docs/atlas/global.json
 
-The first (:func:`write_atlas_page`) writes ``docs/atlas/global.md`` (the
+The first (:func:`write_atlas_page`; given the folder of a sweep, it first
+writes the report of its finished paths again with
+:func:`~torqueopt.atlas.prefix.prefix_report`, so that a stopped sweep gets
+the report of its prefix and a finished one the summary of this version)
+writes ``docs/atlas/global.md`` (the
 atlas's report, NOTE under its title, the trade-off figure shown),
 ``global.json`` (its ``atlas.json``), ``global_tradeoff.png`` and the rows,
 ``global/results.parquet``; the second (:func:`readme_answer`) rewrites the
@@ -504,7 +508,19 @@ def main(argv=None) -> int:
     ``python -m torqueopt.atlas.frontier readme README.md SUMMARY.json`` (:func:`readme_answer`)."""
     command, *args = list(sys.argv[1:] if argv is None else argv)
     if command == "page" and len(args) in (3, 4):
-        print(write_atlas_page(args[0], args[1], args[2], args[3] if len(args) == 4 else ""))
+        folder, note = Path(args[0]), args[3] if len(args) == 4 else ""
+        if (folder / "atlas-config.json").is_file() and (folder / "chunks").is_dir():
+            # A sweep's folder, finished or not: its report again, of its whole prefix of finished paths, with the
+            # summary this version computes.
+            import tempfile
+
+            from .prefix import prefix_report
+
+            with tempfile.TemporaryDirectory() as report:
+                prefix_report(folder, report)
+                print(write_atlas_page(report, args[1], args[2], note))
+        else:
+            print(write_atlas_page(folder, args[1], args[2], note))
         return 0
     if command == "readme" and len(args) == 2:
         readme = Path(args[0])
