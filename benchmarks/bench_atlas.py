@@ -134,21 +134,27 @@ os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population
 from torqueopt.batch import simulate_batch
-robot_name, mode, steps, count = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+robot_name, mode, steps, count, resolver = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 robot = torqueopt.load_robot(robot_name, task=None if robot_name == "planar3" else "position")
 movements = draw_population(robot, PopulationSpec(paths=count, durations=(2.0,), seed=1))
 lines = [torqueopt.StraightLine(m.direction, duration=steps * 1e-3, start=m.start) for m in movements]
 if mode == "batch":
-    simulate_batch(robot, "null-space", lines, [m.q0 for m in movements], extras=True)
+    simulate_batch(robot, resolver, lines, [m.q0 for m in movements], extras=True)
 else:
-    torqueopt.simulate(robot, "null-space", lines[0], movements[0].q0)
+    torqueopt.simulate(robot, resolver, lines[0], movements[0].q0)
 """
 
 
-def count_instructions(robot: str = "planar3", steps: tuple[int, int] = (150, 50), cases=("batch", "simulate")) -> dict:
+def count_instructions(
+    robot: str = "planar3",
+    steps: tuple[int, int] = (150, 50),
+    cases=("batch", "simulate"),
+    resolver: str = "null-space",
+) -> dict:
     """Instructions per trajectory-step of the batch (256 movements) and of one simulate run, by callgrind.
 
-    ``steps`` are the (long, short) run lengths whose difference is counted; ``cases`` which of the two to count.
+    ``steps`` are the (long, short) run lengths whose difference is counted; ``cases`` which of the two to count;
+    ``resolver`` the resolver of both.
 
     Each figure is (total, Pinocchio's own): the second sums the instructions
     spent inside Pinocchio's library (its functions' self cost, by
@@ -166,7 +172,7 @@ def count_instructions(robot: str = "planar3", steps: tuple[int, int] = (150, 50
             script.write_text(_COUNT_RUN)
             done = subprocess.run(
                 ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, str(script),
-                 robot, mode, str(steps), str(count)],
+                 robot, mode, str(steps), str(count), resolver],
                 capture_output=True, text=True, check=True,
                 env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
             )  # fmt: skip
@@ -205,15 +211,16 @@ def main(argv=None):
     parser.add_argument(
         "--steps", type=int, nargs=2, default=(150, 50), metavar=("LONG", "SHORT"), help="run lengths of --count"
     )
+    parser.add_argument("--resolver", default="null-space", help="resolver of --count (default null-space)")
     parser.add_argument(
         "--cases", choices=["batch", "simulate", "both"], default="both", help="what --count counts (default both)"
     )
     args = parser.parse_args(argv)
     if args.count:
         cases = ("batch", "simulate") if args.cases == "both" else (args.cases,)
-        counts = count_instructions(args.robot, tuple(args.steps), cases)
+        counts = count_instructions(args.robot, tuple(args.steps), cases, args.resolver)
         print(
-            f"instructions per trajectory-step ({args.robot}, null-space, the batch with the energy extras, "
+            f"instructions per trajectory-step ({args.robot}, {args.resolver}, the batch with the energy extras, "
             f"{args.steps[0]} against {args.steps[1]} steps):"
         )
         for name, (value, pinocchio) in counts.items():
