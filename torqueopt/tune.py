@@ -76,11 +76,16 @@ __all__ = [
 ]
 
 #: The grid of each remedy's options tuned by default, μ (relative to ‖S H Z‖_F) and K_D in 1/s for
-#: damped-null-space, E_max in J and α in 1/s for energy-bounded-torque. Each spans the planar arm's
-#: defaults (0.5 and 10; 1 J and 20) by factors of 2 to 16 either way.
+#: damped-null-space, spanning the planar arm's defaults (0.5 and 10) by factors of 2 to 16 either way; E_max in J
+#: and the joint acceleration limit (rad/s², or 'torque', none but the torque limits') for energy-bounded-torque,
+#: from panda's measured setting (0.01 J, 10 rad/s², docs/atlas/tune-energy-panda.md) to 3 times planar3's
+#: default E_max (α is left at 20 1/s: on planar3, 5 to 100 1/s moved the median peak torque by 0.002).
 DEFAULT_GRIDS = {
     "damped-null-space": {"kinematic_weight": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0), "damping": (5.0, 10.0, 20.0, 40.0)},
-    "energy-bounded-torque": {"energy_limit": (0.1, 0.3, 1.0, 3.0), "energy_rate": (5.0, 20.0, 80.0)},
+    "energy-bounded-torque": {
+        "energy_limit": (0.01, 0.03, 0.1, 0.3, 1.0, 3.0),
+        "joint_acceleration_limit": ("torque", 10.0),
+    },
 }
 #: The most settings a grid may have.
 MAX_SETTINGS = 64

@@ -15,10 +15,12 @@ __all__ = ["add_parser"]
 
 
 def add_parser(subparsers) -> None:
+    from ..resolvers.options import label_value
     from ..tune import DEFAULT_CHUNK_SIZE, DEFAULT_GRIDS, DEFAULT_MAX_STEPS, DEFAULT_PATHS, MAX_SETTINGS
 
     grids = "; ".join(
-        f"{name}: " + " x ".join(f"{option} {','.join(f'{v:g}' for v in values)}" for option, values in grid.items())
+        f"{name}: "
+        + " x ".join(f"{option} {','.join(label_value(v) for v in values)}" for option, values in grid.items())
         for name, grid in DEFAULT_GRIDS.items()
     )
     parser = subparsers.add_parser(
