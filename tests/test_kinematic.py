@@ -94,6 +94,28 @@ def test_the_frame_jacobian_time_variation_is_the_derivative_of_the_jacobian_alo
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-8)
 
 
+def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_class, gain):
+    """Runs of resolver ``name`` (closed-form q̈) against those of its class with the loop's central difference
+    (``acceleration_function`` returning None), on the paper's movement and a panda line, at 1e-8 of q̈ and τ."""
+
+    class Differenced(resolver_class):
+        def acceleration_function(self, robot, task):
+            return None
+
+    cases = [
+        (planar3, PAPER_Q0, LONG),
+        (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
+    ]
+    for robot, q0, line in cases:
+        closed = torqueopt.simulate(robot, name, line, q0, resolver_options={"position_gain": gain})
+        assert closed.completed
+        differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
+        np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
+        scale = np.abs(differenced.acceleration).max()
+        np.testing.assert_allclose(closed.acceleration, differenced.acceleration, rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(closed.tau, differenced.tau, rtol=0, atol=1e-8 * np.abs(differenced.tau).max())
+
+
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_velocity_pinv_runs_with_the_closed_form_equal_those_with_the_central_difference(planar3, panda, gain):
     """The loop's reference q̈ (a central difference of f along q̇) against the closed form, run for run.
@@ -103,21 +125,7 @@ def test_velocity_pinv_runs_with_the_closed_form_equal_those_with_the_central_di
     """
     from torqueopt.resolvers.velocity.pseudoinverse import VelocityPseudoInverse
 
-    class Differenced(VelocityPseudoInverse):
-        def acceleration_function(self, robot, task):
-            return None
-
-    cases = [
-        (planar3, PAPER_Q0, LONG),
-        (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
-    ]
-    for robot, q0, line in cases:
-        closed = torqueopt.simulate(robot, "velocity-pinv", line, q0, resolver_options={"position_gain": gain})
-        differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
-        np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
-        scale = np.abs(differenced.acceleration).max()
-        np.testing.assert_allclose(closed.acceleration, differenced.acceleration, rtol=0, atol=1e-8 * scale)
-        np.testing.assert_allclose(closed.tau, differenced.tau, rtol=0, atol=1e-8 * np.abs(differenced.tau).max())
+    _closed_form_runs_equal_the_differenced_ones(planar3, panda, "velocity-pinv", VelocityPseudoInverse, gain)
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
@@ -126,22 +134,7 @@ def test_gradient_projection_runs_with_the_closed_form_equal_those_with_the_cent
     central difference, run for run, on the paper's movement and a panda line."""
     from torqueopt.resolvers.velocity.gradient_projection import GradientProjection
 
-    class Differenced(GradientProjection):
-        def acceleration_function(self, robot, task):
-            return None
-
-    cases = [
-        (planar3, PAPER_Q0, LONG),
-        (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
-    ]
-    for robot, q0, line in cases:
-        closed = torqueopt.simulate(robot, "gradient-projection", line, q0, resolver_options={"position_gain": gain})
-        assert closed.completed
-        differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
-        np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
-        scale = np.abs(differenced.acceleration).max()
-        np.testing.assert_allclose(closed.acceleration, differenced.acceleration, rtol=0, atol=1e-8 * scale)
-        np.testing.assert_allclose(closed.tau, differenced.tau, rtol=0, atol=1e-8 * np.abs(differenced.tau).max())
+    _closed_form_runs_equal_the_differenced_ones(planar3, panda, "gradient-projection", GradientProjection, gain)
 
 
 def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, panda, rng):
