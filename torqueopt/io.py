@@ -384,6 +384,11 @@ def resumable_folder(out: Path, config_name: str, config: dict, what: str) -> bo
     return False
 
 
+def json_text(value) -> str:
+    """``value`` as the text of an indented JSON file (:func:`json_value` first: no NaN, no numpy types)."""
+    return json.dumps(json_value(value), indent=2, allow_nan=False)
+
+
 def json_value(value):
     """``value`` as a JSON file holds it, through dicts, lists and tuples: numpy arrays and scalars as Python
     lists and numbers, and every NaN or infinite float as None (JSON has no NaN)."""

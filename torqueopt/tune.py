@@ -57,7 +57,7 @@ import numpy as np
 
 from .checks import number_in_range, whole_number
 from .errors import InvalidInput, OutputError
-from .io import atomic_write, json_value, resumable_folder, writable_path, writable_paths, written_together
+from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
 from .resolvers import RESOLVERS, Resolver, get_resolver
 from .resolvers.options import label_value
 
@@ -252,7 +252,7 @@ def tune(
         "chosen": chosen,
     }
     markdown = write_markdown(summary).encode()
-    text = json.dumps(json_value(summary), indent=2, allow_nan=False).encode()
+    text = json_text(summary).encode()
     with written_together():
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))

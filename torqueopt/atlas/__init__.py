@@ -63,8 +63,7 @@ import numpy as np
 
 from ..checks import positive_number, step_count, whole_number
 from ..errors import InvalidInput, OutputError, TorqueoptWarning
-from ..io import atomic_write, resumable_folder, writable_path, writable_paths, written_together
-from ..io import json_value as _finite  # the name the atlas's writers (arms, prefix, guarantee) import
+from ..io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
 from ..progress import said_if_slow
 from ..resolvers import Resolver
 from ..whiplash import DEFAULT_LIMIT_FACTOR
@@ -384,7 +383,7 @@ def run_atlas(
     )  # fmt: skip
     with written_together():
         atomic_write(out / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
-        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        text = json_text(summary).encode()
         atomic_write(out / "atlas.json", lambda handle: handle.write(text))
         if figures:
             summary["figures"] = write_figures(table, summary, out, loaded)

@@ -272,8 +272,7 @@ def merge_atlases(folders, out: str | os.PathLike, *, figures: bool = True) -> d
     import pandas
 
     from ..errors import InvalidInput
-    from ..io import atomic_write, written_together
-    from . import _finite, _json_default
+    from ..io import atomic_write, json_text, written_together
     from .report import summarise, write_figures, write_markdown
     from .sweep import RobotSpec
 
@@ -313,7 +312,7 @@ def merge_atlases(folders, out: str | os.PathLike, *, figures: bool = True) -> d
     out.mkdir(parents=True, exist_ok=True)
     robot = RobotSpec(**first["robot"]).load() if figures else None
     with written_together():
-        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        text = json_text(summary).encode()
         atomic_write(out / "atlas.json", lambda handle: handle.write(text))
         if figures:
             summary["figures"] = write_figures(merged, summary, out, robot)

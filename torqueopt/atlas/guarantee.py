@@ -235,7 +235,7 @@ def main(argv=None) -> int:
     """``python -m torqueopt.atlas.guarantee FOLDER [RESOLVER]``: print the tables, write FOLDER/guarantee.json."""
     import pandas
 
-    from . import _finite, _json_default
+    from ..io import json_text
 
     args = list(sys.argv[1:] if argv is None else argv)
     if len(args) not in (1, 2):
@@ -248,7 +248,7 @@ def main(argv=None) -> int:
     else:  # a docs folder keeps atlas.json, which holds the config
         config = json.loads((folder / "atlas.json").read_text())["config"]
     summary = guarantee_summary(table, config, *args[1:])
-    text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False)
+    text = json_text(summary)
     (folder / "guarantee.json").write_text(text + "\n")
     print("\n".join(guarantee_markdown(summary)))
     return 0

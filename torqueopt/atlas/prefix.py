@@ -38,7 +38,8 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
     Returns:
         The summary, as ``dest/atlas.json`` holds it.
     """
-    from . import _collect, _finite, _json_default
+    from ..io import json_text
+    from . import _collect
     from .report import summarise, write_figures, write_markdown
 
     pandas = require("pandas")
@@ -76,7 +77,7 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
     robot = load_robot(config["robot"]["source"], frame=config["robot"]["frame"], task=config["robot"]["task"])
     with written_together():
         atomic_write(dest / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
-        text = json.dumps(_finite(summary), indent=2, default=_json_default, allow_nan=False).encode()
+        text = json_text(summary).encode()
         atomic_write(dest / "atlas.json", lambda handle: handle.write(text))
         summary["figures"] = write_figures(table, summary, dest, robot)
         markdown = write_markdown(summary)
