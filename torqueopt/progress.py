@@ -94,6 +94,10 @@ def said_if_slow(description: str, enabled: bool = True) -> Iterator[None]:
         with contextlib.suppress(OSError, ValueError):  # a closed or broken stderr costs no result
             print(f"{description} ...", file=stream, flush=True)
 
+    if slow_after() <= 0:  # "at once" means before the block, not on a timer the block may beat
+        say()
+        yield
+        return
     timer = threading.Timer(slow_after(), say)
     timer.daemon = True
     timer.start()
