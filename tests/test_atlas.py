@@ -834,7 +834,7 @@ def test_ctrl_c_at_any_point_of_a_dask_atlas_is_one_line_and_exit_130(tmp_path, 
 
     awaited, folder_made = CTRL_C_POINTS[point]
     out = tmp_path / "interrupted"
-    command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "200", "--durations",
+    command = [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "1000", "--durations",
                "2", "--chunk-size", "8", "--workers", "2", "--no-figures", "--out", str(out)]  # fmt: skip
     # Every said-if-slow line at once: they mark where the atlas is.
     environment = {**os.environ, "PYTHONPATH": str(ROOT), "TORQUEOPT_SLOW_SECONDS": "0"}
