@@ -191,7 +191,10 @@ def test_global_local_arms_example_writes_its_table_from_the_runs(tmp_path):
     )
     cells = [line.split(" | ") for line in (tmp_path / "global-local-arms.md").read_text().splitlines()[2:]]
     rows = {cell[2]: (float(cell[3]), float(cell[4]), cell[6]) for cell in cells}
-    assert len(rows) == 5 and "IPOPT converged" in rows["global, joint limits, end at rest"][2]
+    assert len(rows) == 6 and "IPOPT converged" in rows["global, joint limits, end at rest"][2]
+    # panda's measured energy-bounded-torque setting runs beside the defaults (docs/guide/energy-bounded-torque.md)
+    setting = rows["energy-bounded-torque[energy_limit=0.01,joint_acceleration_limit=10] (the arm's setting)"]
+    assert setting[0] != pytest.approx(rows["energy-bounded-torque"][0], rel=1e-3)  # the options reached the run
     robot = torqueopt.load_robot("panda")
     line = torqueopt.StraightLine([0.0, 1.0, 0.0], accel=default_accel(arm_reach(robot)[1]), duration=0.3)
     pinv = torqueopt.simulate(robot, "pinv", line, robot.default_configuration)
