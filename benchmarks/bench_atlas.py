@@ -5,7 +5,12 @@ A trajectory-step is one RK4 step of one movement with one resolver
 interleaved round by round so the shared machine's load hits all alike:
 
 * ``simulate``: one :func:`torqueopt.simulate` run, planar3, null-space, the
-  paper's long movement (2 s, 2001 rows);
+  paper's long movement (2 s, 2001 rows), in the benchmark's own process;
+* ``simulate (own process)``: the same run timed in a fresh interpreter of its
+  own (its imports and a warm-up run untimed), as ``torqueopt run`` would run
+  it: the benchmark's process also hosts the two idle Dask clusters (their
+  schedulers and clients run event loops in threads of that process), and its
+  ``simulate`` rounds ran up to 1.9x slower than the same call alone;
 * ``batch``: :func:`torqueopt.batch.simulate_batch` in this process, 256
   movements of 2 s (the atlas's default chunk) from the atlas's population
   (seed 1), null-space, with the energy extras the atlas uses;
@@ -100,6 +105,34 @@ def _sweep(client, jobs, distributed):
     for future in distributed.as_completed(futures):
         steps += sum(row["steps"] - 1 for row in future.result())
     return steps / (time.perf_counter() - started)
+
+
+_OWN_PROCESS_RUN = """
+import os, sys, time
+os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import numpy as np
+import torqueopt
+robot_name, direction, accel, duration, start, q0 = sys.argv[1], *map(eval, sys.argv[2:])
+robot = torqueopt.load_robot(robot_name)
+line = torqueopt.StraightLine(direction, accel=accel, duration=duration, start=start)
+torqueopt.simulate(robot, "null-space", line, np.array(q0))  # warm-up
+started = time.perf_counter()
+run = torqueopt.simulate(robot, "null-space", line, np.array(q0))
+print((len(run.t) - 1) / (time.perf_counter() - started))
+"""
+
+
+def _simulate_in_own_process(robot_name, direction, accel, duration, q0, start=None) -> float:
+    """Trajectory-steps/s of one null-space ``simulate`` run timed in a fresh interpreter (imports untimed)."""
+    import subprocess
+    import sys
+
+    arguments = [repr(list(map(float, direction))), repr(float(accel)), repr(float(duration))]
+    arguments += [repr(None if start is None else list(map(float, start))), repr(list(map(float, q0)))]
+    done = subprocess.run(
+        [sys.executable, "-c", _OWN_PROCESS_RUN, robot_name, *arguments], capture_output=True, text=True, check=True
+    )
+    return float(done.stdout.split()[-1])
 
 
 def _terms_comparison(robot, count=256, repeats=30):
@@ -248,7 +281,7 @@ def main(argv=None):
         )
         clusters[workers] = (cluster, client)
 
-    results = {"simulate": [], "batch": [], "sweep 1 worker": [], "sweep 2 workers": []}
+    results = {"simulate": [], "simulate (own process)": [], "batch": [], "sweep 1 worker": [], "sweep 2 workers": []}
     loads = []
     ticks_before = _cpu_ticks()
     torqueopt.simulate(planar3, "null-space", paper_line, PAPER_Q0)  # warm-up
@@ -257,6 +290,9 @@ def main(argv=None):
         started = time.perf_counter()
         run = torqueopt.simulate(planar3, "null-space", paper_line, PAPER_Q0)
         results["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
+        results["simulate (own process)"].append(
+            _simulate_in_own_process("planar3", [1.0, 1.0], PAPER_ACCEL, 2.0, PAPER_Q0)
+        )
         started = time.perf_counter()
         runs, _ = simulate_batch(planar3, "null-space", lines, q0s, extras=True)
         results["batch"].append(sum(len(r.t) - 1 for r in runs) / (time.perf_counter() - started))
@@ -265,7 +301,7 @@ def main(argv=None):
                 _sweep(clusters[workers][1], jobs, distributed)
             )
     ticks_after = _cpu_ticks()
-    panda_sweeps = {"simulate": [], "sweep 1 worker": [], "sweep 2 workers": []}
+    panda_sweeps = {"simulate": [], "simulate (own process)": [], "sweep 1 worker": [], "sweep 2 workers": []}
     panda_loads = []
     if args.panda_sweep:
         from torqueopt.atlas.population import arm_reach, default_accel
@@ -290,6 +326,9 @@ def main(argv=None):
             started = time.perf_counter()
             run = torqueopt.simulate(sweep_panda, "null-space", first_line, first.q0)
             panda_sweeps["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
+            panda_sweeps["simulate (own process)"].append(
+                _simulate_in_own_process("panda", first.direction, accel, 0.5, first.q0, first.start)
+            )
             for workers in (1, 2):
                 panda_sweeps[f"sweep {workers} worker{'s' if workers > 1 else ''}"].append(
                     _sweep(clusters[workers][1], panda_jobs, distributed)
@@ -331,8 +370,17 @@ def main(argv=None):
         "| planar3, null-space, 2 s movements | trajectory-steps/s, median of rounds | vs one simulate run |",
         "|---|---|---|",
     ]
+    own_median = statistics.median(results["simulate (own process)"])
+    lines_out[-2:] = [
+        "| planar3, null-space, 2 s movements | trajectory-steps/s, median of rounds | vs one simulate run "
+        "| vs one simulate run in its own process |",
+        "|---|---|---|---|",
+    ]
     for name, values in results.items():
-        lines_out.append(f"| {name} | {cell(values)} | {statistics.median(values) / simulate_median:.2f}x |")
+        lines_out.append(
+            f"| {name} | {cell(values)} | {statistics.median(values) / simulate_median:.2f}x "
+            f"| {statistics.median(values) / own_median:.2f}x |"
+        )
     one, two = statistics.median(results["sweep 1 worker"]), statistics.median(results["sweep 2 workers"])
     lines_out += [
         "",
@@ -356,11 +404,16 @@ def main(argv=None):
             "",
             "1-minute load average at the panda rounds' starts " + ", ".join(f"{x:.1f}" for x in panda_loads) + ".",
             "",
-            "| panda, pinv and null-space, 0.5 s movements | trajectory-steps/s, median of rounds | vs one simulate run |",
-            "|---|---|---|",
+            "| panda, pinv and null-space, 0.5 s movements | trajectory-steps/s, median of rounds | vs one simulate run "
+            "| vs one simulate run in its own process |",
+            "|---|---|---|---|",
         ]
+        panda_own = statistics.median(panda_sweeps["simulate (own process)"])
         for name, values in panda_sweeps.items():
-            lines_out.append(f"| {name} | {cell(values)} | {statistics.median(values) / panda_median:.2f}x |")
+            lines_out.append(
+                f"| {name} | {cell(values)} | {statistics.median(values) / panda_median:.2f}x "
+                f"| {statistics.median(values) / panda_own:.2f}x |"
+            )
     lines_out.append(END)
     text = "\n".join(lines_out)
     print(text)
