@@ -435,3 +435,27 @@ def test_a_diverging_replay_stops_at_simulates_speed_ceiling_without_warnings(pl
     assert result.stop_time == pytest.approx(t[first_over])
     assert "speed of joint joint" in result.stop_reason and "beyond 1000 rad/s" in result.stop_reason
     assert math.isfinite(row["peak_self_motion_energy"])
+
+
+def test_the_margin_guide_quotes_the_800_path_report_whose_auc_is_the_mann_whitney_statistic():
+    """The committed 800-path margin report (docs/atlas/margin800): its held-out AUC equals the Mann-Whitney U
+    statistic of the rows' peak margins (whips against the rest) over n₁n₀, scipy's, not ours; its threshold's
+    rates are the rows' counts; and the guide and the discussion quote these figures."""
+    from scipy.stats import mannwhitneyu
+
+    rows = pandas.read_parquet(ROOT / "docs" / "atlas" / "margin800" / "results.parquet")
+    margin = json.loads((ROOT / "docs" / "atlas" / "margin800.json").read_text())["margin"]
+    held_out = rows[(rows["path"] % 2 == 1) & np.isfinite(rows["peak_stability_margin"])]
+    whips = (held_out["verdict"] == "whiplash").to_numpy()
+    scores = held_out["peak_stability_margin"].to_numpy(float)
+    statistic = mannwhitneyu(scores[whips], scores[~whips]).statistic
+    assert statistic / (whips.sum() * (~whips).sum()) == pytest.approx(margin["auc"], abs=1e-12)
+    assert (margin["held_out_runs"], margin["held_out_whips"]) == (len(held_out), whips.sum()) == (2800, 793)
+    threshold = margin["at_threshold"]["threshold"]
+    assert margin["at_threshold"]["true_positive_rate"]["successes"] == (scores[whips] >= threshold).sum()
+    assert margin["at_threshold"]["false_positive_rate"]["successes"] == (scores[~whips] >= threshold).sum()
+    guide = (ROOT / "docs" / "guide" / "stability-margin.md").read_text()
+    discussion = (ROOT / "docs" / "discussion" / "global-atlas.md").read_text()
+    for text in (guide, discussion):
+        assert f"**AUC {margin['auc']:.3f}**" in text and f"**σ ≥ {threshold:.2f} 1/s**" in text
+        assert f"{100 * margin['at_threshold']['true_positive_rate']['fraction']:.1f} %" in text
