@@ -189,3 +189,37 @@ def test_the_readmes_cross_arm_table_is_what_the_committed_atlases_generate():
     )
     for arm in paths:
         assert f"| {arm} | " in readme and f"(docs/atlas/{arm}.md)" in readme
+
+
+@pytest.mark.slow
+def test_each_arms_committed_summary_is_the_merge_of_its_committed_rows(tmp_path):
+    """docs/atlas/ARM/atlas.json (whence the README's table) is what merging the arm's committed atlases' rows
+    (docs/atlas/ARM/NAME/results.parquet and atlas-config.json, NAME each ``--out`` of the page's commands, in
+    their order) gives: the pages are of the rows beside them."""
+    import re
+
+    arms = [arm for arm in ARMS if list((ROOT / "docs" / "atlas" / arm).glob(f"{arm}-*/results.parquet"))]
+    assert "panda" in arms
+    for arm in arms:
+        page = (ROOT / "docs" / "atlas" / f"{arm}.md").read_text()
+        names = re.findall(r"^torqueopt atlas .* --out (\S+)$", page, flags=re.MULTILINE)
+        assert len(names) >= 2, arm
+        merge_atlases([ROOT / "docs" / "atlas" / arm / name for name in names], tmp_path / arm, figures=False)
+        summaries = [
+            json.loads((folder / "atlas.json").read_text())
+            for folder in (ROOT / "docs" / "atlas" / arm, tmp_path / arm)
+        ]
+        for summary in summaries:  # where the folders were when merged is not part of what was merged
+            summary["config"]["merged_from"] = [Path(folder).name for folder in summary["config"]["merged_from"]]
+        assert summaries[0] == summaries[1], arm
+
+
+def test_an_arms_page_takes_a_note_from_the_command_line(tmp_path):
+    """``python -m torqueopt.atlas.arms page ARM DOCS FOLDER ... --note TEXT``: the note follows the commands."""
+    from torqueopt.atlas.arms import main as arms_main
+
+    settings = {"paths": 2, "durations": (0.2,), "seed": 5, "workers": 0, "progress": False, "figures": False}
+    run_atlas("planar3", resolvers=["pinv"], out=tmp_path / "a", **settings)
+    assert arms_main(["page", "planar3", str(tmp_path / "docs"), str(tmp_path / "a"), "--note", "Ran at noon."]) == 0
+    text = (tmp_path / "docs" / "planar3.md").read_text()
+    assert text.index("--out a") < text.index("Ran at noon.") and text.count("Ran at noon.") == 1

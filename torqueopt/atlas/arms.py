@@ -321,9 +321,10 @@ def merge_atlases(folders, out: str | os.PathLike, *, figures: bool = True) -> d
     return summary
 
 
-def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas") -> Path:
+def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas", note: str = "") -> Path:
     """The docs' page of one arm's atlas: :func:`merge_atlases` of ``folders`` into ``docs/ARM/`` (atlas.json and
-    the figures), and ``docs/ARM.md``: its atlas.md with the figures shown and the commands that made it."""
+    the figures), and ``docs/ARM.md``: its atlas.md with the figures shown, the commands that made it and ``note``
+    (when and on which code they ran, say) after them."""
     docs = Path(docs)
     folder = docs / arm
     merge_atlases(folders, folder)
@@ -359,6 +360,8 @@ def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas") ->
         "```",
         "",
     ]
+    if note:
+        lines += [note, ""]
     page = docs / f"{arm}.md"
     page.write_text("\n".join(lines))
     return page
@@ -366,12 +369,17 @@ def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas") ->
 
 def main(argv=None) -> int:
     """``python -m torqueopt.atlas.arms readme README.md ARM=atlas.json ...``: rewrite the README's cross-arm table;
-    ``python -m torqueopt.atlas.arms page ARM DOCS FOLDER ...``: write an arm's page (:func:`write_arm_page`)."""
+    ``python -m torqueopt.atlas.arms page ARM DOCS FOLDER ... [--note TEXT]``: write an arm's page
+    (:func:`write_arm_page`)."""
     import sys
 
     command, *args = list(sys.argv[1:] if argv is None else argv)
     if command == "page":
-        write_arm_page(args[2:], args[0], args[1])
+        note = ""
+        if "--note" in args:
+            at = args.index("--note")
+            note, args = args[at + 1], args[:at] + args[at + 2 :]
+        write_arm_page(args[2:], args[0], args[1], note)
         return 0
     readme, pairs = Path(args[0]), [arg.split("=", 1) for arg in args[1:]]
     table = cross_arm_table(load_summaries(dict(pairs)))
