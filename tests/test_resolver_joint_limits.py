@@ -467,3 +467,69 @@ def test_the_batch_of_minmax_torque_on_tiago_solves_the_rows_daqp_cycles_on(arms
     single = torqueopt.simulate(robot, "minmax-torque", line, robot.default_configuration, dt=DT)
     assert batch.completed and single.completed, batch.stop_reason
     np.testing.assert_allclose(batch.q, single.q, rtol=0, atol=1e-9)
+
+
+#: Atlas paths (seed 19, 0.5 s, the arm's default acceleration) on which DAQP failed on minmax-torque's LP in the
+#: batch and in the single-state step, so that the run stopped: (q0, direction, start, acceleration, DAQP's failure).
+DAQP_FAILURES = {
+    ("tiago", 363): (
+        [1.8571391228566956, 0.8836258362626874, -2.0934367578483606, -0.3330998438145831, 1.2978599504963637, 1.34847504559915, -1.3215185448687237],
+        [-0.669630325658708, -0.3099503708387178, -0.6749266586638536],
+        [0.6540940517987175, 0.05749896346370469, 1.1273820435575592], 0.37674961801481927, "cycling (-2)",
+    ),
+    ("baxter", 423): (
+        [-1.6527181706349372, -1.7638914134170987, 0.2693956012988039, 2.4495743816549167, -0.3482879303375217, 1.96446303076364, -1.8443651102811542],
+        [-0.0525431869209743, -0.39966326957993126, 0.9151548964283953],
+        [-0.0670790409023932, -0.19316109500590817, 0.36724860241545665], 0.6640135914214277, "iteration limit (-4)",
+    ),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(DAQP_FAILURES), ids=lambda case: f"{case[0]}-{case[1]}")
+def test_minmax_torque_runs_on_which_daqp_fails_are_finished_by_highs_within_every_limit(arms, case, monkeypatch):
+    """The two atlas runs that stopped on a DAQP failure (tiago's 363 at 0.255 s, baxter's 423 at 0.124 s) complete:
+    each failed LP goes to HiGHS, and the run stays within every torque, position and velocity limit."""
+    import torqueopt.resolvers.bounded.programs as programs
+
+    q0, direction, start, accel, failure = DAQP_FAILURES[case]
+    failures = []
+    highs = programs._highs_lp
+    monkeypatch.setattr(programs, "_highs_lp", lambda *args: failures.append(args[-1]) or highs(*args))
+    robot = arms[case[0]]
+    line = StraightLine(direction, accel=accel, duration=0.5, start=start)
+    run = torqueopt.simulate(robot, "minmax-torque", line, np.array(q0), dt=DT)
+    assert run.completed, run.stop_reason
+    assert f"DAQP failed: {failure}" in failures
+    assert np.nanmax(run.peak_torque_ratio) <= 1 + 1e-6
+    assert np.all(np.abs(run.v) <= run.velocity_limit)
+    assert np.all((run.joint_angles >= run.position_lower) & (run.joint_angles <= run.position_upper))
+
+
+def test_highs_answers_daqps_lp_form_with_daqps_multipliers():
+    """On random LPs of DAQP's form (box bounds on the first variables, two-sided rows, some one-sided), HiGHS's
+    answer is DAQP's, and its multipliers, mapped to DAQP's signs, are DAQP's and meet c + [I; A]ᵀλ = 0."""
+    from torqueopt.resolvers.bounded.programs import _EXIT_OPTIMAL, _highs_lp, _Program
+
+    rng = np.random.default_rng(7)
+    compared = 0
+    for _ in range(20):
+        variables, bounds, count = 4, 2, 8
+        rows = rng.normal(size=(count, variables))
+        middle = rng.normal(size=count)
+        upper = np.r_[rng.uniform(0.5, 2, bounds), middle + rng.uniform(0.5, 2, count)]
+        lower = np.r_[-rng.uniform(0.5, 2, bounds), middle - rng.uniform(0.5, 2, count)]
+        upper[bounds + 1], lower[bounds + 2] = np.inf, -np.inf  # one-sided rows
+        cost = rng.normal(size=variables)
+        program = _Program(np.zeros((variables, variables)), cost, rows, upper, lower, bounds=bounds, linear=True)
+        x, flag, multipliers = program.solve()
+        if flag != _EXIT_OPTIMAL:
+            continue
+        other, other_flag, other_multipliers = _highs_lp(cost, rows, upper, lower, bounds, "test")
+        assert other_flag == _EXIT_OPTIMAL
+        np.testing.assert_allclose(other, x, atol=1e-7)
+        np.testing.assert_allclose(other_multipliers, multipliers, atol=1e-7)
+        stationarity = cost + rows.T @ other_multipliers[bounds:]
+        stationarity[:bounds] += other_multipliers[:bounds]
+        assert np.abs(stationarity).max() <= 1e-9
+        compared += 1
+    assert compared >= 10

@@ -24,6 +24,11 @@ and only its numbers change at each step, with the previous step's active
 set as the warm start. BENCHMARKS.md has the measurements behind the choice
 (DAQP against proxsuite, quadprog and HiGHS on these problems) and the
 comparison with a formulation in :math:`\ddot q` with the task as equality.
+An LP on which DAQP fails (cycling or its iteration limit: it stopped one
+``minmax-torque`` run on tiago and one on baxter in their atlases) is solved
+again by HiGHS (``scipy.optimize.linprog``), whose answer meets the same
+feasibility checks and optimality certificate; a QP DAQP fails on, or an LP
+HiGHS fails on too, stops the run with the solver's words.
 
 When no torque within the bounds realises the task, the ``infeasible``
 option says what to do (the step is marked infeasible either way and its

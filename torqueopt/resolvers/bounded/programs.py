@@ -81,16 +81,25 @@ class _Program:
             raise SolverFailure(f"DAQP setup failed with exit flag {flag}")
 
     def solve(self, **numbers):
-        """(x, exit flag, multipliers) after replacing the given numbers (H, f, A, bupper, blower)."""
+        """(x, exit flag, multipliers) after replacing the given numbers (H, f, A, bupper, blower).
+
+        An LP on which DAQP fails (cycling, its iteration limit: measured on ``minmax-torque``'s LP on tiago and
+        baxter, where the run used to stop) is solved again by HiGHS (:func:`_highs_lp`), whose answer meets the
+        same checks and certificate; a QP's failure, or HiGHS's, raises :class:`~torqueopt.errors.SolverFailure`.
+        """
         self._model.update(**numbers)
         x, _, flag, info = self._model.solve()
-        if flag != _EXIT_OPTIMAL and flag != _EXIT_INFEASIBLE:
-            raise SolverFailure(f"DAQP failed: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})")
-        multipliers = info["lam"]
         rows = self._rows = numbers.get("A", self._rows)
         upper = self._upper = numbers.get("bupper", self._upper)
         lower = self._lower = numbers.get("blower", self._lower)
         bounds = self._bounds
+        if flag != _EXIT_OPTIMAL and flag != _EXIT_INFEASIBLE:
+            failure = f"DAQP failed: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
+            if not self._linear:
+                raise SolverFailure(failure)
+            x, flag, multipliers = _highs_lp(self._cost, rows, upper, lower, bounds, failure)
+        else:
+            multipliers = info["lam"]
         if flag == _EXIT_OPTIMAL:
             # DAQP's updated workspace can miss an infeasible row whose coefficients are near zero (a torque
             # the null space barely moves, held beyond its bound by the task: measured on planar3's joint 3,
@@ -136,6 +145,37 @@ class _Program:
         ):
             return vertex
         return x
+
+
+def _highs_lp(cost, rows, upper, lower, bounds: int, failure: str):
+    r"""(x, exit flag, multipliers) of DAQP's LP form by HiGHS (``scipy.optimize.linprog``), with DAQP's signs.
+
+    The LP is :math:`\min c^\top x` s.t. :math:`l_i \le x_i \le u_i` for the first ``bounds`` variables and
+    :math:`l \le A x \le u` (rows of ``upper``/``lower`` after the first ``bounds``). The multipliers follow
+    DAQP's convention, :math:`c + [I; A]^\top\lambda = 0` with :math:`\lambda > 0` on an active upper bound
+    and :math:`< 0` on an active lower one: from HiGHS's marginals (the objective's sensitivity to each bound),
+    :math:`\lambda = -\partial f^*/\partial u - \partial f^*/\partial l`.
+    """
+    from scipy.optimize import linprog
+
+    upper_rows, lower_rows = upper[bounds:], lower[bounds:]
+    has_upper, has_lower = np.isfinite(upper_rows), np.isfinite(lower_rows)
+    inequality_rows = np.vstack([rows[has_upper], -rows[has_lower]])
+    inequality_bounds = np.r_[upper_rows[has_upper], -lower_rows[has_lower]]
+    box = [(lower[i] if np.isfinite(lower[i]) else None, upper[i] if np.isfinite(upper[i]) else None)
+           for i in range(bounds)]  # fmt: skip
+    box += [(None, None)] * (cost.size - bounds)
+    answer = linprog(cost, A_ub=inequality_rows, b_ub=inequality_bounds, bounds=box, method="highs")
+    if answer.status == 2:
+        return np.zeros(cost.size), _EXIT_INFEASIBLE, np.zeros(bounds + rows.shape[0])
+    if answer.status != 0:
+        raise SolverFailure(f"{failure}; HiGHS too: {answer.message}")
+    multipliers = np.zeros(bounds + rows.shape[0])
+    marginals = answer.ineqlin.marginals
+    multipliers[bounds:][has_upper] -= marginals[: has_upper.sum()]
+    multipliers[bounds:][has_lower] += marginals[has_upper.sum() :]
+    multipliers[:bounds] = -answer.upper.marginals[:bounds] - answer.lower.marginals[:bounds]
+    return answer.x, _EXIT_OPTIMAL, multipliers
 
 
 class _RangeBasis:
