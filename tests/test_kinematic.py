@@ -51,34 +51,47 @@ def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng)
         np.testing.assert_allclose(joint_rates(planar3, with_self_motion, q, xdot), expected, atol=1e-12)
 
 
+def _closed_form_is_the_rate_derivative(robot, resolver, rng, states=5):
+    """The resolver's closed-form q̈ at random states against a five-point difference of its rates along
+    q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11), at 1e-9 of the largest q̈."""
+    task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
+    rates = resolver.rate_function(robot, task)
+    closed_form = resolver.acceleration_function(robot, task)
+    assert closed_form is not None
+    tested = 0
+    while tested < states:
+        q = pin.randomConfiguration(robot.model) if robot.nv > 3 else rng.uniform(-2, 2, 3)
+        command, command_rate = rng.normal(size=robot.m), rng.normal(size=robot.m)
+        velocity, inverse_condition = rates(kinematics.update(q), command)
+        if inverse_condition < 0.1:
+            continue  # near a singularity the difference's own error grows past the tolerance
+        tested += 1
+
+        def along(s, q=q, velocity=velocity, command=command, command_rate=command_rate):
+            return rates(kinematics.update(q + s * velocity), command + s * command_rate)[0]
+
+        h = 1e-4
+        expected = (8 * (along(h) - along(-h)) - (along(2 * h) - along(-2 * h))) / (12 * h)
+        got = closed_form(kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max()))
+
+
 @pytest.mark.parametrize(
-    "name, options", [("velocity-pinv", {}), ("gradient-projection", {}), ("gradient-projection", {"k": 40.0})]
+    "name, options",
+    [
+        ("velocity-pinv", {}),
+        ("gradient-projection", {}),
+        ("gradient-projection", {"k": 40.0}),
+        ("kinetic-energy-pinv", {}),
+    ],
 )
 def test_the_closed_form_joint_acceleration_is_the_time_derivative_of_the_rates(planar3, panda, rng, name, options):
-    """q̈ = d/dt f(q, c(t)) against a five-point difference along q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11):
-    velocity-pinv's J⁺c and gradient projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5))."""
+    """q̈ = d/dt f(q, c(t)) against a five-point difference along the motion: velocity-pinv's J⁺c, gradient
+    projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5)) and the kinetic-energy
+    pseudoinverse H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹c (Eq. (16), Ḣ from Pinocchio's Coriolis matrix)."""
     pin.seed(int(rng.integers(2**31)))
     for robot in (planar3, panda):
-        resolver = torqueopt.get_resolver(name, **options)
-        task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
-        rates = resolver.rate_function(robot, task)
-        closed_form = resolver.acceleration_function(robot, task)
-        tested = 0
-        while tested < 5:
-            q = pin.randomConfiguration(robot.model) if robot.nv > 3 else rng.uniform(-2, 2, 3)
-            command, command_rate = rng.normal(size=robot.m), rng.normal(size=robot.m)
-            velocity, inverse_condition = rates(kinematics.update(q), command)
-            if inverse_condition < 0.1:
-                continue  # near a singularity the difference's own error grows past the tolerance
-            tested += 1
-
-            def along(s, q=q, velocity=velocity, command=command, command_rate=command_rate):
-                return rates(kinematics.update(q + s * velocity), command + s * command_rate)[0]
-
-            h = 1e-4
-            expected = (8 * (along(h) - along(-h)) - (along(2 * h) - along(-2 * h))) / (12 * h)
-            got = closed_form(kinematics.update(q), velocity, command, command_rate)
-            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max()))
+        _closed_form_is_the_rate_derivative(robot, torqueopt.get_resolver(name, **options), rng)
 
 
 def test_the_frame_jacobian_time_variation_is_the_derivative_of_the_jacobian_along_v(panda, rng):
@@ -107,9 +120,11 @@ def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_
         (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
     ]
     for robot, q0, line in cases:
-        closed = torqueopt.simulate(robot, name, line, q0, resolver_options={"position_gain": gain})
+        resolver_options = {"position_gain": gain}
+        closed = torqueopt.simulate(robot, name, line, q0, resolver_options=resolver_options)
         assert closed.completed
-        differenced = torqueopt.simulate(robot, Differenced(position_gain=gain), line, q0)
+        assert torqueopt.get_resolver(name, **resolver_options).acceleration_function(robot, FrameTask.of_robot(robot))
+        differenced = torqueopt.simulate(robot, Differenced(**resolver_options), line, q0)
         np.testing.assert_array_equal(closed.q, differenced.q)  # q̈ does not enter the motion
         scale = np.abs(differenced.acceleration).max()
         np.testing.assert_allclose(closed.acceleration, differenced.acceleration, rtol=0, atol=1e-8 * scale)
@@ -135,6 +150,17 @@ def test_gradient_projection_runs_with_the_closed_form_equal_those_with_the_cent
     from torqueopt.resolvers.velocity.gradient_projection import GradientProjection
 
     _closed_form_runs_equal_the_differenced_ones(planar3, panda, "gradient-projection", GradientProjection, gain)
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_kinetic_energy_pinv_runs_with_the_closed_form_equal_those_with_the_central_difference(planar3, panda, gain):
+    """As for velocity-pinv above: the closed-form q̈ of the kinetic-energy pseudoinverse against the loop's
+    central difference, run for run."""
+    from torqueopt.resolvers.velocity.pseudoinverse import KineticEnergyPseudoInverse
+
+    _closed_form_runs_equal_the_differenced_ones(
+        planar3, panda, "kinetic-energy-pinv", KineticEnergyPseudoInverse, gain
+    )
 
 
 def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, panda, rng):

@@ -194,3 +194,41 @@ class KineticEnergyPseudoInverse(VelocityResolver):
             return joint_rates, inverse_condition
 
         return rates
+
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""q̈ of :math:`\dot q = J_H^\dagger c` in closed form, on a position task (None for ``pose``).
+
+        With :math:`A = H^{-1}J^\top`, :math:`G = JA` and the multipliers :math:`\lambda = G^{-1}c`
+        (so :math:`\dot q = A\lambda`, :math:`J_H^\dagger = AG^{-1}`, Eq. (16) with W = H),
+        differentiating along the motion (:math:`\dot A = H^{-1}(\dot J^\top - \dot H A)`,
+        :math:`\dot G = \dot J A + J\dot A`):
+
+        .. math::
+
+            \ddot q = J_H^\dagger(\dot c - \dot J\dot q) + (I - J_H^\dagger J)\,H^{-1}(\dot J^\top\lambda - \dot H\dot q),
+
+        which for H = I is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at
+        (q, q̇), H by its CRBA and :math:`\dot H = C + C^\top` from its Coriolis matrix
+        (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew).
+        """
+        if task.kind == "pose":
+            return None
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            model, data, q = kinematics.model, kinematics.data, kinematics.q
+            jacobian = task.jacobian(kinematics)
+            inertia = pin.crba(model, data, q)
+            inertia = np.triu(inertia) + np.triu(inertia, 1).T  # CRBA fills the upper triangle
+            coriolis = pin.computeCoriolisMatrix(model, data, q, velocity)
+            inertia_rate_velocity = coriolis.dot(velocity) + coriolis.T.dot(velocity)  # Ḣq̇ = (C + Cᵀ)q̇
+            jacobian_rate = task.jacobian_rate(kinematics, velocity)
+            weighted_jt = np.linalg.solve(inertia, jacobian.T)  # A = H⁻¹Jᵀ
+            gram = jacobian.dot(weighted_jt)  # G = JH⁻¹Jᵀ of Eq. (16)
+            multipliers = np.linalg.solve(gram, command)  # λ = G⁻¹c, q̇ = Aλ
+            # the weighted pseudoinverse's own rate acts through H⁻¹(J̇ᵀλ − Ḣq̇), projected by I − J_H⁺J
+            inner = np.linalg.solve(inertia, jacobian_rate.T.dot(multipliers) - inertia_rate_velocity)
+            residual = command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)
+            # the time derivative of Eq. (16) with W = H applied to c
+            return inner + weighted_jt.dot(np.linalg.solve(gram, residual))
+
+        return acceleration
