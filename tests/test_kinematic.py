@@ -14,7 +14,7 @@ from torqueopt.errors import InvalidInput, NoRedundancy
 from torqueopt.kinematic import joint_rates
 from torqueopt.resolvers.velocity import JointLimits, manipulability
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
-from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask
 from torqueopt.whiplash import detect_whiplash
 
 from .conftest import PAPER_Q0
@@ -51,9 +51,10 @@ def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng)
         np.testing.assert_allclose(joint_rates(planar3, with_self_motion, q, xdot), expected, atol=1e-12)
 
 
-def _closed_form_is_the_rate_derivative(robot, resolver, rng, states=5):
+def _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=None, states=5):
     """The resolver's closed-form q̈ at random states against a five-point difference of its rates along
-    q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11), at 1e-9 of the largest q̈."""
+    q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11), at 1e-9 of the largest q̈; ``accept(kinematics, task)``
+    skips the states where the method itself is near a singularity of its own."""
     task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
     rates = resolver.rate_function(robot, task)
     closed_form = resolver.acceleration_function(robot, task)
@@ -63,7 +64,7 @@ def _closed_form_is_the_rate_derivative(robot, resolver, rng, states=5):
         q = pin.randomConfiguration(robot.model) if robot.nv > 3 else rng.uniform(-2, 2, 3)
         command, command_rate = rng.normal(size=robot.m), rng.normal(size=robot.m)
         velocity, inverse_condition = rates(kinematics.update(q), command)
-        if inverse_condition < 0.1:
+        if inverse_condition < 0.1 or (accept is not None and not accept(kinematics, task)):
             continue  # near a singularity the difference's own error grows past the tolerance
         tested += 1
 
@@ -83,15 +84,56 @@ def _closed_form_is_the_rate_derivative(robot, resolver, rng, states=5):
         ("gradient-projection", {}),
         ("gradient-projection", {"k": 40.0}),
         ("kinetic-energy-pinv", {}),
+        ("task-priority", {}),
     ],
 )
 def test_the_closed_form_joint_acceleration_is_the_time_derivative_of_the_rates(planar3, panda, rng, name, options):
     """q̈ = d/dt f(q, c(t)) against a five-point difference along the motion: velocity-pinv's J⁺c, gradient
-    projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5)) and the kinetic-energy
-    pseudoinverse H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹c (Eq. (16), Ḣ from Pinocchio's Coriolis matrix)."""
+    projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5)), the kinetic-energy
+    pseudoinverse H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹c (Eq. (16), Ḣ from Pinocchio's Coriolis matrix) and task priority, Eq. (11),
+    with its default posture task."""
     pin.seed(int(rng.integers(2**31)))
     for robot in (planar3, panda):
         _closed_form_is_the_rate_derivative(robot, torqueopt.get_resolver(name, **options), rng)
+
+
+def _secondary_well_conditioned(secondary):
+    """States where each secondary frame task, projected into the null space of the robot's task, keeps its
+    smallest nonzero singular value above 0.2 (the five-point difference loses digits as q̈ grows near 0)."""
+
+    def accept(kinematics, task):
+        jacobian = task.jacobian(kinematics)
+        projector = np.eye(jacobian.shape[1]) - np.linalg.pinv(jacobian).dot(jacobian)
+        for lower in secondary:
+            singular = np.linalg.svd(lower.jacobian(kinematics).dot(projector), compute_uv=False)
+            if singular[singular > 1e-8].min() < 0.2:
+                return False
+        return True
+
+    return accept
+
+
+def test_task_priority_closed_form_with_frame_tasks_is_the_time_derivative_of_eq_11(planar3, panda, rng):
+    """As above, with secondary frame tasks: the elbow of the paper's arm (J_l(I − J⁺J) of rank 1, so the
+    derivative of a rank-deficient pseudoinverse), and panda's fourth link above a posture task (three levels)."""
+    pin.seed(int(rng.integers(2**31)))
+    elbow = FrameTask("link3", "xy", target=ELBOW_TARGET, gain=2.0)
+    link4 = FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6])
+    for robot, secondary in ((planar3, [elbow]), (panda, [link4, PostureTask(gain=3.0)])):
+        resolver = torqueopt.get_resolver("task-priority", secondary=secondary)
+        resolver.check(robot)
+        _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=_secondary_well_conditioned(secondary[:1]))
+
+
+def test_task_priority_has_no_closed_form_where_it_does_not_hold(planar3):
+    """Damping, an obstacle task or a pose task below: the loop's central difference (None)."""
+    task = FrameTask.of_robot(planar3)
+    for options in (
+        {"damping": 0.1},
+        {"secondary": ObstacleTask.from_spec(OBSTACLE)},
+        {"secondary": FrameTask("link3", "pose")},
+    ):
+        assert torqueopt.get_resolver("task-priority", **options).acceleration_function(planar3, task) is None
 
 
 def test_the_frame_jacobian_time_variation_is_the_derivative_of_the_jacobian_along_v(panda, rng):
@@ -107,9 +149,10 @@ def test_the_frame_jacobian_time_variation_is_the_derivative_of_the_jacobian_alo
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-8)
 
 
-def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_class, gain):
+def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_class, gain, options=None):
     """Runs of resolver ``name`` (closed-form q̈) against those of its class with the loop's central difference
-    (``acceleration_function`` returning None), on the paper's movement and a panda line, at 1e-8 of q̈ and τ."""
+    (``acceleration_function`` returning None), on the paper's movement and a panda line, at 1e-8 of q̈ and τ;
+    ``options`` {robot name: resolver options} beside the position gain."""
 
     class Differenced(resolver_class):
         def acceleration_function(self, robot, task):
@@ -120,7 +163,7 @@ def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_
         (panda, panda.default_configuration, torqueopt.StraightLine([1, 0, 0], 0.2, 1.0)),
     ]
     for robot, q0, line in cases:
-        resolver_options = {"position_gain": gain}
+        resolver_options = {"position_gain": gain, **(options or {}).get(robot.name, {})}
         closed = torqueopt.simulate(robot, name, line, q0, resolver_options=resolver_options)
         assert closed.completed
         assert torqueopt.get_resolver(name, **resolver_options).acceleration_function(robot, FrameTask.of_robot(robot))
@@ -161,6 +204,23 @@ def test_kinetic_energy_pinv_runs_with_the_closed_form_equal_those_with_the_cent
     _closed_form_runs_equal_the_differenced_ones(
         planar3, panda, "kinetic-energy-pinv", KineticEnergyPseudoInverse, gain
     )
+
+
+@pytest.mark.parametrize("secondary, gain", [("posture", 0.0), ("frame", 5.0)])
+def test_task_priority_runs_with_the_closed_form_equal_those_with_the_central_difference(
+    planar3, panda, gain, secondary
+):
+    """As for velocity-pinv above, for Eq. (11): the default posture task, and a frame task (the elbow of the
+    paper's arm, panda's fourth link)."""
+    from torqueopt.resolvers.velocity.task_priority import TaskPriority
+
+    options = {}
+    if secondary == "frame":
+        options = {
+            "planar3": {"secondary": FrameTask("link3", "xy", target=ELBOW_TARGET)},
+            "panda": {"secondary": FrameTask("panda_link4", "position", target=[0.1, 0.1, 0.5])},
+        }
+    _closed_form_runs_equal_the_differenced_ones(planar3, panda, "task-priority", TaskPriority, gain, options)
 
 
 def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, panda, rng):

@@ -5,7 +5,17 @@ import pinocchio as pin
 import pytest
 
 from torqueopt.errors import FrameNotFound, InvalidInput, TaskNotFound
-from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, TaskStack, prioritised_rates, pseudoinverse
+from torqueopt.tasks import (
+    FrameTask,
+    Kinematics,
+    ObstacleTask,
+    PostureTask,
+    TaskStack,
+    prioritised_accelerations,
+    prioritised_rates,
+    pseudoinverse,
+    pseudoinverse_rate,
+)
 
 
 def planar_points(q):
@@ -203,6 +213,75 @@ def test_pseudoinverse_cutoff_and_damping(rng):
     )
     rank_one = np.outer([1.0, 2.0], [1.0, 0.0, 1.0])
     np.testing.assert_allclose(pseudoinverse(rank_one), np.linalg.pinv(rank_one), atol=1e-12)
+
+
+def five_point(function, h=1e-4):
+    """d/ds function(s) at s = 0 by the five-point difference (error ~h⁴)."""
+    return (8 * (function(h) - function(-h)) - (function(2 * h) - function(-2 * h))) / (12 * h)
+
+
+@pytest.mark.parametrize("shape, rank", [((2, 3), 2), ((3, 7), 3), ((2, 3), 1), ((3, 5), 2), ((4, 3), 2)])
+def test_the_pseudoinverse_rate_is_the_derivative_of_the_pseudoinverse_at_constant_rank(rng, shape, rank):
+    """d/dt A⁺ against a five-point difference of numpy's pinv along A(t) = L(t) R(t), of rank ``rank`` for every t
+    (full row rank, and rank-deficient as the projected Jacobians J_l(I − J⁺J) are)."""
+    rows, columns = shape
+    left, left_rate = rng.normal(size=(rows, rank)), rng.normal(size=(rows, rank))
+    right, right_rate = rng.normal(size=(rank, columns)), rng.normal(size=(rank, columns))
+
+    def matrix_at(s):
+        return (left + s * left_rate).dot(right + s * right_rate)
+
+    matrix = matrix_at(0.0)
+    matrix_rate = left_rate.dot(right) + left.dot(right_rate)
+    inverse = np.linalg.pinv(matrix, rcond=1e-10)
+    expected = five_point(lambda s: np.linalg.pinv(matrix_at(s), rcond=1e-10))
+    got = pseudoinverse_rate(matrix, matrix_rate, inverse)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def test_the_prioritised_accelerations_are_the_derivative_of_the_prioritised_rates(rng):
+    """Three levels on six joints (the last with fewer freedoms than rows) and two on three (the lower one
+    rank-deficient once projected), moving along J_k(s) = J_k + sJ̇_k, ẋ_k(s) = ẋ_k + sẍ_k."""
+    for sizes, n in (((2, 2, 3), 6), ((2, 2), 3)):
+        jacobians = [rng.normal(size=(rows, n)) for rows in sizes]
+        jacobian_rates = [rng.normal(size=(rows, n)) for rows in sizes]
+        velocities = [rng.normal(size=rows) for rows in sizes]
+        velocity_rates = [rng.normal(size=rows) for rows in sizes]
+
+        def rates_at(s, jacobians=jacobians, jacobian_rates=jacobian_rates, velocities=velocities,
+                     velocity_rates=velocity_rates):  # fmt: skip
+            return prioritised_rates(
+                [J + s * dJ for J, dJ in zip(jacobians, jacobian_rates)],
+                [x + s * dx for x, dx in zip(velocities, velocity_rates)],
+            )[0]
+
+        rates, accelerations = prioritised_accelerations(jacobians, jacobian_rates, velocities, velocity_rates)
+        np.testing.assert_allclose(rates, rates_at(0.0), rtol=0, atol=1e-12)
+        expected = five_point(rates_at)
+        np.testing.assert_allclose(accelerations, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def test_a_posture_task_and_a_frame_task_give_their_rates_in_closed_form(panda, rng):
+    """J̇ and the rate of ẋ_d = k(x* − x) along q(s) = q + sv, against five-point differences of J and ẋ_d."""
+    pin.seed(int(rng.integers(2**31)))
+    frame = FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6], gain=2.0)
+    posture = PostureTask(gain=3.0)
+    posture.check(panda)
+    kinematics = Kinematics(panda)
+    assert frame.closed_form_rates and posture.closed_form_rates
+    assert not FrameTask("panda_link4", "pose").closed_form_rates
+    assert not ObstacleTask([0.4, 0.2, 0.5]).closed_form_rates
+    for _ in range(3):
+        q, v = pin.randomConfiguration(panda.model), rng.normal(size=panda.nv)
+        for task in (frame, posture):
+            got_jacobian_rate = task.jacobian_rate(kinematics.update(q), v)
+            got_velocity_rate = task.desired_velocity_rate(kinematics.update(q), v)
+            expected_jacobian_rate = five_point(lambda s, task=task: task.jacobian(kinematics.update(q + s * v)))
+            expected_velocity_rate = five_point(
+                lambda s, task=task: task.desired_velocity(kinematics.update(q + s * v))
+            )
+            np.testing.assert_allclose(got_jacobian_rate, expected_jacobian_rate, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(got_velocity_rate, expected_velocity_rate, rtol=0, atol=1e-9)
 
 
 def test_task_stack_takes_tasks_and_refuses_the_rest():

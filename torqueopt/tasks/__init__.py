@@ -7,7 +7,7 @@ class :class:`Task`, all reading one :class:`Kinematics` per configuration.
 from .frame_task import FRAME_TASK_KINDS, FrameTask
 from .obstacle import ClosestPoint, ObstacleTask
 from .posture_task import PostureTask
-from .stack import TaskStack, prioritised_rates, pseudoinverse
+from .stack import TaskStack, prioritised_accelerations, prioritised_rates, pseudoinverse, pseudoinverse_rate
 from .task import Kinematics, Task
 
 __all__ = [
@@ -18,7 +18,9 @@ __all__ = [
     "PostureTask",
     "TaskStack",
     "prioritised_rates",
+    "prioritised_accelerations",
     "pseudoinverse",
+    "pseudoinverse_rate",
     "ObstacleTask",
     "ClosestPoint",
 ]

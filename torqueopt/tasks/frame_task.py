@@ -57,6 +57,12 @@ class FrameTask(Task):
         """The robot's own task (its frame and task string) as a task object."""
         return cls(robot.frame, robot.task, **options)
 
+    @property
+    def closed_form_rates(self) -> bool:
+        """J̇ and the desired velocity's rate in closed form: for ``xy`` and ``position`` (the rate of a pose's
+        rotation vector is J's angular rows times v only at its reference rotation)."""
+        return self.kind != "pose"
+
     def check(self, robot) -> None:
         check_frame(robot.model, self.frame, robot.name)
 

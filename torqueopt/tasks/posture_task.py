@@ -25,6 +25,8 @@ class PostureTask(Task):
         gain: regulation gain [1/s].
     """
 
+    closed_form_rates = True
+
     def __init__(self, target=None, gain: float = 1.0):
         self.dimension = None if target is None else int(np.size(target))
         self._given = target
@@ -50,6 +52,13 @@ class PostureTask(Task):
 
     def drift(self, kinematics: Kinematics) -> np.ndarray:
         return np.zeros(kinematics.nv)
+
+    def jacobian_rate(self, kinematics: Kinematics, v: np.ndarray) -> np.ndarray:
+        return np.zeros((kinematics.nv, kinematics.nv))
+
+    def desired_velocity_rate(self, kinematics: Kinematics, v: np.ndarray) -> np.ndarray:
+        r""":math:`-k v` [rad/s²]: the joint angles move at v."""
+        return -self.gain * v
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         self._require(kinematics)

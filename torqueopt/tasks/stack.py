@@ -21,6 +21,9 @@ space of all above it (the recursion of Siciliano & Slotine, 1991):
     P_k = P_{k-1} - (J_k P_{k-1})^\dagger J_k P_{k-1},
 
 with :math:`\dot q_0 = 0`, :math:`P_0 = I`; for two tasks it is Eq. (11).
+
+Its time derivative along the motion (:func:`prioritised_accelerations`)
+differentiates each step, the pseudoinverses by :func:`pseudoinverse_rate`.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import numpy as np
 from ..errors import InvalidInput
 from .task import Task
 
-__all__ = ["TaskStack", "prioritised_rates", "pseudoinverse"]
+__all__ = ["TaskStack", "prioritised_rates", "prioritised_accelerations", "pseudoinverse", "pseudoinverse_rate"]
 
 
 #: Singular values below this are round-off whatever the scale (a task point that the null space cannot move).
@@ -60,6 +63,28 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
     return (vt.T * inverse_values).dot(u.T)
 
 
+def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+    r"""The time derivative of :math:`A^\dagger` (``inverse``) as A moves at :math:`\dot A`, where A keeps its rank
+    (Golub & Pereyra, 1973):
+
+    .. math::
+
+        \frac{d}{dt}A^\dagger = -A^\dagger\dot A A^\dagger + A^\dagger A^{\dagger\top}\dot A^\top(I - AA^\dagger)
+        + (I - A^\dagger A)\dot A^\top A^{\dagger\top}A^\dagger.
+
+    For A of full row rank :math:`AA^\dagger = I` and :math:`A^{\dagger\top}A^\dagger = (AA^\top)^{-1}`: the middle
+    term drops and the last is :math:`(I - A^\dagger A)\dot A^\top(AA^\top)^{-1}`. Only the part of
+    :math:`\dot A` along the matrices of A's rank enters (the rest is annihilated by the projectors), so a
+    round-off component that would change the rank does not.
+    """
+    inverse_t = inverse.T
+    return (
+        -inverse.dot(matrix_rate).dot(inverse)
+        + inverse.dot(inverse_t).dot(matrix_rate.T - matrix_rate.T.dot(matrix).dot(inverse))
+        + (matrix_rate.T - inverse.dot(matrix.dot(matrix_rate.T))).dot(inverse_t).dot(inverse)
+    )
+
+
 def prioritised_rates(
     jacobians: Sequence[np.ndarray], velocities: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0
 ):
@@ -85,6 +110,57 @@ def prioritised_rates(
         rates = rates + inverse.dot(velocity - jacobian.dot(rates))
         projector = projector - inverse.dot(projected)
     return rates, projector
+
+
+def prioritised_accelerations(
+    jacobians: Sequence[np.ndarray],
+    jacobian_rates: Sequence[np.ndarray],
+    velocities: Sequence[np.ndarray],
+    velocity_rates: Sequence[np.ndarray],
+    *,
+    tolerance: float = 1e-10,
+):
+    r"""The joint rates of :func:`prioritised_rates` (no damping) and their time derivative along the motion.
+
+    Each step of the recursion differentiated, with :math:`A_k = J_k P_{k-1}`:
+
+    .. math::
+
+        \ddot q_k = \ddot q_{k-1} + \dot A_k^\dagger e_k + A_k^\dagger(\ddot x_k - \dot J_k\dot q_{k-1} - J_k\ddot q_{k-1}),\quad
+        e_k = \dot x_k - J_k\dot q_{k-1},\quad
+        \dot P_k = \dot P_{k-1} - \dot A_k^\dagger A_k - A_k^\dagger\dot A_k,
+
+        \dot A_k = \dot J_k P_{k-1} + J_k\dot P_{k-1},
+
+    with :math:`\dot A_k^\dagger` by :func:`pseudoinverse_rate` (each :math:`A_k` keeping its rank along
+    the motion, as it does away from the algorithmic singularities).
+
+    Args:
+        jacobians: :math:`J_1, J_2, \dots` (each m_k × n), highest priority first.
+        jacobian_rates: their time derivatives :math:`\dot J_k` along the motion.
+        velocities: the desired :math:`\dot x_k`.
+        velocity_rates: their time derivatives :math:`\ddot x_k` along the motion.
+        tolerance: relative singular-value cutoff of every pseudoinverse, as in :func:`prioritised_rates`.
+
+    Returns:
+        q̇ [rad/s] and q̈ [rad/s²], as a pair.
+    """
+    n = jacobians[0].shape[1]
+    rates, accelerations = np.zeros(n), np.zeros(n)
+    projector, projector_rate = np.eye(n), np.zeros((n, n))
+    for jacobian, jacobian_rate, velocity, velocity_rate in zip(jacobians, jacobian_rates, velocities, velocity_rates):
+        projected = jacobian.dot(projector)  # A_k = J_k P_{k-1}
+        projected_rate = jacobian_rate.dot(projector) + jacobian.dot(projector_rate)
+        inverse = pseudoinverse(projected, tolerance)
+        inverse_rate = pseudoinverse_rate(projected, projected_rate, inverse)
+        shortfall = velocity - jacobian.dot(rates)
+        shortfall_rate = velocity_rate - jacobian_rate.dot(rates) - jacobian.dot(accelerations)
+        # the time derivative of Eq. (11)'s step: d/dt (A_k⁺ e_k)
+        accelerations = accelerations + inverse_rate.dot(shortfall) + inverse.dot(shortfall_rate)
+        rates = rates + inverse.dot(shortfall)
+        projector_rate = projector_rate - inverse_rate.dot(projected) - inverse.dot(projected_rate)
+        projector = projector - inverse.dot(projected)
+    return rates, accelerations
 
 
 class TaskStack:

@@ -114,6 +114,9 @@ class Task(ABC):
     """
 
     dimension: int
+    #: True when :meth:`jacobian_rate` and :meth:`desired_velocity_rate` hold in closed form (a task-priority
+    #: resolver then takes q̈ in closed form too).
+    closed_form_rates: bool = False
 
     def __init__(self, target=None, gain: float = 1.0):
         self.gain = non_negative_number(gain, "task gain", "1/s")
@@ -148,3 +151,18 @@ class Task(ABC):
         if self.target is None:
             return np.zeros(self.dimension)
         return self.gain * self.error(kinematics)
+
+    def jacobian_rate(self, kinematics: Kinematics, v: np.ndarray) -> np.ndarray:
+        r""":math:`\dot J` (dimension × n) at the kinematics' configuration, moving at joint velocity v.
+
+        Only for tasks with :attr:`closed_form_rates`."""
+        raise InvalidInput(f"{self!r} has no Jacobian time variation in closed form")
+
+    def desired_velocity_rate(self, kinematics: Kinematics, v: np.ndarray) -> np.ndarray:
+        r""":math:`\frac{d}{dt}\dot x_d = -k J v` [m/s², rad/s²] along the motion at joint velocity v, zero without a target.
+
+        Exact where :math:`\dot x = Jv` holds for the coordinates themselves (only for tasks with
+        :attr:`closed_form_rates`; not a pose's rotation vector)."""
+        if self.target is None:
+            return np.zeros(self.dimension)
+        return -self.gain * self.jacobian(kinematics).dot(v)

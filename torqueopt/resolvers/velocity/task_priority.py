@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_rates
+from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_accelerations, prioritised_rates
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import task_stack
@@ -81,3 +81,33 @@ class TaskPriority(VelocityResolver):
             return joint_rates, inverse_condition
 
         return rates
+
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""q̈ of Eq. (11) in closed form: without damping, on a position task, with secondary tasks whose
+        :math:`\dot J` and desired-velocity rate are known (frame tasks other than ``pose``, posture); else None.
+
+        The recursion's time derivative (:func:`~torqueopt.tasks.prioritised_accelerations`), with the
+        derivative of each pseudoinverse of constant rank,
+        :math:`\frac{d}{dt}A^\dagger = -A^\dagger\dot A A^\dagger + A^\dagger A^{\dagger\top}\dot A^\top(I - AA^\dagger)
+        + (I - A^\dagger A)\dot A^\top A^{\dagger\top}A^\dagger` (for the robot's task, of full row rank,
+        :math:`-J^\dagger\dot J J^\dagger + (I - J^\dagger J)\dot J^\top(JJ^\top)^{-1}`). :math:`\dot J` of each
+        frame task from Pinocchio's Jacobian time variation at (q, q̇); a secondary task's
+        :math:`\dot x_l = k(x^* - x_l)` moves at :math:`-kJ_l\dot q`. With damping λ > 0 the damped inverses'
+        derivative is not taken here (None: the loop's central difference).
+        """
+        secondary = self.stack
+        if task.kind == "pose" or self.damping != 0.0 or not all(lower.closed_form_rates for lower in secondary):
+            return None
+        secondary.check(robot)
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            jacobians = [task.jacobian(kinematics)] + [lower.jacobian(kinematics) for lower in secondary]
+            velocities = [command] + [lower.desired_velocity(kinematics) for lower in secondary]
+            velocity_rates = [command_rate] + [lower.desired_velocity_rate(kinematics, velocity) for lower in secondary]
+            jacobian_rates = [task.jacobian_rate(kinematics, velocity)] + [
+                lower.jacobian_rate(kinematics, velocity) for lower in secondary
+            ]
+            # the time derivative of Eq. (11) (and of its recursion for deeper stacks)
+            return prioritised_accelerations(jacobians, jacobian_rates, velocities, velocity_rates)[1]
+
+        return acceleration
