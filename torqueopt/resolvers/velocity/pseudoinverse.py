@@ -2,6 +2,7 @@ r"""Resolved rate with the pseudoinverse and with the kinetic-energy-weighted ps
 
 from __future__ import annotations
 
+import eigenpy
 import numpy as np
 import pinocchio as pin
 
@@ -172,9 +173,9 @@ class KineticEnergyPseudoInverse(VelocityResolver):
         J_W^\dagger = W^{-1} J^\top (J W^{-1} J^\top)^{-1} \quad\text{Eq. (16)}
 
     which minimises :math:`T = \tfrac12 \dot q^\top H \dot q` (Eq. (17), [J])
-    among the joint rates with :math:`J\dot q = \dot x` (Whitney). H is
-    Pinocchio's CRBA at q. This is the velocity-level twin of the
-    acceleration-level ``inertia-pinv`` Eq. (19).
+    among the joint rates with :math:`J\dot q = \dot x` (Whitney). :math:`H^{-1}`
+    is Pinocchio's (``computeMinverse``, by the articulated-body recursion) at q.
+    This is the velocity-level twin of the acceleration-level ``inertia-pinv`` Eq. (19).
     """
 
     name = "kinetic-energy-pinv"
@@ -182,15 +183,14 @@ class KineticEnergyPseudoInverse(VelocityResolver):
 
     def rate_function(self, robot: Robot, task: FrameTask):
         decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        inverse_inertia_of = InverseInertia(robot.nv)
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             jacobian = task.jacobian(kinematics)
             _, _, inverse_condition = decompose(jacobian, task_velocity)  # raises SingularJacobian when J loses rank
-            inertia = pin.crba(kinematics.model, kinematics.data, kinematics.q)
-            inertia = np.triu(inertia) + np.triu(inertia, 1).T  # CRBA fills the upper triangle
-            inverse_inertia_jt = np.linalg.solve(inertia, jacobian.T)  # W⁻¹Jᵀ with W = H
+            inverse_inertia_jt = inverse_inertia_of(kinematics).dot(jacobian.T)  # W⁻¹Jᵀ with W = H
             # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ, the q̇ of least kinetic energy Eq. (17)
-            joint_rates = inverse_inertia_jt.dot(np.linalg.solve(jacobian.dot(inverse_inertia_jt), task_velocity))
+            joint_rates = inverse_inertia_jt.dot(eigenpy.LLT(jacobian.dot(inverse_inertia_jt)).solve(task_velocity))
             return joint_rates, inverse_condition
 
         return rates
@@ -208,27 +208,41 @@ class KineticEnergyPseudoInverse(VelocityResolver):
             \ddot q = J_H^\dagger(\dot c - \dot J\dot q) + (I - J_H^\dagger J)\,H^{-1}(\dot J^\top\lambda - \dot H\dot q),
 
         which for H = I is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at
-        (q, q̇), H by its CRBA and :math:`\dot H = C + C^\top` from its Coriolis matrix
+        (q, q̇), :math:`H^{-1}` from ``computeMinverse`` and :math:`\dot H = C + C^\top` from its Coriolis matrix
         (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew).
         """
         if task.kind == "pose":
             return None
+        inverse_inertia_of = InverseInertia(robot.nv)
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            model, data, q = kinematics.model, kinematics.data, kinematics.q
             jacobian = task.jacobian(kinematics)
-            inertia = pin.crba(model, data, q)
-            inertia = np.triu(inertia) + np.triu(inertia, 1).T  # CRBA fills the upper triangle
-            coriolis = pin.computeCoriolisMatrix(model, data, q, velocity)
+            inverse_inertia = inverse_inertia_of(kinematics)
+            coriolis = pin.computeCoriolisMatrix(kinematics.model, kinematics.data, kinematics.q, velocity)
             inertia_rate_velocity = coriolis.dot(velocity) + coriolis.T.dot(velocity)  # Ḣq̇ = (C + Cᵀ)q̇
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            weighted_jt = np.linalg.solve(inertia, jacobian.T)  # A = H⁻¹Jᵀ
-            gram = jacobian.dot(weighted_jt)  # G = JH⁻¹Jᵀ of Eq. (16)
-            multipliers = np.linalg.solve(gram, command)  # λ = G⁻¹c, q̇ = Aλ
+            weighted_jt = inverse_inertia.dot(jacobian.T)  # A = H⁻¹Jᵀ
+            gram = eigenpy.LLT(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16)
+            multipliers = gram.solve(command)  # λ = G⁻¹c, q̇ = Aλ
             # the weighted pseudoinverse's own rate acts through H⁻¹(J̇ᵀλ − Ḣq̇), projected by I − J_H⁺J
-            inner = np.linalg.solve(inertia, jacobian_rate.T.dot(multipliers) - inertia_rate_velocity)
+            inner = inverse_inertia.dot(jacobian_rate.T.dot(multipliers) - inertia_rate_velocity)
             residual = command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)
             # the time derivative of Eq. (16) with W = H applied to c
-            return inner + weighted_jt.dot(np.linalg.solve(gram, residual))
+            return inner + weighted_jt.dot(gram.solve(residual))
 
         return acceleration
+
+
+class InverseInertia:
+    r""":math:`H^{-1}(q)` (n×n) at a kinematics' configuration, by Pinocchio's ``computeMinverse``.
+
+    Pinocchio documents only the upper triangle as filled; the lower one is copied from it (a fresh array).
+    """
+
+    def __init__(self, n: int):
+        self._lower = np.tril_indices(n, -1)
+
+    def __call__(self, kinematics: Kinematics) -> np.ndarray:
+        inverse = pin.computeMinverse(kinematics.model, kinematics.data, kinematics.q).copy()
+        inverse[self._lower] = inverse.T[self._lower]
+        return inverse
