@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import eigenpy
 import numpy as np
 
 from ..errors import InvalidInput
@@ -37,6 +38,8 @@ from .task import Task
 
 __all__ = ["TaskStack", "prioritised_rates", "prioritised_accelerations", "pseudoinverse", "pseudoinverse_rate"]
 
+
+_THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
 #: Singular values below this are round-off whatever the scale (a task point that the null space cannot move).
 ABSOLUTE_TOLERANCE = 1e-10
@@ -52,15 +55,24 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
     of a point the null space cannot move (the tip itself): all their singular values are
     round-off, which a relative cutoff alone would invert. Damping keeps the cutoff rather than
     replacing it: a round-off σ of 1e-16 with λ = 1e-8 would otherwise be inverted to 1, and a tiny
-    λ must behave like none."""
+    λ must behave like none.
+
+    The SVD is Eigen's (``HhJacobiSVD`` through eigenpy, as :mod:`torqueopt.linalg`'s solvers), the
+    few singular values handled as plain numbers: numpy's ``svd`` and its array arithmetic cost
+    several times more on these small matrices."""
     if matrix.size == 0:
         return np.zeros(matrix.T.shape)
-    u, singular, vt = np.linalg.svd(matrix, full_matrices=False)
-    largest = singular[0] if singular.size else 0.0
-    keep = singular > max(tolerance * largest, ABSOLUTE_TOLERANCE)
-    kept = np.where(keep, singular, 1.0)
-    inverse_values = np.where(keep, kept / (kept**2 + damping**2) if damping > 0.0 else 1.0 / kept, 0.0)
-    return (vt.T * inverse_values).dot(u.T)
+    svd = eigenpy.HhJacobiSVD(matrix, _THIN_UV)
+    singular = np.ravel(svd.singularValues()).tolist()  # descending (one value comes as a 1×1 matrix)
+    cutoff = max(tolerance * singular[0], ABSOLUTE_TOLERANCE)
+    inverse_values = [
+        (value / (value * value + damping * damping) if damping > 0.0 else 1.0 / value) if value > cutoff else 0.0
+        for value in singular
+    ]
+    rows, columns = matrix.shape
+    # eigenpy returns an n×1 factor as a vector: shaped back to (n, k) and (m, k)
+    left, right = svd.matrixU().reshape(rows, len(singular)), svd.matrixV().reshape(columns, len(singular))
+    return (right * inverse_values).dot(left.T)
 
 
 def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.ndarray) -> np.ndarray:
