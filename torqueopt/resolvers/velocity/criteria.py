@@ -17,12 +17,15 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
+import eigenpy
 import numpy as np
 
 from ...errors import InvalidInput
 from ...tasks import FrameTask, Kinematics
 
 __all__ = ["Criterion", "JointLimits", "Manipulability", "CallableCriterion", "criterion_from", "CRITERIA"]
+
+_THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
 #: Joint position limits beyond this magnitude [rad, m] are treated as absent.
 _NO_LIMIT = 1.0e10
@@ -115,12 +118,15 @@ class Manipulability(Criterion):
         return -manipulability(jacobian)
 
     def gradient(self, kinematics, task) -> np.ndarray:
+        r""":math:`-\partial w/\partial q`, with w and :math:`J^\dagger` from one SVD of J (Eigen's, through eigenpy)."""
         jacobian = task.jacobian(kinematics)
-        w = manipulability(jacobian)
+        rows, n = jacobian.shape
+        svd = eigenpy.HhJacobiSVD(jacobian, _THIN_UV)
+        w = float(np.prod(svd.singularValues()))  # Eq. (6) as the product of J's singular values
+        pseudo = svd.solve(np.eye(rows))
         derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
-        pseudo = np.linalg.pinv(jacobian)
-        # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k), from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
-        return -w * np.einsum("ij,jik->k", pseudo, derivative)
+        # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k) = w Σ_ij J⁺_ij D_jik, from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
+        return -w * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
 
 
 def manipulability(jacobian: np.ndarray) -> float:
