@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from torqueopt.linalg import JacobianSolver, inverse_condition_number, inverse_condition_number_of
+from torqueopt.linalg import JacobianSolver, determinants, inverse_condition_number, inverse_condition_number_of
 from torqueopt.resolvers.stacks import (
     complete_qr,
     complete_qr_by_lapack,
@@ -128,3 +128,11 @@ def test_the_householder_least_squares_equals_the_svd_one(shape, rng):
     y = least_squares(matrix[30:], rhs[30:])
     gradient = np.einsum("bji,bj->bi", matrix[30:], np.einsum("bij,bj->bi", matrix[30:], y) - rhs[30:])
     assert np.max(np.abs(gradient)) < 1e-12
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 4])
+def test_the_determinants_of_a_stack_are_lapacks(size, rng):
+    """The Leibniz formulas for k <= 3 (and LAPACK beyond) against np.linalg.det, one matrix at a time."""
+    stack = rng.normal(size=(4, 3, size, size))
+    expected = np.array([[np.linalg.det(matrix) for matrix in row] for row in stack])
+    np.testing.assert_allclose(determinants(stack), expected, rtol=1e-12, atol=1e-14)

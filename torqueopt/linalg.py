@@ -26,6 +26,7 @@ __all__ = [
     "inverse_condition_number",
     "inverse_condition_number_of",
     "singular_message",
+    "determinants",
 ]
 
 #: Relative singular-value cutoff: a task Jacobian whose smallest singular
@@ -110,6 +111,25 @@ def inverse_condition_number(matrix: np.ndarray):
     r""":math:`\sigma_{min}/\sigma_{max}` of a matrix (a float) or of each matrix of a stack (…, r, c) (an array),
     0 for a zero matrix; by numpy's SVD (:func:`inverse_condition_number_of`)."""
     return inverse_condition_number_of(np.linalg.svd(matrix, compute_uv=False))
+
+
+def determinants(matrices: np.ndarray) -> np.ndarray:
+    r"""det of each k×k matrix of a (…, k, k) stack: by the Leibniz formula for k <= 3, elementwise on the
+    stack, else by LAPACK (``np.linalg.det``, whose per-call cost dominates for these small matrices).
+
+    For k = 3, the rule of Sarrus: :math:`a(ei - fh) - b(di - fg) + c(dh - eg)`.
+    """
+    size = matrices.shape[-1]
+    if size == 1:
+        return matrices[..., 0, 0].copy()
+    if size == 2:
+        return matrices[..., 0, 0] * matrices[..., 1, 1] - matrices[..., 0, 1] * matrices[..., 1, 0]
+    if size == 3:
+        (a, b, c), (d, e, f), (g, h, i) = (
+            (matrices[..., row, 0], matrices[..., row, 1], matrices[..., row, 2]) for row in range(3)
+        )
+        return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return np.linalg.det(matrices)
 
 
 def singular_message(inverse_condition: float, tolerance: float) -> str:

@@ -2,12 +2,13 @@ r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of 
 
 from __future__ import annotations
 
-from functools import partial
+from functools import cache, partial
 
 import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
+from ...linalg import determinants
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics
 from ..options import Option
@@ -28,12 +29,15 @@ def null_vector(jacobian: np.ndarray) -> np.ndarray:
     """
     n = jacobian.shape[1]
     minors = jacobian[:, _minor_columns(n)].transpose(1, 0, 2)  # minor i: J without column i
-    return (-1.0) ** np.arange(n) * np.linalg.det(minors)
+    return (-1.0) ** np.arange(n) * determinants(minors)
 
 
+@cache
 def _minor_columns(n: int) -> np.ndarray:
-    """(n, n − 1) indices: row i lists every column but i."""
-    return np.array([[j for j in range(n) if j != i] for i in range(n)])
+    """(n, n − 1) indices: row i lists every column but i (built once per n, read-only)."""
+    columns = np.array([[j for j in range(n) if j != i] for i in range(n)])
+    columns.setflags(write=False)
+    return columns
 
 
 def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
@@ -51,7 +55,7 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     for c in range(m):
         replaced[:, :, c, :, c] = minor_derivatives[:, :, :, c]  # ... with its column c differentiated
     signs = (-1.0) ** np.arange(n)
-    return signs[:, None] * np.linalg.det(replaced).sum(axis=2)
+    return signs[:, None] * determinants(replaced).sum(axis=2)
 
 
 class ExtendedJacobian(VelocityResolver):
