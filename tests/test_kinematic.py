@@ -86,13 +86,14 @@ def _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=None, state
         ("velocity-pinv", {}),
         ("gradient-projection", {}),
         ("gradient-projection", {"k": 40.0}),
+        ("gradient-projection", {"criterion": "manipulability", "k": 5.0}),
         ("kinetic-energy-pinv", {}),
         ("task-priority", {}),
     ],
 )
 def test_the_closed_form_joint_acceleration_is_the_time_derivative_of_the_rates(planar3, panda, rng, name, options):
     """q̈ = d/dt f(q, c(t)) against a five-point difference along the motion: velocity-pinv's J⁺c, gradient
-    projection's J⁺c − k(I − J⁺J)∂p/∂q (joint-limit criterion, Eq. (4), Eq. (5)), the kinetic-energy
+    projection's J⁺c − k(I − J⁺J)∂p/∂q (Eq. (4): joint limits, Eq. (5), and −w, Eq. (6)), the kinetic-energy
     pseudoinverse H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹c (Eq. (16), Ḣ from Pinocchio's Coriolis matrix) and task priority, Eq. (11),
     with its default posture task."""
     pin.seed(int(rng.integers(2**31)))
@@ -205,13 +206,25 @@ def test_velocity_pinv_runs_with_the_closed_form_equal_those_with_the_central_di
     _closed_form_runs_equal_the_differenced_ones(planar3, panda, "velocity-pinv", VelocityPseudoInverse, gain)
 
 
-@pytest.mark.parametrize("gain", [0.0, 5.0])
-def test_gradient_projection_runs_with_the_closed_form_equal_those_with_the_central_difference(planar3, panda, gain):
-    """As for velocity-pinv above: the closed-form q̈ of gradient projection (joint limits) against the loop's
-    central difference, run for run, on the paper's movement and a panda line."""
+@pytest.mark.parametrize("criterion, gain", [("joint-limits", 0.0), ("joint-limits", 5.0), ("manipulability", 5.0)])
+def test_gradient_projection_runs_with_the_closed_form_equal_those_with_the_central_difference(
+    planar3, panda, criterion, gain
+):
+    """As for velocity-pinv above: the closed-form q̈ of gradient projection (joint limits, and the manipulability
+    with its curvature by a difference of its gradient) against the loop's central difference, run for run, on the
+    paper's movement and a panda line."""
     from torqueopt.resolvers.velocity.gradient_projection import GradientProjection
 
-    _closed_form_runs_equal_the_differenced_ones(planar3, panda, "gradient-projection", GradientProjection, gain)
+    options = {robot: {"criterion": criterion} for robot in ("planar3", "panda")}
+    _closed_form_runs_equal_the_differenced_ones(
+        planar3, panda, "gradient-projection", GradientProjection, gain, options
+    )
+
+
+def test_gradient_projection_with_a_callable_criterion_keeps_the_loops_difference(planar3):
+    """A callable's gradient is itself a difference: no closed form (None)."""
+    resolver = torqueopt.get_resolver("gradient-projection", criterion=lambda angles: float(np.sum(angles**2)))
+    assert resolver.acceleration_function(planar3, FrameTask.of_robot(planar3)) is None
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])

@@ -53,6 +53,14 @@ class Criterion(ABC):
             f"criterion '{self.name}' has no Hessian; the extended Jacobian needs one (use joint-limits or a callable)"
         )
 
+    #: True when :meth:`curvature` gives ∇²p v to the accuracy of a closed-form q̈ (about 1e-10).
+    has_curvature: bool = False
+
+    def curvature(self, kinematics: Kinematics, task: FrameTask, v: np.ndarray) -> np.ndarray:
+        r""":math:`\nabla^2 p\,v` (n values), the rate of ∂p/∂q along the motion at joint velocity v
+        (only for criteria with :attr:`has_curvature`)."""
+        return self.hessian(kinematics, task).dot(v)
+
 
 class JointLimits(Criterion):
     r"""Liégeois's joint-limit criterion, Eq. (5): squared distances from mid-range, scaled by half-range."""
@@ -101,6 +109,8 @@ class JointLimits(Criterion):
         gradient[index[:, 1]] = 2.0 * (kinematics.q[index[:, 0]] - middle) / half_range**2  # ∂/∂θ of Eq. (5)
         return gradient
 
+    has_curvature = True
+
     def hessian(self, kinematics, task=None) -> np.ndarray:
         index, _, half_range = self._limits(kinematics.model)
         hessian = np.zeros((kinematics.nv, kinematics.nv))
@@ -127,6 +137,26 @@ class Manipulability(Criterion):
         derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
         # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k) = w Σ_ij J⁺_ij D_jik, from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
         return -w * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
+
+    has_curvature = True
+
+    def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
+        r""":math:`\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
+        (step :data:`CURVATURE_STEP` [rad]): the Hessian of w needs third derivatives of the kinematics, which
+        Pinocchio does not give. Leaves the kinematics at their configuration."""
+        speed = float(np.linalg.norm(v))
+        if speed == 0.0:
+            return np.zeros(kinematics.nv)
+        robot, q, step = kinematics.robot, kinematics.q, CURVATURE_STEP / speed
+        forward = self.gradient(kinematics.update(robot.integrate(q, step * v)), task)
+        backward = self.gradient(kinematics.update(robot.integrate(q, -step * v)), task)
+        kinematics.update(q)
+        return (forward - backward) / (2.0 * step)
+
+
+#: Step [rad] of :meth:`Manipulability.curvature`'s central difference: its O(δ²) truncation and its round-off
+#: ε|∂p/∂q|/δ balance near 1e-5.
+CURVATURE_STEP = 1e-5
 
 
 def manipulability(jacobian: np.ndarray) -> float:

@@ -115,11 +115,13 @@ class GradientProjection(CriterionGain, VelocityResolver):
             \ddot q = J^\dagger(\dot c - \dot J\dot q) + P\big(\dot J^\top J^{\dagger\top}(u + k g)
             - k\,\nabla^2 p\,\dot q\big),
 
-        which for k = 0 is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇).
-        The other criteria (manipulability, callables) have no Hessian in closed form here: None, and the loop
-        takes q̈ by its central difference.
+        which for k = 0 is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇);
+        :math:`\nabla^2 p\,\dot q` from the criterion (:meth:`Criterion.curvature`): exact for the joint limits,
+        a central difference of the analytic gradient along q̇ for the manipulability (its Hessian needs third
+        derivatives of the kinematics). A callable's gradient is itself a difference: None, and the loop takes
+        q̈ by its central difference.
         """
-        if task.kind == "pose" or not isinstance(self.objective, JointLimits):
+        if task.kind == "pose" or not self.objective.has_curvature:
             return None
         pseudoinverse_of = PseudoInverse(robot.m, robot.nv)
         criterion, k = self.objective, self.gain
@@ -129,8 +131,8 @@ class GradientProjection(CriterionGain, VelocityResolver):
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
             pseudoinverse = pseudoinverse_of(jacobian)  # Eq. (3)
             shifted = pseudoinverse.dot(command) + k * criterion.gradient(kinematics, task)  # u + k ∂p/∂q
-            inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.hessian(kinematics, task).dot(
-                velocity
+            inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.curvature(
+                kinematics, task, velocity
             )
             # the derivative of Eq. (4) along the motion; P·inner = inner − J⁺J·inner
             return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
