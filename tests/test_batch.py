@@ -260,11 +260,11 @@ def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name)
         ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
     ],
 )
-@pytest.mark.parametrize("name", ["velocity-pinv", "gradient-projection"])
+@pytest.mark.parametrize("name", ["velocity-pinv", "gradient-projection", "kinetic-energy-pinv"])
 def test_velocity_level_stacks_stop_where_the_kinematic_loop_does(planar3, name, options, ceilings, stop):
-    """velocity-pinv's and gradient projection's stacked forms (forest kinematics, closed-form q̈, RK4 on the
-    stack) equal their kinematic loop run by run, through each of its stops: the method undefined, its rates
-    and its torques past a ceiling."""
+    """velocity-pinv's, gradient projection's and the kinetic-energy pseudoinverse's stacked forms (forest
+    kinematics, closed-form q̈, RK4 on the stack) equal their kinematic loop run by run, through each of its
+    stops: the method undefined, its rates and its torques past a ceiling."""
     from torqueopt.batch import KinematicStack
     from torqueopt.engine import run_movements
 
@@ -293,6 +293,20 @@ def test_velocity_level_stacks_stop_where_the_kinematic_loop_does(planar3, name,
 def test_gradient_projection_on_stacks_equals_the_kinematic_loop_on_panda(panda, options):
     """Seven joints with limits, three task rows: the stacked Eq. (4) and its closed-form q̈ run by run."""
     resolver = torqueopt.get_resolver("gradient-projection", **options)
+    assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
+    rng = np.random.default_rng(8)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
+    runs = simulate_batch(panda, resolver, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+
+
+@pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
+def test_the_kinetic_energy_pseudoinverse_on_stacks_equals_the_kinematic_loop_on_panda(panda, options):
+    """Seven joints with gravity, three task rows: the stacked Eq. (16) with W = H (H⁻¹ and Ḣq̇ from the forest)
+    and its closed-form q̈ run by run."""
+    resolver = torqueopt.get_resolver("kinetic-energy-pinv", **options)
     assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
     rng = np.random.default_rng(8)
     q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]

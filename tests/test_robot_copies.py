@@ -50,6 +50,31 @@ def test_each_copy_gets_what_pinocchio_gives_that_robot_alone(name, planar3, pan
         assert _relative(tip[i], placement.translation) < 1e-15
 
 
+@pytest.mark.parametrize("name", ["planar3", "panda"])
+def test_the_forests_inverse_inertia_and_inertia_rate_are_each_robots(name, planar3, panda):
+    """H⁻¹ against the inverse of the robot's own CRBA H, and Ḣv = (C + Cᵀ)v against a five-point difference of
+    that H along v (independent of Pinocchio's Coriolis matrix), for 13 states through a forest of 5 copies."""
+    robot = {"planar3": planar3, "panda": panda}[name]
+    q, v = _states(robot, 13, seed=7)
+    forest = RobotForest(robot, copies=5)
+    inverse_inertia, inertia_rate = forest.inverse_inertia(q), forest.inertia_rate_times(q, v)
+    data = robot.model.createData()
+
+    def inertia_at(configuration):
+        upper = pin.crba(robot.model, data, configuration)
+        return np.triu(upper) + np.triu(upper, 1).T
+
+    h = 1e-4
+    for i in range(len(q)):
+        assert _relative(inverse_inertia[i], np.linalg.inv(inertia_at(q[i]))) < 1e-12
+
+        def along(s, i=i):
+            return inertia_at(q[i] + s * v[i]).dot(v[i])
+
+        expected = (8 * (along(h) - along(-h)) - (along(2 * h) - along(-2 * h))) / (12 * h)
+        assert _relative(inertia_rate[i], expected) < 1e-9
+
+
 def test_every_copy_carries_the_armature():
     """A rotor's armature adds to the diagonal of H: each copy's block must have it, as computeAllTerms does."""
     robot = torqueopt.load_robot("planar3")  # its own copy: the shared fixture is not touched

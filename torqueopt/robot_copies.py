@@ -75,14 +75,17 @@ def _forest_model(robot: Robot, copies: int) -> pin.Model:
 class _Pass:
     """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
 
-    __slots__ = ("bias", "data", "inertia", "jacobian", "jacobian_rate", "placements")
+    __slots__ = ("bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "placements")
 
     def __init__(self, forest: pin.Model, copies: int, n: int):
         self.data = data = forest.createData()
         # Pinocchio's matrices are column-major: column c = copy·n + j of a (6, copies·n) matrix is
-        # [:, j, copy] of an F-order reshape, and the diagonal blocks of M are one strided view.
-        self.inertia = np.lib.stride_tricks.as_strided(
-            data.M, shape=(copies, n, n), strides=((n + copies * n * n) * 8, 8, copies * n * 8), writeable=False
+        # [:, j, copy] of an F-order reshape, and the diagonal blocks of M (Minv, C) are one strided view.
+        self.inertia, self.inverse_inertia, self.coriolis = (
+            np.lib.stride_tricks.as_strided(
+                matrix, shape=(copies, n, n), strides=((n + copies * n * n) * 8, 8, copies * n * 8), writeable=False
+            )
+            for matrix in (data.M, data.Minv, data.C)
         )
         self.bias = data.nle.reshape(n, copies, order="F").T
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
@@ -201,6 +204,39 @@ class RobotForest:
         tip_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
         rate[:, :3] += stacked_cross(rate[:, 3:], tip[:, :, None]) + stacked_cross(angular, tip_velocity[:, :, None])
         return jacobian, rate, tip
+
+    def _passes(self, count: int) -> list[_Pass]:
+        passes = -(-count // self.copies)
+        while len(self._pool) < passes:
+            self._pool.append(_Pass(self.model, self.copies, self.n))
+        return self._pool[:passes]
+
+    def inverse_inertia(self, q: np.ndarray) -> np.ndarray:
+        r""":math:`H^{-1}` of every row, (S, n, n) [1/(kg·m²)]: Pinocchio's ``computeMinverse`` once per forest pass
+        (the inverse of a block-diagonal H is its blocks' inverses); each block's lower triangle is copied from
+        its upper one, the part Pinocchio documents as filled."""
+        copies, lower = self.copies, np.tril_indices(self.n, -1)
+        used = self._passes(q.shape[0])
+        for index, forest_pass in enumerate(used):
+            rows = slice(index * copies, (index + 1) * copies)
+            pin.computeMinverse(self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])))
+        inverse = np.concatenate([forest_pass.inverse_inertia for forest_pass in used])[: q.shape[0]]
+        inverse[:, lower[0], lower[1]] = inverse[:, lower[1], lower[0]]
+        return inverse
+
+    def inertia_rate_times(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        r""":math:`\dot H v` of every row moving at v, (S, n) [N·m]: :math:`(C + C^\top)v` with Pinocchio's Coriolis
+        matrix (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew), once per forest pass."""
+        copies = self.copies
+        used = self._passes(q.shape[0])
+        for index, forest_pass in enumerate(used):
+            rows = slice(index * copies, (index + 1) * copies)
+            pin.computeCoriolisMatrix(
+                self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])),
+                self._padded(np.ascontiguousarray(v[rows])),
+            )  # fmt: skip
+        coriolis = np.concatenate([forest_pass.coriolis for forest_pass in used])[: q.shape[0]]
+        return np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
 
     def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""

@@ -232,6 +232,53 @@ class KineticEnergyPseudoInverse(VelocityResolver):
 
         return acceleration
 
+    def stack_rate_function(self, robot: Robot):
+        """Eq. (16) with W = H and the closed-form q̈ of :meth:`acceleration_function` on stacks (position tasks)."""
+        if robot.task == "pose":
+            return None
+        return StackedKineticEnergyPseudoInverse(robot, self.singular_tolerance)
+
+
+class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
+    r""":math:`\dot q = H^{-1}J^\top(JH^{-1}J^\top)^{-1}c` (Eq. (16) with W = H) and its :math:`\ddot q` per row of
+    (B, m, n) stacks, :math:`H^{-1}` and :math:`\dot H\dot q` from a forest of the robot
+    (:meth:`RobotForest.inverse_inertia <torqueopt.robot_copies.RobotForest.inverse_inertia>`,
+    :meth:`~torqueopt.robot_copies.RobotForest.inertia_rate_times`); σmin/σmax of J and the singular rows
+    as :class:`StackedPseudoInverse` finds them."""
+
+    def __init__(self, robot: Robot, tolerance: float):
+        from ...robot_copies import RobotForest
+
+        super().__init__(tolerance)
+        self.forest = RobotForest(robot)
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer."""
+        _, conditions, failures, _ = super().rates(jacobian, command)
+        inverse_inertia = self.forest.inverse_inertia(configuration)
+        weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
+        gram = jacobian @ weighted_jt  # G = JH⁻¹Jᵀ of Eq. (16)
+        if failures:
+            gram[list(failures)] = np.eye(gram.shape[1])
+        gram_inverse = np.linalg.inv(gram)
+        multipliers = np.einsum("bij,bj->bi", gram_inverse, command)  # λ = G⁻¹c
+        # Eq. (16) with W = H: q̇ = Aλ, the least kinetic energy Eq. (17)
+        velocity = np.einsum("bij,bj->bi", weighted_jt, multipliers)
+        return velocity, conditions, failures, (configuration, inverse_inertia, weighted_jt, gram_inverse, multipliers)
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state) -> np.ndarray:
+        """r + AG⁻¹(ċ − J̇q̇ − Jr), r = H⁻¹(J̇ᵀλ − Ḣq̇), per row (see :meth:`KineticEnergyPseudoInverse.acceleration_function`)."""
+        configuration, inverse_inertia, weighted_jt, gram_inverse, multipliers = state
+        inertia_rate_velocity = self.forest.inertia_rate_times(configuration, velocity)  # Ḣq̇
+        inner = np.einsum(
+            "bij,bj->bi", inverse_inertia, np.einsum("bji,bj->bi", jacobian_rate, multipliers) - inertia_rate_velocity
+        )
+        residual = (
+            command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity) - np.einsum("bij,bj->bi", jacobian, inner)
+        )
+        # the time derivative of Eq. (16) with W = H applied to c
+        return inner + np.einsum("bij,bj->bi", weighted_jt, np.einsum("bij,bj->bi", gram_inverse, residual))
+
 
 class InverseInertia:
     r""":math:`H^{-1}(q)` (n×n) at a kinematics' configuration, by Pinocchio's ``computeMinverse``.
