@@ -33,6 +33,13 @@ q̈ is consistent with the integrated motion to integration accuracy, and
 the torque jumps where the reference acceleration jumps (t = 0 and T/2 on
 the paper's line) exactly as the torque resolvers' do.
 
+A resolver whose ``acceleration_function`` gives q̈ in closed form
+(velocity-pinv, gradient projection with the joint-limit or manipulability
+criterion, the kinetic-energy pseudoinverse, task priority without damping,
+the extended Jacobian) supplies it instead, at the cost of about one more
+rate evaluation rather than four; the central difference stays the
+reference the tests hold each closed form to.
+
 The recorded torque is the inverse-dynamics torque at the step start; the
 motion is the kinematic one. A run stops, keeping what it computed, where
 the method is undefined (a singular task Jacobian, an algorithmic

@@ -59,8 +59,8 @@ class FrameTask(Task):
 
     @property
     def closed_form_rates(self) -> bool:
-        """J̇ and the desired velocity's rate in closed form: for ``xy`` and ``position`` (the rate of a pose's
-        rotation vector is J's angular rows times v only at its reference rotation)."""
+        """True for ``xy`` and ``position``, whose J̇ and desired-velocity rate hold in closed form (the rate of a
+        pose's rotation vector is J's angular rows times v only at its reference rotation)."""
         return self.kind != "pose"
 
     def check(self, robot) -> None:

@@ -22,8 +22,8 @@ space of all above it (the recursion of Siciliano & Slotine, 1991):
 
 with :math:`\dot q_0 = 0`, :math:`P_0 = I`; for two tasks it is Eq. (11).
 
-Its time derivative along the motion (:func:`prioritised_accelerations`)
-differentiates each step, the pseudoinverses by :func:`pseudoinverse_rate`.
+Its time derivative along the motion (:func:`~torqueopt.tasks.prioritised_accelerations`)
+differentiates each step, the pseudoinverses by :func:`~torqueopt.tasks.pseudoinverse_rate`.
 """
 
 from __future__ import annotations

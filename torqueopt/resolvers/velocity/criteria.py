@@ -53,7 +53,7 @@ class Criterion(ABC):
             f"criterion '{self.name}' has no Hessian; the extended Jacobian needs one (use joint-limits or a callable)"
         )
 
-    #: True when :meth:`curvature` gives ∇²p v to the accuracy of a closed-form q̈ (about 1e-10).
+    #: True when :meth:`~torqueopt.resolvers.velocity.Criterion.curvature` gives ∇²p v to the accuracy of a closed-form q̈ (about 1e-10).
     has_curvature: bool = False
 
     def curvature(self, kinematics: Kinematics, task: FrameTask, v: np.ndarray) -> np.ndarray:
@@ -142,7 +142,7 @@ class Manipulability(Criterion):
 
     def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
         r""":math:`\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
-        (step :data:`CURVATURE_STEP` [rad]): the Hessian of w needs third derivatives of the kinematics, which
+        (step ``CURVATURE_STEP`` = 1e-5 rad): the Hessian of w needs third derivatives of the kinematics, which
         Pinocchio does not give. Leaves the kinematics at their configuration."""
         speed = float(np.linalg.norm(v))
         if speed == 0.0:

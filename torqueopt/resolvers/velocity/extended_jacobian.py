@@ -186,7 +186,7 @@ class ExtendedJacobian(VelocityResolver):
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
         the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
-        :math:`\dot q/|\dot q|` (step :data:`CURVATURE_STEP` [rad]), two evaluations of the row instead of the
+        :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the
         loop's four of the whole rate map.
         """
         if task.kind == "pose":
