@@ -206,7 +206,8 @@ def test_damped_null_space_options_match_simulate(planar3, options):
 
 #: Options a resolver needs before it can run at all (the rest run with their defaults).
 _NEEDED_OPTIONS = {"obstacle-avoidance": {"obstacle": "1.2,0.3,0.0,0.1"}}
-#: Resolvers whose single steps are costly (programs per step, or velocity-level with differences): quick on planar3 only.
+#: Resolvers whose single steps are costly (programs per step, or several pseudoinverses and closed-form or differenced
+#: q̈ per velocity-level step): quick on planar3 only.
 _COSTLY = {
     "bounded-torque", "minmax-torque", "energy-bounded-torque", "task-priority", "extended-jacobian",
     "kinetic-energy-pinv", "obstacle-avoidance", "gradient-projection",
