@@ -143,7 +143,7 @@ def main(argv=None) -> int:
         Path(args.json).write_text(json.dumps(results, indent=1))
     if args.write:
         path = Path(args.write)
-        document = path.read_text()
+        document = path.read_text() if path.exists() else ""  # a new file gets the block alone
         if BEGIN in document and END in document:
             before, rest = document.split(BEGIN, 1)
             after = rest.split(END, 1)[1]
