@@ -486,23 +486,52 @@ DAQP_FAILURES = {
 
 
 @pytest.mark.parametrize("case", list(DAQP_FAILURES), ids=lambda case: f"{case[0]}-{case[1]}")
-def test_minmax_torque_runs_on_which_daqp_fails_are_finished_by_highs_within_every_limit(arms, case, monkeypatch):
+def test_minmax_torque_runs_on_which_daqp_fails_are_finished_within_every_limit(arms, case, monkeypatch):
     """The two atlas runs that stopped on a DAQP failure (tiago's 363 at 0.255 s, baxter's 423 at 0.124 s) complete:
-    each failed LP goes to HiGHS, and the run stays within every torque, position and velocity limit."""
+    each failed LP is solved again from a cold start (and by HiGHS where DAQP fails there too), and the run stays
+    within every torque, position and velocity limit."""
     import torqueopt.resolvers.bounded.programs as programs
 
     q0, direction, start, accel, failure = DAQP_FAILURES[case]
-    failures = []
-    highs = programs._highs_lp
-    monkeypatch.setattr(programs, "_highs_lp", lambda *args: failures.append(args[-1]) or highs(*args))
+    cold, highs = [], []
+    cold_solve, highs_lp = programs._Program._cold_solve, programs._highs_lp
+    monkeypatch.setattr(programs._Program, "_cold_solve", lambda self: cold.append(1) or cold_solve(self))
+    monkeypatch.setattr(programs, "_highs_lp", lambda *args: highs.append(args[-1]) or highs_lp(*args))
     robot = arms[case[0]]
     line = StraightLine(direction, accel=accel, duration=0.5, start=start)
     run = torqueopt.simulate(robot, "minmax-torque", line, np.array(q0), dt=DT)
     assert run.completed, run.stop_reason
-    assert f"DAQP failed: {failure}" in failures
+    assert cold, f"DAQP no longer fails on this run ({failure} before)"
+    assert all(text.startswith("DAQP failed: ") for text in highs)
     assert np.nanmax(run.peak_torque_ratio) <= 1 + 1e-6
     assert np.all(np.abs(run.v) <= run.velocity_limit)
     assert np.all((run.joint_angles >= run.position_lower) & (run.joint_angles <= run.position_upper))
+
+
+def test_an_lp_daqp_fails_on_twice_goes_to_highs(monkeypatch):
+    """The last resort of an LP: DAQP failing from the warm and the cold start alike (forced here), HiGHS's answer
+    is the one used, equal to DAQP's on the same LP."""
+    import torqueopt.resolvers.bounded.programs as programs
+
+    rng = np.random.default_rng(3)
+    rows = rng.normal(size=(8, 3))
+    upper, lower = np.r_[rng.uniform(0.5, 2, 8)], -np.r_[rng.uniform(0.5, 2, 8)]
+    cost = rng.normal(size=3)
+    expected = programs._Program(np.zeros((3, 3)), cost, rows, upper, lower, linear=True).solve()[0]
+    program = programs._Program(np.zeros((3, 3)), cost, rows, upper, lower, linear=True)
+
+    class Cycling:  # DAQP's workspace, as it answers when it cycles
+        def update(self, **numbers):
+            pass
+
+        def solve(self):
+            return np.zeros(3), 0.0, -2, {"lam": np.zeros(8)}
+
+    program._model = Cycling()
+    monkeypatch.setattr(programs._Program, "_cold_solve", lambda self: (np.zeros(3), -2, {"lam": np.zeros(8)}))
+    x, flag, _ = program.solve(f=cost)
+    assert flag == programs._EXIT_OPTIMAL
+    np.testing.assert_allclose(x, expected, atol=1e-7)
 
 
 def test_highs_answers_daqps_lp_form_with_daqps_multipliers():
@@ -533,3 +562,56 @@ def test_highs_answers_daqps_lp_form_with_daqps_multipliers():
         assert np.abs(stationarity).max() <= 1e-9
         compared += 1
     assert compared >= 10
+
+
+def test_an_energy_bounded_qp_daqp_cycles_on_even_from_a_cold_start_is_solved_by_highs(arms, monkeypatch):
+    """A tiago circle of the atlas (seed 19, 1 s, path 536) with panda's energy setting: DAQP cycles on the QP at
+    0.918 s, again from a cold start, and the run used to stop there; HiGHS's QP solver answers, and the run
+    completes within every torque, position and velocity limit."""
+    import torqueopt.resolvers.bounded.programs as programs
+    from torqueopt import Circle
+
+    failures = []
+    fallback = programs._casadi_qp
+    monkeypatch.setattr(programs, "_casadi_qp", lambda *args: failures.append(args[-1]) or fallback(*args))
+    q0 = [2.6995195239610528, -1.5086065171612988, 0.000558835972180205, 2.2091661081704594, 1.620180831989226, 0.6222102247342536, 0.8539200770121926]  # fmt: skip
+    start = np.array([-0.002166823401331775, -0.1556305007014348, 0.5454842858416378])
+    centre = np.array([-0.008191778701149552, -0.16124060475062368, 0.5357463855278153])
+    circle = Circle(0.012751472712180063, 1.0, normal=[0.3402437815532044, -0.8903730340997635, 0.30244012508653095],
+                    centre_direction=centre - start, start=start)  # fmt: skip
+    resolver = get_resolver("energy-bounded-torque", energy_limit=0.01, joint_acceleration_limit=10.0)
+    run = torqueopt.simulate(arms["tiago"], resolver, circle, np.array(q0), dt=DT)
+    assert run.completed, run.stop_reason
+    assert any(failure.startswith("DAQP failed: cycling (-2), and from a cold start: cycling") for failure in failures)
+    assert np.nanmax(run.peak_torque_ratio) <= 1 + 1e-6
+    assert np.all(np.abs(run.v) <= run.velocity_limit)
+    assert np.all((run.joint_angles >= run.position_lower) & (run.joint_angles <= run.position_upper))
+
+
+def test_highs_answers_daqps_qp_form_with_daqps_multipliers():
+    """On random strictly convex QPs of DAQP's form, HiGHS's QP solver (through CasADi) gives DAQP's answer and its
+    multipliers, which meet Hx + f + [I; A]ᵀλ = 0."""
+    from torqueopt.resolvers.bounded.programs import _EXIT_OPTIMAL, _casadi_qp, _Program
+
+    rng = np.random.default_rng(11)
+    compared = 0
+    for _ in range(20):
+        variables, bounds, count = 4, 2, 6
+        factor = rng.normal(size=(variables, variables))
+        hessian = factor @ factor.T + 0.1 * np.eye(variables)
+        rows = rng.normal(size=(count, variables))
+        upper = np.r_[rng.uniform(0.1, 1, bounds), rng.uniform(0.1, 1, count)]
+        lower = np.r_[-rng.uniform(0.1, 1, bounds), -rng.uniform(0.1, 1, count)]
+        upper[bounds + 1], lower[bounds + 2] = np.inf, -np.inf  # one-sided rows
+        linear_term = 3 * rng.normal(size=variables)  # far enough out that some rows bind
+        x, flag, multipliers = _Program(hessian, linear_term, rows, upper, lower, bounds=bounds).solve()
+        assert flag == _EXIT_OPTIMAL
+        other, other_flag, other_multipliers = _casadi_qp(hessian, linear_term, rows, upper, lower, bounds, "test")
+        assert other_flag == _EXIT_OPTIMAL
+        np.testing.assert_allclose(other, x, atol=1e-6)
+        np.testing.assert_allclose(other_multipliers, multipliers, atol=1e-5)
+        stationarity = hessian @ other + linear_term + rows.T @ other_multipliers[bounds:]
+        stationarity[:bounds] += other_multipliers[:bounds]
+        assert np.abs(stationarity).max() <= 1e-6
+        compared += np.abs(multipliers).max() > 1e-6
+    assert compared >= 10  # with bounds active, not only unconstrained minima

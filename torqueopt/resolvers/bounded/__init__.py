@@ -24,11 +24,13 @@ and only its numbers change at each step, with the previous step's active
 set as the warm start. BENCHMARKS.md has the measurements behind the choice
 (DAQP against proxsuite, quadprog and HiGHS on these problems) and the
 comparison with a formulation in :math:`\ddot q` with the task as equality.
-An LP on which DAQP fails (cycling or its iteration limit: it stopped one
-``minmax-torque`` run on tiago and one on baxter in their atlases) is solved
-again by HiGHS (``scipy.optimize.linprog``), whose answer meets the same
-feasibility checks and optimality certificate; a QP DAQP fails on, or an LP
-HiGHS fails on too, stops the run with the solver's words.
+A program on which DAQP fails (cycling or its iteration limit: it stopped one
+``minmax-torque`` run on tiago and one on baxter in their atlases, and
+``energy-bounded-torque`` runs on tiago and panda circles) is solved again by
+DAQP from a cold start, then, if that fails too, by HiGHS: an LP through
+``scipy.optimize.linprog``, a QP through CasADi's ``conic`` interface. Their
+answers meet the same feasibility checks (and an LP's the same optimality
+certificate); where every solver fails the run stops with their words.
 
 When no torque within the bounds realises the task, the ``infeasible``
 option says what to do (the step is marked infeasible either way and its

@@ -69,7 +69,8 @@ class _Program:
         settings = {"primal_tol": FEASIBILITY_TOLERANCE}
         if linear:
             settings["eta_prox"] = 1e-12
-        self._model.settings = settings
+        self._model.settings = self._settings = settings
+        self._hessian, self._linear_term = hessian, np.asarray(cost, dtype=float)
         self._linear = linear
         self._bounds = bounds
         self._cost = np.asarray(cost, dtype=float)
@@ -83,11 +84,17 @@ class _Program:
     def solve(self, **numbers):
         """(x, exit flag, multipliers) after replacing the given numbers (H, f, A, bupper, blower).
 
-        An LP on which DAQP fails (cycling, its iteration limit: measured on ``minmax-torque``'s LP on tiago and
-        baxter, where the run used to stop) is solved again by HiGHS (:func:`_highs_lp`), whose answer meets the
-        same checks and certificate; a QP's failure, or HiGHS's, raises :class:`~torqueopt.errors.SolverFailure`.
+        A program on which DAQP fails (cycling, its iteration limit) from the previous step's active set is
+        solved again by DAQP from a cold start, in a new workspace that the next steps warm-start from. An LP it
+        still fails on is solved by HiGHS (:func:`_highs_lp`; measured on ``minmax-torque``'s LP on tiago and
+        baxter, where the run used to stop), a QP by HiGHS's QP solver (:func:`_casadi_qp`; measured on
+        ``energy-bounded-torque``'s QP on a tiago circle, which cycles from a cold start too); their answers meet
+        the same checks (and an LP's, the same certificate). Where those fail too,
+        :class:`~torqueopt.errors.SolverFailure` says so.
         """
         self._model.update(**numbers)
+        self._hessian = numbers.get("H", self._hessian)
+        self._linear_term = numbers.get("f", self._linear_term)
         x, _, flag, info = self._model.solve()
         rows = self._rows = numbers.get("A", self._rows)
         upper = self._upper = numbers.get("bupper", self._upper)
@@ -95,9 +102,14 @@ class _Program:
         bounds = self._bounds
         if flag != _EXIT_OPTIMAL and flag != _EXIT_INFEASIBLE:
             failure = f"DAQP failed: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
-            if not self._linear:
-                raise SolverFailure(failure)
-            x, flag, multipliers = _highs_lp(self._cost, rows, upper, lower, bounds, failure)
+            x, flag, info = self._cold_solve()
+            if flag in (_EXIT_OPTIMAL, _EXIT_INFEASIBLE):
+                multipliers = info["lam"]
+            elif self._linear:
+                x, flag, multipliers = _highs_lp(self._cost, rows, upper, lower, bounds, failure)
+            else:
+                failure += f", and from a cold start: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
+                x, flag, multipliers = _casadi_qp(self._hessian, self._linear_term, rows, upper, lower, bounds, failure)
         else:
             multipliers = info["lam"]
         if flag == _EXIT_OPTIMAL:
@@ -122,6 +134,18 @@ class _Program:
                 )
             x = self._vertex(x, multipliers)
         return x, flag, multipliers
+
+    def _cold_solve(self):
+        """(x, exit flag, info) of the current program in a new DAQP workspace, no active set carried over."""
+        model = _daqp().Model()
+        model.settings = self._settings
+        sense = np.zeros(self._rows.shape[0] + self._bounds, dtype=np.int32)
+        flag = model.setup(self._hessian, self._linear_term, self._rows, self._upper, self._lower, sense)[0]
+        if flag < 0:  # pragma: no cover - the shapes are ours
+            raise SolverFailure(f"DAQP setup failed with exit flag {flag}")
+        self._model = model
+        x, _, flag, info = model.solve()
+        return x, flag, info
 
     def _vertex(self, x, multipliers):
         """The exact vertex of the LP's active rows when it is one and is as feasible as DAQP's ``x``; else ``x``.
@@ -176,6 +200,38 @@ def _highs_lp(cost, rows, upper, lower, bounds: int, failure: str):
     multipliers[bounds:][has_lower] += marginals[has_upper.sum() :]
     multipliers[:bounds] = -answer.upper.marginals[:bounds] - answer.lower.marginals[:bounds]
     return answer.x, _EXIT_OPTIMAL, multipliers
+
+
+def _casadi_qp(hessian, linear_term, rows, upper, lower, bounds: int, failure: str):
+    r"""(x, exit flag, multipliers) of DAQP's QP form by HiGHS's QP solver (through CasADi's ``conic``).
+
+    The QP is :math:`\min \tfrac12 x^\top H x + f^\top x` s.t. :math:`l_i \le x_i \le u_i` for the first
+    ``bounds`` variables and :math:`l \le A x \le u`. CasADi's multipliers already follow DAQP's convention,
+    :math:`Hx + f + [I; A]^\top\lambda = 0` with :math:`\lambda > 0` on an active upper bound. (CasADi's own
+    ``qrqp`` fails on the degenerate QP that made DAQP cycle on a tiago circle; its qpOASES answers it but prints
+    its banner on standard output each time one is made.)
+    """
+    import casadi
+
+    variables = linear_term.size
+    hessian_matrix, row_matrix = casadi.DM(np.asarray(hessian, dtype=float)), casadi.DM(np.asarray(rows, dtype=float))
+    solver = casadi.conic(
+        "fallback", "highs", {"h": hessian_matrix.sparsity(), "a": row_matrix.sparsity()},
+        {"highs": {"output_flag": False}, "error_on_fail": False},
+    )  # fmt: skip
+    box_lower, box_upper = np.full(variables, -np.inf), np.full(variables, np.inf)
+    box_lower[:bounds], box_upper[:bounds] = lower[:bounds], upper[:bounds]
+    answer = solver(
+        h=hessian_matrix, g=linear_term, a=row_matrix, lba=lower[bounds:], uba=upper[bounds:], lbx=box_lower,
+        ubx=box_upper,
+    )  # fmt: skip
+    status = solver.stats()
+    if not status["success"]:
+        if "INFEASIB" in str(status.get("return_status", "")).upper():
+            return np.zeros(variables), _EXIT_INFEASIBLE, np.zeros(bounds + rows.shape[0])
+        raise SolverFailure(f"{failure}; HiGHS too: {status.get('return_status', 'failed')}")
+    multipliers = np.r_[np.asarray(answer["lam_x"]).ravel()[:bounds], np.asarray(answer["lam_a"]).ravel()]
+    return np.asarray(answer["x"]).ravel(), _EXIT_OPTIMAL, multipliers
 
 
 class _RangeBasis:
