@@ -74,17 +74,22 @@ def test_batch_equals_simulate_on_planar3(planar3, name):
     assert any(run.completed for run in runs)
 
 
+def _assert_batch_equals_simulate_on_panda(panda, resolver, seed: int, count: int, duration: float) -> None:
+    """``count`` random panda lines (0.5 m/s², from starts 0.3 rad about the default): the batch is simulate."""
+    rng = np.random.default_rng(seed)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(count)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=duration) for _ in q0s]
+    runs = simulate_batch(panda, resolver, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+
+
 @pytest.mark.parametrize("name", PAPER_RESOLVERS + REMEDIES)
 def test_batch_equals_simulate_on_panda(panda, name):
     """Seven joints, three task rows, gravity on: a null space of dimension 4."""
     if name == "weighted-null-space" and not np.isfinite(panda.torque_upper).all():
         pytest.skip("panda has joints without torque limit")
-    rng = np.random.default_rng(3)
-    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(3)]
-    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.4) for _ in q0s]
-    runs = simulate_batch(panda, name, lines, q0s)
-    for run, line, q0 in zip(runs, lines, q0s):
-        assert_same_run(run, torqueopt.simulate(panda, name, line, q0))
+    _assert_batch_equals_simulate_on_panda(panda, name, seed=3, count=3, duration=0.4)
 
 
 @pytest.mark.slow
@@ -244,12 +249,7 @@ def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name)
         resolver.check(panda)
     except (InvalidInput, NoRedundancy) as error:  # extended-jacobian needs n − m = 1
         pytest.skip(str(error))
-    rng = np.random.default_rng(4)
-    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(3)]
-    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.25) for _ in q0s]
-    runs = simulate_batch(panda, resolver, lines, q0s)
-    for run, line, q0 in zip(runs, lines, q0s):
-        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+    _assert_batch_equals_simulate_on_panda(panda, resolver, seed=4, count=3, duration=0.25)
 
 
 @pytest.mark.parametrize(
@@ -295,12 +295,7 @@ def test_gradient_projection_on_stacks_equals_the_kinematic_loop_on_panda(panda,
     """Seven joints with limits, three task rows: the stacked Eq. (4) and its closed-form q̈ run by run."""
     resolver = torqueopt.get_resolver("gradient-projection", **options)
     assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
-    rng = np.random.default_rng(8)
-    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
-    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
-    runs = simulate_batch(panda, resolver, lines, q0s)
-    for run, line, q0 in zip(runs, lines, q0s):
-        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+    _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
 
 
 @pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
@@ -309,12 +304,7 @@ def test_the_kinetic_energy_pseudoinverse_on_stacks_equals_the_kinematic_loop_on
     and its closed-form q̈ run by run."""
     resolver = torqueopt.get_resolver("kinetic-energy-pinv", **options)
     assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
-    rng = np.random.default_rng(8)
-    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
-    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
-    runs = simulate_batch(panda, resolver, lines, q0s)
-    for run, line, q0 in zip(runs, lines, q0s):
-        assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
+    _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
 
 
 def test_a_bounded_resolver_in_the_batch_keeps_its_shortfalls_and_stops(planar3):
