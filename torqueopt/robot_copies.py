@@ -139,10 +139,7 @@ class RobotForest:
         count = q.shape[0]
         model, copies = self.model, self.copies
         q, v = np.ascontiguousarray(q), np.ascontiguousarray(v)
-        passes = -(-count // copies)
-        while len(self._pool) < passes:
-            self._pool.append(_Pass(model, copies, self.n))
-        used = self._pool[:passes]
+        used = self._passes(count)
         for index, forest_pass in enumerate(used):
             rows = slice(index * copies, (index + 1) * copies)
             q_forest, v_forest = self._padded(q[rows]), self._padded(v[rows])
@@ -175,10 +172,7 @@ class RobotForest:
         count = q.shape[0]
         model, copies = self.model, self.copies
         q = np.ascontiguousarray(q)
-        passes = -(-count // copies)
-        while len(self._pool) < passes:
-            self._pool.append(_Pass(model, copies, self.n))
-        used = self._pool[:passes]
+        used = self._passes(count)
         for index, forest_pass in enumerate(used):
             rows = slice(index * copies, (index + 1) * copies)
             q_forest = self._padded(q[rows])
@@ -206,6 +200,7 @@ class RobotForest:
         return jacobian, rate, tip
 
     def _passes(self, count: int) -> list[_Pass]:
+        """The forest passes that ``count`` rows take, the pool grown to them (each pass keeps its own data)."""
         passes = -(-count // self.copies)
         while len(self._pool) < passes:
             self._pool.append(_Pass(self.model, self.copies, self.n))
@@ -242,11 +237,8 @@ class RobotForest:
         """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""
         count = q.shape[0]
         model, copies, n = self.model, self.copies, self.n
-        passes = -(-count // copies)
-        while len(self._pool) < passes:
-            self._pool.append(_Pass(model, copies, n))
         torques = []
-        for index, forest_pass in enumerate(self._pool[:passes]):
+        for index, forest_pass in enumerate(self._passes(count)):
             rows = slice(index * copies, (index + 1) * copies)
             tau = pin.rnea(
                 model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])),

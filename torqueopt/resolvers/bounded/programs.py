@@ -33,6 +33,11 @@ _EXIT_NAMES = {
 }
 
 
+def _exit_words(flag: int) -> str:
+    """DAQP's exit flag in words, with the number: 'cycling (-2)'."""
+    return f"{_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
+
+
 def _daqp():
     try:
         import daqp
@@ -70,7 +75,7 @@ class _Program:
         if linear:
             settings["eta_prox"] = 1e-12
         self._model.settings = self._settings = settings
-        self._hessian, self._linear_term = hessian, np.asarray(cost, dtype=float)
+        self._hessian = hessian
         self._linear = linear
         self._bounds = bounds
         self._cost = np.asarray(cost, dtype=float)
@@ -94,22 +99,22 @@ class _Program:
         """
         self._model.update(**numbers)
         self._hessian = numbers.get("H", self._hessian)
-        self._linear_term = numbers.get("f", self._linear_term)
+        self._cost = np.asarray(numbers.get("f", self._cost), dtype=float)
         x, _, flag, info = self._model.solve()
         rows = self._rows = numbers.get("A", self._rows)
         upper = self._upper = numbers.get("bupper", self._upper)
         lower = self._lower = numbers.get("blower", self._lower)
         bounds = self._bounds
         if flag != _EXIT_OPTIMAL and flag != _EXIT_INFEASIBLE:
-            failure = f"DAQP failed: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
+            failure = f"DAQP failed: {_exit_words(flag)}"
             x, flag, info = self._cold_solve()
             if flag in (_EXIT_OPTIMAL, _EXIT_INFEASIBLE):
                 multipliers = info["lam"]
             elif self._linear:
                 x, flag, multipliers = _highs_lp(self._cost, rows, upper, lower, bounds, failure)
             else:
-                failure += f", and from a cold start: {_EXIT_NAMES.get(flag, 'exit flag')} ({flag})"
-                x, flag, multipliers = _casadi_qp(self._hessian, self._linear_term, rows, upper, lower, bounds, failure)
+                failure += f", and from a cold start: {_exit_words(flag)}"
+                x, flag, multipliers = _casadi_qp(self._hessian, self._cost, rows, upper, lower, bounds, failure)
         else:
             multipliers = info["lam"]
         if flag == _EXIT_OPTIMAL:
@@ -140,7 +145,7 @@ class _Program:
         model = _daqp().Model()
         model.settings = self._settings
         sense = np.zeros(self._rows.shape[0] + self._bounds, dtype=np.int32)
-        flag = model.setup(self._hessian, self._linear_term, self._rows, self._upper, self._lower, sense)[0]
+        flag = model.setup(self._hessian, self._cost, self._rows, self._upper, self._lower, sense)[0]
         if flag < 0:  # pragma: no cover - the shapes are ours
             raise SolverFailure(f"DAQP setup failed with exit flag {flag}")
         self._model = model
