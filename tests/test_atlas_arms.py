@@ -223,3 +223,4 @@ def test_an_arms_page_takes_a_note_from_the_command_line(tmp_path):
     assert arms_main(["page", "planar3", str(tmp_path / "docs"), str(tmp_path / "a"), "--note", "Ran at noon."]) == 0
     text = (tmp_path / "docs" / "planar3.md").read_text()
     assert text.index("--out a") < text.index("Ran at noon.") and text.count("Ran at noon.") == 1
+    assert arms_main(["page", "planar3", str(tmp_path / "docs"), str(tmp_path / "a"), "--note"]) == 2

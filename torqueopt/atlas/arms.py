@@ -378,6 +378,9 @@ def main(argv=None) -> int:
         note = ""
         if "--note" in args:
             at = args.index("--note")
+            if at + 1 == len(args):
+                print("python -m torqueopt.atlas.arms page: --note needs the note's text after it", file=sys.stderr)
+                return 2
             note, args = args[at + 1], args[:at] + args[at + 2 :]
         write_arm_page(args[2:], args[0], args[1], note)
         return 0
