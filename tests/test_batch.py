@@ -10,6 +10,7 @@ from torqueopt.batch import batch_supports, simulate_batch, simulate_many
 from torqueopt.errors import InvalidInput, NoRedundancy
 from torqueopt.resolvers import RESOLVERS
 from torqueopt.resolvers.stacks import LoopedStackStep
+from torqueopt.tasks import FrameTask, PostureTask
 
 from .conftest import PAPER_Q0
 
@@ -261,11 +262,11 @@ def test_every_registered_resolver_batched_equals_simulate_on_panda(panda, name)
         ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
     ],
 )
-@pytest.mark.parametrize("name", ["velocity-pinv", "gradient-projection", "kinetic-energy-pinv"])
+@pytest.mark.parametrize("name", ["velocity-pinv", "gradient-projection", "kinetic-energy-pinv", "task-priority"])
 def test_velocity_level_stacks_stop_where_the_kinematic_loop_does(planar3, name, options, ceilings, stop):
-    """velocity-pinv's, gradient projection's and the kinetic-energy pseudoinverse's stacked forms (forest
-    kinematics, closed-form q̈, RK4 on the stack) equal their kinematic loop run by run, through each of its
-    stops: the method undefined, its rates and its torques past a ceiling."""
+    """velocity-pinv's, gradient projection's, the kinetic-energy pseudoinverse's and task priority's (below a
+    posture task) stacked forms (forest kinematics, closed-form q̈, RK4 on the stack) equal their kinematic loop
+    run by run, through each of its stops: the method undefined, its rates and its torques past a ceiling."""
     from torqueopt.batch import KinematicStack
     from torqueopt.engine import run_movements
 
@@ -305,6 +306,35 @@ def test_the_kinetic_energy_pseudoinverse_on_stacks_equals_the_kinematic_loop_on
     resolver = torqueopt.get_resolver("kinetic-energy-pinv", **options)
     assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
     _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"position_gain": 4.0},
+        # two postures: the second has no freedom left (Eq. (11)'s recursion), only the first acts
+        {"secondary": [PostureTask([0.3, -0.2, 0.1, -2.0, 0.0, 1.8, 0.5], gain=3.0), PostureTask(gain=5.0)]},
+    ],
+)
+def test_task_priority_on_stacks_equals_the_kinematic_loop_on_panda(panda, options):
+    """Seven joints: Eq. (11) below posture tasks (the general recursion, SVD pseudoinverses, in simulate) equals
+    its stacked form as gradient projection toward the posture target, run by run."""
+    resolver = torqueopt.get_resolver("task-priority", **options)
+    assert resolver.stack_rate_function(panda) is not None  # the stacked form, not one movement at a time
+    _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
+
+
+def test_task_priority_with_a_frame_task_or_damping_runs_one_movement_at_a_time(planar3):
+    """A frame task below the tip needs its own frame's Jacobian, and damping the damped inverses' derivative:
+    no stacked form; the batch takes them through the kinematic loop, equal to simulate."""
+    elbow = torqueopt.get_resolver("task-priority", secondary=FrameTask("link3", "xy", target=[0.5, -0.5]))
+    damped = torqueopt.get_resolver("task-priority", damping=0.1)
+    assert elbow.stack_rate_function(planar3) is None and damped.stack_rate_function(planar3) is None
+    q0s, directions = _population(planar3, 2, seed=5)
+    lines = [StraightLine(d, duration=0.3) for d in directions]
+    for resolver in (elbow, damped):
+        for run, line, q0 in zip(simulate_batch(planar3, resolver, lines, q0s), lines, q0s):
+            assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0))
 
 
 def test_a_bounded_resolver_in_the_batch_keeps_its_shortfalls_and_stops(planar3):

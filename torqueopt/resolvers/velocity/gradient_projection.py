@@ -145,25 +145,42 @@ class GradientProjection(CriterionGain, VelocityResolver):
         """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
         if robot.task == "pose" or not isinstance(self.objective, JointLimits):
             return None
-        return StackedGradientProjection(robot, self.singular_tolerance, self.objective, self.gain)
+        index, middle, half_range = self.objective._limits(robot.model)
+        # ∂/∂θ of Eq. (5) is 2(θ − θ_mid)/half range²: a diagonal quadratic criterion
+        return StackedGradientProjection(
+            self.singular_tolerance, robot.nv, index[:, 0], index[:, 1], middle, 2.0 / half_range**2, self.gain
+        )
 
 
 class StackedGradientProjection(StackedPseudoInverse):
-    r"""Eq. (4) with the joint-limit criterion, :math:`\dot q = J^\dagger c - k(I - J^\dagger J)\,\partial p/\partial q`,
-    and its :math:`\ddot q` per row of (B, m, n) stacks (:class:`StackedPseudoInverse` for :math:`J^\dagger`)."""
+    r"""Eq. (4) with a diagonal quadratic criterion, :math:`\dot q = J^\dagger c - k(I - J^\dagger J)\,\partial p/\partial q`,
+    and its :math:`\ddot q` per row of (B, m, n) stacks (:class:`StackedPseudoInverse` for :math:`J^\dagger`).
 
-    def __init__(self, robot: Robot, tolerance: float, criterion: JointLimits, gain: float):
+    The criterion is :math:`p = \tfrac12\sum_i w_i (q_{a_i} - \bar q_i)^2` over the configuration coordinates
+    :math:`a_i` (joint velocity index :math:`b_i`): Liégeois's joint limits, Eq. (5), with :math:`\bar q` the
+    mid-range and :math:`w = 2/\text{half range}^2`; a posture task below the robot's task (task priority,
+    Eq. (11), whose :math:`[I(I - J^\dagger J)]^\dagger = I - J^\dagger J`) with :math:`\bar q` its target and w = 1.
+
+    Args:
+        tolerance: the smallest σmin/σmax of J a row may have.
+        n: joints.
+        q_index, v_index: :math:`a_i` and :math:`b_i`.
+        centre: :math:`\bar q` [rad, m].
+        curvature: :math:`w_i`, the diagonal of :math:`\partial^2 p/\partial q^2`.
+        gain: k [rad²/s per unit of p].
+    """
+
+    def __init__(self, tolerance: float, n: int, q_index, v_index, centre, curvature, gain: float):
         super().__init__(tolerance)
-        index, middle, half_range = criterion._limits(robot.model)
-        self.q_index, self.v_index, self.middle, self.half_range = index[:, 0], index[:, 1], middle, half_range
-        self.n, self.gain = robot.nv, gain
-        self.curvature = 2.0 / half_range**2  # the diagonal of ∂²p/∂q², Eq. (5)
+        self.q_index, self.v_index = np.asarray(q_index, dtype=int), np.asarray(v_index, dtype=int)
+        self.middle, self.curvature = np.asarray(centre, dtype=float), np.asarray(curvature, dtype=float)
+        self.n, self.gain = n, gain
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
         """(q̇, σmin/σmax, failures, (J⁺, u + k ∂p/∂q)); a singular row gets a finite, unused answer."""
         particular, conditions, failures, pseudoinverse = super().rates(jacobian, command)
         gradient = np.zeros((configuration.shape[0], self.n))
-        # ∂/∂θ of Eq. (5)
+        # ∂p/∂q: for the joint limits ∂/∂θ of Eq. (5)
         gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.middle)
         # (I − J⁺J) ∂p/∂q, Eq. (4)
         projected = gradient - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, gradient))

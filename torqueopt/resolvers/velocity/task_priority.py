@@ -8,6 +8,7 @@ from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_accelerations, prioritised_rates
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .gradient_projection import StackedGradientProjection
 from .options import task_stack
 
 __all__ = ["TaskPriority"]
@@ -111,3 +112,26 @@ class TaskPriority(VelocityResolver):
             return prioritised_accelerations(jacobians, jacobian_rates, velocities, velocity_rates)[1]
 
         return acceleration
+
+    def stack_rate_function(self, robot: Robot):
+        r"""Eq. (11) and its closed-form q̈ on stacks, for a position task whose secondary tasks are postures
+        (the default) without damping; else None (one movement at a time).
+
+        Below the robot's task, a posture task (:math:`J_l = I`, :math:`\dot x_l = k(q^* - q)`) acts through
+        :math:`[I(I - J^\dagger J)]^\dagger = I - J^\dagger J` (an orthogonal projector is its own pseudoinverse),
+        so Eq. (11) is :math:`\dot q = J^\dagger\dot x + k(I - J^\dagger J)(q^* - q)`: gradient projection,
+        Eq. (4), with :math:`p = \tfrac12\|q - q^*\|^2` and gain k (:class:`StackedGradientProjection`). It
+        leaves no freedom, so every task below the first posture adds nothing.
+        """
+        secondary = self.stack
+        postures_only = all(isinstance(lower, PostureTask) for lower in secondary)
+        if robot.task == "pose" or self.damping != 0.0 or not postures_only:
+            return None
+        secondary.check(robot)
+        posture = secondary.tasks[0]
+        joints = np.arange(robot.nv)
+        # ẋ_l = k(q* − q) = −k ∂p/∂q with p = ½‖q − q*‖² (q* the target as a configuration)
+        return StackedGradientProjection(
+            self.singular_tolerance, robot.nv, joints, joints, robot.configuration(posture.target),
+            np.ones(robot.nv), posture.gain,
+        )  # fmt: skip
