@@ -223,4 +223,24 @@ def test_an_arms_page_takes_a_note_from_the_command_line(tmp_path):
     assert arms_main(["page", "planar3", str(tmp_path / "docs"), str(tmp_path / "a"), "--note", "Ran at noon."]) == 0
     text = (tmp_path / "docs" / "planar3.md").read_text()
     assert text.index("--out a") < text.index("Ran at noon.") and text.count("Ran at noon.") == 1
-    assert arms_main(["page", "planar3", str(tmp_path / "docs"), str(tmp_path / "a"), "--note"]) == 2
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        ([], "the following arguments are required: command"),
+        (["page", "planar3"], "the following arguments are required: docs, FOLDER"),
+        (["page", "planar3", "docs", "a", "--note"], "argument --note: expected one argument"),
+        (["readme", "README.md", "panda"], "'panda' is not ARM=atlas.json"),
+        (["page", "planar3", "docs", "a", "--no"], "unrecognized arguments: --no"),  # no prefix of --note
+    ],
+)
+def test_the_arms_command_refuses_bad_arguments_in_one_line(argv, message, capsys):
+    """No traceback: argparse's usage and one error line naming what is wrong, exit code 2."""
+    from torqueopt.atlas.arms import main as arms_main
+
+    with pytest.raises(SystemExit) as stop:
+        arms_main(argv)
+    assert stop.value.code == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.startswith("python -m torqueopt.atlas.arms") and error.endswith(message)

@@ -370,23 +370,32 @@ def write_arm_page(folders, arm: str, docs: str | os.PathLike = "docs/atlas", no
 def main(argv=None) -> int:
     """``python -m torqueopt.atlas.arms readme README.md ARM=atlas.json ...``: rewrite the README's cross-arm table;
     ``python -m torqueopt.atlas.arms page ARM DOCS FOLDER ... [--note TEXT]``: write an arm's page
-    (:func:`write_arm_page`)."""
-    import sys
+    (:func:`write_arm_page`). Bad arguments: a one-line error, exit code 2."""
+    import argparse
 
-    command, *args = list(sys.argv[1:] if argv is None else argv)
-    if command == "page":
-        note = ""
-        if "--note" in args:
-            at = args.index("--note")
-            if at + 1 == len(args):
-                print("python -m torqueopt.atlas.arms page: --note needs the note's text after it", file=sys.stderr)
-                return 2
-            note, args = args[at + 1], args[:at] + args[at + 2 :]
-        write_arm_page(args[2:], args[0], args[1], note)
+    parser = argparse.ArgumentParser(
+        prog="python -m torqueopt.atlas.arms", description="The arms' atlas pages and the README's cross-arm table.",
+        allow_abbrev=False,
+    )  # fmt: skip
+    commands = parser.add_subparsers(dest="command", required=True)
+    readme = commands.add_parser("readme", help="rewrite the README's cross-arm table", allow_abbrev=False)
+    readme.add_argument("readme", type=Path, help="the README to rewrite")
+    readme.add_argument("summaries", nargs="+", metavar="ARM=atlas.json", help="each arm's atlas summary")
+    page = commands.add_parser("page", help="write an arm's page from its atlas folders", allow_abbrev=False)
+    page.add_argument("arm", help="the page's name (docs/ARM.md)")
+    page.add_argument("docs", help="the docs folder of the atlas pages")
+    page.add_argument("folders", nargs="+", metavar="FOLDER", help="atlas output folders of one population")
+    page.add_argument("--note", default="", help="text after the commands (when and on which code they ran)")
+    args = parser.parse_args(argv)
+    if args.command == "page":
+        write_arm_page(args.folders, args.arm, args.docs, args.note)
         return 0
-    readme, pairs = Path(args[0]), [arg.split("=", 1) for arg in args[1:]]
+    pairs = [summary.split("=", 1) for summary in args.summaries]
+    malformed = [summary for summary, pair in zip(args.summaries, pairs) if len(pair) != 2]
+    if malformed:
+        parser.error(f"'{malformed[0]}' is not ARM=atlas.json")
     table = cross_arm_table(load_summaries(dict(pairs)))
-    readme.write_text(readme_block(readme.read_text(), table))
+    args.readme.write_text(readme_block(args.readme.read_text(), table))
     return 0
 
 
