@@ -158,13 +158,17 @@ def test_batch_leaves_the_robot_data_alone_and_refuses_what_it_cannot_do(planar3
     assert vectorised == set(PAPER_RESOLVERS + REMEDIES + BOUNDED)
 
 
-def test_batch_energies_against_their_definition(planar3):
+@pytest.mark.parametrize("name", ["null-space", "velocity-pinv", "task-priority"])
+def test_batch_energies_against_their_definition(planar3, name):
     """Kinetic energy ½ q̇ᵀHq̇ from Pinocchio's CRBA at the recorded states, and
     the self-motion energy T − ½ẋᵀΛẋ against a direct minimisation: the
-    least kinetic energy of any q̇' with Jq̇' = Jq̇ is at q̇' = J_H⁺ J q̇."""
+    least kinetic energy of any q̇' with Jq̇' = Jq̇ is at q̇' = J_H⁺ J q̇; for the
+    torque batch and the velocity-level stacks (whose energies come from their steps)."""
     lines = [StraightLine([1, 1], duration=1.2), StraightLine([-1, 0.2], duration=1.2)]
     q0s = [PAPER_Q0, [0.5, 1.0, -2.0]]
-    runs, extras = simulate_batch(planar3, "null-space", lines, q0s, extras=True)
+    runs, extras = simulate_batch(planar3, name, lines, q0s, extras=True)
+    assert [len(extra.kinetic_energy) for extra in extras] == [len(run.t) for run in runs]
+    assert all(extra.self_motion_energy.max() > 1e-6 for extra in extras)  # the lines move the null space
     data = planar3.model.createData()
     for run, extra in zip(runs, extras):
         for row in range(0, len(run.t), 97):

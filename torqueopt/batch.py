@@ -452,10 +452,12 @@ def _kinematic_stack(robot, resolver, stacked, trajectories, q0s, dt, steps, max
         descriptions.append(describe(line))
         # Every step start and mid-step (RK4 reads f at t, t + h/2 and t + h), a block at a time.
         references.append(ReferenceBlocks(robot, line, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK))
-    lanes = KinematicStack(robot, resolver, stacked, q, dt, steps, references, max_torque_ratio, max_joint_speed)
+    lanes = KinematicStack(
+        robot, resolver, stacked, q, dt, steps, references, max_torque_ratio, max_joint_speed, extras=extras
+    )
     run_movements(lanes, steps)
     results = lanes.results(trajectories[0].duration, descriptions)
-    return (results, _recorded_energies(robot, results)) if extras else results
+    return (results, lanes.extras()) if extras else results
 
 
 class _EvenRows:
@@ -488,19 +490,19 @@ class KinematicStack(MovementStack):
 
     def __init__(
         self, robot: Robot, resolver, stacked, q: np.ndarray, dt: float, steps: int, references: list,
-        max_torque_ratio: float, max_joint_speed: float,
+        max_torque_ratio: float, max_joint_speed: float, extras: bool = False,
     ):  # fmt: skip
         count = q.shape[0]
         self.robot, self.resolver, self.stacked, self.dt, self.steps = robot, resolver, stacked, dt, steps
         self.half_references = references
         self.references = [_EvenRows(reference) for reference in references]
-        self.count, self.with_extras = count, False
+        self.count, self.with_extras = count, extras
         self.q, self.v = q, None
         self.forest = RobotForest(robot)
         self.rows = robot.task_rows
         self.gain = resolver.position_gain
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, False)
+        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
         self.recorded = np.zeros(count, dtype=int)
         self.stop_reason: list[str | None] = [None] * count
         self.stop_time: list[float | None] = [None] * count
@@ -568,6 +570,11 @@ class KinematicStack(MovementStack):
         log["acceleration"][j, where] = acceleration
         log["tau"][j, where] = torque
         log["jacobian_inverse_condition"][j, where] = conditions
+        if self.with_extras:
+            # T and E_N at the recorded state: H by CRBA alone, J the step's own
+            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
+                self.forest.inertia(q), velocity, jacobian=jacobian
+            )
         # A row where the method is undefined is not recorded (as in the kinematic loop).
         failed = np.zeros(active.size, dtype=bool)
         if failures:
@@ -627,16 +634,6 @@ class KinematicStack(MovementStack):
         keep[list(failures)] = False
         self._keep = keep
         return next_q, v, True
-
-
-def _recorded_energies(robot: Robot, results: list[SimResult]) -> list[BatchExtras]:
-    """The kinetic and self-motion energies of every recorded state of each run (H from the forest)."""
-    provider = terms_provider(robot, 2)
-    more = []
-    for result in results:
-        terms, _ = provider.terms(result.q, result.v)
-        more.append(BatchExtras(*self_motion_energy(terms.inertia, result.v, jacobian=terms.jacobian)))
-    return more
 
 
 def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras):

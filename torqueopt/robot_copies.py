@@ -206,6 +206,16 @@ class RobotForest:
             self._pool.append(_Pass(self.model, self.copies, self.n))
         return self._pool[:passes]
 
+    def inertia(self, q: np.ndarray) -> np.ndarray:
+        r""":math:`H` of every row, (S, n, n) [kg·m²]: CRBA once per forest pass, nothing else (what the kinetic and
+        self-motion energies of a velocity-level stack need beside the J it has)."""
+        copies = self.copies
+        used = self._passes(q.shape[0])
+        for index, forest_pass in enumerate(used):
+            rows = slice(index * copies, (index + 1) * copies)
+            pin.crba(self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])), pin.Convention.LOCAL)
+        return np.concatenate([forest_pass.inertia for forest_pass in used])[: q.shape[0]]
+
     def inverse_inertia(self, q: np.ndarray) -> np.ndarray:
         r""":math:`H^{-1}` of every row, (S, n, n) [1/(kg·m²)]: Pinocchio's ``computeMinverse`` once per forest pass
         (the inverse of a block-diagonal H is its blocks' inverses); each block's lower triangle is copied from
