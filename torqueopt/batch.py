@@ -531,15 +531,16 @@ class KinematicStack(MovementStack):
         self.log = self.logs.grow(stop - start)
         return (self.dt * np.arange(start, stop)).tolist()
 
-    def _task(self, q, v=None):
-        jacobian, rate, tip = self.forest.kinematics(q, v)
+    def _task(self, q, v=None, tip=None):
+        jacobian, rate, tip = self.forest.kinematics(q, v, tip)
         rows = self.rows
-        return jacobian[:, rows], None if rate is None else rate[:, rows], tip[:, rows]
+        return jacobian[:, rows], None if rate is None else rate[:, rows], tip
 
     def terms(self, q, v):
-        self._q = q  # the configurations the step's q̈ and torques are taken at
-        jacobian, _, x = self._task(q)
-        return jacobian, x
+        # the configurations (and their task points) the step's q̈ and torques are taken at
+        jacobian, _, self._tip = self._task(q)
+        self._q = q
+        return jacobian, self._tip[:, self.rows]
 
     def _command(self, index: int, x):
         if self.gain == 0.0:
@@ -556,7 +557,7 @@ class KinematicStack(MovementStack):
         command_rate = self.acceleration[index, where] + self.gain * self.velocity[index, where]
         if self.gain != 0.0:
             command_rate = command_rate - self.gain * np.einsum("bij,bj->bi", jacobian, velocity)
-        _, jacobian_rate, _ = self._task(self._q, velocity)
+        _, jacobian_rate, _ = self._task(self._q, velocity, self._tip)
         acceleration = self.stacked.acceleration(jacobian, jacobian_rate, velocity, command_rate, state)
         torque = self.forest.inverse_dynamics(self._q, velocity, acceleration)  # Eq. (20) on the motion
         return torque, acceleration, velocity, conditions, failures
@@ -613,8 +614,8 @@ class KinematicStack(MovementStack):
         return q[keep], v, resolution
 
     def _rates(self, q, index: int):
-        jacobian, _, x = self._task(q)
-        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, x), q)
+        jacobian, _, tip = self._task(q)
+        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, tip[:, self.rows]), q)
         return velocity, failures
 
     def step(self, q, v, resolution, j: int, t: float):

@@ -160,9 +160,10 @@ class RobotForest:
             world_rate *= self._mask
         return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
 
-    def kinematics(self, q: np.ndarray, v: np.ndarray | None = None):
+    def kinematics(self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None):
         r"""The task frame's Jacobian :math:`J` (S, 6, n) in LOCAL_WORLD_ALIGNED, linear rows first, and its position (S, 3);
         with joint velocities v, also :math:`\dot J` (S, 6, n), the Jacobian's rate along v (else None).
+        ``tip``: the positions at q when the caller has them (from a call at the same q): not read again.
 
         One joint-Jacobian pass per forest pass (with its time variation when v
         is given), no dynamics: what a velocity-level method needs at a state.
@@ -180,11 +181,13 @@ class RobotForest:
                 pin.computeJointJacobians(model, forest_pass.data, q_forest)
             else:
                 pin.computeJointJacobiansTimeVariation(model, forest_pass.data, q_forest, self._padded(v[rows]))
-            pin.updateFramePlacements(model, forest_pass.data)
+            if tip is None:
+                pin.updateFramePlacements(model, forest_pass.data)
         world = np.concatenate([forest_pass.jacobian for forest_pass in used])[:count]
-        tip = np.array(
-            [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
-        )[:count]
+        if tip is None:
+            tip = np.array(
+                [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
+            )[:count]
         if self._mask is not None:
             world *= self._mask
         jacobian = world
