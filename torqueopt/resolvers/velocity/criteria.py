@@ -16,6 +16,7 @@ space), n values.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import NamedTuple
 
 import eigenpy
 import numpy as np
@@ -62,6 +63,19 @@ class Criterion(ABC):
         return self.hessian(kinematics, task).dot(v)
 
 
+class _LimitedJoints(NamedTuple):
+    """The joints with an Eq. (5) term: their q and v coordinates, mid-range [rad, m] and half range [rad, m]."""
+
+    q_index: np.ndarray
+    v_index: np.ndarray
+    middle: np.ndarray
+    half_range: np.ndarray
+    #: 2 / half range², the diagonal of ∂²p/∂q² [1/rad²].
+    curvature: np.ndarray
+    #: Every joint has a term and its q coordinate is its v coordinate: the gradient needs no scatter.
+    every_joint: bool
+
+
 class JointLimits(Criterion):
     r"""Liégeois's joint-limit criterion, Eq. (5): squared distances from mid-range, scaled by half-range."""
 
@@ -70,7 +84,7 @@ class JointLimits(Criterion):
     def __init__(self):
         self._key = None
 
-    def _limits(self, model):
+    def _limits(self, model) -> _LimitedJoints:
         if self._key != id(model):
             index, middle, half_range = [], [], []
             for joint in range(1, model.njoints):
@@ -83,39 +97,54 @@ class JointLimits(Criterion):
                 index.append((joint_model.idx_q, joint_model.idx_v))
                 middle.append(0.5 * (low + high))
                 half_range.append(0.5 * (high - low))
-            self._index = np.array(index, dtype=int).reshape(-1, 2)
-            self._middle = np.array(middle)
-            self._half_range = np.array(half_range)
+            index = np.array(index, dtype=int).reshape(-1, 2)
+            half_range = np.array(half_range)
+            every = np.arange(model.nv)
+            self._joints = _LimitedJoints(
+                index[:, 0], index[:, 1], np.array(middle), half_range, 2.0 / half_range**2,
+                model.nq == model.nv and np.array_equal(index[:, 0], every) and np.array_equal(index[:, 1], every),
+            )  # fmt: skip
             self._key = id(model)
-        return self._index, self._middle, self._half_range
+        return self._joints
 
     def check(self, robot) -> None:
-        if self._limits(robot.model)[0].size == 0:
+        if self._limits(robot.model).q_index.size == 0:
             raise InvalidInput(f"criterion 'joint-limits' needs finite joint limits; robot '{robot.name}' has none")
 
     def normalised_distance(self, robot, q: np.ndarray) -> np.ndarray:
         r""":math:`(q_i - q_i^{mid})/(q_i^{max} - q_i^{mid})` for each joint with limits (−1 and 1 at the limits)."""
-        index, middle, half_range = self._limits(robot.model)
-        return (q[index[:, 0]] - middle) / half_range
+        joints = self._limits(robot.model)
+        return (q[joints.q_index] - joints.middle) / joints.half_range
 
     def value(self, kinematics, task=None) -> float:
-        index, middle, half_range = self._limits(kinematics.model)
+        joints = self._limits(kinematics.model)
         # Eq. (5), with θ_mid − θ_max = −half range (squared, so the sign drops)
-        return float(np.sum(((kinematics.q[index[:, 0]] - middle) / half_range) ** 2))
+        return float(np.sum(((kinematics.q[joints.q_index] - joints.middle) / joints.half_range) ** 2))
 
     def gradient(self, kinematics, task=None) -> np.ndarray:
-        index, middle, half_range = self._limits(kinematics.model)
+        joints = self._limits(kinematics.model)
+        if joints.every_joint:
+            return joints.curvature * (kinematics.q - joints.middle)  # ∂/∂θ of Eq. (5)
         gradient = np.zeros(kinematics.nv)
-        gradient[index[:, 1]] = 2.0 * (kinematics.q[index[:, 0]] - middle) / half_range**2  # ∂/∂θ of Eq. (5)
+        gradient[joints.v_index] = joints.curvature * (kinematics.q[joints.q_index] - joints.middle)  # ∂/∂θ of Eq. (5)
         return gradient
 
     has_curvature = True
 
     def hessian(self, kinematics, task=None) -> np.ndarray:
-        index, _, half_range = self._limits(kinematics.model)
+        joints = self._limits(kinematics.model)
         hessian = np.zeros((kinematics.nv, kinematics.nv))
-        hessian[index[:, 1], index[:, 1]] = 2.0 / half_range**2
+        hessian[joints.v_index, joints.v_index] = joints.curvature
         return hessian
+
+    def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
+        r""":math:`\nabla^2 p\,v`, the diagonal Hessian of Eq. (5) times v."""
+        joints = self._limits(kinematics.model)
+        if joints.every_joint:
+            return joints.curvature * v
+        rate = np.zeros(kinematics.nv)
+        rate[joints.v_index] = joints.curvature * v[joints.v_index]
+        return rate
 
 
 class Manipulability(Criterion):

@@ -145,10 +145,16 @@ class GradientProjection(CriterionGain, VelocityResolver):
         """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
         if robot.task == "pose" or not isinstance(self.objective, JointLimits):
             return None
-        index, middle, half_range = self.objective._limits(robot.model)
+        joints = self.objective._limits(robot.model)
         # ∂/∂θ of Eq. (5) is 2(θ − θ_mid)/half range²: a diagonal quadratic criterion
         return StackedGradientProjection(
-            self.singular_tolerance, robot.nv, index[:, 0], index[:, 1], middle, 2.0 / half_range**2, self.gain
+            self.singular_tolerance,
+            robot.nv,
+            joints.q_index,
+            joints.v_index,
+            joints.middle,
+            joints.curvature,
+            self.gain,
         )
 
 
