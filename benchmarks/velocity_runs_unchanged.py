@@ -10,7 +10,10 @@ Run it once on the code before a change and once after::
 
 ``--compare`` prints the largest difference of each array relative to the array's largest magnitude
 and exits with status 1 if any passes ``--tolerance`` (1e-12 by default) or a run's length or stop
-reason changed.
+reason changed. The torque of a run whose q̈ holds a central difference (step δ = 1e-5 or 1e-6 rad: the
+loop's own, the manipulability's curvature, the extended Jacobian's) is held to
+:data:`DIFFERENCED_TOLERANCE` instead: a last-bit change of q̇ moves the rounding of q ± δq̇/|q̇|, which
+the difference divides by δ (ε/δ ≈ 1e-11 of q̈, the size of those differences' own round-off).
 """
 
 from __future__ import annotations
@@ -21,6 +24,20 @@ import sys
 import numpy as np
 
 import torqueopt
+
+#: Largest relative change of tau in a run whose q̈ holds a central difference.
+DIFFERENCED_TOLERANCE = 1e-9
+
+#: Runs whose q̈ holds a central difference (the loop's or the method's own).
+DIFFERENCED = {
+    "velocity-pinv self_motion",
+    "gradient-projection manipulability",
+    "task-priority damping",
+    "extended-jacobian",
+    "extended-jacobian K=5",
+    "obstacle-avoidance",
+    "panda gradient-projection manipulability",
+}
 
 #: (label, robot, resolver, options, duration [s]); planar3 runs the paper's 2 s movement.
 RUNS = (
@@ -89,7 +106,8 @@ def main() -> None:
                 continue
             scale = float(np.max(np.abs(before))) or 1.0
             relative = float(np.max(np.abs(after - before))) / scale
-            failed |= not relative <= arguments.tolerance
+            tolerance = DIFFERENCED_TOLERANCE if name == "tau" and label in DIFFERENCED else arguments.tolerance
+            failed |= not relative <= tolerance
             line.append(f"{name} {relative:.1e}")
         print(f"{label} ({len(saved[f'{label}|q'])} rows): " + ", ".join(line))
     sys.exit(1 if failed else 0)

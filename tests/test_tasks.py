@@ -9,6 +9,7 @@ from torqueopt.tasks import (
     FrameTask,
     Kinematics,
     ObstacleTask,
+    PerConfiguration,
     PostureTask,
     TaskStack,
     prioritised_accelerations,
@@ -16,6 +17,37 @@ from torqueopt.tasks import (
     pseudoinverse,
     pseudoinverse_rate,
 )
+
+
+def test_per_configuration_computes_once_per_update_and_per_kinematics(planar3):
+    """What a velocity-level step's rates compute at q and its q̈ reuses: recomputed after every update (even to
+    the same q, which another configuration may have come between) and for another Kinematics, never on an
+    exception."""
+    calls = []
+
+    def jacobian(kinematics):
+        calls.append(kinematics.q)
+        if not np.all(np.isfinite(kinematics.q)):
+            raise InvalidInput("not finite")
+        return FrameTask.of_robot(planar3).jacobian(kinematics)
+
+    cached = PerConfiguration(jacobian)
+    first, second = Kinematics(planar3), Kinematics(planar3)
+    q, other = np.array([0.1, 0.2, 0.3]), np.array([-0.4, 0.5, 0.6])
+    value = cached(first.update(q))
+    assert cached(first) is value and len(calls) == 1
+    np.testing.assert_array_equal(
+        cached(first.update(other)), FrameTask.of_robot(planar3).jacobian(second.update(other))
+    )
+    assert len(calls) == 2
+    cached(second)
+    cached(first.update(other))
+    assert len(calls) == 4
+    with pytest.raises(InvalidInput):
+        cached(first.update(np.array([np.nan, 0.0, 0.0])))
+    with pytest.raises(InvalidInput):
+        cached(first)
+    assert len(calls) == 6
 
 
 def planar_points(q):

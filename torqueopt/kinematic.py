@@ -186,7 +186,9 @@ class KinematicMovement:
         self.x_ref: list[np.ndarray] = []
         self.task = task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
         self.kinematics = kinematics = Kinematics(robot)
-        self.rates = rates = resolver.rate_function(robot, task)
+        # the joint rates and, when the resolver has it, q̈ in closed form (else a central difference of f)
+        rates, self.closed_form = resolver.step_functions(robot, task)
+        self.rates = rates
         self.gain = gain = resolver.position_gain
         self.zero = np.zeros(robot.m)
         self.offset = 0
@@ -200,8 +202,6 @@ class KinematicMovement:
             return rates(kinematics, velocity)
 
         self.f = f
-        #: q̈ in closed form, when the resolver has one (else a central difference of f).
-        self.closed_form = resolver.acceleration_function(robot, task)
         self.integrator = VelocityRK4(robot, f, dt)
 
     def block(self, start: int) -> list[float]:

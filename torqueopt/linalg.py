@@ -55,6 +55,7 @@ class JacobianSolver:
     def __init__(self, rows: int, columns: int, tolerance: float = DEFAULT_SINGULAR_TOLERANCE, null_space: bool = True):
         self._svd = eigenpy.HhJacobiSVD(rows, columns, _FULL_UV)
         self._rows = rows
+        self._identity = np.eye(rows)
         self._tolerance = tolerance
         self._null_space = null_space
         # eigenpy returns a length-1 result as a 1×1 matrix; longer ones are already flat.
@@ -68,6 +69,17 @@ class JacobianSolver:
             particular = particular.reshape(-1)
         basis = svd.matrixV()[:, self._rows :] if self._null_space else None
         return particular, basis, inverse_condition
+
+    def pseudoinverse(self, jacobian: np.ndarray):
+        r""":math:`(J^\dagger,\ \sigma_{min}/\sigma_{max})`, :math:`J^\dagger = V_m \Sigma^{-1} U^\top` (n×m, Eq. (3)),
+        raising SingularJacobian as a call does."""
+        svd = self._svd.compute(jacobian)
+        inverse_condition = _checked_inverse_condition(svd.singularValues().tolist(), self._tolerance)
+        return svd.solve(self._identity), inverse_condition
+
+    def inverse_condition(self, jacobian: np.ndarray) -> float:
+        r""":math:`\sigma_{min}/\sigma_{max}` of J alone, raising SingularJacobian as a call does."""
+        return _checked_inverse_condition(self._svd.compute(jacobian).singularValues().tolist(), self._tolerance)
 
 
 class PseudoInverse:

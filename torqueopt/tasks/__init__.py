@@ -8,11 +8,12 @@ from .frame_task import FRAME_TASK_KINDS, FrameTask
 from .obstacle import ClosestPoint, ObstacleTask
 from .posture_task import PostureTask
 from .stack import TaskStack, prioritised_accelerations, prioritised_rates, pseudoinverse, pseudoinverse_rate
-from .task import Kinematics, Task
+from .task import Kinematics, PerConfiguration, Task
 
 __all__ = [
     "Task",
     "Kinematics",
+    "PerConfiguration",
     "FrameTask",
     "FRAME_TASK_KINDS",
     "PostureTask",

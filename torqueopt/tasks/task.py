@@ -22,7 +22,7 @@ import pinocchio as pin
 from ..checks import finite_numbers, non_negative_number
 from ..errors import InvalidInput
 
-__all__ = ["Kinematics", "Task"]
+__all__ = ["Kinematics", "PerConfiguration", "Task"]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -41,6 +41,8 @@ class Kinematics:
         self.data = robot.model.createData()
         self.q: np.ndarray | None = None
         self.v: np.ndarray | None = None
+        #: How many times :meth:`update` ran: what was computed at one value of it holds while it stays.
+        self.revision = 0
         self._hessians_ready = False
         self._zero = np.zeros(robot.model.nv)
 
@@ -53,6 +55,7 @@ class Kinematics:
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         self.q, self.v = q, v
+        self.revision += 1
         self._hessians_ready = False
         return self
 
@@ -100,6 +103,27 @@ class Kinematics:
         n = self.nv
         hessian = np.asarray(pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA))
         return hessian.reshape(-1).reshape((6, n, n), order="F")
+
+
+class PerConfiguration:
+    """``function(kinematics)``, computed once per configuration: kept until the kinematics' next :meth:`Kinematics.update`.
+
+    A velocity-level step evaluates the joint rates and then their time derivative at the same configuration;
+    what both read (a pseudoinverse, a criterion's gradient, :math:`H^{-1}`) is computed by the first and
+    reused by the second. A function that raises caches nothing.
+    """
+
+    def __init__(self, function):
+        self.function = function
+        self._kinematics: Kinematics | None = None
+        self._revision = -1
+        self._value = None
+
+    def __call__(self, kinematics: Kinematics):
+        if kinematics.revision != self._revision or kinematics is not self._kinematics:
+            self._value = self.function(kinematics)
+            self._kinematics, self._revision = kinematics, kinematics.revision
+        return self._value
 
 
 class Task(ABC):

@@ -76,6 +76,16 @@ class VelocityResolver(Resolver):
         """
         return None
 
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """The pair (:meth:`rate_function`, :meth:`acceleration_function`) for one run.
+
+        A resolver whose q̈ reads what its rates compute at the same configuration (a pseudoinverse, a
+        criterion's gradient) builds the two together, sharing it through a
+        :class:`~torqueopt.tasks.PerConfiguration`: the loop evaluates the rates at each step start and then q̈
+        there.
+        """
+        return self.rate_function(robot, task), self.acceleration_function(robot, task)
+
     def stack_rate_function(self, robot: Robot):
         r"""The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time).
 

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...linalg import PseudoInverse
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics
+from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import JointLimits, criterion_from
@@ -91,16 +90,7 @@ class GradientProjection(CriterionGain, VelocityResolver):
     )
 
     def rate_function(self, robot: Robot, task: FrameTask):
-        decompose = pseudoinverse_solver(robot, self.singular_tolerance)
-        criterion, k = self.objective, self.gain
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            particular, basis, inverse_condition = decompose(task.jacobian(kinematics), task_velocity)
-            gradient = criterion.gradient(kinematics, task)
-            # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k, and I − J⁺J = Z Zᵀ
-            return particular - k * basis.dot(basis.T.dot(gradient)), inverse_condition
-
-        return rates
+        return self.step_functions(robot, task)[0]
 
     def acceleration_function(self, robot: Robot, task: FrameTask):
         r"""q̈ of Eq. (4) in closed form, for the joint-limit criterion (analytic Hessian) on a position task, else None.
@@ -119,18 +109,32 @@ class GradientProjection(CriterionGain, VelocityResolver):
         :math:`\nabla^2 p\,\dot q` from the criterion (:meth:`Criterion.curvature`): exact for the joint limits,
         a central difference of the analytic gradient along q̇ for the manipulability (its Hessian needs third
         derivatives of the kinematics). A callable's gradient is itself a difference: None, and the loop takes
-        q̈ by its central difference.
+        q̈ by its central difference. J, J⁺ and g at q are those the rates computed there, when they did.
         """
-        if task.kind == "pose" or not self.objective.has_curvature:
-            return None
-        pseudoinverse_of = PseudoInverse(robot.m, robot.nv)
+        return self.step_functions(robot, task)[1]
+
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (4)'s rates and their closed-form q̈ (or None), sharing J, J⁺ and ∂p/∂q at each configuration."""
+        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
         criterion, k = self.objective, self.gain
 
-        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
             jacobian = task.jacobian(kinematics)
+            pseudoinverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
+            return jacobian, pseudoinverse, criterion.gradient(kinematics, task), inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            jacobian, pseudoinverse, gradient, inverse_condition = at_configuration(kinematics)
+            # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k
+            return pseudoinverse.dot(task_velocity) - k * (
+                gradient - pseudoinverse.dot(jacobian.dot(gradient))
+            ), inverse_condition
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            jacobian, pseudoinverse, gradient, _ = at_configuration(kinematics)
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            pseudoinverse = pseudoinverse_of(jacobian)  # Eq. (3)
-            shifted = pseudoinverse.dot(command) + k * criterion.gradient(kinematics, task)  # u + k ∂p/∂q
+            shifted = pseudoinverse.dot(command) + k * gradient  # u + k ∂p/∂q
             inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.curvature(
                 kinematics, task, velocity
             )
@@ -139,7 +143,7 @@ class GradientProjection(CriterionGain, VelocityResolver):
                 inner - pseudoinverse.dot(jacobian.dot(inner))
             )
 
-        return acceleration
+        return rates, None if task.kind == "pose" or not criterion.has_curvature else acceleration
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
