@@ -14,6 +14,7 @@ from torqueopt.errors import InvalidInput, NoRedundancy, SingularJacobian
 from torqueopt.kinematic import joint_rates
 from torqueopt.resolvers.velocity import JointLimits, manipulability
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
+from torqueopt.resolvers.velocity.pseudoinverse import inverse_inertia_at
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask
 from torqueopt.whiplash import detect_whiplash
 
@@ -275,6 +276,23 @@ def test_kinetic_energy_pinv_minimises_eq_17_by_the_kkt_conditions(planar3, pand
             for _ in range(5):
                 other = rates + basis.dot(rng.normal(size=n - m))
                 assert 0.5 * other.dot(inertia).dot(other) > energy
+
+
+def test_the_inverse_inertia_is_pinocchios_python_computeminverse_symmetric_and_fresh(panda, rng):
+    """kinetic-energy-pinv reads H⁻¹ from Pinocchio's Python ``computeMinverse``, whose binding fills the lower
+    triangle the C++ function leaves (held here to the inverse of CRBA's H) and returns a new array each call."""
+    pin.seed(int(rng.integers(2**31)))
+    kinematics = Kinematics(panda)
+    first = inverse_inertia_at(kinematics.update(pin.randomConfiguration(panda.model)))
+    kept = first.copy()
+    for _ in range(3):
+        q = pin.randomConfiguration(panda.model)
+        inertia = pin.crba(panda.model, panda.model.createData(), q)
+        inertia = np.triu(inertia) + np.triu(inertia, 1).T
+        np.testing.assert_allclose(
+            inverse_inertia_at(kinematics.update(q)), np.linalg.inv(inertia), rtol=1e-10, atol=1e-10
+        )
+    np.testing.assert_array_equal(first, kept)
 
 
 def test_joint_limit_gradient_is_that_of_eq_5(panda, rng):

@@ -9,7 +9,7 @@ import pinocchio as pin
 from ...checks import finite_numbers
 from ...linalg import PseudoInverse, inverse_condition_number_of
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics
+from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from ..stacks import singular_rows
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -182,18 +182,7 @@ class KineticEnergyPseudoInverse(VelocityResolver):
     equations = (16, 17)
 
     def rate_function(self, robot: Robot, task: FrameTask):
-        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        inverse_inertia_of = InverseInertia(robot.nv)
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            jacobian = task.jacobian(kinematics)
-            _, _, inverse_condition = decompose(jacobian, task_velocity)  # raises SingularJacobian when J loses rank
-            inverse_inertia_jt = inverse_inertia_of(kinematics).dot(jacobian.T)  # W⁻¹Jᵀ with W = H
-            # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ, the q̇ of least kinetic energy Eq. (17)
-            joint_rates = inverse_inertia_jt.dot(eigenpy.LLT(jacobian.dot(inverse_inertia_jt)).solve(task_velocity))
-            return joint_rates, inverse_condition
-
-        return rates
+        return self.step_functions(robot, task)[0]
 
     def acceleration_function(self, robot: Robot, task: FrameTask):
         r"""q̈ of :math:`\dot q = J_H^\dagger c` in closed form, on a position task (None for ``pose``).
@@ -209,20 +198,35 @@ class KineticEnergyPseudoInverse(VelocityResolver):
 
         which for H = I is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at
         (q, q̇), :math:`H^{-1}` from ``computeMinverse`` and :math:`\dot H = C + C^\top` from its Coriolis matrix
-        (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew).
+        (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew). J, :math:`H^{-1}`, A and the
+        factors of G at q are those the rates computed there, when they did.
         """
-        if task.kind == "pose":
-            return None
-        inverse_inertia_of = InverseInertia(robot.nv)
+        return self.step_functions(robot, task)[1]
+
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (16)'s rates with W = H and their closed-form q̈ (None for ``pose``), sharing J, H⁻¹, A and G's
+        Cholesky factors at each configuration."""
+        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            jacobian = task.jacobian(kinematics)
+            inverse_condition = solver.inverse_condition(jacobian)  # raises SingularJacobian when J loses rank
+            inverse_inertia = inverse_inertia_at(kinematics)
+            weighted_jt = inverse_inertia.dot(jacobian.T)  # A = W⁻¹Jᵀ with W = H
+            gram = eigenpy.LLT(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16)
+            return jacobian, inverse_inertia, weighted_jt, gram, inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            _, _, weighted_jt, gram, inverse_condition = at_configuration(kinematics)
+            # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ, the q̇ of least kinetic energy Eq. (17)
+            return weighted_jt.dot(gram.solve(task_velocity)), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            jacobian = task.jacobian(kinematics)
-            inverse_inertia = inverse_inertia_of(kinematics)
+            jacobian, inverse_inertia, weighted_jt, gram, _ = at_configuration(kinematics)
             coriolis = pin.computeCoriolisMatrix(kinematics.model, kinematics.data, kinematics.q, velocity)
             inertia_rate_velocity = coriolis.dot(velocity) + coriolis.T.dot(velocity)  # Ḣq̇ = (C + Cᵀ)q̇
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            weighted_jt = inverse_inertia.dot(jacobian.T)  # A = H⁻¹Jᵀ
-            gram = eigenpy.LLT(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16)
             multipliers = gram.solve(command)  # λ = G⁻¹c, q̇ = Aλ
             # the weighted pseudoinverse's own rate acts through H⁻¹(J̇ᵀλ − Ḣq̇), projected by I − J_H⁺J
             inner = inverse_inertia.dot(jacobian_rate.T.dot(multipliers) - inertia_rate_velocity)
@@ -230,7 +234,7 @@ class KineticEnergyPseudoInverse(VelocityResolver):
             # the time derivative of Eq. (16) with W = H applied to c
             return inner + weighted_jt.dot(gram.solve(residual))
 
-        return acceleration
+        return rates, None if task.kind == "pose" else acceleration
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (16) with W = H and the closed-form q̈ of :meth:`acceleration_function` on stacks (position tasks)."""
@@ -280,16 +284,10 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
         return inner + np.einsum("bij,bj->bi", weighted_jt, np.einsum("bij,bj->bi", gram_inverse, residual))
 
 
-class InverseInertia:
+def inverse_inertia_at(kinematics: Kinematics) -> np.ndarray:
     r""":math:`H^{-1}(q)` (n×n) at a kinematics' configuration, by Pinocchio's ``computeMinverse``.
 
-    Pinocchio documents only the upper triangle as filled; the lower one is copied from it (a fresh array).
+    The C++ function fills the upper triangle only; its Python binding copies it into the lower one and
+    returns a fresh array (tests/test_kinematic.py holds both).
     """
-
-    def __init__(self, n: int):
-        self._lower = np.tril_indices(n, -1)
-
-    def __call__(self, kinematics: Kinematics) -> np.ndarray:
-        inverse = pin.computeMinverse(kinematics.model, kinematics.data, kinematics.q).copy()
-        inverse[self._lower] = inverse.T[self._lower]
-        return inverse
+    return pin.computeMinverse(kinematics.model, kinematics.data, kinematics.q)
