@@ -7,7 +7,16 @@ class :class:`Task`, all reading one :class:`Kinematics` per configuration.
 from .frame_task import FRAME_TASK_KINDS, FrameTask
 from .obstacle import ClosestPoint, ObstacleTask
 from .posture_task import PostureTask
-from .stack import TaskStack, prioritised_accelerations, prioritised_rates, pseudoinverse, pseudoinverse_rate
+from .stack import (
+    PriorityLevel,
+    TaskStack,
+    prioritised_accelerations,
+    prioritised_rates,
+    priority_levels,
+    pseudoinverse,
+    pseudoinverse_rate,
+    rates_through,
+)
 from .task import Kinematics, PerConfiguration, Task
 
 __all__ = [
@@ -19,6 +28,9 @@ __all__ = [
     "PostureTask",
     "TaskStack",
     "prioritised_rates",
+    "PriorityLevel",
+    "priority_levels",
+    "rates_through",
     "prioritised_accelerations",
     "pseudoinverse",
     "pseudoinverse_rate",

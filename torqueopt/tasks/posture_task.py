@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..checks import joint_vector
-from .task import Kinematics, Task
+from .task import Kinematics, Task, identity
 
 __all__ = ["PostureTask"]
 
@@ -48,7 +48,8 @@ class PostureTask(Task):
         return kinematics.robot.joint_angles(kinematics.q)
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return np.eye(kinematics.nv)
+        """The identity (n×n, read-only)."""
+        return identity(kinematics.nv)
 
     def drift(self, kinematics: Kinematics) -> np.ndarray:
         return np.zeros(kinematics.nv)

@@ -29,14 +29,24 @@ differentiates each step, the pseudoinverses by :func:`~torqueopt.tasks.pseudoin
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import eigenpy
 import numpy as np
 
 from ..errors import InvalidInput
-from .task import Task
+from .task import Task, identity
 
-__all__ = ["TaskStack", "prioritised_rates", "prioritised_accelerations", "pseudoinverse", "pseudoinverse_rate"]
+__all__ = [
+    "TaskStack",
+    "PriorityLevel",
+    "priority_levels",
+    "rates_through",
+    "prioritised_rates",
+    "prioritised_accelerations",
+    "pseudoinverse",
+    "pseudoinverse_rate",
+]
 
 
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
@@ -63,7 +73,7 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
     if matrix.size == 0:
         return np.zeros(matrix.T.shape)
     svd = eigenpy.HhJacobiSVD(matrix, _THIN_UV)
-    singular = np.ravel(svd.singularValues()).tolist()  # descending (one value comes as a 1×1 matrix)
+    singular = svd.singularValues().reshape(-1).tolist()  # descending (one value comes as a 1×1 matrix)
     cutoff = max(tolerance * singular[0], ABSOLUTE_TOLERANCE)
     inverse_values = [
         (value / (value * value + damping * damping) if damping > 0.0 else 1.0 / value) if value > cutoff else 0.0
@@ -97,6 +107,56 @@ def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.
     )
 
 
+class PriorityLevel(NamedTuple):
+    r"""One step of the recursion at a configuration: what depends on the Jacobians alone, not on the velocities."""
+
+    #: :math:`J_k` (m_k × n).
+    jacobian: np.ndarray
+    #: :math:`P_{k-1}` (n × n), the freedom the tasks above leave; None for the first task (:math:`P_0 = I`).
+    projector: np.ndarray | None
+    #: :math:`A_k = J_k P_{k-1}`.
+    projected: np.ndarray
+    #: :math:`A_k^\dagger`.
+    inverse: np.ndarray
+
+
+def priority_levels(
+    jacobians: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0, first_inverse=None
+) -> tuple[list[PriorityLevel], np.ndarray]:
+    r"""The recursion's pseudoinverses and projectors for :math:`J_1, J_2, \dots` (highest priority first):
+    one :class:`PriorityLevel` per task, and :math:`P_K`, the projector onto the freedom left after every task.
+
+    Args:
+        tolerance: relative singular-value cutoff of every pseudoinverse.
+        damping: damped least squares λ for the lower-priority inverses (0: none).
+        first_inverse: :math:`J_1^\dagger`, when the caller already has it.
+    """
+    levels = []
+    projector = None  # P_0 = I: A_1 = J_1
+    for level, jacobian in enumerate(jacobians):
+        projected = (
+            jacobian if projector is None else jacobian.dot(projector)
+        )  # for k = 2, J_l(I - J_h⁺J_h) of Eq. (10)
+        if level == 0 and first_inverse is not None:
+            inverse = first_inverse
+        else:
+            inverse = pseudoinverse(projected, tolerance, damping if level > 0 else 0.0)
+        levels.append(PriorityLevel(jacobian, projector, projected, inverse))
+        dropped = inverse.dot(projected)
+        projector = identity(jacobian.shape[1]) - dropped if projector is None else projector - dropped
+    return levels, projector
+
+
+def rates_through(levels: Sequence[PriorityLevel], velocities: Sequence[np.ndarray]) -> np.ndarray:
+    r"""The joint rates [rad/s] of Eq. (11)'s recursion through ``levels`` (:func:`priority_levels`) for the
+    desired task velocities :math:`\dot x_k`: :math:`\dot q_k = \dot q_{k-1} + A_k^\dagger(\dot x_k - J_k\dot q_{k-1})`."""
+    rates = levels[0].inverse.dot(velocities[0])  # q̇_1 = J_1⁺ẋ_1
+    for level, velocity in zip(levels[1:], velocities[1:]):
+        # Eq. (11): the task's shortfall left by the tasks above it, through [J_k P_{k-1}]⁺.
+        rates = rates + level.inverse.dot(velocity - level.jacobian.dot(rates))
+    return rates
+
+
 def prioritised_rates(
     jacobians: Sequence[np.ndarray], velocities: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0
 ):
@@ -112,16 +172,8 @@ def prioritised_rates(
         The joint rates q̇ [rad/s] and :math:`P_K`, the projector onto the
         freedom left after every task, as a pair.
     """
-    n = jacobians[0].shape[1]
-    rates = np.zeros(n)
-    projector = np.eye(n)
-    for level, (jacobian, velocity) in enumerate(zip(jacobians, velocities)):
-        projected = jacobian.dot(projector)  # J_k P_{k-1}; for k = 2, J_l(I - J_h⁺J_h) of Eq. (10)
-        inverse = pseudoinverse(projected, tolerance, damping if level > 0 else 0.0)
-        # Eq. (11): the task's shortfall left by the tasks above it, through [J_k P_{k-1}]⁺.
-        rates = rates + inverse.dot(velocity - jacobian.dot(rates))
-        projector = projector - inverse.dot(projected)
-    return rates, projector
+    levels, projector = priority_levels(jacobians, tolerance=tolerance, damping=damping)
+    return rates_through(levels, velocities), projector
 
 
 def prioritised_accelerations(
@@ -131,6 +183,7 @@ def prioritised_accelerations(
     velocity_rates: Sequence[np.ndarray],
     *,
     tolerance: float = 1e-10,
+    levels: Sequence[PriorityLevel] | None = None,
 ):
     r"""The joint rates of :func:`prioritised_rates` (no damping) and their time derivative along the motion.
 
@@ -153,25 +206,31 @@ def prioritised_accelerations(
         velocities: the desired :math:`\dot x_k`.
         velocity_rates: their time derivatives :math:`\ddot x_k` along the motion.
         tolerance: relative singular-value cutoff of every pseudoinverse, as in :func:`prioritised_rates`.
+        levels: the :func:`priority_levels` of ``jacobians`` (without damping), when the caller already has them.
 
     Returns:
         q̇ [rad/s] and q̈ [rad/s²], as a pair.
     """
+    levels = priority_levels(jacobians, tolerance=tolerance)[0] if levels is None else levels
     n = jacobians[0].shape[1]
     rates, accelerations = np.zeros(n), np.zeros(n)
-    projector, projector_rate = np.eye(n), np.zeros((n, n))
-    for jacobian, jacobian_rate, velocity, velocity_rate in zip(jacobians, jacobian_rates, velocities, velocity_rates):
-        projected = jacobian.dot(projector)  # A_k = J_k P_{k-1}
-        projected_rate = jacobian_rate.dot(projector) + jacobian.dot(projector_rate)
-        inverse = pseudoinverse(projected, tolerance)
+    projector_rate = None  # Ṗ_0 = 0
+    for level, jacobian_rate, velocity, velocity_rate in zip(levels, jacobian_rates, velocities, velocity_rates):
+        jacobian, projected, inverse = level.jacobian, level.projected, level.inverse
+        # Ȧ_k = J̇_k P_{k-1} + J_k Ṗ_{k-1}
+        projected_rate = (
+            jacobian_rate
+            if projector_rate is None
+            else jacobian_rate.dot(level.projector) + jacobian.dot(projector_rate)
+        )
         inverse_rate = pseudoinverse_rate(projected, projected_rate, inverse)
         shortfall = velocity - jacobian.dot(rates)
         shortfall_rate = velocity_rate - jacobian_rate.dot(rates) - jacobian.dot(accelerations)
         # the time derivative of Eq. (11)'s step: d/dt (A_k⁺ e_k)
         accelerations = accelerations + inverse_rate.dot(shortfall) + inverse.dot(shortfall_rate)
         rates = rates + inverse.dot(shortfall)
-        projector_rate = projector_rate - inverse_rate.dot(projected) - inverse.dot(projected_rate)
-        projector = projector - inverse.dot(projected)
+        dropped_rate = inverse_rate.dot(projected) + inverse.dot(projected_rate)
+        projector_rate = -dropped_rate if projector_rate is None else projector_rate - dropped_rate
     return rates, accelerations
 
 

@@ -15,6 +15,7 @@ configuration for all of them (as pink's tasks read one ``Configuration``).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from functools import cache
 
 import numpy as np
 import pinocchio as pin
@@ -103,6 +104,14 @@ class Kinematics:
         n = self.nv
         hessian = np.asarray(pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA))
         return hessian.reshape(-1).reshape((6, n, n), order="F")
+
+
+@cache
+def identity(n: int) -> np.ndarray:
+    """The n×n identity, read-only, built once per n (``np.eye`` costs more than the products it enters)."""
+    matrix = np.eye(n)
+    matrix.setflags(write=False)
+    return matrix
 
 
 class PerConfiguration:

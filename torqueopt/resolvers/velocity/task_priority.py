@@ -5,7 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PostureTask, TaskStack, prioritised_accelerations, prioritised_rates
+from ...tasks import (
+    FrameTask,
+    Kinematics,
+    PerConfiguration,
+    PostureTask,
+    TaskStack,
+    prioritised_accelerations,
+    priority_levels,
+    rates_through,
+)
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .gradient_projection import StackedGradientProjection
@@ -68,20 +77,7 @@ class TaskPriority(VelocityResolver):
         self.stack.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
-        self.stack.check(robot)
-        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        secondary, damping = self.stack, self.damping
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            jacobian = task.jacobian(kinematics)
-            _, _, inverse_condition = decompose(jacobian, task_velocity)  # the high-priority task must keep full rank
-            jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
-            velocities = [task_velocity] + [lower.desired_velocity(kinematics) for lower in secondary]
-            # Eq. (11) (and its recursion for deeper stacks), Eq. (7), Eq. (8), Eq. (9), Eq. (10) in the docstring
-            joint_rates, _ = prioritised_rates(jacobians, velocities, damping=damping)
-            return joint_rates, inverse_condition
-
-        return rates
+        return self.step_functions(robot, task)[0]
 
     def acceleration_function(self, robot: Robot, task: FrameTask):
         r"""q̈ of Eq. (11) in closed form: without damping, on a position task, with secondary tasks whose
@@ -94,24 +90,49 @@ class TaskPriority(VelocityResolver):
         :math:`-J^\dagger\dot J J^\dagger + (I - J^\dagger J)\dot J^\top(JJ^\top)^{-1}`). :math:`\dot J` of each
         frame task from Pinocchio's Jacobian time variation at (q, q̇); a secondary task's
         :math:`\dot x_l = k(x^* - x_l)` moves at :math:`-kJ_l\dot q`. With damping λ > 0 the damped inverses'
-        derivative is not taken here (None: the loop's central difference).
+        derivative is not taken here (None: the loop's central difference). The Jacobians, pseudoinverses and
+        projectors of the recursion (:func:`~torqueopt.tasks.priority_levels`) and the secondary tasks' desired
+        velocities at q are those the rates computed there, when they did.
         """
-        secondary = self.stack
-        if task.kind == "pose" or self.damping != 0.0 or not all(lower.closed_form_rates for lower in secondary):
-            return None
+        return self.step_functions(robot, task)[1]
+
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration."""
+        secondary, damping = self.stack, self.damping
         secondary.check(robot)
+        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            jacobian = task.jacobian(kinematics)
+            # the high-priority task must keep full rank; J⁺ by SVD, Eq. (3)
+            inverse, inverse_condition = solver.pseudoinverse(jacobian)
+            jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
+            levels, _ = priority_levels(jacobians, damping=damping, first_inverse=inverse)
+            return levels, [lower.desired_velocity(kinematics) for lower in secondary], inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            levels, lower_velocities, inverse_condition = at_configuration(kinematics)
+            # Eq. (11) (and its recursion for deeper stacks), Eq. (7), Eq. (8), Eq. (9), Eq. (10) in the docstring
+            return rates_through(levels, [task_velocity, *lower_velocities]), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            jacobians = [task.jacobian(kinematics)] + [lower.jacobian(kinematics) for lower in secondary]
-            velocities = [command] + [lower.desired_velocity(kinematics) for lower in secondary]
+            levels, lower_velocities, _ = at_configuration(kinematics)
             velocity_rates = [command_rate] + [lower.desired_velocity_rate(kinematics, velocity) for lower in secondary]
             jacobian_rates = [task.jacobian_rate(kinematics, velocity)] + [
                 lower.jacobian_rate(kinematics, velocity) for lower in secondary
             ]
             # the time derivative of Eq. (11) (and of its recursion for deeper stacks)
-            return prioritised_accelerations(jacobians, jacobian_rates, velocities, velocity_rates)[1]
+            return prioritised_accelerations(
+                [level.jacobian for level in levels],
+                jacobian_rates,
+                [command, *lower_velocities],
+                velocity_rates,
+                levels=levels,
+            )[1]
 
-        return acceleration
+        closed_form = task.kind != "pose" and damping == 0.0 and all(lower.closed_form_rates for lower in secondary)
+        return rates, acceleration if closed_form else None
 
     def stack_rate_function(self, robot: Robot):
         r"""Eq. (11) and its closed-form q̈ on stacks, for a position task whose secondary tasks are postures
