@@ -15,6 +15,7 @@ space), n values.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import NamedTuple
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...tasks import FrameTask, Kinematics
+from ...tasks.task import identity
 
 __all__ = ["Criterion", "JointLimits", "Manipulability", "CallableCriterion", "criterion_from", "CRITERIA"]
 
@@ -161,8 +163,8 @@ class Manipulability(Criterion):
         jacobian = task.jacobian(kinematics)
         rows, n = jacobian.shape
         svd = eigenpy.HhJacobiSVD(jacobian, _THIN_UV)
-        w = float(np.prod(svd.singularValues()))  # Eq. (6) as the product of J's singular values
-        pseudo = svd.solve(np.eye(rows))
+        w = math.prod(svd.singularValues().reshape(-1).tolist())  # Eq. (6) as the product of J's singular values
+        pseudo = svd.solve(identity(rows))
         derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
         # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k) = w Σ_ij J⁺_ij D_jik, from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
         return -w * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
