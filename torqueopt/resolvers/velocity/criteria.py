@@ -135,6 +135,8 @@ class JointLimits(Criterion):
 
     def hessian(self, kinematics, task=None) -> np.ndarray:
         joints = self._limits(kinematics.model)
+        if joints.every_joint:
+            return np.diag(joints.curvature)
         hessian = np.zeros((kinematics.nv, kinematics.nv))
         hessian[joints.v_index, joints.v_index] = joints.curvature
         return hessian

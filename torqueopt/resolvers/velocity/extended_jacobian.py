@@ -2,15 +2,17 @@ r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of 
 
 from __future__ import annotations
 
+import math
 from functools import cache, partial
 
+import eigenpy
 import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
 from ...linalg import determinants
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics
+from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import criterion_from
@@ -29,33 +31,41 @@ def null_vector(jacobian: np.ndarray) -> np.ndarray:
     """
     n = jacobian.shape[1]
     minors = jacobian[:, _minor_columns(n)].transpose(1, 0, 2)  # minor i: J without column i
-    return (-1.0) ** np.arange(n) * determinants(minors)
+    return _alternating_signs(n) * determinants(minors)
 
 
 @cache
 def _minor_columns(n: int) -> np.ndarray:
     """(n, n − 1) indices: row i lists every column but i (built once per n, read-only)."""
-    columns = np.array([[j for j in range(n) if j != i] for i in range(n)])
+    columns = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
     columns.setflags(write=False)
     return columns
+
+
+@cache
+def _alternating_signs(n: int) -> np.ndarray:
+    """(−1)^i for i < n (built once per n, read-only)."""
+    signs = (-1.0) ** np.arange(n)
+    signs.setflags(write=False)
+    return signs
 
 
 def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
     r""":math:`\partial n_i / \partial q_k` (n×n) of :func:`null_vector`, from :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
 
-    Each minor's derivative is the sum over its columns of the determinants
-    with that column replaced by its derivative (the multilinearity of det),
-    which stays exact where a minor itself is singular.
+    Each minor M's derivative by Jacobi's formula with its cofactors,
+    :math:`\partial \det M/\partial q_k = \sum_{r,c} (-1)^{r+c}\det M_{\setminus r,\setminus c}\;\partial M_{rc}/\partial q_k`
+    (the multilinearity of det, row by row), which stays exact where a minor itself is singular.
     """
     m, n = jacobian.shape
-    columns = _minor_columns(n)
+    columns, others = _minor_columns(n), _minor_columns(m)
     minors = jacobian[:, columns].transpose(1, 0, 2)  # (n, m, m): minor i is J without column i
-    minor_derivatives = derivative[:, columns, :].transpose(1, 3, 0, 2)  # (n, n, m, m): [i, k] = ∂(minor i)/∂q_k
-    replaced = np.broadcast_to(minors[:, None, None], (n, n, m, m, m)).copy()  # [i, k, c]: minor i ...
-    for c in range(m):
-        replaced[:, :, c, :, c] = minor_derivatives[:, :, :, c]  # ... with its column c differentiated
-    signs = (-1.0) ** np.arange(n)
-    return signs[:, None] * determinants(replaced).sum(axis=2)
+    # (n, m, m): the cofactors of each minor, from its (m − 1)×(m − 1) minors
+    cofactors = np.outer(_alternating_signs(m), _alternating_signs(m)) * determinants(
+        minors[:, others[:, None, :, None], others[None, :, None, :]]
+    )
+    minor_derivatives = derivative[:, columns, :].transpose(1, 0, 2, 3).reshape(n, m * m, n)  # [i, (r, c), k]
+    return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
 class ExtendedJacobian(VelocityResolver):
@@ -152,25 +162,7 @@ class ExtendedJacobian(VelocityResolver):
         )
 
     def rate_function(self, robot: Robot, task: FrameTask):
-        decompose = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        tolerance = self.algorithmic_tolerance
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            jacobian = task.jacobian(kinematics)
-            _, _, inverse_condition = decompose(jacobian, task_velocity)  # J itself must keep full rank
-            _, g_row, normal = self.extended_row(kinematics, task)
-            alignment = _alignment(g_row, normal)
-            if not alignment >= tolerance:
-                raise SingularJacobian(
-                    f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
-                    f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
-                    f"is below the cutoff {tolerance:.3g}"
-                )
-            extended = np.vstack([jacobian, g_row])  # J_ex of Eq. (15)
-            # Eq. (15): J_ex q̇ = [ẋ; 0], inverted directly
-            return np.linalg.solve(extended, np.append(task_velocity, 0.0)), inverse_condition
-
-        return rates
+        return self.step_functions(robot, task)[0]
 
     def acceleration_function(self, robot: Robot, task: FrameTask):
         r"""q̈ from Eq. (15) differentiated along the motion, on a position task (None for ``pose``).
@@ -187,17 +179,41 @@ class ExtendedJacobian(VelocityResolver):
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
         the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
         :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the
-        loop's four of the whole rate map.
+        loop's four of the whole rate map. The LU factors of :math:`J_{ex}` at q are those the rates computed
+        there, when they did.
         """
-        if task.kind == "pose":
-            return None
+        return self.step_functions(robot, task)[1]
+
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (15)'s rates and their q̈ (None for ``pose``), sharing J_ex's LU factors at each configuration."""
+        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        tolerance = self.algorithmic_tolerance
+
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            jacobian = task.jacobian(kinematics)
+            inverse_condition = solver.inverse_condition(jacobian)  # J itself must keep full rank
+            _, g_row, normal = self.extended_row(kinematics, task)
+            alignment = _alignment(g_row, normal)
+            if not alignment >= tolerance:
+                raise SingularJacobian(
+                    f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
+                    f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
+                    f"is below the cutoff {tolerance:.3g}"
+                )
+            # J_ex of Eq. (15), by Eigen's LU with partial pivoting (numpy's solve costs more than a 3×3 LU)
+            return eigenpy.PartialPivLU(np.concatenate((jacobian, g_row[None]))), inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            extended, inverse_condition = at_configuration(kinematics)
+            # Eq. (15): J_ex q̇ = [ẋ; 0], inverted directly
+            return extended.solve(np.concatenate((task_velocity, _ZERO))), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
-            jacobian = task.jacobian(kinematics)
-            _, g_row, _ = self.extended_row(kinematics, task)
+            extended, _ = at_configuration(kinematics)
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            speed = float(np.linalg.norm(velocity))
+            speed = math.sqrt(velocity.dot(velocity))
             curvature = 0.0
             if speed > 0.0:
                 step = CURVATURE_STEP / speed
@@ -205,11 +221,14 @@ class ExtendedJacobian(VelocityResolver):
                 backward = self.extended_row(kinematics.update(robot.integrate(q, -step * velocity)), task)[1]
                 kinematics.update(q)
                 curvature = float((forward - backward).dot(velocity)) / (2.0 * step)  # q̇ᵀ∇²G q̇
-            extended = np.vstack([jacobian, g_row])  # J_ex of Eq. (15)
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
-            return np.linalg.solve(extended, np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
+            return extended.solve(np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
 
-        return acceleration
+        return rates, None if task.kind == "pose" else acceleration
+
+
+#: The last entry of Eq. (15)'s right-hand side, [ẋ; 0].
+_ZERO = np.zeros(1)
 
 
 #: Step [rad] of the central difference of ∂G/∂q along q̇ in :meth:`ExtendedJacobian.acceleration_function`:
@@ -219,7 +238,7 @@ CURVATURE_STEP = 1e-5
 
 
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
-    scale = float(np.linalg.norm(g_row) * np.linalg.norm(normal))
+    scale = math.sqrt(g_row.dot(g_row)) * math.sqrt(normal.dot(normal))
     return abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
 
 
