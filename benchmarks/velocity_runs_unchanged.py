@@ -13,7 +13,9 @@ and exits with status 1 if any passes ``--tolerance`` (1e-12 by default) or a ru
 reason changed. The torque of a run whose q̈ holds a central difference (step δ = 1e-5 or 1e-6 rad: the
 loop's own, the manipulability's curvature, the extended Jacobian's) is held to
 :data:`DIFFERENCED_TOLERANCE` instead: a last-bit change of q̇ moves the rounding of q ± δq̇/|q̇|, which
-the difference divides by δ (ε/δ ≈ 1e-11 of q̈, the size of those differences' own round-off).
+the difference divides by δ. On the code of 747c523, moving q0 by one unit in the last place changed
+tau by 2.3e-9 (obstacle-avoidance), 7.8e-11 (extended-jacobian) and 7.0e-11 (gradient projection with
+the manipulability) of its largest value, and q and v by 8.3e-15 at most.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 import torqueopt
 
 #: Largest relative change of tau in a run whose q̈ holds a central difference.
-DIFFERENCED_TOLERANCE = 1e-9
+DIFFERENCED_TOLERANCE = 1e-8
 
 #: Runs whose q̈ holds a central difference (the loop's or the method's own).
 DIFFERENCED = {

@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from ..checks import check_frame, finite_numbers, non_negative_number
 from ..errors import InvalidInput
-from .task import Kinematics, Task
+from .task import Kinematics, Task, identity
 
 __all__ = ["ObstacleTask", "ClosestPoint"]
 
@@ -135,7 +135,7 @@ class ObstacleTask(Task):
     def _placement(self, kinematics: Kinematics, closest: ClosestPoint) -> pin.SE3:
         joint_placement = kinematics.data.oMi[closest.joint_id]
         local_point = joint_placement.rotation.T.dot(closest.point - joint_placement.translation)
-        return pin.SE3(np.eye(3), local_point)
+        return pin.SE3(identity(3), local_point)
 
     def value(self, kinematics: Kinematics) -> np.ndarray:
         return self.closest_point(kinematics).point

@@ -6,7 +6,8 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, pseudoinverse
+from ...tasks import FrameTask, Kinematics, PerConfiguration, pseudoinverse
+from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import obstacle as obstacle_option
@@ -104,21 +105,32 @@ class ObstacleAvoidance(VelocityResolver):
         self.obstacle.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
-        decompose = pseudoinverse_solver(robot, self.singular_tolerance)
+        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
         speed = obstacle.speed if self.speed is None else self.speed
 
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            particular, basis, inverse_condition = decompose(task.jacobian(kinematics), task_velocity)
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            """What Eq. (13) reads at q whatever ẋ: J⁺, σmin/σmax, α_h, and J_o, ẋ_o, [J_o(I − J⁺J)]⁺ where α_h > 0."""
+            jacobian = task.jacobian(kinematics)
+            inverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
             closest = obstacle.closest_point(kinematics)
             gain = activation(closest.clearance, influence, critical)
             if gain == 0.0:
-                return particular, inverse_condition
+                return inverse, inverse_condition, gain, None, None, None
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
-            repulsion = speed * closest.normal  # ẋ_o
-            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ), with I − J⁺J = Z Zᵀ
-            projector = basis.dot(basis.T)
-            phi = pseudoinverse(point_jacobian.dot(projector)).dot(repulsion - point_jacobian.dot(particular))
+            projected_inverse = pseudoinverse(point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)))
+            return inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            inverse, inverse_condition, gain, point_jacobian, repulsion, projected_inverse = at_configuration(
+                kinematics
+            )
+            particular = inverse.dot(task_velocity)  # J⁺ẋ
+            if gain == 0.0:
+                return particular, inverse_condition
+            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ), with ẋ_o = v_o n̂
+            phi = projected_inverse.dot(repulsion - point_jacobian.dot(particular))
             # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
             return particular + gain * phi, inverse_condition
 
