@@ -15,7 +15,7 @@ from torqueopt.kinematic import joint_rates
 from torqueopt.resolvers.velocity import JointLimits, manipulability, null_vector, null_vector_derivative
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
 from torqueopt.resolvers.velocity.pseudoinverse import inverse_inertia_at
-from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask, prioritised_rates
 from torqueopt.whiplash import detect_whiplash
 
 from .conftest import PAPER_Q0
@@ -706,6 +706,23 @@ def test_task_priority_defaults_to_a_posture_task_toward_the_default_configurati
         np.testing.assert_allclose(
             joint_rates(planar3, resolver, q, xdot), pinv.dot(xdot) + projector.dot(target - q), atol=1e-10
         )
+
+
+def test_task_priority_below_postures_runs_as_gradient_projection_and_is_the_recursion_of_eq_11(panda, rng):
+    """Below posture tasks only, the resolver takes Eq. (11) as gradient projection toward the first posture
+    (one SVD, not two): its rates against the recursion itself (tasks.prioritised_rates) with every posture,
+    the second adding nothing (the first leaves no freedom)."""
+    pin.seed(int(rng.integers(2**31)))
+    first, second = PostureTask(gain=2.0), PostureTask(target=rng.uniform(-1, 1, panda.nv), gain=3.0)
+    resolver = torqueopt.get_resolver("task-priority", secondary=[first, second])
+    task, kinematics = FrameTask.of_robot(panda), Kinematics(panda)
+    for _ in range(4):
+        q, xdot = pin.randomConfiguration(panda.model), rng.normal(size=panda.m)
+        rates = joint_rates(panda, resolver, q, xdot)
+        kinematics.update(q)
+        jacobians = [task.jacobian(kinematics), np.eye(panda.nv), np.eye(panda.nv)]
+        velocities = [xdot, first.desired_velocity(kinematics), second.desired_velocity(kinematics)]
+        np.testing.assert_allclose(rates, prioritised_rates(jacobians, velocities)[0], rtol=0, atol=1e-12)
 
 
 def test_gradient_projection_at_the_acceleration_level(planar3, rng):

@@ -13,7 +13,15 @@ name                    method (equations of the paper)
 """
 
 from .base import VelocityResolver
-from .criteria import CallableCriterion, Criterion, JointLimits, Manipulability, criterion_from, manipulability
+from .criteria import (
+    CallableCriterion,
+    Criterion,
+    JointLimits,
+    Manipulability,
+    PostureDistance,
+    criterion_from,
+    manipulability,
+)
 from .extended_jacobian import ExtendedJacobian, null_vector, null_vector_derivative
 from .gradient_projection import GradientProjection
 from .obstacle_avoidance import ObstacleAvoidance
@@ -31,6 +39,7 @@ __all__ = [
     "Criterion",
     "JointLimits",
     "Manipulability",
+    "PostureDistance",
     "CallableCriterion",
     "criterion_from",
     "manipulability",

@@ -26,7 +26,15 @@ from ...errors import InvalidInput
 from ...tasks import FrameTask, Kinematics
 from ...tasks.task import identity
 
-__all__ = ["Criterion", "JointLimits", "Manipulability", "CallableCriterion", "criterion_from", "CRITERIA"]
+__all__ = [
+    "Criterion",
+    "JointLimits",
+    "PostureDistance",
+    "Manipulability",
+    "CallableCriterion",
+    "criterion_from",
+    "CRITERIA",
+]
 
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
@@ -149,6 +157,34 @@ class JointLimits(Criterion):
         rate = np.zeros(kinematics.nv)
         rate[joints.v_index] = joints.curvature * v[joints.v_index]
         return rate
+
+
+class PostureDistance(Criterion):
+    r""":math:`p = \tfrac12\|e\|^2` of a posture task's error :math:`e = q^* - q` (joint angles, [rad, m]), whose
+    Jacobian is the identity: :math:`\partial p/\partial q = -e`, :math:`\nabla^2 p = I`.
+
+    Gradient projection, Eq. (4), with this p and the posture's gain is task priority, Eq. (11), with the
+    posture below the robot's task (:class:`~torqueopt.resolvers.velocity.TaskPriority`).
+    """
+
+    name = "posture"
+    has_curvature = True
+
+    def __init__(self, posture):
+        self.posture = posture
+
+    def value(self, kinematics, task=None) -> float:
+        error = self.posture.error(kinematics)
+        return 0.5 * float(error.dot(error))
+
+    def gradient(self, kinematics, task=None) -> np.ndarray:
+        return -self.posture.error(kinematics)
+
+    def hessian(self, kinematics, task=None) -> np.ndarray:
+        return np.eye(kinematics.nv)
+
+    def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
+        return v
 
 
 class Manipulability(Criterion):

@@ -8,11 +8,18 @@ from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
-from .criteria import JointLimits, criterion_from
+from .criteria import Criterion, JointLimits, criterion_from
 from .options import criterion_spec
 from .pseudoinverse import StackedPseudoInverse
 
-__all__ = ["GradientProjection", "CriterionGain", "CRITERION_OPTION", "DEFAULT_GAINS", "gain_option"]
+__all__ = [
+    "GradientProjection",
+    "projected_gradient_steps",
+    "CriterionGain",
+    "CRITERION_OPTION",
+    "DEFAULT_GAINS",
+    "gain_option",
+]
 
 #: Default gain k per named criterion, chosen on the paper's long movement
 #: (see docs/discussion/kinematic.md, "Kinematic against kinetic resolution").
@@ -115,35 +122,8 @@ class GradientProjection(CriterionGain, VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (4)'s rates and their closed-form q̈ (or None), sharing J, J⁺ and ∂p/∂q at each configuration."""
-        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
-        criterion, k = self.objective, self.gain
-
-        @PerConfiguration
-        def at_configuration(kinematics: Kinematics):
-            jacobian = task.jacobian(kinematics)
-            pseudoinverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
-            return jacobian, pseudoinverse, criterion.gradient(kinematics, task), inverse_condition
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            jacobian, pseudoinverse, gradient, inverse_condition = at_configuration(kinematics)
-            # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k
-            return pseudoinverse.dot(task_velocity) - k * (
-                gradient - pseudoinverse.dot(jacobian.dot(gradient))
-            ), inverse_condition
-
-        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            jacobian, pseudoinverse, gradient, _ = at_configuration(kinematics)
-            jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            shifted = pseudoinverse.dot(command) + k * gradient  # u + k ∂p/∂q
-            inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.curvature(
-                kinematics, task, velocity
-            )
-            # the derivative of Eq. (4) along the motion; P·inner = inner − J⁺J·inner
-            return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
-                inner - pseudoinverse.dot(jacobian.dot(inner))
-            )
-
-        return rates, None if task.kind == "pose" or not criterion.has_curvature else acceleration
+        rates, acceleration = projected_gradient_steps(robot, task, self.singular_tolerance, self.objective, self.gain)
+        return rates, None if task.kind == "pose" or not self.objective.has_curvature else acceleration
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
@@ -160,6 +140,39 @@ class GradientProjection(CriterionGain, VelocityResolver):
             joints.curvature,
             self.gain,
         )
+
+
+def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, criterion: Criterion, k: float):
+    r"""The rates of Eq. (4), :math:`\dot q = J^\dagger c - k(I - J^\dagger J)\,\partial p/\partial q`, and their
+    closed-form q̈ (:meth:`GradientProjection.acceleration_function`), sharing J, J⁺ and ∂p/∂q at each
+    configuration; J⁺ by SVD, refused (SingularJacobian) below ``tolerance`` of σmin/σmax. The q̈ needs a
+    position task and a criterion with :attr:`Criterion.has_curvature`."""
+    solver = pseudoinverse_solver(robot, tolerance, null_space=False)
+
+    @PerConfiguration
+    def at_configuration(kinematics: Kinematics):
+        jacobian = task.jacobian(kinematics)
+        pseudoinverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
+        return jacobian, pseudoinverse, criterion.gradient(kinematics, task), inverse_condition
+
+    def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+        jacobian, pseudoinverse, gradient, inverse_condition = at_configuration(kinematics)
+        # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k
+        return pseudoinverse.dot(task_velocity) - k * (
+            gradient - pseudoinverse.dot(jacobian.dot(gradient))
+        ), inverse_condition
+
+    def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+        jacobian, pseudoinverse, gradient, _ = at_configuration(kinematics)
+        jacobian_rate = task.jacobian_rate(kinematics, velocity)
+        shifted = pseudoinverse.dot(command) + k * gradient  # u + k ∂p/∂q
+        inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.curvature(kinematics, task, velocity)
+        # the derivative of Eq. (4) along the motion; P·inner = inner − J⁺J·inner
+        return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
+            inner - pseudoinverse.dot(jacobian.dot(inner))
+        )
+
+    return rates, acceleration
 
 
 class StackedGradientProjection(StackedPseudoInverse):

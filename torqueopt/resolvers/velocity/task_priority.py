@@ -17,7 +17,8 @@ from ...tasks import (
 )
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
-from .gradient_projection import StackedGradientProjection
+from .criteria import PostureDistance
+from .gradient_projection import StackedGradientProjection, projected_gradient_steps
 from .options import task_stack
 
 __all__ = ["TaskPriority"]
@@ -97,9 +98,20 @@ class TaskPriority(VelocityResolver):
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration."""
+        """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration.
+
+        Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4),
+        toward the first posture's target (:meth:`stack_rate_function` says why), and runs as such
+        (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two.
+        """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
+        if damping == 0.0 and all(isinstance(lower, PostureTask) for lower in secondary):
+            posture = secondary.tasks[0]
+            rates, acceleration = projected_gradient_steps(
+                robot, task, self.singular_tolerance, PostureDistance(posture), posture.gain
+            )
+            return rates, None if task.kind == "pose" else acceleration
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
 
         @PerConfiguration
@@ -141,7 +153,7 @@ class TaskPriority(VelocityResolver):
         Below the robot's task, a posture task (:math:`J_l = I`, :math:`\dot x_l = k(q^* - q)`) acts through
         :math:`[I(I - J^\dagger J)]^\dagger = I - J^\dagger J` (an orthogonal projector is its own pseudoinverse),
         so Eq. (11) is :math:`\dot q = J^\dagger\dot x + k(I - J^\dagger J)(q^* - q)`: gradient projection,
-        Eq. (4), with :math:`p = \tfrac12\|q - q^*\|^2` and gain k (:class:`StackedGradientProjection`). It
+        Eq. (4), with :math:`p = \tfrac12\|q - q^*\|^2` and gain k (``StackedGradientProjection``). It
         leaves no freedom, so every task below the first posture adds nothing.
         """
         secondary = self.stack
