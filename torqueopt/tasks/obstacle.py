@@ -18,6 +18,7 @@ with a speed :math:`v_o` [m/s].
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -69,7 +70,7 @@ class ObstacleTask(Task):
         self.speed = non_negative_number(speed, "obstacle speed", "m/s")
         self.frame = frame
         self._chain_key = None
-        self._chain: list[tuple[int, int | None]] = []
+        self._chain: tuple[list[int], int] = ([], 0)
         super().__init__(None, 1.0)
 
     @classmethod
@@ -91,42 +92,38 @@ class ObstacleTask(Task):
         check_frame(robot.model, self.frame or robot.frame, robot.name)
 
     def _segments(self, kinematics: Kinematics):
-        """(joint id, next joint id or None for the end frame) along the chain, built once per model."""
+        """(the chain's joint ids from the base, the end frame's id), built once per model: segment i runs from
+        joint i's origin to joint i + 1's, the last to the end frame's origin."""
         model = kinematics.model
         key = id(model)
         if self._chain_key != key:
             frame_id = model.getFrameId(self.frame or kinematics.robot.frame)
-            self._end_frame = frame_id
-            joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0]
-            self._chain = [(j, joints[i + 1] if i + 1 < len(joints) else None) for i, j in enumerate(joints)]
+            self._chain = ([j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0], frame_id)
             self._chain_key = key
         return self._chain
 
     def closest_point(self, kinematics: Kinematics) -> ClosestPoint:
         """The closest point of the arm's segments to the obstacle, with its clearance [m]."""
-        best = None
-        for index, (joint, following) in enumerate(self._segments(kinematics)):
-            start = kinematics.data.oMi[joint].translation
-            end = (
-                kinematics.data.oMf[self._end_frame].translation
-                if following is None
-                else kinematics.data.oMi[following].translation
-            )
-            axis = end - start
+        joints, end_frame = self._segments(kinematics)
+        # each origin read once from Pinocchio's data (a segment's end is the next one's start)
+        origins = [kinematics.data.oMi[joint].translation for joint in joints]
+        origins.append(kinematics.data.oMf[end_frame].translation)
+        center, best = self.center, None
+        for index, joint in enumerate(joints):
+            start = origins[index]
+            axis = origins[index + 1] - start
             length_squared = float(axis.dot(axis))
             fraction = (
-                0.0
-                if length_squared == 0.0
-                else min(1.0, max(0.0, float((self.center - start).dot(axis)) / length_squared))
+                0.0 if length_squared == 0.0 else min(1.0, max(0.0, float((center - start).dot(axis)) / length_squared))
             )
             point = start + fraction * axis
-            distance = float(np.linalg.norm(point - self.center))
+            offset = point - center
+            distance = math.sqrt(offset.dot(offset))  # what np.linalg.norm computes, without its wrapper
             if best is None or distance < best[0]:
-                best = (distance, point, joint, index)
-        distance, point, joint, index = best
-        offset = point - self.center
+                best = (distance, point, offset, joint, index)
+        distance, point, offset, joint, index = best
         normal = offset / distance if distance > 0 else np.array([1.0, 0.0, 0.0])
-        return ClosestPoint(point.copy(), normal, distance - self.radius, joint, index)
+        return ClosestPoint(point, normal, distance - self.radius, joint, index)
 
     def clearance(self, kinematics: Kinematics) -> float:
         """Distance from the arm to the obstacle's surface [m]."""
