@@ -82,6 +82,8 @@ class _LimitedJoints(NamedTuple):
     half_range: np.ndarray
     #: 2 / half range², the diagonal of ∂²p/∂q² [1/rad²].
     curvature: np.ndarray
+    #: ∂²p/∂q² (n×n, read-only): constant.
+    hessian: np.ndarray
     #: Every joint has a term and its q coordinate is its v coordinate: the gradient needs no scatter.
     every_joint: bool
 
@@ -109,9 +111,13 @@ class JointLimits(Criterion):
                 half_range.append(0.5 * (high - low))
             index = np.array(index, dtype=int).reshape(-1, 2)
             half_range = np.array(half_range)
+            curvature = 2.0 / half_range**2
+            hessian = np.zeros((model.nv, model.nv))
+            hessian[index[:, 1], index[:, 1]] = curvature
+            hessian.setflags(write=False)
             every = np.arange(model.nv)
             self._joints = _LimitedJoints(
-                index[:, 0], index[:, 1], np.array(middle), half_range, 2.0 / half_range**2,
+                index[:, 0], index[:, 1], np.array(middle), half_range, curvature, hessian,
                 model.nq == model.nv and np.array_equal(index[:, 0], every) and np.array_equal(index[:, 1], every),
             )  # fmt: skip
             self._key = id(model)
@@ -142,12 +148,7 @@ class JointLimits(Criterion):
     has_curvature = True
 
     def hessian(self, kinematics, task=None) -> np.ndarray:
-        joints = self._limits(kinematics.model)
-        if joints.every_joint:
-            return np.diag(joints.curvature)
-        hessian = np.zeros((kinematics.nv, kinematics.nv))
-        hessian[joints.v_index, joints.v_index] = joints.curvature
-        return hessian
+        return self._limits(kinematics.model).hessian
 
     def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
         r""":math:`\nabla^2 p\,v`, the diagonal Hessian of Eq. (5) times v."""

@@ -50,6 +50,14 @@ def _alternating_signs(n: int) -> np.ndarray:
     return signs
 
 
+@cache
+def _checkerboard_signs(m: int) -> np.ndarray:
+    """(−1)^(r + c) for r, c < m (built once per m, read-only)."""
+    signs = np.outer(_alternating_signs(m), _alternating_signs(m))
+    signs.setflags(write=False)
+    return signs
+
+
 def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
     r""":math:`\partial n_i / \partial q_k` (n×n) of :func:`null_vector`, from :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
 
@@ -61,9 +69,7 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     columns, others = _minor_columns(n), _minor_columns(m)
     minors = jacobian[:, columns].transpose(1, 0, 2)  # (n, m, m): minor i is J without column i
     # (n, m, m): the cofactors of each minor, from its (m − 1)×(m − 1) minors
-    cofactors = np.outer(_alternating_signs(m), _alternating_signs(m)) * determinants(
-        minors[:, others[:, None, :, None], others[None, :, None, :]]
-    )
+    cofactors = _checkerboard_signs(m) * determinants(minors[:, others[:, None, :, None], others[None, :, None, :]])
     minor_derivatives = derivative[:, columns, :].transpose(1, 0, 2, 3).reshape(n, m * m, n)  # [i, (r, c), k]
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
