@@ -329,11 +329,13 @@ def test_task_priority_on_stacks_equals_the_kinematic_loop_on_panda(panda, optio
 
 
 def test_task_priority_with_a_frame_task_or_damping_runs_one_movement_at_a_time(planar3):
-    """A frame task below the tip needs its own frame's Jacobian, and damping the damped inverses' derivative:
-    no stacked form; the batch takes them through the kinematic loop, equal to simulate."""
+    """A frame task below the tip needs its own frame's Jacobian, damping the damped inverses' derivative, and
+    continuous joints a posture in joint angles: no stacked form; the batch takes them through the kinematic loop, equal to simulate."""
     elbow = torqueopt.get_resolver("task-priority", secondary=FrameTask("link3", "xy", target=[0.5, -0.5]))
     damped = torqueopt.get_resolver("task-priority", damping=0.1)
     assert elbow.stack_rate_function(planar3) is None and damped.stack_rate_function(planar3) is None
+    # kinova's continuous joints (nq = 9, nv = 6): its configuration is not its joint angles plus a constant
+    assert torqueopt.get_resolver("task-priority").stack_rate_function(torqueopt.load_robot("kinova")) is None
     q0s, directions = _population(planar3, 2, seed=5)
     lines = [StraightLine(d, duration=0.3) for d in directions]
     for resolver in (elbow, damped):

@@ -158,7 +158,8 @@ class TaskPriority(VelocityResolver):
         """
         secondary = self.stack
         postures_only = all(isinstance(lower, PostureTask) for lower in secondary)
-        if robot.task == "pose" or self.damping != 0.0 or not postures_only:
+        # on stacks the configuration is the joint angles plus the neutral one (every joint adds: robot.euclidean)
+        if robot.task == "pose" or not robot.euclidean or self.damping != 0.0 or not postures_only:
             return None
         secondary.check(robot)
         posture = secondary.tasks[0]
