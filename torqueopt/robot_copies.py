@@ -129,6 +129,14 @@ class RobotForest:
             return rows.reshape(-1)
         return np.concatenate([rows.reshape(-1), np.tile(rows[0], self.copies - rows.shape[0])])
 
+    def _each_pass(self, *stacks: np.ndarray):
+        """For every forest pass the rows of the (S, ...) ``stacks`` take: the pass and each stack's forest vector."""
+        copies = self.copies
+        stacks = tuple(np.ascontiguousarray(stack) for stack in stacks)
+        for index, forest_pass in enumerate(self._passes(stacks[0].shape[0])):
+            rows = slice(index * copies, (index + 1) * copies)
+            yield (forest_pass, *(self._padded(stack[rows]) for stack in stacks))
+
     def terms(self, q: np.ndarray, v: np.ndarray):
         r"""The task terms of every row: ``(H, b, J, J̇q̇, p)`` as (S, n, n), (S, n), (S, 6, n), (S, 6), (S, 3).
 
@@ -136,25 +144,17 @@ class RobotForest:
         Jacobian :math:`J` and classical-acceleration drift :math:`\dot J\dot q`
         (Eq. (18)) in LOCAL_WORLD_ALIGNED, linear rows first; its position p.
         """
-        count = q.shape[0]
-        model, copies = self.model, self.copies
-        q, v = np.ascontiguousarray(q), np.ascontiguousarray(v)
-        used = self._passes(count)
-        for index, forest_pass in enumerate(used):
-            rows = slice(index * copies, (index + 1) * copies)
-            q_forest, v_forest = self._padded(q[rows]), self._padded(v[rows])
+        count, model = q.shape[0], self.model
+        for forest_pass, q_forest, v_forest in self._each_pass(q, v):
             data = forest_pass.data
             pin.crba(model, data, q_forest, pin.Convention.LOCAL)  # WORLD, the default, costs the same here
             pin.nonLinearEffects(model, data, q_forest, v_forest)
             pin.computeJointJacobiansTimeVariation(model, data, q_forest, v_forest)
             pin.updateFramePlacements(model, data)
-        inertia = np.concatenate([forest_pass.inertia for forest_pass in used])[:count]
-        bias = np.concatenate([forest_pass.bias for forest_pass in used])[:count]
-        world = np.concatenate([forest_pass.jacobian for forest_pass in used])[:count]
-        world_rate = np.concatenate([forest_pass.jacobian_rate for forest_pass in used])[:count]
-        tip = np.array(
-            [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
-        )[:count]
+        used = self._passes(count)
+        inertia, bias = _gathered(used, "inertia", count), _gathered(used, "bias", count)
+        world, world_rate = _gathered(used, "jacobian", count), _gathered(used, "jacobian_rate", count)
+        tip = _tip_positions(used, count)
         if self._mask is not None:
             world *= self._mask
             world_rate *= self._mask
@@ -170,24 +170,19 @@ class RobotForest:
         The point's :math:`\dot J` is the rate of its :math:`J = J_v + J_\omega\times p`:
         :math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot p = J\dot q`.
         """
-        count = q.shape[0]
-        model, copies = self.model, self.copies
-        q = np.ascontiguousarray(q)
-        used = self._passes(count)
-        for index, forest_pass in enumerate(used):
-            rows = slice(index * copies, (index + 1) * copies)
-            q_forest = self._padded(q[rows])
+        count, model = q.shape[0], self.model
+        stacks = (q,) if v is None else (q, v)
+        for forest_pass, q_forest, *v_forest in self._each_pass(*stacks):
             if v is None:
                 pin.computeJointJacobians(model, forest_pass.data, q_forest)
             else:
-                pin.computeJointJacobiansTimeVariation(model, forest_pass.data, q_forest, self._padded(v[rows]))
+                pin.computeJointJacobiansTimeVariation(model, forest_pass.data, q_forest, v_forest[0])
             if tip is None:
                 pin.updateFramePlacements(model, forest_pass.data)
-        world = np.concatenate([forest_pass.jacobian for forest_pass in used])[:count]
+        used = self._passes(count)
+        world = _gathered(used, "jacobian", count)
         if tip is None:
-            tip = np.array(
-                [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
-            )[:count]
+            tip = _tip_positions(used, count)
         if self._mask is not None:
             world *= self._mask
         jacobian = world
@@ -195,7 +190,7 @@ class RobotForest:
         jacobian[:, :3] += stacked_cross(angular, tip[:, :, None])
         if v is None:
             return jacobian, None, tip
-        rate = np.concatenate([forest_pass.jacobian_rate for forest_pass in used])[:count]
+        rate = _gathered(used, "jacobian_rate", count)
         if self._mask is not None:
             rate *= self._mask
         tip_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
@@ -212,53 +207,48 @@ class RobotForest:
     def inertia(self, q: np.ndarray) -> np.ndarray:
         r""":math:`H` of every row, (S, n, n) [kg·m²]: CRBA once per forest pass, nothing else (what the kinetic and
         self-motion energies of a velocity-level stack need beside the J it has)."""
-        copies = self.copies
-        used = self._passes(q.shape[0])
-        for index, forest_pass in enumerate(used):
-            rows = slice(index * copies, (index + 1) * copies)
-            pin.crba(self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])), pin.Convention.LOCAL)
-        return np.concatenate([forest_pass.inertia for forest_pass in used])[: q.shape[0]]
+        for forest_pass, q_forest in self._each_pass(q):
+            pin.crba(self.model, forest_pass.data, q_forest, pin.Convention.LOCAL)
+        return _gathered(self._passes(q.shape[0]), "inertia", q.shape[0])
 
     def inverse_inertia(self, q: np.ndarray) -> np.ndarray:
         r""":math:`H^{-1}` of every row, (S, n, n) [1/(kg·m²)]: Pinocchio's ``computeMinverse`` once per forest pass
         (the inverse of a block-diagonal H is its blocks' inverses); each block's lower triangle is copied from
         its upper one, the part Pinocchio documents as filled."""
-        copies, lower = self.copies, np.tril_indices(self.n, -1)
-        used = self._passes(q.shape[0])
-        for index, forest_pass in enumerate(used):
-            rows = slice(index * copies, (index + 1) * copies)
-            pin.computeMinverse(self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])))
-        inverse = np.concatenate([forest_pass.inverse_inertia for forest_pass in used])[: q.shape[0]]
+        lower = np.tril_indices(self.n, -1)
+        for forest_pass, q_forest in self._each_pass(q):
+            pin.computeMinverse(self.model, forest_pass.data, q_forest)
+        inverse = _gathered(self._passes(q.shape[0]), "inverse_inertia", q.shape[0])
         inverse[:, lower[0], lower[1]] = inverse[:, lower[1], lower[0]]
         return inverse
 
     def inertia_rate_times(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         r""":math:`\dot H v` of every row moving at v, (S, n) [N·m]: :math:`(C + C^\top)v` with Pinocchio's Coriolis
         matrix (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew), once per forest pass."""
-        copies = self.copies
-        used = self._passes(q.shape[0])
-        for index, forest_pass in enumerate(used):
-            rows = slice(index * copies, (index + 1) * copies)
-            pin.computeCoriolisMatrix(
-                self.model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])),
-                self._padded(np.ascontiguousarray(v[rows])),
-            )  # fmt: skip
-        coriolis = np.concatenate([forest_pass.coriolis for forest_pass in used])[: q.shape[0]]
+        for forest_pass, q_forest, v_forest in self._each_pass(q, v):
+            pin.computeCoriolisMatrix(self.model, forest_pass.data, q_forest, v_forest)
+        coriolis = _gathered(self._passes(q.shape[0]), "coriolis", q.shape[0])
         return np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
 
     def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""
-        count = q.shape[0]
-        model, copies, n = self.model, self.copies, self.n
-        torques = []
-        for index, forest_pass in enumerate(self._passes(count)):
-            rows = slice(index * copies, (index + 1) * copies)
-            tau = pin.rnea(
-                model, forest_pass.data, self._padded(np.ascontiguousarray(q[rows])),
-                self._padded(np.ascontiguousarray(v[rows])), self._padded(np.ascontiguousarray(acceleration[rows])),
-            )  # fmt: skip
-            torques.append(tau.reshape(copies, n))
-        return np.concatenate(torques)[:count]
+        torques = [
+            pin.rnea(self.model, forest_pass.data, q_forest, v_forest, acceleration_forest).reshape(self.copies, self.n)
+            for forest_pass, q_forest, v_forest, acceleration_forest in self._each_pass(q, v, acceleration)
+        ]
+        return np.concatenate(torques)[: q.shape[0]]
+
+
+def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:
+    """The passes' views ``name`` (a _Pass field) joined into one (count, ...) stack, a fresh array."""
+    return np.concatenate([getattr(forest_pass, name) for forest_pass in used])[:count]
+
+
+def _tip_positions(used: list[_Pass], count: int) -> np.ndarray:
+    """The task frame's position (count, 3) [m] of every copy, read from the passes' frame placements."""
+    return np.array(
+        [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
+    )[:count]
 
 
 def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
