@@ -97,6 +97,11 @@ class TaskPriority(VelocityResolver):
         """
         return self.step_functions(robot, task)[1]
 
+    @property
+    def _below_postures_only(self) -> bool:
+        """Posture tasks alone below the robot's task, without damping: Eq. (11) is then gradient projection."""
+        return self.damping == 0.0 and all(isinstance(lower, PostureTask) for lower in self.stack)
+
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration.
 
@@ -106,7 +111,7 @@ class TaskPriority(VelocityResolver):
         """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
-        if damping == 0.0 and all(isinstance(lower, PostureTask) for lower in secondary):
+        if self._below_postures_only:
             posture = secondary.tasks[0]
             rates, acceleration = projected_gradient_steps(
                 robot, task, self.singular_tolerance, PostureDistance(posture), posture.gain
@@ -157,9 +162,8 @@ class TaskPriority(VelocityResolver):
         leaves no freedom, so every task below the first posture adds nothing.
         """
         secondary = self.stack
-        postures_only = all(isinstance(lower, PostureTask) for lower in secondary)
         # on stacks the configuration is the joint angles plus the neutral one (every joint adds: robot.euclidean)
-        if robot.task == "pose" or not robot.euclidean or self.damping != 0.0 or not postures_only:
+        if robot.task == "pose" or not robot.euclidean or not self._below_postures_only:
             return None
         secondary.check(robot)
         posture = secondary.tasks[0]
