@@ -75,7 +75,7 @@ def _forest_model(robot: Robot, copies: int) -> pin.Model:
 class _Pass:
     """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
 
-    __slots__ = ("bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "placements")
+    __slots__ = ("bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "tips")
 
     def __init__(self, forest: pin.Model, copies: int, n: int):
         self.data = data = forest.createData()
@@ -90,7 +90,7 @@ class _Pass:
         self.bias = data.nle.reshape(n, copies, order="F").T
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
-        self.placements = data.oMf
+        self.tips = _translations(data.oMf, copies)
 
 
 class RobotForest:
@@ -245,10 +245,26 @@ def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:
 
 
 def _tip_positions(used: list[_Pass], count: int) -> np.ndarray:
-    """The task frame's position (count, 3) [m] of every copy, read from the passes' frame placements."""
-    return np.array(
-        [placement.translation for forest_pass in used for placement in forest_pass.placements.tolist()[1:]]
-    )[:count]
+    """The task frame's position (count, 3) [m] of every copy, from the passes' views of their frame placements."""
+    return _gathered(used, "tips", count)
+
+
+def _translations(placements, copies: int) -> np.ndarray:
+    """A read-only (copies, 3) view of the translations of frames 1..copies of ``placements`` (a data's ``oMf``).
+
+    eigenpy returns each ``SE3.translation`` as a view into the placement's own memory, and the placements
+    of a data are one contiguous vector that Pinocchio never reallocates; so one strided view reads every
+    copy's tip where reading them one by one costs about 4,900 instructions a copy (boost.python and
+    eigenpy, BENCHMARKS.md). The layout is checked here, at the data's creation, not assumed.
+    """
+    first = placements[1].translation
+    address = first.__array_interface__["data"][0]
+    stride = placements[2].translation.__array_interface__["data"][0] - address if copies > 1 else 0
+    view = np.lib.stride_tricks.as_strided(first, shape=(copies, 3), strides=(stride, 8), writeable=False)
+    for copy in (0, copies - 1):
+        if view[copy].__array_interface__["data"][0] != placements[1 + copy].translation.__array_interface__["data"][0]:
+            raise RuntimeError("Pinocchio's frame placements are not one evenly strided vector: cannot view them")
+    return view
 
 
 def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
