@@ -74,6 +74,35 @@ def test_wilson_interval_by_scipy_is_the_closed_form_score_interval():
     )
 
 
+def test_scipy_stats_imported_meanwhile_is_the_one_the_intervals_use():
+    """The report's SciPy import, started on a thread while the workers compute, loads scipy.stats once and
+    the intervals read it (checked in a fresh interpreter, where nothing imported it before)."""
+    code = (
+        "import sys, threading\n"
+        "from torqueopt.atlas.stats import import_scipy_stats_meanwhile, wilson_interval\n"
+        "assert 'scipy.stats' not in sys.modules\n"
+        "import_scipy_stats_meanwhile()\n"
+        "[t.join() for t in threading.enumerate() if t.name == 'import scipy.stats']\n"
+        "imported = 'scipy.stats' in sys.modules\n"
+        "low, high = wilson_interval(0, 10)\n"
+        "print(imported, round(high, 7))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "0.2775328"]
+
+
+def test_the_reach_is_sampled_once_per_robot_and_handed_out_as_a_copy(panda):
+    base, reach = arm_reach(panda, samples=64)
+    base[:] = 99.0
+    again, reach_again = arm_reach(panda, samples=64)
+    assert reach_again == reach and not np.allclose(again, 99.0)
+    data = panda.model.createData()
+    for q in np.random.default_rng(3).uniform(panda.model.lowerPositionLimit, panda.model.upperPositionLimit, (64, 7)):
+        pin.framesForwardKinematics(panda.model, data, q)
+        assert np.linalg.norm(data.oMf[panda.frame_id].translation - again) < 1.3 * reach
+
+
 def test_wilson_interval_known_values():
     # 0 of 10: upper end z²/(n + z²) = 0.27753; 5 of 10: 0.5 ± 0.26342 (Wilson 1927 / Agresti & Coull 1998 tables).
     assert wilson_interval(0, 10) == pytest.approx((0.0, 0.2775328), abs=1e-6)

@@ -80,7 +80,7 @@ from .global_optimum import (
 from .global_optimum import settings as global_settings
 from .margins import DEFAULT_MARGIN_EVERY, MARGIN_STEP_EQUIVALENT
 from .population import Movement, PopulationSpec, arm_reach, draw_population, grid_start_points
-from .stats import claims, proportion, unstable_fractions, wilson_interval
+from .stats import claims, import_scipy_stats_meanwhile, proportion, unstable_fractions, wilson_interval
 from .sweep import (
     RobotSpec,
     config_digest,
@@ -349,6 +349,8 @@ def run_atlas(
         )
     # The scheduler is reached (or the cluster started) before the first file is written.
     with executor(scheduler, workers, progress) if jobs else contextlib.nullcontext() as client:
+        if client is not None:  # this process waits on the workers: it loads what the report needs meanwhile
+            import_scipy_stats_meanwhile()
         if not resume:
             _claim_folder(out, config)
         remove_partial_chunks(out)

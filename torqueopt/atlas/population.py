@@ -76,6 +76,7 @@ moving joint) to the task frame over 4096 seeded random configurations
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -240,7 +241,22 @@ def path_length(accel: float, duration: float) -> float:
 
 
 def arm_reach(robot: Robot, samples: int = 4096) -> tuple[np.ndarray, float]:
-    """(base point, reach) [m]: the first moving joint's origin and the farthest the task frame gets from it."""
+    """(base point, reach) [m]: the first moving joint's origin and the farthest the task frame gets from it.
+
+    Computed once per robot and sample count (a Robot is immutable): 4,096 forward kinematics.
+    """
+    cached = _REACHES.setdefault(robot, {})
+    if samples not in cached:
+        cached[samples] = _sampled_reach(robot, samples)
+    base, reach = cached[samples]
+    return base.copy(), reach
+
+
+# (base point, reach) per robot and sample count.
+_REACHES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _sampled_reach(robot: Robot, samples: int) -> tuple[np.ndarray, float]:
     model, data = robot.model, robot.model.createData()
     rng = np.random.default_rng(12345)
     base_joint = next(j for j in range(1, model.njoints) if model.joints[j].nv > 0)
@@ -248,14 +264,14 @@ def arm_reach(robot: Robot, samples: int = 4096) -> tuple[np.ndarray, float]:
     dimension = min(robot.m, 3)
     pin.framesForwardKinematics(model, data, robot.configuration(np.zeros(robot.nv)))
     base = data.oMi[base_joint].translation[:dimension].copy()
+    if robot.name == "planar3" and robot.task == "xy":
+        return base, 3.0  # three 1 m links: a sampled value would approach it from below
     reach = 0.0
     for _ in range(samples):
         q = robot.configuration(rng.uniform(low, high))
         pin.framesForwardKinematics(model, data, q)
         reach = max(reach, float(np.linalg.norm(data.oMf[robot.frame_id].translation[:dimension] - base)))
-    if robot.name == "planar3" and robot.task == "xy":
-        reach = 3.0  # three 1 m links: the sampled value approaches it from below
-    return base, reach
+    return base.copy(), reach
 
 
 def draw_population(robot: Robot, spec: PopulationSpec, progress: bool = False) -> list[Movement]:
