@@ -123,19 +123,19 @@ class RobotForest:
                 mask[model.idx_vs[joint] : model.idx_vs[joint] + model.nvs[joint]] = 1.0
         self._mask = None if mask.all() else mask
 
-    def _padded(self, rows: np.ndarray) -> np.ndarray:
-        """The forest vector of (s, n) ``rows``, s ≤ copies: a view when s = copies, else padded with the first row."""
-        if rows.shape[0] == self.copies:
-            return rows.reshape(-1)
-        return np.concatenate([rows.reshape(-1), np.tile(rows[0], self.copies - rows.shape[0])])
+    def _forest_vectors(self, stack: np.ndarray, passes: int) -> np.ndarray:
+        """The (passes, copies·n) forest vectors of an (S, n) ``stack``: one reshape when S fills the passes, else
+        the last pass padded with its own first row (the unused trees compute a state nobody reads)."""
+        stack = np.ascontiguousarray(stack)
+        missing = passes * self.copies - stack.shape[0]
+        if missing:
+            stack = np.concatenate([stack, np.repeat(stack[-(self.copies - missing)][None], missing, axis=0)])
+        return stack.reshape(passes, -1)
 
     def _each_pass(self, *stacks: np.ndarray):
         """For every forest pass the rows of the (S, ...) ``stacks`` take: the pass and each stack's forest vector."""
-        copies = self.copies
-        stacks = tuple(np.ascontiguousarray(stack) for stack in stacks)
-        for index, forest_pass in enumerate(self._passes(stacks[0].shape[0])):
-            rows = slice(index * copies, (index + 1) * copies)
-            yield (forest_pass, *(self._padded(stack[rows]) for stack in stacks))
+        used = self._passes(stacks[0].shape[0])
+        return zip(used, *(self._forest_vectors(stack, len(used)) for stack in stacks))
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         r"""The task terms of every row: ``(H, b, J, J̇q̇, p)`` as (S, n, n), (S, n), (S, 6, n), (S, 6), (S, 3).
