@@ -213,14 +213,12 @@ class RobotForest:
 
     def inverse_inertia(self, q: np.ndarray) -> np.ndarray:
         r""":math:`H^{-1}` of every row, (S, n, n) [1/(kg·m²)]: Pinocchio's ``computeMinverse`` once per forest pass
-        (the inverse of a block-diagonal H is its blocks' inverses); each block's lower triangle is copied from
-        its upper one, the part Pinocchio documents as filled."""
-        lower = np.tril_indices(self.n, -1)
+        (the inverse of a block-diagonal H is its blocks' inverses). The C++ function fills the upper triangle;
+        the Python binding copies it into the lower one of the data's own matrix before it returns a copy, so
+        the blocks read here are whole (tests/test_robot_copies.py holds them to each robot's inverse)."""
         for forest_pass, q_forest in self._each_pass(q):
             pin.computeMinverse(self.model, forest_pass.data, q_forest)
-        inverse = _gathered(self._passes(q.shape[0]), "inverse_inertia", q.shape[0])
-        inverse[:, lower[0], lower[1]] = inverse[:, lower[1], lower[0]]
-        return inverse
+        return _gathered(self._passes(q.shape[0]), "inverse_inertia", q.shape[0])
 
     def inertia_rate_times(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         r""":math:`\dot H v` of every row moving at v, (S, n) [N·m]: :math:`(C + C^\top)v` with Pinocchio's Coriolis
