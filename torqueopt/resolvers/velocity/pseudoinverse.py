@@ -119,40 +119,43 @@ class StackedPseudoInverse:
         J⁺c depends on q only through J: ``configuration`` is not read."""
         jacobian_t = np.swapaxes(jacobian, 1, 2)
         gram = jacobian @ jacobian_t
+        conditions, failures, determinant = self.conditions(gram)
         if gram.shape[1] == 2:
-            return self._two_rows(jacobian_t, gram, command)
-        # σ² of J are the eigenvalues of JJᵀ (relative error ε/(σmin/σmax)², far below what the cutoff decides)
-        squared = np.linalg.eigvalsh(gram)
-        conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
-        failures = singular_rows(conditions, self.tolerance)
-        if failures:
-            gram[list(failures)] = np.eye(gram.shape[1])
-        pseudoinverse = jacobian_t @ np.linalg.inv(gram)  # Eq. (3)
+            # G⁻¹ in closed form on the batch axis (no LAPACK call per row), G = ((a, b), (b, d))
+            inverse = np.empty_like(gram)
+            inverse[:, 0, 0], inverse[:, 1, 1] = gram[:, 1, 1], gram[:, 0, 0]
+            inverse[:, 0, 1] = inverse[:, 1, 0] = -gram[:, 0, 1]
+            if failures:
+                rows = list(failures)
+                inverse[rows], determinant[rows] = np.eye(2), 1.0
+            pseudoinverse = jacobian_t @ (inverse / determinant[:, None, None])  # Eq. (3)
+        else:
+            if failures:
+                gram[list(failures)] = np.eye(gram.shape[1])
+            pseudoinverse = jacobian_t @ np.linalg.inv(gram)  # Eq. (3)
         return np.einsum("bij,bj->bi", pseudoinverse, command), conditions, failures, pseudoinverse
 
-    def _two_rows(self, jacobian_t: np.ndarray, gram: np.ndarray, command: np.ndarray):
-        r""":meth:`rates` for two task rows, :math:`G = JJ^\top` in closed form on the batch axis (no LAPACK call per row).
+    def conditions(self, gram: np.ndarray):
+        r"""σmin/σmax of J per row from :math:`G = JJ^\top` (B, m, m), the singular rows, and det G for two rows.
 
-        With :math:`G = \begin{pmatrix} a & b\\ b & d\end{pmatrix}`: :math:`\lambda_{max} = \tfrac{a+d}2 + \sqrt{(\tfrac{a-d}2)^2 + b^2}`
-        (σ²_max of J), :math:`\lambda_{min} = \det G/\lambda_{max}` (no cancellation beyond that of
-        :math:`\det G = ad - b^2`, the same relative error ε/(σmin/σmax)² as the eigenvalues by LAPACK), and
-        :math:`G^{-1} = \begin{pmatrix} d & -b\\ -b & a\end{pmatrix}/\det G`.
+        σ² of J are the eigenvalues of G (relative error ε/(σmin/σmax)², far below what the cutoff decides).
+        For two rows, with :math:`G = \begin{pmatrix} a & b\\ b & d\end{pmatrix}`, in closed form on the batch
+        axis: :math:`\lambda_{max} = \tfrac{a+d}2 + \sqrt{(\tfrac{a-d}2)^2 + b^2}`,
+        :math:`\lambda_{min} = \det G/\lambda_{max}` (no cancellation beyond that of :math:`\det G = ad - b^2`, the
+        same relative error as the eigenvalues by LAPACK); more rows by LAPACK (det G is then None).
         """
-        a, b, d = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
-        half_difference = 0.5 * (a - d)
-        largest = 0.5 * (a + d) + np.sqrt(half_difference * half_difference + b * b)
-        determinant = a * d - b * b
-        safe = np.where(largest > 0.0, largest, 1.0)
-        conditions = np.where(largest > 0.0, np.sqrt(np.maximum(determinant / safe, 0.0) / safe), 0.0)
-        failures = singular_rows(conditions, self.tolerance)
-        inverse = np.empty_like(gram)
-        inverse[:, 0, 0], inverse[:, 1, 1] = d, a
-        inverse[:, 0, 1] = inverse[:, 1, 0] = -b
-        if failures:
-            rows = list(failures)
-            inverse[rows], determinant[rows] = np.eye(2), 1.0
-        pseudoinverse = jacobian_t @ (inverse / determinant[:, None, None])  # Eq. (3)
-        return np.einsum("bij,bj->bi", pseudoinverse, command), conditions, failures, pseudoinverse
+        if gram.shape[1] == 2:
+            a, b, d = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
+            half_difference = 0.5 * (a - d)
+            largest = 0.5 * (a + d) + np.sqrt(half_difference * half_difference + b * b)
+            determinant = a * d - b * b
+            safe = np.where(largest > 0.0, largest, 1.0)
+            conditions = np.where(largest > 0.0, np.sqrt(np.maximum(determinant / safe, 0.0) / safe), 0.0)
+        else:
+            squared = np.linalg.eigvalsh(gram)
+            conditions = inverse_condition_number_of(np.sqrt(np.maximum(squared[:, ::-1], 0.0)))
+            determinant = None
+        return conditions, singular_rows(conditions, self.tolerance), determinant
 
     @staticmethod
     def acceleration(jacobian, jacobian_rate, velocity, command_rate, pseudoinverse) -> np.ndarray:
@@ -258,7 +261,7 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer."""
-        _, conditions, failures, _ = super().rates(jacobian, command)
+        conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
         inverse_inertia = self.forest.inverse_inertia(configuration)
         weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
         gram = jacobian @ weighted_jt  # G = JH⁻¹Jᵀ of Eq. (16)
