@@ -187,7 +187,9 @@ def test_velocity_rk4_step_equals_its_reference_step(planar3, panda):
     from torqueopt.resolvers import get_resolver
     from torqueopt.tasks import FrameTask, Kinematics
 
-    for robot in (planar3, panda):
+    kinova = torqueopt.load_robot("kinova", task="position")
+    assert not kinova.euclidean  # (cos, sin) joints: the folded stages give increments for integrate
+    for robot in (planar3, panda, kinova):
         resolver = get_resolver("velocity-pinv")
         task = FrameTask.of_robot(robot, reference_rotation=np.eye(3))
         kinematics = Kinematics(robot)
@@ -204,3 +206,16 @@ def test_velocity_rk4_step_equals_its_reference_step(planar3, panda):
             fast = integrator.step(q, f(q, 0)[0], 0)
             np.testing.assert_allclose(fast, reference, rtol=0, atol=1e-12, err_msg=robot.name)
             assert np.abs(reference - q).max() > 1e-4  # the step moved
+
+
+def test_velocity_rk4_torque_is_rnea_in_a_fresh_array(planar3):
+    """The torque a row keeps is not overwritten by the next step's: Pinocchio's RNEA returns a new array."""
+    from torqueopt.integrators import VelocityRK4
+
+    integrator = VelocityRK4(planar3, None, 1e-3)
+    q, v, acceleration = np.array([0.3, -1.1, 0.7]), np.array([1.5, -2.0, 3.0]), np.array([4.0, -2.0, 0.5])
+    torque = integrator.torque(q, v, acceleration)
+    kept = torque.copy()
+    integrator.torque(q + 0.1, -v, 2.0 * acceleration)
+    np.testing.assert_array_equal(torque, kept)
+    np.testing.assert_allclose(torque, pin.rnea(planar3.model, planar3.model.createData(), q, v, acceleration))

@@ -228,8 +228,10 @@ class KinematicMovement:
         q = kinematics.q  # the differences below move the kinematics off q
         try:
             velocity, inverse_condition = rates(kinematics, command)
-            # ∂c/∂t: ẍ_ref + K ẋ_ref
-            time_rate = self.acceleration[index] + self.gain * self.velocity[index]
+            # ∂c/∂t: ẍ_ref + K ẋ_ref (open loop, K = 0: ẍ_ref itself)
+            time_rate = self.acceleration[index]
+            if self.gain != 0.0:
+                time_rate = time_rate + self.gain * self.velocity[index]
             if self.closed_form is not None:
                 # ċ = ∂c/∂t − K J q̇ (the position feedback moves with q)
                 command_rate = (
