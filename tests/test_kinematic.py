@@ -315,6 +315,32 @@ def test_joint_limit_gradient_is_that_of_eq_5(panda, rng):
         )
 
 
+def test_scaled_gradients_are_the_gain_times_the_gradient(planar3, panda, rng):
+    """k ∂p/∂q of the joint limits (the gain joined to Eq. (5)'s constant diagonal) and of a posture's distance
+    (k(q − q*) from the configuration) against k times the readable gradient; on kinova, whose continuous
+    joints do not add, the posture takes the readable path."""
+    from torqueopt.resolvers.velocity.criteria import PostureDistance
+
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
+    kinova = torqueopt.load_robot("kinova", task="position")
+    cases = [
+        (planar3, JointLimits()),
+        (panda, JointLimits()),
+        (planar3, PostureDistance(PostureTask(gain=2.5))),
+        (panda, PostureDistance(PostureTask(target=rng.uniform(-1.0, 1.0, panda.nv), gain=0.7))),
+        (kinova, PostureDistance(PostureTask(gain=3.0))),
+    ]
+    for robot, criterion in cases:
+        if isinstance(criterion, PostureDistance):
+            criterion.posture.check(robot)
+        for gain in (0.3, 10.0, 0.3):  # a new gain, and back: nothing of the former one is kept
+            for _ in range(2):
+                kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
+                expected = gain * criterion.gradient(kinematics)
+                got = criterion.scaled_gradient(kinematics, None, gain)
+                np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-14 * np.abs(expected).max())
+
+
 def criterion_gradient_at(robot, criterion, task=None):
     return lambda x: criterion.gradient(Kinematics(robot).update(x), task)
 

@@ -48,6 +48,13 @@ def test_per_configuration_computes_once_per_update_and_per_kinematics(planar3):
     with pytest.raises(InvalidInput):
         cached(first)
     assert len(calls) == 6
+    # a call that raises forgets the value held, even for another kinematics: what the function left elsewhere
+    # (a solver's decomposition) now stands for the configuration that failed
+    cached(second.update(q))
+    with pytest.raises(InvalidInput):
+        cached(first.update(np.array([np.nan, 0.0, 0.0])))
+    cached(second)
+    assert len(calls) == 9
 
 
 def planar_points(q):

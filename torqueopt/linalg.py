@@ -78,8 +78,21 @@ class JacobianSolver:
         return svd.solve(self._identity), inverse_condition
 
     def inverse_condition(self, jacobian: np.ndarray) -> float:
-        r""":math:`\sigma_{min}/\sigma_{max}` of J alone, raising SingularJacobian as a call does."""
+        r""":math:`\sigma_{min}/\sigma_{max}` of J alone, raising SingularJacobian as a call does.
+
+        The solver keeps this decomposition of J until its next call: :meth:`solve` and
+        :meth:`decomposed_pseudoinverse` read it (a caller that caches per configuration decomposes there and
+        solves later, with one SVD per configuration)."""
         return _checked_inverse_condition(self._svd.compute(jacobian).singularValues().tolist(), self._tolerance)
+
+    def solve(self, vector: np.ndarray) -> np.ndarray:
+        r""":math:`J^\dagger r` for the J of the last :meth:`inverse_condition` (or of any call), Eq. (3)."""
+        particular = self._svd.solve(vector)
+        return particular.reshape(-1) if self._flatten else particular
+
+    def decomposed_pseudoinverse(self) -> np.ndarray:
+        r""":math:`J^\dagger` (n×m, Eq. (3)) for the J of the last :meth:`inverse_condition` (or of any call)."""
+        return self._svd.solve(self._identity)
 
 
 class PseudoInverse:

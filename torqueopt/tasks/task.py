@@ -119,7 +119,9 @@ class PerConfiguration:
 
     A velocity-level step evaluates the joint rates and then their time derivative at the same configuration;
     what both read (a pseudoinverse, a criterion's gradient, :math:`H^{-1}`) is computed by the first and
-    reused by the second. A function that raises caches nothing.
+    reused by the second. A function that raises caches nothing and forgets what it held: a value is
+    served only while the last call that computed anything was for this kinematics at this configuration
+    (so a function may leave state elsewhere, a solver's decomposition, that its value stands for).
     """
 
     def __init__(self, function):
@@ -130,6 +132,7 @@ class PerConfiguration:
 
     def __call__(self, kinematics: Kinematics):
         if kinematics.revision != self._revision or kinematics is not self._kinematics:
+            self._kinematics = None
             self._value = self.function(kinematics)
             self._kinematics, self._revision = kinematics, kinematics.revision
         return self._value

@@ -58,6 +58,10 @@ class Criterion(ABC):
     def gradient(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
         """∂p/∂q (n values)."""
 
+    def scaled_gradient(self, kinematics: Kinematics, task: FrameTask, gain: float) -> np.ndarray:
+        """k ∂p/∂q (n values) for the gain k: :meth:`gradient` times k, or a criterion's own faster form of it."""
+        return gain * self.gradient(kinematics, task)
+
     def hessian(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
         """∂²p/∂q² (n×n); needed by the extended Jacobian."""
         raise InvalidInput(
@@ -95,6 +99,7 @@ class JointLimits(Criterion):
 
     def __init__(self):
         self._key = None
+        self._scaled: tuple[float, np.ndarray] | None = None
 
     def _limits(self, model) -> _LimitedJoints:
         if self._key != id(model):
@@ -121,6 +126,7 @@ class JointLimits(Criterion):
                 model.nq == model.nv and np.array_equal(index[:, 0], every) and np.array_equal(index[:, 1], every),
             )  # fmt: skip
             self._key = id(model)
+            self._scaled = None
         return self._joints
 
     def check(self, robot) -> None:
@@ -144,6 +150,16 @@ class JointLimits(Criterion):
         gradient = np.zeros(kinematics.nv)
         gradient[joints.v_index] = joints.curvature * (kinematics.q[joints.q_index] - joints.middle)  # ∂/∂θ of Eq. (5)
         return gradient
+
+    def scaled_gradient(self, kinematics, task, gain: float) -> np.ndarray:
+        """k ∂p/∂q as (k · 2/half range²) ∘ (q − mid-range) when every joint has limits: the gain joins the
+        constant diagonal once per gain, two array operations per configuration instead of three."""
+        joints = self._limits(kinematics.model)
+        if not joints.every_joint:
+            return gain * self.gradient(kinematics, task)
+        if self._scaled is None or self._scaled[0] != gain:
+            self._scaled = (gain, gain * joints.curvature)
+        return self._scaled[1] * (kinematics.q - joints.middle)  # k ∂/∂θ of Eq. (5)
 
     has_curvature = True
 
@@ -173,6 +189,7 @@ class PostureDistance(Criterion):
 
     def __init__(self, posture):
         self.posture = posture
+        self._scaled: tuple[int, float, np.ndarray, np.ndarray] | None = None
 
     def value(self, kinematics, task=None) -> float:
         error = self.posture.error(kinematics)
@@ -180,6 +197,19 @@ class PostureDistance(Criterion):
 
     def gradient(self, kinematics, task=None) -> np.ndarray:
         return -self.posture.error(kinematics)
+
+    def scaled_gradient(self, kinematics, task, gain: float) -> np.ndarray:
+        """k ∂p/∂q = k(q − q*) straight from the configuration where every joint adds (``Robot.euclidean``:
+        the joint angles are q minus a constant), q* the target as a configuration; else k times
+        :meth:`gradient`."""
+        robot = kinematics.robot
+        if not robot.euclidean:
+            return gain * self.gradient(kinematics, task)
+        if self._scaled is None or self._scaled[:2] != (id(robot.model), gain):
+            self.posture.check(robot)
+            self._scaled = (id(robot.model), gain, np.full(robot.nv, gain), robot.configuration(self.posture.target))
+        _, _, gains, target = self._scaled
+        return gains * (kinematics.q - target)
 
     def hessian(self, kinematics, task=None) -> np.ndarray:
         return np.eye(kinematics.nv)

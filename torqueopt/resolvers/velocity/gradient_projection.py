@@ -144,33 +144,36 @@ class GradientProjection(CriterionGain, VelocityResolver):
 
 def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, criterion: Criterion, k: float):
     r"""The rates of Eq. (4), :math:`\dot q = J^\dagger c - k(I - J^\dagger J)\,\partial p/\partial q`, and their
-    closed-form q̈ (:meth:`GradientProjection.acceleration_function`), sharing J, J⁺ and ∂p/∂q at each
+    closed-form q̈ (:meth:`GradientProjection.acceleration_function`), sharing J, its SVD and k ∂p/∂q at each
     configuration; J⁺ by SVD, refused (SingularJacobian) below ``tolerance`` of σmin/σmax. The q̈ needs a
-    position task and a criterion with :attr:`Criterion.has_curvature`."""
+    position task and a criterion with :attr:`Criterion.has_curvature`.
+
+    The rates are written :math:`J^\dagger(c + Jg_k) - g_k` with :math:`g_k = k\,\partial p/\partial q`, the same
+    Eq. (4) with one product by J⁺, which the SVD applies itself: the explicit J⁺ is formed only for q̈.
+    """
     solver = pseudoinverse_solver(robot, tolerance, null_space=False)
 
     @PerConfiguration
     def at_configuration(kinematics: Kinematics):
         jacobian = task.jacobian(kinematics)
-        pseudoinverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
-        return jacobian, pseudoinverse, criterion.gradient(kinematics, task), inverse_condition
+        # Eq. (3) by SVD; the solver keeps it, and a value held here means it is still this J's
+        inverse_condition = solver.inverse_condition(jacobian)
+        return jacobian, criterion.scaled_gradient(kinematics, task, k), inverse_condition
 
     def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-        jacobian, pseudoinverse, gradient, inverse_condition = at_configuration(kinematics)
-        # Eq. (4): J⁺ẋ + (I − J⁺J) k' ∂g/∂θ with k' = −k
-        return pseudoinverse.dot(task_velocity) - k * (
-            gradient - pseudoinverse.dot(jacobian.dot(gradient))
-        ), inverse_condition
+        jacobian, scaled_gradient, inverse_condition = at_configuration(kinematics)
+        # Eq. (4) with k' = −k: J⁺ẋ − k(I − J⁺J)∂p/∂q = J⁺(ẋ + J k∂p/∂q) − k∂p/∂q
+        return solver.solve(task_velocity + jacobian.dot(scaled_gradient)) - scaled_gradient, inverse_condition
 
     def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-        jacobian, pseudoinverse, gradient, _ = at_configuration(kinematics)
+        jacobian, scaled_gradient, _ = at_configuration(kinematics)
+        pseudoinverse = solver.decomposed_pseudoinverse()  # J⁺ at this configuration, Eq. (3)
         jacobian_rate = task.jacobian_rate(kinematics, velocity)
-        shifted = pseudoinverse.dot(command) + k * gradient  # u + k ∂p/∂q
-        inner = jacobian_rate.T.dot(pseudoinverse.T.dot(shifted)) - k * criterion.curvature(kinematics, task, velocity)
-        # the derivative of Eq. (4) along the motion; P·inner = inner − J⁺J·inner
-        return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity)) + (
-            inner - pseudoinverse.dot(jacobian.dot(inner))
-        )
+        shifted = pseudoinverse.dot(command) + scaled_gradient  # u + k ∂p/∂q
+        # J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇ (row-vector products: no transposes)
+        inner = shifted.dot(pseudoinverse).dot(jacobian_rate) - k * criterion.curvature(kinematics, task, velocity)
+        # the derivative of Eq. (4) along the motion: J⁺(ċ − J̇q̇) + (I − J⁺J)·inner = J⁺(ċ − J̇q̇ − J·inner) + inner
+        return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)) + inner
 
     return rates, acceleration
 
