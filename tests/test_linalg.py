@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from torqueopt.linalg import JacobianSolver, determinants, inverse_condition_number, inverse_condition_number_of
+from torqueopt.linalg import InverseCondition, JacobianSolver, determinants, inverse_condition_number, inverse_condition_number_of
 from torqueopt.resolvers.stacks import (
     complete_qr,
     complete_qr_by_lapack,
@@ -39,6 +39,27 @@ def test_the_inverse_condition_number_is_the_ratio_of_the_known_singular_values(
     assert inverse_condition_number(np.zeros((2, 3))) == 0.0
     np.testing.assert_array_equal(inverse_condition_number(np.zeros((4, 2, 3))), 0.0)
     assert inverse_condition_number_of([4.0, 1.0]) == 0.25 and inverse_condition_number_of([0.0, 0.0]) == 0.0
+
+
+@pytest.mark.parametrize("rows, columns", [(2, 3), (3, 7), (6, 7), (2, 2)])
+def test_the_inverse_condition_without_singular_vectors_is_the_solvers_bit_for_bit(rows, columns, rng):
+    """InverseCondition (Eigen's SVD without U and V) against JacobianSolver, whose solves need them; both
+    refuse a Jacobian below the cutoff, with the same message."""
+    from torqueopt.errors import SingularJacobian
+
+    alone, solver = InverseCondition(rows, columns, 1e-6), JacobianSolver(rows, columns, 1e-6, null_space=False)
+    for _ in range(20):
+        jacobian = rng.normal(size=(rows, columns)) * rng.uniform(0.01, 10.0)
+        assert alone(jacobian) == solver.inverse_condition(jacobian)
+        expected = np.linalg.svd(jacobian, compute_uv=False)
+        assert alone(jacobian) == pytest.approx(expected[-1] / expected[0], rel=1e-12)
+    singular = rng.normal(size=(rows, columns))
+    singular[-1] = 2.0 * singular[0]
+    with pytest.raises(SingularJacobian) as refused:
+        alone(singular)
+    with pytest.raises(SingularJacobian) as refused_too:
+        solver.inverse_condition(singular)
+    assert str(refused.value) == str(refused_too.value)
 
 
 @pytest.mark.parametrize("joints", [2, 3, 7])

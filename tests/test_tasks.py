@@ -57,6 +57,25 @@ def test_per_configuration_computes_once_per_update_and_per_kinematics(planar3):
     assert len(calls) == 9
 
 
+def test_a_frame_position_is_its_placements_translation_after_every_update(planar3, panda, rng):
+    """Kinematics.frame_position reads a view of Pinocchio's frame placements kept from the first read: it follows
+    each update, and what it returned is the caller's own."""
+    pin.seed(int(rng.integers(2**31)))
+    for robot in (planar3, panda):
+        kinematics = Kinematics(robot)
+        earlier = None
+        for _ in range(3):
+            q = pin.randomConfiguration(robot.model)
+            position = kinematics.update(q).frame_position(robot.frame_id)
+            np.testing.assert_array_equal(position, robot.frame_placement(q).translation)
+            np.testing.assert_array_equal(FrameTask.of_robot(robot).value(kinematics), robot.task_position(q))
+            if earlier is not None:
+                kept = earlier.copy()
+                assert not np.array_equal(earlier, position)
+                np.testing.assert_array_equal(earlier, kept)  # not moved by the update after it
+            earlier = position
+
+
 def planar_points(q):
     """Joint origins and tip of the paper's arm (unit links), closed form."""
     angles = np.cumsum(q)

@@ -21,6 +21,7 @@ from .errors import SingularJacobian
 
 __all__ = [
     "JacobianSolver",
+    "InverseCondition",
     "LeastSquares",
     "DEFAULT_SINGULAR_TOLERANCE",
     "inverse_condition_number",
@@ -93,6 +94,20 @@ class JacobianSolver:
     def decomposed_pseudoinverse(self) -> np.ndarray:
         r""":math:`J^\dagger` (n×m, Eq. (3)) for the J of the last :meth:`inverse_condition` (or of any call)."""
         return self._svd.solve(self._identity)
+
+
+class InverseCondition:
+    r""":math:`\sigma_{min}/\sigma_{max}` of m×n task Jacobians, raising SingularJacobian below ``tolerance``, by
+    Eigen's SVD without its singular vectors: for a caller that needs J's rank and condition, not
+    :math:`J^\dagger`. The singular values are those :class:`JacobianSolver` computes, bit for bit (the tests
+    hold them equal)."""
+
+    def __init__(self, rows: int, columns: int, tolerance: float = DEFAULT_SINGULAR_TOLERANCE):
+        self._svd = eigenpy.HhJacobiSVD(rows, columns, 0)
+        self._tolerance = tolerance
+
+    def __call__(self, jacobian: np.ndarray) -> float:
+        return _checked_inverse_condition(self._svd.compute(jacobian).singularValues().tolist(), self._tolerance)
 
 
 class PseudoInverse:

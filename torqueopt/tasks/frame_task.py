@@ -74,10 +74,10 @@ class FrameTask(Task):
         return self._frame_id
 
     def value(self, kinematics: Kinematics) -> np.ndarray:
+        if self.kind != "pose":
+            return kinematics.frame_position(self.frame_id(kinematics))[self.rows]
         placement = kinematics.data.oMf[self.frame_id(kinematics)]
-        if self.kind == "pose":
-            return np.concatenate([placement.translation, pin.log3(placement.rotation.dot(self.reference_rotation.T))])
-        return placement.translation[self.rows].copy()
+        return np.concatenate([placement.translation, pin.log3(placement.rotation.dot(self.reference_rotation.T))])
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.frame_jacobian(self.frame_id(kinematics))[self.rows]

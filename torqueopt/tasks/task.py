@@ -46,6 +46,9 @@ class Kinematics:
         self.revision = 0
         self._hessians_ready = False
         self._zero = np.zeros(robot.model.nv)
+        # Views of frames' translations in data.oMf, which Pinocchio never reallocates (eigenpy's SE3.translation
+        # is a view into it): read after each update without a boost.python SE3 per read.
+        self._translations: dict[int, np.ndarray] = {}
 
     def update(self, q: np.ndarray, v: np.ndarray | None = None) -> Kinematics:
         """Placements and joint Jacobians at q; with v, also the velocities that drifts need."""
@@ -67,6 +70,14 @@ class Kinematics:
     def frame_placement(self, frame_id: int) -> pin.SE3:
         """World pose of a frame (a copy)."""
         return self.data.oMf[frame_id].copy()
+
+    def frame_position(self, frame_id: int) -> np.ndarray:
+        """World position of a frame's origin (3 values, a copy) [m]: ``frame_placement(frame_id).translation``."""
+        translation = self._translations.get(frame_id)
+        if translation is None:
+            translation = self._translations[frame_id] = self.data.oMf[frame_id].translation
+            translation.setflags(write=False)
+        return translation.copy()
 
     def frame_jacobian(self, frame_id: int) -> np.ndarray:
         """6×n Jacobian of a frame at its origin, world-aligned axes (linear rows first)."""

@@ -10,11 +10,11 @@ import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
-from ...linalg import determinants
+from ...linalg import InverseCondition, determinants
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
-from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .base import POSITION_GAIN_OPTION, VelocityResolver
 from .criteria import criterion_from
 from .options import criterion_spec
 
@@ -192,13 +192,13 @@ class ExtendedJacobian(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (15)'s rates and their q̈ (None for ``pose``), sharing J_ex's LU factors at each configuration."""
-        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
         tolerance = self.algorithmic_tolerance
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             jacobian = task.jacobian(kinematics)
-            inverse_condition = solver.inverse_condition(jacobian)  # J itself must keep full rank
+            inverse_condition = condition_of(jacobian)  # J itself must keep full rank
             _, g_row, normal = self.extended_row(kinematics, task)
             alignment = _alignment(g_row, normal)
             if not alignment >= tolerance:

@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 
 from ...checks import finite_numbers
-from ...linalg import PseudoInverse, inverse_condition_number_of
+from ...linalg import InverseCondition, PseudoInverse, inverse_condition_number_of
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
@@ -209,12 +209,12 @@ class KineticEnergyPseudoInverse(VelocityResolver):
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (16)'s rates with W = H and their closed-form q̈ (None for ``pose``), sharing J, H⁻¹, A and G's
         Cholesky factors at each configuration."""
-        solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             jacobian = task.jacobian(kinematics)
-            inverse_condition = solver.inverse_condition(jacobian)  # raises SingularJacobian when J loses rank
+            inverse_condition = condition_of(jacobian)  # raises SingularJacobian when J loses rank
             inverse_inertia = inverse_inertia_at(kinematics)
             weighted_jt = inverse_inertia.dot(jacobian.T)  # A = W⁻¹Jᵀ with W = H
             gram = eigenpy.LLT(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16)
@@ -228,11 +228,11 @@ class KineticEnergyPseudoInverse(VelocityResolver):
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             jacobian, inverse_inertia, weighted_jt, gram, _ = at_configuration(kinematics)
             coriolis = pin.computeCoriolisMatrix(kinematics.model, kinematics.data, kinematics.q, velocity)
-            inertia_rate_velocity = coriolis.dot(velocity) + coriolis.T.dot(velocity)  # Ḣq̇ = (C + Cᵀ)q̇
+            inertia_rate_velocity = coriolis.dot(velocity) + velocity.dot(coriolis)  # Ḣq̇ = (C + Cᵀ)q̇
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
             multipliers = gram.solve(command)  # λ = G⁻¹c, q̇ = Aλ
             # the weighted pseudoinverse's own rate acts through H⁻¹(J̇ᵀλ − Ḣq̇), projected by I − J_H⁺J
-            inner = inverse_inertia.dot(jacobian_rate.T.dot(multipliers) - inertia_rate_velocity)
+            inner = inverse_inertia.dot(multipliers.dot(jacobian_rate) - inertia_rate_velocity)
             residual = command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)
             # the time derivative of Eq. (16) with W = H applied to c
             return inner + weighted_jt.dot(gram.solve(residual))
