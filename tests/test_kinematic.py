@@ -316,9 +316,12 @@ def test_joint_limit_gradient_is_that_of_eq_5(panda, rng):
 
 
 def test_scaled_gradients_are_the_gain_times_the_gradient(planar3, panda, rng):
-    """k ∂p/∂q of the joint limits (the gain joined to Eq. (5)'s constant diagonal) and of a posture's distance
-    (k(q − q*) from the configuration) against k times the readable gradient; on kinova, whose continuous
-    joints do not add, the posture takes the readable path."""
+    """k ∂p/∂q of the joint limits (the gain joined to Eq. (5)'s constant diagonal), of a posture's distance
+    (k(q − q*) from the configuration) and of the manipulability (w and J⁺ from the resolver's own SVD of J)
+    against k times the readable gradient; on kinova, whose continuous joints do not add, the posture takes
+    the readable path."""
+    from torqueopt.linalg import JacobianSolver
+    from torqueopt.resolvers.velocity import Manipulability
     from torqueopt.resolvers.velocity.criteria import PostureDistance
 
     pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
@@ -329,16 +332,21 @@ def test_scaled_gradients_are_the_gain_times_the_gradient(planar3, panda, rng):
         (planar3, PostureDistance(PostureTask(gain=2.5))),
         (panda, PostureDistance(PostureTask(target=rng.uniform(-1.0, 1.0, panda.nv), gain=0.7))),
         (kinova, PostureDistance(PostureTask(gain=3.0))),
+        (planar3, Manipulability()),
+        (panda, Manipulability()),
     ]
     for robot, criterion in cases:
         if isinstance(criterion, PostureDistance):
             criterion.posture.check(robot)
+        task, solver = FrameTask.of_robot(robot), JacobianSolver(robot.m, robot.nv, 1e-6, null_space=False)
         for gain in (0.3, 10.0, 0.3):  # a new gain, and back: nothing of the former one is kept
             for _ in range(2):
                 kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
-                expected = gain * criterion.gradient(kinematics)
-                got = criterion.scaled_gradient(kinematics, None, gain)
-                np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-14 * np.abs(expected).max())
+                solver.inverse_condition(task.jacobian(kinematics))
+                expected = gain * criterion.gradient(kinematics, task)
+                for decomposition in (None, solver):
+                    got = criterion.scaled_gradient(kinematics, task, gain, decomposition)
+                    np.testing.assert_allclose(got, expected, rtol=1e-13, atol=1e-13 * np.abs(expected).max())
 
 
 def criterion_gradient_at(robot, criterion, task=None):

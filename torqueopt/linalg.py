@@ -55,6 +55,8 @@ class JacobianSolver:
 
     def __init__(self, rows: int, columns: int, tolerance: float = DEFAULT_SINGULAR_TOLERANCE, null_space: bool = True):
         self._svd = eigenpy.HhJacobiSVD(rows, columns, _FULL_UV)
+        #: J's singular values (largest first) at the last :meth:`inverse_condition`.
+        self.singular_values: list[float] = []
         self._rows = rows
         self._identity = np.eye(rows)
         self._tolerance = tolerance
@@ -83,8 +85,9 @@ class JacobianSolver:
 
         The solver keeps this decomposition of J until its next call: :meth:`solve` and
         :meth:`decomposed_pseudoinverse` read it (a caller that caches per configuration decomposes there and
-        solves later, with one SVD per configuration)."""
-        return _checked_inverse_condition(self._svd.compute(jacobian).singularValues().tolist(), self._tolerance)
+        solves later, with one SVD per configuration), and its singular values in :attr:`singular_values`."""
+        self.singular_values = self._svd.compute(jacobian).singularValues().tolist()
+        return _checked_inverse_condition(self.singular_values, self._tolerance)
 
     def solve(self, vector: np.ndarray) -> np.ndarray:
         r""":math:`J^\dagger r` for the J of the last :meth:`inverse_condition` (or of any call), Eq. (3)."""

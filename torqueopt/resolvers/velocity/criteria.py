@@ -58,8 +58,12 @@ class Criterion(ABC):
     def gradient(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
         """∂p/∂q (n values)."""
 
-    def scaled_gradient(self, kinematics: Kinematics, task: FrameTask, gain: float) -> np.ndarray:
-        """k ∂p/∂q (n values) for the gain k: :meth:`gradient` times k, or a criterion's own faster form of it."""
+    def scaled_gradient(self, kinematics: Kinematics, task: FrameTask, gain: float, decomposition=None) -> np.ndarray:
+        """k ∂p/∂q (n values) for the gain k: :meth:`gradient` times k, or a criterion's own faster form of it.
+
+        ``decomposition``: a :class:`~torqueopt.linalg.JacobianSolver` that has just decomposed the task
+        Jacobian at this configuration (its singular values and J⁺), for a criterion that reads them; or None.
+        """
         return gain * self.gradient(kinematics, task)
 
     def hessian(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
@@ -151,7 +155,7 @@ class JointLimits(Criterion):
         gradient[joints.v_index] = joints.curvature * (kinematics.q[joints.q_index] - joints.middle)  # ∂/∂θ of Eq. (5)
         return gradient
 
-    def scaled_gradient(self, kinematics, task, gain: float) -> np.ndarray:
+    def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q as (k · 2/half range²) ∘ (q − mid-range) when every joint has limits: the gain joins the
         constant diagonal once per gain, two array operations per configuration instead of three."""
         joints = self._limits(kinematics.model)
@@ -198,7 +202,7 @@ class PostureDistance(Criterion):
     def gradient(self, kinematics, task=None) -> np.ndarray:
         return -self.posture.error(kinematics)
 
-    def scaled_gradient(self, kinematics, task, gain: float) -> np.ndarray:
+    def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q = k(q − q*) straight from the configuration where every joint adds (``Robot.euclidean``:
         the joint angles are q minus a constant), q* the target as a configuration; else k times
         :meth:`gradient`."""
@@ -230,13 +234,26 @@ class Manipulability(Criterion):
     def gradient(self, kinematics, task) -> np.ndarray:
         r""":math:`-\partial w/\partial q`, with w and :math:`J^\dagger` from one SVD of J (Eigen's, through eigenpy)."""
         jacobian = task.jacobian(kinematics)
-        rows, n = jacobian.shape
         svd = eigenpy.HhJacobiSVD(jacobian, _THIN_UV)
-        w = math.prod(svd.singularValues().reshape(-1).tolist())  # Eq. (6) as the product of J's singular values
-        pseudo = svd.solve(identity(rows))
+        singular_values = svd.singularValues().reshape(-1).tolist()
+        return self._scaled_gradient(kinematics, task, 1.0, singular_values, svd.solve(identity(jacobian.shape[0])))
+
+    def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
+        r""":math:`-k\,\partial w/\partial q`; w and :math:`J^\dagger` from ``decomposition`` (the SVD the resolver
+        already made of J at this configuration) when given, else as :meth:`gradient` makes them."""
+        if decomposition is None:
+            return gain * self.gradient(kinematics, task)
+        singular_values = decomposition.singular_values
+        return self._scaled_gradient(kinematics, task, gain, singular_values, decomposition.decomposed_pseudoinverse())
+
+    @staticmethod
+    def _scaled_gradient(kinematics, task, gain: float, singular_values, pseudo) -> np.ndarray:
+        """−k ∂w/∂q from J's singular values and J⁺ at the kinematics' configuration."""
+        w = math.prod(singular_values)  # Eq. (6) as the product of J's singular values
+        n, rows = pseudo.shape
         derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
         # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k) = w Σ_ij J⁺_ij D_jik, from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
-        return -w * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
+        return (-gain * w) * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
 
     has_curvature = True
 

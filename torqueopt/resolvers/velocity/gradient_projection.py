@@ -158,7 +158,7 @@ def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, cr
         jacobian = task.jacobian(kinematics)
         # Eq. (3) by SVD; the solver keeps it, and a value held here means it is still this J's
         inverse_condition = solver.inverse_condition(jacobian)
-        return jacobian, criterion.scaled_gradient(kinematics, task, k), inverse_condition
+        return jacobian, criterion.scaled_gradient(kinematics, task, k, solver), inverse_condition
 
     def rates(kinematics: Kinematics, task_velocity: np.ndarray):
         jacobian, scaled_gradient, inverse_condition = at_configuration(kinematics)
