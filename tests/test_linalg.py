@@ -6,7 +6,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from torqueopt.linalg import InverseCondition, JacobianSolver, determinants, inverse_condition_number, inverse_condition_number_of
+from torqueopt.linalg import (
+    InverseCondition,
+    JacobianSolver,
+    determinants,
+    inverse_condition_number,
+    inverse_condition_number_of,
+)
 from torqueopt.resolvers.stacks import (
     complete_qr,
     complete_qr_by_lapack,

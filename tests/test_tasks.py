@@ -16,6 +16,7 @@ from torqueopt.tasks import (
     prioritised_rates,
     pseudoinverse,
     pseudoinverse_rate,
+    undamped_pseudoinverse,
 )
 
 
@@ -271,6 +272,25 @@ def test_pseudoinverse_cutoff_and_damping(rng):
     )
     rank_one = np.outer([1.0, 2.0], [1.0, 0.0, 1.0])
     np.testing.assert_allclose(pseudoinverse(rank_one), np.linalg.pinv(rank_one), atol=1e-12)
+
+
+@pytest.mark.parametrize("shape, rank", [((2, 3), 2), ((2, 3), 1), ((3, 7), 2), ((6, 7), 6), ((1, 3), 1), ((3, 2), 2)])
+def test_the_undamped_pseudoinverse_by_the_svds_solve_is_the_readable_one(rng, shape, rank):
+    """undamped_pseudoinverse (Eigen's solve with the cutoff as its rank threshold) against pseudoinverse, full
+    rank and rank-deficient, with round-off directions such as those of J_l(I − J⁺J) for a point the null space
+    cannot move; and a zero matrix."""
+    rows, columns = shape
+    for _ in range(10):
+        matrix = rng.normal(size=(rows, rank)).dot(rng.normal(size=(rank, columns)))
+        expected = pseudoinverse(matrix)
+        np.testing.assert_allclose(
+            undamped_pseudoinverse(matrix), expected, rtol=0, atol=1e-14 * np.abs(expected).max()
+        )
+    jacobian = rng.normal(size=(2, 3))
+    projector = np.eye(3) - np.linalg.pinv(jacobian).dot(jacobian)
+    tip = jacobian.dot(projector)  # round-off only: every singular value below the absolute floor
+    np.testing.assert_array_equal(undamped_pseudoinverse(tip), pseudoinverse(tip))
+    np.testing.assert_array_equal(undamped_pseudoinverse(np.zeros((2, 3))), np.zeros((3, 2)))
 
 
 def five_point(function, h=1e-4):

@@ -16,6 +16,7 @@ from .stack import (
     pseudoinverse,
     pseudoinverse_rate,
     rates_through,
+    undamped_pseudoinverse,
 )
 from .task import Kinematics, PerConfiguration, Task
 
@@ -33,6 +34,7 @@ __all__ = [
     "rates_through",
     "prioritised_accelerations",
     "pseudoinverse",
+    "undamped_pseudoinverse",
     "pseudoinverse_rate",
     "ObstacleTask",
     "ClosestPoint",

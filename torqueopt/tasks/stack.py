@@ -28,6 +28,7 @@ differentiates each step, the pseudoinverses by :func:`~torqueopt.tasks.pseudoin
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -45,6 +46,7 @@ __all__ = [
     "prioritised_rates",
     "prioritised_accelerations",
     "pseudoinverse",
+    "undamped_pseudoinverse",
     "pseudoinverse_rate",
 ]
 
@@ -85,6 +87,23 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
     return (right * inverse_values).dot(left.T)
 
 
+def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10) -> np.ndarray:
+    r""":func:`pseudoinverse` without damping, the same cutoff, applied by the SVD's own solve:
+    :math:`V_r\Sigma_r^{-1}U_r^\top` over the r singular values kept, as Eigen's ``solve`` forms it for the identity
+    once its rank threshold is the cutoff, instead of scaling V by a list and multiplying by :math:`U^\top` in
+    numpy (a test holds the two equal, rank-deficient matrices included)."""
+    if matrix.size == 0:
+        return np.zeros(matrix.T.shape)
+    rows = matrix.shape[0]
+    svd = eigenpy.HhJacobiSVD(matrix, _THIN_UV)
+    largest = svd.singularValues().reshape(-1).tolist()[0]  # descending (one value comes as a 1×1 matrix)
+    if not largest > 0.0:
+        return np.zeros(matrix.T.shape)
+    # Eigen keeps σ >= threshold·σmax; the cutoff drops σ <= max(tolerance·σmax, ABSOLUTE_TOLERANCE)
+    svd.setThreshold(math.nextafter(max(tolerance * largest, ABSOLUTE_TOLERANCE), math.inf) / largest)
+    return svd.solve(identity(rows)).reshape(matrix.shape[1], rows)
+
+
 def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.ndarray) -> np.ndarray:
     r"""The time derivative of :math:`A^\dagger` (``inverse``) as A moves at :math:`\dot A`, where A keeps its rank
     (Golub & Pereyra, 1973):
@@ -121,8 +140,13 @@ class PriorityLevel(NamedTuple):
 
 
 def priority_levels(
-    jacobians: Sequence[np.ndarray], *, tolerance: float = 1e-10, damping: float = 0.0, first_inverse=None
-) -> tuple[list[PriorityLevel], np.ndarray]:
+    jacobians: Sequence[np.ndarray],
+    *,
+    tolerance: float = 1e-10,
+    damping: float = 0.0,
+    first_inverse=None,
+    final_projector: bool = True,
+) -> tuple[list[PriorityLevel], np.ndarray | None]:
     r"""The recursion's pseudoinverses and projectors for :math:`J_1, J_2, \dots` (highest priority first):
     one :class:`PriorityLevel` per task, and :math:`P_K`, the projector onto the freedom left after every task.
 
@@ -130,6 +154,7 @@ def priority_levels(
         tolerance: relative singular-value cutoff of every pseudoinverse.
         damping: damped least squares λ for the lower-priority inverses (0: none).
         first_inverse: :math:`J_1^\dagger`, when the caller already has it.
+        final_projector: False when the caller does not read :math:`P_K` (None is returned in its place).
     """
     levels = []
     projector = None  # P_0 = I: A_1 = J_1
@@ -139,9 +164,13 @@ def priority_levels(
         )  # for k = 2, J_l(I - J_h⁺J_h) of Eq. (10)
         if level == 0 and first_inverse is not None:
             inverse = first_inverse
+        elif damping > 0.0 and level > 0:
+            inverse = pseudoinverse(projected, tolerance, damping)
         else:
-            inverse = pseudoinverse(projected, tolerance, damping if level > 0 else 0.0)
+            inverse = undamped_pseudoinverse(projected, tolerance)
         levels.append(PriorityLevel(jacobian, projector, projected, inverse))
+        if level == len(jacobians) - 1 and not final_projector:
+            return levels, None
         dropped = inverse.dot(projected)
         projector = identity(jacobian.shape[1]) - dropped if projector is None else projector - dropped
     return levels, projector

@@ -6,7 +6,7 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PerConfiguration, pseudoinverse
+from ...tasks import FrameTask, Kinematics, PerConfiguration, undamped_pseudoinverse
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -119,7 +119,7 @@ class ObstacleAvoidance(VelocityResolver):
             if gain == 0.0:
                 return inverse, inverse_condition, gain, None, None, None
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
-            projected_inverse = pseudoinverse(point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)))
+            projected_inverse = undamped_pseudoinverse(point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)))
             return inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):

@@ -125,7 +125,7 @@ class TaskPriority(VelocityResolver):
             # the high-priority task must keep full rank; J⁺ by SVD, Eq. (3)
             inverse, inverse_condition = solver.pseudoinverse(jacobian)
             jacobians = [jacobian] + [lower.jacobian(kinematics) for lower in secondary]
-            levels, _ = priority_levels(jacobians, damping=damping, first_inverse=inverse)
+            levels, _ = priority_levels(jacobians, damping=damping, first_inverse=inverse, final_projector=False)
             return levels, [lower.desired_velocity(kinematics) for lower in secondary], inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
