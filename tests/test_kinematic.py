@@ -173,8 +173,9 @@ def test_the_frame_jacobian_time_variation_is_the_derivative_of_the_jacobian_alo
 
 def _closed_form_runs_equal_the_differenced_ones(planar3, panda, name, resolver_class, gain, options=None):
     """Runs of resolver ``name`` (closed-form q̈) against those of its class with the loop's central difference
-    (``acceleration_function`` returning None), on the paper's movement and a panda line, at 1e-8 of q̈ and τ;
-    ``options`` {robot name: resolver options} beside the position gain; ``panda`` None for planar3 alone."""
+    (``step_functions`` and ``acceleration_function`` giving no q̈), on the paper's movement and a panda line,
+    at 1e-8 of q̈ and τ; ``options`` {robot name: resolver options} beside the position gain; ``panda`` None for
+    planar3 alone."""
 
     class Differenced(resolver_class):
         # The loop reads step_functions; the resolvers that share work between rates and q̈ build both there.
