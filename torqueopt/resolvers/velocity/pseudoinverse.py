@@ -208,8 +208,12 @@ class KineticEnergyPseudoInverse(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (16)'s rates with W = H and their closed-form q̈ (None for ``pose``), sharing J, H⁻¹, A and G's
-        Cholesky factors at each configuration."""
+        Cholesky factors at each configuration.
+
+        The factors live in one decomposition object for the run, refactored at each configuration: a value that
+        :class:`~torqueopt.tasks.PerConfiguration` still holds is the configuration the object was last given."""
         condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
+        gram = eigenpy.LLT(robot.m)
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
@@ -217,16 +221,16 @@ class KineticEnergyPseudoInverse(VelocityResolver):
             inverse_condition = condition_of(jacobian)  # raises SingularJacobian when J loses rank
             inverse_inertia = inverse_inertia_at(kinematics)
             weighted_jt = inverse_inertia.dot(jacobian.T)  # A = W⁻¹Jᵀ with W = H
-            gram = eigenpy.LLT(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16)
-            return jacobian, inverse_inertia, weighted_jt, gram, inverse_condition
+            gram.compute(jacobian.dot(weighted_jt))  # G = JH⁻¹Jᵀ of Eq. (16), its Cholesky factors
+            return jacobian, inverse_inertia, weighted_jt, inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            _, _, weighted_jt, gram, inverse_condition = at_configuration(kinematics)
+            _, _, weighted_jt, inverse_condition = at_configuration(kinematics)
             # Eq. (16) with W = H: H⁻¹Jᵀ(JH⁻¹Jᵀ)⁻¹ẋ, the q̇ of least kinetic energy Eq. (17)
             return weighted_jt.dot(gram.solve(task_velocity)), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            jacobian, inverse_inertia, weighted_jt, gram, _ = at_configuration(kinematics)
+            jacobian, inverse_inertia, weighted_jt, _ = at_configuration(kinematics)
             coriolis = pin.computeCoriolisMatrix(kinematics.model, kinematics.data, kinematics.q, velocity)
             inertia_rate_velocity = coriolis.dot(velocity) + velocity.dot(coriolis)  # Ḣq̇ = (C + Cᵀ)q̇
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
