@@ -314,7 +314,7 @@ class VelocityRK4:
         k_3 = f(q \oplus \tfrac h2 k_2, t + \tfrac h2),\ k_4 = f(q \oplus h k_3, t + h),\qquad
         q^+ = q \oplus \tfrac h6(k_1 + 2k_2 + 2k_3 + k_4).
 
-    :meth:`reference_step` computes every stage; :meth:`step` takes
+    :meth:`reference_step` computes every stage; ``step`` takes
     :math:`k_1` from the caller, who has it from the row it recorded, and
     folds the stages as :func:`rk4_stepper` does: each stage's configuration
     (or, for joints that do not add, its increment) and the final update are
@@ -333,6 +333,8 @@ class VelocityRK4:
         self.data = robot.model.createData() if data is None else data
         # q ⊕ δ is q + δ when every joint adds (Pinocchio's integrate does that addition for them).
         self.integrate = np.add if robot.euclidean else robot.integrate
+        # An instance attribute, not a method: one call per step, no bound-method frame.
+        #: The folded step ``(q, k1, index) -> q⁺`` with ``k1`` = f(q, t) given.
         self.step = self._folded_step()
 
     def reference_step(self, q: np.ndarray, index: int) -> np.ndarray:

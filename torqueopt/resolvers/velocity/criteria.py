@@ -61,7 +61,7 @@ class Criterion(ABC):
     def scaled_gradient(self, kinematics: Kinematics, task: FrameTask, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q (n values) for the gain k: :meth:`gradient` times k, or a criterion's own faster form of it.
 
-        ``decomposition``: a :class:`~torqueopt.linalg.JacobianSolver` that has just decomposed the task
+        ``decomposition``: a ``torqueopt.linalg.JacobianSolver`` that has just decomposed the task
         Jacobian at this configuration (its singular values and J⁺), for a criterion that reads them; or None.
         """
         return gain * self.gradient(kinematics, task)
