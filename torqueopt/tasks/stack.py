@@ -244,7 +244,10 @@ def prioritised_accelerations(
     n = jacobians[0].shape[1]
     rates, accelerations = np.zeros(n), np.zeros(n)
     projector_rate = None  # Ṗ_0 = 0
-    for level, jacobian_rate, velocity, velocity_rate in zip(levels, jacobian_rates, velocities, velocity_rates):
+    last = len(levels) - 1
+    for index, (level, jacobian_rate, velocity, velocity_rate) in enumerate(
+        zip(levels, jacobian_rates, velocities, velocity_rates)
+    ):
         jacobian, projected, inverse = level.jacobian, level.projected, level.inverse
         # Ȧ_k = J̇_k P_{k-1} + J_k Ṗ_{k-1}
         projected_rate = (
@@ -258,6 +261,8 @@ def prioritised_accelerations(
         # the time derivative of Eq. (11)'s step: d/dt (A_k⁺ e_k)
         accelerations = accelerations + inverse_rate.dot(shortfall) + inverse.dot(shortfall_rate)
         rates = rates + inverse.dot(shortfall)
+        if index == last:
+            break  # no task below reads Ṗ_k
         dropped_rate = inverse_rate.dot(projected) + inverse.dot(projected_rate)
         projector_rate = -dropped_rate if projector_rate is None else projector_rate - dropped_rate
     return rates, accelerations
