@@ -384,5 +384,5 @@ class VelocityRK4:
         return step
 
     def torque(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-        """The inverse-dynamics torque of the motion at (q, q̇, q̈) [N·m], Eq. (20); Pinocchio's RNEA returns a fresh array."""
+        """The inverse-dynamics torque of the motion at (q, q̇, q̈) [N·m], Eq. (20), in RNEA's own fresh array."""
         return pin.rnea(self.model, self.data, q, v, acceleration)  # Eq. (20) on the motion

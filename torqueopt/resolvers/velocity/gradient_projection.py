@@ -116,7 +116,8 @@ class GradientProjection(CriterionGain, VelocityResolver):
         :math:`\nabla^2 p\,\dot q` from the criterion (:meth:`Criterion.curvature`): exact for the joint limits,
         a central difference of the analytic gradient along q̇ for the manipulability (its Hessian needs third
         derivatives of the kinematics). A callable's gradient is itself a difference: None, and the loop takes
-        q̈ by its central difference. J, J⁺ and g at q are those the rates computed there, when they did.
+        q̈ by its central difference. J, its SVD (whence J⁺) and k ∂p/∂q at q are those the rates computed
+        there, when they did.
         """
         return self.step_functions(robot, task)[1]
 
