@@ -76,9 +76,8 @@ class JacobianSolver:
     def pseudoinverse(self, jacobian: np.ndarray):
         r""":math:`(J^\dagger,\ \sigma_{min}/\sigma_{max})`, :math:`J^\dagger = V_m \Sigma^{-1} U^\top` (n×m, Eq. (3)),
         raising SingularJacobian as a call does."""
-        svd = self._svd.compute(jacobian)
-        inverse_condition = _checked_inverse_condition(svd.singularValues().tolist(), self._tolerance)
-        return svd.solve(self._identity), inverse_condition
+        inverse_condition = self.inverse_condition(jacobian)
+        return self.decomposed_pseudoinverse(), inverse_condition
 
     def inverse_condition(self, jacobian: np.ndarray) -> float:
         r""":math:`\sigma_{min}/\sigma_{max}` of J alone, raising SingularJacobian as a call does.

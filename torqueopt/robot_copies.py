@@ -90,7 +90,7 @@ class _Pass:
         self.bias = data.nle.reshape(n, copies, order="F").T
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
-        self.tips = _translations(data.oMf, copies)
+        self.tips = _translations(data.oMf, copies)  # every copy's task frame position [m], (copies, 3)
 
 
 class RobotForest:
@@ -154,7 +154,7 @@ class RobotForest:
         used = self._passes(count)
         inertia, bias = _gathered(used, "inertia", count), _gathered(used, "bias", count)
         world, world_rate = _gathered(used, "jacobian", count), _gathered(used, "jacobian_rate", count)
-        tip = _tip_positions(used, count)
+        tip = _gathered(used, "tips", count)
         if self._mask is not None:
             world *= self._mask
             world_rate *= self._mask
@@ -182,7 +182,7 @@ class RobotForest:
         used = self._passes(count)
         world = _gathered(used, "jacobian", count)
         if tip is None:
-            tip = _tip_positions(used, count)
+            tip = _gathered(used, "tips", count)
         if self._mask is not None:
             world *= self._mask
         jacobian = world
@@ -240,11 +240,6 @@ class RobotForest:
 def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:
     """The passes' views ``name`` (a _Pass field) joined into one (count, ...) stack, a fresh array."""
     return np.concatenate([getattr(forest_pass, name) for forest_pass in used])[:count]
-
-
-def _tip_positions(used: list[_Pass], count: int) -> np.ndarray:
-    """The task frame's position (count, 3) [m] of every copy, from the passes' views of their frame placements."""
-    return _gathered(used, "tips", count)
 
 
 def _translations(placements, copies: int) -> np.ndarray:
