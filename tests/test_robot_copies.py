@@ -51,13 +51,32 @@ def test_each_copy_gets_what_pinocchio_gives_that_robot_alone(name, planar3, pan
 
 
 @pytest.mark.parametrize("name", ["planar3", "panda"])
+def test_the_passes_that_give_the_inverse_inertia_and_its_rate_give_the_same_kinematics(name, planar3, panda):
+    """computeMinverse and computeCoriolisMatrix compute the joint Jacobians (and J̇) on their way: the forest
+    reads J, J̇ and the tip from those passes, so they must be bit for bit those of the plain Jacobian passes."""
+    robot = {"planar3": planar3, "panda": panda}[name]
+    q, v = _states(robot, 13, seed=11)
+    plain, moving = RobotForest(robot, copies=5).kinematics(q), RobotForest(robot, copies=5).kinematics(q, v)
+    with_inverse = RobotForest(robot, copies=5).kinematics(q, inverse_inertia=True)
+    with_rate = RobotForest(robot, copies=5).kinematics(q, v, inertia_rate=True)
+    assert np.array_equal(with_inverse.jacobian, plain.jacobian) and np.array_equal(with_inverse.tip, plain.tip)
+    assert with_inverse.rate is None and plain.inverse_inertia is None and moving.inertia_rate_velocity is None
+    for field in ("jacobian", "rate", "tip"):
+        assert np.array_equal(getattr(with_rate, field), getattr(moving, field)), field
+    assert np.abs(with_rate.rate).max() > 1e-2  # the velocities enter J̇
+    with pytest.raises(ValueError):
+        RobotForest(robot, copies=5).kinematics(q, v, inverse_inertia=True)
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda"])
 def test_the_forests_inverse_inertia_and_inertia_rate_are_each_robots(name, planar3, panda):
     """H⁻¹ against the inverse of the robot's own CRBA H, and Ḣv = (C + Cᵀ)v against a five-point difference of
     that H along v (independent of Pinocchio's Coriolis matrix), for 13 states through a forest of 5 copies."""
     robot = {"planar3": planar3, "panda": panda}[name]
     q, v = _states(robot, 13, seed=7)
     forest = RobotForest(robot, copies=5)
-    inverse_inertia, inertia_rate = forest.inverse_inertia(q), forest.inertia_rate_times(q, v)
+    inverse_inertia = forest.kinematics(q, inverse_inertia=True).inverse_inertia
+    inertia_rate = forest.kinematics(q, v, inertia_rate=True).inertia_rate_velocity
     data = robot.model.createData()
 
     def inertia_at(configuration):
@@ -192,8 +211,8 @@ def test_the_forest_kinematics_and_inverse_dynamics_are_pinocchios_per_state(nam
     q = np.array([robot.configuration(rng.uniform(-1, 1, robot.nv)) for _ in range(13)])
     v, acceleration = rng.normal(size=(13, robot.nv)), rng.normal(size=(13, robot.nv))
     forest = RobotForest(robot, copies=5)
-    jacobian, rate, tip = forest.kinematics(q, v)
-    alone, none, _ = forest.kinematics(q)
+    jacobian, rate, tip, *_ = forest.kinematics(q, v)
+    alone, none, *_ = forest.kinematics(q)
     torque = forest.inverse_dynamics(q, v, acceleration)
     assert none is None
     data = robot.model.createData()

@@ -532,15 +532,22 @@ class KinematicStack(MovementStack):
         return (self.dt * np.arange(start, stop)).tolist()
 
     def _task(self, q, v=None, tip=None):
-        jacobian, rate, tip = self.forest.kinematics(q, v, tip)
+        """The forest's kinematics at q (and v), the task's rows of J and J̇; H⁻¹ at q or Ḣq̇ at (q, v) from the
+        same pass when the stacked form reads them (its ``reads_inverse_inertia``, ``reads_inertia_rate``)."""
+        stacked = self.stacked
+        found = self.forest.kinematics(
+            q, v, tip,
+            inverse_inertia=v is None and stacked.reads_inverse_inertia,
+            inertia_rate=v is not None and stacked.reads_inertia_rate,
+        )  # fmt: skip
         rows = self.rows
-        return jacobian[:, rows], None if rate is None else rate[:, rows], tip
+        return found._replace(jacobian=found.jacobian[:, rows], rate=None if v is None else found.rate[:, rows])
 
     def terms(self, q, v):
         # the configurations (and their task points) the step's q̈ and torques are taken at
-        jacobian, _, self._tip = self._task(q)
-        self._q = q
-        return jacobian, self._tip[:, self.rows]
+        self._kinematics = found = self._task(q)
+        self._q, self._tip = q, found.tip
+        return found.jacobian, found.tip[:, self.rows]
 
     def _command(self, index: int, x):
         if self.gain == 0.0:
@@ -552,13 +559,13 @@ class KinematicStack(MovementStack):
 
     def resolve(self, jacobian, command, j: int):
         index, where = 2 * j, self.where
-        velocity, conditions, failures, state = self.stacked.rates(jacobian, command, self._q)
+        velocity, conditions, failures, state = self.stacked.rates(jacobian, command, self._q, self._kinematics)
         # ċ = ẍ_ref + K(ẋ_ref − J q̇)
         command_rate = self.acceleration[index, where] + self.gain * self.velocity[index, where]
         if self.gain != 0.0:
             command_rate = command_rate - self.gain * np.einsum("bij,bj->bi", jacobian, velocity)
-        _, jacobian_rate, _ = self._task(self._q, velocity, self._tip)
-        acceleration = self.stacked.acceleration(jacobian, jacobian_rate, velocity, command_rate, state)
+        moving = self._task(self._q, velocity, self._tip)
+        acceleration = self.stacked.acceleration(jacobian, moving.rate, velocity, command_rate, state, moving)
         torque = self.forest.inverse_dynamics(self._q, velocity, acceleration)  # Eq. (20) on the motion
         return torque, acceleration, velocity, conditions, failures
 
@@ -614,8 +621,10 @@ class KinematicStack(MovementStack):
         return q[keep], v, resolution
 
     def _rates(self, q, index: int):
-        jacobian, _, tip = self._task(q)
-        velocity, _, failures, _ = self.stacked.rates(jacobian, self._command(index, tip[:, self.rows]), q)
+        found = self._task(q)
+        velocity, _, failures, _ = self.stacked.rates(
+            found.jacobian, self._command(index, found.tip[:, self.rows]), q, found
+        )
         return velocity, failures
 
     def step(self, q, v, resolution, j: int, t: float):

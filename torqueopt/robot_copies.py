@@ -23,6 +23,7 @@ and :meth:`Robot.forward_dynamics` are the reference it is held to.
 from __future__ import annotations
 
 import weakref
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -30,7 +31,7 @@ import pinocchio as pin
 from .errors import InvalidInput
 from .robot import Robot
 
-__all__ = ["FOREST_DOFS", "RobotForest", "stacked_cross"]
+__all__ = ["FOREST_DOFS", "RobotForest", "TaskKinematics", "stacked_cross"]
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
 #: shrinks with the forest's size, but CRBA's instructions per copy and
@@ -70,6 +71,18 @@ def _forest_model(robot: Robot, copies: int) -> pin.Model:
     forest.armature = np.tile(model.armature, copies)
     cached[copies] = forest
     return forest
+
+
+class TaskKinematics(NamedTuple):
+    r"""What :meth:`RobotForest.kinematics` gives for S states: the task frame's J (S, 6, n), :math:`\dot J`
+    (S, 6, n) or None, the frame's position (S, 3) [m], and when asked :math:`H^{-1}` (S, n, n)
+    and :math:`\dot H\dot q` (S, n) [N·m]."""
+
+    jacobian: np.ndarray
+    rate: np.ndarray | None
+    tip: np.ndarray
+    inverse_inertia: np.ndarray | None = None
+    inertia_rate_velocity: np.ndarray | None = None
 
 
 class _Pass:
@@ -160,7 +173,10 @@ class RobotForest:
             world_rate *= self._mask
         return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
 
-    def kinematics(self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None):
+    def kinematics(
+        self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None, *,
+        inverse_inertia: bool = False, inertia_rate: bool = False,
+    ) -> TaskKinematics:  # fmt: skip
         r"""The task frame's Jacobian :math:`J` (S, 6, n) in LOCAL_WORLD_ALIGNED, linear rows first, and its position (S, 3);
         with joint velocities v, also :math:`\dot J` (S, 6, n), the Jacobian's rate along v (else None).
         ``tip``: the positions at q when the caller has them (from a call at the same q): not read again.
@@ -169,12 +185,27 @@ class RobotForest:
         is given), no dynamics: what a velocity-level method needs at a state.
         The point's :math:`\dot J` is the rate of its :math:`J = J_v + J_\omega\times p`:
         :math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot p = J\dot q`.
+
+        ``inverse_inertia`` (without v): each pass is Pinocchio's ``computeMinverse`` instead, which computes the
+        same joint Jacobians on its way (bit for bit, tests/test_robot_copies.py), and :math:`H^{-1}` (S, n, n),
+        the inverse of the block-diagonal H being its blocks' inverses, is returned too: the C++ function fills
+        the upper triangle, and the Python binding copies it into the lower one of the data's own matrix before
+        it returns, so the blocks read are whole. ``inertia_rate`` (with v): each pass is
+        ``computeCoriolisMatrix``, which computes the same J and :math:`\dot J` on its way, and
+        :math:`\dot H v = (C + C^\top)v` (S, n) is returned too (:math:`\dot H - 2C` is skew). One forest pass
+        where the kinetic-energy stack made two.
         """
         count, model = q.shape[0], self.model
+        if (inverse_inertia and v is not None) or (inertia_rate and v is None):
+            raise ValueError("inverse_inertia is taken without joint velocities, inertia_rate with them")
         stacks = (q,) if v is None else (q, v)
         for forest_pass, q_forest, *v_forest in self._each_pass(*stacks):
-            if v is None:
+            if inverse_inertia:
+                pin.computeMinverse(model, forest_pass.data, q_forest)
+            elif v is None:
                 pin.computeJointJacobians(model, forest_pass.data, q_forest)
+            elif inertia_rate:
+                pin.computeCoriolisMatrix(model, forest_pass.data, q_forest, v_forest[0])
             else:
                 pin.computeJointJacobiansTimeVariation(model, forest_pass.data, q_forest, v_forest[0])
             if tip is None:
@@ -189,13 +220,19 @@ class RobotForest:
         angular = world[:, 3:].copy()
         jacobian[:, :3] += stacked_cross(angular, tip[:, :, None])
         if v is None:
-            return jacobian, None, tip
+            inverse = _gathered(used, "inverse_inertia", count) if inverse_inertia else None
+            return TaskKinematics(jacobian, None, tip, inverse_inertia=inverse)
         rate = _gathered(used, "jacobian_rate", count)
         if self._mask is not None:
             rate *= self._mask
         tip_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
         rate[:, :3] += stacked_cross(rate[:, 3:], tip[:, :, None]) + stacked_cross(angular, tip_velocity[:, :, None])
-        return jacobian, rate, tip
+        if not inertia_rate:
+            return TaskKinematics(jacobian, rate, tip)
+        coriolis = _gathered(used, "coriolis", count)
+        # Ḣv = (C + Cᵀ)v
+        rate_times = np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
+        return TaskKinematics(jacobian, rate, tip, inertia_rate_velocity=rate_times)
 
     def _passes(self, count: int) -> list[_Pass]:
         """The forest passes that ``count`` rows take, the pool grown to them (each pass keeps its own data)."""
@@ -210,23 +247,6 @@ class RobotForest:
         for forest_pass, q_forest in self._each_pass(q):
             pin.crba(self.model, forest_pass.data, q_forest, pin.Convention.LOCAL)
         return _gathered(self._passes(q.shape[0]), "inertia", q.shape[0])
-
-    def inverse_inertia(self, q: np.ndarray) -> np.ndarray:
-        r""":math:`H^{-1}` of every row, (S, n, n) [1/(kg·m²)]: Pinocchio's ``computeMinverse`` once per forest pass
-        (the inverse of a block-diagonal H is its blocks' inverses). The C++ function fills the upper triangle;
-        the Python binding copies it into the lower one of the data's own matrix before it returns a copy, so
-        the blocks read here are whole (tests/test_robot_copies.py holds them to each robot's inverse)."""
-        for forest_pass, q_forest in self._each_pass(q):
-            pin.computeMinverse(self.model, forest_pass.data, q_forest)
-        return _gathered(self._passes(q.shape[0]), "inverse_inertia", q.shape[0])
-
-    def inertia_rate_times(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        r""":math:`\dot H v` of every row moving at v, (S, n) [N·m]: :math:`(C + C^\top)v` with Pinocchio's Coriolis
-        matrix (``computeCoriolisMatrix``, for which :math:`\dot H - 2C` is skew), once per forest pass."""
-        for forest_pass, q_forest, v_forest in self._each_pass(q, v):
-            pin.computeCoriolisMatrix(self.model, forest_pass.data, q_forest, v_forest)
-        coriolis = _gathered(self._passes(q.shape[0]), "coriolis", q.shape[0])
-        return np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
 
     def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""

@@ -203,7 +203,7 @@ class StackedGradientProjection(StackedPseudoInverse):
         self.middle, self.curvature = np.asarray(centre, dtype=float), np.asarray(curvature, dtype=float)
         self.n, self.gain = n, gain
 
-    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, (J⁺, u + k ∂p/∂q)); a singular row gets a finite, unused answer."""
         particular, conditions, failures, pseudoinverse = super().rates(jacobian, command)
         gradient = np.zeros((configuration.shape[0], self.n))
@@ -214,7 +214,7 @@ class StackedGradientProjection(StackedPseudoInverse):
         k = self.gain
         return particular - k * projected, conditions, failures, (pseudoinverse, particular + k * gradient)
 
-    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state) -> np.ndarray:
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """J⁺(ċ − J̇q̇) + (I − J⁺J)(J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∂²p/∂q² q̇) per row (see :meth:`GradientProjection.acceleration_function`)."""
         pseudoinverse, shifted = state
         inner = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, shifted))

@@ -110,13 +110,20 @@ class VelocityPseudoInverse(VelocityResolver):
 class StackedPseudoInverse:
     r""":math:`\dot q = J^\dagger c` and its :math:`\ddot q` per row of (B, m, n) stacks, :math:`J^\dagger = J^\top(JJ^\top)^{-1}`."""
 
+    #: Whether :meth:`rates` reads H⁻¹ at the configuration and :meth:`acceleration` Ḣq̇ there, from the
+    #: ``kinematics`` (a :class:`~torqueopt.robot_copies.TaskKinematics`) the batch gives them.
+    reads_inverse_inertia: bool = False
+    reads_inertia_rate: bool = False
+
     def __init__(self, tolerance: float):
         self.tolerance = tolerance
 
-    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray | None = None):
+    def rates(
+        self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray | None = None, kinematics=None
+    ):
         """(q̇ (B, n), σmin/σmax (B,), failures, J⁺ (B, n, m)); a singular row gets a finite, unused answer.
 
-        J⁺c depends on q only through J: ``configuration`` is not read."""
+        J⁺c depends on q only through J: ``configuration`` and ``kinematics`` are not read."""
         jacobian_t = np.swapaxes(jacobian, 1, 2)
         gram = jacobian @ jacobian_t
         conditions, failures, determinant = self.conditions(gram)
@@ -158,7 +165,7 @@ class StackedPseudoInverse:
         return conditions, singular_rows(conditions, self.tolerance), determinant
 
     @staticmethod
-    def acceleration(jacobian, jacobian_rate, velocity, command_rate, pseudoinverse) -> np.ndarray:
+    def acceleration(jacobian, jacobian_rate, velocity, command_rate, pseudoinverse, kinematics=None) -> np.ndarray:
         """J⁺(ċ − J̇q̇) + (I − J⁺J)J̇ᵀJ⁺ᵀq̇ per row (see :meth:`VelocityPseudoInverse.acceleration_function`)."""
         rate_of_rates = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, velocity))
         residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
@@ -247,26 +254,24 @@ class KineticEnergyPseudoInverse(VelocityResolver):
         """Eq. (16) with W = H and the closed-form q̈ of :meth:`acceleration_function` on stacks (position tasks)."""
         if robot.task == "pose":
             return None
-        return StackedKineticEnergyPseudoInverse(robot, self.singular_tolerance)
+        return StackedKineticEnergyPseudoInverse(self.singular_tolerance)
 
 
 class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
     r""":math:`\dot q = H^{-1}J^\top(JH^{-1}J^\top)^{-1}c` (Eq. (16) with W = H) and its :math:`\ddot q` per row of
-    (B, m, n) stacks, :math:`H^{-1}` and :math:`\dot H\dot q` from a forest of the robot
-    (:meth:`RobotForest.inverse_inertia <torqueopt.robot_copies.RobotForest.inverse_inertia>`,
-    :meth:`~torqueopt.robot_copies.RobotForest.inertia_rate_times`); σmin/σmax of J and the singular rows
-    as :class:`StackedPseudoInverse` finds them."""
+    (B, m, n) stacks; :math:`H^{-1}` at each configuration and :math:`\dot H\dot q` at the step's start are those
+    the batch's forest computes with J and :math:`\dot J` in the same pass
+    (:meth:`RobotForest.kinematics <torqueopt.robot_copies.RobotForest.kinematics>`, ``inverse_inertia``,
+    ``inertia_rate``); σmin/σmax of J and the singular rows as :class:`StackedPseudoInverse` finds them."""
 
-    def __init__(self, robot: Robot, tolerance: float):
-        from ...robot_copies import RobotForest
+    reads_inverse_inertia = True
+    reads_inertia_rate = True
 
-        super().__init__(tolerance)
-        self.forest = RobotForest(robot)
-
-    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray):
-        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer."""
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with H⁻¹."""
         conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
-        inverse_inertia = self.forest.inverse_inertia(configuration)
+        inverse_inertia = kinematics.inverse_inertia
         weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
         gram = jacobian @ weighted_jt  # G = JH⁻¹Jᵀ of Eq. (16)
         if failures:
@@ -275,12 +280,13 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
         multipliers = np.einsum("bij,bj->bi", gram_inverse, command)  # λ = G⁻¹c
         # Eq. (16) with W = H: q̇ = Aλ, the least kinetic energy Eq. (17)
         velocity = np.einsum("bij,bj->bi", weighted_jt, multipliers)
-        return velocity, conditions, failures, (configuration, inverse_inertia, weighted_jt, gram_inverse, multipliers)
+        return velocity, conditions, failures, (inverse_inertia, weighted_jt, gram_inverse, multipliers)
 
-    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state) -> np.ndarray:
-        """r + AG⁻¹(ċ − J̇q̇ − Jr), r = H⁻¹(J̇ᵀλ − Ḣq̇), per row (see :meth:`KineticEnergyPseudoInverse.acceleration_function`)."""
-        configuration, inverse_inertia, weighted_jt, gram_inverse, multipliers = state
-        inertia_rate_velocity = self.forest.inertia_rate_times(configuration, velocity)  # Ḣq̇
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """r + AG⁻¹(ċ − J̇q̇ − Jr), r = H⁻¹(J̇ᵀλ − Ḣq̇), per row (see :meth:`KineticEnergyPseudoInverse.acceleration_function`).
+        ``kinematics``: the forest's at the configuration and q̇, with Ḣq̇."""
+        inverse_inertia, weighted_jt, gram_inverse, multipliers = state
+        inertia_rate_velocity = kinematics.inertia_rate_velocity  # Ḣq̇ = (C + Cᵀ)q̇
         inner = np.einsum(
             "bij,bj->bi", inverse_inertia, np.einsum("bji,bj->bi", jacobian_rate, multipliers) - inertia_rate_velocity
         )
