@@ -836,3 +836,20 @@ def test_extended_jacobian_on_a_robot_with_more_redundancy_says_what_would_work(
         "task 'position' on robot 'kinova' leaves 3: lock 2 joints of the chain (--lock NAME,...) so that n = 4, "
         "or choose a resolver that takes any redundancy (velocity-pinv, gradient-projection)\n"
     )
+
+
+def test_the_stacked_inverse_is_lapacks_with_identity_rows_where_the_method_fails(rng):
+    """The velocity-level stacks' G⁻¹ (closed form for two rows) against numpy's LAPACK inverse, for symmetric and
+    non-symmetric 2×2 and for 3×3 stacks; a failed row's answer is the identity's inverse, whatever its matrix."""
+    from torqueopt.resolvers.velocity.pseudoinverse import stacked_inverse
+
+    for m in (2, 3):
+        factors = rng.normal(size=(9, m, m + 2))
+        for gram in (factors @ np.swapaxes(factors, 1, 2), rng.normal(size=(9, m, m)) + 3.0 * np.eye(m)):
+            expected = np.linalg.inv(gram)
+            singular = gram.copy()
+            singular[4] = 0.0  # a row whose method failed: its matrix need not be invertible
+            inverse = stacked_inverse(singular, {4: "singular"})
+            rows = [row for row in range(9) if row != 4]
+            np.testing.assert_allclose(inverse[rows], expected[rows], rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal(inverse[4], np.eye(m))

@@ -127,19 +127,7 @@ class StackedPseudoInverse:
         jacobian_t = np.swapaxes(jacobian, 1, 2)
         gram = jacobian @ jacobian_t
         conditions, failures, determinant = self.conditions(gram)
-        if gram.shape[1] == 2:
-            # G⁻¹ in closed form on the batch axis (no LAPACK call per row), G = ((a, b), (b, d))
-            inverse = np.empty_like(gram)
-            inverse[:, 0, 0], inverse[:, 1, 1] = gram[:, 1, 1], gram[:, 0, 0]
-            inverse[:, 0, 1] = inverse[:, 1, 0] = -gram[:, 0, 1]
-            if failures:
-                rows = list(failures)
-                inverse[rows], determinant[rows] = np.eye(2), 1.0
-            pseudoinverse = jacobian_t @ (inverse / determinant[:, None, None])  # Eq. (3)
-        else:
-            if failures:
-                gram[list(failures)] = np.eye(gram.shape[1])
-            pseudoinverse = jacobian_t @ np.linalg.inv(gram)  # Eq. (3)
+        pseudoinverse = jacobian_t @ stacked_inverse(gram, failures, determinant)  # Eq. (3)
         return np.einsum("bij,bj->bi", pseudoinverse, command), conditions, failures, pseudoinverse
 
     def conditions(self, gram: np.ndarray):
@@ -273,10 +261,7 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
         conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
         inverse_inertia = kinematics.inverse_inertia
         weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
-        gram = jacobian @ weighted_jt  # G = JH⁻¹Jᵀ of Eq. (16)
-        if failures:
-            gram[list(failures)] = np.eye(gram.shape[1])
-        gram_inverse = np.linalg.inv(gram)
+        gram_inverse = stacked_inverse(jacobian @ weighted_jt, failures)  # G⁻¹, G = JH⁻¹Jᵀ of Eq. (16)
         multipliers = np.einsum("bij,bj->bi", gram_inverse, command)  # λ = G⁻¹c
         # Eq. (16) with W = H: q̇ = Aλ, the least kinetic energy Eq. (17)
         velocity = np.einsum("bij,bj->bi", weighted_jt, multipliers)
@@ -295,6 +280,28 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
         )
         # the time derivative of Eq. (16) with W = H applied to c
         return inner + np.einsum("bij,bj->bi", weighted_jt, np.einsum("bij,bj->bi", gram_inverse, residual))
+
+
+def stacked_inverse(gram: np.ndarray, failures: dict, determinant: np.ndarray | None = None) -> np.ndarray:
+    """The inverse of each (m, m) matrix of a (B, m, m) stack, the rows in ``failures`` given the identity's (a
+    finite, unused answer); ``gram`` is overwritten.
+
+    For m = 2 in closed form on the batch axis, G⁻¹ = ((d, −b), (−c, a)) / (ad − bc), no LAPACK call per row
+    (``determinant``: ad − bc when the caller has it); else by LAPACK.
+    """
+    if gram.shape[1] != 2:
+        if failures:
+            gram[list(failures)] = np.eye(gram.shape[1])
+        return np.linalg.inv(gram)
+    if determinant is None:
+        determinant = gram[:, 0, 0] * gram[:, 1, 1] - gram[:, 0, 1] * gram[:, 1, 0]
+    inverse = np.empty_like(gram)
+    inverse[:, 0, 0], inverse[:, 1, 1] = gram[:, 1, 1], gram[:, 0, 0]
+    inverse[:, 0, 1], inverse[:, 1, 0] = -gram[:, 0, 1], -gram[:, 1, 0]
+    if failures:
+        rows = list(failures)
+        inverse[rows], determinant[rows] = np.eye(2), 1.0
+    return inverse / determinant[:, None, None]
 
 
 def inverse_inertia_at(kinematics: Kinematics) -> np.ndarray:
