@@ -13,6 +13,7 @@ from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, NoRedundancy, SingularJacobian
 from torqueopt.kinematic import joint_rates
 from torqueopt.resolvers.velocity import JointLimits, manipulability, null_vector, null_vector_derivative
+from torqueopt.resolvers.velocity.extended_jacobian import cross_product_row
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
 from torqueopt.resolvers.velocity.pseudoinverse import inverse_inertia_at
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask, prioritised_rates
@@ -445,6 +446,77 @@ def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
         np.testing.assert_allclose(
             np.vstack([jacobian, g_row]).dot(rates), np.append(xdot, 0.0), atol=1e-10
         )  # Eq. (15)
+
+
+def test_the_cross_product_row_is_the_general_one(planar3, rng):
+    """:func:`cross_product_row` (Jacobi's formula on det [J; ∇pᵀ]) against :func:`null_vector`,
+    :func:`null_vector_derivative` and Eq. (14) at 1e-12: random 2×3 matrices, a non-diagonal Hessian and a zero
+    gradient included, and planar3's own terms against :meth:`ExtendedJacobian.extended_row`."""
+    for gradient in (rng.normal(size=3), np.zeros(3)):
+        jacobian, derivative, hessian = rng.normal(size=(2, 3)), rng.normal(size=(2, 3, 3)), rng.normal(size=(3, 3))
+        normal = null_vector(jacobian)
+        g_value, g_row, got_normal = cross_product_row(jacobian.tolist(), derivative, gradient, hessian)
+        assert g_value == pytest.approx(gradient.dot(normal), abs=1e-12)
+        np.testing.assert_allclose(got_normal, normal, rtol=0, atol=1e-12)
+        expected = normal.dot(hessian) + gradient.dot(null_vector_derivative(jacobian, derivative))
+        np.testing.assert_allclose(g_row, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    resolver, task = torqueopt.get_resolver("extended-jacobian"), FrameTask.of_robot(planar3)
+    for _ in range(5):
+        kinematics = Kinematics(planar3).update(rng.uniform(-2, 2, 3))
+        expected = resolver.extended_row(kinematics, task)
+        got = cross_product_row(
+            task.jacobian(kinematics).tolist(),
+            task.jacobian_derivative(kinematics),
+            resolver.objective.gradient(kinematics, task),
+            resolver.objective.hessian(kinematics, task),
+        )
+        assert got[0] == pytest.approx(expected[0], abs=1e-14)
+        np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-12 * np.abs(expected[1]).max())
+        np.testing.assert_allclose(got[2], expected[2], rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_the_extended_jacobian_on_floats_is_its_lu_reference(planar3, rng, gain):
+    """planar3's step functions (cross products, J_ex⁻¹ by its adjugate, J's inverse condition from |J_0 × J_1|)
+    against :meth:`ExtendedJacobian.lu_step_functions` (J_ex's LU factors, Eigen's SVD): q̇ and σ_min/σ_max at
+    1e-12, q̈ at 1e-10 (its curvature divides the rows' round-off by the difference's step), and the same
+    refusals with the same words where J or J_ex is singular."""
+    resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
+    task = FrameTask.of_robot(planar3)
+    fast, reference = resolver.step_functions(planar3, task), resolver.lu_step_functions(planar3, task)
+    assert fast[0].__qualname__.startswith("ExtendedJacobian.cross_product_step_functions")
+    kinematics = Kinematics(planar3)
+    tested = 0
+    while tested < 10:
+        q, velocity = rng.uniform(-2, 2, 3), rng.normal(size=3)
+        command, command_rate = rng.normal(size=2), rng.normal(size=2)
+        try:
+            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
+        except SingularJacobian:
+            continue
+        tested += 1
+        got_rates, got_condition = fast[0](kinematics, command)
+        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
+        assert got_condition == pytest.approx(expected_condition, rel=1e-12)
+        expected = reference[1](kinematics, velocity, command, command_rate)
+        got = fast[1](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    # stretched (J of rank 1), nearly stretched, and with an alignment cutoff most states miss
+    strict = torqueopt.get_resolver("extended-jacobian", algorithmic_tolerance=0.9)
+    cases = [(resolver, np.zeros(3)), (resolver, np.array([0.0, 1e-7, 0.0]))]
+    cases += [(strict, rng.uniform(-2, 2, 3)) for _ in range(10)]
+    refused = 0
+    for method, q in cases:
+        messages = []
+        for rates, _ in (method.step_functions(planar3, task), method.lu_step_functions(planar3, task)):
+            try:
+                rates(kinematics.update(q), command)
+                messages.append(None)
+            except SingularJacobian as error:
+                messages.append(str(error))
+        assert messages[0] == messages[1]
+        refused += messages[0] is not None
+    assert refused >= 4
 
 
 def test_task_priority_realises_the_high_priority_task_exactly_and_is_eqs_9_and_10(planar3, rng):

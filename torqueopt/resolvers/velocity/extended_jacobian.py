@@ -10,7 +10,7 @@ import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
-from ...linalg import InverseCondition, determinants
+from ...linalg import InverseCondition, determinants, singular_message
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
@@ -18,7 +18,7 @@ from .base import POSITION_GAIN_OPTION, VelocityResolver
 from .criteria import criterion_from
 from .options import criterion_spec
 
-__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative"]
+__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative", "cross_product_row"]
 
 
 def null_vector(jacobian: np.ndarray) -> np.ndarray:
@@ -72,6 +72,47 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     cofactors = _checkerboard_signs(m) * determinants(minors[:, others[:, None, :, None], others[None, :, None, :]])
     minor_derivatives = derivative[:, columns, :].transpose(1, 0, 2, 3).reshape(n, m * m, n)  # [i, (r, c), k]
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
+
+
+def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarray, hessian: np.ndarray):
+    r"""(G, ∂G/∂q, n_J) of :meth:`ExtendedJacobian.extended_row` for a 2×3 Jacobian, as floats: its fast twin
+    (the tests hold them equal), for planar3's task.
+
+    With the 3×3 matrix :math:`A = [J_0;\ J_1;\ (\partial p/\partial q)^\top]` (rows),
+    :math:`G = \partial p/\partial q\cdot(J_0\times J_1) = \det A` (Eq. (14)), and Jacobi's formula on that one
+    determinant gives the whole row: the cofactors of A's rows are the cross products of the other two, so
+
+    .. math::
+
+        \frac{\partial G}{\partial q_k} = (J_1\times\nabla p)\cdot\frac{\partial J_0}{\partial q_k}
+        + (\nabla p\times J_0)\cdot\frac{\partial J_1}{\partial q_k} + n_J\cdot\nabla^2 p_{:,k},
+        \qquad n_J = J_0\times J_1,
+
+    the same sums as :func:`null_vector_derivative`'s, grouped by A's cofactors. On Python floats: numpy's cost
+    per call is many times that of these few products.
+
+    Args:
+        jacobian_rows: J as two lists of three floats (``J.tolist()``).
+        derivative: D (2, 3, 3), :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
+        gradient: ∂p/∂q (3 values).
+        hessian: ∂²p/∂q² (3×3).
+
+    Returns:
+        G (a float), ∂G/∂q and n_J (lists of three floats).
+    """
+    (a0, a1, a2), (b0, b1, b2) = jacobian_rows
+    g0, g1, g2 = gradient.tolist()
+    n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # n_J = J_0 × J_1
+    c0, c1, c2 = b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0  # J_1 × ∇p, the cofactors of row 0
+    e0, e1, e2 = g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0  # ∇p × J_0, the cofactors of row 1
+    (d0, d1, d2), (f0, f1, f2) = derivative.tolist()  # d_j = ∂J_0j/∂q, f_j = ∂J_1j/∂q (over k)
+    h0, h1, h2 = hessian.tolist()
+    # ∂G/∂θ, the last row of J_ex in Eq. (15), by Jacobi's formula on det A
+    row = [
+        c0 * x0 + c1 * x1 + c2 * x2 + e0 * y0 + e1 * y1 + e2 * y2 + n0 * z0 + n1 * z1 + n2 * z2
+        for x0, x1, x2, y0, y1, y2, z0, z1, z2 in zip(d0, d1, d2, f0, f1, f2, h0, h1, h2)
+    ]
+    return g0 * n0 + g1 * n1 + g2 * n2, row, [n0, n1, n2]  # Eq. (14): G = ∂g/∂θ · n_J
 
 
 class ExtendedJacobian(VelocityResolver):
@@ -191,7 +232,15 @@ class ExtendedJacobian(VelocityResolver):
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (15)'s rates and their q̈ (None for ``pose``), sharing J_ex's LU factors at each configuration."""
+        """Eq. (15)'s rates and their q̈ (None for ``pose``): :meth:`cross_product_step_functions` for a 2×3
+        Jacobian (planar3's task), :meth:`lu_step_functions` for any other."""
+        if task.dimension == 2 and robot.nv == 3:
+            return self.cross_product_step_functions(robot, task)
+        return self.lu_step_functions(robot, task)
+
+    def lu_step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1, sharing J_ex's LU factors at each
+        configuration: the reference the fast pair is held to."""
         condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
         tolerance = self.algorithmic_tolerance
 
@@ -200,13 +249,7 @@ class ExtendedJacobian(VelocityResolver):
             jacobian = task.jacobian(kinematics)
             inverse_condition = condition_of(jacobian)  # J itself must keep full rank
             _, g_row, normal = self.extended_row(kinematics, task)
-            alignment = _alignment(g_row, normal)
-            if not alignment >= tolerance:
-                raise SingularJacobian(
-                    f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
-                    f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
-                    f"is below the cutoff {tolerance:.3g}"
-                )
+            _check_alignment(_alignment(g_row, normal), tolerance)
             # J_ex of Eq. (15), by Eigen's LU with partial pivoting (numpy's solve costs more than a 3×3 LU)
             return eigenpy.PartialPivLU(np.concatenate((jacobian, g_row[None]))), inverse_condition
 
@@ -232,6 +275,80 @@ class ExtendedJacobian(VelocityResolver):
 
         return rates, None if task.kind == "pose" else acceleration
 
+    def cross_product_step_functions(self, robot: Robot, task: FrameTask):
+        r""":meth:`step_functions` for a 2×3 Jacobian (planar3's task, n = 3, m = 2), on floats: the fast twin of
+        :meth:`lu_step_functions` (the tests hold them equal), whose numpy calls cost many times these few products.
+
+        The row by :func:`cross_product_row`. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
+        |J_0\times J_1|/\lambda_{max}(JJ^\top)`, since :math:`\sigma_{min}\sigma_{max} = |J_0\times J_1|` (Lagrange's
+        identity) and :math:`\sigma_{max}^2 = \lambda_{max}`. :math:`J_{ex}^{-1} = \operatorname{adj}J_{ex}/\det J_{ex}`,
+        Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
+        :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
+        :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
+        times :math:`|r|\,|n_J|`. The curvature's two rows are taken on kinematics of their own, so the step's
+        stay at q.
+        """
+        tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
+        shifted = Kinematics(robot)
+
+        def row_at(kinematics: Kinematics):
+            """J's rows and (G, ∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
+            jacobian_rows = task.jacobian(kinematics).tolist()
+            derivative = task.jacobian_derivative(kinematics)
+            gradient, hessian = objective.gradient(kinematics, task), objective.hessian(kinematics, task)
+            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian)
+
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            ((a0, a1, a2), (b0, b1, b2)), (_, (r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
+            # J itself must keep full rank: σ_min/σ_max = |J_0 × J_1| / λ_max(JJᵀ)
+            aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
+            largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)
+            normal_norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            inverse_condition = normal_norm / largest if largest > 0.0 else 0.0
+            if not inverse_condition >= singular_tolerance:
+                raise SingularJacobian(singular_message(inverse_condition, singular_tolerance))
+            determinant = r0 * n0 + r1 * n1 + r2 * n2  # det J_ex = ∂G/∂q · n_J
+            scale = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * normal_norm
+            _check_alignment(abs(determinant) / scale if scale > 0 else 0.0, tolerance)
+            # J_ex⁻¹ of Eq. (15), adj J_ex / det J_ex, by columns: (J_1 × r, r × J_0, n_J) / det J_ex
+            inverse = (
+                (b1 * r2 - b2 * r1) / determinant, (b2 * r0 - b0 * r2) / determinant, (b0 * r1 - b1 * r0) / determinant,
+                (r1 * a2 - r2 * a1) / determinant, (r2 * a0 - r0 * a2) / determinant, (r0 * a1 - r1 * a0) / determinant,
+                n0 / determinant, n1 / determinant, n2 / determinant,
+            )  # fmt: skip
+            return inverse, inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            (u0, u1, u2, w0, w1, w2, *_), inverse_condition = at_configuration(kinematics)
+            x0, x1 = task_velocity.tolist()
+            # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0]
+            return np.array((u0 * x0 + w0 * x1, u1 * x0 + w1 * x1, u2 * x0 + w2 * x1)), inverse_condition
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            q = kinematics.q
+            (u0, u1, u2, w0, w1, w2, z0, z1, z2), _ = at_configuration(kinematics)
+            jacobian_rate = task.jacobian_rate(kinematics, velocity)
+            speed = math.sqrt(velocity.dot(velocity))
+            curvature = 0.0
+            if speed > 0.0:
+                step = CURVATURE_STEP / speed
+                f0, f1, f2 = row_at(shifted.update(robot.integrate(q, step * velocity)))[1][1]
+                k0, k1, k2 = row_at(shifted.update(robot.integrate(q, -step * velocity)))[1][1]
+                v0, v1, v2 = velocity.tolist()
+                curvature = ((f0 - k0) * v0 + (f1 - k1) * v1 + (f2 - k2) * v2) / (2.0 * step)  # q̇ᵀ∇²G q̇
+            # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
+            c0, c1 = (command_rate - jacobian_rate.dot(velocity)).tolist()
+            return np.array(
+                (
+                    u0 * c0 + w0 * c1 - z0 * curvature,
+                    u1 * c0 + w1 * c1 - z1 * curvature,
+                    u2 * c0 + w2 * c1 - z2 * curvature,
+                )
+            )
+
+        return rates, acceleration
+
 
 #: The last entry of Eq. (15)'s right-hand side, [ẋ; 0].
 _ZERO = np.zeros(1)
@@ -241,6 +358,16 @@ _ZERO = np.zeros(1)
 #: its O(δ²) truncation and its round-off ε|∂G/∂q|/δ balance near 1e-5 (at 15 random planar3 states the
 #: q̈ agreed with a five-point difference of the rates to 4e-11 of its size, against 8e-10 at 1e-6, 2e-9 at 1e-4).
 CURVATURE_STEP = 1e-5
+
+
+def _check_alignment(alignment: float, tolerance: float) -> None:
+    """Raise SingularJacobian where J_ex's alignment falls below ``tolerance`` (an algorithmic singularity)."""
+    if not alignment >= tolerance:
+        raise SingularJacobian(
+            f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
+            f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
+            f"is below the cutoff {tolerance:.3g}"
+        )
 
 
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
