@@ -455,7 +455,7 @@ def test_the_cross_product_row_is_the_general_one(planar3, rng):
     for gradient in (rng.normal(size=3), np.zeros(3)):
         jacobian, derivative, hessian = rng.normal(size=(2, 3)), rng.normal(size=(2, 3, 3)), rng.normal(size=(3, 3))
         normal = null_vector(jacobian)
-        g_value, g_row, got_normal = cross_product_row(jacobian.tolist(), derivative, gradient, hessian)
+        g_value, g_row, got_normal = cross_product_row(jacobian.tolist(), derivative, gradient, hessian.tolist())
         assert g_value == pytest.approx(gradient.dot(normal), abs=1e-12)
         np.testing.assert_allclose(got_normal, normal, rtol=0, atol=1e-12)
         expected = normal.dot(hessian) + gradient.dot(null_vector_derivative(jacobian, derivative))
@@ -468,7 +468,7 @@ def test_the_cross_product_row_is_the_general_one(planar3, rng):
             task.jacobian(kinematics).tolist(),
             task.jacobian_derivative(kinematics),
             resolver.objective.gradient(kinematics, task),
-            resolver.objective.hessian(kinematics, task),
+            resolver.objective.hessian(kinematics, task).tolist(),
         )
         assert got[0] == pytest.approx(expected[0], abs=1e-14)
         np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-12 * np.abs(expected[1]).max())

@@ -74,7 +74,7 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
-def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarray, hessian: np.ndarray):
+def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarray, hessian_rows):
     r"""(G, ∂G/∂q, n_J) of :meth:`ExtendedJacobian.extended_row` for a 2×3 Jacobian, as floats: its fast twin
     (the tests hold them equal), for planar3's task.
 
@@ -95,7 +95,7 @@ def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarra
         jacobian_rows: J as two lists of three floats (``J.tolist()``).
         derivative: D (2, 3, 3), :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
         gradient: ∂p/∂q (3 values).
-        hessian: ∂²p/∂q² (3×3).
+        hessian_rows: ∂²p/∂q² as three lists of three floats (``hessian.tolist()``).
 
     Returns:
         G (a float), ∂G/∂q and n_J (lists of three floats).
@@ -105,12 +105,15 @@ def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarra
     n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # n_J = J_0 × J_1
     c0, c1, c2 = b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0  # J_1 × ∇p, the cofactors of row 0
     e0, e1, e2 = g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0  # ∇p × J_0, the cofactors of row 1
-    (d0, d1, d2), (f0, f1, f2) = derivative.tolist()  # d_j = ∂J_0j/∂q, f_j = ∂J_1j/∂q (over k)
-    h0, h1, h2 = hessian.tolist()
-    # ∂G/∂θ, the last row of J_ex in Eq. (15), by Jacobi's formula on det A
+    derivative_0, derivative_1 = derivative.tolist()
+    (x00, x01, x02), (x10, x11, x12), (x20, x21, x22) = derivative_0  # x_jk = ∂J_0j/∂q_k
+    (y00, y01, y02), (y10, y11, y12), (y20, y21, y22) = derivative_1  # y_jk = ∂J_1j/∂q_k
+    (z00, z01, z02), (z10, z11, z12), (z20, z21, z22) = hessian_rows  # z_jk = ∂²p/∂q_j∂q_k
+    # ∂G/∂θ, the last row of J_ex in Eq. (15), by Jacobi's formula on det A, one q_k a line
     row = [
-        c0 * x0 + c1 * x1 + c2 * x2 + e0 * y0 + e1 * y1 + e2 * y2 + n0 * z0 + n1 * z1 + n2 * z2
-        for x0, x1, x2, y0, y1, y2, z0, z1, z2 in zip(d0, d1, d2, f0, f1, f2, h0, h1, h2)
+        c0 * x00 + c1 * x10 + c2 * x20 + e0 * y00 + e1 * y10 + e2 * y20 + n0 * z00 + n1 * z10 + n2 * z20,
+        c0 * x01 + c1 * x11 + c2 * x21 + e0 * y01 + e1 * y11 + e2 * y21 + n0 * z01 + n1 * z11 + n2 * z21,
+        c0 * x02 + c1 * x12 + c2 * x22 + e0 * y02 + e1 * y12 + e2 * y22 + n0 * z02 + n1 * z12 + n2 * z22,
     ]
     return g0 * n0 + g1 * n1 + g2 * n2, row, [n0, n1, n2]  # Eq. (14): G = ∂g/∂θ · n_J
 
@@ -226,8 +229,8 @@ class ExtendedJacobian(VelocityResolver):
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
         the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
         :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the
-        loop's four of the whole rate map. The LU factors of :math:`J_{ex}` at q are those the rates computed
-        there, when they did.
+        loop's four of the whole rate map. The LU factors of :math:`J_{ex}` at q (its inverse on planar3's task)
+        are those the rates computed there, when they did.
         """
         return self.step_functions(robot, task)[1]
 
@@ -290,13 +293,23 @@ class ExtendedJacobian(VelocityResolver):
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
         shifted = Kinematics(robot)
+        # q ⊕ δ is q + δ when every joint adds, as in the loop (Pinocchio's integrate does that addition for them)
+        integrate = np.add if robot.euclidean else robot.integrate
+        # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
+        constant = [None, None]
 
         def row_at(kinematics: Kinematics):
             """J's rows and (G, ∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
             jacobian_rows = task.jacobian(kinematics).tolist()
             derivative = task.jacobian_derivative(kinematics)
             gradient, hessian = objective.gradient(kinematics, task), objective.hessian(kinematics, task)
-            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian)
+            if hessian is constant[0]:
+                hessian_rows = constant[1]
+            else:
+                hessian_rows = hessian.tolist()
+                if not hessian.flags.writeable:
+                    constant[:] = hessian, hessian_rows
+            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows)
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
@@ -311,39 +324,44 @@ class ExtendedJacobian(VelocityResolver):
             determinant = r0 * n0 + r1 * n1 + r2 * n2  # det J_ex = ∂G/∂q · n_J
             scale = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * normal_norm
             _check_alignment(abs(determinant) / scale if scale > 0 else 0.0, tolerance)
-            # J_ex⁻¹ of Eq. (15), adj J_ex / det J_ex, by columns: (J_1 × r, r × J_0, n_J) / det J_ex
-            inverse = (
-                (b1 * r2 - b2 * r1) / determinant, (b2 * r0 - b0 * r2) / determinant, (b0 * r1 - b1 * r0) / determinant,
-                (r1 * a2 - r2 * a1) / determinant, (r2 * a0 - r0 * a2) / determinant, (r0 * a1 - r1 * a0) / determinant,
-                n0 / determinant, n1 / determinant, n2 / determinant,
+            # J_ex⁻¹ of Eq. (15) is adj J_ex / det J_ex; the adjugate's columns are J_1 × r, r × J_0 and n_J
+            adjugate = (
+                b1 * r2 - b2 * r1, b2 * r0 - b0 * r2, b0 * r1 - b1 * r0,
+                r1 * a2 - r2 * a1, r2 * a0 - r0 * a2, r0 * a1 - r1 * a0,
+                n0, n1, n2,
             )  # fmt: skip
-            return inverse, inverse_condition
+            return adjugate, determinant, inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            (u0, u1, u2, w0, w1, w2, *_), inverse_condition = at_configuration(kinematics)
+            (u0, u1, u2, w0, w1, w2, *_), determinant, inverse_condition = at_configuration(kinematics)
             x0, x1 = task_velocity.tolist()
             # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0]
-            return np.array((u0 * x0 + w0 * x1, u1 * x0 + w1 * x1, u2 * x0 + w2 * x1)), inverse_condition
+            rates = (
+                (u0 * x0 + w0 * x1) / determinant,
+                (u1 * x0 + w1 * x1) / determinant,
+                (u2 * x0 + w2 * x1) / determinant,
+            )
+            return np.array(rates), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
-            (u0, u1, u2, w0, w1, w2, z0, z1, z2), _ = at_configuration(kinematics)
+            (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _ = at_configuration(kinematics)
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
             speed = math.sqrt(velocity.dot(velocity))
             curvature = 0.0
             if speed > 0.0:
                 step = CURVATURE_STEP / speed
-                f0, f1, f2 = row_at(shifted.update(robot.integrate(q, step * velocity)))[1][1]
-                k0, k1, k2 = row_at(shifted.update(robot.integrate(q, -step * velocity)))[1][1]
+                f0, f1, f2 = row_at(shifted.update(integrate(q, step * velocity)))[1][1]
+                k0, k1, k2 = row_at(shifted.update(integrate(q, -step * velocity)))[1][1]
                 v0, v1, v2 = velocity.tolist()
                 curvature = ((f0 - k0) * v0 + (f1 - k1) * v1 + (f2 - k2) * v2) / (2.0 * step)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
             c0, c1 = (command_rate - jacobian_rate.dot(velocity)).tolist()
             return np.array(
                 (
-                    u0 * c0 + w0 * c1 - z0 * curvature,
-                    u1 * c0 + w1 * c1 - z1 * curvature,
-                    u2 * c0 + w2 * c1 - z2 * curvature,
+                    (u0 * c0 + w0 * c1 - z0 * curvature) / determinant,
+                    (u1 * c0 + w1 * c1 - z1 * curvature) / determinant,
+                    (u2 * c0 + w2 * c1 - z2 * curvature) / determinant,
                 )
             )
 
