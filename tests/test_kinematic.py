@@ -13,7 +13,7 @@ from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, NoRedundancy, SingularJacobian
 from torqueopt.kinematic import joint_rates
 from torqueopt.resolvers.velocity import JointLimits, manipulability, null_vector, null_vector_derivative
-from torqueopt.resolvers.velocity.extended_jacobian import cross_product_row
+from torqueopt.resolvers.velocity.extended_jacobian import cross_product_row, cross_product_slope
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
 from torqueopt.resolvers.velocity.pseudoinverse import inverse_inertia_at
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask, prioritised_rates
@@ -449,30 +449,54 @@ def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
 
 
 def test_the_cross_product_row_is_the_general_one(planar3, rng):
-    """:func:`cross_product_row` (Jacobi's formula on det [J; ∇pᵀ]) against :func:`null_vector`,
-    :func:`null_vector_derivative` and Eq. (14) at 1e-12: random 2×3 matrices, a non-diagonal Hessian and a zero
-    gradient included, and planar3's own terms against :meth:`ExtendedJacobian.extended_row`."""
+    """:func:`cross_product_row` (Jacobi's formula on det [J; ∇pᵀ]) against :func:`null_vector` and
+    :func:`null_vector_derivative` at 1e-12, and :func:`cross_product_slope` (the same along q̇, from J̇) against
+    that row times q̇: random 2×3 matrices, a non-diagonal Hessian and a zero gradient included, and planar3's own
+    terms against :meth:`ExtendedJacobian.extended_row`."""
     for gradient in (rng.normal(size=3), np.zeros(3)):
         jacobian, derivative, hessian = rng.normal(size=(2, 3)), rng.normal(size=(2, 3, 3)), rng.normal(size=(3, 3))
+        velocity = rng.normal(size=3)
         normal = null_vector(jacobian)
-        g_value, g_row, got_normal = cross_product_row(jacobian.tolist(), derivative, gradient, hessian.tolist())
-        assert g_value == pytest.approx(gradient.dot(normal), abs=1e-12)
+        g_row, got_normal = cross_product_row(jacobian.tolist(), derivative, gradient.tolist(), hessian.tolist())
         np.testing.assert_allclose(got_normal, normal, rtol=0, atol=1e-12)
         expected = normal.dot(hessian) + gradient.dot(null_vector_derivative(jacobian, derivative))
         np.testing.assert_allclose(g_row, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        rate = derivative.dot(velocity)  # J̇ = Σ_k ∂J/∂q_k q̇_k
+        slope = cross_product_slope(
+            jacobian.tolist(), rate.tolist(), gradient.tolist(), hessian.tolist(), velocity.tolist()
+        )
+        assert slope == pytest.approx(expected.dot(velocity), abs=1e-12 * np.abs(expected).max())
     resolver, task = torqueopt.get_resolver("extended-jacobian"), FrameTask.of_robot(planar3)
     for _ in range(5):
         kinematics = Kinematics(planar3).update(rng.uniform(-2, 2, 3))
-        expected = resolver.extended_row(kinematics, task)
-        got = cross_product_row(
+        velocity = rng.normal(size=3)
+        _, expected_row, expected_normal = resolver.extended_row(kinematics, task)
+        terms = (
             task.jacobian(kinematics).tolist(),
-            task.jacobian_derivative(kinematics),
-            resolver.objective.gradient(kinematics, task),
+            resolver.objective.gradient_values(kinematics, task),
             resolver.objective.hessian(kinematics, task).tolist(),
         )
-        assert got[0] == pytest.approx(expected[0], abs=1e-14)
-        np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-12 * np.abs(expected[1]).max())
-        np.testing.assert_allclose(got[2], expected[2], rtol=0, atol=1e-14)
+        g_row, normal = cross_product_row(terms[0], task.jacobian_derivative(kinematics), *terms[1:])
+        scale = np.abs(expected_row).max()
+        np.testing.assert_allclose(g_row, expected_row, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(normal, expected_normal, rtol=0, atol=1e-14)
+        rate = task.jacobian_rate(kinematics, velocity).tolist()
+        slope = cross_product_slope(terms[0], rate, *terms[1:], velocity.tolist())
+        assert slope == pytest.approx(expected_row.dot(velocity), abs=1e-12 * scale * np.abs(velocity).max())
+
+
+def test_the_joint_limit_gradient_on_floats_is_the_gradient(planar3, panda, rng):
+    """:meth:`JointLimits.gradient_values`, bit for bit :meth:`JointLimits.gradient`, on arms with every joint
+    limited and on kinova, whose continuous joints have no Eq. (5) term; the base class's for a callable."""
+    pin.seed(int(rng.integers(2**31)))
+    for robot in (planar3, panda, torqueopt.load_robot("kinova")):
+        criterion = JointLimits()
+        for _ in range(3):
+            kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
+            assert criterion.gradient_values(kinematics) == criterion.gradient(kinematics).tolist()
+    objective = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2)).objective
+    kinematics = Kinematics(planar3).update(rng.uniform(-2, 2, 3))
+    assert objective.gradient_values(kinematics, None) == objective.gradient(kinematics, None).tolist()
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])

@@ -18,7 +18,7 @@ from .base import POSITION_GAIN_OPTION, VelocityResolver
 from .criteria import criterion_from
 from .options import criterion_spec
 
-__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative", "cross_product_row"]
+__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative", "cross_product_row", "cross_product_slope"]
 
 
 def null_vector(jacobian: np.ndarray) -> np.ndarray:
@@ -74,8 +74,8 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
-def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarray, hessian_rows):
-    r"""(G, ∂G/∂q, n_J) of :meth:`ExtendedJacobian.extended_row` for a 2×3 Jacobian, as floats: its fast twin
+def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient_values, hessian_rows):
+    r"""(∂G/∂q, n_J) of :meth:`ExtendedJacobian.extended_row` for a 2×3 Jacobian, as floats: its fast twin
     (the tests hold them equal), for planar3's task.
 
     With the 3×3 matrix :math:`A = [J_0;\ J_1;\ (\partial p/\partial q)^\top]` (rows),
@@ -94,14 +94,14 @@ def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarra
     Args:
         jacobian_rows: J as two lists of three floats (``J.tolist()``).
         derivative: D (2, 3, 3), :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
-        gradient: ∂p/∂q (3 values).
+        gradient_values: ∂p/∂q as three floats.
         hessian_rows: ∂²p/∂q² as three lists of three floats (``hessian.tolist()``).
 
     Returns:
-        G (a float), ∂G/∂q and n_J (lists of three floats).
+        ∂G/∂q and n_J (lists of three floats).
     """
     (a0, a1, a2), (b0, b1, b2) = jacobian_rows
-    g0, g1, g2 = gradient.tolist()
+    g0, g1, g2 = gradient_values
     n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # n_J = J_0 × J_1
     c0, c1, c2 = b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0  # J_1 × ∇p, the cofactors of row 0
     e0, e1, e2 = g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0  # ∇p × J_0, the cofactors of row 1
@@ -115,7 +115,41 @@ def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient: np.ndarra
         c0 * x01 + c1 * x11 + c2 * x21 + e0 * y01 + e1 * y11 + e2 * y21 + n0 * z01 + n1 * z11 + n2 * z21,
         c0 * x02 + c1 * x12 + c2 * x22 + e0 * y02 + e1 * y12 + e2 * y22 + n0 * z02 + n1 * z12 + n2 * z22,
     ]
-    return g0 * n0 + g1 * n1 + g2 * n2, row, [n0, n1, n2]  # Eq. (14): G = ∂g/∂θ · n_J
+    return row, [n0, n1, n2]
+
+
+def cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient_values, hessian_rows, velocity) -> float:
+    r""":math:`\partial G/\partial q\cdot\dot q` for a 2×3 Jacobian, the row of :func:`cross_product_row` along
+    :math:`\dot q`, from :math:`\dot J` instead of the kinematic Hessian: Jacobi's formula on
+    :math:`G = \det A` along the motion,
+
+    .. math::
+
+        \frac{\partial G}{\partial q}\cdot\dot q = (J_1\times\nabla p)\cdot\dot J_0 + (\nabla p\times J_0)\cdot\dot J_1
+        + n_J\cdot\nabla^2 p\,\dot q,\qquad \dot J = \sum_k \frac{\partial J}{\partial q_k}\dot q_k.
+
+    Args:
+        jacobian_rows, jacobian_rate_rows: J and :math:`\dot J` at joint velocity q̇, each as two lists of three floats.
+        gradient_values: ∂p/∂q as three floats.
+        hessian_rows: ∂²p/∂q² as three lists of three floats.
+        velocity: q̇ as three floats.
+    """
+    (a0, a1, a2), (b0, b1, b2) = jacobian_rows
+    (s0, s1, s2), (t0, t1, t2) = jacobian_rate_rows
+    g0, g1, g2 = gradient_values
+    v0, v1, v2 = velocity
+    (z00, z01, z02), (z10, z11, z12), (z20, z21, z22) = hessian_rows
+    return (
+        (b1 * g2 - b2 * g1) * s0
+        + (b2 * g0 - b0 * g2) * s1
+        + (b0 * g1 - b1 * g0) * s2  # (J_1 × ∇p)·J̇_0
+        + (g1 * a2 - g2 * a1) * t0
+        + (g2 * a0 - g0 * a2) * t1
+        + (g0 * a1 - g1 * a0) * t2  # (∇p × J_0)·J̇_1
+        + (a1 * b2 - a2 * b1) * (z00 * v0 + z01 * v1 + z02 * v2)  # n_J·∇²p q̇
+        + (a2 * b0 - a0 * b2) * (z10 * v0 + z11 * v1 + z12 * v2)
+        + (a0 * b1 - a1 * b0) * (z20 * v0 + z21 * v1 + z22 * v2)
+    )
 
 
 class ExtendedJacobian(VelocityResolver):
@@ -252,7 +286,9 @@ class ExtendedJacobian(VelocityResolver):
             jacobian = task.jacobian(kinematics)
             inverse_condition = condition_of(jacobian)  # J itself must keep full rank
             _, g_row, normal = self.extended_row(kinematics, task)
-            _check_alignment(_alignment(g_row, normal), tolerance)
+            alignment = _alignment(g_row, normal)
+            if not alignment >= tolerance:
+                raise _algorithmic_singularity(alignment, tolerance)
             # J_ex of Eq. (15), by Eigen's LU with partial pivoting (numpy's solve costs more than a 3×3 LU)
             return eigenpy.PartialPivLU(np.concatenate((jacobian, g_row[None]))), inverse_condition
 
@@ -298,22 +334,33 @@ class ExtendedJacobian(VelocityResolver):
         # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
         constant = [None, None]
 
+        def hessian_rows(kinematics: Kinematics):
+            hessian = objective.hessian(kinematics, task)
+            if hessian is constant[0]:
+                return constant[1]
+            rows = hessian.tolist()
+            if not hessian.flags.writeable:
+                constant[:] = hessian, rows
+            return rows
+
         def row_at(kinematics: Kinematics):
             """J's rows and (G, ∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
             jacobian_rows = task.jacobian(kinematics).tolist()
             derivative = task.jacobian_derivative(kinematics)
-            gradient, hessian = objective.gradient(kinematics, task), objective.hessian(kinematics, task)
-            if hessian is constant[0]:
-                hessian_rows = constant[1]
-            else:
-                hessian_rows = hessian.tolist()
-                if not hessian.flags.writeable:
-                    constant[:] = hessian, hessian_rows
-            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows)
+            gradient = objective.gradient_values(kinematics, task)
+            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
+
+        def slope_at(kinematics: Kinematics, velocity: np.ndarray, velocity_values) -> float:
+            """∂G/∂q·q̇ at the kinematics' configuration."""
+            jacobian_rows = task.jacobian(kinematics).tolist()
+            jacobian_rate_rows = task.jacobian_rate(kinematics, velocity).tolist()
+            gradient = objective.gradient_values(kinematics, task)
+            hessian = hessian_rows(kinematics)
+            return cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient, hessian, velocity_values)
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
-            ((a0, a1, a2), (b0, b1, b2)), (_, (r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
+            ((a0, a1, a2), (b0, b1, b2)), ((r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
             # J itself must keep full rank: σ_min/σ_max = |J_0 × J_1| / λ_max(JJᵀ)
             aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
             largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)
@@ -323,7 +370,9 @@ class ExtendedJacobian(VelocityResolver):
                 raise SingularJacobian(singular_message(inverse_condition, singular_tolerance))
             determinant = r0 * n0 + r1 * n1 + r2 * n2  # det J_ex = ∂G/∂q · n_J
             scale = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * normal_norm
-            _check_alignment(abs(determinant) / scale if scale > 0 else 0.0, tolerance)
+            alignment = abs(determinant) / scale if scale > 0 else 0.0
+            if not alignment >= tolerance:
+                raise _algorithmic_singularity(alignment, tolerance)
             # J_ex⁻¹ of Eq. (15) is adj J_ex / det J_ex; the adjugate's columns are J_1 × r, r × J_0 and n_J
             adjugate = (
                 b1 * r2 - b2 * r1, b2 * r0 - b0 * r2, b0 * r1 - b1 * r0,
@@ -351,10 +400,10 @@ class ExtendedJacobian(VelocityResolver):
             curvature = 0.0
             if speed > 0.0:
                 step = CURVATURE_STEP / speed
-                f0, f1, f2 = row_at(shifted.update(integrate(q, step * velocity)))[1][1]
-                k0, k1, k2 = row_at(shifted.update(integrate(q, -step * velocity)))[1][1]
-                v0, v1, v2 = velocity.tolist()
-                curvature = ((f0 - k0) * v0 + (f1 - k1) * v1 + (f2 - k2) * v2) / (2.0 * step)  # q̇ᵀ∇²G q̇
+                values = velocity.tolist()
+                forward = slope_at(shifted.update(integrate(q, step * velocity)), velocity, values)
+                backward = slope_at(shifted.update(integrate(q, -step * velocity)), velocity, values)
+                curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
             c0, c1 = (command_rate - jacobian_rate.dot(velocity)).tolist()
             return np.array(
@@ -378,14 +427,13 @@ _ZERO = np.zeros(1)
 CURVATURE_STEP = 1e-5
 
 
-def _check_alignment(alignment: float, tolerance: float) -> None:
-    """Raise SingularJacobian where J_ex's alignment falls below ``tolerance`` (an algorithmic singularity)."""
-    if not alignment >= tolerance:
-        raise SingularJacobian(
-            f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
-            f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
-            f"is below the cutoff {tolerance:.3g}"
-        )
+def _algorithmic_singularity(alignment: float, tolerance: float) -> SingularJacobian:
+    """What stops a run where J_ex's alignment falls below ``tolerance`` (an algorithmic singularity)."""
+    return SingularJacobian(
+        f"extended Jacobian is singular (an algorithmic singularity of Baillieul's method): "
+        f"∂G/∂q is orthogonal to the null space of J, |∂G/∂q·n|/(|∂G/∂q| |n|) = {alignment:.3g} "
+        f"is below the cutoff {tolerance:.3g}"
+    )
 
 
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
