@@ -395,17 +395,18 @@ class ExtendedJacobian(VelocityResolver):
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
             (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _ = at_configuration(kinematics)
-            jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            speed = math.sqrt(velocity.dot(velocity))
+            (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
+            values = v0, v1, v2 = velocity.tolist()
+            speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
             curvature = 0.0
             if speed > 0.0:
                 step = CURVATURE_STEP / speed
-                values = velocity.tolist()
                 forward = slope_at(shifted.update(integrate(q, step * velocity)), velocity, values)
                 backward = slope_at(shifted.update(integrate(q, -step * velocity)), velocity, values)
                 curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
-            c0, c1 = (command_rate - jacobian_rate.dot(velocity)).tolist()
+            rate0, rate1 = command_rate.tolist()
+            c0, c1 = rate0 - (s0 * v0 + s1 * v1 + s2 * v2), rate1 - (t0 * v0 + t1 * v1 + t2 * v2)
             return np.array(
                 (
                     (u0 * c0 + w0 * c1 - z0 * curvature) / determinant,
