@@ -16,6 +16,7 @@ space), n values.
 from __future__ import annotations
 
 import math
+import operator
 from abc import ABC, abstractmethod
 from typing import NamedTuple
 
@@ -171,8 +172,8 @@ class JointLimits(Criterion):
         if self._values is None:
             self._values = (joints.curvature.tolist(), joints.middle.tolist())
         curvature, middle = self._values
-        # ∂/∂θ of Eq. (5)
-        return [c * (q - m) for c, q, m in zip(curvature, kinematics.q.tolist(), middle)]
+        # ∂/∂θ of Eq. (5), joint by joint
+        return list(map(operator.mul, curvature, map(operator.sub, kinematics.q.tolist(), middle)))
 
     def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q as (k · 2/half range²) ∘ (q − mid-range) when every joint has limits: the gain joins the

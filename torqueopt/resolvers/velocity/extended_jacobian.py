@@ -328,9 +328,7 @@ class ExtendedJacobian(VelocityResolver):
         stay at q.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
-        shifted = Kinematics(robot)
-        # q ⊕ δ is q + δ when every joint adds, as in the loop (Pinocchio's integrate does that addition for them)
-        integrate = np.add if robot.euclidean else robot.integrate
+        shifted, euclidean = Kinematics(robot), robot.euclidean
         # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
         constant = [None, None]
 
@@ -342,6 +340,14 @@ class ExtendedJacobian(VelocityResolver):
             if not hessian.flags.writeable:
                 constant[:] = hessian, rows
             return rows
+
+        def either_side(q: np.ndarray, step: float, velocity: np.ndarray, values):
+            """q ⊕ ±δq̇: q ± δq̇ on floats where every joint adds (what Pinocchio's integrate computes for them)."""
+            if not euclidean:
+                return robot.integrate(q, step * velocity), robot.integrate(q, -step * velocity)
+            (q0, q1, q2), (v0, v1, v2) = q.tolist(), values
+            ahead = np.array((q0 + step * v0, q1 + step * v1, q2 + step * v2))
+            return ahead, np.array((q0 - step * v0, q1 - step * v1, q2 - step * v2))
 
         def row_at(kinematics: Kinematics):
             """J's rows and (G, ∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
@@ -401,8 +407,9 @@ class ExtendedJacobian(VelocityResolver):
             curvature = 0.0
             if speed > 0.0:
                 step = CURVATURE_STEP / speed
-                forward = slope_at(shifted.update(integrate(q, step * velocity)), velocity, values)
-                backward = slope_at(shifted.update(integrate(q, -step * velocity)), velocity, values)
+                ahead, behind = either_side(q, step, velocity, values)
+                forward = slope_at(shifted.update(ahead), velocity, values)
+                backward = slope_at(shifted.update(behind), velocity, values)
                 curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
             rate0, rate1 = command_rate.tolist()
