@@ -262,9 +262,10 @@ class ExtendedJacobian(VelocityResolver):
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
         the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
-        :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the
-        loop's four of the whole rate map. The LU factors of :math:`J_{ex}` at q (its inverse on planar3's task)
-        are those the rates computed there, when they did.
+        :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on planar3's
+        task, of the row times q̇ alone: :func:`cross_product_slope`) instead of the loop's four of the whole rate
+        map. The LU factors of :math:`J_{ex}` at q (its inverse on planar3's task) are those the rates computed
+        there, when they did.
         """
         return self.step_functions(robot, task)[1]
 
@@ -324,8 +325,9 @@ class ExtendedJacobian(VelocityResolver):
         Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
         :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
         :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
-        times :math:`|r|\,|n_J|`. The curvature's two rows are taken on kinematics of their own, so the step's
-        stay at q.
+        times :math:`|r|\,|n_J|`. The curvature's central difference takes the row along q̇ at q ± δq̇ by
+        :func:`cross_product_slope` (from :math:`\dot J`, no kinematic Hessian there), on kinematics of their own, so
+        the step's stay at q.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
         shifted, euclidean = Kinematics(robot), robot.euclidean
@@ -350,14 +352,14 @@ class ExtendedJacobian(VelocityResolver):
             return ahead, np.array((q0 - step * v0, q1 - step * v1, q2 - step * v2))
 
         def row_at(kinematics: Kinematics):
-            """J's rows and (G, ∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
+            """J's rows and (∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
             jacobian_rows = task.jacobian(kinematics).tolist()
             derivative = task.jacobian_derivative(kinematics)
             gradient = objective.gradient_values(kinematics, task)
             return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
 
         def slope_at(kinematics: Kinematics, velocity: np.ndarray, velocity_values) -> float:
-            """∂G/∂q·q̇ at the kinematics' configuration."""
+            """∂G/∂q·q̇ at the kinematics' configuration, from J̇ (:func:`cross_product_slope`)."""
             jacobian_rows = task.jacobian(kinematics).tolist()
             jacobian_rate_rows = task.jacobian_rate(kinematics, velocity).tolist()
             gradient = objective.gradient_values(kinematics, task)
@@ -391,12 +393,12 @@ class ExtendedJacobian(VelocityResolver):
             (u0, u1, u2, w0, w1, w2, *_), determinant, inverse_condition = at_configuration(kinematics)
             x0, x1 = task_velocity.tolist()
             # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0]
-            rates = (
+            joint_rates = (
                 (u0 * x0 + w0 * x1) / determinant,
                 (u1 * x0 + w1 * x1) / determinant,
                 (u2 * x0 + w2 * x1) / determinant,
             )
-            return np.array(rates), inverse_condition
+            return np.array(joint_rates), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
