@@ -106,15 +106,16 @@ class Kinematics:
         :math:`D[:, i, k] = \partial J_{:,i} / \partial q_k`, from Pinocchio's kinematic Hessian.
 
         ``pin.getFrameKinematicHessian`` returns Eigen's column-major tensor
-        through a row-major view; it is read here in Fortran order, which
-        the tests hold to central differences of :meth:`frame_jacobian`.
+        through a row-major view; it is read here in Fortran order (its memory
+        as (n, n, 6) in C order, transposed: the same view as
+        ``reshape(-1).reshape((6, n, n), order="F")``, in two calls instead of
+        four), which the tests hold to central differences of :meth:`frame_jacobian`.
         """
         if not self._hessians_ready:
             pin.computeJointKinematicHessians(self.model, self.data)
             self._hessians_ready = True
-        n = self.nv
-        hessian = np.asarray(pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA))
-        return hessian.reshape(-1).reshape((6, n, n), order="F")
+        n = self.model.nv
+        return pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA).reshape(n, n, 6).T
 
 
 @cache
