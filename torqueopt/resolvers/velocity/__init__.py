@@ -22,7 +22,13 @@ from .criteria import (
     criterion_from,
     manipulability,
 )
-from .extended_jacobian import ExtendedJacobian, null_vector, null_vector_derivative
+from .extended_jacobian import (
+    ExtendedJacobian,
+    cross_product_row,
+    cross_product_slope,
+    null_vector,
+    null_vector_derivative,
+)
 from .gradient_projection import GradientProjection
 from .obstacle_avoidance import ObstacleAvoidance
 from .pseudoinverse import KineticEnergyPseudoInverse, VelocityPseudoInverse
@@ -45,6 +51,8 @@ __all__ = [
     "manipulability",
     "null_vector",
     "null_vector_derivative",
+    "cross_product_row",
+    "cross_product_slope",
     "VELOCITY_RESOLVERS",
 ]
 

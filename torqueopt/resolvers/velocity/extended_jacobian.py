@@ -263,7 +263,7 @@ class ExtendedJacobian(VelocityResolver):
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
         the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
         :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on planar3's
-        task, of the row times q̇ alone: :func:`cross_product_slope`) instead of the loop's four of the whole rate
+        task, of the row times q̇ alone: :func:`~torqueopt.resolvers.velocity.cross_product_slope`) instead of the loop's four of the whole rate
         map. The LU factors of :math:`J_{ex}` at q (its inverse on planar3's task) are those the rates computed
         there, when they did.
         """
@@ -319,14 +319,14 @@ class ExtendedJacobian(VelocityResolver):
         r""":meth:`step_functions` for a 2×3 Jacobian (planar3's task, n = 3, m = 2), on floats: the fast twin of
         :meth:`lu_step_functions` (the tests hold them equal), whose numpy calls cost many times these few products.
 
-        The row by :func:`cross_product_row`. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
+        The row by :func:`~torqueopt.resolvers.velocity.cross_product_row`. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
         |J_0\times J_1|/\lambda_{max}(JJ^\top)`, since :math:`\sigma_{min}\sigma_{max} = |J_0\times J_1|` (Lagrange's
         identity) and :math:`\sigma_{max}^2 = \lambda_{max}`. :math:`J_{ex}^{-1} = \operatorname{adj}J_{ex}/\det J_{ex}`,
         Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
         :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
         :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
         times :math:`|r|\,|n_J|`. The curvature's central difference takes the row along q̇ at q ± δq̇ by
-        :func:`cross_product_slope` (from :math:`\dot J`, no kinematic Hessian there), on kinematics of their own, so
+        :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic Hessian there), on kinematics of their own, so
         the step's stay at q.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
@@ -359,7 +359,7 @@ class ExtendedJacobian(VelocityResolver):
             return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
 
         def slope_at(kinematics: Kinematics, velocity: np.ndarray, velocity_values) -> float:
-            """∂G/∂q·q̇ at the kinematics' configuration, from J̇ (:func:`cross_product_slope`)."""
+            """∂G/∂q·q̇ at the kinematics' configuration, from J̇ (:func:`~torqueopt.resolvers.velocity.cross_product_slope`)."""
             jacobian_rows = task.jacobian(kinematics).tolist()
             jacobian_rate_rows = task.jacobian_rate(kinematics, velocity).tolist()
             gradient = objective.gradient_values(kinematics, task)
