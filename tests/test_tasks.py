@@ -138,6 +138,27 @@ def test_frame_task_jacobian_drift_and_hessian_match_central_differences(robot_n
             )
 
 
+@pytest.mark.parametrize("robot_name, kind", [("planar3", "xy"), ("panda", "position"), ("panda", "pose")])
+def test_the_jacobian_derivative_traces_are_the_contraction_with_the_readable_derivative(
+    robot_name, kind, request, rng
+):
+    """tr(W ∂J/∂q_k) by one product of Pinocchio's layout against Σ_ij W_ij D[j, i, k] with D of
+    jacobian_derivative, for several W and scales on one task (its buffer reused), and that layout against D."""
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
+    robot = request.getfixturevalue(robot_name)
+    task = FrameTask(robot.frame, kind)
+    for _ in range(3):
+        kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
+        derivative = kinematics.frame_jacobian_derivative(task.frame_id(kinematics))
+        rows = kinematics.frame_jacobian_derivative_rows(task.frame_id(kinematics))
+        np.testing.assert_array_equal(rows.reshape(robot.nv, robot.nv, 6), derivative.transpose(2, 1, 0))
+        for scale in (1.0, -2.5):
+            weights = rng.normal(size=(robot.nv, task.dimension))
+            expected = scale * np.einsum("ij,jik->k", weights, task.jacobian_derivative(kinematics))
+            got = task.jacobian_derivative_traces(kinematics, weights, scale)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13 * np.abs(expected).max())
+
+
 def test_frame_task_regulates_to_its_target(planar3):
     q = np.array([0.3, 1.0, -0.5])
     task = FrameTask("tip", "xy", target=[1.0, 1.0], gain=2.0)

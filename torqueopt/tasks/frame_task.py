@@ -50,6 +50,8 @@ class FrameTask(Task):
         self.reference_rotation = np.eye(3) if reference_rotation is None else np.asarray(reference_rotation, float)
         self._frame_id: int | None = None
         self._model_id: int | None = None
+        # (n × 6 zeros, its view on the task's rows, its flat view) for jacobian_derivative_traces
+        self._padded_weights: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         super().__init__(target, gain)
 
     @classmethod
@@ -92,6 +94,19 @@ class FrameTask(Task):
     def jacobian_derivative(self, kinematics: Kinematics) -> np.ndarray:
         r"""(m, n, n) array D with :math:`D[:, i, k] = \partial J_{:,i}/\partial q_k` (kinematic Hessian)."""
         return kinematics.frame_jacobian_derivative(self.frame_id(kinematics))[self.rows]
+
+    def jacobian_derivative_traces(self, kinematics: Kinematics, weights: np.ndarray, scale: float = 1.0) -> np.ndarray:
+        r""":math:`s\,\mathrm{tr}(W\,\partial J/\partial q_k)` for each k (n values), for W (n × m) and the scale s:
+        :math:`s\sum_{ij} W_{ij} D[j, i, k]` with D of :meth:`jacobian_derivative`, as one product of Pinocchio's
+        layout (:meth:`Kinematics.frame_jacobian_derivative_rows`) with W written into the task's rows of an
+        n × 6 array (zero elsewhere)."""
+        n = weights.shape[0]
+        if self._padded_weights is None or self._padded_weights[0].shape[0] != n:
+            padded = np.zeros((n, 6))
+            self._padded_weights = (padded, padded[:, self.rows], padded.reshape(-1))
+        _, rows, flat = self._padded_weights
+        rows[...] = weights
+        return scale * kinematics.frame_jacobian_derivative_rows(self.frame_id(kinematics)).dot(flat)
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         """Target minus value; for ``pose`` the orientation rows are the rotation vector from R to the target's."""

@@ -117,6 +117,17 @@ class Kinematics:
         n = self.model.nv
         return pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA).reshape(n, n, 6).T
 
+    def frame_jacobian_derivative_rows(self, frame_id: int) -> np.ndarray:
+        r"""The derivatives of :meth:`frame_jacobian_derivative` as Pinocchio lays them out: an (n, 6n) array
+        whose row k is :math:`\partial J/\partial q_k` flattened column by column,
+        :math:`[k, 6i + a] = \partial J_{a,i}/\partial q_k = D[a, i, k]` (Eigen's column-major tensor read in
+        C order, no copy), so that a contraction with D is one product (the tests hold it to D)."""
+        if not self._hessians_ready:
+            pin.computeJointKinematicHessians(self.model, self.data)
+            self._hessians_ready = True
+        n = self.model.nv
+        return pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA).reshape(n, 6 * n)
+
 
 @cache
 def identity(n: int) -> np.ndarray:

@@ -247,16 +247,28 @@ class Manipulability(Criterion):
 
     name = "manipulability"
 
+    def __init__(self):
+        # the kinematics the curvature's differences move, apart from those of the caller
+        self._offsets: Kinematics | None = None
+        # one SVD object per shape of J, refactored at each configuration
+        self._svd = None
+
     def value(self, kinematics, task) -> float:
         jacobian = task.jacobian(kinematics)
         return -manipulability(jacobian)
 
     def gradient(self, kinematics, task) -> np.ndarray:
         r""":math:`-\partial w/\partial q`, with w and :math:`J^\dagger` from one SVD of J (Eigen's, through eigenpy)."""
+        return self._decomposed_gradient(kinematics, task, 1.0)
+
+    def _decomposed_gradient(self, kinematics, task, gain: float) -> np.ndarray:
+        """−k ∂w/∂q with w and J⁺ from the criterion's own SVD of J."""
         jacobian = task.jacobian(kinematics)
-        svd = eigenpy.HhJacobiSVD(jacobian, _THIN_UV)
+        if self._svd is None or self._svd[0] != jacobian.shape:
+            self._svd = (jacobian.shape, eigenpy.HhJacobiSVD(*jacobian.shape, _THIN_UV))
+        svd = self._svd[1].compute(jacobian)
         singular_values = svd.singularValues().reshape(-1).tolist()
-        return self._scaled_gradient(kinematics, task, 1.0, singular_values, svd.solve(identity(jacobian.shape[0])))
+        return self._scaled_gradient(kinematics, task, gain, singular_values, svd.solve(identity(jacobian.shape[0])))
 
     def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         r""":math:`-k\,\partial w/\partial q`; w and :math:`J^\dagger` from ``decomposition`` (the SVD the resolver
@@ -270,25 +282,28 @@ class Manipulability(Criterion):
     def _scaled_gradient(kinematics, task, gain: float, singular_values, pseudo) -> np.ndarray:
         """−k ∂w/∂q from J's singular values and J⁺ at the kinematics' configuration."""
         w = math.prod(singular_values)  # Eq. (6) as the product of J's singular values
-        n, rows = pseudo.shape
-        derivative = task.jacobian_derivative(kinematics)  # D[:, i, k] = ∂J_{:,i}/∂q_k
         # ∂w/∂q_k = w tr(J⁺ ∂J/∂q_k) = w Σ_ij J⁺_ij D_jik, from d det(JJᵀ) = 2 det(JJᵀ) tr(J⁺ dJ); p = −w, Eq. (6)
-        return (-gain * w) * pseudo.T.reshape(-1).dot(derivative.reshape(rows * n, n))
+        return task.jacobian_derivative_traces(kinematics, pseudo, -gain * w)
 
     has_curvature = True
 
     def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
         r""":math:`\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
         (step ``CURVATURE_STEP`` = 1e-5 rad): the Hessian of w needs third derivatives of the kinematics, which
-        Pinocchio does not give. Leaves the kinematics at their configuration."""
-        speed = float(np.linalg.norm(v))
+        Pinocchio does not give. The differences move a :class:`Kinematics` of the criterion's own: the
+        caller's stay at their configuration, with what was computed there."""
+        speed = math.hypot(*v.tolist())
         if speed == 0.0:
             return np.zeros(kinematics.nv)
         robot, q, step = kinematics.robot, kinematics.q, CURVATURE_STEP / speed
-        forward = self.gradient(kinematics.update(robot.integrate(q, step * v)), task)
-        backward = self.gradient(kinematics.update(robot.integrate(q, -step * v)), task)
-        kinematics.update(q)
-        return (forward - backward) / (2.0 * step)
+        offsets = self._offsets
+        if offsets is None or offsets.robot is not robot:
+            offsets = self._offsets = Kinematics(robot)
+        offset = step * v
+        # (∂p/∂q(q ⊕ δ) − ∂p/∂q(q ⊖ δ)) / 2δ, the 1/2δ carried as the gradients' gain
+        forward = self._decomposed_gradient(offsets.update(robot.integrate(q, offset)), task, 0.5 / step)
+        backward = self._decomposed_gradient(offsets.update(robot.integrate(q, -offset)), task, 0.5 / step)
+        return forward - backward
 
 
 #: Step [rad] of :meth:`Manipulability.curvature`'s central difference: its O(δ²) truncation and its round-off
