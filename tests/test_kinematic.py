@@ -131,6 +131,49 @@ def test_task_priority_closed_form_with_frame_tasks_is_the_time_derivative_of_eq
         _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=_secondary_well_conditioned(secondary[:1]))
 
 
+@pytest.mark.parametrize("n, rows, lower_rows", [(3, 2, 2), (7, 3, 3), (7, 3, 6), (6, 2, 1)])
+def test_task_priority_below_one_task_is_the_readable_recursion(rng, n, rows, lower_rows):
+    """The q̈ of Eq. (11) below one task in fewer products against prioritised_accelerations, its reference: the
+    lower level rank-deficient once projected (2 rows in 1 freedom, 6 in 4) and of full rank."""
+    from torqueopt.resolvers.velocity.task_priority import accelerations_below_one_task
+    from torqueopt.tasks import prioritised_accelerations, priority_levels
+
+    for _ in range(10):
+        jacobians = [rng.normal(size=(rows, n)), rng.normal(size=(lower_rows, n))]
+        jacobian_rates = [rng.normal(size=(rows, n)), rng.normal(size=(lower_rows, n))]
+        velocities = [rng.normal(size=rows), rng.normal(size=lower_rows)]
+        velocity_rates = [rng.normal(size=rows), rng.normal(size=lower_rows)]
+        levels, _ = priority_levels(jacobians, final_projector=False)
+        expected = prioritised_accelerations(jacobians, jacobian_rates, velocities, velocity_rates, levels=levels)[1]
+        got = accelerations_below_one_task(
+            levels, *jacobian_rates, velocities[0], velocity_rates[0], velocities[1], velocity_rates[1]
+        )
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+
+def test_task_priority_below_one_task_rates_are_those_of_the_recursion(planar3, panda, rng):
+    """Below one frame task without damping, the rates of Eq. (11) from the levels built at each configuration
+    (the lower SVD in one object for the run) against rates_through the levels priority_levels gives: bit for bit."""
+    from torqueopt.linalg import JacobianSolver
+    from torqueopt.tasks import priority_levels, rates_through
+
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
+    elbow = FrameTask("link3", "xy", target=ELBOW_TARGET, gain=2.0)
+    link4 = FrameTask("panda_link4", "position", target=[0.3, 0.0, 0.6])
+    for robot, lower in ((planar3, elbow), (panda, link4)):
+        resolver = torqueopt.get_resolver("task-priority", secondary=lower)
+        task = FrameTask.of_robot(robot)
+        rates, _ = resolver.step_functions(robot, task)
+        for _ in range(3):
+            kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
+            command = rng.normal(size=robot.m)
+            jacobian = task.jacobian(kinematics)
+            inverse, _ = JacobianSolver(robot.m, robot.nv, null_space=False).pseudoinverse(jacobian)
+            levels, _ = priority_levels([jacobian, lower.jacobian(kinematics)], first_inverse=inverse)
+            expected = rates_through(levels, [command, lower.desired_velocity(kinematics)])
+            np.testing.assert_array_equal(rates(kinematics, command)[0], expected)
+
+
 def test_the_extended_jacobian_closed_form_is_the_time_derivative_of_eq_15(planar3, rng):
     """J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²Gq̇] (its curvature by a difference of the Eq. (15) row) against a five-point
     difference of the rates, at states whose alignment |∂G/∂q·n|/(|∂G/∂q| |n|) is 0.2 or more."""

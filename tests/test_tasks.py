@@ -1,5 +1,6 @@
 """Task objects against closed-form planar kinematics and central differences."""
 
+import eigenpy
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -18,6 +19,8 @@ from torqueopt.tasks import (
     pseudoinverse_rate,
     undamped_pseudoinverse,
 )
+
+THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
 
 def test_per_configuration_computes_once_per_update_and_per_kinematics(planar3):
@@ -301,12 +304,15 @@ def test_the_undamped_pseudoinverse_by_the_svds_solve_is_the_readable_one(rng, s
     rank and rank-deficient, with round-off directions such as those of J_l(I − J⁺J) for a point the null space
     cannot move; and a zero matrix."""
     rows, columns = shape
+    workspace = eigenpy.HhJacobiSVD(rows, columns, THIN_UV)
     for _ in range(10):
         matrix = rng.normal(size=(rows, rank)).dot(rng.normal(size=(rank, columns)))
         expected = pseudoinverse(matrix)
         np.testing.assert_allclose(
             undamped_pseudoinverse(matrix), expected, rtol=0, atol=1e-14 * np.abs(expected).max()
         )
+        # decomposed into a kept SVD object: the same, bit for bit
+        np.testing.assert_array_equal(undamped_pseudoinverse(matrix, svd=workspace), undamped_pseudoinverse(matrix))
     jacobian = rng.normal(size=(2, 3))
     projector = np.eye(3) - np.linalg.pinv(jacobian).dot(jacobian)
     tip = jacobian.dot(projector)  # round-off only: every singular value below the absolute floor

@@ -87,15 +87,18 @@ def pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, damping: float =
     return (right * inverse_values).dot(left.T)
 
 
-def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10) -> np.ndarray:
+def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, svd=None) -> np.ndarray:
     r""":func:`pseudoinverse` without damping, the same cutoff, applied by the SVD's own solve:
     :math:`V_r\Sigma_r^{-1}U_r^\top` over the r singular values kept, as Eigen's ``solve`` forms it for the identity
     once its rank threshold is the cutoff, instead of scaling V by a list and multiplying by :math:`U^\top` in
-    numpy (a test holds the two equal, rank-deficient matrices included)."""
+    numpy (a test holds the two equal, rank-deficient matrices included).
+
+    ``svd``: an ``eigenpy.HhJacobiSVD`` of the matrix's shape (thin U and V) to decompose into, for a caller
+    that keeps one from call to call; by default a new one."""
     if matrix.size == 0:
         return np.zeros(matrix.T.shape)
     rows = matrix.shape[0]
-    svd = eigenpy.HhJacobiSVD(matrix, _THIN_UV)
+    svd = eigenpy.HhJacobiSVD(matrix, _THIN_UV) if svd is None else svd.compute(matrix)
     largest = svd.singularValues().reshape(-1).tolist()[0]  # descending (one value comes as a 1×1 matrix)
     if not largest > 0.0:
         return np.zeros(matrix.T.shape)

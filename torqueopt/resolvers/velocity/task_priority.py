@@ -2,6 +2,7 @@ r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eq. (7), Eq
 
 from __future__ import annotations
 
+import eigenpy
 import numpy as np
 
 from ...robot import Robot
@@ -10,18 +11,24 @@ from ...tasks import (
     Kinematics,
     PerConfiguration,
     PostureTask,
+    PriorityLevel,
+    Task,
     TaskStack,
     prioritised_accelerations,
     priority_levels,
     rates_through,
+    undamped_pseudoinverse,
 )
+from ...tasks.task import identity
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import PostureDistance
 from .gradient_projection import StackedGradientProjection, projected_gradient_steps
 from .options import task_stack
 
-__all__ = ["TaskPriority"]
+_THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
+
+__all__ = ["TaskPriority", "below_one_task_steps", "accelerations_below_one_task"]
 
 
 class TaskPriority(VelocityResolver):
@@ -93,7 +100,8 @@ class TaskPriority(VelocityResolver):
         :math:`\dot x_l = k(x^* - x_l)` moves at :math:`-kJ_l\dot q`. With damping λ > 0 the damped inverses'
         derivative is not taken here (None: the loop's central difference). The Jacobians, pseudoinverses and
         projectors of the recursion (:func:`~torqueopt.tasks.priority_levels`) and the secondary tasks' desired
-        velocities at q are those the rates computed there, when they did.
+        velocities at q are those the rates computed there, when they did. Below one task the derivative is taken
+        in fewer products (:func:`accelerations_below_one_task`).
         """
         return self.step_functions(robot, task)[1]
 
@@ -108,6 +116,7 @@ class TaskPriority(VelocityResolver):
         Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4),
         toward the first posture's target (:meth:`stack_rate_function` says why), and runs as such
         (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two.
+        Below one other task without damping, :func:`below_one_task_steps`.
         """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
@@ -117,6 +126,9 @@ class TaskPriority(VelocityResolver):
                 robot, task, self.singular_tolerance, PostureDistance(posture), posture.gain
             )
             return rates, None if task.kind == "pose" else acceleration
+        if len(secondary) == 1 and damping == 0.0:
+            rates, acceleration = below_one_task_steps(robot, task, secondary.tasks[0], self.singular_tolerance)
+            return rates, acceleration if task.kind != "pose" and secondary.tasks[0].closed_form_rates else None
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
 
         @PerConfiguration
@@ -173,3 +185,104 @@ class TaskPriority(VelocityResolver):
             self.singular_tolerance, robot.nv, joints, joints, robot.configuration(posture.target),
             np.ones(robot.nv), posture.gain,
         )  # fmt: skip
+
+
+def below_one_task_steps(robot: Robot, task: FrameTask, lower: Task, tolerance: float):
+    r"""Eq. (11)'s rates below one task without damping, and their closed-form q̈ (:func:`accelerations_below_one_task`),
+    sharing at each configuration J, :math:`J^\dagger` (refused, SingularJacobian, below ``tolerance`` of
+    σmin/σmax), :math:`J_l`, the levels :func:`~torqueopt.tasks.priority_levels` gives for them (built here as it
+    builds them, the lower SVD in one object for the run; the tests hold them equal) and :math:`\dot x_l`.
+    """
+    solver = pseudoinverse_solver(robot, tolerance, null_space=False)
+    lower_svd = eigenpy.HhJacobiSVD(lower.dimension, robot.nv, _THIN_UV)
+    identity_n = identity(robot.nv)
+
+    @PerConfiguration
+    def at_configuration(kinematics: Kinematics):
+        jacobian = task.jacobian(kinematics)
+        # the high-priority task must keep full rank; J⁺ by SVD, Eq. (3)
+        inverse, inverse_condition = solver.pseudoinverse(jacobian)
+        lower_jacobian = lower.jacobian(kinematics)
+        projector = identity_n - inverse.dot(jacobian)  # I − J⁺J
+        projected = lower_jacobian.dot(projector)  # J_l(I − J⁺J) of Eq. (10)
+        levels = (
+            PriorityLevel(jacobian, None, jacobian, inverse),
+            PriorityLevel(lower_jacobian, projector, projected, undamped_pseudoinverse(projected, svd=lower_svd)),
+        )
+        return levels, lower.desired_velocity(kinematics), inverse_condition
+
+    def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+        levels, lower_velocity, inverse_condition = at_configuration(kinematics)
+        inverse, lower_level = levels[0].inverse, levels[1]
+        first_rates = inverse.dot(task_velocity)
+        # Eq. (11): J⁺ẋ_h + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺ẋ_h)
+        return first_rates + lower_level.inverse.dot(
+            lower_velocity - lower_level.jacobian.dot(first_rates)
+        ), inverse_condition
+
+    def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+        levels, lower_velocity, _ = at_configuration(kinematics)
+        return accelerations_below_one_task(
+            levels,
+            task.jacobian_rate(kinematics, velocity),
+            lower.jacobian_rate(kinematics, velocity),
+            command,
+            command_rate,
+            lower_velocity,
+            lower.desired_velocity_rate(kinematics, velocity),
+        )
+
+    return rates, acceleration
+
+
+def accelerations_below_one_task(
+    levels, jacobian_rate, lower_jacobian_rate, command, command_rate, lower_velocity, lower_velocity_rate
+) -> np.ndarray:
+    r"""q̈ [rad/s²] of Eq. (11) for the robot's task and one task below it: the q̈ of
+    :func:`~torqueopt.tasks.prioritised_accelerations` (its readable reference, which the tests hold this to) in
+    fewer products, from the two :func:`~torqueopt.tasks.priority_levels` of J (of full row rank) and
+    :math:`J_l`, the rates :math:`\dot J`, :math:`\dot J_l`, c, ċ, :math:`\dot x_l` and :math:`\ddot x_l`.
+
+    With :math:`P = I - J^\dagger J`, :math:`A = J_lP` and full row rank (:math:`JJ^\dagger = I`,
+    :math:`J^{\dagger\top}J^\dagger J = J^{\dagger\top}`), the first level's derivatives are
+
+    .. math::
+
+        \ddot q_1 = J^\dagger(\dot c - \dot J\dot q_1) + P\dot J^\top J^{\dagger\top}\dot q_1,\quad
+        \dot q_1 = J^\dagger c,\qquad \dot P = -(X + X^\top),\quad X = J^\dagger\dot J P,
+
+    (the recursion's :math:`\dot J^\dagger c + J^\dagger\dot c` and :math:`-\dot J^\dagger J - J^\dagger\dot J`),
+    and the second's, with :math:`e = \dot x_l - J_l\dot q_1`, :math:`y = A^\dagger e`,
+    :math:`\dot A = \dot J_lP + J_l\dot P` and :func:`~torqueopt.tasks.pseudoinverse_rate` applied to e alone,
+
+    .. math::
+
+        \ddot q = \ddot q_1 + A^\dagger\big(\dot e - \dot Ay + A^{\dagger\top}\dot A^\top(e - Ay) - Az\big) + z,\quad
+        z = \dot A^\top A^{\dagger\top}y,\quad \dot e = \ddot x_l - \dot J_l\dot q_1 - J_l\ddot q_1.
+    """
+    level, lower = levels
+    inverse, projector = level.inverse, lower.projector
+    lower_jacobian, projected, projected_inverse = lower.jacobian, lower.projected, lower.inverse
+    first_rates = inverse.dot(command)
+    # q̈_1 = J⁺(ċ − J̇q̇_1) + P J̇ᵀJ⁺ᵀq̇_1 (row-vector products: no transposes)
+    first_accelerations = inverse.dot(command_rate - jacobian_rate.dot(first_rates)) + projector.dot(
+        first_rates.dot(inverse).dot(jacobian_rate)
+    )
+    drop_rate = inverse.dot(jacobian_rate.dot(projector))  # X = J⁺J̇P, Ṗ = −(X + Xᵀ)
+    # Ȧ = J̇_l P + J_l Ṗ
+    projected_rate = lower_jacobian_rate.dot(projector) - lower_jacobian.dot(drop_rate + drop_rate.T)
+    shortfall = lower_velocity - lower_jacobian.dot(first_rates)  # e of Eq. (11)
+    shortfall_rate = (
+        lower_velocity_rate - lower_jacobian_rate.dot(first_rates) - lower_jacobian.dot(first_accelerations)
+    )
+    particular = projected_inverse.dot(shortfall)  # y = A⁺e
+    # Ȧ⁺e = −A⁺ȦA⁺e + A⁺A⁺ᵀȦᵀ(I − AA⁺)e + (I − A⁺A)ȦᵀA⁺ᵀA⁺e, with A⁺ė joined to its first two terms
+    residual = shortfall - projected.dot(particular)
+    along = particular.dot(projected_inverse).dot(projected_rate)  # z = ȦᵀA⁺ᵀy
+    inner = (
+        shortfall_rate
+        - projected_rate.dot(particular)
+        + residual.dot(projected_rate).dot(projected_inverse)
+        - projected.dot(along)
+    )
+    return first_accelerations + projected_inverse.dot(inner) + along
