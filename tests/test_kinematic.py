@@ -394,6 +394,27 @@ def test_scaled_gradients_are_the_gain_times_the_gradient(planar3, panda, rng):
                     np.testing.assert_allclose(got, expected, rtol=1e-13, atol=1e-13 * np.abs(expected).max())
 
 
+def test_scaled_curvatures_are_the_gain_times_the_curvature(planar3, panda, rng):
+    """k ∇²p q̇ of the manipulability (the gain joined to its difference's 1/2δ) and of the joint limits against k
+    times the curvature, and the manipulability's against a central difference of k ∂p/∂q along q̇; the caller's
+    kinematics are left where they were."""
+    from torqueopt.resolvers.velocity import Manipulability
+
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
+    for robot, criterion in ((planar3, Manipulability()), (panda, Manipulability()), (panda, JointLimits())):
+        task = FrameTask.of_robot(robot)
+        for gain in (0.3, 10.0):
+            q, v = pin.randomConfiguration(robot.model), rng.normal(size=robot.nv)
+            kinematics = Kinematics(robot).update(q)
+            revision = kinematics.revision
+            expected = gain * criterion.curvature(kinematics, task, v)
+            got = criterion.scaled_curvature(kinematics, task, v, gain)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+            assert kinematics.revision == revision and kinematics.q is q
+            along = central(lambda x: gain * criterion.gradient(Kinematics(robot).update(x), task), q).dot(v)
+            np.testing.assert_allclose(got, along, rtol=0, atol=1e-6 * np.abs(expected).max())
+
+
 def criterion_gradient_at(robot, criterion, task=None):
     return lambda x: criterion.gradient(Kinematics(robot).update(x), task)
 

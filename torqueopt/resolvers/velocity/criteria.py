@@ -86,6 +86,10 @@ class Criterion(ABC):
         (only for criteria with :attr:`has_curvature`)."""
         return self.hessian(kinematics, task).dot(v)
 
+    def scaled_curvature(self, kinematics: Kinematics, task: FrameTask, v: np.ndarray, gain: float) -> np.ndarray:
+        r""":math:`k\,\nabla^2 p\,v` for the gain k: :meth:`curvature` times k, or a criterion's own faster form of it."""
+        return gain * self.curvature(kinematics, task, v)
+
 
 class _LimitedJoints(NamedTuple):
     """The joints with an Eq. (5) term: their q and v coordinates, mid-range [rad, m] and half range [rad, m]."""
@@ -292,6 +296,10 @@ class Manipulability(Criterion):
         (step ``CURVATURE_STEP`` = 1e-5 rad): the Hessian of w needs third derivatives of the kinematics, which
         Pinocchio does not give. The differences move a :class:`Kinematics` of the criterion's own: the
         caller's stay at their configuration, with what was computed there."""
+        return self.scaled_curvature(kinematics, task, v, 1.0)
+
+    def scaled_curvature(self, kinematics, task, v: np.ndarray, gain: float) -> np.ndarray:
+        r""":math:`k\,\nabla^2 p\,v` as :meth:`curvature` takes it, the gain joined to the difference's 1/2δ."""
         speed = math.hypot(*v.tolist())
         if speed == 0.0:
             return np.zeros(kinematics.nv)
@@ -299,10 +307,10 @@ class Manipulability(Criterion):
         offsets = self._offsets
         if offsets is None or offsets.robot is not robot:
             offsets = self._offsets = Kinematics(robot)
-        offset = step * v
-        # (∂p/∂q(q ⊕ δ) − ∂p/∂q(q ⊖ δ)) / 2δ, the 1/2δ carried as the gradients' gain
-        forward = self._decomposed_gradient(offsets.update(robot.integrate(q, offset)), task, 0.5 / step)
-        backward = self._decomposed_gradient(offsets.update(robot.integrate(q, -offset)), task, 0.5 / step)
+        offset, scale = step * v, 0.5 * gain / step
+        # k(∂p/∂q(q ⊕ δ) − ∂p/∂q(q ⊖ δ)) / 2δ, the k/2δ carried as the gradients' gain
+        forward = self._decomposed_gradient(offsets.update(robot.integrate(q, offset)), task, scale)
+        backward = self._decomposed_gradient(offsets.update(robot.integrate(q, -offset)), task, scale)
         return forward - backward
 
 

@@ -172,7 +172,9 @@ def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, cr
         jacobian_rate = task.jacobian_rate(kinematics, velocity)
         shifted = pseudoinverse.dot(command) + scaled_gradient  # u + k ∂p/∂q
         # J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇ (row-vector products: no transposes)
-        inner = shifted.dot(pseudoinverse).dot(jacobian_rate) - k * criterion.curvature(kinematics, task, velocity)
+        inner = shifted.dot(pseudoinverse).dot(jacobian_rate) - criterion.scaled_curvature(
+            kinematics, task, velocity, k
+        )
         # the derivative of Eq. (4) along the motion: J⁺(ċ − J̇q̇) + (I − J⁺J)·inner = J⁺(ċ − J̇q̇ − J·inner) + inner
         return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)) + inner
 
