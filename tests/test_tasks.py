@@ -170,6 +170,20 @@ def test_frame_task_regulates_to_its_target(planar3):
     assert np.all(FrameTask("tip", "xy").desired_velocity(kinematics) == 0.0)
 
 
+def test_frame_task_desired_velocity_is_the_gain_times_the_error(planar3, panda, rng):
+    """k(x* − x) read from the frame's position (xy, position) and through the error (pose): k times error(),
+    bit for bit."""
+    pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
+    for robot, kind, target in (
+        (planar3, "xy", [1.0, 1.0]),
+        (panda, "position", [0.3, 0.0, 0.6]),
+        (panda, "pose", [0.3, 0.0, 0.6, 0.1, -0.2, 0.3]),
+    ):
+        task = FrameTask(robot.frame, kind, target=target, gain=1.7)
+        kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
+        np.testing.assert_array_equal(task.desired_velocity(kinematics), 1.7 * task.error(kinematics))
+
+
 def test_frame_task_errors_name_the_bad_value(planar3):
     with pytest.raises(TaskNotFound, match="unknown task kind 'orientation': choose one of xy, position, pose"):
         FrameTask("tip", "orientation")

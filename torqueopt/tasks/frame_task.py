@@ -108,6 +108,13 @@ class FrameTask(Task):
         rows[...] = weights
         return scale * kinematics.frame_jacobian_derivative_rows(self.frame_id(kinematics)).dot(flat)
 
+    def desired_velocity(self, kinematics: Kinematics) -> np.ndarray:
+        r""":math:`\dot x_d = k(x^* - x)` [m/s, rad/s] (:meth:`Task.desired_velocity`), for ``xy`` and ``position``
+        read straight from the frame's position, as :meth:`value` reads it."""
+        if self.kind == "pose" or self.target is None:
+            return super().desired_velocity(kinematics)
+        return self.gain * (self.target - kinematics.frame_position(self.frame_id(kinematics))[self.rows])
+
     def error(self, kinematics: Kinematics) -> np.ndarray:
         """Target minus value; for ``pose`` the orientation rows are the rotation vector from R to the target's."""
         if self.kind != "pose" or self.target is None:
