@@ -312,7 +312,9 @@ def test_pseudoinverse_cutoff_and_damping(rng):
     np.testing.assert_allclose(pseudoinverse(rank_one), np.linalg.pinv(rank_one), atol=1e-12)
 
 
-@pytest.mark.parametrize("shape, rank", [((2, 3), 2), ((2, 3), 1), ((3, 7), 2), ((6, 7), 6), ((1, 3), 1), ((3, 2), 2)])
+@pytest.mark.parametrize(
+    "shape, rank", [((2, 3), 2), ((2, 3), 1), ((3, 7), 2), ((6, 7), 6), ((1, 3), 1), ((3, 1), 1), ((3, 2), 2)]
+)
 def test_the_undamped_pseudoinverse_by_the_svds_solve_is_the_readable_one(rng, shape, rank):
     """undamped_pseudoinverse (Eigen's solve with the cutoff as its rank threshold) against pseudoinverse, full
     rank and rank-deficient, with round-off directions such as those of J_l(I − J⁺J) for a point the null space

@@ -104,7 +104,9 @@ def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, svd=Non
         return np.zeros(matrix.T.shape)
     # Eigen keeps σ >= threshold·σmax; the cutoff drops σ <= max(tolerance·σmax, ABSOLUTE_TOLERANCE)
     svd.setThreshold(math.nextafter(max(tolerance * largest, ABSOLUTE_TOLERANCE), math.inf) / largest)
-    return svd.solve(identity(rows)).reshape(matrix.shape[1], rows)
+    inverse = svd.solve(identity(rows))
+    # eigenpy gives a result with one row or one column flat
+    return inverse if inverse.ndim == 2 else inverse.reshape(matrix.shape[1], rows)
 
 
 def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.ndarray) -> np.ndarray:
