@@ -294,7 +294,7 @@ class Manipulability(Criterion):
     def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
         r""":math:`\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
         (step ``CURVATURE_STEP`` = 1e-5 rad): the Hessian of w needs third derivatives of the kinematics, which
-        Pinocchio does not give. The differences move a :class:`Kinematics` of the criterion's own: the
+        Pinocchio does not give. The differences move a ``Kinematics`` of the criterion's own: the
         caller's stay at their configuration, with what was computed there."""
         return self.scaled_curvature(kinematics, task, v, 1.0)
 

@@ -101,7 +101,7 @@ class TaskPriority(VelocityResolver):
         derivative is not taken here (None: the loop's central difference). The Jacobians, pseudoinverses and
         projectors of the recursion (:func:`~torqueopt.tasks.priority_levels`) and the secondary tasks' desired
         velocities at q are those the rates computed there, when they did. Below one task the derivative is taken
-        in fewer products (:func:`accelerations_below_one_task`).
+        in fewer products (``accelerations_below_one_task``).
         """
         return self.step_functions(robot, task)[1]
 
@@ -116,7 +116,7 @@ class TaskPriority(VelocityResolver):
         Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4),
         toward the first posture's target (:meth:`stack_rate_function` says why), and runs as such
         (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two.
-        Below one other task without damping, :func:`below_one_task_steps`.
+        Below one other task without damping, ``below_one_task_steps``.
         """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
