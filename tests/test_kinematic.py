@@ -415,6 +415,19 @@ def test_scaled_curvatures_are_the_gain_times_the_curvature(planar3, panda, rng)
             np.testing.assert_allclose(got, along, rtol=0, atol=1e-6 * np.abs(expected).max())
 
 
+def test_a_manipulability_resolver_pickles_after_a_run(planar3):
+    """The manipulability keeps a Kinematics and an SVD object for its differences; a resolver that has run
+    still pickles (as one sent to a worker does), and its copy runs as the original."""
+    import pickle
+
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability")
+    trajectory = torqueopt.StraightLine([1.0, 1.0], duration=2.0)
+    first = torqueopt.simulate(planar3, resolver, trajectory, PAPER_Q0, duration=0.02)
+    copy = pickle.loads(pickle.dumps(resolver))
+    again = torqueopt.simulate(planar3, copy, trajectory, PAPER_Q0, duration=0.02)
+    np.testing.assert_array_equal(again.tau, first.tau)
+
+
 def criterion_gradient_at(robot, criterion, task=None):
     return lambda x: criterion.gradient(Kinematics(robot).update(x), task)
 

@@ -257,6 +257,10 @@ class Manipulability(Criterion):
         # one SVD object per shape of J, refactored at each configuration
         self._svd = None
 
+    def __getstate__(self):
+        # the two workspaces are rebuilt on first use, and neither pickles: a copy leaves them behind
+        return {**self.__dict__, "_offsets": None, "_svd": None}
+
     def value(self, kinematics, task) -> float:
         jacobian = task.jacobian(kinematics)
         return -manipulability(jacobian)
