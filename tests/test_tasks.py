@@ -80,6 +80,23 @@ def test_a_frame_position_is_its_placements_translation_after_every_update(plana
             earlier = position
 
 
+def test_the_joint_origins_and_a_frame_position_view_follow_every_update(planar3, panda, rng):
+    """Kinematics.joint_origins and frame_position_view are views of Pinocchio's placements: each row is its joint's
+    translation after every update, and they cannot be written."""
+    pin.seed(int(rng.integers(2**31)))
+    for robot in (planar3, panda):
+        kinematics = Kinematics(robot)
+        origins, tip = kinematics.joint_origins(), kinematics.frame_position_view(robot.frame_id)
+        for _ in range(3):
+            kinematics.update(pin.randomConfiguration(robot.model))
+            np.testing.assert_array_equal(origins, [placement.translation for placement in kinematics.data.oMi])
+            np.testing.assert_array_equal(tip, kinematics.data.oMf[robot.frame_id].translation)
+        assert kinematics.joint_origins() is origins
+        for view in (origins, tip):
+            with pytest.raises(ValueError, match="read-only"):
+                view[0] = 1.0
+
+
 def planar_points(q):
     """Joint origins and tip of the paper's arm (unit links), closed form."""
     angles = np.cumsum(q)
@@ -214,6 +231,67 @@ def test_obstacle_closest_point_matches_dense_sampling(planar3, rng):
         np.testing.assert_allclose(closest.point[:2], point, atol=2e-4)
         assert closest.point[2] == 0.0
         np.testing.assert_allclose(np.linalg.norm(closest.normal), 1.0)
+
+
+def closest_by_vectors(obstacle, kinematics):
+    """The closest point (point, normal, clearance, joint, segment) by a plain loop over the segments on numpy
+    3-vectors, the reference for ObstacleTask.closest_point's arithmetic on floats."""
+    model, data = kinematics.model, kinematics.data
+    frame_id = model.getFrameId(obstacle.frame or kinematics.robot.frame)
+    joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0]
+    origins = [data.oMi[joint].translation.copy() for joint in joints] + [data.oMf[frame_id].translation.copy()]
+    best = None
+    for index, joint in enumerate(joints):
+        start, axis = origins[index], origins[index + 1] - origins[index]
+        length_squared = axis.dot(axis)
+        fraction = (
+            0.0 if length_squared == 0.0 else min(1.0, max(0.0, (obstacle.center - start).dot(axis) / length_squared))
+        )
+        point = start + fraction * axis
+        distance = np.linalg.norm(point - obstacle.center)
+        if best is None or distance < best[0]:
+            best = (distance, point, joint, index)
+    distance, point, joint, index = best
+    return point, (point - obstacle.center) / distance, distance - obstacle.radius, joint, index
+
+
+@pytest.mark.parametrize("robot_name", ["planar3", "panda"])
+def test_obstacle_closest_point_is_the_loop_on_vectors(robot_name, request, rng):
+    """The closest point on floats is the plain loop on numpy vectors to round-off, on every segment (obstacles
+    near the base, the middle and the tip, and beyond the ends of segments)."""
+    pin.seed(int(rng.integers(2**31)))
+    robot = request.getfixturevalue(robot_name)
+    kinematics = Kinematics(robot)
+    segments = set()
+    for _ in range(40):
+        kinematics.update(pin.randomConfiguration(robot.model))
+        obstacle = ObstacleTask(rng.uniform(-1.5, 1.5, 3), rng.uniform(0.0, 0.2))
+        closest = obstacle.closest_point(kinematics)
+        point, normal, clearance, joint, segment = closest_by_vectors(obstacle, kinematics)
+        np.testing.assert_allclose(closest.point, point, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(closest.normal, normal, rtol=0, atol=1e-12)
+        assert abs(closest.clearance - clearance) < 1e-12
+        assert (closest.joint_id, closest.segment) == (joint, segment)
+        segments.add(segment)
+    assert len(segments) >= 3
+
+
+@pytest.mark.parametrize("robot_name", ["planar3", "panda"])
+def test_obstacle_point_jacobian_is_pinocchios_at_the_point(robot_name, request, rng):
+    """J_o (the joint's Jacobian moved to the point) equals Pinocchio's Jacobian of a frame placed there."""
+    pin.seed(int(rng.integers(2**31)))
+    robot = request.getfixturevalue(robot_name)
+    kinematics = Kinematics(robot)
+    for _ in range(10):
+        kinematics.update(pin.randomConfiguration(robot.model))
+        obstacle = ObstacleTask(rng.uniform(-1.5, 1.5, 3), 0.05)
+        closest = obstacle.closest_point(kinematics)
+        joint = kinematics.data.oMi[closest.joint_id]
+        placement = pin.SE3(np.eye(3), joint.rotation.T.dot(closest.point - joint.translation))
+        expected = pin.getFrameJacobian(
+            robot.model, kinematics.data, closest.joint_id, placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        )[:3]
+        np.testing.assert_allclose(obstacle.point_jacobian(kinematics, closest), expected, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("robot_name", ["planar3", "panda"])

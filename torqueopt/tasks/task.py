@@ -49,6 +49,7 @@ class Kinematics:
         # Views of frames' translations in data.oMf, which Pinocchio never reallocates (eigenpy's SE3.translation
         # is a view into it): read after each update without a boost.python SE3 per read.
         self._translations: dict[int, np.ndarray] = {}
+        self._joint_origins: np.ndarray | None = None
 
     def update(self, q: np.ndarray, v: np.ndarray | None = None) -> Kinematics:
         """Placements and joint Jacobians at q; with v, also the velocities that drifts need."""
@@ -78,6 +79,34 @@ class Kinematics:
             translation = self._translations[frame_id] = self.data.oMf[frame_id].translation
             translation.setflags(write=False)
         return translation.copy()
+
+    def frame_position_view(self, frame_id: int) -> np.ndarray:
+        """World position of a frame's origin [m] as a read-only view into Pinocchio's data: it holds the position
+        at the latest :meth:`update` (:meth:`frame_position` is a copy)."""
+        translation = self._translations.get(frame_id)
+        if translation is None:
+            translation = self._translations[frame_id] = self.data.oMf[frame_id].translation
+            translation.setflags(write=False)
+        return translation
+
+    def joint_origins(self) -> np.ndarray:
+        """World positions of every joint's origin [m], (njoints, 3), row j joint j's (row 0 the universe's): one
+        read-only strided view of the translations of Pinocchio's ``data.oMi``, which hold the positions at the
+        latest :meth:`update` (not a copy).
+
+        eigenpy returns each ``SE3.translation`` as a view into the placement's memory, and a data's joint
+        placements are one vector Pinocchio never reallocates; the layout is checked here once, not assumed.
+        """
+        if self._joint_origins is None:
+            placements = self.data.oMi
+            addresses = [placement.translation.__array_interface__["data"][0] for placement in placements]
+            stride = addresses[1] - addresses[0] if len(addresses) > 1 else 0
+            if addresses != [addresses[0] + joint * stride for joint in range(len(addresses))]:
+                raise RuntimeError("Pinocchio's joint placements are not one evenly strided vector: cannot view them")
+            self._joint_origins = np.lib.stride_tricks.as_strided(
+                placements[0].translation, shape=(len(addresses), 3), strides=(stride, 8), writeable=False
+            )
+        return self._joint_origins
 
     def frame_jacobian(self, frame_id: int) -> np.ndarray:
         """6×n Jacobian of a frame at its origin, world-aligned axes (linear rows first)."""
