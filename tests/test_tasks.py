@@ -17,6 +17,7 @@ from torqueopt.tasks import (
     prioritised_rates,
     pseudoinverse,
     pseudoinverse_rate,
+    pseudoinverse_workspace,
     undamped_pseudoinverse,
 )
 
@@ -412,6 +413,9 @@ def test_the_undamped_pseudoinverse_by_the_svds_solve_is_the_readable_one(rng, s
     tip = jacobian.dot(projector)  # round-off only: every singular value below the absolute floor
     np.testing.assert_array_equal(undamped_pseudoinverse(tip), pseudoinverse(tip))
     np.testing.assert_array_equal(undamped_pseudoinverse(np.zeros((2, 3))), np.zeros((3, 2)))
+    workspace = pseudoinverse_workspace(2, 3)
+    for matrix in (tip, np.zeros((2, 3)), rng.normal(size=(2, 3)), tip):
+        np.testing.assert_array_equal(undamped_pseudoinverse(matrix, svd=workspace), undamped_pseudoinverse(matrix))
 
 
 def five_point(function, h=1e-4):

@@ -15,6 +15,7 @@ from .stack import (
     priority_levels,
     pseudoinverse,
     pseudoinverse_rate,
+    pseudoinverse_workspace,
     rates_through,
     undamped_pseudoinverse,
 )
@@ -35,6 +36,7 @@ __all__ = [
     "prioritised_accelerations",
     "pseudoinverse",
     "undamped_pseudoinverse",
+    "pseudoinverse_workspace",
     "pseudoinverse_rate",
     "ObstacleTask",
     "ClosestPoint",

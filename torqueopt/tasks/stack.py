@@ -47,6 +47,7 @@ __all__ = [
     "prioritised_accelerations",
     "pseudoinverse",
     "undamped_pseudoinverse",
+    "pseudoinverse_workspace",
     "pseudoinverse_rate",
 ]
 
@@ -107,6 +108,11 @@ def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, svd=Non
     inverse = svd.solve(identity(rows))
     # eigenpy gives a result with one row or one column flat
     return inverse if inverse.ndim == 2 else inverse.reshape(matrix.shape[1], rows)
+
+
+def pseudoinverse_workspace(rows: int, columns: int):
+    """A decomposition for :func:`undamped_pseudoinverse`'s ``svd`` of rows×columns matrices, allocated once."""
+    return eigenpy.HhJacobiSVD(rows, columns, _THIN_UV)
 
 
 def pseudoinverse_rate(matrix: np.ndarray, matrix_rate: np.ndarray, inverse: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PerConfiguration, undamped_pseudoinverse
+from ...tasks import FrameTask, Kinematics, PerConfiguration, pseudoinverse_workspace, undamped_pseudoinverse
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -106,6 +106,7 @@ class ObstacleAvoidance(VelocityResolver):
 
     def rate_function(self, robot: Robot, task: FrameTask):
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
+        workspace = pseudoinverse_workspace(3, robot.nv)  # of [J_o(I − J⁺J)]⁺, kept for the run
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
         speed = obstacle.speed if self.speed is None else self.speed
 
@@ -119,7 +120,9 @@ class ObstacleAvoidance(VelocityResolver):
             if gain == 0.0:
                 return inverse, inverse_condition, gain, None, None, None
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
-            projected_inverse = undamped_pseudoinverse(point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)))
+            projected_inverse = undamped_pseudoinverse(
+                point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)), svd=workspace
+            )
             return inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
