@@ -53,10 +53,10 @@ def test_velocity_pinv_is_eq_2_and_3_with_the_closed_form_jacobian(planar3, rng)
         np.testing.assert_allclose(joint_rates(planar3, with_self_motion, q, xdot), expected, atol=1e-12)
 
 
-def _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=None, states=5):
+def _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=None, states=5, tolerance=1e-9):
     """The resolver's closed-form q̈ at random states against a five-point difference of its rates along
-    q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11), at 1e-9 of the largest q̈; ``accept(kinematics, task)``
-    skips the states where the method itself is near a singularity of its own."""
+    q(s) = q + s q̇, c(s) = c + s ċ (error ~1e-11), at ``tolerance`` of the largest q̈ (at least 1);
+    ``accept(kinematics, task)`` skips the states where the method itself is near a singularity of its own."""
     task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
     rates = resolver.rate_function(robot, task)
     closed_form = resolver.acceleration_function(robot, task)
@@ -79,7 +79,7 @@ def _closed_form_is_the_rate_derivative(robot, resolver, rng, accept=None, state
         h = 1e-4
         expected = (8 * (along(h) - along(-h)) - (along(2 * h) - along(-2 * h))) / (12 * h)
         got = closed_form(kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max()))
+        np.testing.assert_allclose(got, expected, rtol=0, atol=tolerance * max(1.0, np.abs(expected).max()))
 
 
 @pytest.mark.parametrize(
@@ -181,6 +181,59 @@ def test_the_extended_jacobian_closed_form_is_the_time_derivative_of_eq_15(plana
     _closed_form_is_the_rate_derivative(
         planar3, resolver, rng, accept=lambda kinematics, task: resolver.alignment(kinematics, task) >= 0.2, states=10
     )
+
+
+def _obstacle_away_from_kinks(obstacle, smallest, margin=0.05):
+    """States where the closest point stays on its segment, inside it or at its end, over the five-point
+    difference (the rates have a kink where it changes segment or reaches an end), and where
+    J_o(I − J⁺J) keeps its smallest nonzero singular value above ``smallest``."""
+
+    def accept(kinematics, task):
+        model, data = kinematics.model, kinematics.data
+        frame_id = model.getFrameId(kinematics.robot.frame)
+        joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0]
+        origins = [data.oMi[joint].translation.copy() for joint in joints] + [data.oMf[frame_id].translation.copy()]
+        segments = []  # (distance, fraction along the segment before the clip) of each segment
+        for start, end in zip(origins[:-1], origins[1:]):
+            axis = end - start
+            length_squared = axis.dot(axis)
+            fraction = 0.0 if length_squared == 0.0 else (obstacle.center - start).dot(axis) / length_squared
+            segments.append((np.linalg.norm(start + min(1.0, max(0.0, fraction)) * axis - obstacle.center), fraction))
+        (nearest, fraction), (second, _) = sorted(segments)[:2]
+        if second - nearest < margin or min(abs(fraction), abs(fraction - 1.0)) < margin:
+            return False
+        jacobian = task.jacobian(kinematics)
+        projector = np.eye(jacobian.shape[1]) - np.linalg.pinv(jacobian).dot(jacobian)
+        point_jacobian = obstacle.point_jacobian(kinematics, obstacle.closest_point(kinematics))
+        singular = np.linalg.svd(point_jacobian.dot(projector), compute_uv=False)
+        return singular[0] > 1e-8 and singular[singular > 1e-8].min() >= smallest
+
+    return accept
+
+
+@pytest.mark.parametrize("influence, critical", [(3.0, 0.0), (10.0, 5.0)], ids=["activating", "active"])
+def test_obstacle_avoidance_closed_form_is_the_time_derivative_of_eq_13(planar3, rng, influence, critical):
+    """q̈ of Eq. (13) (with α_h's rate where the clearance is within (critical, influence), and at α_h = 1)
+    against a five-point difference of the rates, obstacles anywhere near the arm, where the closest point
+    moves smoothly (:func:`_obstacle_away_from_kinks`). On panda random obstacles are nearest to a joint (a kink)
+    or J_o(I − J⁺J) is ill-conditioned at nearly every state: its runs below hold it to the loop's difference."""
+    for _ in range(3):
+        obstacle = ObstacleTask(rng.uniform(-1.0, 1.0, 3), 0.05, speed=0.4)
+        resolver = torqueopt.get_resolver(
+            "obstacle-avoidance", obstacle=obstacle, influence=influence, critical=critical
+        )
+        accept = _obstacle_away_from_kinks(obstacle, smallest=0.2)
+        _closed_form_is_the_rate_derivative(planar3, resolver, rng, accept=accept, states=3)
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_obstacle_avoidance_runs_with_the_closed_form_equal_those_with_the_central_difference(planar3, panda, gain):
+    """As for velocity-pinv above, for Eq. (13): the paper's movement past the obstacle of the CLI's example (the
+    closest point passes from the last link to the middle one at about 1.45 s), and a panda line."""
+    from torqueopt.resolvers.velocity.obstacle_avoidance import ObstacleAvoidance
+
+    options = {"planar3": {"obstacle": OBSTACLE}, "panda": {"obstacle": [0.4, 0.2, 0.5, 0.05]}}
+    _closed_form_runs_equal_the_differenced_ones(planar3, panda, "obstacle-avoidance", ObstacleAvoidance, gain, options)
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])

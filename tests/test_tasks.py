@@ -322,6 +322,29 @@ def test_obstacle_point_jacobian_is_the_velocity_of_the_material_point(robot_nam
         np.testing.assert_allclose(obstacle.drift(kinematics), along.dot(v), atol=1e-4)
 
 
+@pytest.mark.parametrize("robot_name", ["planar3", "panda"])
+def test_obstacle_point_rates_are_the_derivatives_of_the_closest_point(robot_name, request, rng):
+    """ẋ_o, the normal's rate and J̇_o of ObstacleTask.point_rates against central differences of closest_point and
+    point_jacobian along v, where the closest point stays on one segment, inside it or at its end."""
+    pin.seed(int(rng.integers(2**31)))
+    robot = request.getfixturevalue(robot_name)
+    kinematics, h, tested = Kinematics(robot), 1e-6, 0
+    while tested < 10:
+        q, v = pin.randomConfiguration(robot.model), rng.normal(size=robot.nv)
+        obstacle = ObstacleTask(rng.uniform(-1.0, 1.0, 3), 0.05)
+        closest = obstacle.closest_point(kinematics.update(q))
+        point_velocity, normal_rate, point_jacobian_rate = obstacle.point_rates(kinematics, closest, v)
+        after, before = (obstacle.closest_point(kinematics.update(q + sign * h * v)) for sign in (1.0, -1.0))
+        if after.segment != closest.segment or before.segment != closest.segment:
+            continue
+        after_jacobian = obstacle.point_jacobian(kinematics.update(q + h * v), after)
+        before_jacobian = obstacle.point_jacobian(kinematics.update(q - h * v), before)
+        np.testing.assert_allclose(point_velocity, (after.point - before.point) / (2 * h), rtol=0, atol=1e-8)
+        np.testing.assert_allclose(normal_rate, (after.normal - before.normal) / (2 * h), rtol=0, atol=1e-7)
+        np.testing.assert_allclose(point_jacobian_rate, (after_jacobian - before_jacobian) / (2 * h), rtol=0, atol=1e-8)
+        tested += 1
+
+
 def test_obstacle_from_numbers_and_bad_numbers():
     assert ObstacleTask.from_spec([1.0, 2.0, 0.0, 0.3]).radius == 0.3
     np.testing.assert_allclose(ObstacleTask.from_spec([1.0, 2.0]).center, [1.0, 2.0, 0.0])

@@ -36,7 +36,7 @@ the paper's line) exactly as the torque resolvers' do.
 A resolver whose ``acceleration_function`` gives q̈ in closed form
 (velocity-pinv, gradient projection with the joint-limit or manipulability
 criterion, the kinetic-energy pseudoinverse, task priority without damping,
-the extended Jacobian) supplies it instead, at the cost of about one more
+the extended Jacobian, obstacle avoidance) supplies it instead, at the cost of about one more
 rate evaluation rather than four; the central difference stays the
 reference the tests hold each closed form to.
 

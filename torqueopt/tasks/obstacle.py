@@ -165,6 +165,53 @@ class ObstacleTask(Task):
         lever = closest.point - kinematics.joint_origins()[closest.joint_id]
         return joint_jacobian[:3] - pin.skew(lever).dot(joint_jacobian[3:])
 
+    def point_rates(self, kinematics: Kinematics, closest: ClosestPoint, v: np.ndarray):
+        r"""How the closest point moves as the arm moves at joint velocity v [rad/s]: its velocity :math:`\dot x_o`
+        [m/s], the rate of its normal :math:`\dot{\hat n}` [1/s] and :math:`\dot J_o`, where it moves smoothly
+        (not at the instant it passes from one segment to another, or onto or off a segment's end).
+
+        On segment i from the joint origin a to b (both fixed in that joint's body, moving at :math:`v_a` and
+        angular velocity :math:`\omega`), :math:`x_o = a + s u`, :math:`u = b - a`: inside the segment
+        :math:`\dot s = ((c - a)\cdot(\omega\times u) - v_a\cdot u)/\|u\|^2` (:math:`\dot u = \omega\times u`
+        is normal to u), at an end 0. So the closest point moves at
+        :math:`\dot x_o = J_o v + \dot s u` (the material point's velocity plus its slide), its lever
+        :math:`r = x_o - a` at :math:`\dot r = \omega\times r + \dot s u`, and
+        :math:`\dot J_o = \dot J_v - [\dot r]_\times J_\omega - [r]_\times\dot J_\omega` from Pinocchio's joint
+        Jacobian and its time variation (world-aligned); :math:`\dot{\hat n} = (I - \hat n\hat n^\top)\dot x_o/\|x_o - c\|`.
+        A test holds the three to central differences of :meth:`closest_point` and :meth:`point_jacobian`.
+        """
+        model, data, joint = kinematics.model, kinematics.data, closest.joint_id
+        pin.computeJointJacobiansTimeVariation(model, data, kinematics.q, v)
+        joint_jacobian = pin.getJointJacobian(model, data, joint, _LWA)
+        joint_jacobian_rate = pin.getJointJacobianTimeVariation(model, data, joint, _LWA)
+        joints, _, end_frame = self._segments(kinematics)
+        start = kinematics.joint_origins()[joint]
+        following = closest.segment + 1
+        end = (
+            kinematics.joint_origins()[joints[following]]
+            if following < len(joints)
+            else kinematics.frame_position_view(end_frame)
+        )
+        axis, lever = end - start, closest.point - start
+        origin_velocity, angular_velocity = joint_jacobian[:3].dot(v), joint_jacobian[3:].dot(v)
+        length_squared, along = float(axis.dot(axis)), float((self.center - start).dot(axis))
+        slide = (
+            (float((self.center - start).dot(pin.skew(angular_velocity).dot(axis))) - float(origin_velocity.dot(axis)))
+            / length_squared
+            if 0.0 < along < length_squared
+            else 0.0
+        )
+        lever_rate = pin.skew(angular_velocity).dot(lever) + slide * axis
+        point_velocity = origin_velocity + lever_rate
+        point_jacobian_rate = (
+            joint_jacobian_rate[:3]
+            - pin.skew(lever_rate).dot(joint_jacobian[3:])
+            - pin.skew(lever).dot(joint_jacobian_rate[3:])
+        )
+        normal = closest.normal
+        normal_rate = (point_velocity - normal * float(normal.dot(point_velocity))) / (closest.clearance + self.radius)
+        return point_velocity, normal_rate, point_jacobian_rate
+
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         return self.point_jacobian(kinematics, self.closest_point(kinematics))
 

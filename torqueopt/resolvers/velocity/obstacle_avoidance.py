@@ -6,13 +6,20 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PerConfiguration, pseudoinverse_workspace, undamped_pseudoinverse
+from ...tasks import (
+    FrameTask,
+    Kinematics,
+    PerConfiguration,
+    pseudoinverse_rate,
+    pseudoinverse_workspace,
+    undamped_pseudoinverse,
+)
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import obstacle as obstacle_option
 
-__all__ = ["ObstacleAvoidance", "activation"]
+__all__ = ["ObstacleAvoidance", "activation", "activation_rate"]
 
 
 def activation(clearance: float, influence: float, critical: float) -> float:
@@ -24,6 +31,15 @@ def activation(clearance: float, influence: float, critical: float) -> float:
         return 1.0
     s = (influence - clearance) / (influence - critical)
     return s * s * (3.0 - 2.0 * s)
+
+
+def activation_rate(clearance: float, influence: float, critical: float) -> float:
+    r""":math:`\alpha_h'(d)` [1/m] of :func:`activation`: 0 beyond ``influence`` and within ``critical``, and
+    :math:`-6s(1 - s)/(d_i - d_c)` between, with :math:`s = (d_i - d)/(d_i - d_c)`."""
+    if clearance >= influence or clearance <= critical:
+        return 0.0
+    s = (influence - clearance) / (influence - critical)
+    return -6.0 * s * (1.0 - s) / (influence - critical)
 
 
 class ObstacleAvoidance(VelocityResolver):
@@ -105,6 +121,34 @@ class ObstacleAvoidance(VelocityResolver):
         self.obstacle.check(robot)
 
     def rate_function(self, robot: Robot, task: FrameTask):
+        return self.step_functions(robot, task)[0]
+
+    def acceleration_function(self, robot: Robot, task: FrameTask):
+        r"""q̈ of Eq. (13) in closed form on a position task (else None: the loop's central difference).
+
+        With :math:`p = J^\dagger c`, :math:`N = I - J^\dagger J`, :math:`B = J_o N`,
+        :math:`e = \dot x_o - J_o p` and :math:`\dot\phi = B^\dagger e` (Eq. (12)), the rates are
+        :math:`p + \alpha_h\dot\phi` and
+
+        .. math::
+
+            \ddot q = \dot p + \dot\alpha_h\dot\phi + \alpha_h(\dot B^\dagger e + B^\dagger\dot e),\quad
+            \dot p = \dot J^\dagger c + J^\dagger\dot c,\quad
+            \dot e = v_o\dot{\hat n} - \dot J_o p - J_o\dot p,\quad
+            \dot B = \dot J_o N - J_o(\dot J^\dagger J + J^\dagger\dot J),
+
+        the pseudoinverses' rates by :func:`~torqueopt.tasks.pseudoinverse_rate` (J of full row rank, B of
+        constant rank), :math:`\dot\alpha_h = \alpha_h'(d)\,\hat n\cdot\dot x_o`, and the closest point's
+        :math:`\dot x_o`, :math:`\dot{\hat n}`, :math:`\dot J_o` from
+        :meth:`~torqueopt.tasks.ObstacleTask.point_rates`. It is the derivative where the closest point moves
+        smoothly; at the instant it passes from one segment to another (or onto a segment's end) the rates have
+        a kink and this is the derivative on one side of it.
+        """
+        return self.step_functions(robot, task)[1]
+
+    def step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
+        configuration."""
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
         workspace = pseudoinverse_workspace(3, robot.nv)  # of [J_o(I − J⁺J)]⁺, kept for the run
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
@@ -112,21 +156,25 @@ class ObstacleAvoidance(VelocityResolver):
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
-            """What Eq. (13) reads at q whatever ẋ: J⁺, σmin/σmax, α_h, and J_o, ẋ_o, [J_o(I − J⁺J)]⁺ where α_h > 0."""
+            """What Eq. (13) reads at q whatever ẋ: J⁺, σmin/σmax, α_h, and J_o, ẋ_o, [J_o(I − J⁺J)]⁺ where α_h > 0;
+            and for q̈ J, the closest point, I − J⁺J and J_o(I − J⁺J)."""
             jacobian = task.jacobian(kinematics)
             inverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
             closest = obstacle.closest_point(kinematics)
             gain = activation(closest.clearance, influence, critical)
             if gain == 0.0:
-                return inverse, inverse_condition, gain, None, None, None
+                return inverse, inverse_condition, gain, None, None, None, (jacobian, closest, None, None)
             point_jacobian = obstacle.point_jacobian(kinematics, closest)
-            projected_inverse = undamped_pseudoinverse(
-                point_jacobian.dot(identity(robot.nv) - inverse.dot(jacobian)), svd=workspace
-            )
-            return inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse
+            projector = identity(robot.nv) - inverse.dot(jacobian)
+            projected = point_jacobian.dot(projector)
+            projected_inverse = undamped_pseudoinverse(projected, svd=workspace)
+            return (
+                inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse,
+                (jacobian, closest, projector, projected),
+            )  # fmt: skip
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            inverse, inverse_condition, gain, point_jacobian, repulsion, projected_inverse = at_configuration(
+            inverse, inverse_condition, gain, point_jacobian, repulsion, projected_inverse, _ = at_configuration(
                 kinematics
             )
             particular = inverse.dot(task_velocity)  # J⁺ẋ
@@ -137,4 +185,31 @@ class ObstacleAvoidance(VelocityResolver):
             # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
             return particular + gain * phi, inverse_condition
 
-        return rates
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            inverse, _, gain, point_jacobian, repulsion, projected_inverse, configuration = at_configuration(kinematics)
+            jacobian, closest, projector, projected = configuration
+            jacobian_rate = task.jacobian_rate(kinematics, velocity)
+            inverse_rate = pseudoinverse_rate(jacobian, jacobian_rate, inverse)
+            particular = inverse.dot(command)
+            particular_rate = inverse_rate.dot(command) + inverse.dot(command_rate)  # d/dt J⁺c
+            if gain == 0.0:
+                return particular_rate  # beyond the influence α_h and its rate are 0
+            point_velocity, normal_rate, point_jacobian_rate = obstacle.point_rates(kinematics, closest, velocity)
+            gain_rate = activation_rate(closest.clearance, influence, critical) * float(
+                closest.normal.dot(point_velocity)
+            )
+            # Ḃ = J̇_o N + J_o Ṅ, Ṅ = −(d/dt J⁺) J − J⁺J̇
+            projected_rate = point_jacobian_rate.dot(projector) - point_jacobian.dot(
+                inverse_rate.dot(jacobian) + inverse.dot(jacobian_rate)
+            )
+            projected_inverse_rate = pseudoinverse_rate(projected, projected_rate, projected_inverse)
+            shortfall = repulsion - point_jacobian.dot(particular)  # e of Eq. (12)
+            shortfall_rate = (
+                speed * normal_rate - point_jacobian_rate.dot(particular) - point_jacobian.dot(particular_rate)
+            )
+            phi = projected_inverse.dot(shortfall)  # Eq. (12)
+            phi_rate = projected_inverse_rate.dot(shortfall) + projected_inverse.dot(shortfall_rate)
+            # d/dt of Eq. (13)
+            return particular_rate + gain_rate * phi + gain * phi_rate
+
+        return rates, acceleration if task.kind != "pose" else None
