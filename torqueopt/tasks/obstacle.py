@@ -185,31 +185,42 @@ class ObstacleTask(Task):
         joint_jacobian = pin.getJointJacobian(model, data, joint, _LWA)
         joint_jacobian_rate = pin.getJointJacobianTimeVariation(model, data, joint, _LWA)
         joints, _, end_frame = self._segments(kinematics)
-        start = kinematics.joint_origins()[joint]
         following = closest.segment + 1
         end = (
             kinematics.joint_origins()[joints[following]]
             if following < len(joints)
             else kinematics.frame_position_view(end_frame)
         )
-        axis, lever = end - start, closest.point - start
-        origin_velocity, angular_velocity = joint_jacobian[:3].dot(v), joint_jacobian[3:].dot(v)
-        length_squared, along = float(axis.dot(axis)), float((self.center - start).dot(axis))
-        slide = (
-            (float((self.center - start).dot(pin.skew(angular_velocity).dot(axis))) - float(origin_velocity.dot(axis)))
-            / length_squared
-            if 0.0 < along < length_squared
-            else 0.0
+        # 3-vectors as floats, as in closest_point: v_a and ω, a, b, x_o, n̂, c
+        vx, vy, vz, wx, wy, wz = joint_jacobian.dot(v).tolist()
+        (ax, ay, az), (bx, by, bz) = kinematics.joint_origins()[joint].tolist(), end.tolist()
+        (px, py, pz), (nx, ny, nz), (cx, cy, cz) = closest.point.tolist(), closest.normal.tolist(), self.center.tolist()
+        ux, uy, uz = bx - ax, by - ay, bz - az
+        rx, ry, rz = px - ax, py - ay, pz - az  # the lever r = x_o − a
+        length_squared = ux * ux + uy * uy + uz * uz
+        along = (cx - ax) * ux + (cy - ay) * uy + (cz - az) * uz
+        slide = 0.0
+        if 0.0 < along < length_squared:  # inside the segment: ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖²
+            turn = (cx - ax) * (wy * uz - wz * uy) + (cy - ay) * (wz * ux - wx * uz) + (cz - az) * (wx * uy - wy * ux)
+            slide = (turn - (vx * ux + vy * uy + vz * uz)) / length_squared
+        # ṙ = ω × r + ṡ u, and ẋ_o = v_a + ṙ
+        dx, dy, dz = wy * rz - wz * ry + slide * ux, wz * rx - wx * rz + slide * uy, wx * ry - wy * rx + slide * uz
+        ox, oy, oz = vx + dx, vy + dy, vz + dz
+        distance = closest.clearance + self.radius
+        normal_speed = nx * ox + ny * oy + nz * oz
+        point_velocity = np.array((ox, oy, oz))
+        normal_rate = np.array(
+            (
+                (ox - nx * normal_speed) / distance,
+                (oy - ny * normal_speed) / distance,
+                (oz - nz * normal_speed) / distance,
+            )
         )
-        lever_rate = pin.skew(angular_velocity).dot(lever) + slide * axis
-        point_velocity = origin_velocity + lever_rate
         point_jacobian_rate = (
             joint_jacobian_rate[:3]
-            - pin.skew(lever_rate).dot(joint_jacobian[3:])
-            - pin.skew(lever).dot(joint_jacobian_rate[3:])
+            - pin.skew(np.array((dx, dy, dz))).dot(joint_jacobian[3:])
+            - pin.skew(np.array((rx, ry, rz))).dot(joint_jacobian_rate[3:])
         )
-        normal = closest.normal
-        normal_rate = (point_velocity - normal * float(normal.dot(point_velocity))) / (closest.clearance + self.radius)
         return point_velocity, normal_rate, point_jacobian_rate
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:

@@ -133,16 +133,20 @@ class ObstacleAvoidance(VelocityResolver):
         .. math::
 
             \ddot q = \dot p + \dot\alpha_h\dot\phi + \alpha_h(\dot B^\dagger e + B^\dagger\dot e),\quad
-            \dot p = \dot J^\dagger c + J^\dagger\dot c,\quad
+            \dot p = J^\dagger(\dot c - \dot J p) + N\dot J^\top J^{\dagger\top}p,\quad
             \dot e = v_o\dot{\hat n} - \dot J_o p - J_o\dot p,\quad
-            \dot B = \dot J_o N - J_o(\dot J^\dagger J + J^\dagger\dot J),
+            \dot B = \dot J_o N - J_o(X + X^\top),\ X = J^\dagger\dot J N,
 
-        the pseudoinverses' rates by :func:`~torqueopt.tasks.pseudoinverse_rate` (J of full row rank, B of
-        constant rank), :math:`\dot\alpha_h = \alpha_h'(d)\,\hat n\cdot\dot x_o`, and the closest point's
-        :math:`\dot x_o`, :math:`\dot{\hat n}`, :math:`\dot J_o` from
-        :meth:`~torqueopt.tasks.ObstacleTask.point_rates`. It is the derivative where the closest point moves
-        smoothly; at the instant it passes from one segment to another (or onto a segment's end) the rates have
-        a kink and this is the derivative on one side of it.
+        from :math:`\frac{d}{dt}J^\dagger = -J^\dagger\dot J J^\dagger + N\dot J^\top(JJ^\top)^{-1}` (J of full row
+        rank, :math:`(JJ^\top)^{-1} = J^{\dagger\top}J^\dagger`), so that
+        :math:`\dot N = -\frac{d}{dt}(J^\dagger J) = -(X + X^\top)`; :math:`\dot B^\dagger` by
+        :func:`~torqueopt.tasks.pseudoinverse_rate` (B of constant rank),
+        :math:`\dot\alpha_h = \alpha_h'(d)\,\hat n\cdot\dot x_o`, and the closest point's :math:`\dot x_o`,
+        :math:`\dot{\hat n}`, :math:`\dot J_o` from :meth:`~torqueopt.tasks.ObstacleTask.point_rates`;
+        :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). It is the derivative where the closest
+        point moves smoothly; at the instant it passes from one segment to another (or onto a segment's end) the
+        rates have a kink and this is the derivative on one side of it. The tests hold it to a five-point
+        difference of the rates and, run for run, to the loop's central difference.
         """
         return self.step_functions(robot, task)[1]
 
@@ -157,20 +161,20 @@ class ObstacleAvoidance(VelocityResolver):
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             """What Eq. (13) reads at q whatever ẋ: J⁺, σmin/σmax, α_h, and J_o, ẋ_o, [J_o(I − J⁺J)]⁺ where α_h > 0;
-            and for q̈ J, the closest point, I − J⁺J and J_o(I − J⁺J)."""
+            and for q̈ the closest point, I − J⁺J and J_o(I − J⁺J)."""
             jacobian = task.jacobian(kinematics)
             inverse, inverse_condition = solver.pseudoinverse(jacobian)  # Eq. (3) by SVD
             closest = obstacle.closest_point(kinematics)
             gain = activation(closest.clearance, influence, critical)
-            if gain == 0.0:
-                return inverse, inverse_condition, gain, None, None, None, (jacobian, closest, None, None)
-            point_jacobian = obstacle.point_jacobian(kinematics, closest)
             projector = identity(robot.nv) - inverse.dot(jacobian)
+            if gain == 0.0:
+                return inverse, inverse_condition, gain, None, None, None, (closest, projector, None)
+            point_jacobian = obstacle.point_jacobian(kinematics, closest)
             projected = point_jacobian.dot(projector)
             projected_inverse = undamped_pseudoinverse(projected, svd=workspace)
             return (
                 inverse, inverse_condition, gain, point_jacobian, speed * closest.normal, projected_inverse,
-                (jacobian, closest, projector, projected),
+                (closest, projector, projected),
             )  # fmt: skip
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
@@ -187,21 +191,22 @@ class ObstacleAvoidance(VelocityResolver):
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             inverse, _, gain, point_jacobian, repulsion, projected_inverse, configuration = at_configuration(kinematics)
-            jacobian, closest, projector, projected = configuration
+            closest, projector, projected = configuration
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            inverse_rate = pseudoinverse_rate(jacobian, jacobian_rate, inverse)
             particular = inverse.dot(command)
-            particular_rate = inverse_rate.dot(command) + inverse.dot(command_rate)  # d/dt J⁺c
+            # d/dt J⁺c, with d/dt J⁺ = −J⁺J̇J⁺ + (I − J⁺J)J̇ᵀ(JJᵀ)⁻¹ for J of full row rank and (JJᵀ)⁻¹ = J⁺ᵀJ⁺
+            particular_rate = inverse.dot(command_rate - jacobian_rate.dot(particular)) + projector.dot(
+                jacobian_rate.T.dot(inverse.T.dot(particular))
+            )
             if gain == 0.0:
                 return particular_rate  # beyond the influence α_h and its rate are 0
             point_velocity, normal_rate, point_jacobian_rate = obstacle.point_rates(kinematics, closest, velocity)
             gain_rate = activation_rate(closest.clearance, influence, critical) * float(
                 closest.normal.dot(point_velocity)
             )
-            # Ḃ = J̇_o N + J_o Ṅ, Ṅ = −(d/dt J⁺) J − J⁺J̇
-            projected_rate = point_jacobian_rate.dot(projector) - point_jacobian.dot(
-                inverse_rate.dot(jacobian) + inverse.dot(jacobian_rate)
-            )
+            # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −d/dt(J⁺J) = −(X + Xᵀ), X = J⁺J̇N, from the same d/dt J⁺
+            turn = inverse.dot(jacobian_rate.dot(projector))
+            projected_rate = point_jacobian_rate.dot(projector) - point_jacobian.dot(turn + turn.T)
             projected_inverse_rate = pseudoinverse_rate(projected, projected_rate, projected_inverse)
             shortfall = repulsion - point_jacobian.dot(particular)  # e of Eq. (12)
             shortfall_rate = (
