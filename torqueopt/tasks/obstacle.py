@@ -166,7 +166,7 @@ class ObstacleTask(Task):
         return joint_jacobian[:3] - pin.skew(lever).dot(joint_jacobian[3:])
 
     def point_rates(self, kinematics: Kinematics, closest: ClosestPoint, v: np.ndarray):
-        r"""How the closest point moves as the arm moves at joint velocity v [rad/s]: its velocity :math:`\dot x_o`
+        r"""How the closest point moves as the arm moves at joint velocity v [rad/s]: its velocity :math:`v_p`
         [m/s], the rate of its normal :math:`\dot{\hat n}` [1/s] and :math:`\dot J_o`, where it moves smoothly
         (not at the instant it passes from one segment to another, or onto or off a segment's end).
 
@@ -174,10 +174,11 @@ class ObstacleTask(Task):
         angular velocity :math:`\omega`), :math:`x_o = a + s u`, :math:`u = b - a`: inside the segment
         :math:`\dot s = ((c - a)\cdot(\omega\times u) - v_a\cdot u)/\|u\|^2` (:math:`\dot u = \omega\times u`
         is normal to u), at an end 0. So the closest point moves at
-        :math:`\dot x_o = J_o v + \dot s u` (the material point's velocity plus its slide), its lever
+        :math:`v_p = J_o v + \dot s u` (the material point's velocity plus its slide; not the repulsive
+        :math:`\dot x_o`), its lever
         :math:`r = x_o - a` at :math:`\dot r = \omega\times r + \dot s u`, and
         :math:`\dot J_o = \dot J_v - [\dot r]_\times J_\omega - [r]_\times\dot J_\omega` from Pinocchio's joint
-        Jacobian and its time variation (world-aligned); :math:`\dot{\hat n} = (I - \hat n\hat n^\top)\dot x_o/\|x_o - c\|`.
+        Jacobian and its time variation (world-aligned); :math:`\dot{\hat n} = (I - \hat n\hat n^\top)v_p/\|x_o - c\|`.
         A test holds the three to central differences of :meth:`closest_point` and :meth:`point_jacobian`.
         """
         model, data, joint = kinematics.model, kinematics.data, closest.joint_id

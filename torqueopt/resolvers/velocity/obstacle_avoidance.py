@@ -141,7 +141,7 @@ class ObstacleAvoidance(VelocityResolver):
         rank, :math:`(JJ^\top)^{-1} = J^{\dagger\top}J^\dagger`), so that
         :math:`\dot N = -\frac{d}{dt}(J^\dagger J) = -(X + X^\top)`; :math:`\dot B^\dagger` by
         :func:`~torqueopt.tasks.pseudoinverse_rate` (B of constant rank),
-        :math:`\dot\alpha_h = \alpha_h'(d)\,\hat n\cdot\dot x_o`, and the closest point's :math:`\dot x_o`,
+        :math:`\dot\alpha_h = \alpha_h'(d)\,\hat n\cdot v_p`, and the closest point's own velocity :math:`v_p`,
         :math:`\dot{\hat n}`, :math:`\dot J_o` from :meth:`~torqueopt.tasks.ObstacleTask.point_rates`;
         :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). It is the derivative where the closest
         point moves smoothly; at the instant it passes from one segment to another (or onto a segment's end) the
