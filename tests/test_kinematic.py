@@ -3,6 +3,7 @@ and the known results on the paper's arm (repeatability, joint limits, manipulab
 obstacle clearance)."""
 
 import re
+import sys
 
 import numpy as np
 import pinocchio as pin
@@ -1086,3 +1087,26 @@ def test_the_stacked_inverse_is_lapacks_with_identity_rows_where_the_method_fail
             rows = [row for row in range(9) if row != 4]
             np.testing.assert_allclose(inverse[rows], expected[rows], rtol=1e-12, atol=1e-12)
             np.testing.assert_array_equal(inverse[4], np.eye(m))
+
+
+def test_one_manipulability_resolver_serves_runs_in_two_threads_at_once(planar3):
+    """The manipulability's curvature moves kinematics and an SVD object of its own: they are kept per thread, so
+    two runs sharing one resolver in two threads give, bit for bit, what each gives alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability")
+    movements = [
+        (torqueopt.StraightLine((1.0, 1.0), duration=0.6), PAPER_Q0),
+        (torqueopt.StraightLine((-1.0, 0.5), duration=0.6), (0.3, 1.2, -1.0)),
+    ]
+    alone = [torqueopt.simulate(planar3, resolver, line, q0) for line, q0 in movements]
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # the threads take turns every few bytecodes, inside the curvature's differences
+    try:
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            together = list(pool.map(lambda movement: torqueopt.simulate(planar3, resolver, *movement), movements))
+    finally:
+        sys.setswitchinterval(interval)
+    for one, other in zip(alone, together):
+        np.testing.assert_array_equal(one.q, other.q)
+        np.testing.assert_array_equal(one.tau, other.tau)

@@ -51,7 +51,6 @@ class FrameTask(Task):
         self._frame_id: int | None = None
         self._model_id: int | None = None
         # (n × 6 zeros, its view on the task's rows, its flat view) for jacobian_derivative_traces
-        self._padded_weights: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         super().__init__(target, gain)
 
     @classmethod
@@ -100,13 +99,10 @@ class FrameTask(Task):
         :math:`s\sum_{ij} W_{ij} D[j, i, k]` with D of :meth:`jacobian_derivative`, as one product of Pinocchio's
         layout (:meth:`Kinematics.frame_jacobian_derivative_rows`) with W written into the task's rows of an
         n × 6 array (zero elsewhere)."""
-        n = weights.shape[0]
-        if self._padded_weights is None or self._padded_weights[0].shape[0] != n:
-            padded = np.zeros((n, 6))
-            self._padded_weights = (padded, padded[:, self.rows], padded.reshape(-1))
-        _, rows, flat = self._padded_weights
-        rows[...] = weights
-        return scale * kinematics.frame_jacobian_derivative_rows(self.frame_id(kinematics)).dot(flat)
+        # a fresh array per call, not one kept on the task: a task may serve runs in several threads at once
+        padded = np.zeros((weights.shape[0], 6))
+        padded[:, self.rows] = weights
+        return scale * kinematics.frame_jacobian_derivative_rows(self.frame_id(kinematics)).dot(padded.reshape(-1))
 
     def desired_velocity(self, kinematics: Kinematics) -> np.ndarray:
         r""":math:`\dot x_d = k(x^* - x)` [m/s, rad/s] (:meth:`Task.desired_velocity`), for ``xy`` and ``position``

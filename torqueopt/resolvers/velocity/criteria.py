@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import operator
+import threading
 from abc import ABC, abstractmethod
 from typing import NamedTuple
 
@@ -252,14 +253,18 @@ class Manipulability(Criterion):
     name = "manipulability"
 
     def __init__(self):
-        # the kinematics the curvature's differences move, apart from those of the caller
-        self._offsets: Kinematics | None = None
-        # one SVD object per shape of J, refactored at each configuration
-        self._svd = None
+        # Per thread, as a resolver (and its criterion) may serve runs in several threads at once: the kinematics
+        # the curvature's differences move, apart from those of the caller ("offsets"), and one SVD object per
+        # shape of J, refactored at each configuration ("svd").
+        self._workspaces = threading.local()
 
     def __getstate__(self):
-        # the two workspaces are rebuilt on first use, and neither pickles: a copy leaves them behind
-        return {**self.__dict__, "_offsets": None, "_svd": None}
+        # the workspaces are rebuilt on first use, and do not pickle: a copy leaves them behind
+        return {key: value for key, value in self.__dict__.items() if key != "_workspaces"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._workspaces = threading.local()
 
     def value(self, kinematics, task) -> float:
         jacobian = task.jacobian(kinematics)
@@ -272,9 +277,11 @@ class Manipulability(Criterion):
     def _decomposed_gradient(self, kinematics, task, gain: float) -> np.ndarray:
         """−k ∂w/∂q with w and J⁺ from the criterion's own SVD of J."""
         jacobian = task.jacobian(kinematics)
-        if self._svd is None or self._svd[0] != jacobian.shape:
-            self._svd = (jacobian.shape, eigenpy.HhJacobiSVD(*jacobian.shape, _THIN_UV))
-        svd = self._svd[1].compute(jacobian)
+        workspaces = self._workspaces
+        shape_and_svd = getattr(workspaces, "svd", None)
+        if shape_and_svd is None or shape_and_svd[0] != jacobian.shape:
+            shape_and_svd = workspaces.svd = (jacobian.shape, eigenpy.HhJacobiSVD(*jacobian.shape, _THIN_UV))
+        svd = shape_and_svd[1].compute(jacobian)
         singular_values = svd.singularValues().reshape(-1).tolist()
         return self._scaled_gradient(kinematics, task, gain, singular_values, svd.solve(identity(jacobian.shape[0])))
 
@@ -308,9 +315,9 @@ class Manipulability(Criterion):
         if speed == 0.0:
             return np.zeros(kinematics.nv)
         robot, q, step = kinematics.robot, kinematics.q, CURVATURE_STEP / speed
-        offsets = self._offsets
+        offsets = getattr(self._workspaces, "offsets", None)
         if offsets is None or offsets.robot is not robot:
-            offsets = self._offsets = Kinematics(robot)
+            offsets = self._workspaces.offsets = Kinematics(robot)
         offset, scale = step * v, 0.5 * gain / step
         # k(∂p/∂q(q ⊕ δ) − ∂p/∂q(q ⊖ δ)) / 2δ, the k/2δ carried as the gradients' gain
         forward = self._decomposed_gradient(offsets.update(robot.integrate(q, offset)), task, scale)
