@@ -30,6 +30,7 @@ import pinocchio as pin
 
 from .errors import InvalidInput
 from .robot import Robot
+from .tasks.task import translations_view
 
 __all__ = ["FOREST_DOFS", "RobotForest", "TaskKinematics", "stacked_cross"]
 
@@ -103,7 +104,7 @@ class _Pass:
         self.bias = data.nle.reshape(n, copies, order="F").T
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
-        self.tips = _translations(data.oMf, copies)  # every copy's task frame position [m], (copies, 3)
+        self.tips = translations_view(data.oMf, 1, copies)  # every copy's task frame position [m], (copies, 3)
 
 
 class RobotForest:
@@ -260,24 +261,6 @@ class RobotForest:
 def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:
     """The passes' views ``name`` (a _Pass field) joined into one (count, ...) stack, a fresh array."""
     return np.concatenate([getattr(forest_pass, name) for forest_pass in used])[:count]
-
-
-def _translations(placements, copies: int) -> np.ndarray:
-    """A read-only (copies, 3) view of the translations of frames 1..copies of ``placements`` (a data's ``oMf``).
-
-    eigenpy returns each ``SE3.translation`` as a view into the placement's own memory, and the placements
-    of a data are one contiguous vector that Pinocchio never reallocates; so one strided view reads every
-    copy's tip where reading them one by one costs about 4,900 instructions a copy (boost.python and
-    eigenpy, BENCHMARKS.md). The layout is checked here, at the data's creation, not assumed.
-    """
-    first = placements[1].translation
-    address = first.__array_interface__["data"][0]
-    stride = placements[2].translation.__array_interface__["data"][0] - address if copies > 1 else 0
-    view = np.lib.stride_tricks.as_strided(first, shape=(copies, 3), strides=(stride, 8), writeable=False)
-    for copy in (0, copies - 1):
-        if view[copy].__array_interface__["data"][0] != placements[1 + copy].translation.__array_interface__["data"][0]:
-            raise RuntimeError("Pinocchio's frame placements are not one evenly strided vector: cannot view them")
-    return view
 
 
 def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

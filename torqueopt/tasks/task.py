@@ -74,11 +74,7 @@ class Kinematics:
 
     def frame_position(self, frame_id: int) -> np.ndarray:
         """World position of a frame's origin (3 values, a copy) [m]: ``frame_placement(frame_id).translation``."""
-        translation = self._translations.get(frame_id)
-        if translation is None:
-            translation = self._translations[frame_id] = self.data.oMf[frame_id].translation
-            translation.setflags(write=False)
-        return translation.copy()
+        return self.frame_position_view(frame_id).copy()
 
     def frame_position_view(self, frame_id: int) -> np.ndarray:
         """World position of a frame's origin [m] as a read-only view into Pinocchio's data: it holds the position
@@ -92,20 +88,9 @@ class Kinematics:
     def joint_origins(self) -> np.ndarray:
         """World positions of every joint's origin [m], (njoints, 3), row j joint j's (row 0 the universe's): one
         read-only strided view of the translations of Pinocchio's ``data.oMi``, which hold the positions at the
-        latest :meth:`update` (not a copy).
-
-        eigenpy returns each ``SE3.translation`` as a view into the placement's memory, and a data's joint
-        placements are one vector Pinocchio never reallocates; the layout is checked here once, not assumed.
-        """
+        latest :meth:`update` (not a copy; ``translations_view``, made once)."""
         if self._joint_origins is None:
-            placements = self.data.oMi
-            addresses = [placement.translation.__array_interface__["data"][0] for placement in placements]
-            stride = addresses[1] - addresses[0] if len(addresses) > 1 else 0
-            if addresses != [addresses[0] + joint * stride for joint in range(len(addresses))]:
-                raise RuntimeError("Pinocchio's joint placements are not one evenly strided vector: cannot view them")
-            self._joint_origins = np.lib.stride_tricks.as_strided(
-                placements[0].translation, shape=(len(addresses), 3), strides=(stride, 8), writeable=False
-            )
+            self._joint_origins = translations_view(self.data.oMi, 0, len(self.data.oMi))
         return self._joint_origins
 
     def frame_jacobian(self, frame_id: int) -> np.ndarray:
@@ -156,6 +141,24 @@ class Kinematics:
             self._hessians_ready = True
         n = self.model.nv
         return pin.getFrameKinematicHessian(self.model, self.data, frame_id, _LWA).reshape(n, 6 * n)
+
+
+def translations_view(placements, first: int, count: int) -> np.ndarray:
+    """A read-only (count, 3) view of the translations of ``placements[first:first + count]`` (a Pinocchio data's
+    ``oMi`` or ``oMf``), not a copy: they hold the positions at the data's latest computation.
+
+    eigenpy returns each ``SE3.translation`` as a view into the placement's own memory, and the placements of a
+    data are one contiguous vector that Pinocchio never reallocates; so one strided view reads them all, where
+    reading them one by one costs about 4,900 instructions each (boost.python and eigenpy, BENCHMARKS.md). The
+    layout is checked for every placement viewed when the view is made, not assumed.
+    """
+    addresses = [placements[first + index].translation.__array_interface__["data"][0] for index in range(count)]
+    stride = addresses[1] - addresses[0] if count > 1 else 0
+    if addresses != [addresses[0] + index * stride for index in range(count)]:
+        raise RuntimeError("Pinocchio's placements are not one evenly strided vector: cannot view them")
+    return np.lib.stride_tricks.as_strided(
+        placements[first].translation, shape=(count, 3), strides=(stride, 8), writeable=False
+    )
 
 
 @cache
