@@ -2,7 +2,6 @@ r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eq. (7), Eq
 
 from __future__ import annotations
 
-import eigenpy
 import numpy as np
 
 from ...robot import Robot
@@ -16,6 +15,7 @@ from ...tasks import (
     TaskStack,
     prioritised_accelerations,
     priority_levels,
+    pseudoinverse_workspace,
     rates_through,
     undamped_pseudoinverse,
 )
@@ -25,8 +25,6 @@ from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import PostureDistance
 from .gradient_projection import StackedGradientProjection, projected_gradient_steps
 from .options import task_stack
-
-_THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 
 __all__ = ["TaskPriority", "below_one_task_steps", "accelerations_below_one_task"]
 
@@ -194,7 +192,7 @@ def below_one_task_steps(robot: Robot, task: FrameTask, lower: Task, tolerance: 
     builds them, the lower SVD in one object for the run; the tests hold them equal) and :math:`\dot x_l`.
     """
     solver = pseudoinverse_solver(robot, tolerance, null_space=False)
-    lower_svd = eigenpy.HhJacobiSVD(lower.dimension, robot.nv, _THIN_UV)
+    lower_svd = pseudoinverse_workspace(lower.dimension, robot.nv)
     identity_n = identity(robot.nv)
 
     @PerConfiguration
