@@ -229,3 +229,42 @@ def test_the_forest_kinematics_and_inverse_dynamics_are_pinocchios_per_state(nam
         np.testing.assert_allclose(
             torque[row], pin.rnea(robot.model, data, q[row], v[row], acceleration[row]), atol=1e-10
         )
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda", "baxter"])
+def test_every_frame_of_every_copy_from_the_joint_kinematics_is_pinocchios(name, planar3, panda):
+    """Every frame of the robot (not only the task frame), through 13 states in passes of 5 copies, with and
+    without v and in every pass kind: its position, Jacobian and Jacobian rate from the forest's joint kinematics
+    (:func:`point_kinematics`, :meth:`RobotForest.frame_points`) against Pinocchio's frame calls on one data; the
+    joints' placements against ``data.oMi``. baxter's branch sits in a larger tree: its support columns matter."""
+    from torqueopt.robot_copies import point_kinematics
+
+    robot = {"planar3": planar3, "panda": panda}.get(name) or torqueopt.load_robot(name)
+    q, v = _states(robot, 13, seed=21)
+    forest = RobotForest(robot, copies=5)
+    still = forest.kinematics(q, joints=True)
+    moving = forest.kinematics(q, v, joints=True)
+    assert forest.kinematics(q).joints is None
+    for found in (still, forest.kinematics(q, inverse_inertia=True, joints=True)):
+        assert np.array_equal(found.joints.origins, moving.joints.origins) and found.joints.rate is None
+    # the task frame's own kinematics are unchanged by asking for the joints'
+    assert np.array_equal(moving.rate, forest.kinematics(q, v).rate)
+    model, data = robot.model, robot.model.createData()
+    frames = [f for f in range(1, model.nframes) if model.frames[f].parentJoint > 0]
+    for row in range(13):
+        pin.computeJointJacobiansTimeVariation(model, data, q[row], v[row])
+        pin.updateFramePlacements(model, data)
+        for joint in range(model.njoints):
+            assert _relative(moving.joints.origins[row, joint], data.oMi[joint].translation) < 1e-15
+            assert _relative(moving.joints.rotations[row, joint], data.oMi[joint].rotation) < 1e-15
+        for frame in frames:
+            columns = forest.support_columns(model.frames[frame].parentJoint)
+            point = forest.frame_points(moving.joints, frame)
+            jacobian, rate = point_kinematics(moving.joints, columns, point, v)
+            alone, none = point_kinematics(still.joints, columns, point)
+            assert none is None and np.array_equal(alone, jacobian)
+            assert _relative(point[row], data.oMf[frame].translation) < 1e-14
+            assert _relative(jacobian[row], pin.getFrameJacobian(model, data, frame, _LWA)) < 1e-13
+            assert _relative(rate[row], pin.getFrameJacobianTimeVariation(model, data, frame, _LWA)) < 1e-13
+    with pytest.raises(ValueError):
+        point_kinematics(still.joints, columns, point, v)

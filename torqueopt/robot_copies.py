@@ -30,9 +30,9 @@ import pinocchio as pin
 
 from .errors import InvalidInput
 from .robot import Robot
-from .tasks.task import translations_view
+from .tasks.task import rotations_view, translations_view
 
-__all__ = ["FOREST_DOFS", "RobotForest", "TaskKinematics", "stacked_cross"]
+__all__ = ["FOREST_DOFS", "JointKinematics", "RobotForest", "TaskKinematics", "point_kinematics", "stacked_cross"]
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
 #: shrinks with the forest's size, but CRBA's instructions per copy and
@@ -74,22 +74,43 @@ def _forest_model(robot: Robot, copies: int) -> pin.Model:
     return forest
 
 
+class JointKinematics(NamedTuple):
+    r"""Every joint of S states, for tasks on other points than the task frame (:func:`point_kinematics`).
+
+    ``jacobian``: the joints' world-frame Jacobian columns :math:`J_O` (S, 6, n), column i the spatial velocity
+    (linear rows first, at the world origin) that joint i's unit rate gives every body it moves (Pinocchio's
+    ``data.J``, no column masked); ``rate``: its time variation :math:`\dot J_O` along the state's v
+    (``data.dJ``, S, 6, n) or None; ``origins`` (S, njoints, 3) [m] and ``rotations`` (S, njoints, 3, 3) the
+    joints' placements in the world (``data.oMi``), row 0 the universe's, so a row's index is the joint's
+    Pinocchio id. Fresh arrays the caller may keep.
+    """
+
+    jacobian: np.ndarray
+    rate: np.ndarray | None
+    origins: np.ndarray
+    rotations: np.ndarray
+
+
 class TaskKinematics(NamedTuple):
     r"""What :meth:`RobotForest.kinematics` gives for S states: the task frame's J (S, 6, n), :math:`\dot J`
-    (S, 6, n) or None, the frame's position (S, 3) [m], and when asked :math:`H^{-1}` (S, n, n)
-    and :math:`\dot H\dot q` (S, n) [N·m]."""
+    (S, 6, n) or None, the frame's position (S, 3) [m], and when asked :math:`H^{-1}` (S, n, n),
+    :math:`\dot H\dot q` (S, n) [N·m] and every joint's kinematics (:class:`JointKinematics`)."""
 
     jacobian: np.ndarray
     rate: np.ndarray | None
     tip: np.ndarray
     inverse_inertia: np.ndarray | None = None
     inertia_rate_velocity: np.ndarray | None = None
+    joints: JointKinematics | None = None
 
 
 class _Pass:
     """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
 
-    __slots__ = ("bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "tips")
+    __slots__ = (
+        "bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "origins", "rotations",
+        "tips",
+    )  # fmt: skip
 
     def __init__(self, forest: pin.Model, copies: int, n: int):
         self.data = data = forest.createData()
@@ -105,6 +126,10 @@ class _Pass:
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.tips = translations_view(data.oMf, 1, copies)  # every copy's task frame position [m], (copies, 3)
+        # every copy's joints' placements, (copies, joints, ...): copy c's joint j is the forest's 1 + c·joints + j − 1
+        joints = (forest.njoints - 1) // copies
+        self.origins = translations_view(data.oMi, 1, copies * joints).reshape(copies, joints, 3)
+        self.rotations = rotations_view(data.oMi, 1, copies * joints).reshape(copies, joints, 3, 3)
 
 
 class RobotForest:
@@ -125,6 +150,7 @@ class RobotForest:
                 "it cannot be copied into a forest"
             )
         model = robot.model
+        self.robot = robot
         self.n = n = model.nv
         self.copies = copies = max(1, FOREST_DOFS // n) if copies is None else int(copies)
         self.model = _forest_model(robot, copies)
@@ -176,7 +202,7 @@ class RobotForest:
 
     def kinematics(
         self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None, *,
-        inverse_inertia: bool = False, inertia_rate: bool = False,
+        inverse_inertia: bool = False, inertia_rate: bool = False, joints: bool = False,
     ) -> TaskKinematics:  # fmt: skip
         r"""The task frame's Jacobian :math:`J` (S, 6, n) in LOCAL_WORLD_ALIGNED, linear rows first, and its position (S, 3);
         with joint velocities v, also :math:`\dot J` (S, 6, n), the Jacobian's rate along v (else None).
@@ -194,7 +220,8 @@ class RobotForest:
         it returns, so the blocks read are whole. ``inertia_rate`` (with v): each pass is
         ``computeCoriolisMatrix``, which computes the same J and :math:`\dot J` on its way, and
         :math:`\dot H v = (C + C^\top)v` (S, n) is returned too (:math:`\dot H - 2C` is skew). One forest pass
-        where the kinetic-energy stack made two.
+        where the kinetic-energy stack made two. ``joints``: every joint's kinematics from the same pass
+        (:class:`JointKinematics`; with v, their rates too), for tasks on other points (:func:`point_kinematics`).
         """
         count, model = q.shape[0], self.model
         if (inverse_inertia and v is not None) or (inertia_rate and v is None):
@@ -215,25 +242,50 @@ class RobotForest:
         world = _gathered(used, "jacobian", count)
         if tip is None:
             tip = _gathered(used, "tips", count)
+        rate = None if v is None else _gathered(used, "jacobian_rate", count)
+        every_joint = self._joints(used, count, world, rate) if joints else None
         if self._mask is not None:
             world *= self._mask
-        jacobian = world
-        angular = world[:, 3:].copy()
-        jacobian[:, :3] += stacked_cross(angular, tip[:, :, None])
+            if rate is not None:
+                rate *= self._mask
+        jacobian, rate = _shifted(world, rate, tip, v)
         if v is None:
             inverse = _gathered(used, "inverse_inertia", count) if inverse_inertia else None
-            return TaskKinematics(jacobian, None, tip, inverse_inertia=inverse)
-        rate = _gathered(used, "jacobian_rate", count)
-        if self._mask is not None:
-            rate *= self._mask
-        tip_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
-        rate[:, :3] += stacked_cross(rate[:, 3:], tip[:, :, None]) + stacked_cross(angular, tip_velocity[:, :, None])
+            return TaskKinematics(jacobian, None, tip, inverse_inertia=inverse, joints=every_joint)
         if not inertia_rate:
-            return TaskKinematics(jacobian, rate, tip)
+            return TaskKinematics(jacobian, rate, tip, joints=every_joint)
         coriolis = _gathered(used, "coriolis", count)
         # Ḣv = (C + Cᵀ)v
         rate_times = np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
-        return TaskKinematics(jacobian, rate, tip, inertia_rate_velocity=rate_times)
+        return TaskKinematics(jacobian, rate, tip, inertia_rate_velocity=rate_times, joints=every_joint)
+
+    def _joints(self, used: list[_Pass], count: int, world: np.ndarray, rate: np.ndarray | None) -> JointKinematics:
+        """Every joint's kinematics of the ``used`` passes' rows, copies of what the pass computed."""
+        joints = (self.model.njoints - 1) // self.copies + 1  # the robot's own, the universe counted
+        origins = np.zeros((count, joints, 3))
+        origins[:, 1:] = _gathered(used, "origins", count)
+        rotations = np.empty((count, joints, 3, 3))
+        rotations[:, 0] = np.eye(3)
+        rotations[:, 1:] = _gathered(used, "rotations", count)
+        return JointKinematics(world.copy(), None if rate is None else rate.copy(), origins, rotations)
+
+    def support_columns(self, joint: int) -> np.ndarray:
+        """(n,) ones at the velocity indices of the joints that move the robot's joint ``joint`` (its support, the
+        joint itself included), zeros elsewhere: the columns of :class:`JointKinematics` a point on its body reads."""
+        model = self.robot.model
+        columns = np.zeros(self.n)
+        for ancestor in model.supports[joint]:
+            if ancestor > 0:
+                columns[model.idx_vs[ancestor] : model.idx_vs[ancestor] + model.nvs[ancestor]] = 1.0
+        columns.setflags(write=False)
+        return columns
+
+    def frame_points(self, joints: JointKinematics, frame_id: int) -> np.ndarray:
+        r"""The world position (S, 3) [m] of the robot's frame ``frame_id`` in every row: its parent joint's placement
+        applied to the frame's own, :math:`p = p_j + R_j\,p_{j,f}` (as ``pin.updateFramePlacements``)."""
+        frame = self.robot.model.frames[frame_id]
+        parent = frame.parentJoint
+        return joints.origins[:, parent] + joints.rotations[:, parent] @ frame.placement.translation
 
     def _passes(self, count: int) -> list[_Pass]:
         """The forest passes that ``count`` rows take, the pool grown to them (each pass keeps its own data)."""
@@ -274,6 +326,40 @@ def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out[:, 1] = a2 * b0 - a0 * b2
     out[:, 2] = a0 * b1 - a1 * b0
     return out
+
+
+def _shifted(world: np.ndarray, world_rate: np.ndarray | None, point: np.ndarray, v: np.ndarray | None):
+    r"""A point's Jacobian (S, 6, n) and, with ``world_rate`` and v, its rate (LOCAL_WORLD_ALIGNED) from the
+    world-frame :math:`J_O`, :math:`\dot J_O` of the columns that move it; both overwritten (the caller's own).
+
+    :math:`J = J_v + J_\omega\times p`; its rate along v is
+    :math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot p = J_{lin} v`.
+    """
+    jacobian = world
+    angular = world[:, 3:].copy()
+    jacobian[:, :3] += stacked_cross(angular, point[:, :, None])
+    if world_rate is None:
+        return jacobian, None
+    rate = world_rate
+    point_velocity = (jacobian[:, :3] * v[:, None, :]).sum(axis=2)
+    rate[:, :3] += stacked_cross(rate[:, 3:], point[:, :, None]) + stacked_cross(angular, point_velocity[:, :, None])
+    return jacobian, rate
+
+
+def point_kinematics(joints: JointKinematics, columns: np.ndarray, point: np.ndarray, v: np.ndarray | None = None):
+    r"""The Jacobian (S, 6, n) of points moving with one body, and with v its rate :math:`\dot J` (S, 6, n) along
+    v, in LOCAL_WORLD_ALIGNED (linear rows first), from every joint's kinematics.
+
+    ``columns``: (n,) ones at the velocity indices of the joints that move the body (its parent joint's support,
+    :meth:`RobotForest.support_columns`), zeros elsewhere; ``point``: (S, 3) the points [m]. What
+    ``pin.getFrameJacobian`` and ``getFrameJacobianTimeVariation`` give for a frame at the point, row by row
+    (tests/test_robot_copies.py holds them to it); new arrays.
+    """
+    world = joints.jacobian * columns
+    world_rate = None if v is None or joints.rate is None else joints.rate * columns
+    if v is not None and world_rate is None:
+        raise ValueError("a point's Jacobian rate needs joint kinematics taken with the joint velocities")
+    return _shifted(world, world_rate, point, v)
 
 
 def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):

@@ -152,13 +152,28 @@ def translations_view(placements, first: int, count: int) -> np.ndarray:
     reading them one by one costs about 4,900 instructions each (boost.python and eigenpy, BENCHMARKS.md). The
     layout is checked for every placement viewed when the view is made, not assumed.
     """
-    addresses = [placements[first + index].translation.__array_interface__["data"][0] for index in range(count)]
+    first_translation = placements[first].translation
+    stride = _placement_stride(placements, first, count, "translation")
+    return np.lib.stride_tricks.as_strided(first_translation, shape=(count, 3), strides=(stride, 8), writeable=False)
+
+
+def rotations_view(placements, first: int, count: int) -> np.ndarray:
+    """A read-only (count, 3, 3) view of the rotation matrices of ``placements[first:first + count]``, not a copy:
+    :func:`translations_view`'s reading of the rotations (Eigen's column-major 3×3, checked as it is)."""
+    rotation = placements[first].rotation
+    if rotation.strides != (8, 24):
+        raise RuntimeError("Pinocchio's rotations are not column-major 3x3 matrices: cannot view them")
+    stride = _placement_stride(placements, first, count, "rotation")
+    return np.lib.stride_tricks.as_strided(rotation, shape=(count, 3, 3), strides=(stride, 8, 24), writeable=False)
+
+
+def _placement_stride(placements, first: int, count: int, part: str) -> int:
+    """The byte stride between the ``part`` (translation, rotation) of successive placements, checked for each."""
+    addresses = [getattr(placements[first + index], part).__array_interface__["data"][0] for index in range(count)]
     stride = addresses[1] - addresses[0] if count > 1 else 0
     if addresses != [addresses[0] + index * stride for index in range(count)]:
         raise RuntimeError("Pinocchio's placements are not one evenly strided vector: cannot view them")
-    return np.lib.stride_tricks.as_strided(
-        placements[first].translation, shape=(count, 3), strides=(stride, 8), writeable=False
-    )
+    return stride
 
 
 @cache
