@@ -55,6 +55,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_variable] = "1"
 
 import argparse
+import json
 import platform
 import statistics
 import time
@@ -162,13 +163,14 @@ def _terms_comparison(robot, count=256, repeats=30):
 
 
 _COUNT_RUN = """
-import gc, os, sys
+import gc, json, os, sys
 os.environ["OMP_NUM_THREADS"] = os.environ["OPENBLAS_NUM_THREADS"] = "1"
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population
 from torqueopt.batch import simulate_batch
-robot_name, mode, steps, count, resolver = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+robot_name, mode, steps, count, name = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 robot = torqueopt.load_robot(robot_name, task=None if robot_name == "planar3" else "position")
+resolver = torqueopt.get_resolver(name, **json.loads(sys.argv[6]))
 movements = draw_population(robot, PopulationSpec(paths=count, durations=(2.0,), seed=1))
 lines = [torqueopt.StraightLine(m.direction, duration=steps * 1e-3, start=m.start) for m in movements]
 # What the imports and the set-up made is frozen: a full collection that happens to land in one of the two runs
@@ -187,11 +189,12 @@ def count_instructions(
     steps: tuple[int, int] = (150, 50),
     cases=("batch", "simulate"),
     resolver: str = "null-space",
+    options: dict | None = None,
 ) -> dict:
     """Instructions per trajectory-step of the batch (256 movements) and of one simulate run, by callgrind.
 
     ``steps`` are the (long, short) run lengths whose difference is counted; ``cases`` which of the two to count;
-    ``resolver`` the resolver of both.
+    ``resolver`` the resolver of both, ``options`` its options as on ``torqueopt run``'s command line (text values).
 
     Each figure is (total, Pinocchio's own): the second sums the instructions
     spent inside Pinocchio's library (its functions' self cost, by
@@ -209,7 +212,7 @@ def count_instructions(
             script.write_text(_COUNT_RUN)
             done = subprocess.run(
                 ["valgrind", "--tool=callgrind", f"--callgrind-out-file={folder}/out", sys.executable, str(script),
-                 robot, mode, str(steps), str(count), resolver],
+                 robot, mode, str(steps), str(count), resolver, json.dumps(options or {})],
                 capture_output=True, text=True, check=True,
                 env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
             )  # fmt: skip
@@ -250,14 +253,24 @@ def main(argv=None):
     )
     parser.add_argument("--resolver", default="null-space", help="resolver of --count (default null-space)")
     parser.add_argument(
+        "--option", action="append", default=[], metavar="NAME=VALUE",
+        help="an option of --resolver as on torqueopt run's command line, repeatable",
+    )  # fmt: skip
+    parser.add_argument(
         "--cases", choices=["batch", "simulate", "both"], default="both", help="what --count counts (default both)"
     )
     args = parser.parse_args(argv)
     if args.count:
         cases = ("batch", "simulate") if args.cases == "both" else (args.cases,)
-        counts = count_instructions(args.robot, tuple(args.steps), cases, args.resolver)
+        options = {}
+        for text in args.option:
+            name, equals, value = text.partition("=")
+            if not equals or not name.strip():
+                parser.error(f"--option {text!r} must be NAME=VALUE")
+            options[name.strip()] = value.strip()
+        counts = count_instructions(args.robot, tuple(args.steps), cases, args.resolver, options)
         print(
-            f"instructions per trajectory-step ({args.robot}, {args.resolver}, the batch with the energy extras, "
+            f"instructions per trajectory-step ({args.robot}, {args.resolver}{''.join(f' {o}' for o in args.option)}, the batch with the energy extras, "
             f"{args.steps[0]} against {args.steps[1]} steps):"
         )
         for name, (value, pinocchio) in counts.items():
