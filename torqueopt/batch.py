@@ -533,12 +533,14 @@ class KinematicStack(MovementStack):
 
     def _task(self, q, v=None, tip=None):
         """The forest's kinematics at q (and v), the task's rows of J and J̇; H⁻¹ at q or Ḣq̇ at (q, v) from the
-        same pass when the stacked form reads them (its ``reads_inverse_inertia``, ``reads_inertia_rate``)."""
+        same pass when the stacked form reads them (its ``reads_inverse_inertia``, ``reads_inertia_rate``), and every
+        joint's kinematics when it reads those (``reads_joints``)."""
         stacked = self.stacked
         found = self.forest.kinematics(
             q, v, tip,
             inverse_inertia=v is None and stacked.reads_inverse_inertia,
             inertia_rate=v is not None and stacked.reads_inertia_rate,
+            joints=stacked.reads_joints,
         )  # fmt: skip
         rows = self.rows
         return found._replace(jacobian=found.jacobian[:, rows], rate=None if v is None else found.rate[:, rows])

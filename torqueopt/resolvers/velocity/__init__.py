@@ -12,7 +12,7 @@ name                    method (equations of the paper)
 ======================= =============================================================================
 """
 
-from .base import VelocityResolver
+from .base import VelocityResolver, VelocityStack
 from .criteria import (
     CallableCriterion,
     Criterion,
@@ -36,6 +36,7 @@ from .task_priority import TaskPriority
 
 __all__ = [
     "VelocityResolver",
+    "VelocityStack",
     "VelocityPseudoInverse",
     "GradientProjection",
     "TaskPriority",

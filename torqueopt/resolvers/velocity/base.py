@@ -25,7 +25,7 @@ from ...tasks import FrameTask
 from ..base import Resolver
 from ..options import LARGEST_WEIGHT, Option, number
 
-__all__ = ["VelocityResolver", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
+__all__ = ["VelocityResolver", "VelocityStack", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
 
 #: The option every velocity-level resolver accepts: closed-loop inverse kinematics.
 POSITION_GAIN_OPTION = Option(
@@ -86,15 +86,9 @@ class VelocityResolver(Resolver):
         """
         return self.rate_function(robot, task), self.acceleration_function(robot, task)
 
-    def stack_rate_function(self, robot: Robot):
-        r"""The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time).
-
-        An object with ``rates(J, c, q) -> (q̇, σmin/σmax, failures, state)`` (J (B, m, n),
-        c (B, m), q (B, nq) the configurations; ``failures`` {row: why the method is undefined there}) and
-        ``acceleration(J, J̇, q̇, ċ, state) -> q̈``, the stacked forms of
-        :meth:`rate_function` and :meth:`acceleration_function` (``state`` is
-        what ``rates`` computed that ``acceleration`` reuses).
-        """
+    def stack_rate_function(self, robot: Robot) -> VelocityStack | None:
+        """The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time):
+        a :class:`VelocityStack`, the stacked forms of :meth:`rate_function` and :meth:`acceleration_function`."""
         return None
 
     def settings_for_file(self) -> dict:
@@ -120,6 +114,31 @@ class VelocityResolver(Resolver):
             "run it through torqueopt.simulate (joint rates integrated, torques by inverse dynamics) "
             "or torqueopt.kinematic.joint_rates"
         )
+
+
+class VelocityStack:
+    r"""A velocity-level resolver's step on (B, ...) stacks of states, what the batch's lanes call
+    (:class:`torqueopt.batch.KinematicStack`).
+
+    ``rates(J, c, q, kinematics) -> (q̇, σmin/σmax, failures, state)``: J (B, m, n) the task Jacobians, c (B, m)
+    the commands, q (B, nq) the configurations, ``kinematics`` the forest's
+    :class:`~torqueopt.robot_copies.TaskKinematics` at q; ``failures`` {row: why the method is undefined there}
+    (such a row gets a finite, unused answer); ``state`` what ``rates`` computed that ``acceleration`` reuses.
+    ``acceleration(J, J̇, q̇, ċ, state, moving) -> q̈`` (B, n): ``moving`` the forest's kinematics at (q, q̇).
+
+    The flags say what the forest's pass must add to ``kinematics`` (at q) and ``moving`` (at (q, q̇)):
+    :math:`H^{-1}`, :math:`\dot H\dot q`, and every joint's kinematics (``joints``, for tasks on other points).
+    """
+
+    reads_inverse_inertia: bool = False
+    reads_inertia_rate: bool = False
+    reads_joints: bool = False
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        raise NotImplementedError
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        raise NotImplementedError
 
 
 def pseudoinverse_solver(robot: Robot, tolerance: float, null_space: bool = True) -> JacobianSolver:

@@ -12,7 +12,7 @@ from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from ..stacks import singular_rows
-from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
+from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack, pseudoinverse_solver
 from .options import vector_or_callable
 
 __all__ = ["VelocityPseudoInverse", "KineticEnergyPseudoInverse"]
@@ -107,13 +107,8 @@ class VelocityPseudoInverse(VelocityResolver):
         return StackedPseudoInverse(self.singular_tolerance)
 
 
-class StackedPseudoInverse:
+class StackedPseudoInverse(VelocityStack):
     r""":math:`\dot q = J^\dagger c` and its :math:`\ddot q` per row of (B, m, n) stacks, :math:`J^\dagger = J^\top(JJ^\top)^{-1}`."""
-
-    #: Whether :meth:`rates` reads H⁻¹ at the configuration and :meth:`acceleration` Ḣq̇ there, from the
-    #: ``kinematics`` (a :class:`~torqueopt.robot_copies.TaskKinematics`) the batch gives them.
-    reads_inverse_inertia: bool = False
-    reads_inertia_rate: bool = False
 
     def __init__(self, tolerance: float):
         self.tolerance = tolerance
