@@ -118,11 +118,11 @@ class VelocityResolver(Resolver):
 
 class VelocityStack:
     r"""A velocity-level resolver's step on (B, ...) stacks of states, what the batch's lanes call
-    (:class:`torqueopt.batch.KinematicStack`).
+    (``torqueopt.batch.KinematicStack``).
 
     ``rates(J, c, q, kinematics) -> (q̇, σmin/σmax, failures, state)``: J (B, m, n) the task Jacobians, c (B, m)
     the commands, q (B, nq) the configurations, ``kinematics`` the forest's
-    :class:`~torqueopt.robot_copies.TaskKinematics` at q; ``failures`` {row: why the method is undefined there}
+    ``TaskKinematics`` (``torqueopt.robot_copies``) at q; ``failures`` {row: why the method is undefined there}
     (such a row gets a finite, unused answer); ``state`` what ``rates`` computed that ``acceleration`` reuses.
     ``acceleration(J, J̇, q̇, ċ, state, moving) -> q̈`` (B, n): ``moving`` the forest's kinematics at (q, q̇).
 
