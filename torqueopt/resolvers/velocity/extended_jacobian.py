@@ -12,11 +12,13 @@ from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
 from ...linalg import InverseCondition, determinants, singular_message
 from ...robot import Robot
+from ...robot_copies import RobotForest, point_kinematics, stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
-from .base import POSITION_GAIN_OPTION, VelocityResolver
-from .criteria import criterion_from
+from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
+from .criteria import JointLimits, PostureDistance, criterion_from
 from .options import criterion_spec
+from .pseudoinverse import StackedPseudoInverse
 
 __all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative", "cross_product_row", "cross_product_slope"]
 
@@ -426,6 +428,16 @@ class ExtendedJacobian(VelocityResolver):
 
         return rates, acceleration
 
+    def stack_rate_function(self, robot: Robot):
+        """Eq. (15)'s rates and their q̈ on stacks (:class:`StackedExtendedJacobian`), for a position task (``xy``,
+        ``position``) on a robot whose joints add (``Robot.euclidean``), with a diagonal quadratic criterion:
+        ``joint-limits`` (Eq. (5)) or a posture's distance (``PostureDistance``). Else None (one movement at a
+        time): a callable's derivatives are differences of its values, which have no stacked form."""
+        criterion = _diagonal_quadratic(self.objective, robot)
+        if robot.task == "pose" or not robot.euclidean or criterion is None:
+            return None
+        return StackedExtendedJacobian(robot, self.singular_tolerance, self.algorithmic_tolerance, *criterion)
+
 
 #: The last entry of Eq. (15)'s right-hand side, [ẋ; 0].
 _ZERO = np.zeros(1)
@@ -435,6 +447,191 @@ _ZERO = np.zeros(1)
 #: its O(δ²) truncation and its round-off ε|∂G/∂q|/δ balance near 1e-5 (at 15 random planar3 states the
 #: q̈ agreed with a five-point difference of the rates to 4e-11 of its size, against 8e-10 at 1e-6, 2e-9 at 1e-4).
 CURVATURE_STEP = 1e-5
+
+
+def stacked_null_vectors(matrices: np.ndarray) -> np.ndarray:
+    r""":func:`null_vector` of each m×(m+1) matrix of a (…, m, m+1) stack, :math:`n_i = (-1)^i\det M_{\setminus i}`
+    (for m = 2 the cross product of the two rows, by components)."""
+    m, n = matrices.shape[-2:]
+    if m == 2:
+        (a0, a1, a2), (b0, b1, b2) = (
+            (matrices[..., row, 0], matrices[..., row, 1], matrices[..., row, 2]) for row in range(2)
+        )
+        normal = np.empty((*matrices.shape[:-2], 3))
+        normal[..., 0], normal[..., 1], normal[..., 2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        return normal
+    minors = np.swapaxes(matrices[..., _minor_columns(n)], -3, -2)  # (…, n, m, m): minor i is M without column i
+    return _alternating_signs(n) * determinants(minors)
+
+
+def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
+    r"""The cofactors of the first m rows of :math:`M = [J;\ l^\top]` ((m+1)×(m+1)) on (B, m, m+1) and (B, m+1)
+    stacks, (B, m, m+1): row a is :math:`C_a = (-1)^a\,` :func:`null_vector` of M without row a, so that
+    :math:`\partial\det M/\partial J_a = C_a`, :math:`\operatorname{adj}M = [C_0 \dots C_{m-1}\ (-1)^m n_J]`
+    and :math:`M^{-1} = \operatorname{adj}M/\det M`."""
+    m, n = jacobian.shape[1:]
+    others = jacobian[:, _minor_columns(m)]  # (B, m, m − 1, n): J without row a
+    matrices = np.concatenate((others, np.broadcast_to(last[:, None, None, :], (last.shape[0], m, 1, n))), axis=2)
+    return _alternating_signs(m)[:, None] * stacked_null_vectors(matrices)
+
+
+class StackedExtendedJacobian(VelocityStack):
+    r"""Eq. (14), Eq. (15) and their :math:`\ddot q` per row of (B, m, m+1) stacks, for a diagonal quadratic
+    criterion :math:`p = \tfrac12\sum_i w_i (q_{a_i} - \bar q_i)^2` (Eq. (5)'s joint limits, a posture's distance).
+
+    With :math:`A = [J;\ \nabla p^\top]`, :math:`G = \nabla p\cdot n_J = (-1)^m\det A` (Eq. (14)), and Jacobi's
+    formula gives the row of Eq. (15), :math:`\partial G/\partial q_k = \sum_a K_a\cdot\partial J_a/\partial q_k
+    + n_J\cdot\nabla^2 p_{:,k}`, with :math:`K_a = \partial G/\partial J_a` the (signed) cofactors of A's rows
+    (``stacked_row_cofactors``). The kinematic Hessian of the task point (linear rows, J the point's Jacobian,
+    :math:`\omega_j` its angular columns, the joints of its support in chain order) is
+    :math:`\partial J_j/\partial q_k = \omega_{\min(j,k)}\times J_{\max(j,k)}` (``pin.getFrameKinematicHessian``'s,
+    from the joint Jacobians' brackets :math:`\partial S_j/\partial q_k = [S_k, S_j]`, k before j), so with
+    :math:`K_j` the 3-vectors of K's columns (zero outside the task rows)
+
+    .. math::
+
+        \frac{\partial G}{\partial q_k} = J_k\cdot\sum_{j\le k} K_j\times\omega_j
+        + \omega_k\cdot\sum_{j>k} J_j\times K_j + w_k\,n_{J,k}.
+
+    :math:`J_{ex}^{-1} = \operatorname{adj}J_{ex}/\det J_{ex}` by the cofactors of :math:`J_{ex} = [J;\ \partial G/\partial q]`,
+    :math:`\det J_{ex} = (-1)^m\,\partial G/\partial q\cdot n_J`; rows where J is singular or the alignment falls
+    below the cutoff fail with the single-state step's words.
+
+    :math:`\ddot q` solves :math:`J_{ex}\ddot q = [\dot c - \dot J\dot q;\ -\ddot G]` (see
+    :meth:`ExtendedJacobian.acceleration_function`), with the curvature :math:`\ddot G = \dot q^\top\nabla^2 G\,\dot q`
+    (which the single-state step takes by a central difference of the row) in closed form: along
+    :math:`q + s\dot q`, with :math:`'` for d/ds, :math:`g = \nabla p` (:math:`g' = \nabla^2 p\,\dot q`,
+    :math:`g'' = 0`) and :math:`n_J` multilinear in J's rows,
+
+    .. math::
+
+        \ddot G = 2\,g'\cdot n_J' + \sum_a K_a\cdot J_a'' + 2\sum_{a<b} g\cdot n_J(J;\ J_a', J_b'),\qquad
+        n_J' = \sum_a n_J(J;\ J_a'),
+
+    (:math:`n_J(J;\ X_a)`: with row a replaced by X), :math:`J' = \dot J` Pinocchio's, and the third-order
+    kinematics in closed form from the joints' columns and their rates,
+    :math:`J_j' = \Omega_{<j}\times J_j + \omega_j\times P_{\ge j}`,
+
+    .. math::
+
+        J_j'' = \Omega_{<j}'\times J_j + \Omega_{<j}\times J_j' + \omega_j'\times P_{\ge j} + \omega_j\times P_{\ge j}',
+        \qquad \Omega_{<j} = \sum_{k<j}\dot q_k\omega_k,\quad P_{\ge j} = \sum_{k\ge j}\dot q_k J_k.
+
+    The joints' columns come from the forest's pass (``reads_joints``), the point's by
+    ``torqueopt.robot_copies.point_kinematics``.
+
+    Args:
+        robot: a robot whose joints add, with a position task of m rows and m + 1 joints.
+        tolerance: the smallest σmin/σmax of J a row may have.
+        algorithmic_tolerance: the smallest alignment :math:`|\partial G/\partial q\cdot n_J|/(|\partial G/\partial q|\,|n_J|)`.
+        q_index, v_index: the configuration coordinates :math:`a_i` of the criterion's terms and their joints.
+        centre: :math:`\bar q` [rad, m].
+        curvature: :math:`w_i`, the diagonal of :math:`\nabla^2 p`.
+    """
+
+    reads_joints = True
+
+    def __init__(
+        self, robot: Robot, tolerance: float, algorithmic_tolerance: float, q_index, v_index, centre, curvature
+    ):
+        self.conditions = StackedPseudoInverse(tolerance).conditions
+        self.algorithmic_tolerance = algorithmic_tolerance
+        self.rows, self.m, self.n = robot.task_rows, robot.m, robot.nv
+        self.columns = RobotForest(robot).support_columns(robot.model.frames[robot.frame_id].parentJoint)
+        self.q_index, self.v_index = np.asarray(q_index, dtype=int), np.asarray(v_index, dtype=int)
+        self.centre, self.curvature = np.asarray(centre, dtype=float), np.asarray(curvature, dtype=float)
+        self.sign = (-1.0) ** self.m
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a failed row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
+        conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
+        point, _ = point_kinematics(kinematics.joints, self.columns, kinematics.tip)
+        linear, angular = point[:, :3], point[:, 3:]
+        gradient = np.zeros((command.shape[0], self.n))
+        # ∂/∂θ of Eq. (5) (or of the posture's distance)
+        gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.centre)
+        normal = stacked_null_vectors(jacobian)  # n_J
+        # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
+        cofactors = np.zeros_like(linear)
+        cofactors[:, self.rows] = self.sign * stacked_row_cofactors(jacobian, gradient)
+        # ∂G/∂q_k = J_k·Σ_{j≤k} K_j × ω_j + ω_k·Σ_{j>k} J_j × K_j + w_k n_k, the last row of J_ex in Eq. (15)
+        after = stacked_cross(linear, cofactors)
+        after = after.sum(axis=2, keepdims=True) - np.cumsum(after, axis=2)
+        g_row = np.einsum("bik,bik->bk", linear, np.cumsum(stacked_cross(cofactors, angular), axis=2))
+        g_row += np.einsum("bik,bik->bk", angular, after)
+        g_row[:, self.v_index] += self.curvature * normal[:, self.v_index]
+        product = np.einsum("bk,bk->b", g_row, normal)
+        scale = np.sqrt(np.einsum("bk,bk->b", g_row, g_row) * np.einsum("bk,bk->b", normal, normal))
+        alignment = np.where(scale > 0.0, np.abs(product) / np.where(scale > 0.0, scale, 1.0), 0.0)
+        algorithmic = ~(alignment >= self.algorithmic_tolerance)
+        if algorithmic.any():
+            for row in np.flatnonzero(algorithmic).tolist():
+                if row not in failures:  # J's own rank is checked first, as in the single-state step
+                    failures[row] = str(_algorithmic_singularity(float(alignment[row]), self.algorithmic_tolerance))
+        determinant = self.sign * product  # det J_ex = (−1)^m ∂G/∂q·n_J
+        if failures:
+            determinant[list(failures)] = 1.0
+        adjugate = stacked_row_cofactors(jacobian, g_row)  # the first m columns of adj J_ex, as rows
+        # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0] = Σ_a ẋ_a C_a / det J_ex
+        velocity = np.einsum("ba,bak->bk", command, adjugate) / determinant[:, None]
+        state = (linear, angular, gradient, normal, cofactors, adjugate, determinant)
+        return velocity, conditions, failures, state
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """J_ex⁻¹ [ċ − J̇q̇; −q̇ᵀ∇²G q̇] per row, the curvature in closed form (see the class).
+        ``kinematics``: the forest's at the configuration and q̇, with every joint's kinematics."""
+        linear, angular, gradient, normal, cofactors, adjugate, determinant = state
+        _, point_rate = point_kinematics(kinematics.joints, self.columns, kinematics.tip, velocity)
+        linear_rate, angular_rate = point_rate[:, :3], point_rate[:, 3:]
+        weights = velocity[:, None, :]
+        # Ω_{<j}, Ω'_{<j}: the angular velocity of joint j's parent body and its rate; P_{≥j}, P'_{≥j}
+        spin = np.cumsum(angular * weights, axis=2) - angular * weights
+        spin_rate = np.cumsum(angular_rate * weights, axis=2) - angular_rate * weights
+        reach = linear * weights
+        reach = reach.sum(axis=2, keepdims=True) - np.cumsum(reach, axis=2) + reach
+        reach_rate = linear_rate * weights
+        reach_rate = reach_rate.sum(axis=2, keepdims=True) - np.cumsum(reach_rate, axis=2) + reach_rate
+        # J'' along q + s q̇ (third-order kinematics), contracted with K
+        second = (
+            stacked_cross(spin_rate, linear)
+            + stacked_cross(spin, linear_rate)
+            + stacked_cross(angular_rate, reach)
+            + stacked_cross(angular, reach_rate)
+        )
+        curvature = np.einsum("bik,bik->b", cofactors, second)  # Σ_a K_a·J_a''
+        m = self.m
+        replaced = np.repeat(jacobian[:, None], m, axis=1)  # J with row a replaced by J'_a
+        replaced[:, np.arange(m), np.arange(m)] = jacobian_rate
+        normal_rate = stacked_null_vectors(replaced).sum(axis=1)  # n_J'
+        gradient_rate = np.zeros_like(velocity)
+        gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]  # g' = ∇²p q̇
+        curvature += 2.0 * np.einsum("bk,bk->b", gradient_rate, normal_rate)
+        for a, b in _PAIRS[m]:
+            pair = jacobian.copy()
+            pair[:, a], pair[:, b] = jacobian_rate[:, a], jacobian_rate[:, b]
+            curvature += 2.0 * np.einsum("bk,bk->b", gradient, stacked_null_vectors(pair))
+        # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇], by adj J_ex / det J_ex
+        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
+        last = self.sign * normal  # the last column of adj J_ex
+        return (np.einsum("ba,bak->bk", residual, adjugate) - curvature[:, None] * last) / determinant[:, None]
+
+
+#: The pairs a < b of J's rows, per m.
+_PAIRS = {m: [(a, b) for a in range(m) for b in range(a + 1, m)] for m in range(1, 7)}
+
+
+def _diagonal_quadratic(criterion, robot: Robot):
+    """(q_index, v_index, centre, curvature) of a criterion p = ½ Σ w_i (q_{a_i} − c_i)² on ``robot``: the joint
+    limits of Eq. (5), or a posture's distance on a robot whose joints add; else None."""
+    if isinstance(criterion, JointLimits):
+        joints = criterion._limits(robot.model)
+        return joints.q_index, joints.v_index, joints.middle, joints.curvature
+    if isinstance(criterion, PostureDistance) and robot.euclidean:
+        criterion.posture.check(robot)
+        every = np.arange(robot.nv)
+        return every, every, robot.configuration(criterion.posture.target), np.ones(robot.nv)
+    return None
 
 
 def _algorithmic_singularity(alignment: float, tolerance: float) -> SingularJacobian:
