@@ -548,9 +548,7 @@ class StackedExtendedJacobian(VelocityStack):
         conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
         point, _ = point_kinematics(kinematics.joints, self.columns, kinematics.tip)
         linear, angular = point[:, :3], point[:, 3:]
-        gradient = np.zeros((command.shape[0], self.n))
-        # ∂/∂θ of Eq. (5) (or of the posture's distance)
-        gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.centre)
+        gradient = self._gradient(configuration)
         normal = stacked_null_vectors(jacobian)  # n_J
         # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
         cofactors = np.zeros_like(linear)
@@ -615,6 +613,12 @@ class StackedExtendedJacobian(VelocityStack):
         residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
         last = self.sign * normal  # the last column of adj J_ex
         return (np.einsum("ba,bak->bk", residual, adjugate) - curvature[:, None] * last) / determinant[:, None]
+
+    def _gradient(self, configuration) -> np.ndarray:
+        """∂p/∂q of each row: ∂/∂θ of Eq. (5) (or of the posture's distance), zero for the joints without a term."""
+        gradient = np.zeros(configuration.shape)
+        gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.centre)
+        return gradient
 
 
 #: The pairs a < b of J's rows, per m.

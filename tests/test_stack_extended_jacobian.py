@@ -1,0 +1,229 @@
+"""Baillieul's extended Jacobian on stacks (``StackedExtendedJacobian``) against the kinematic loop, run by run,
+and its pieces against the single-state step's."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import Circle, StraightLine
+from torqueopt.batch import KinematicStack, simulate_batch
+from torqueopt.errors import SingularJacobian
+from torqueopt.resolvers.velocity import PostureDistance
+from torqueopt.resolvers.velocity.extended_jacobian import (
+    StackedExtendedJacobian,
+    null_vector,
+    stacked_null_vectors,
+    stacked_row_cofactors,
+)
+from torqueopt.robot_copies import RobotForest
+from torqueopt.tasks import FrameTask, Kinematics, PostureTask
+
+from .conftest import PAPER_Q0
+from .test_batch import assert_same_run
+
+
+@pytest.fixture(scope="module")
+def panda4():
+    """panda with its last three joints locked: four joints for the three rows of the position task (n − m = 1)."""
+    return torqueopt.load_robot("panda", lock=["panda_joint5", "panda_joint6", "panda_joint7"])
+
+
+def assert_same_extended_run(batched, reference):
+    r"""``assert_same_run`` at 1e-9, with q̈ and τ held to 1e-9 of (1 + each step's largest value): the loop takes
+    the curvature :math:`\dot q^\top\nabla^2 G\,\dot q` of q̈ by a central difference of the row, whose round-off
+    (1e-10 of it, the stack's closed form agreeing with a five-point difference to 1e-12) reaches a few 1e-9 of
+    a small component of a step whose largest one is hundreds of N·m (measured: 1.9e-9 of a 2.5 N·m torque in a
+    step of 485 N·m; 1.4e-11 of that step)."""
+    for name in ("acceleration", "tau"):
+        ours, theirs = getattr(batched, name), getattr(reference, name)
+        assert ours.shape == theirs.shape, name
+        np.testing.assert_array_equal(np.isnan(ours), np.isnan(theirs), err_msg=name)
+        finite = ~np.isnan(theirs).any(axis=1)
+        if finite.any():
+            scale = 1.0 + np.abs(theirs[finite]).max(axis=1, keepdims=True)
+            assert np.max(np.abs(ours[finite] - theirs[finite]) / scale) <= 1e-9, name
+    assert_same_run(
+        dataclasses.replace(batched, acceleration=reference.acceleration, tau=reference.tau), reference, 1e-9
+    )
+
+
+def _batch_equals_the_loop(robot, resolver, lines, q0s, **ceilings):
+    """The batch's runs (on stacks: the lanes are checked) against ``simulate``'s; the loop's runs."""
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    from torqueopt.engine import run_movements
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_extended_run(run, single)
+    return singles
+
+
+def _planar_movements(count, seed, duration):
+    rng = np.random.default_rng(seed)
+    q0s = [*rng.uniform(-np.pi, np.pi, (count, 3)), PAPER_Q0, PAPER_Q0]
+    lines = [StraightLine(direction, duration=duration) for direction in rng.normal(size=(count, 2))]
+    # the paper's line, and the circle toward the base whose surface G = G(q0) folds (test_kinematic.py)
+    return [*lines, StraightLine([1, 1], duration=duration), Circle(0.3, duration)], q0s
+
+
+@pytest.mark.parametrize(
+    ("options", "ceilings", "stops"),
+    [
+        ({}, {}, ("extended Jacobian is singular (an algorithmic singularity", "torque of joint")),
+        ({}, {"max_joint_speed": 2.0}, ("speed of joint",)),
+        ({"singular_tolerance": 0.2, "position_gain": 4.0}, {"max_torque_ratio": 2.0}, ("task Jacobian is singular",)),
+        ({"algorithmic_tolerance": 0.3}, {}, ("extended Jacobian is singular (an algorithmic singularity",)),
+    ],
+)
+def test_the_stack_equals_the_kinematic_loop_on_planar3(planar3, options, ceilings, stops):
+    """Random lines, the paper's and a circle, through each of the loop's stops: J_ex singular (the alignment
+    below its cutoff), J singular, the rates and the torques past their ceilings."""
+    resolver = torqueopt.get_resolver("extended-jacobian", **options)
+    lines, q0s = _planar_movements(8, seed=5, duration=1.5)
+    singles = _batch_equals_the_loop(planar3, resolver, lines, q0s, **ceilings)
+    reasons = [single.stop_reason or "" for single in singles]
+    for stop in stops:
+        assert any(reason.startswith(stop) for reason in reasons), (stop, reasons)
+    assert any(single.completed for single in singles)
+
+
+def test_the_stack_stops_at_the_fold_as_the_loop_does(planar3):
+    """At 5 ms the circle's run reaches the fold within one step (test_kinematic.py): the stage's refusal."""
+    lines = [Circle(0.3, 2.0), StraightLine([0.3, -1.0], duration=2.0)]
+    singles = _batch_equals_the_loop(planar3, "extended-jacobian", lines, [PAPER_Q0, [0.3, 1.4, -1.0]], dt=0.005)
+    assert singles[0].stop_reason.startswith("extended Jacobian is singular (an algorithmic singularity")
+    assert singles[1].completed
+
+
+def test_the_stack_equals_the_kinematic_loop_with_a_posture_criterion(planar3):
+    """G of Eq. (14) with p = ½‖q − q*‖² (its Hessian the identity), toward a posture."""
+    resolver = torqueopt.get_resolver(
+        "extended-jacobian", criterion=PostureDistance(PostureTask(target=[0.5, 1.2, -0.8]))
+    )
+    assert isinstance(resolver.stack_rate_function(planar3), StackedExtendedJacobian)
+    lines, q0s = _planar_movements(4, seed=9, duration=1.0)
+    _batch_equals_the_loop(planar3, resolver, lines, q0s)
+
+
+@pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
+def test_the_stack_equals_the_kinematic_loop_on_panda_with_four_joints(panda4, options):
+    """Three task rows, four joints, gravity on: J_ex is 4×4 (its cofactors from 3×3 determinants), the loop's
+    step the general LU one."""
+    resolver = torqueopt.get_resolver("extended-jacobian", **options)
+    rng = np.random.default_rng(3)
+    q0s = [panda4.default_configuration + rng.normal(scale=0.3, size=panda4.nv) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.4) for _ in q0s]
+    _batch_equals_the_loop(panda4, resolver, lines, q0s)
+
+
+def test_the_stack_is_for_what_it_can_compute(planar3, panda_pose):
+    """A callable criterion (derivatives by differences of its values), the pose task and a robot whose joints
+    do not add: one movement at a time."""
+    assert torqueopt.get_resolver("extended-jacobian").stack_rate_function(planar3) is not None
+    callable_criterion = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2))
+    assert callable_criterion.stack_rate_function(planar3) is None
+    assert torqueopt.get_resolver("extended-jacobian").stack_rate_function(panda_pose) is None
+    kinova = torqueopt.load_robot("kinova", lock=["j2s6s200_joint_2", "j2s6s200_joint_3"])
+    assert kinova.redundancy == 1 and not kinova.euclidean
+    assert torqueopt.get_resolver("extended-jacobian").stack_rate_function(kinova) is None
+
+
+def test_the_stacked_null_vectors_and_cofactors_are_their_definitions(rng):
+    """``stacked_null_vectors`` against :func:`null_vector` and ``stacked_row_cofactors`` against the adjugate
+    det(M)·M⁻¹ of M = [J; l], for m = 2 (cross products) and m = 3 (determinants)."""
+    for m in (2, 3):
+        jacobian, last = rng.normal(size=(5, m, m + 1)), rng.normal(size=(5, m + 1))
+        normals = stacked_null_vectors(jacobian)
+        cofactors = stacked_row_cofactors(jacobian, last)
+        for row in range(5):
+            np.testing.assert_allclose(normals[row], null_vector(jacobian[row]), rtol=0, atol=1e-14)
+            matrix = np.vstack([jacobian[row], last[row]])
+            adjugate = np.linalg.det(matrix) * np.linalg.inv(matrix)
+            np.testing.assert_allclose(cofactors[row].T, adjugate[:, :m], rtol=0, atol=1e-12)
+            np.testing.assert_allclose((-1.0) ** m * normals[row], adjugate[:, m], rtol=0, atol=1e-12)
+
+
+def _stacked_step(robot, resolver, q, command, command_rate):
+    """The stack's (q̇, σmin/σmax, failures) and q̈ (at its q̇) at the rows of q, through the forest as the batch calls it."""
+    stack, forest, rows = resolver.stack_rate_function(robot), RobotForest(robot), robot.task_rows
+    found = forest.kinematics(q, joints=True)
+    jacobian = found.jacobian[:, rows]
+    velocity, conditions, failures, state = stack.rates(jacobian, command, q, found)
+    moving = forest.kinematics(q, velocity, found.tip, joints=True)
+    acceleration = stack.acceleration(jacobian, moving.rate[:, rows], velocity, command_rate, state, moving)
+    return velocity, conditions, failures, acceleration
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda4"])
+def test_the_stacked_step_is_the_single_state_one(name, planar3, panda4, rng):
+    """At random states: q̇ and σmin/σmax at 1e-12 of the single-state step's (the LU reference, whose row comes
+    from Pinocchio's kinematic Hessian), the same refusals in the same words (a strict alignment cutoff that many
+    states miss, and planar3 stretched), and q̈ at 1e-9 (the loop's curvature is a central difference)."""
+    robot = {"planar3": planar3, "panda4": panda4}[name]
+    for options in ({}, {"algorithmic_tolerance": 0.3}):
+        resolver = torqueopt.get_resolver("extended-jacobian", **options)
+        rates, acceleration = resolver.lu_step_functions(robot, FrameTask.of_robot(robot))
+        q = rng.uniform(-2.0, 2.0, (24, robot.nv))
+        if robot is planar3:
+            q[0] = [0.0, 1e-9, 0.0]
+        command, command_rate = rng.normal(size=(24, robot.m)), rng.normal(size=(24, robot.m))
+        velocity, conditions, failures, accelerations = _stacked_step(robot, resolver, q, command, command_rate)
+        kinematics, refused = Kinematics(robot), 0
+        for row in range(q.shape[0]):
+            try:
+                expected, condition = rates(kinematics.update(q[row]), command[row])
+            except SingularJacobian as error:
+                assert failures.get(row) == str(error)
+                refused += 1
+                continue
+            assert row not in failures
+            np.testing.assert_allclose(velocity[row], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+            assert conditions[row] == pytest.approx(condition, rel=1e-12)
+            expected = acceleration(kinematics, velocity[row], command[row], command_rate[row])
+            np.testing.assert_allclose(accelerations[row], expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+        assert refused >= (2 if options else 1) and refused < q.shape[0] - 8
+
+
+def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3, panda4, rng):
+    r""":math:`\dot q^\top\nabla^2 G\,\dot q` of the stack's q̈ along any q̇ (read back through J_ex: a command
+    rate of :math:`\dot J\dot q` leaves :math:`J_{ex}\ddot q = [0;\ -\dot q^\top\nabla^2 G\,\dot q]`) against a
+    five-point difference of the single-state row :math:`\partial G/\partial q\cdot\dot q` (from Pinocchio's
+    kinematic Hessian) along q̇, step 1e-3 rad (truncation and round-off near 1e-12), at 1e-10 of its scale."""
+    for robot in (planar3, panda4):
+        resolver, task = torqueopt.get_resolver("extended-jacobian"), FrameTask.of_robot(robot)
+        stack, forest, rows = resolver.stack_rate_function(robot), RobotForest(robot), robot.task_rows
+        kinematics, tested = Kinematics(robot), 0
+        while tested < 6:
+            q, velocity = rng.uniform(-2.0, 2.0, robot.nv), rng.normal(size=robot.nv)
+            found = forest.kinematics(q[None], joints=True)
+            jacobian = found.jacobian[:, rows]
+            _, _, failures, state = stack.rates(jacobian, np.zeros((1, robot.m)), q[None], found)
+            if failures:
+                continue
+            tested += 1
+            moving = forest.kinematics(q[None], velocity[None], found.tip, joints=True)
+            rate = moving.rate[:, rows]
+            drift = np.einsum("bij,bj->bi", rate, velocity[None])
+            acceleration = stack.acceleration(jacobian, rate, velocity[None], drift, state, moving)[0]
+            _, row, _ = resolver.extended_row(kinematics.update(q), task)
+            np.testing.assert_allclose(task.jacobian(kinematics).dot(acceleration), 0.0, atol=1e-12)
+            got = -row.dot(acceleration)
+
+            def slope(s, q=q, velocity=velocity):
+                return resolver.extended_row(kinematics.update(q + s * velocity), task)[1].dot(velocity)
+
+            h = 1e-3 / np.linalg.norm(velocity)
+            expected = (-slope(2 * h) + 8 * slope(h) - 8 * slope(-h) + slope(-2 * h)) / (12 * h)
+            scale = np.abs(row).max() * velocity.dot(velocity) + abs(expected)
+            assert abs(got - expected) <= 1e-10 * scale, (got, expected)
