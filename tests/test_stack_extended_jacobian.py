@@ -154,14 +154,23 @@ def test_the_stacked_null_vectors_and_cofactors_are_their_definitions(rng):
             np.testing.assert_allclose((-1.0) ** m * normals[row], adjugate[:, m], rtol=0, atol=1e-12)
 
 
+def _lanes_kinematics(forest, robot, q, v=None, tip=None):
+    """The forest's kinematics as the batch's lanes hand them to a stack: the task's rows, the frame's whole J, J̇."""
+    found = forest.kinematics(q, v, tip)
+    rows = robot.task_rows
+    return found._replace(
+        jacobian=found.jacobian[:, rows], rate=None if v is None else found.rate[:, rows],
+        frame_jacobian=found.jacobian, frame_rate=found.rate,
+    )  # fmt: skip
+
+
 def _stacked_step(robot, resolver, q, command, command_rate):
     """The stack's (q̇, σmin/σmax, failures) and q̈ (at its q̇) at the rows of q, through the forest as the batch calls it."""
-    stack, forest, rows = resolver.stack_rate_function(robot), RobotForest(robot), robot.task_rows
-    found = forest.kinematics(q, joints=True)
-    jacobian = found.jacobian[:, rows]
-    velocity, conditions, failures, state = stack.rates(jacobian, command, q, found)
-    moving = forest.kinematics(q, velocity, found.tip, joints=True)
-    acceleration = stack.acceleration(jacobian, moving.rate[:, rows], velocity, command_rate, state, moving)
+    stack, forest = resolver.stack_rate_function(robot), RobotForest(robot)
+    found = _lanes_kinematics(forest, robot, q)
+    velocity, conditions, failures, state = stack.rates(found.jacobian, command, q, found)
+    moving = _lanes_kinematics(forest, robot, q, velocity, found.tip)
+    acceleration = stack.acceleration(found.jacobian, moving.rate, velocity, command_rate, state, moving)
     return velocity, conditions, failures, acceleration
 
 
@@ -202,18 +211,18 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
     kinematic Hessian) along q̇, step 1e-3 rad (truncation and round-off near 1e-12), at 1e-10 of its scale."""
     for robot in (planar3, panda4):
         resolver, task = torqueopt.get_resolver("extended-jacobian"), FrameTask.of_robot(robot)
-        stack, forest, rows = resolver.stack_rate_function(robot), RobotForest(robot), robot.task_rows
+        stack, forest = resolver.stack_rate_function(robot), RobotForest(robot)
         kinematics, tested = Kinematics(robot), 0
         while tested < 6:
             q, velocity = rng.uniform(-2.0, 2.0, robot.nv), rng.normal(size=robot.nv)
-            found = forest.kinematics(q[None], joints=True)
-            jacobian = found.jacobian[:, rows]
+            found = _lanes_kinematics(forest, robot, q[None])
+            jacobian = found.jacobian
             _, _, failures, state = stack.rates(jacobian, np.zeros((1, robot.m)), q[None], found)
             if failures:
                 continue
             tested += 1
-            moving = forest.kinematics(q[None], velocity[None], found.tip, joints=True)
-            rate = moving.rate[:, rows]
+            moving = _lanes_kinematics(forest, robot, q[None], velocity[None], found.tip)
+            rate = moving.rate
             drift = np.einsum("bij,bj->bi", rate, velocity[None])
             acceleration = stack.acceleration(jacobian, rate, velocity[None], drift, state, moving)[0]
             _, row, _ = resolver.extended_row(kinematics.update(q), task)

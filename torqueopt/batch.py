@@ -532,9 +532,10 @@ class KinematicStack(MovementStack):
         return (self.dt * np.arange(start, stop)).tolist()
 
     def _task(self, q, v=None, tip=None):
-        """The forest's kinematics at q (and v), the task's rows of J and J̇; H⁻¹ at q or Ḣq̇ at (q, v) from the
-        same pass when the stacked form reads them (its ``reads_inverse_inertia``, ``reads_inertia_rate``), and every
-        joint's kinematics when it reads those (``reads_joints``)."""
+        """The forest's kinematics at q (and v), the task's rows of J and J̇ (the frame's whole ones kept beside them,
+        ``frame_jacobian``, ``frame_rate``); H⁻¹ at q or Ḣq̇ at (q, v) from the same pass when the stacked form reads
+        them (its ``reads_inverse_inertia``, ``reads_inertia_rate``), and every joint's kinematics when it reads those
+        (``reads_joints``)."""
         stacked = self.stacked
         found = self.forest.kinematics(
             q, v, tip,
@@ -543,7 +544,10 @@ class KinematicStack(MovementStack):
             joints=stacked.reads_joints,
         )  # fmt: skip
         rows = self.rows
-        return found._replace(jacobian=found.jacobian[:, rows], rate=None if v is None else found.rate[:, rows])
+        return found._replace(
+            jacobian=found.jacobian[:, rows], rate=None if v is None else found.rate[:, rows],
+            frame_jacobian=found.jacobian, frame_rate=found.rate,
+        )  # fmt: skip
 
     def terms(self, q, v):
         # the configurations (and their task points) the step's q̈ and torques are taken at

@@ -94,7 +94,9 @@ class JointKinematics(NamedTuple):
 class TaskKinematics(NamedTuple):
     r"""What :meth:`RobotForest.kinematics` gives for S states: the task frame's J (S, 6, n), :math:`\dot J`
     (S, 6, n) or None, the frame's position (S, 3) [m], and when asked :math:`H^{-1}` (S, n, n),
-    :math:`\dot H\dot q` (S, n) [N·m] and every joint's kinematics (:class:`JointKinematics`)."""
+    :math:`\dot H\dot q` (S, n) [N·m] and every joint's kinematics (:class:`JointKinematics`). ``frame_jacobian``,
+    ``frame_rate``: the frame's whole J and :math:`\dot J` (S, 6, n) where ``jacobian`` and ``rate`` hold a task's
+    rows of them only (the batch's velocity-level lanes), else None."""
 
     jacobian: np.ndarray
     rate: np.ndarray | None
@@ -102,6 +104,8 @@ class TaskKinematics(NamedTuple):
     inverse_inertia: np.ndarray | None = None
     inertia_rate_velocity: np.ndarray | None = None
     joints: JointKinematics | None = None
+    frame_jacobian: np.ndarray | None = None
+    frame_rate: np.ndarray | None = None
 
 
 class _Pass:

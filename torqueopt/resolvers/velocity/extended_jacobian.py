@@ -12,7 +12,7 @@ from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
 from ...linalg import InverseCondition, determinants, singular_message
 from ...robot import Robot
-from ...robot_copies import RobotForest, point_kinematics, stacked_cross
+from ...robot_copies import stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
@@ -470,6 +470,11 @@ def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
     :math:`\partial\det M/\partial J_a = C_a`, :math:`\operatorname{adj}M = [C_0 \dots C_{m-1}\ (-1)^m n_J]`
     and :math:`M^{-1} = \operatorname{adj}M/\det M`."""
     m, n = jacobian.shape[1:]
+    if m == 2:  # C_0 = J_1 × l, C_1 = l × J_0
+        cofactors = np.empty_like(jacobian)
+        cofactors[:, 0] = stacked_cross(jacobian[:, 1], last)
+        cofactors[:, 1] = stacked_cross(last, jacobian[:, 0])
+        return cofactors
     others = jacobian[:, _minor_columns(m)]  # (B, m, m − 1, n): J without row a
     matrices = np.concatenate((others, np.broadcast_to(last[:, None, None, :], (last.shape[0], m, 1, n))), axis=2)
     return _alternating_signs(m)[:, None] * stacked_null_vectors(matrices)
@@ -517,8 +522,8 @@ class StackedExtendedJacobian(VelocityStack):
         J_j'' = \Omega_{<j}'\times J_j + \Omega_{<j}\times J_j' + \omega_j'\times P_{\ge j} + \omega_j\times P_{\ge j}',
         \qquad \Omega_{<j} = \sum_{k<j}\dot q_k\omega_k,\quad P_{\ge j} = \sum_{k\ge j}\dot q_k J_k.
 
-    The joints' columns come from the forest's pass (``reads_joints``), the point's by
-    ``torqueopt.robot_copies.point_kinematics``.
+    J (all six rows: :math:`\omega_j` are its angular columns) and :math:`\dot J` are the task frame's from the
+    batch's forest pass (``frame_jacobian``, ``frame_rate``).
 
     Args:
         robot: a robot whose joints add, with a position task of m rows and m + 1 joints.
@@ -529,25 +534,24 @@ class StackedExtendedJacobian(VelocityStack):
         curvature: :math:`w_i`, the diagonal of :math:`\nabla^2 p`.
     """
 
-    reads_joints = True
-
     def __init__(
         self, robot: Robot, tolerance: float, algorithmic_tolerance: float, q_index, v_index, centre, curvature
     ):
         self.conditions = StackedPseudoInverse(tolerance).conditions
         self.algorithmic_tolerance = algorithmic_tolerance
         self.rows, self.m, self.n = robot.task_rows, robot.m, robot.nv
-        self.columns = RobotForest(robot).support_columns(robot.model.frames[robot.frame_id].parentJoint)
         self.q_index, self.v_index = np.asarray(q_index, dtype=int), np.asarray(v_index, dtype=int)
         self.centre, self.curvature = np.asarray(centre, dtype=float), np.asarray(curvature, dtype=float)
         self.sign = (-1.0) ** self.m
+        every = np.arange(self.n)
+        self.every_joint = np.array_equal(self.q_index, every) and np.array_equal(self.v_index, every)
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a failed row gets a finite, unused answer.
-        ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
+        ``kinematics``: the forest's at ``configuration``, with the frame's whole J."""
         conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
-        point, _ = point_kinematics(kinematics.joints, self.columns, kinematics.tip)
-        linear, angular = point[:, :3], point[:, 3:]
+        frame = kinematics.frame_jacobian
+        linear, angular = frame[:, :3], frame[:, 3:]
         gradient = self._gradient(configuration)
         normal = stacked_null_vectors(jacobian)  # n_J
         # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
@@ -578,10 +582,10 @@ class StackedExtendedJacobian(VelocityStack):
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """J_ex⁻¹ [ċ − J̇q̇; −q̇ᵀ∇²G q̇] per row, the curvature in closed form (see the class).
-        ``kinematics``: the forest's at the configuration and q̇, with every joint's kinematics."""
+        ``kinematics``: the forest's at the configuration and q̇, with the frame's whole J̇."""
         linear, angular, gradient, normal, cofactors, adjugate, determinant = state
-        _, point_rate = point_kinematics(kinematics.joints, self.columns, kinematics.tip, velocity)
-        linear_rate, angular_rate = point_rate[:, :3], point_rate[:, 3:]
+        frame_rate = kinematics.frame_rate
+        linear_rate, angular_rate = frame_rate[:, :3], frame_rate[:, 3:]
         weights = velocity[:, None, :]
         # Ω_{<j}, Ω'_{<j}: the angular velocity of joint j's parent body and its rate; P_{≥j}, P'_{≥j}
         spin = np.cumsum(angular * weights, axis=2) - angular * weights
@@ -616,6 +620,8 @@ class StackedExtendedJacobian(VelocityStack):
 
     def _gradient(self, configuration) -> np.ndarray:
         """∂p/∂q of each row: ∂/∂θ of Eq. (5) (or of the posture's distance), zero for the joints without a term."""
+        if self.every_joint:
+            return self.curvature * (configuration - self.centre)
         gradient = np.zeros(configuration.shape)
         gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.centre)
         return gradient
