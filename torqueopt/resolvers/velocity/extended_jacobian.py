@@ -480,6 +480,16 @@ def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
     return _alternating_signs(m)[:, None] * stacked_null_vectors(matrices)
 
 
+def adjugate_times(jacobian: np.ndarray, last: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    r""":math:`\sum_a w_a C_a` (B, m+1) for (B, m) weights, :math:`C_a` the cofactors of ``stacked_row_cofactors``:
+    :math:`\operatorname{adj}[J;\ l^\top]\,[w;\ 0]`. For m = 2 one cross product,
+    :math:`(w_0 J_1 - w_1 J_0)\times l`."""
+    if jacobian.shape[1] == 2:
+        combined = weights[:, 0, None] * jacobian[:, 1] - weights[:, 1, None] * jacobian[:, 0]
+        return stacked_cross(combined, last)
+    return np.einsum("ba,bak->bk", weights, stacked_row_cofactors(jacobian, last))
+
+
 class StackedExtendedJacobian(VelocityStack):
     r"""Eq. (14), Eq. (15) and their :math:`\ddot q` per row of (B, m, m+1) stacks, for a diagonal quadratic
     criterion :math:`p = \tfrac12\sum_i w_i (q_{a_i} - \bar q_i)^2` (Eq. (5)'s joint limits, a posture's distance).
@@ -543,13 +553,19 @@ class StackedExtendedJacobian(VelocityStack):
         self.q_index, self.v_index = np.asarray(q_index, dtype=int), np.asarray(v_index, dtype=int)
         self.centre, self.curvature = np.asarray(centre, dtype=float), np.asarray(curvature, dtype=float)
         self.sign = (-1.0) ** self.m
+        # which rows of [J; J̇] make each matrix of the curvature: J with row a replaced by J̇'s, for each a, then
+        # with the two rows of each pair a < b replaced
+        m = self.m
+        single = [[int(row == a) for row in range(m)] for a in range(m)]
+        pairs = [[int(row in (a, b)) for row in range(m)] for a in range(m) for b in range(a + 1, m)]
+        self.choices, self.task_rows = np.array(single + pairs, dtype=int), np.arange(m)
         every = np.arange(self.n)
         self.every_joint = np.array_equal(self.q_index, every) and np.array_equal(self.v_index, every)
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a failed row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with the frame's whole J."""
-        conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
+        conditions, failures, _ = self.conditions(_gram(jacobian))
         frame = kinematics.frame_jacobian
         linear, angular = frame[:, :3], frame[:, 3:]
         gradient = self._gradient(configuration)
@@ -558,10 +574,9 @@ class StackedExtendedJacobian(VelocityStack):
         cofactors = np.zeros_like(linear)
         cofactors[:, self.rows] = self.sign * stacked_row_cofactors(jacobian, gradient)
         # ∂G/∂q_k = J_k·Σ_{j≤k} K_j × ω_j + ω_k·Σ_{j>k} J_j × K_j + w_k n_k, the last row of J_ex in Eq. (15)
-        after = stacked_cross(linear, cofactors)
-        after = after.sum(axis=2, keepdims=True) - np.cumsum(after, axis=2)
-        g_row = np.einsum("bik,bik->bk", linear, np.cumsum(stacked_cross(cofactors, angular), axis=2))
-        g_row += np.einsum("bik,bik->bk", angular, after)
+        before = _sums_up_to(stacked_cross(cofactors, angular))
+        after = _sums_after(stacked_cross(linear, cofactors))
+        g_row = np.einsum("bik,bik->bk", linear, before) + np.einsum("bik,bik->bk", angular, after)
         g_row[:, self.v_index] += self.curvature * normal[:, self.v_index]
         product = np.einsum("bk,bk->b", g_row, normal)
         scale = np.sqrt(np.einsum("bk,bk->b", g_row, g_row) * np.einsum("bk,bk->b", normal, normal))
@@ -574,49 +589,40 @@ class StackedExtendedJacobian(VelocityStack):
         determinant = self.sign * product  # det J_ex = (−1)^m ∂G/∂q·n_J
         if failures:
             determinant[list(failures)] = 1.0
-        adjugate = stacked_row_cofactors(jacobian, g_row)  # the first m columns of adj J_ex, as rows
         # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0] = Σ_a ẋ_a C_a / det J_ex
-        velocity = np.einsum("ba,bak->bk", command, adjugate) / determinant[:, None]
-        state = (linear, angular, gradient, normal, cofactors, adjugate, determinant)
+        velocity = adjugate_times(jacobian, g_row, command) / determinant[:, None]
+        state = (linear, angular, gradient, normal, cofactors, before, after, g_row, determinant)
         return velocity, conditions, failures, state
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """J_ex⁻¹ [ċ − J̇q̇; −q̇ᵀ∇²G q̇] per row, the curvature in closed form (see the class).
         ``kinematics``: the forest's at the configuration and q̇, with the frame's whole J̇."""
-        linear, angular, gradient, normal, cofactors, adjugate, determinant = state
+        linear, angular, gradient, normal, cofactors, before, after, g_row, determinant = state
         frame_rate = kinematics.frame_rate
         linear_rate, angular_rate = frame_rate[:, :3], frame_rate[:, 3:]
-        weights = velocity[:, None, :]
-        # Ω_{<j}, Ω'_{<j}: the angular velocity of joint j's parent body and its rate; P_{≥j}, P'_{≥j}
-        spin = np.cumsum(angular * weights, axis=2) - angular * weights
-        spin_rate = np.cumsum(angular_rate * weights, axis=2) - angular_rate * weights
-        reach = linear * weights
-        reach = reach.sum(axis=2, keepdims=True) - np.cumsum(reach, axis=2) + reach
-        reach_rate = linear_rate * weights
-        reach_rate = reach_rate.sum(axis=2, keepdims=True) - np.cumsum(reach_rate, axis=2) + reach_rate
-        # J'' along q + s q̇ (third-order kinematics), contracted with K
-        second = (
-            stacked_cross(spin_rate, linear)
-            + stacked_cross(spin, linear_rate)
-            + stacked_cross(angular_rate, reach)
-            + stacked_cross(angular, reach_rate)
+        # Σ_j K_j·J_j'' with J_j'' = Ω'_{<j} × J_j + Ω_{<j} × J'_j + ω'_j × P_{≥j} + ω_j × P'_{≥j}, each term a triple
+        # product summed over the joints before or after: Σ_k q̇_k (ω'_k·Σ_{j>k} J_j × K_j + ω_k·Σ_{j>k} J'_j × K_j
+        # + J_k·Σ_{j≤k} K_j × ω'_j + J'_k·Σ_{j≤k} K_j × ω_j), the rates' sums reused
+        rate_after = _sums_after(stacked_cross(linear_rate, cofactors))
+        rate_before = _sums_up_to(stacked_cross(cofactors, angular_rate))
+        per_joint = (
+            np.einsum("bik,bik->bk", angular_rate, after)
+            + np.einsum("bik,bik->bk", angular, rate_after)
+            + np.einsum("bik,bik->bk", linear, rate_before)
+            + np.einsum("bik,bik->bk", linear_rate, before)
         )
-        curvature = np.einsum("bik,bik->b", cofactors, second)  # Σ_a K_a·J_a''
+        curvature = np.einsum("bk,bk->b", per_joint, velocity)
+        # n_J with one row of J replaced by its rate (their sum n_J'), and with two (the pairs a < b)
+        replaced = stacked_null_vectors(np.stack((jacobian, jacobian_rate), axis=1)[:, self.choices, self.task_rows])
         m = self.m
-        replaced = np.repeat(jacobian[:, None], m, axis=1)  # J with row a replaced by J'_a
-        replaced[:, np.arange(m), np.arange(m)] = jacobian_rate
-        normal_rate = stacked_null_vectors(replaced).sum(axis=1)  # n_J'
         gradient_rate = np.zeros_like(velocity)
         gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]  # g' = ∇²p q̇
-        curvature += 2.0 * np.einsum("bk,bk->b", gradient_rate, normal_rate)
-        for a, b in _PAIRS[m]:
-            pair = jacobian.copy()
-            pair[:, a], pair[:, b] = jacobian_rate[:, a], jacobian_rate[:, b]
-            curvature += 2.0 * np.einsum("bk,bk->b", gradient, stacked_null_vectors(pair))
+        curvature += 2.0 * np.einsum("bk,bk->b", gradient_rate, replaced[:, :m].sum(axis=1))  # 2 g'·n_J'
+        curvature += 2.0 * np.einsum("bk,bk->b", gradient, replaced[:, m:].sum(axis=1))
         # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇], by adj J_ex / det J_ex
         residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
-        last = self.sign * normal  # the last column of adj J_ex
-        return (np.einsum("ba,bak->bk", residual, adjugate) - curvature[:, None] * last) / determinant[:, None]
+        last = (self.sign * curvature)[:, None] * normal  # the last column of adj J_ex is (−1)^m n_J
+        return (adjugate_times(jacobian, g_row, residual) - last) / determinant[:, None]
 
     def _gradient(self, configuration) -> np.ndarray:
         """∂p/∂q of each row: ∂/∂θ of Eq. (5) (or of the posture's distance), zero for the joints without a term."""
@@ -627,8 +633,34 @@ class StackedExtendedJacobian(VelocityStack):
         return gradient
 
 
-#: The pairs a < b of J's rows, per m.
-_PAIRS = {m: [(a, b) for a in range(m) for b in range(a + 1, m)] for m in range(1, 7)}
+def _sums_up_to(columns: np.ndarray) -> np.ndarray:
+    """Σ_{j≤k} X_j along the last axis, in place (one add per column: numpy's cumsum on these short strided rows
+    costs several times more)."""
+    for k in range(1, columns.shape[-1]):
+        columns[..., k] += columns[..., k - 1]
+    return columns
+
+
+def _sums_after(columns: np.ndarray) -> np.ndarray:
+    """Σ_{j>k} X_j along the last axis (zero at the last column), a new array."""
+    sums = np.empty_like(columns)
+    sums[..., -1] = 0.0
+    for k in range(columns.shape[-1] - 2, -1, -1):
+        np.add(sums[..., k + 1], columns[..., k + 1], out=sums[..., k])
+    return sums
+
+
+def _gram(jacobian: np.ndarray) -> np.ndarray:
+    """JJᵀ of each row of a (B, m, n) stack; for two rows by three dot products (matmul on stacks of 2×3 matrices
+    costs more)."""
+    if jacobian.shape[1] != 2:
+        return jacobian @ np.swapaxes(jacobian, 1, 2)
+    first, second = jacobian[:, 0], jacobian[:, 1]
+    gram = np.empty((jacobian.shape[0], 2, 2))
+    gram[:, 0, 0] = np.einsum("bk,bk->b", first, first)
+    gram[:, 0, 1] = gram[:, 1, 0] = np.einsum("bk,bk->b", first, second)
+    gram[:, 1, 1] = np.einsum("bk,bk->b", second, second)
+    return gram
 
 
 def _diagonal_quadratic(criterion, robot: Robot):
