@@ -429,7 +429,7 @@ class ExtendedJacobian(VelocityResolver):
         return rates, acceleration
 
     def stack_rate_function(self, robot: Robot):
-        """Eq. (15)'s rates and their q̈ on stacks (:class:`StackedExtendedJacobian`), for a position task (``xy``,
+        """Eq. (15)'s rates and their q̈ on stacks (``StackedExtendedJacobian``), for a position task (``xy``,
         ``position``) on a robot whose joints add (``Robot.euclidean``), with a diagonal quadratic criterion:
         ``joint-limits`` (Eq. (5)) or a posture's distance (``PostureDistance``). Else None (one movement at a
         time): a callable's derivatives are differences of its values, which have no stacked form."""
