@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...linalg import determinants
 from ...robot import Robot
+from ...robot_copies import point_kinematics, stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
-from .criteria import Criterion, JointLimits, criterion_from
+from .criteria import Criterion, JointLimits, Manipulability, criterion_from
 from .options import criterion_spec
-from .pseudoinverse import StackedPseudoInverse
+from .pseudoinverse import StackedPseudoInverse, stacked_inverse
 
 __all__ = [
     "GradientProjection",
@@ -127,8 +129,18 @@ class GradientProjection(CriterionGain, VelocityResolver):
         return rates, None if task.kind == "pose" or not self.objective.has_curvature else acceleration
 
     def stack_rate_function(self, robot: Robot):
-        """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks (joint limits, position task)."""
-        if robot.task == "pose" or not isinstance(self.objective, JointLimits):
+        """Eq. (4) and the closed-form q̈ of :meth:`acceleration_function` on stacks, for a position task: the joint
+        limits (``StackedGradientProjection``) and the manipulability on robots whose joints each have one degree of
+        freedom (``StackedManipulabilityGradient``). None (one movement at a time) for a pose task, a callable
+        criterion, and the manipulability on a robot with a multi-degree-of-freedom joint."""
+        if robot.task == "pose":
+            return None
+        if isinstance(self.objective, Manipulability):
+            model = robot.model
+            if any(model.nvs[joint] != 1 for joint in range(1, model.njoints)):
+                return None
+            return StackedManipulabilityGradient(self.singular_tolerance, robot.m, _support_columns(robot), self.gain)
+        if not isinstance(self.objective, JointLimits):
             return None
         joints = self.objective._limits(robot.model)
         # ∂/∂θ of Eq. (5) is 2(θ − θ_mid)/half range²: a diagonal quadratic criterion
@@ -225,3 +237,148 @@ class StackedGradientProjection(StackedPseudoInverse):
         return np.einsum("bij,bj->bi", pseudoinverse, residual) + (
             inner - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, inner))
         )
+
+
+class StackedManipulabilityGradient(StackedPseudoInverse):
+    r"""Eq. (4) with the manipulability criterion, :math:`p = -w = -\sqrt{\det JJ^\top}` (Eq. (6)), and its
+    :math:`\ddot q` per row of (B, m, n) stacks, for a position (or ``xy``) task of a robot whose joints each have
+    one degree of freedom (:class:`StackedPseudoInverse` for :math:`J^\dagger`).
+
+    The gradient :math:`\partial w/\partial q_k = w\,\mathrm{tr}(J^\dagger\,\partial J/\partial q_k)` contracts the
+    task frame's kinematic Hessian, which the single-state step reads from Pinocchio
+    (``getFrameKinematicHessian``). On stacks it is not a Pinocchio call: Pinocchio 4 does not expose the forest's
+    ``kinematic_hessians`` tensor, and ``getFrameKinematicHessian`` returns a fresh 6 × N × N tensor of the whole
+    forest (N its joints) per copy, 6.8 µs per row for planar3's 48-joint forest, more than the whole rest of a
+    stacked step. The contraction is taken instead from the frame's Jacobian columns, which the forest's pass gives
+    (``reads_joints``), by the rule Pinocchio's Hessian follows (``computeJointKinematicHessians``): in world axes
+    the column :math:`S_i` (a spatial motion) of a one-degree-of-freedom joint moves with its ancestors,
+    :math:`\partial S_i/\partial q_k = S_k \times S_i` for k before i on the frame's support, and the frame's own
+    point p moves at :math:`\partial p/\partial q_k = L_k`. With :math:`L_i, \omega_i` the frame Jacobian's
+    (LOCAL_WORLD_ALIGNED) linear and angular columns and :math:`f_i` the i-th row of :math:`J^\dagger` written in
+    the task's rows of a 3-vector, that makes
+
+    .. math::
+
+        \mathrm{tr}\Big(J^\dagger\frac{\partial J}{\partial q_k}\Big)
+        = -L_k\cdot\sum_{i\le k}\omega_i\times f_i + \omega_k\cdot\sum_{i>k} L_i\times f_i,
+
+    n terms per row where the Hessian has n², held per row to Pinocchio's ``getFrameKinematicHessian``
+    by tests/test_stack_manipulability.py. Its rate along the motion, the :math:`k\nabla^2p\,\dot q` of q̈
+    (:meth:`GradientProjection.acceleration_function`), is the same sums differentiated in closed form,
+    with :math:`\dot L, \dot\omega` the frame Jacobian's rate (the forest's pass at (q, q̇)),
+    :math:`\frac{d}{dt}J^\dagger = (I - J^\dagger J)\dot J^\top G^{-1} - J^\dagger\dot J J^\dagger` and
+    :math:`\dot w = \dot q\cdot\partial w/\partial q`, where the single-state step takes a central difference of
+    the gradient along q̇ (the test holds the two to each other).
+
+    Args:
+        tolerance: the smallest σmin/σmax of J a row may have.
+        m: the task's rows (2 for ``xy``, 3 for ``position``).
+        columns: (n,) ones at the joints that move the task frame, zeros elsewhere.
+        gain: k [rad²/s per unit of p].
+    """
+
+    reads_joints = True
+
+    def __init__(self, tolerance: float, m: int, columns: np.ndarray, gain: float):
+        super().__init__(tolerance)
+        self.m, self.columns, self.gain = m, columns, gain
+
+    def _padded(self, pseudoinverse: np.ndarray) -> np.ndarray:
+        """The rows :math:`f_i` of J⁺ (B, n, m) as the columns of a (B, 3, n) stack, zero beyond the task's rows."""
+        if self.m == 3:
+            return np.swapaxes(pseudoinverse, 1, 2)
+        padded = np.zeros((pseudoinverse.shape[0], 3, pseudoinverse.shape[1]))
+        padded[:, : self.m] = np.swapaxes(pseudoinverse, 1, 2)
+        return padded
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with every joint's."""
+        jacobian_t = np.swapaxes(jacobian, 1, 2)
+        gram = jacobian @ jacobian_t
+        conditions, failures, determinant = self.conditions(gram)
+        if determinant is None:
+            determinant = determinants(gram)
+        manipulability = np.sqrt(np.maximum(determinant, 0.0))  # Eq. (6), w = sqrt(det JJᵀ), before G is inverted
+        gram_inverse = stacked_inverse(gram, failures, determinant.copy())
+        pseudoinverse = jacobian_t @ gram_inverse  # Eq. (3)
+        frame, _ = point_kinematics(kinematics.joints, self.columns, kinematics.tip)
+        linear, angular = frame[:, :3], frame[:, 3:]
+        weights = self._padded(pseudoinverse)
+        traces, before, after = hessian_traces(linear, angular, weights)  # tr(J⁺ ∂J/∂q_k)
+        # k ∂p/∂q = −k ∂w/∂q = −k w tr(J⁺ ∂J/∂q_k), p = −w of Eq. (6)
+        gradient = (-self.gain * manipulability)[:, None] * traces
+        particular = np.einsum("bij,bj->bi", pseudoinverse, command)
+        # Eq. (4): J⁺c − (I − J⁺J) k ∂p/∂q
+        projected = gradient - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, gradient))
+        sums = (linear, angular, weights, before, after, manipulability, traces)
+        return particular - projected, conditions, failures, (pseudoinverse, gram_inverse, particular + gradient, sums)
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """J⁺(ċ − J̇q̇) + (I − J⁺J)(J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇) per row (see
+        :meth:`GradientProjection.acceleration_function`), k ∇²p q̇ by :meth:`scaled_curvature`.
+        ``kinematics``: the forest's at the configuration and q̇, with every joint's."""
+        pseudoinverse, _, shifted, _ = state
+        curvature = self.scaled_curvature(jacobian, jacobian_rate, velocity, state, kinematics)
+        inner = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, shifted)) - curvature
+        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
+        return np.einsum("bij,bj->bi", pseudoinverse, residual) + (
+            inner - np.einsum("bij,bj->bi", pseudoinverse, np.einsum("bij,bj->bi", jacobian, inner))
+        )
+
+    def scaled_curvature(self, jacobian, jacobian_rate, velocity, state, kinematics) -> np.ndarray:
+        r""":math:`k\nabla^2 p\,\dot q` (B, n), the rate of k ∂p/∂q along the motion, in closed form: the
+        gradient's sums of :meth:`rates` (``state``) differentiated in time, with the frame Jacobian's rate from
+        ``kinematics`` (the forest's at (q, q̇)) and J̇ the task rows' (``jacobian_rate``)."""
+        pseudoinverse, gram_inverse, _, sums = state
+        linear, angular, weights, before, after, manipulability, traces = sums
+        _, frame_rate = point_kinematics(kinematics.joints, self.columns, kinematics.tip, velocity)
+        linear_rate, angular_rate = frame_rate[:, :3], frame_rate[:, 3:]
+        # d/dt J⁺ = (I − J⁺J) J̇ᵀ G⁻¹ − J⁺ J̇ J⁺
+        lifted = np.swapaxes(jacobian_rate, 1, 2) @ gram_inverse
+        pseudoinverse_rate = (
+            lifted - pseudoinverse @ (jacobian @ lifted) - pseudoinverse @ (jacobian_rate @ pseudoinverse)
+        )
+        weights_rate = self._padded(pseudoinverse_rate)
+        before_rate = np.cumsum(stacked_cross(angular_rate, weights) + stacked_cross(angular, weights_rate), axis=2)
+        moments_rate = stacked_cross(linear_rate, weights) + stacked_cross(linear, weights_rate)
+        after_rate = moments_rate.sum(axis=2, keepdims=True) - np.cumsum(moments_rate, axis=2)
+        traces_rate = (
+            (angular_rate * after).sum(axis=1) + (angular * after_rate).sum(axis=1)
+            - (linear_rate * before).sum(axis=1) - (linear * before_rate).sum(axis=1)
+        )  # fmt: skip
+        # ẇ = q̇ · ∂w/∂q = w (q̇ · tr(J⁺ ∂J/∂q))
+        manipulability_rate = manipulability * (traces * velocity).sum(axis=1)
+        # k ∇²p q̇ = −k d/dt (w tr(J⁺ ∂J/∂q_k)), p = −w of Eq. (6)
+        return -self.gain * (manipulability_rate[:, None] * traces + manipulability[:, None] * traces_rate)
+
+
+def hessian_traces(linear: np.ndarray, angular: np.ndarray, weights: np.ndarray):
+    r""":math:`\mathrm{tr}(W\,\partial J/\partial q_k)` (B, n) for a frame's LOCAL_WORLD_ALIGNED Jacobian J (6 × n,
+    linear rows first) of a chain of one-degree-of-freedom joints and W (n × 6) zero in J's angular rows, from J's
+    columns alone: ``linear`` :math:`L` and ``angular`` :math:`\omega` (B, 3, n), ``weights`` the rows
+    :math:`f_i` of W's linear part as the columns of a (B, 3, n) stack (see ``StackedManipulabilityGradient``),
+
+    .. math::
+
+        \mathrm{tr}\Big(W\frac{\partial J}{\partial q_k}\Big)
+        = -L_k\cdot\sum_{i\le k}\omega_i\times f_i + \omega_k\cdot\sum_{i>k} L_i\times f_i.
+
+    Also returns the two sums (B, 3, n), column k :math:`\sum_{i\le k}\omega_i\times f_i` and
+    :math:`\sum_{i>k} L_i\times f_i`, which the rate of the traces reuses."""
+    before = np.cumsum(stacked_cross(angular, weights), axis=2)
+    moments = stacked_cross(linear, weights)
+    after = moments.sum(axis=2, keepdims=True) - np.cumsum(moments, axis=2)
+    return (angular * after).sum(axis=1) - (linear * before).sum(axis=1), before, after
+
+
+def _support_columns(robot: Robot) -> np.ndarray:
+    """(n,) ones at the velocity indices of the joints that move the robot's task frame (Pinocchio's ``supports``
+    of its parent joint), zeros elsewhere."""
+    model = robot.model
+    columns = np.zeros(model.nv)
+    for joint in model.supports[model.frames[robot.frame_id].parentJoint]:
+        if joint > 0:
+            columns[model.idx_vs[joint] : model.idx_vs[joint] + model.nvs[joint]] = 1.0
+    columns.setflags(write=False)
+    return columns

@@ -1,0 +1,171 @@
+"""Gradient projection with the manipulability criterion on stacks: its kinematic-Hessian traces against Pinocchio's
+Hessian, its closed-form curvature against the single-state central difference, and the batch against simulate."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import StraightLine
+from torqueopt.batch import KinematicStack, simulate_batch
+from torqueopt.resolvers.velocity.criteria import Manipulability
+from torqueopt.resolvers.velocity.gradient_projection import (
+    StackedGradientProjection,
+    StackedManipulabilityGradient,
+    hessian_traces,
+)
+from torqueopt.robot_copies import RobotForest, point_kinematics
+from torqueopt.tasks import FrameTask, Kinematics
+
+from .conftest import PAPER_Q0
+from .test_batch import _population, assert_same_run
+
+#: q̈ and τ of the batch against simulate's, relative to 1 + |value|. simulate takes the criterion's curvature
+#: k∇²p q̇ by a central difference (step 1e-5 rad) whose round-off and truncation leave about 1e-10 of the term
+#: (measured: the closed form is within 1e-11 of a Richardson extrapolation of the differences, the 1e-5 difference
+#: within 5e-11 to 4e-10 of it; a central difference on the stack agrees with simulate's no better than the closed
+#: form does); H multiplies it into τ, so where k∇²p q̇ is large beside τ, the two differ by up to a few 1e-9.
+#: Every other array, the stop reasons and the stop times are held at 1e-9.
+DERIVATIVE_TOLERANCE = 1e-7
+
+
+def _states(robot, count, seed):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.5, 1.5, (count, robot.nv)), rng.normal(size=(count, robot.nv))
+
+
+def _robot(name, planar3, panda):
+    return {"planar3": planar3, "panda": panda}.get(name) or torqueopt.load_robot(name, task="position")
+
+
+def _stack(robot, gain=1.0, **options):
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", k=gain, **options)
+    stacked = resolver.stack_rate_function(robot)
+    assert isinstance(stacked, StackedManipulabilityGradient)
+    return stacked
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda", "baxter"])
+def test_the_traces_of_the_kinematic_hessian_are_pinocchios_per_row(name, planar3, panda):
+    """tr(W ∂J/∂q_k) from the forest's frame Jacobian columns against the same contraction of Pinocchio's
+    ``getFrameKinematicHessian`` (LOCAL_WORLD_ALIGNED) of the task frame, row by row, for random W: planar3's xy
+    task, panda's and baxter's position."""
+    robot = _robot(name, planar3, panda)
+    q, _ = _states(robot, 7, seed=11)
+    weights = np.random.default_rng(12).normal(size=(7, robot.nv, robot.m))
+    found = RobotForest(robot, copies=3).kinematics(q, joints=True)
+    stacked = _stack(robot)
+    frame, _ = point_kinematics(found.joints, stacked.columns, found.tip)
+    traces, _, _ = hessian_traces(frame[:, :3], frame[:, 3:], stacked._padded(weights))
+    task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
+    for row in range(7):
+        kinematics.update(q[row])
+        hessian = task.jacobian_derivative(kinematics)  # D[a, i, k] = ∂J_ai/∂q_k, Pinocchio's
+        expected = np.einsum("ia,aik->k", weights[row], hessian)
+        assert np.max(np.abs(traces[row] - expected)) <= 1e-13 * (1.0 + np.max(np.abs(expected)))
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda"])
+def test_the_stacked_gradient_and_curvature_are_the_single_states(name, planar3, panda):
+    """k ∂p/∂q of the stacked rates against :meth:`Manipulability.scaled_gradient` (Pinocchio's Hessian, Eigen's
+    SVD) per row, and the closed-form k∇²p q̇ against the single-state central difference of that gradient along
+    q̇ (:meth:`Manipulability.scaled_curvature`), which carries about 1e-10 of round-off and truncation."""
+    robot = _robot(name, planar3, panda)
+    q, v = _states(robot, 6, seed=2)
+    forest, stacked = RobotForest(robot, copies=4), _stack(robot, gain=2.5)
+    found = forest.kinematics(q, joints=True)
+    jacobian = found.jacobian[:, robot.task_rows]
+    _, _, failures, state = stacked.rates(jacobian, np.zeros((6, robot.m)), q, found)
+    assert not failures
+    _, _, shifted, _ = state
+    moving = forest.kinematics(q, v, found.tip, joints=True)
+    curvature = stacked.scaled_curvature(jacobian, moving.rate[:, robot.task_rows], v, state, moving)
+    task, kinematics, criterion = FrameTask.of_robot(robot), Kinematics(robot), Manipulability()
+    for row in range(6):
+        kinematics.update(q[row])
+        gradient = criterion.scaled_gradient(kinematics, task, 2.5)
+        # shifted = J⁺c + k ∂p/∂q with c = 0
+        assert np.max(np.abs(shifted[row] - gradient)) <= 1e-13 * np.max(np.abs(gradient))
+        difference = criterion.scaled_curvature(kinematics, task, v[row], 2.5)
+        assert np.max(np.abs(curvature[row] - difference)) <= 2e-9 * np.max(np.abs(difference))
+        assert np.max(np.abs(curvature[row] - difference)) > 0.0  # the closed form, not the same difference
+
+
+def assert_same_run_but_derivatives(batched, reference):
+    """:func:`assert_same_run` at 1e-9 for everything but q̈ and τ, those at :data:`DERIVATIVE_TOLERANCE`."""
+    assert_same_run(
+        dataclasses.replace(batched, acceleration=reference.acceleration, tau=reference.tau), reference, 1e-9
+    )
+    assert_same_run(batched, reference, DERIVATIVE_TOLERANCE)
+
+
+def _watched_batch(robot, resolver, lines, q0s, **ceilings):
+    """simulate_batch, checking that it ran the movements on stacks (KinematicStack), not one at a time."""
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    from torqueopt.engine import run_movements
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    return runs
+
+
+@pytest.mark.parametrize(
+    ("options", "ceilings", "stop"),
+    [
+        ({}, {"max_torque_ratio": 20.0}, "torque of joint"),
+        ({"k": 5.0, "position_gain": 3.0}, {"max_torque_ratio": 20.0}, "torque of joint"),
+        ({"k": 0.5}, {"max_joint_speed": 2.0}, "speed of joint"),
+        ({"singular_tolerance": 0.15}, {}, "task Jacobian is singular"),
+        ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
+    ],
+)
+def test_the_batch_on_stacks_equals_simulate_on_planar3(planar3, options, ceilings, stop):
+    """Random starts and directions plus the paper's movement, with the default gain and a given one, open and
+    closed loop: the stacked Eq. (4) equals the kinematic loop run by run, through its stops."""
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", **options)
+    q0s, directions = _population(planar3, 8, seed=5)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.5) for d in directions]
+    runs = _watched_batch(planar3, resolver, lines, q0s, **ceilings)
+    singles = [torqueopt.simulate(planar3, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run_but_derivatives(run, single)
+    assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
+    assert any(single.stop_reason is None for single in singles)
+
+
+@pytest.mark.parametrize("options", [{}, {"k": 3.0, "position_gain": 4.0}])
+def test_the_batch_on_stacks_equals_simulate_on_panda(panda, options):
+    """Seven joints, three task rows, gravity on: random lines from starts about the default configuration."""
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", **options)
+    rng = np.random.default_rng(8)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
+    runs = _watched_batch(panda, resolver, lines, q0s)
+    for run, line, q0 in zip(runs, lines, q0s):
+        assert_same_run_but_derivatives(run, torqueopt.simulate(panda, resolver, line, q0))
+
+
+def test_what_the_manipulability_stack_leaves_to_one_movement_at_a_time(planar3, panda_pose):
+    """A pose task and a callable criterion have no stacked form; the joint-limit criterion keeps its own."""
+    manipulability = torqueopt.get_resolver("gradient-projection", criterion="manipulability")
+    assert manipulability.stack_rate_function(panda_pose) is None
+    assert (
+        torqueopt.get_resolver(
+            "gradient-projection", criterion=lambda angles: float(angles @ angles)
+        ).stack_rate_function(planar3)
+        is None
+    )
+    assert isinstance(
+        torqueopt.get_resolver("gradient-projection").stack_rate_function(planar3), StackedGradientProjection
+    )
+    default = manipulability.stack_rate_function(planar3)
+    assert default.gain == 1.0 and default.m == 2  # the criterion's default gain, planar3's xy task
