@@ -15,6 +15,7 @@ from torqueopt.resolvers.velocity.gradient_projection import (
     StackedManipulabilityGradient,
     hessian_traces,
 )
+from torqueopt.resolvers.velocity.gradient_projection import _support_columns as support_columns
 from torqueopt.robot_copies import RobotForest, point_kinematics
 from torqueopt.tasks import FrameTask, Kinematics
 
@@ -56,8 +57,9 @@ def test_the_traces_of_the_kinematic_hessian_are_pinocchios_per_row(name, planar
     weights = np.random.default_rng(12).normal(size=(7, robot.nv, robot.m))
     found = RobotForest(robot, copies=3).kinematics(q, joints=True)
     stacked = _stack(robot)
-    frame, _ = point_kinematics(found.joints, stacked.columns, found.tip)
-    traces, _, _ = hessian_traces(frame[:, :3], frame[:, 3:], stacked._padded(weights))
+    frame, _ = point_kinematics(found.joints, support_columns(robot), found.tip)  # (S, 6, n), Pinocchio's layout
+    linear, angular = (np.ascontiguousarray(part.transpose(1, 2, 0)) for part in (frame[:, :3], frame[:, 3:]))
+    traces = hessian_traces(linear, angular, stacked._padded(weights))[0].T
     task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
     for row in range(7):
         kinematics.update(q[row])
