@@ -128,6 +128,8 @@ class VelocityStack:
 
     The flags say what the forest's pass must add to ``kinematics`` (at q) and ``moving`` (at (q, q̇)):
     :math:`H^{-1}`, :math:`\dot H\dot q`, and every joint's kinematics (``joints``, for tasks on other points).
+    The task frame's six rows of J and :math:`\dot J` are always there beside the task's (``frame_jacobian``,
+    ``frame_rate``: references to what the pass computed, no copy).
     """
 
     reads_inverse_inertia: bool = False

@@ -138,7 +138,7 @@ class GradientProjection(CriterionGain, VelocityResolver):
             model = robot.model
             if any(model.nvs[joint] != 1 for joint in range(1, model.njoints)):
                 return None
-            return StackedManipulabilityGradient(self.singular_tolerance, robot.m, _support_columns(robot), self.gain)
+            return StackedManipulabilityGradient(self.singular_tolerance, robot.m, self.gain)
         if not isinstance(self.objective, JointLimits):
             return None
         joints = self.objective._limits(robot.model)
@@ -248,13 +248,15 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
     (``getFrameKinematicHessian``). On stacks it is not a Pinocchio call: Pinocchio 4 does not expose the forest's
     ``kinematic_hessians`` tensor, and ``getFrameKinematicHessian`` returns a fresh 6 × N × N tensor of the whole
     forest (N its joints) per copy, 6.8 µs per row for planar3's 48-joint forest, more than the whole rest of a
-    stacked step. The contraction is taken instead from the frame's Jacobian columns, which the forest's pass gives
-    (``reads_joints``), by the rule Pinocchio's Hessian follows (``computeJointKinematicHessians``): in world axes
-    the column :math:`S_i` (a spatial motion) of a one-degree-of-freedom joint moves with its ancestors,
-    :math:`\partial S_i/\partial q_k = S_k \times S_i` for k before i on the frame's support, and the frame's own
-    point p moves at :math:`\partial p/\partial q_k = L_k`. With :math:`L_i, \omega_i` the frame Jacobian's
-    (LOCAL_WORLD_ALIGNED) linear and angular columns and :math:`f_i` the i-th row of :math:`J^\dagger` written in
-    the task's rows of a 3-vector, that makes
+    stacked step. The contraction is taken instead from the frame's Jacobian columns, all six rows of which the
+    forest's pass gives (``frame_jacobian``), by the rule Pinocchio's Hessian follows
+    (``computeJointKinematicHessians``): in world axes the column :math:`S_i` (a spatial motion) of a
+    one-degree-of-freedom joint moves with its ancestors, :math:`\partial S_i/\partial q_k = S_k \times S_i` for k
+    before i on the frame's support, and the frame's own point p moves at :math:`\partial p/\partial q_k = L_k`.
+    With :math:`L_i, \omega_i` the frame Jacobian's (LOCAL_WORLD_ALIGNED) linear and angular columns, so that
+    :math:`\partial L_i/\partial q_k = \omega_k\times L_i` for k ≤ i and :math:`\omega_i\times L_k` for k > i,
+    :math:`\partial\omega_i/\partial q_k = \omega_k\times\omega_i` for k < i, and :math:`f_i` the i-th row of
+    :math:`J^\dagger` written in the task's rows of a 3-vector, the triple products regroup into
 
     .. math::
 
@@ -272,27 +274,22 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
     Args:
         tolerance: the smallest σmin/σmax of J a row may have.
         m: the task's rows (2 for ``xy``, 3 for ``position``).
-        columns: (n,) ones at the joints that move the task frame, zeros elsewhere.
         gain: k [rad²/s per unit of p].
     """
 
-    reads_joints = True
-
-    def __init__(self, tolerance: float, m: int, columns: np.ndarray, gain: float):
+    def __init__(self, tolerance: float, m: int, gain: float):
         super().__init__(tolerance)
         self.m, self.gain = m, gain
-        # (n, 1) against (n, B) columns, None when every joint moves the frame
-        self.columns = None if columns.all() else columns[:, None]
 
     # The sums run on (3, n, B) stacks, a vector's components first and the batch last: numpy's loops then run over
     # n·B contiguous numbers, where on (B, 3, n) stacks they run over n at a time (7x the time per cross product).
 
-    def _component_major(self, stack: np.ndarray) -> np.ndarray:
-        """A (B, r, n) stack as a contiguous (r, n, B) one, the columns off the frame's support zeroed."""
-        out = np.ascontiguousarray(stack.transpose(1, 2, 0))
-        if self.columns is not None:
-            out *= self.columns
-        return out
+    @staticmethod
+    def _frame_columns(frame: np.ndarray):
+        """The linear and angular columns, (3, n, B) each, of the frame's (B, 6, n) J or J̇ (the forest's, the
+        columns off the frame's support zero)."""
+        columns = np.ascontiguousarray(frame.transpose(1, 2, 0))
+        return columns[:3], columns[3:]
 
     def _padded(self, pseudoinverse: np.ndarray) -> np.ndarray:
         """The rows :math:`f_i` of J⁺ (B, n, m) as a (3, n, B) stack, zero beyond the task's rows."""
@@ -302,22 +299,9 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
         padded[: self.m] = pseudoinverse.transpose(2, 1, 0)
         return padded
 
-    def _frame_columns(self, jacobian: np.ndarray, kinematics):
-        r"""The frame Jacobian's linear and angular columns, (3, n, B) each: the task's rows J (LOCAL_WORLD_ALIGNED,
-        masked), the world angular rows of every joint's kinematics, and for an ``xy`` task the third linear row,
-        :math:`v_z + (\omega\times p)_z` (the shift of ``torqueopt.robot_copies.point_kinematics``)."""
-        angular = self._component_major(kinematics.joints.jacobian[:, 3:])
-        if self.m == 3:
-            return np.ascontiguousarray(jacobian.transpose(1, 2, 0)), angular
-        linear = np.empty_like(angular)
-        linear[: self.m] = jacobian.transpose(1, 2, 0)
-        x, y = kinematics.tip[:, 0], kinematics.tip[:, 1]
-        linear[2] = self._component_major(kinematics.joints.jacobian[:, 2:3])[0] + angular[0] * y - angular[1] * x
-        return linear, angular
-
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
-        ``kinematics``: the forest's at ``configuration``, with every joint's."""
+        ``kinematics``: the forest's at ``configuration``, with the frame's six rows of J."""
         jacobian_t = np.swapaxes(jacobian, 1, 2)
         gram = jacobian @ jacobian_t
         conditions, failures, determinant = self.conditions(gram)
@@ -326,7 +310,7 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
         manipulability = np.sqrt(np.maximum(determinant, 0.0))  # Eq. (6), w = sqrt(det JJᵀ), before G is inverted
         gram_inverse = stacked_inverse(gram, failures, determinant.copy())
         pseudoinverse = jacobian_t @ gram_inverse  # Eq. (3)
-        linear, angular = self._frame_columns(jacobian, kinematics)
+        linear, angular = self._frame_columns(kinematics.frame_jacobian)
         weights = self._padded(pseudoinverse)
         traces, before, after = hessian_traces(linear, angular, weights, self.m == 2)  # tr(J⁺ ∂J/∂q_k), (n, B)
         # k ∂p/∂q = −k ∂w/∂q = −k w tr(J⁺ ∂J/∂q_k), p = −w of Eq. (6)
@@ -340,7 +324,7 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """J⁺(ċ − J̇q̇) + (I − J⁺J)(J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇) per row (see
         :meth:`GradientProjection.acceleration_function`), k ∇²p q̇ by :meth:`scaled_curvature`.
-        ``kinematics``: the forest's at the configuration and q̇, with every joint's."""
+        ``kinematics``: the forest's at the configuration and q̇, with the frame's six rows of J̇."""
         pseudoinverse, _, shifted, _ = state
         curvature = self.scaled_curvature(jacobian, jacobian_rate, velocity, state, kinematics)
         inner = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", pseudoinverse, shifted)) - curvature
@@ -355,20 +339,7 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
         ``kinematics`` (the forest's at (q, q̇)) and J̇ the task rows' (``jacobian_rate``)."""
         pseudoinverse, gram_inverse, _, sums = state
         linear, angular, weights, before, after, manipulability, traces = sums
-        angular_rate = self._component_major(kinematics.joints.rate[:, 3:])
-        if self.m == 3:
-            linear_rate = np.ascontiguousarray(jacobian_rate.transpose(1, 2, 0))
-        else:
-            # the rate of v_z + (ω × p)_z: v̇_z + (ω̇ × p)_z + (ω × ṗ)_z, ṗ = J q̇ (torqueopt.robot_copies' shift)
-            x, y = kinematics.tip[:, 0], kinematics.tip[:, 1]
-            tip_velocity = (linear * velocity.T).sum(axis=1)
-            linear_rate = np.empty_like(angular_rate)
-            linear_rate[: self.m] = jacobian_rate.transpose(1, 2, 0)
-            linear_rate[2] = (
-                self._component_major(kinematics.joints.rate[:, 2:3])[0]
-                + angular_rate[0] * y - angular_rate[1] * x
-                + angular[0] * tip_velocity[1] - angular[1] * tip_velocity[0]
-            )  # fmt: skip
+        linear_rate, angular_rate = self._frame_columns(kinematics.frame_rate)
         # d/dt J⁺ = (I − J⁺J) J̇ᵀ G⁻¹ − J⁺ J̇ J⁺
         lifted = np.swapaxes(jacobian_rate, 1, 2) @ gram_inverse
         pseudoinverse_rate = (
@@ -444,15 +415,3 @@ def _sums_after(terms: np.ndarray) -> np.ndarray:
     for column in range(terms.shape[1] - 2, -1, -1):
         np.add(sums[:, column + 1], terms[:, column + 1], out=sums[:, column])
     return sums
-
-
-def _support_columns(robot: Robot) -> np.ndarray:
-    """(n,) ones at the velocity indices of the joints that move the robot's task frame (Pinocchio's ``supports``
-    of its parent joint), zeros elsewhere."""
-    model = robot.model
-    columns = np.zeros(model.nv)
-    for joint in model.supports[model.frames[robot.frame_id].parentJoint]:
-        if joint > 0:
-            columns[model.idx_vs[joint] : model.idx_vs[joint] + model.nvs[joint]] = 1.0
-    columns.setflags(write=False)
-    return columns
