@@ -9,6 +9,7 @@ import pytest
 import torqueopt
 from torqueopt import StraightLine
 from torqueopt.batch import KinematicStack, simulate_batch
+from torqueopt.engine import run_movements
 from torqueopt.resolvers.velocity.criteria import Manipulability
 from torqueopt.resolvers.velocity.gradient_projection import (
     StackedGradientProjection,
@@ -111,8 +112,6 @@ def _watched_batch(robot, resolver, lines, q0s, **ceilings):
         seen.append(type(lanes))
         run_movements(lanes, steps)
 
-    from torqueopt.engine import run_movements
-
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(torqueopt.batch, "run_movements", watching)
         runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
@@ -161,14 +160,9 @@ def test_what_the_manipulability_stack_leaves_to_one_movement_at_a_time(planar3,
     """A pose task and a callable criterion have no stacked form; the joint-limit criterion keeps its own."""
     manipulability = torqueopt.get_resolver("gradient-projection", criterion="manipulability")
     assert manipulability.stack_rate_function(panda_pose) is None
-    assert (
-        torqueopt.get_resolver(
-            "gradient-projection", criterion=lambda angles: float(angles @ angles)
-        ).stack_rate_function(planar3)
-        is None
-    )
-    assert isinstance(
-        torqueopt.get_resolver("gradient-projection").stack_rate_function(planar3), StackedGradientProjection
-    )
+    squares = torqueopt.get_resolver("gradient-projection", criterion=lambda angles: float(angles @ angles))
+    assert squares.stack_rate_function(planar3) is None
+    joint_limits = torqueopt.get_resolver("gradient-projection")
+    assert isinstance(joint_limits.stack_rate_function(planar3), StackedGradientProjection)
     default = manipulability.stack_rate_function(planar3)
     assert default.gain == 1.0 and default.m == 2  # the criterion's default gain, planar3's xy task
