@@ -98,14 +98,20 @@ class ObstacleTask(Task):
         model = kinematics.model
         key = id(model)
         if self._chain_key != key:
-            frame_id = model.getFrameId(self.frame or kinematics.robot.frame)
-            joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0]
+            joints, frame_id = self.chain(model, kinematics.robot.frame)
             first = joints[0] if joints else 0
             # a chain of consecutive joints (a serial arm's) is read by a slice, without a copy
             rows = slice(first, first + len(joints)) if joints == list(range(first, first + len(joints))) else joints
             self._chain = (joints, rows, frame_id)
             self._chain_key = key
         return self._chain
+
+    def chain(self, model: pin.Model, task_frame: str) -> tuple[list[int], int]:
+        """The joint ids of the chain from the base, and the id of the frame that ends it (this task's ``frame``,
+        else ``task_frame``): segment i starts at joint i's origin and moves with that joint's body, the last ends
+        at the frame's origin."""
+        frame_id = model.getFrameId(self.frame or task_frame)
+        return [j for j in model.supports[model.frames[frame_id].parentJoint] if j > 0], frame_id
 
     def closest_point(self, kinematics: Kinematics) -> ClosestPoint:
         r"""The closest point of the arm's segments to the obstacle, with its clearance [m].

@@ -2,10 +2,13 @@ r"""Obstacle avoidance through the null space (Maciejewski & Klein, 1985), Eq. (
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
+from ...robot_copies import JointKinematics, RobotForest, point_kinematics, stacked_cross
 from ...tasks import (
     FrameTask,
     Kinematics,
@@ -14,12 +17,20 @@ from ...tasks import (
     pseudoinverse_workspace,
     undamped_pseudoinverse,
 )
+from ...tasks.stack import ABSOLUTE_TOLERANCE
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import obstacle as obstacle_option
+from .pseudoinverse import StackedPseudoInverse
 
-__all__ = ["ObstacleAvoidance", "activation", "activation_rate"]
+__all__ = [
+    "ObstacleAvoidance",
+    "StackedObstacleAvoidance",
+    "activation",
+    "activation_rate",
+    "stacked_undamped_pseudoinverse",
+]
 
 
 def activation(clearance: float, influence: float, critical: float) -> float:
@@ -218,3 +229,251 @@ class ObstacleAvoidance(VelocityResolver):
             return particular_rate + gain_rate * phi + gain * phi_rate
 
         return rates, acceleration if task.kind != "pose" else None
+
+    def stack_rate_function(self, robot: Robot):
+        """Eq. (13) and the closed-form q̈ of :meth:`acceleration_function` on stacks
+        (:class:`StackedObstacleAvoidance`), on a position task (None for a pose task: one movement at a time)."""
+        if robot.task == "pose" or not robot.euclidean:
+            return None
+        speed = self.obstacle.speed if self.speed is None else self.speed
+        return StackedObstacleAvoidance(
+            RobotForest(robot), self.obstacle, speed, self.influence, self.critical, self.singular_tolerance
+        )
+
+
+class _Closest(NamedTuple):
+    """The closest points of some rows of a stack (A rows), what Eq. (13)'s rates and q̈ read of them."""
+
+    point: np.ndarray  # (A, 3) x_o [m]
+    normal: np.ndarray  # (A, 3) n̂
+    distance: np.ndarray  # (A,) ‖x_o − c‖ [m]
+    start: np.ndarray  # (A, 3) the segment's start a [m] (its joint's origin)
+    axis: np.ndarray  # (A, 3) u = b − a [m]
+    inside: np.ndarray  # (A,) True where x_o is inside the segment (0 < (c − a)·u < ‖u‖²): it slides along it
+    columns: np.ndarray  # (A, 1, n) the joints that move the segment's body (its joint's support)
+
+
+class StackedObstacleAvoidance(StackedPseudoInverse):
+    r"""Eq. (13), :math:`\dot q = J^\dagger c + \alpha_h(d)\,[J_o(I - J^\dagger J)]^\dagger(\dot x_o - J_oJ^\dagger c)`,
+    and its closed-form :math:`\ddot q` (:meth:`ObstacleAvoidance.acceleration_function`) per row of (B, m, n)
+    stacks (:class:`StackedPseudoInverse` for :math:`J^\dagger`, σmin/σmax and the singular rows).
+
+    The closest point of each row (:meth:`torqueopt.tasks.ObstacleTask.closest_point`, on every segment of every
+    row at once) from the joints' origins the forest computes with J in the same pass (``reads_joints``) and the
+    end frame's position; its Jacobian :math:`J_o` and, along q̇, :math:`\dot J_o` by ``point_kinematics`` with the
+    columns of the joints that move the closest segment's body (``RobotForest.support_columns``, one row of
+    columns per segment, gathered per row), plus the slide of the closest point along its segment
+    (:meth:`torqueopt.tasks.ObstacleTask.point_rates`). Only the rows where :math:`\alpha_h > 0` compute the
+    homogeneous term; the others move by :math:`J^\dagger c` alone, as in the single-state step.
+
+    Args:
+        forest: the robot's forest (its support columns and frame placements).
+        obstacle: the obstacle (centre, radius, and the frame that ends the chain).
+        speed: the repulsive speed :math:`v_o` [m/s].
+        influence, critical: the clearances [m] of :func:`activation`.
+        tolerance: the smallest σmin/σmax of J a row may have.
+    """
+
+    reads_joints = True
+
+    def __init__(
+        self, forest: RobotForest, obstacle, speed: float, influence: float, critical: float, tolerance: float
+    ):
+        super().__init__(tolerance)
+        robot = forest.robot
+        self.chain, frame_id = obstacle.chain(robot.model, robot.frame)
+        # the end frame is the task frame, whose position the forest gives, or another one placed from its joint's
+        self.end_frame = None if frame_id == robot.frame_id else frame_id
+        self.forest, self.center, self.radius = forest, obstacle.center, obstacle.radius
+        self.speed, self.influence, self.critical = speed, influence, critical
+        # segment i moves with joint chain[i]'s body: the columns of that joint's support
+        self.segment_columns = np.array([forest.support_columns(joint) for joint in self.chain])
+        self.rank_one = robot.nv - robot.m == 1
+
+    def _closest(self, kinematics) -> tuple[np.ndarray, _Closest]:
+        """Every row's clearance d [m] (B,), and its closest point on the chain's segments (the first of equals)."""
+        joints = kinematics.joints
+        end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
+        corners = np.concatenate([joints.origins[:, self.chain], end[:, None]], axis=1)  # (B, segments + 1, 3)
+        start = corners[:, :-1]
+        axis = corners[:, 1:] - start
+        to_center = self.center - start
+        ux, uy, uz = axis[..., 0], axis[..., 1], axis[..., 2]
+        length_squared = ux * ux + uy * uy + uz * uz
+        along = to_center[..., 0] * ux + to_center[..., 1] * uy + to_center[..., 2] * uz
+        # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length
+        fraction = np.clip(
+            np.divide(along, length_squared, out=np.zeros_like(along), where=length_squared != 0.0), 0.0, 1.0
+        )
+        points = start + fraction[..., None] * axis
+        offsets = points - self.center
+        ox, oy, oz = offsets[..., 0], offsets[..., 1], offsets[..., 2]
+        distances = np.sqrt(ox * ox + oy * oy + oz * oz)
+        rows = np.arange(distances.shape[0])
+        segment = np.argmin(distances, axis=1)  # the first of equals
+        distance = distances[rows, segment]
+        offset = offsets[rows, segment]
+        normal = np.divide(offset, distance[:, None], out=np.zeros_like(offset), where=distance[:, None] > 0.0)
+        normal[distance == 0.0] = (1.0, 0.0, 0.0)
+        along, length_squared = along[rows, segment], length_squared[rows, segment]
+        closest = _Closest(
+            points[rows, segment], normal, distance, start[rows, segment], axis[rows, segment],
+            (along > 0.0) & (along < length_squared), self.segment_columns[segment][:, None],
+        )  # fmt: skip
+        return distance - self.radius, closest
+
+    def _activation(self, clearance: np.ndarray):
+        """α_h(d) and α_h'(d) [1/m] of every row (:func:`activation`, :func:`activation_rate`)."""
+        influence, critical = self.influence, self.critical
+        s = (influence - clearance) / (influence - critical)
+        gain = s * s * (3.0 - 2.0 * s)
+        slope = -6.0 * s * (1.0 - s) / (influence - critical)
+        beyond, within = clearance >= influence, clearance <= critical
+        gain[beyond], gain[within] = 0.0, 1.0
+        slope[beyond | within] = 0.0
+        return gain, slope
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with every joint's."""
+        particular, conditions, failures, inverse = super().rates(jacobian, command)
+        clearance, closest = self._closest(kinematics)
+        gain, slope = self._activation(clearance)
+        if failures:
+            gain[list(failures)] = 0.0  # a singular row's J⁺ is not read
+        near = np.flatnonzero(gain > 0.0)
+        if near.size == 0:
+            return particular, conditions, failures, (inverse, particular, near, None)
+        closest = _Closest(*(part[near] for part in closest))
+        joints = kinematics.joints
+        point_jacobian = point_kinematics(
+            JointKinematics(joints.jacobian[near], None, None, None), closest.columns, closest.point
+        )[0][:, :3]
+        near_inverse = inverse[near]
+        projector = identity(jacobian.shape[2]) - near_inverse @ jacobian[near]  # I − J⁺J
+        projected = point_jacobian @ projector  # J_o(I − J⁺J)
+        projected_inverse = stacked_undamped_pseudoinverse(projected, rank_one=self.rank_one)
+        near_particular = particular[near]
+        # e of Eq. (12): ẋ_o − J_o J⁺c, with ẋ_o = v_o n̂
+        shortfall = self.speed * closest.normal - np.einsum("bij,bj->bi", point_jacobian, near_particular)
+        phi = np.einsum("bij,bj->bi", projected_inverse, shortfall)  # Eq. (12)
+        velocity = particular.copy()
+        # Eq. (13): J⁺c + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺c)
+        velocity[near] += gain[near, None] * phi
+        near_state = (
+            closest,
+            gain[near],
+            slope[near],
+            point_jacobian,
+            projector,
+            projected,
+            projected_inverse,
+            shortfall,
+            phi,
+        )
+        return velocity, conditions, failures, (inverse, particular, near, near_state)
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """The time derivative of Eq. (13) per row (see :meth:`ObstacleAvoidance.acceleration_function`).
+        ``kinematics``: the forest's at the configuration and q̇, with every joint's and their rates."""
+        inverse, particular, near, near_state = state
+        # d/dt J⁺c = J⁺(ċ − J̇p) + (I − J⁺J)J̇ᵀJ⁺ᵀp, p = J⁺c, for J of full row rank
+        turned = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", inverse, particular))
+        particular_rate = np.einsum(
+            "bij,bj->bi", inverse, command_rate - np.einsum("bij,bj->bi", jacobian_rate, particular)
+        ) + (turned - np.einsum("bij,bj->bi", inverse, np.einsum("bij,bj->bi", jacobian, turned)))
+        if near.size == 0:
+            return particular_rate  # beyond the influence α_h and its rate are 0
+        closest, gain, slope, point_jacobian, projector, projected, projected_inverse, shortfall, phi = near_state
+        joints, v = kinematics.joints, velocity[near]
+        moving_jacobian, moving_rate = point_kinematics(
+            JointKinematics(joints.jacobian[near], joints.rate[near], None, None), closest.columns, closest.point, v
+        )
+        # the body's angular velocity ω and the material point's velocity J_o q̇
+        angular_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, 3:], v)
+        material_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, :3], v)
+        lever = closest.point - closest.start  # r = x_o − a
+        start_velocity = material_velocity - _cross(angular_velocity, lever)  # v_a = J_o q̇ − ω × r
+        axis = closest.axis
+        # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0
+        slide = np.where(
+            closest.inside,
+            (_dot(self.center - closest.start, _cross(angular_velocity, axis)) - _dot(start_velocity, axis))
+            / np.where(closest.inside, _dot(axis, axis), 1.0),
+            0.0,
+        )
+        sliding = slide[:, None] * axis
+        point_velocity = material_velocity + sliding  # v_p = J_o q̇ + ṡu
+        normal = closest.normal
+        normal_rate = (point_velocity - normal * _dot(normal, point_velocity)[:, None]) / closest.distance[:, None]
+        # J̇_o: the material point's Jacobian rate, and the slide's J_ω × ṡu
+        point_jacobian_rate = moving_rate[:, :3] + stacked_cross(moving_jacobian[:, 3:], sliding[:, :, None])
+        gain_rate = slope * _dot(normal, point_velocity)  # α̇_h = α_h'(d) n̂·v_p
+        near_inverse, near_jacobian_rate = inverse[near], jacobian_rate[near]
+        # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −(X + Xᵀ), X = J⁺J̇N
+        turn = near_inverse @ (near_jacobian_rate @ projector)
+        projected_rate = point_jacobian_rate @ projector - point_jacobian @ (turn + np.swapaxes(turn, 1, 2))
+        near_particular, near_particular_rate = particular[near], particular_rate[near]
+        shortfall_rate = (
+            self.speed * normal_rate
+            - np.einsum("bij,bj->bi", point_jacobian_rate, near_particular)
+            - np.einsum("bij,bj->bi", point_jacobian, near_particular_rate)
+        )
+        phi_rate = _pseudoinverse_rate_times(projected, projected_rate, projected_inverse, shortfall, phi) + np.einsum(
+            "bij,bj->bi", projected_inverse, shortfall_rate
+        )
+        acceleration = particular_rate
+        # d/dt of Eq. (13)
+        acceleration[near] += gain_rate[:, None] * phi + gain[:, None] * phi_rate
+        return acceleration
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a·b of (A, 3) stacks, by components (as the single-state step on floats)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of (A, 3) stacks."""
+    return stacked_cross(a[:, :, None], b[:, :, None])[:, :, 0]
+
+
+def _pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_times_vector) -> np.ndarray:
+    r""":math:`\frac{d}{dt}A^\dagger\,e` per row, :func:`~torqueopt.tasks.pseudoinverse_rate` applied to a vector e
+    (``vector``, with :math:`y = A^\dagger e` given) in matrix-vector products:
+    :math:`-A^\dagger\dot Ay + A^\dagger A^{\dagger\top}\dot A^\top(e - Ay) + (I - A^\dagger A)\dot A^\top A^{\dagger\top}y`."""
+
+    def times(stack, vectors):
+        return np.einsum("bij,bj->bi", stack, vectors)
+
+    def transposed_times(stack, vectors):
+        return np.einsum("bji,bj->bi", stack, vectors)
+
+    along = transposed_times(matrix_rate, transposed_times(inverse, inverse_times_vector))  # ȦᵀA⁺ᵀy
+    return (
+        -times(inverse, times(matrix_rate, inverse_times_vector))
+        + times(
+            inverse,
+            transposed_times(inverse, transposed_times(matrix_rate, vector - times(matrix, inverse_times_vector))),
+        )
+        + along
+        - times(inverse, times(matrix, along))
+    )
+
+
+def stacked_undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, rank_one: bool = False) -> np.ndarray:
+    r""":func:`~torqueopt.tasks.undamped_pseudoinverse` of each matrix of an (A, r, c) stack, the same cutoff
+    (singular values at or below max(``tolerance``·σmax, 1e-10) dropped), by numpy's SVD.
+
+    ``rank_one``: every matrix has rank one or less (up to round-off), as :math:`J_o(I - J^\dagger J)` when
+    n − m = 1: then :math:`A = \sigma uv^\top` and :math:`A^\dagger = A^\top/\|A\|_F^2` (σ = ‖A‖_F), zero where
+    σ is at or below 1e-10, without an SVD (the tests hold it to the SVD's)."""
+    if rank_one:
+        squared = np.einsum("bij,bij->b", matrix, matrix)
+        kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
+        scale = np.divide(1.0, squared, out=np.zeros_like(squared), where=kept)
+        return np.swapaxes(matrix, 1, 2) * scale[:, None, None]
+    left, singular, right_t = np.linalg.svd(matrix, full_matrices=False)
+    cutoff = np.maximum(tolerance * singular[:, :1], ABSOLUTE_TOLERANCE)
+    reciprocal = np.divide(1.0, singular, out=np.zeros_like(singular), where=singular > cutoff)
+    return np.swapaxes(right_t, 1, 2) @ (reciprocal[:, :, None] * np.swapaxes(left, 1, 2))
