@@ -1,0 +1,170 @@
+"""Obstacle avoidance on stacks (Eq. (12), Eq. (13)): the batch's stacked form against the kinematic loop, run by run."""
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import StraightLine
+from torqueopt.batch import KinematicStack, simulate_batch
+from torqueopt.resolvers.velocity.obstacle_avoidance import stacked_undamped_pseudoinverse
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, undamped_pseudoinverse
+
+from .conftest import PAPER_Q0
+from .test_batch import _population, assert_same_run
+
+#: The CLI's example obstacle (centre x, y, z and radius [m]), in reach of planar3's paper movement.
+OBSTACLE = "1.2,0.3,0.0,0.1"
+
+
+def _batch_and_singles(robot, resolver, lines, q0s, **ceilings):
+    """The batch's runs (asserted to go through the stacked lanes, not one movement at a time) and simulate's."""
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    from torqueopt.engine import run_movements
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run(run, single)
+    return singles
+
+
+def _closest_segments(robot, obstacle, influence, run):
+    """The segments the closest point is on at the run's rows within the influence distance (empty if none)."""
+    kinematics = Kinematics(robot)
+    segments = set()
+    for q in run.q:
+        closest = obstacle.closest_point(kinematics.update(q))
+        if closest.clearance < influence:
+            segments.add(closest.segment)
+    return segments
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {},
+        {"position_gain": 4.0, "speed": 0.8},
+        {"influence": 0.8, "critical": 0.3, "speed": 1.0},
+    ],
+)
+def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_planar3(planar3, options):
+    """Movements that never come within the influence distance (α_h = 0: J⁺c alone), that pass inside it on one
+    segment, and whose closest point passes from one segment to another within it (the columns of J_o gathered
+    per row change), open loop and with the position feedback: the stacked Eq. (13) and its closed-form q̈ equal
+    the kinematic loop run by run."""
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=OBSTACLE, **options)
+    q0s, directions = _population(planar3, 12, seed=21)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.0) for d in directions]
+    singles = _batch_and_singles(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    segments = [_closest_segments(planar3, resolver.obstacle, resolver.influence, single) for single in singles]
+    assert any(not seen for seen in segments)  # never within the influence distance
+    assert any(len(seen) == 1 for seen in segments)  # within it, on one segment
+    assert any(len(seen) > 1 for seen in segments)  # within it, the closest point changing segment
+
+
+@pytest.mark.parametrize(
+    ("options", "ceilings", "stop"),
+    [
+        ({"singular_tolerance": 0.15}, {"max_torque_ratio": 5.0}, "task Jacobian is singular"),
+        ({}, {"max_joint_speed": 2.0}, "speed of joint"),
+        ({}, {"max_torque_ratio": 1.0}, "torque of joint"),
+        ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
+    ],
+)
+def test_obstacle_avoidance_on_stacks_stops_where_the_kinematic_loop_does(planar3, options, ceilings, stop):
+    """The stacked form stops each movement where the loop does, with its message: the method undefined (J
+    singular), its rates past the speed ceiling, its torques past the torque ceiling; the others go on. A torque
+    ceiling stops the movement that runs into the method's algorithmic singularity (‖J_o(I − J⁺J)‖ towards 0)
+    before it gets there: there the problem itself amplifies round-off beyond 1e-9 (one ulp of q0 moves simulate's
+    own q̈ by 1.3e-9 near its end)."""
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=OBSTACLE, **options)
+    q0s, directions = _population(planar3, 8, seed=5)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.5) for d in directions]
+    singles = _batch_and_singles(planar3, resolver, lines, q0s, **ceilings)
+    assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
+    assert any(single.stop_reason is None for single in singles)
+    assert any(_closest_segments(planar3, resolver.obstacle, resolver.influence, single) for single in singles)
+
+
+def test_an_obstacle_on_a_chain_ending_at_another_frame_on_stacks(planar3):
+    """An obstacle task whose chain ends at another frame than the task's (link3, at joint 3's origin: the last
+    segment has no length), placed from its joint's placement on stacks: the same runs as the loop."""
+    obstacle = ObstacleTask([0.9, 0.4], 0.05, frame="link3")
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle, influence=0.6, critical=0.1)
+    q0s, directions = _population(planar3, 6, seed=21)
+    lines = [StraightLine(d, duration=1.0) for d in directions]
+    singles = _batch_and_singles(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    assert any(_closest_segments(planar3, obstacle, resolver.influence, single) for single in singles)
+
+
+@pytest.mark.parametrize(
+    "obstacle",
+    [ObstacleTask([0.6, 0.0, 0.3], 0.05), ObstacleTask([0.5, -0.1, 0.6], 0.05, frame="panda_hand_tcp")],
+    ids=["beyond-and-within", "tcp-chain"],
+)
+def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_panda(panda, obstacle):
+    """Seven joints, three task rows: [J_o(I − J⁺J)]⁺ of a 3×7 matrix of rank up to 3 by numpy's SVD with the
+    single-state cutoff; movements beyond the influence distance and within it, and a chain ending at the tool
+    frame. Movements that run into the method's algorithmic singularity (B's smallest nonzero singular value
+    towards 0, torques a thousand times the limits) amplify the round-off by which two SVDs differ beyond 1e-9:
+    these starts keep clear of it."""
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle)
+    rng = np.random.default_rng(3)
+    q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(5)]
+    lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
+    if obstacle.frame is not None:
+        q0s, lines = q0s[:2], lines[:2]
+    singles = _batch_and_singles(panda, resolver, lines, q0s)
+    segments = [_closest_segments(panda, obstacle, resolver.influence, single) for single in singles]
+    assert all(single.completed for single in singles) and any(segments)
+    if obstacle.frame is None:
+        assert any(not seen for seen in segments)
+
+
+def test_a_pose_task_runs_one_movement_at_a_time(panda_pose, panda):
+    """No closed-form q̈ on a pose task in the loop either: no stacked form."""
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=[0.4, 0.2, 0.5, 0.05])
+    assert resolver.stack_rate_function(panda_pose) is None
+    assert resolver.stack_rate_function(panda) is not None
+
+
+def _rank_deficient(rng, count, rows, columns, rank):
+    left = rng.normal(size=(count, rows, rank))
+    right = rng.normal(size=(count, rank, columns))
+    return left @ right * np.exp(rng.uniform(-3, 3, (count, 1, 1)))
+
+
+def test_the_stacked_pseudoinverse_is_the_single_state_one(rng, planar3):
+    """numpy's SVD with the single-state cutoff, on 3×7 matrices of every rank, and Aᵀ/‖A‖² on rank-one ones
+    (J_o(I − J⁺J) of planar3 at random states among them), equal undamped_pseudoinverse per matrix; a matrix
+    at the absolute cutoff or below gets zero."""
+    for rank in range(4):
+        matrices = _rank_deficient(rng, 20, 3, 7, rank)
+        expected = np.array([undamped_pseudoinverse(matrix) for matrix in matrices])
+        np.testing.assert_allclose(stacked_undamped_pseudoinverse(matrices), expected, rtol=1e-9, atol=1e-12)
+    kinematics, task = Kinematics(planar3), FrameTask.of_robot(planar3)
+    obstacle = ObstacleTask.from_spec([1.2, 0.3, 0.0, 0.1])
+    projected = []
+    for q in rng.uniform(-np.pi, np.pi, (20, 3)):
+        kinematics.update(q)
+        jacobian = task.jacobian(kinematics)
+        point_jacobian = obstacle.point_jacobian(kinematics, obstacle.closest_point(kinematics))
+        projected.append(point_jacobian @ (np.eye(3) - np.linalg.pinv(jacobian) @ jacobian))
+    matrices = np.concatenate(
+        [_rank_deficient(rng, 20, 3, 3, 1), projected, np.zeros((1, 3, 3)), [1e-11 * np.eye(3)[:, :1] * np.ones(3)]]
+    )
+    expected = np.array([undamped_pseudoinverse(matrix) for matrix in matrices])
+    for rank_one in (False, True):
+        found = stacked_undamped_pseudoinverse(matrices, rank_one=rank_one)
+        np.testing.assert_allclose(found, expected, rtol=1e-9, atol=1e-12)
+    assert not stacked_undamped_pseudoinverse(matrices[-2:], rank_one=True).any()
