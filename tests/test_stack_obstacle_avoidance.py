@@ -108,25 +108,29 @@ def test_an_obstacle_on_a_chain_ending_at_another_frame_on_stacks(planar3):
 
 
 @pytest.mark.parametrize(
-    "obstacle",
-    [ObstacleTask([0.6, 0.0, 0.3], 0.05), ObstacleTask([0.5, -0.1, 0.6], 0.05, frame="panda_hand_tcp")],
-    ids=["beyond-and-within", "tcp-chain"],
+    ("obstacle", "options", "count"),
+    [
+        (ObstacleTask([0.0, 0.0, 1.0], 0.05), {"influence": 0.3, "critical": 0.05}, 5),
+        (ObstacleTask([0.5, -0.1, 0.6], 0.05, frame="panda_hand_tcp"), {}, 2),
+    ],
+    ids=["inner-segments", "tcp-chain"],
 )
-def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_panda(panda, obstacle):
+def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_panda(panda, obstacle, options, count):
     """Seven joints, three task rows: [J_o(I − J⁺J)]⁺ of a 3×7 matrix of rank up to 3 by numpy's SVD with the
-    single-state cutoff; movements beyond the influence distance and within it, and a chain ending at the tool
-    frame. Movements that run into the method's algorithmic singularity (B's smallest nonzero singular value
-    towards 0, torques a thousand times the limits) amplify the round-off by which two SVDs differ beyond 1e-9:
-    these starts keep clear of it."""
-    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle)
+    single-state cutoff; movements beyond the influence distance and within it, the closest point on inner
+    segments (on the last one, at the task point itself, J_o(I − J⁺J) = 0 and the term vanishes), and a chain
+    that ends at the tool frame, beyond the task point. Movements that run into the method's algorithmic
+    singularity (the smallest nonzero singular value of J_o(I − J⁺J) towards 0, torques a thousand times the
+    limits) amplify the round-off by which two SVDs differ beyond 1e-9: these starts keep clear of it."""
+    resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle, **options)
     rng = np.random.default_rng(3)
     q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(5)]
     lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
-    if obstacle.frame is not None:
-        q0s, lines = q0s[:2], lines[:2]
-    singles = _batch_and_singles(panda, resolver, lines, q0s)
+    singles = _batch_and_singles(panda, resolver, lines[:count], q0s[:count])
     segments = [_closest_segments(panda, obstacle, resolver.influence, single) for single in singles]
-    assert all(single.completed for single in singles) and any(segments)
+    assert all(single.completed for single in singles)
+    inner = {segment for seen in segments for segment in seen} - {len(obstacle.chain(panda.model, panda.frame)[0]) - 1}
+    assert inner if obstacle.frame is None else any(segments)
     if obstacle.frame is None:
         assert any(not seen for seen in segments)
 
