@@ -281,46 +281,64 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
     ):
         super().__init__(tolerance)
         robot = forest.robot
-        self.chain, frame_id = obstacle.chain(robot.model, robot.frame)
+        chain, frame_id = obstacle.chain(robot.model, robot.frame)
+        self.segments = len(chain)
+        # a chain of consecutive joints (a serial arm's) is read by a slice
+        consecutive = chain == list(range(chain[0], chain[0] + len(chain)))
+        self.chain = slice(chain[0], chain[0] + len(chain)) if consecutive else chain
         # the end frame is the task frame, whose position the forest gives, or another one placed from its joint's
         self.end_frame = None if frame_id == robot.frame_id else frame_id
         self.forest, self.center, self.radius = forest, obstacle.center, obstacle.radius
         self.speed, self.influence, self.critical = speed, influence, critical
         # segment i moves with joint chain[i]'s body: the columns of that joint's support
-        self.segment_columns = np.array([forest.support_columns(joint) for joint in self.chain])
+        self.segment_columns = np.array([forest.support_columns(joint) for joint in chain])
         self.rank_one = robot.nv - robot.m == 1
 
-    def _closest(self, kinematics) -> tuple[np.ndarray, _Closest]:
-        """Every row's clearance d [m] (B,), and its closest point on the chain's segments (the first of equals)."""
+    def _closest(self, kinematics):
+        """Every row's clearance d [m] (B,) to its closest point on the chain's segments (the first of equals), and
+        what :meth:`_near` reads of them: the segments as (3, segments, B) arrays (each coordinate a contiguous
+        block, so that each operation is one pass over the stack) and the closest one's index per row."""
         joints = kinematics.joints
         end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
-        corners = np.concatenate([joints.origins[:, self.chain], end[:, None]], axis=1)  # (B, segments + 1, 3)
+        count, segments = end.shape[0], self.segments
+        corners = np.empty((3, segments + 1, count))
+        corners[:, :segments] = joints.origins[:, self.chain].T
+        corners[:, segments] = end.T
         start = corners[:, :-1]
         axis = corners[:, 1:] - start
-        to_center = self.center - start
-        ux, uy, uz = axis[..., 0], axis[..., 1], axis[..., 2]
-        length_squared = ux * ux + uy * uy + uz * uz
-        along = to_center[..., 0] * ux + to_center[..., 1] * uy + to_center[..., 2] * uz
+        to_center = self.center[:, None, None] - start
+        length_squared = axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]
+        along = to_center[0] * axis[0] + to_center[1] * axis[1] + to_center[2] * axis[2]
         # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length
-        fraction = np.clip(
-            np.divide(along, length_squared, out=np.zeros_like(along), where=length_squared != 0.0), 0.0, 1.0
-        )
-        points = start + fraction[..., None] * axis
-        offsets = points - self.center
-        ox, oy, oz = offsets[..., 0], offsets[..., 1], offsets[..., 2]
-        distances = np.sqrt(ox * ox + oy * oy + oz * oz)
-        rows = np.arange(distances.shape[0])
-        segment = np.argmin(distances, axis=1)  # the first of equals
-        distance = distances[rows, segment]
-        offset = offsets[rows, segment]
-        normal = np.divide(offset, distance[:, None], out=np.zeros_like(offset), where=distance[:, None] > 0.0)
-        normal[distance == 0.0] = (1.0, 0.0, 0.0)
-        along, length_squared = along[rows, segment], length_squared[rows, segment]
-        closest = _Closest(
-            points[rows, segment], normal, distance, start[rows, segment], axis[rows, segment],
-            (along > 0.0) & (along < length_squared), self.segment_columns[segment][:, None],
+        fraction = np.divide(along, length_squared, out=np.zeros_like(along), where=length_squared != 0.0)
+        np.clip(fraction, 0.0, 1.0, out=fraction)
+        points = start + fraction * axis
+        offsets = points - self.center[:, None, None]
+        distances = np.sqrt(offsets[0] * offsets[0] + offsets[1] * offsets[1] + offsets[2] * offsets[2])
+        # the first of equals, as the single-state loop's strict comparison
+        segment = np.zeros(count, dtype=int)
+        distance = distances[0].copy()
+        for index in range(1, segments):
+            closer = distances[index] < distance
+            segment[closer] = index
+            np.minimum(distance, distances[index], out=distance)
+        return distance - self.radius, (segment, distance, points, offsets, start, axis, along, length_squared)
+
+    def _near(self, segments, rows: np.ndarray) -> _Closest:
+        """The closest points of ``rows`` from what :meth:`_closest` found."""
+        segment, distance, points, offsets, start, axis, along, length_squared = segments
+        count = distance.shape[0]
+        pick = segment[rows] * count + rows  # the closest segment's place in a (segments, B) array, raveled
+        offset = offsets.reshape(3, -1)[:, pick]
+        distance = distance[rows]
+        normal = np.divide(offset, distance, out=np.zeros_like(offset), where=distance > 0.0)
+        normal[0, distance == 0.0] = 1.0
+        along, length_squared = along.reshape(-1)[pick], length_squared.reshape(-1)[pick]
+        return _Closest(
+            points.reshape(3, -1)[:, pick].T, normal.T, distance, start.reshape(3, -1)[:, pick].T,
+            axis.reshape(3, -1)[:, pick].T, (along > 0.0) & (along < length_squared),
+            self.segment_columns[segment[rows]][:, None],
         )  # fmt: skip
-        return distance - self.radius, closest
 
     def _activation(self, clearance: np.ndarray):
         """α_h(d) and α_h'(d) [1/m] of every row (:func:`activation`, :func:`activation_rate`)."""
@@ -337,14 +355,14 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's."""
         particular, conditions, failures, inverse = super().rates(jacobian, command)
-        clearance, closest = self._closest(kinematics)
+        clearance, segments = self._closest(kinematics)
         gain, slope = self._activation(clearance)
         if failures:
             gain[list(failures)] = 0.0  # a singular row's J⁺ is not read
         near = np.flatnonzero(gain > 0.0)
         if near.size == 0:
             return particular, conditions, failures, (inverse, particular, near, None)
-        closest = _Closest(*(part[near] for part in closest))
+        closest = self._near(segments, near)
         joints = kinematics.joints
         point_jacobian = point_kinematics(
             JointKinematics(joints.jacobian[near], None, None, None), closest.columns, closest.point
