@@ -241,6 +241,10 @@ class ObstacleAvoidance(VelocityResolver):
         )
 
 
+#: The smallest positive double: x / max(y, it) is x / y for every y > 0, and 0 for x = y = 0.
+_SMALLEST = 5e-324
+
+
 class _Closest(NamedTuple):
     """The closest points of some rows of a stack (A rows), what Eq. (13)'s rates and q̈ read of them."""
 
@@ -309,8 +313,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         to_center = self.center[:, None, None] - start
         length_squared = axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]
         along = to_center[0] * axis[0] + to_center[1] * axis[1] + to_center[2] * axis[2]
-        # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length
-        fraction = np.divide(along, length_squared, out=np.zeros_like(along), where=length_squared != 0.0)
+        # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length (whose u_i = 0 gives 0/5e-324)
+        fraction = along / np.maximum(length_squared, _SMALLEST)
         np.clip(fraction, 0.0, 1.0, out=fraction)
         points = start + fraction * axis
         offsets = points - self.center[:, None, None]
@@ -331,7 +335,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         pick = segment[rows] * count + rows  # the closest segment's place in a (segments, B) array, raveled
         offset = offsets.reshape(3, -1)[:, pick]
         distance = distance[rows]
-        normal = np.divide(offset, distance, out=np.zeros_like(offset), where=distance > 0.0)
+        normal = offset / np.maximum(distance, _SMALLEST)  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
         normal[0, distance == 0.0] = 1.0
         along, length_squared = along.reshape(-1)[pick], length_squared.reshape(-1)[pick]
         return _Closest(
@@ -410,15 +414,13 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # the body's angular velocity ω and the material point's velocity J_o q̇
         angular_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, 3:], v)
         material_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, :3], v)
-        lever = closest.point - closest.start  # r = x_o − a
-        start_velocity = material_velocity - _cross(angular_velocity, lever)  # v_a = J_o q̇ − ω × r
         axis = closest.axis
-        # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0
-        slide = np.where(
-            closest.inside,
-            (_dot(self.center - closest.start, _cross(angular_velocity, axis)) - _dot(start_velocity, axis))
-            / np.where(closest.inside, _dot(axis, axis), 1.0),
-            0.0,
+        # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0; the joint origin a moves at
+        # v_a = J_o q̇ − ω × (x_o − a), and x_o − a is along u: v_a·u = J_o q̇·u
+        slide = (
+            closest.inside
+            * (_dot(self.center - closest.start, _cross(angular_velocity, axis)) - _dot(material_velocity, axis))
+            / np.maximum(_dot(axis, axis), _SMALLEST)
         )
         sliding = slide[:, None] * axis
         point_velocity = material_velocity + sliding  # v_p = J_o q̇ + ṡu
@@ -489,9 +491,10 @@ def stacked_undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10,
     if rank_one:
         squared = np.einsum("bij,bij->b", matrix, matrix)
         kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
-        scale = np.divide(1.0, squared, out=np.zeros_like(squared), where=kept)
+        scale = kept / np.where(kept, squared, 1.0)
         return np.swapaxes(matrix, 1, 2) * scale[:, None, None]
     left, singular, right_t = np.linalg.svd(matrix, full_matrices=False)
     cutoff = np.maximum(tolerance * singular[:, :1], ABSOLUTE_TOLERANCE)
-    reciprocal = np.divide(1.0, singular, out=np.zeros_like(singular), where=singular > cutoff)
+    kept = singular > cutoff
+    reciprocal = kept / np.where(kept, singular, 1.0)
     return np.swapaxes(right_t, 1, 2) @ (reciprocal[:, :, None] * np.swapaxes(left, 1, 2))
