@@ -231,8 +231,10 @@ class ObstacleAvoidance(VelocityResolver):
         return rates, acceleration if task.kind != "pose" else None
 
     def stack_rate_function(self, robot: Robot):
-        """Eq. (13) and the closed-form q̈ of :meth:`acceleration_function` on stacks
-        (:class:`StackedObstacleAvoidance`), on a position task (None for a pose task: one movement at a time)."""
+        """Eq. (13) and the closed-form q̈ of :meth:`acceleration_function` on stacks (``StackedObstacleAvoidance``),
+        with every option (the obstacle's own ``frame`` among them), on a position task; None for a pose task (the
+        loop has no closed-form q̈ there either) and for joints whose configuration does not add: one movement at
+        a time."""
         if robot.task == "pose" or not robot.euclidean:
             return None
         speed = self.obstacle.speed if self.speed is None else self.speed
