@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot
+from ...robot_copies import RobotForest, point_kinematics
 from ...tasks import (
     FrameTask,
     Kinematics,
@@ -19,12 +20,14 @@ from ...tasks import (
     rates_through,
     undamped_pseudoinverse,
 )
+from ...tasks.stack import ABSOLUTE_TOLERANCE
 from ...tasks.task import identity
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import PostureDistance
 from .gradient_projection import StackedGradientProjection, projected_gradient_steps
 from .options import task_stack
+from .pseudoinverse import StackedPseudoInverse, stacked_inverse
 
 __all__ = ["TaskPriority", "below_one_task_steps", "accelerations_below_one_task"]
 
@@ -162,26 +165,32 @@ class TaskPriority(VelocityResolver):
         return rates, acceleration if closed_form else None
 
     def stack_rate_function(self, robot: Robot):
-        r"""Eq. (11) and its closed-form q̈ on stacks, for a position task whose secondary tasks are postures
-        (the default) without damping; else None (one movement at a time).
+        r"""Eq. (11) and its closed-form q̈ on stacks, for a position task without damping whose secondary tasks are
+        postures (the default), or one frame task of kind ``xy`` or ``position``; else None (one movement at a
+        time: damping, a ``pose`` frame task, an obstacle task, several tasks of which one is not a posture).
 
         Below the robot's task, a posture task (:math:`J_l = I`, :math:`\dot x_l = k(q^* - q)`) acts through
         :math:`[I(I - J^\dagger J)]^\dagger = I - J^\dagger J` (an orthogonal projector is its own pseudoinverse),
         so Eq. (11) is :math:`\dot q = J^\dagger\dot x + k(I - J^\dagger J)(q^* - q)`: gradient projection,
         Eq. (4), with :math:`p = \tfrac12\|q - q^*\|^2` and gain k (``StackedGradientProjection``). It
-        leaves no freedom, so every task below the first posture adds nothing.
+        leaves no freedom, so every task below the first posture adds nothing. Below one frame task,
+        ``StackedPriorityBelowFrame``: ``below_one_task_steps`` on stacks.
         """
         secondary = self.stack
         # on stacks the configuration is the joint angles plus the neutral one (every joint adds: robot.euclidean)
-        if robot.task == "pose" or not robot.euclidean or not self._below_postures_only:
+        if robot.task == "pose" or not robot.euclidean or self.damping != 0.0:
             return None
         secondary.check(robot)
-        posture = secondary.tasks[0]
+        lower = secondary.tasks[0]
+        if len(secondary) == 1 and type(lower) is FrameTask and lower.kind != "pose":
+            return StackedPriorityBelowFrame(self.singular_tolerance, RobotForest(robot), lower, robot.nv - robot.m)
+        if not self._below_postures_only:
+            return None
         joints = np.arange(robot.nv)
         # ẋ_l = k(q* − q) = −k ∂p/∂q with p = ½‖q − q*‖² (q* the target as a configuration)
         return StackedGradientProjection(
-            self.singular_tolerance, robot.nv, joints, joints, robot.configuration(posture.target),
-            np.ones(robot.nv), posture.gain,
+            self.singular_tolerance, robot.nv, joints, joints, robot.configuration(lower.target),
+            np.ones(robot.nv), lower.gain,
         )  # fmt: skip
 
 
@@ -284,3 +293,128 @@ def accelerations_below_one_task(
         - projected.dot(along)
     )
     return first_accelerations + projected_inverse.dot(inner) + along
+
+
+#: The relative singular-value cutoff of the lower pseudoinverse (``undamped_pseudoinverse``'s default).
+LOWER_TOLERANCE = 1e-10
+
+
+def _mv(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Mx per row of (B, r, c) and (B, c) stacks."""
+    return np.einsum("bij,bj->bi", matrices, vectors)
+
+
+def _vm(vectors: np.ndarray, matrices: np.ndarray) -> np.ndarray:
+    """xᵀM per row of (B, r) and (B, r, c) stacks (a row vector times a matrix: no transposes)."""
+    return np.einsum("bi,bij->bj", vectors, matrices)
+
+
+class StackedPriorityBelowFrame(StackedPseudoInverse):
+    r"""Eq. (11) below one frame task (``xy`` or ``position``) and its closed-form :math:`\ddot q` per row of
+    (B, m, n) stacks: ``below_one_task_steps`` and ``accelerations_below_one_task`` on stacks.
+
+    .. math::
+
+        \dot q = J^\dagger c + A^\dagger(\dot x_l - J_lJ^\dagger c),\qquad A = J_l(I - J^\dagger J),\qquad
+        \dot x_l = k(x^* - x_l)\ (\text{zero without a target}).
+
+    :math:`J^\dagger` as :class:`StackedPseudoInverse` forms it (a row whose σmin/σmax of J is below the tolerance
+    fails, as the SVD's solver refuses it); the frame's position :math:`x_l`, Jacobian :math:`J_l` and its rate
+    :math:`\dot J_l` from every joint's kinematics of the forest's pass (``RobotForest.frame_points``,
+    ``point_kinematics``), the task's rows. :math:`A^\dagger` drops, as ``undamped_pseudoinverse`` does, the
+    singular values of A at or below :math:`\max(10^{-10}\sigma_{max}, 10^{-10})`: for one degree of redundancy
+    (n − m = 1) :math:`I - J^\dagger J = zz^\top` and :math:`A = (J_lz)z^\top` has rank one, its one singular value
+    :math:`\|A\|_F` (kept where above :math:`10^{-10}`, the relative cutoff never binding on it) and
+    :math:`A^\dagger = A^\top/\|A\|_F^2` in closed form on the batch axis; more redundancy by numpy's SVD per row.
+    A row where A loses rank goes on with the rank it has, as the single-state code does (its rates grow as
+    :math:`1/\sigma` near there, until a ceiling stops the movement).
+
+    Args:
+        tolerance: the smallest σmin/σmax of J a row may have.
+        forest: a forest of the robot (what its ``frame_points`` and ``support_columns`` read).
+        lower: the frame task below the robot's task.
+        redundancy: n − m.
+    """
+
+    reads_joints = True
+
+    def __init__(self, tolerance: float, forest: RobotForest, lower: FrameTask, redundancy: int):
+        super().__init__(tolerance)
+        model = forest.robot.model
+        self.forest, self.frame_id = forest, model.getFrameId(lower.frame)
+        # the joints that move the frame: its parent joint's support
+        self.columns = forest.support_columns(model.frames[self.frame_id].parentJoint)
+        self.rows, self.target, self.gain = lower.rows, lower.target, lower.gain
+        self.rank_one = redundancy == 1
+
+    def lower_pseudoinverse(self, projected: np.ndarray) -> np.ndarray:
+        r""":math:`A^\dagger` (B, n, m_l) of each (m_l, n) A, the singular values at or below
+        :math:`\max(10^{-10}\sigma_{max}, 10^{-10})` dropped (``undamped_pseudoinverse``'s cutoff)."""
+        projected_t = np.swapaxes(projected, 1, 2)
+        if self.rank_one:
+            # A = (J_l z)zᵀ: σ_max = ‖A‖_F, A⁺ = Aᵀ/‖A‖_F² (zero where σ_max ≤ 10⁻¹⁰)
+            squared = np.einsum("bij,bij->b", projected, projected)
+            kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
+            return projected_t * (np.where(kept, 1.0, 0.0) / np.where(kept, squared, 1.0))[:, None, None]
+        left, singular, right = np.linalg.svd(projected, full_matrices=False)
+        cutoff = np.maximum(LOWER_TOLERANCE * singular[:, :1], ABSOLUTE_TOLERANCE)
+        kept = singular > cutoff
+        inverse_values = np.where(kept, 1.0, 0.0) / np.where(kept, singular, 1.0)
+        # V_r Σ_r⁻¹ U_rᵀ over the kept singular values
+        return (np.swapaxes(right, 1, 2) * inverse_values[:, None, :]) @ np.swapaxes(left, 1, 2)
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
+        jacobian_t = np.swapaxes(jacobian, 1, 2)
+        gram = jacobian @ jacobian_t
+        conditions, failures, determinant = self.conditions(gram)
+        inverse = jacobian_t @ stacked_inverse(gram, failures, determinant)  # J⁺, Eq. (3)
+        first_rates = _mv(inverse, command)
+        joints = kinematics.joints
+        point = self.forest.frame_points(joints, self.frame_id)
+        lower_jacobian = point_kinematics(joints, self.columns, point)[0][:, self.rows]
+        if self.target is None:
+            lower_velocity = np.zeros((jacobian.shape[0], lower_jacobian.shape[1]))
+        else:
+            lower_velocity = self.gain * (self.target - point[:, self.rows])  # ẋ_l = k(x* − x_l)
+        projector = identity(jacobian.shape[2]) - inverse @ jacobian  # I − J⁺J
+        projected = lower_jacobian @ projector  # J_l(I − J⁺J) of Eq. (10)
+        projected_inverse = self.lower_pseudoinverse(projected)
+        shortfall = lower_velocity - _mv(lower_jacobian, first_rates)
+        particular = _mv(projected_inverse, shortfall)
+        # Eq. (11): J⁺ẋ_h + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺ẋ_h)
+        velocity = first_rates + particular
+        state = (inverse, projector, lower_jacobian, projected, projected_inverse, point, first_rates, shortfall,
+                 particular)  # fmt: skip
+        return velocity, conditions, failures, state
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """``accelerations_below_one_task`` per row (its docstring has the derivation). ``kinematics``: the
+        forest's at the configuration and q̇, with every joint's kinematics and their rates."""
+        inverse, projector, lower_jacobian, projected, projected_inverse, point, first_rates, shortfall, particular = (
+            state
+        )
+        lower_jacobian_rate = point_kinematics(kinematics.joints, self.columns, point, velocity)[1][:, self.rows]
+        # ẍ_l = −k J_l q̇ (zero without a target)
+        lower_velocity_rate = 0.0 if self.target is None else -self.gain * _mv(lower_jacobian, velocity)
+        # q̈_1 = J⁺(ċ − J̇q̇_1) + P J̇ᵀJ⁺ᵀq̇_1
+        first_accelerations = _mv(inverse, command_rate - _mv(jacobian_rate, first_rates)) + _mv(
+            projector, _vm(_vm(first_rates, inverse), jacobian_rate)
+        )
+        drop_rate = inverse @ (jacobian_rate @ projector)  # X = J⁺J̇P, Ṗ = −(X + Xᵀ)
+        # Ȧ = J̇_l P + J_l Ṗ
+        projected_rate = lower_jacobian_rate @ projector - lower_jacobian @ (drop_rate + np.swapaxes(drop_rate, 1, 2))
+        shortfall_rate = (
+            lower_velocity_rate - _mv(lower_jacobian_rate, first_rates) - _mv(lower_jacobian, first_accelerations)
+        )
+        # Ȧ⁺e = −A⁺ȦA⁺e + A⁺A⁺ᵀȦᵀ(I − AA⁺)e + (I − A⁺A)ȦᵀA⁺ᵀA⁺e, with A⁺ė joined to its first two terms
+        residual = shortfall - _mv(projected, particular)
+        along = _vm(_vm(particular, projected_inverse), projected_rate)  # z = ȦᵀA⁺ᵀy
+        inner = (
+            shortfall_rate
+            - _mv(projected_rate, particular)
+            + _vm(_vm(residual, projected_rate), projected_inverse)
+            - _mv(projected, along)
+        )
+        return first_accelerations + _mv(projected_inverse, inner) + along

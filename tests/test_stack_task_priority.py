@@ -1,0 +1,131 @@
+"""Task priority below one frame task on stacks (``StackedPriorityBelowFrame``) against the kinematic loop, run by run."""
+
+import numpy as np
+import pytest
+
+import torqueopt
+from torqueopt import StraightLine
+from torqueopt.batch import KinematicStack, simulate_batch
+from torqueopt.resolvers.velocity.task_priority import StackedPriorityBelowFrame
+from torqueopt.tasks import FrameTask, ObstacleTask, PostureTask
+
+from .conftest import PAPER_Q0
+from .test_batch import _assert_batch_equals_simulate_on_panda, _population, assert_same_run
+
+
+def _batch_equals_the_kinematic_loop(robot, resolver, lines, q0s, **ceilings):
+    """The batch's runs on stacks (no movement at a time) equal simulate's run by run; simulate's runs returned."""
+    from torqueopt.engine import run_movements
+
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run(run, single)
+    return singles
+
+
+def test_a_frame_task_below_has_a_stacked_form_and_the_rest_none(planar3):
+    """One xy or position frame task below, undamped: stacked; a pose frame task, damping, a second task below a
+    frame task or an obstacle task: one movement at a time (None)."""
+    elbow = FrameTask("link3", "xy", target=[0.5, -0.5])
+    for secondary in ("link3:0.5,-0.5", FrameTask("link3", "position"), elbow):
+        resolver = torqueopt.get_resolver("task-priority", secondary=secondary)
+        assert isinstance(resolver.stack_rate_function(planar3), StackedPriorityBelowFrame)
+    for options in (
+        {"secondary": FrameTask("link3", "pose")},
+        {"secondary": elbow, "damping": 0.1},
+        {"secondary": [elbow, PostureTask()]},
+        {"secondary": [PostureTask(), elbow]},
+        {"secondary": ObstacleTask.from_spec([1.2, 0.3, 0.0, 0.1])},
+    ):
+        assert torqueopt.get_resolver("task-priority", **options).stack_rate_function(planar3) is None, options
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"secondary": "link3:0.5,-0.5"},
+        # no target: ẋ_l = 0, the elbow held still as well as the freedom allows
+        {"secondary": FrameTask("link3", "xy")},
+        {"secondary": FrameTask("link3", "xy", target=[0.2, 0.9], gain=6.0), "position_gain": 4.0},
+        {"secondary": FrameTask("link3", "position", target=[1.0, 0.5, 0.3], gain=2.0)},
+        # the shoulder point link2 moves in the null space as z₁ ∝ sin q₃: at q₃ = 0 its A loses its rank
+        {"secondary": FrameTask("link2", "xy", target=[-0.5, 0.8], gain=3.0)},
+        # the tip itself (A round-off, every singular value dropped) and the base point (A exactly zero)
+        {"secondary": "tip:1,1"},
+        {"secondary": "link1:1,1"},
+    ],
+)
+def test_task_priority_below_a_frame_task_on_stacks_equals_the_kinematic_loop(planar3, options):
+    """Random starts and directions plus the paper's movement, 1 s: Eq. (11) below one frame task on stacks (the
+    frame's kinematics from the forest, A⁺ of rank one, the closed-form q̈) equals the kinematic loop run by run."""
+    resolver = torqueopt.get_resolver("task-priority", **options)
+    q0s, directions = _population(planar3, 6, seed=9)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.0) for d in directions]
+    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    assert any(single.stop_reason is None for single in singles)
+
+
+def test_a_secondary_task_near_its_singularity_equals_the_kinematic_loop(planar3):
+    """Movements that drive the elbow angle q₃ toward zero, where the null space stops moving the shoulder point
+    link2 (A = J_l(I − J⁺J) = (J_l z)zᵀ with J_l z ∝ sin q₃, so A⁺ and the rates grow as 1/sin q₃): the stack
+    follows the single-state code there and stops where it stops (the torques past 5 times their limits).
+
+    Closer in (sin q₃ below about 0.03) the closed-form q̈ of both is only as good as the round-off of J⁺ allows,
+    growing as a high power of 1/sin q₃, and the two part by more than 1e-9: the test stays outside."""
+    resolver = torqueopt.get_resolver("task-priority", secondary=FrameTask("link2", "xy", target=[1.0, 0.0]))
+    q0s = [[0.2, 0.9, 0.6], [0.4, 0.6, -0.5], [0.1, 1.2, 0.8], [0.3, 0.7, 0.4], [1.0, -0.5, -0.7], [0.0, 0.5, 1.0]]
+    directions = [[-0.183, 0.541], [1.935, -0.27], [-0.244, 1.002], [-0.886, -0.292], [0.883, 0.58], [0.092, 0.67]]
+    lines = [StraightLine(d, duration=1.0) for d in directions]
+    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=5.0)
+    near = [single for single in singles if np.abs(np.sin(single.q[:, 2])).min() < 0.1]
+    assert near and all(single.stop_reason.startswith("torque of joint") for single in near)
+    assert any(single.stop_reason is None for single in singles)
+
+
+@pytest.mark.parametrize(
+    ("options", "ceilings", "stop"),
+    [
+        ({"singular_tolerance": 0.15}, {}, "task Jacobian is singular"),
+        ({}, {"max_joint_speed": 2.0}, "speed of joint"),
+        ({}, {"max_torque_ratio": 1.0}, "torque of joint"),
+        ({"position_gain": 3.0, "singular_tolerance": 0.1}, {"max_torque_ratio": 3.0}, "task Jacobian is singular"),
+    ],
+)
+def test_task_priority_below_a_frame_task_stops_where_the_kinematic_loop_does(planar3, options, ceilings, stop):
+    """The elbow below the tip on stacks through each stop of the kinematic loop: J singular (no row recorded),
+    the rates or the torques past a ceiling (the row kept)."""
+    resolver = torqueopt.get_resolver("task-priority", secondary="link3:0.5,-0.5", **options)
+    q0s, directions = _population(planar3, 8, seed=5)
+    q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
+    lines = [StraightLine(d, duration=1.5) for d in directions]
+    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, **ceilings)
+    assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
+    assert any(single.stop_reason is None for single in singles)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"secondary": FrameTask("panda_link4", "position", target=[0.1, 0.2, 0.6], gain=2.0)},
+        {"secondary": FrameTask("panda_link4", "xy"), "position_gain": 4.0},
+        # panda_link3's origin is moved by the first two joints only: A = J_l(I − J⁺J) has rank two of three rows
+        {"secondary": FrameTask("panda_link3", "position", target=[0.0, 0.3, 0.5], gain=3.0)},
+    ],
+)
+def test_task_priority_below_a_frame_task_on_stacks_equals_the_kinematic_loop_on_panda(panda, options):
+    """Seven joints, a position task: a null space of dimension 4, A⁺ by the SVD per row with the single-state
+    code's cutoff."""
+    resolver = torqueopt.get_resolver("task-priority", **options)
+    assert isinstance(resolver.stack_rate_function(panda), StackedPriorityBelowFrame)
+    _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
