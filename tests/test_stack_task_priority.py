@@ -6,7 +6,8 @@ import pytest
 import torqueopt
 from torqueopt import StraightLine
 from torqueopt.batch import KinematicStack, simulate_batch
-from torqueopt.resolvers.velocity.task_priority import StackedPriorityBelowFrame
+from torqueopt.resolvers.velocity.task_priority import StackedPriorityBelowFrame, StackedPriorityBelowFrameInPlane
+from torqueopt.robot_copies import RobotForest, point_kinematics, point_products
 from torqueopt.tasks import FrameTask, ObstacleTask, PostureTask
 
 from .conftest import PAPER_Q0
@@ -39,7 +40,7 @@ def test_a_frame_task_below_has_a_stacked_form_and_the_rest_none(planar3):
     elbow = FrameTask("link3", "xy", target=[0.5, -0.5])
     for secondary in ("link3:0.5,-0.5", FrameTask("link3", "position"), elbow):
         resolver = torqueopt.get_resolver("task-priority", secondary=secondary)
-        assert isinstance(resolver.stack_rate_function(planar3), StackedPriorityBelowFrame)
+        assert isinstance(resolver.stack_rate_function(planar3), StackedPriorityBelowFrameInPlane)
     for options in (
         {"secondary": FrameTask("link3", "pose")},
         {"secondary": elbow, "damping": 0.1},
@@ -129,3 +130,40 @@ def test_task_priority_below_a_frame_task_on_stacks_equals_the_kinematic_loop_on
     resolver = torqueopt.get_resolver("task-priority", **options)
     assert isinstance(resolver.stack_rate_function(panda), StackedPriorityBelowFrame)
     _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
+
+
+@pytest.mark.parametrize("options", [{"secondary": "link3:0.5,-0.5"}, {"secondary": "tip:1,1", "position_gain": 3.0}])
+def test_the_matrix_form_on_planar3_equals_the_kinematic_loop(planar3, options):
+    """The general form (A = J_l(I − J⁺J) and its pseudoinverse by the SVD, as panda takes it) on planar3, where
+    the vector form of one degree of redundancy is the default: both equal the kinematic loop."""
+    resolver = torqueopt.get_resolver("task-priority", **options)
+    lower = resolver.stack.tasks[0]
+    resolver.stack_rate_function = lambda robot: StackedPriorityBelowFrame(
+        resolver.singular_tolerance, RobotForest(robot), lower, redundancy=2
+    )
+    q0s, directions = _population(planar3, 4, seed=9)
+    lines = [StraightLine(d, duration=0.6) for d in directions]
+    _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+
+
+@pytest.mark.parametrize(
+    ("robot_name", "frame"), [("planar3", "link3"), ("panda", "panda_link4"), ("panda", "panda_hand")]
+)
+def test_point_products_are_the_point_jacobian_and_its_rate_times_vectors(robot_name, frame):
+    """point_products' JX and J̇Y are point_kinematics' J and J̇ (held to Pinocchio's frame calls) times X and Y."""
+    robot = torqueopt.load_robot(robot_name)
+    forest = RobotForest(robot)
+    rng = np.random.default_rng(2)
+    q, v = rng.uniform(-2.0, 2.0, (5, robot.nv)), rng.normal(size=(5, robot.nv))
+    vectors, rate_vectors = rng.normal(size=(5, robot.nv, 2)), rng.normal(size=(5, robot.nv, 3))
+    moving = forest.kinematics(q, v, joints=True)
+    frame_id = robot.model.getFrameId(frame)
+    columns = forest.support_columns(robot.model.frames[frame_id].parentJoint)
+    point = forest.frame_points(moving.joints, frame_id)
+    jacobian, rate = point_kinematics(moving.joints, columns, point, v)
+    products, rate_products = point_products(
+        moving.joints, columns, point, vectors, rate_vectors, np.einsum("bij,bj->bi", jacobian[:, :3], v)
+    )
+    np.testing.assert_allclose(products, jacobian @ vectors, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rate_products, rate @ rate_vectors, rtol=0, atol=1e-12)
+    assert point_products(moving.joints, columns, point, vectors)[1] is None

@@ -32,7 +32,10 @@ from .errors import InvalidInput
 from .robot import Robot
 from .tasks.task import rotations_view, translations_view
 
-__all__ = ["FOREST_DOFS", "JointKinematics", "RobotForest", "TaskKinematics", "point_kinematics", "stacked_cross"]
+__all__ = [
+    "FOREST_DOFS", "JointKinematics", "RobotForest", "TaskKinematics", "point_kinematics", "point_products",
+    "stacked_cross",
+]  # fmt: skip
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
 #: shrinks with the forest's size, but CRBA's instructions per copy and
@@ -364,6 +367,30 @@ def point_kinematics(joints: JointKinematics, columns: np.ndarray, point: np.nda
     if v is not None and world_rate is None:
         raise ValueError("a point's Jacobian rate needs joint kinematics taken with the joint velocities")
     return _shifted(world, world_rate, point, v)
+
+
+def point_products(
+    joints: JointKinematics, columns: np.ndarray, point: np.ndarray, vectors: np.ndarray,
+    rate_vectors: np.ndarray | None = None, point_velocity: np.ndarray | None = None,
+):  # fmt: skip
+    r""":func:`point_kinematics`' J and :math:`\dot J` applied to vectors, without forming them: (S, 6, k) each.
+
+    :math:`JX = J_OX + (J_{O,\omega}X)\times p` (linear rows) for ``vectors`` X (S, n, k); with ``rate_vectors``
+    Y (S, n, k') and the point's velocity :math:`\dot p = J_{lin}v` (S, 3) along the joint velocities v the
+    joints were taken with, :math:`\dot JY = \dot J_OY + (\dot J_{O,\omega}Y)\times p + (J_{O,\omega}Y)\times\dot p`
+    (else None): the same shift as :func:`point_kinematics`, on k vectors instead of n columns (the tests hold the
+    two to each other)."""
+    world = joints.jacobian @ (columns[:, None] * vectors)
+    world[:, :3] += stacked_cross(world[:, 3:], point[:, :, None])
+    if rate_vectors is None:
+        return world, None
+    if joints.rate is None:
+        raise ValueError("a point's Jacobian rate needs joint kinematics taken with the joint velocities")
+    moving = columns[:, None] * rate_vectors
+    rate = joints.rate @ moving
+    angular = joints.jacobian[:, 3:] @ moving
+    rate[:, :3] += stacked_cross(rate[:, 3:], point[:, :, None]) + stacked_cross(angular, point_velocity[:, :, None])
+    return world, rate
 
 
 def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):

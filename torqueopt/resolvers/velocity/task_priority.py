@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot
-from ...robot_copies import RobotForest, point_kinematics
+from ...robot_copies import RobotForest, point_kinematics, point_products, stacked_cross
 from ...tasks import (
     FrameTask,
     Kinematics,
@@ -183,7 +183,8 @@ class TaskPriority(VelocityResolver):
         secondary.check(robot)
         lower = secondary.tasks[0]
         if len(secondary) == 1 and type(lower) is FrameTask and lower.kind != "pose":
-            return StackedPriorityBelowFrame(self.singular_tolerance, RobotForest(robot), lower, robot.nv - robot.m)
+            stack = StackedPriorityBelowFrameInPlane if (robot.nv, robot.m) == (3, 2) else StackedPriorityBelowFrame
+            return stack(self.singular_tolerance, RobotForest(robot), lower, robot.nv - robot.m)
         if not self._below_postures_only:
             return None
         joints = np.arange(robot.nv)
@@ -418,3 +419,89 @@ class StackedPriorityBelowFrame(StackedPseudoInverse):
             - _mv(projected, along)
         )
         return first_accelerations + _mv(projected_inverse, inner) + along
+
+
+class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
+    r""":class:`StackedPriorityBelowFrame` for three joints and two task rows (planar3's ``xy`` task): one degree
+    of redundancy, its null space spanned by the unit vector :math:`z \propto j_1\times j_2` (J's rows), so that
+    :math:`I - J^\dagger J = zz^\top` and :math:`A = J_l(I - J^\dagger J) = bz^\top` with :math:`b = J_lz`, and
+    Eq. (11) and its time derivative in vectors alone:
+
+    .. math::
+
+        \dot q = \dot q_1 + sz,\quad \dot q_1 = J^\dagger c = J^\top w,\quad w = (JJ^\top)^{-1}c,\quad
+        s = \frac{b^\top e}{b^\top b},\quad e = \dot x_l - J_l\dot q_1,
+
+        \ddot q = \ddot q_1 + s\dot z + \dot sz,\quad
+        \ddot q_1 = J^\dagger(\dot c - \dot J\dot q_1) + z\,(\dot Jz)^\top w,\quad
+        \dot z = -J^\dagger\dot Jz,
+
+        \dot s = \frac{\dot b^\top e + b^\top\dot e - 2s\,b^\top\dot b}{b^\top b},\quad
+        \dot b = \dot J_lz + J_l\dot z,\quad \dot e = \ddot x_l - \dot J_l\dot q_1 - J_l\ddot q_1,\quad
+        \ddot x_l = -kJ_l\dot q
+
+    (:math:`A^\dagger e = z\,b^\top e/b^\top b`; :math:`\dot z` from :math:`Jz = 0` and :math:`z^\top z = 1`):
+    ``accelerations_below_one_task`` for this A of rank one. A's one singular value is :math:`\|b\|`, dropped
+    (s = 0) at or below :math:`10^{-10}` as ``undamped_pseudoinverse`` drops it. :math:`J_l` and :math:`\dot J_l`
+    enter only through their products with vectors (``point_products``), J⁺ only in q̈; the q̈ of
+    :class:`StackedPriorityBelowFrame` in fewer and smaller products (the tests hold both to the kinematic loop).
+    """
+
+    def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
+        """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
+        ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
+        gram = jacobian @ np.swapaxes(jacobian, 1, 2)
+        conditions, failures, determinant = self.conditions(gram)
+        gram_inverse = stacked_inverse(gram, failures, determinant)
+        multipliers = _mv(gram_inverse, command)  # w = (JJᵀ)⁻¹c
+        first_rates = np.einsum("bji,bj->bi", jacobian, multipliers)  # q̇_1 = Jᵀw = J⁺c, Eq. (3)
+        null = stacked_cross(jacobian[:, 0], jacobian[:, 1])  # J's rows' cross product spans its null space
+        length = np.sqrt(null[:, 0] * null[:, 0] + null[:, 1] * null[:, 1] + null[:, 2] * null[:, 2])
+        null /= np.where(length > 0.0, length, 1.0)[:, None]  # z (a singular row's is unused)
+        point = self.forest.frame_points(kinematics.joints, self.frame_id)
+        vectors = np.stack((first_rates, null), axis=2)
+        products = point_products(kinematics.joints, self.columns, point, vectors)[0]  # J_l(q̇_1, z), all rows
+        lower_first, lower_null = products[:, self.rows, 0], products[:, self.rows, 1]  # J_l q̇_1, b = J_l z
+        if self.target is None:
+            shortfall = -lower_first
+        else:
+            shortfall = self.gain * (self.target - point[:, self.rows]) - lower_first  # e = k(x* − x_l) − J_l q̇_1
+        squared = np.einsum("bi,bi->b", lower_null, lower_null)
+        # 1/‖b‖², zero where A's one singular value ‖b‖ is at or below the cutoff
+        inverse_square = np.divide(1.0, squared, out=np.zeros_like(squared), where=squared > ABSOLUTE_TOLERANCE**2)
+        share = np.einsum("bi,bi->b", lower_null, shortfall) * inverse_square  # s = bᵀe/bᵀb
+        # Eq. (11): J⁺c + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺c) = q̇_1 + z bᵀe/bᵀb
+        velocity = first_rates + share[:, None] * null
+        state = (gram_inverse, multipliers, vectors, point, products, shortfall, share, inverse_square)
+        return velocity, conditions, failures, state
+
+    def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
+        """q̈ of the class docstring per row. ``kinematics``: the forest's at the configuration and q̇, with every
+        joint's kinematics and their rates."""
+        gram_inverse, multipliers, vectors, point, products, shortfall, share, inverse_square = state
+        null = vectors[:, :, 1]  # z
+        rows, column = self.rows, share[:, None]
+        inverse = np.swapaxes(jacobian, 1, 2) @ gram_inverse  # J⁺ = Jᵀ(JJᵀ)⁻¹, Eq. (3)
+        moved = jacobian_rate @ vectors  # J̇(q̇_1, z)
+        # J⁺(ċ − J̇q̇_1) and J⁺J̇z in one product
+        solved = inverse @ np.stack((command_rate - moved[:, :, 0], moved[:, :, 1]), axis=2)
+        # q̈_1 = J⁺(ċ − J̇q̇_1) + z (J̇z)ᵀw
+        first_accelerations = solved[:, :, 0] + np.einsum("bi,bi->b", moved[:, :, 1], multipliers)[:, None] * null
+        null_rate = -solved[:, :, 1]  # ż = −J⁺J̇z
+        point_velocity = products[:, :3, 0] + column * products[:, :3, 1]  # ṗ = J_l q̇ (linear rows)
+        along, rate = point_products(
+            kinematics.joints, self.columns, point, np.stack((null_rate, first_accelerations), axis=2),
+            vectors, point_velocity,
+        )  # fmt: skip
+        lower = products[:, rows, 1]  # b = J_l z
+        lower_rate = rate[:, rows, 1] + along[:, rows, 0]  # ḃ = J̇_l z + J_l ż
+        # ė = ẍ_l − J̇_l q̇_1 − J_l q̈_1, ẍ_l = −k J_l q̇ (zero without a target)
+        shortfall_rate = -rate[:, rows, 0] - along[:, rows, 1]
+        if self.target is not None:
+            shortfall_rate -= self.gain * (products[:, rows, 0] + column * lower)
+        # ṡ = (ḃᵀe + bᵀė − 2s bᵀḃ)/bᵀb
+        share_rate = (
+            np.einsum("bi,bi->b", lower_rate, shortfall - 2.0 * column * lower)
+            + np.einsum("bi,bi->b", lower, shortfall_rate)
+        ) * inverse_square
+        return first_accelerations + column * null_rate + share_rate[:, None] * null
