@@ -34,7 +34,7 @@ from .tasks.task import rotations_view, translations_view
 
 __all__ = [
     "FOREST_DOFS", "JointKinematics", "RobotForest", "TaskKinematics", "point_kinematics", "point_products",
-    "stacked_cross", "stacked_product",
+    "stacked_cross",
 ]  # fmt: skip
 
 #: Joints per forest: copies = FOREST_DOFS // n. The call overhead per copy
@@ -324,16 +324,6 @@ def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:
     return np.concatenate([getattr(forest_pass, name) for forest_pass in used])[:count]
 
 
-def stacked_product(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """``left @ right`` per row of (B, r, k) and (B, k, c) stacks of small matrices, as the k broadcast products
-    summed: numpy's matmul calls BLAS once per matrix (some 1,500 instructions each, most of it the call), where
-    these few operations on the whole stack take a tenth of that per row for k of a few. A new array."""
-    total = left[:, :, 0, None] * right[:, None, 0, :]
-    for index in range(1, left.shape[2]):
-        total += left[:, :, index, None] * right[:, None, index, :]
-    return total
-
-
 def stacked_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b along axis 1 of (B, 3, ...) stacks (broadcast), by components: numpy's cross and matmul on stacks of
     3-vectors cost several times more per row (BENCHMARKS.md)."""
@@ -391,19 +381,19 @@ def point_products(
     Y (S, n, k') and the point's velocity :math:`\dot p = J_{lin}v` (S, 3) along the joint velocities v the
     joints were taken with, :math:`\dot JY = \dot J_OY + (\dot J_{O,\omega}Y)\times p + (J_{O,\omega}Y)\times\dot p`
     (else None): the same shift as :func:`point_kinematics`, on k vectors instead of n columns (the tests hold the
-    two to each other), each cross product with p as the product :math:`a\times p = -[p]_\times a` (one
-    :func:`stacked_product` where ``stacked_cross`` takes a dozen broadcast operations on these shapes)."""
-    world = stacked_product(joints.jacobian, columns[:, None] * vectors)
+    two to each other), each cross product with p as the product :math:`a\times p = -[p]_\times a` (one product of
+    stacks where ``stacked_cross`` takes a dozen broadcast operations on these shapes)."""
+    world = joints.jacobian @ (columns[:, None] * vectors)
     point_cross = _cross_matrices(point)
-    world[:, :3] -= stacked_product(point_cross, world[:, 3:])
+    world[:, :3] -= point_cross @ world[:, 3:]
     if rate_vectors is None:
         return world, None
     if joints.rate is None:
         raise ValueError("a point's Jacobian rate needs joint kinematics taken with the joint velocities")
     moving = columns[:, None] * rate_vectors
-    rate = stacked_product(joints.rate, moving)
-    angular = stacked_product(joints.jacobian[:, 3:], moving)
-    rate[:, :3] -= stacked_product(point_cross, rate[:, 3:]) + stacked_product(_cross_matrices(point_velocity), angular)
+    rate = joints.rate @ moving
+    angular = joints.jacobian[:, 3:] @ moving
+    rate[:, :3] -= point_cross @ rate[:, 3:] + _cross_matrices(point_velocity) @ angular
     return world, rate
 
 
