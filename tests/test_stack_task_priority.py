@@ -132,14 +132,16 @@ def test_task_priority_below_a_frame_task_on_stacks_equals_the_kinematic_loop_on
     _assert_batch_equals_simulate_on_panda(panda, resolver, seed=8, count=4, duration=0.3)
 
 
+@pytest.mark.parametrize("redundancy", [1, 2])
 @pytest.mark.parametrize("options", [{"secondary": "link3:0.5,-0.5"}, {"secondary": "tip:1,1", "position_gain": 3.0}])
-def test_the_matrix_form_on_planar3_equals_the_kinematic_loop(planar3, options):
+def test_the_matrix_form_on_planar3_equals_the_kinematic_loop(planar3, options, redundancy):
     """The general form (A = J_l(I − J⁺J) and its pseudoinverse by the SVD, as panda takes it) on planar3, where
-    the vector form of one degree of redundancy is the default: both equal the kinematic loop."""
+    the vector form of one degree of redundancy is the default: both equal the kinematic loop. With redundancy 1
+    A⁺ is Aᵀ/‖A‖²_F, with 2 the SVD per row (the same cutoff decision on planar3's A of rank one)."""
     resolver = torqueopt.get_resolver("task-priority", **options)
     lower = resolver.stack.tasks[0]
     resolver.stack_rate_function = lambda robot: StackedPriorityBelowFrame(
-        resolver.singular_tolerance, RobotForest(robot), lower, redundancy=2
+        resolver.singular_tolerance, RobotForest(robot), lower, redundancy
     )
     q0s, directions = _population(planar3, 4, seed=9)
     lines = [StraightLine(d, duration=0.6) for d in directions]
