@@ -31,8 +31,10 @@ time, so memory follows the steps taken.
 Velocity-level resolvers run on the same loop body with the velocity level's
 lanes: on stacks (:class:`KinematicStack`: the forest's kinematics and
 inverse dynamics, the resolver's stacked rates and closed-form q̈) when the
-resolver has a stacked form (velocity-pinv, gradient projection on joint limits), else through the kinematic loop
-(:func:`torqueopt.kinematic.simulate_kinematic`), one movement after another.
+resolver has a stacked form (:meth:`VelocityResolver.stack_rate_function
+<torqueopt.resolvers.velocity.base.VelocityResolver.stack_rate_function>`: every velocity-level method on the
+``xy`` and ``position`` tasks of a robot whose joints add, with the options each one's docstring names), else
+through the kinematic loop (:func:`torqueopt.kinematic.simulate_kinematic`), one movement after another.
 
 Supported: every registered resolver, for the ``xy`` and ``position`` tasks,
 open loop. :func:`batch_supports` says whether a case is;
