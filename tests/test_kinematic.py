@@ -641,11 +641,16 @@ def test_the_joint_limit_gradient_on_floats_is_the_gradient(planar3, panda, rng)
 def test_the_extended_jacobian_on_floats_is_its_lu_reference(planar3, rng, gain):
     """planar3's step functions (cross products, J_ex⁻¹ by its adjugate, J's inverse condition from |J_0 × J_1|)
     against :meth:`ExtendedJacobian.lu_step_functions` (J_ex's LU factors, Eigen's SVD): q̇ and σ_min/σ_max at
-    1e-12, q̈ at 1e-10 (its curvature divides the rows' round-off by the difference's step), and the same
-    refusals with the same words where J or J_ex is singular."""
+    1e-12, q̈ at 1e-12 with the curvature in closed form (the same function in both) and at 1e-10 with it by
+    the central difference (which divides the rows' round-off by its step), and the same refusals with the same
+    words where J or J_ex is singular."""
     resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
     task = FrameTask.of_robot(planar3)
     fast, reference = resolver.step_functions(planar3, task), resolver.lu_step_functions(planar3, task)
+    differenced = (
+        resolver.cross_product_step_functions(planar3, task, closed_form=False)[1],
+        resolver.lu_step_functions(planar3, task, closed_form=False)[1],
+    )
     assert fast[0].__qualname__.startswith("ExtendedJacobian.cross_product_step_functions")
     kinematics = Kinematics(planar3)
     tested = 0
@@ -662,6 +667,9 @@ def test_the_extended_jacobian_on_floats_is_its_lu_reference(planar3, rng, gain)
         assert got_condition == pytest.approx(expected_condition, rel=1e-12)
         expected = reference[1](kinematics, velocity, command, command_rate)
         got = fast[1](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        expected = differenced[1](kinematics, velocity, command, command_rate)
+        got = differenced[0](kinematics.update(q), velocity, command, command_rate)
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
     # stretched (J of rank 1), nearly stretched, and with an alignment cutoff most states miss
     strict = torqueopt.get_resolver("extended-jacobian", algorithmic_tolerance=0.9)

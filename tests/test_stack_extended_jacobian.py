@@ -28,15 +28,6 @@ def panda4():
     return torqueopt.load_robot("panda", lock=["panda_joint5", "panda_joint6", "panda_joint7"])
 
 
-def assert_same_extended_run(batched, reference):
-    r"""``assert_same_run`` at 1e-9, with q̈ and τ held to 1e-9 of (1 + each step's largest value): the loop takes
-    the curvature :math:`\dot q^\top\nabla^2 G\,\dot q` of q̈ by a central difference of the row, whose round-off
-    (about 1e-10 of it; the stack's closed form agrees with a five-point difference to 1e-12, below) reaches a few
-    1e-9 of a small component of a step whose largest one is hundreds of N·m (measured: 1.9e-9 of a 2.5 N·m
-    torque in a step of 485 N·m, 1.4e-11 of that step)."""
-    assert_same_run(batched, reference, 1e-9, scaled=("acceleration", "tau"))
-
-
 def _batch_equals_the_loop(robot, resolver, lines, q0s, **ceilings):
     """The batch's runs (on stacks: the lanes are checked) against ``simulate``'s; the loop's runs."""
     seen = []
@@ -53,7 +44,7 @@ def _batch_equals_the_loop(robot, resolver, lines, q0s, **ceilings):
     assert seen == [KinematicStack]
     singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
     for run, single in zip(runs, singles):
-        assert_same_extended_run(run, single)
+        assert_same_run(run, single)
     return singles
 
 
@@ -166,7 +157,7 @@ def _stacked_step(robot, resolver, q, command, command_rate):
 def test_the_stacked_step_is_the_single_state_one(name, planar3, panda4, rng):
     """At random states: q̇ and σmin/σmax at 1e-12 of the single-state step's (the LU reference, whose row comes
     from Pinocchio's kinematic Hessian), the same refusals in the same words (a strict alignment cutoff that many
-    states miss, and planar3 stretched), and q̈ at 1e-9 (the loop's curvature is a central difference)."""
+    states miss, and planar3 stretched), and q̈ at 1e-12 (the step's curvature is the stack's closed form)."""
     robot = {"planar3": planar3, "panda4": panda4}[name]
     for options in ({}, {"algorithmic_tolerance": 0.3}):
         resolver = torqueopt.get_resolver("extended-jacobian", **options)
@@ -188,7 +179,7 @@ def test_the_stacked_step_is_the_single_state_one(name, planar3, panda4, rng):
             np.testing.assert_allclose(velocity[row], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
             assert conditions[row] == pytest.approx(condition, rel=1e-12)
             expected = acceleration(kinematics, velocity[row], command[row], command_rate[row])
-            np.testing.assert_allclose(accelerations[row], expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+            np.testing.assert_allclose(accelerations[row], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
         assert refused >= (2 if options else 1) and refused < q.shape[0] - 8
 
 
@@ -224,3 +215,36 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
             expected = (-slope(2 * h) + 8 * slope(h) - 8 * slope(-h) + slope(-2 * h)) / (12 * h)
             scale = np.abs(row).max() * velocity.dot(velocity) + abs(expected)
             assert abs(got - expected) <= 1e-10 * scale, (got, expected)
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda4"])
+def test_the_single_state_closed_form_curvature_is_the_central_difference(name, planar3, panda4, rng):
+    r"""The single-state q̈ with its curvature :math:`\dot q^\top\nabla^2 G\,\dot q` in closed form (the stack's,
+    on a stack of one) against the same step with the plain central difference of the row (``CURVATURE_STEP``),
+    on both of planar3's steps (floats and the LU reference) and panda4's, at 1e-9 of q̈'s size (the difference's
+    round-off is about 1e-10 of it); the closed form is taken wherever the stack applies, else None."""
+    robot = {"planar3": planar3, "panda4": panda4}[name]
+    resolver, task = torqueopt.get_resolver("extended-jacobian", position_gain=2.0), FrameTask.of_robot(robot)
+    pairs = [(resolver.lu_step_functions(robot, task), resolver.lu_step_functions(robot, task, closed_form=False))]
+    if robot is planar3:
+        closed, differenced = (
+            resolver.cross_product_step_functions(robot, task, closed_form=flag) for flag in (True, False)
+        )
+        pairs.append((closed, differenced))
+    kinematics, tested = Kinematics(robot), 0
+    while tested < 8:
+        q, velocity = rng.uniform(-2.0, 2.0, robot.nv), rng.normal(size=robot.nv)
+        command, command_rate = rng.normal(size=robot.m), rng.normal(size=robot.m)
+        try:
+            pairs[0][0][0](kinematics.update(q), command)
+        except SingularJacobian:
+            continue
+        tested += 1
+        for (_, closed), (_, differenced) in pairs:
+            expected = differenced(kinematics.update(q), velocity, command, command_rate)
+            got = closed(kinematics.update(q), velocity, command, command_rate)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+            assert np.abs(got - expected).max() > 0.0  # two computations, not one
+    assert resolver.curvature_function(robot, task) is not None
+    callable_criterion = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2))
+    assert callable_criterion.curvature_function(robot, task) is None

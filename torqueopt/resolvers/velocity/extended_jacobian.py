@@ -262,12 +262,15 @@ class ExtendedJacobian(VelocityResolver):
 
         with :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). The curvature
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
-        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
-        the one part taken by a central difference, of the row :math:`\partial G/\partial q` along
-        :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on planar3's
-        task, of the row times q̇ alone: :func:`~torqueopt.resolvers.velocity.cross_product_slope`) instead of the loop's four of the whole rate
-        map. The LU factors of :math:`J_{ex}` at q (its inverse on planar3's task) are those the rates computed
-        there, when they did.
+        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give. For a
+        diagonal quadratic criterion (``joint-limits``, a posture's distance) on a robot whose joints add, it is
+        taken in closed form from the task frame's J and :math:`\dot J` (:meth:`curvature_function`: the batch's
+        own formula, so that ``simulate`` and the batch take the same curvature). Elsewhere (a callable
+        criterion, joints that do not add) by a central difference, of the row :math:`\partial G/\partial q`
+        along :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on
+        planar3's task, of the row times q̇ alone: :func:`~torqueopt.resolvers.velocity.cross_product_slope`)
+        instead of the loop's four of the whole rate map; the tests hold the closed form to it. The LU factors of
+        :math:`J_{ex}` at q (its inverse on planar3's task) are those the rates computed there, when they did.
         """
         return self.step_functions(robot, task)[1]
 
@@ -278,11 +281,13 @@ class ExtendedJacobian(VelocityResolver):
             return self.cross_product_step_functions(robot, task)
         return self.lu_step_functions(robot, task)
 
-    def lu_step_functions(self, robot: Robot, task: FrameTask):
+    def lu_step_functions(self, robot: Robot, task: FrameTask, closed_form: bool = True):
         """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1, sharing J_ex's LU factors at each
-        configuration: the reference the fast pair is held to."""
+        configuration: the reference the fast pair is held to. The curvature of q̈ in closed form where
+        :meth:`curvature_function` gives it and ``closed_form``, else by the central difference."""
         condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
         tolerance = self.algorithmic_tolerance
+        closed = self.curvature_function(robot, task) if closed_form else None
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
@@ -303,6 +308,9 @@ class ExtendedJacobian(VelocityResolver):
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
             extended, _ = at_configuration(kinematics)
+            if closed is not None:
+                curvature, jacobian_rate = closed(kinematics, velocity)
+                return extended.solve(np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
             speed = math.sqrt(velocity.dot(velocity))
             curvature = 0.0
@@ -317,7 +325,7 @@ class ExtendedJacobian(VelocityResolver):
 
         return rates, None if task.kind == "pose" else acceleration
 
-    def cross_product_step_functions(self, robot: Robot, task: FrameTask):
+    def cross_product_step_functions(self, robot: Robot, task: FrameTask, closed_form: bool = True):
         r""":meth:`step_functions` for a 2×3 Jacobian (planar3's task, n = 3, m = 2), on floats: the fast twin of
         :meth:`lu_step_functions` (the tests hold them equal), whose numpy calls cost many times these few products.
 
@@ -327,12 +335,14 @@ class ExtendedJacobian(VelocityResolver):
         Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
         :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
         :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
-        times :math:`|r|\,|n_J|`. The curvature's central difference takes the row along q̇ at q ± δq̇ by
-        :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic Hessian there), on kinematics of their own, so
-        the step's stay at q.
+        times :math:`|r|\,|n_J|`. The curvature in closed form where :meth:`curvature_function` gives it (and
+        ``closed_form``); else its central difference takes the row along q̇ at q ± δq̇ by
+        :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic Hessian
+        there), on kinematics of their own, so the step's stay at q.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
         shifted, euclidean = Kinematics(robot), robot.euclidean
+        closed = self.curvature_function(robot, task) if closed_form else None
         # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
         constant = [None, None]
 
@@ -405,16 +415,20 @@ class ExtendedJacobian(VelocityResolver):
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
             (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _ = at_configuration(kinematics)
-            (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
             values = v0, v1, v2 = velocity.tolist()
-            speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-            curvature = 0.0
-            if speed > 0.0:
-                step = CURVATURE_STEP / speed
-                ahead, behind = either_side(q, step, velocity, values)
-                forward = slope_at(shifted.update(ahead), velocity, values)
-                backward = slope_at(shifted.update(behind), velocity, values)
-                curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
+            if closed is not None:
+                curvature, jacobian_rate = closed(kinematics, velocity)  # q̇ᵀ∇²G q̇ in closed form
+                (s0, s1, s2), (t0, t1, t2) = jacobian_rate.tolist()
+            else:
+                (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
+                speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+                curvature = 0.0
+                if speed > 0.0:
+                    step = CURVATURE_STEP / speed
+                    ahead, behind = either_side(q, step, velocity, values)
+                    forward = slope_at(shifted.update(ahead), velocity, values)
+                    backward = slope_at(shifted.update(behind), velocity, values)
+                    curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
             rate0, rate1 = command_rate.tolist()
             c0, c1 = rate0 - (s0 * v0 + s1 * v1 + s2 * v2), rate1 - (t0 * v0 + t1 * v1 + t2 * v2)
@@ -427,6 +441,27 @@ class ExtendedJacobian(VelocityResolver):
             )
 
         return rates, acceleration
+
+    def curvature_function(self, robot: Robot, task: FrameTask):
+        r"""The curvature :math:`\dot q^\top\nabla^2 G\,\dot q` of q̈ in closed form for the single-state step:
+        ``(kinematics, q̇) -> (curvature, J̇ of the task rows)``, by ``StackedExtendedJacobian.curvature_along`` on a
+        stack of one (the batch's own formula, so that ``simulate`` and the batch take the same curvature), from the
+        task frame's whole J and :math:`\dot J` at (q, q̇). None where the stack does not apply (a callable
+        criterion, a robot whose joints do not add, the pose task): there the step takes its central difference."""
+        criterion = _diagonal_quadratic(self.objective, robot)
+        if task.kind == "pose" or not robot.euclidean or criterion is None or task.rows != robot.task_rows:
+            return None
+        stack = StackedExtendedJacobian(robot, self.singular_tolerance, self.algorithmic_tolerance, *criterion)
+        rows = task.rows
+
+        def curvature(kinematics: Kinematics, velocity: np.ndarray):
+            frame_id = task.frame_id(kinematics)
+            frame = kinematics.frame_jacobian(frame_id)
+            frame_rate = kinematics.frame_jacobian_time_variation(frame_id, velocity)
+            value = stack.curvature_along(frame[None], frame_rate[None], kinematics.q[None], velocity[None])
+            return float(value[0]), frame_rate[rows]
+
+        return curvature
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (15)'s rates and their q̈ on stacks (``StackedExtendedJacobian``), for a position task (``xy``,
@@ -443,7 +478,8 @@ class ExtendedJacobian(VelocityResolver):
 _ZERO = np.zeros(1)
 
 
-#: Step [rad] of the central difference of ∂G/∂q along q̇ in :meth:`ExtendedJacobian.acceleration_function`:
+#: Step [rad] of the central difference of ∂G/∂q along q̇ in :meth:`ExtendedJacobian.acceleration_function`
+#: (where its curvature has no closed form, and the plain reference the tests hold the closed form to):
 #: its O(δ²) truncation and its round-off ε|∂G/∂q|/δ balance near 1e-5 (at 15 random planar3 states the
 #: q̈ agreed with a five-point difference of the rates to 4e-11 of its size, against 8e-10 at 1e-6, 2e-9 at 1e-4).
 CURVATURE_STEP = 1e-5
@@ -514,7 +550,7 @@ class StackedExtendedJacobian(VelocityStack):
 
     :math:`\ddot q` solves :math:`J_{ex}\ddot q = [\dot c - \dot J\dot q;\ -\ddot G]` (see
     :meth:`ExtendedJacobian.acceleration_function`), with the curvature :math:`\ddot G = \dot q^\top\nabla^2 G\,\dot q`
-    (which the single-state step takes by a central difference of the row) in closed form: along
+    in closed form (the single-state step's too, by :meth:`curvature_along` on a stack of one): along
     :math:`q + s\dot q`, with :math:`'` for d/ds, :math:`g = \nabla p` (:math:`g' = \nabla^2 p\,\dot q`,
     :math:`g'' = 0`) and :math:`n_J` multilinear in J's rows,
 
@@ -537,8 +573,8 @@ class StackedExtendedJacobian(VelocityStack):
     :math:`\sum_a K_a\cdot J_a'' = \sum_k \dot q_k\big(\omega_k'\cdot\sum_{j>k} J_j\times K_j
     + \omega_k\cdot\sum_{j>k} J_j'\times K_j + J_k\cdot\sum_{j\le k} K_j\times\omega_j'
     + J_k'\cdot\sum_{j\le k} K_j\times\omega_j\big)`. It agrees with a five-point difference of the row to
-    1e-12 of its size, the single-state step's central difference to about 1e-10 (its round-off): the batch's q̈
-    and torques equal ``simulate``'s to 1e-9 of each step's size (tests/test_stack_extended_jacobian.py).
+    1e-12 of its size, the central difference of the row (``CURVATURE_STEP``) to about 1e-10 (that difference's
+    round-off); tests/test_stack_extended_jacobian.py holds it to both.
 
     J (all six rows: :math:`\omega_j` are its angular columns) and :math:`\dot J` are the task frame's from the
     batch's forest pass (``frame_jacobian``, ``frame_rate``).
@@ -578,12 +614,8 @@ class StackedExtendedJacobian(VelocityStack):
         linear, angular = frame[:, :3], frame[:, 3:]
         gradient = self._gradient(configuration)
         normal = stacked_null_vectors(jacobian)  # n_J
-        # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
-        cofactors = np.zeros_like(linear)
-        cofactors[:, self.rows] = self.sign * stacked_row_cofactors(jacobian, gradient)
+        cofactors, before, after = self._cofactor_sums(jacobian, gradient, linear, angular)
         # ∂G/∂q_k = J_k·Σ_{j≤k} K_j × ω_j + ω_k·Σ_{j>k} J_j × K_j + w_k n_k, the last row of J_ex in Eq. (15)
-        before = _sums_up_to(stacked_cross(cofactors, angular))
-        after = _sums_after(stacked_cross(linear, cofactors))
         g_row = np.einsum("bik,bik->bk", linear, before) + np.einsum("bik,bik->bk", angular, after)
         g_row[:, self.v_index] += self.curvature * normal[:, self.v_index]
         product = np.einsum("bk,bk->b", g_row, normal)
@@ -606,7 +638,38 @@ class StackedExtendedJacobian(VelocityStack):
         """J_ex⁻¹ [ċ − J̇q̇; −q̇ᵀ∇²G q̇] per row, the curvature in closed form (see the class).
         ``kinematics``: the forest's at the configuration and q̇, with the frame's whole J̇."""
         linear, angular, gradient, normal, cofactors, before, after, g_row, determinant = state
-        frame_rate = kinematics.frame_rate
+        sums = linear, angular, gradient, cofactors, before, after
+        curvature = self._curvature(jacobian, jacobian_rate, kinematics.frame_rate, velocity, *sums)
+        # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇], by adj J_ex / det J_ex
+        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
+        last = (self.sign * curvature)[:, None] * normal  # the last column of adj J_ex is (−1)^m n_J
+        return (adjugate_times(jacobian, g_row, residual) - last) / determinant[:, None]
+
+    def curvature_along(self, frame_jacobian, frame_rate, configuration, velocity) -> np.ndarray:
+        r""":math:`\ddot G = \dot q^\top\nabla^2 G\,\dot q` (B,) in closed form (see the class) from the task frame's
+        whole J and :math:`\dot J` (B, 6, n) at (q, q̇): what :meth:`acceleration` computes, from its inputs alone
+        (the single-state step's curvature, with B = 1, so that ``simulate`` and the batch take the same one)."""
+        jacobian, jacobian_rate = frame_jacobian[:, self.rows], frame_rate[:, self.rows]
+        linear, angular = frame_jacobian[:, :3], frame_jacobian[:, 3:]
+        gradient = self._gradient(configuration)
+        cofactors, before, after = self._cofactor_sums(jacobian, gradient, linear, angular)
+        return self._curvature(
+            jacobian, jacobian_rate, frame_rate, velocity, linear, angular, gradient, cofactors, before, after
+        )
+
+    def _cofactor_sums(self, jacobian, gradient, linear, angular):
+        """(K, Σ_{j≤k} K_j × ω_j, Σ_{j>k} J_j × K_j): the cofactors as (B, 3, n) columns and the row's sums."""
+        # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
+        cofactors = np.zeros_like(linear)
+        cofactors[:, self.rows] = self.sign * stacked_row_cofactors(jacobian, gradient)
+        before = _sums_up_to(stacked_cross(cofactors, angular))
+        after = _sums_after(stacked_cross(linear, cofactors))
+        return cofactors, before, after
+
+    def _curvature(
+        self, jacobian, jacobian_rate, frame_rate, velocity, linear, angular, gradient, cofactors, before, after
+    ) -> np.ndarray:
+        """q̇ᵀ∇²G q̇ per row in closed form (see the class), reusing the row's cofactors and sums."""
         linear_rate, angular_rate = frame_rate[:, :3], frame_rate[:, 3:]
         # Σ_j K_j·J_j'' with J_j'' = Ω'_{<j} × J_j + Ω_{<j} × J'_j + ω'_j × P_{≥j} + ω_j × P'_{≥j}, each term a triple
         # product summed over the joints before or after: Σ_k q̇_k (ω'_k·Σ_{j>k} J_j × K_j + ω_k·Σ_{j>k} J'_j × K_j
@@ -627,10 +690,7 @@ class StackedExtendedJacobian(VelocityStack):
         gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]  # g' = ∇²p q̇
         curvature += 2.0 * np.einsum("bk,bk->b", gradient_rate, replaced[:, :m].sum(axis=1))  # 2 g'·n_J'
         curvature += 2.0 * np.einsum("bk,bk->b", gradient, replaced[:, m:].sum(axis=1))
-        # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇], by adj J_ex / det J_ex
-        residual = command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity)
-        last = (self.sign * curvature)[:, None] * normal  # the last column of adj J_ex is (−1)^m n_J
-        return (adjugate_times(jacobian, g_row, residual) - last) / determinant[:, None]
+        return curvature
 
     def _gradient(self, configuration) -> np.ndarray:
         """∂p/∂q of each row: ∂/∂θ of Eq. (5) (or of the posture's distance), zero for the joints without a term."""
