@@ -11,6 +11,7 @@ from torqueopt.errors import SingularJacobian
 from torqueopt.resolvers.velocity import PostureDistance
 from torqueopt.resolvers.velocity.extended_jacobian import (
     StackedExtendedJacobian,
+    cross_product_curvature,
     null_vector,
     stacked_null_vectors,
     stacked_row_cofactors,
@@ -248,3 +249,31 @@ def test_the_single_state_closed_form_curvature_is_the_central_difference(name, 
     assert resolver.curvature_function(robot, task) is not None
     callable_criterion = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2))
     assert callable_criterion.curvature_function(robot, task) is None
+
+
+def test_the_curvature_on_floats_is_the_stacks(planar3, rng):
+    """``cross_product_curvature`` (planar3's single-state step) against ``StackedExtendedJacobian.curvature_along``
+    at 1e-12 of the size of its terms, on random 6×3 frame Jacobians and rates (every row and angular column
+    nonzero, which planar3's own frames, ω_j = e_z and a zero z row, would leave untested), and on planar3's."""
+    forest = RobotForest(planar3)
+    for trial in range(20):
+        q, velocity = rng.uniform(-2.0, 2.0, 3), rng.normal(size=3)
+        centre, weights = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
+        stack = StackedExtendedJacobian(planar3, 1e-3, 0.05, [0, 1, 2], [0, 1, 2], centre, weights)
+        if trial < 15:
+            frame, frame_rate = rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+        else:
+            found = _lanes_kinematics(forest, planar3, q[None])
+            moving = _lanes_kinematics(forest, planar3, q[None], velocity[None], found.tip)
+            frame, frame_rate = found.frame_jacobian[0], moving.frame_rate[0]
+        expected = stack.curvature_along(frame[None], frame_rate[None], q[None], velocity[None])[0]
+        gradient = (weights * (q - centre)).tolist()
+        got = cross_product_curvature(
+            frame.tolist(), frame_rate.tolist(), gradient, weights.tolist(), velocity.tolist()
+        )
+        scale = (
+            (np.abs(frame).max() + np.abs(frame_rate).max()) ** 3
+            * (1.0 + np.abs(gradient).max())
+            * (1.0 + velocity.dot(velocity))
+        )
+        assert abs(got - expected) <= 1e-12 * scale, (got, expected)

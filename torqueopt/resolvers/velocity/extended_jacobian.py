@@ -20,7 +20,14 @@ from .criteria import JointLimits, PostureDistance, criterion_from
 from .options import criterion_spec
 from .pseudoinverse import StackedPseudoInverse
 
-__all__ = ["ExtendedJacobian", "null_vector", "null_vector_derivative", "cross_product_row", "cross_product_slope"]
+__all__ = [
+    "ExtendedJacobian",
+    "null_vector",
+    "null_vector_derivative",
+    "cross_product_row",
+    "cross_product_slope",
+    "cross_product_curvature",
+]
 
 
 def null_vector(jacobian: np.ndarray) -> np.ndarray:
@@ -154,6 +161,75 @@ def cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient_values, hess
     )
 
 
+def cross_product_curvature(frame_rows, frame_rate_rows, gradient_values, weights, velocity) -> float:
+    r""":math:`\dot q^\top\nabla^2 G\,\dot q` for a 2×3 Jacobian (the x and y rows of a frame, planar3's task) and
+    a diagonal quadratic criterion, on floats: ``StackedExtendedJacobian``'s closed form (see there) for one state
+    (the tests hold them equal), whose numpy calls on a stack of one cost many times these few products.
+
+    With :math:`a, b` J's rows, :math:`g = \nabla p`, :math:`g' = \nabla^2 p\,\dot q`, the cofactors
+    :math:`K_j = ((b\times g)_j, (g\times a)_j, 0)`, the frame's linear and angular columns :math:`J_j, \omega_j`
+    and their rates (′),
+
+    .. math::
+
+        \dot q^\top\nabla^2 G\,\dot q = \sum_k \dot q_k\big(\omega_k'\cdot\sum_{j>k} J_j\times K_j
+        + \omega_k\cdot\sum_{j>k} J_j'\times K_j + J_k\cdot\sum_{j\le k} K_j\times\omega_j'
+        + J_k'\cdot\sum_{j\le k} K_j\times\omega_j\big)
+        + 2\,g'\cdot(a'\times b + a\times b') + 2\,g\cdot(a'\times b').
+
+    Args:
+        frame_rows, frame_rate_rows: the frame's 6×3 J and :math:`\dot J` (linear rows first), as lists of rows.
+        gradient_values: ∂p/∂q as three floats.
+        weights: the diagonal of ∇²p, three floats.
+        velocity: q̇ as three floats.
+    """
+    xs, ys, zs, ps, qs, rs = frame_rows
+    dxs, dys, dzs, dps, dqs, drs = frame_rate_rows
+    (a0, a1, a2), (b0, b1, b2), (g0, g1, g2) = xs, ys, gradient_values
+    first = (b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0)  # K's x components: b × g
+    second = (g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0)  # K's y components: g × a
+    # K_j × ω_j = (k1 r, −k0 r, k0 q − k1 p) and J_j × K_j = (−z k1, z k0, x k1 − y k0), K_j = (k0, k1, 0)
+    before = [0.0, 0.0, 0.0]  # Σ_{j≤k} K_j × ω_j
+    rate_before = [0.0, 0.0, 0.0]  # Σ_{j≤k} K_j × ω'_j
+    after = [0.0, 0.0, 0.0]  # Σ_{j>k} J_j × K_j
+    rate_after = [0.0, 0.0, 0.0]  # Σ_{j>k} J'_j × K_j
+    afters, rate_afters = [None] * 3, [None] * 3
+    for k in (2, 1, 0):
+        afters[k], rate_afters[k] = tuple(after), tuple(rate_after)
+        k0, k1 = first[k], second[k]
+        after[0] -= zs[k] * k1
+        after[1] += zs[k] * k0
+        after[2] += xs[k] * k1 - ys[k] * k0
+        rate_after[0] -= dzs[k] * k1
+        rate_after[1] += dzs[k] * k0
+        rate_after[2] += dxs[k] * k1 - dys[k] * k0
+    curvature = 0.0
+    for k in range(3):
+        k0, k1 = first[k], second[k]
+        before[0] += k1 * rs[k]
+        before[1] -= k0 * rs[k]
+        before[2] += k0 * qs[k] - k1 * ps[k]
+        rate_before[0] += k1 * drs[k]
+        rate_before[1] -= k0 * drs[k]
+        rate_before[2] += k0 * dqs[k] - k1 * dps[k]
+        (u0, u1, u2), (e0, e1, e2) = afters[k], rate_afters[k]
+        term = dps[k] * u0 + dqs[k] * u1 + drs[k] * u2  # ω'_k·Σ_{j>k} J_j × K_j
+        term += ps[k] * e0 + qs[k] * e1 + rs[k] * e2  # ω_k·Σ_{j>k} J'_j × K_j
+        term += xs[k] * rate_before[0] + ys[k] * rate_before[1] + zs[k] * rate_before[2]  # J_k·Σ_{j≤k} K_j × ω'_j
+        term += dxs[k] * before[0] + dys[k] * before[1] + dzs[k] * before[2]  # J'_k·Σ_{j≤k} K_j × ω_j
+        curvature += velocity[k] * term
+    (s0, s1, s2), (t0, t1, t2), (v0, v1, v2) = dxs, dys, velocity
+    h0, h1, h2 = weights[0] * v0, weights[1] * v1, weights[2] * v2  # g' = ∇²p q̇
+    # 2 g'·n_J' with n_J' = a' × b + a × b', and 2 g·(a' × b'), the pair of rows replaced
+    curvature += 2.0 * (
+        h0 * (s1 * b2 - s2 * b1 + a1 * t2 - a2 * t1)
+        + h1 * (s2 * b0 - s0 * b2 + a2 * t0 - a0 * t2)
+        + h2 * (s0 * b1 - s1 * b0 + a0 * t1 - a1 * t0)
+    )
+    curvature += 2.0 * (g0 * (s1 * t2 - s2 * t1) + g1 * (s2 * t0 - s0 * t2) + g2 * (s0 * t1 - s1 * t0))
+    return curvature
+
+
 class ExtendedJacobian(VelocityResolver):
     r"""Baillieul's extended Jacobian for n − m = 1, Eq. (14), Eq. (15).
 
@@ -264,8 +340,9 @@ class ExtendedJacobian(VelocityResolver):
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
         (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give. For a
         diagonal quadratic criterion (``joint-limits``, a posture's distance) on a robot whose joints add, it is
-        taken in closed form from the task frame's J and :math:`\dot J` (:meth:`curvature_function`: the batch's
-        own formula, so that ``simulate`` and the batch take the same curvature). Elsewhere (a callable
+        taken in closed form from the task frame's J and :math:`\dot J`: the batch's own formula, so that
+        ``simulate`` and the batch take the same curvature (:meth:`curvature_function`; on planar3's task its
+        float twin :func:`~torqueopt.resolvers.velocity.cross_product_curvature`). Elsewhere (a callable
         criterion, joints that do not add) by a central difference, of the row :math:`\partial G/\partial q`
         along :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on
         planar3's task, of the row times q̇ alone: :func:`~torqueopt.resolvers.velocity.cross_product_slope`)
@@ -335,14 +412,19 @@ class ExtendedJacobian(VelocityResolver):
         Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
         :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
         :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
-        times :math:`|r|\,|n_J|`. The curvature in closed form where :meth:`curvature_function` gives it (and
-        ``closed_form``); else its central difference takes the row along q̇ at q ± δq̇ by
+        times :math:`|r|\,|n_J|`. The curvature in closed form by
+        :func:`~torqueopt.resolvers.velocity.cross_product_curvature` where :meth:`curvature_function` has one
+        (and ``closed_form``); else its central difference takes the row along q̇ at q ± δq̇ by
         :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic Hessian
         there), on kinematics of their own, so the step's stay at q.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
         shifted, euclidean = Kinematics(robot), robot.euclidean
-        closed = self.curvature_function(robot, task) if closed_form else None
+        criterion = self._closed_form_criterion(robot, task) if closed_form else None
+        if criterion is not None:
+            weights = [0.0] * robot.nv
+            for joint, weight in zip(criterion[1].tolist(), np.asarray(criterion[3], dtype=float).tolist()):
+                weights[joint] = weight
         # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
         constant = [None, None]
 
@@ -416,9 +498,13 @@ class ExtendedJacobian(VelocityResolver):
             q = kinematics.q
             (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _ = at_configuration(kinematics)
             values = v0, v1, v2 = velocity.tolist()
-            if closed is not None:
-                curvature, jacobian_rate = closed(kinematics, velocity)  # q̇ᵀ∇²G q̇ in closed form
-                (s0, s1, s2), (t0, t1, t2) = jacobian_rate.tolist()
+            if criterion is not None:
+                frame_id = task.frame_id(kinematics)
+                frame_rate = kinematics.frame_jacobian_time_variation(frame_id, velocity).tolist()
+                frame = kinematics.frame_jacobian(frame_id).tolist()
+                gradient = objective.gradient_values(kinematics, task)
+                curvature = cross_product_curvature(frame, frame_rate, gradient, weights, values)  # q̇ᵀ∇²G q̇
+                (s0, s1, s2), (t0, t1, t2) = frame_rate[0], frame_rate[1]
             else:
                 (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
                 speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
@@ -448,8 +534,8 @@ class ExtendedJacobian(VelocityResolver):
         stack of one (the batch's own formula, so that ``simulate`` and the batch take the same curvature), from the
         task frame's whole J and :math:`\dot J` at (q, q̇). None where the stack does not apply (a callable
         criterion, a robot whose joints do not add, the pose task): there the step takes its central difference."""
-        criterion = _diagonal_quadratic(self.objective, robot)
-        if task.kind == "pose" or not robot.euclidean or criterion is None or task.rows != robot.task_rows:
+        criterion = self._closed_form_criterion(robot, task)
+        if criterion is None:
             return None
         stack = StackedExtendedJacobian(robot, self.singular_tolerance, self.algorithmic_tolerance, *criterion)
         rows = task.rows
@@ -462,6 +548,14 @@ class ExtendedJacobian(VelocityResolver):
             return float(value[0]), frame_rate[rows]
 
         return curvature
+
+    def _closed_form_criterion(self, robot: Robot, task: FrameTask):
+        """``_diagonal_quadratic``'s (q_index, v_index, centre, curvature) where the curvature has a closed form, else
+        None."""
+        criterion = _diagonal_quadratic(self.objective, robot)
+        if task.kind == "pose" or not robot.euclidean or criterion is None or task.rows != robot.task_rows:
+            return None
+        return criterion
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (15)'s rates and their q̈ on stacks (``StackedExtendedJacobian``), for a position task (``xy``,
