@@ -38,7 +38,9 @@ DIFFERENCED_TOLERANCE = 5e-8
 #: by the former difference's own error (8.6e-9 against a baseline of 6d7c40a, 8.0e-9 against one of 8fba51c;
 #: the tests hold the closed form to the loop's difference at 1e-8 run for run). The extended Jacobian's
 #: curvature q̇ᵀ∇²Gq̇ is in closed form (its stack's) since the commit that says so: its torques move by the
-#: former difference's own error, 4.0e-11 (extended-jacobian) and 4.5e-11 (K=5) against a baseline of 6d7c40a.
+#: former difference's own error, 4.0e-11 (extended-jacobian) and 4.5e-11 (K=5) against a baseline of 6d7c40a
+#: (the difference itself was at 5.9e-11 and 5.4e-11 from it), 3.7e-11 and 4.2e-11 against one of 8625dbf
+#: (q and v equal: q̈ does not enter the motion).
 DIFFERENCED = {
     "velocity-pinv self_motion",
     "gradient-projection manipulability",
