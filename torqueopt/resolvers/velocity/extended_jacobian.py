@@ -504,7 +504,7 @@ class ExtendedJacobian(VelocityResolver):
                 frame = kinematics.frame_jacobian(frame_id).tolist()
                 gradient = objective.gradient_values(kinematics, task)
                 curvature = cross_product_curvature(frame, frame_rate, gradient, weights, values)  # q̇ᵀ∇²G q̇
-                (s0, s1, s2), (t0, t1, t2) = frame_rate[0], frame_rate[1]
+                (s0, s1, s2), (t0, t1, t2) = frame_rate[0], frame_rate[1]  # J̇ of the task's rows, x and y
             else:
                 (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
                 speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
