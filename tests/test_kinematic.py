@@ -456,7 +456,7 @@ def test_scaled_gradients_are_the_gain_times_the_gradient(planar3, panda, rng):
 
 
 def test_scaled_curvatures_are_the_gain_times_the_curvature(planar3, panda, rng):
-    """k ∇²p q̇ of the manipulability (the gain joined to its difference's 1/2δ) and of the joint limits against k
+    """k ∇²p q̇ of the manipulability (closed form, the gain joined to w) and of the joint limits against k
     times the curvature, and the manipulability's against a central difference of k ∂p/∂q along q̇; the caller's
     kinematics are left where they were."""
     from torqueopt.resolvers.velocity import Manipulability
@@ -1098,8 +1098,9 @@ def test_the_stacked_inverse_is_lapacks_with_identity_rows_where_the_method_fail
 
 
 def test_one_manipulability_resolver_serves_runs_in_two_threads_at_once(planar3):
-    """The manipulability's curvature moves kinematics and an SVD object of its own: they are kept per thread, so
-    two runs sharing one resolver in two threads give, bit for bit, what each gives alone."""
+    """The manipulability keeps what it reuses (an SVD object, the kinematics its central difference moves, the model
+    its closed-form curvature checked) per thread, so two runs sharing one resolver in two threads give, bit for
+    bit, what each gives alone."""
     from concurrent.futures import ThreadPoolExecutor
 
     resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability")
@@ -1109,7 +1110,7 @@ def test_one_manipulability_resolver_serves_runs_in_two_threads_at_once(planar3)
     ]
     alone = [torqueopt.simulate(planar3, resolver, line, q0) for line, q0 in movements]
     interval = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)  # the threads take turns every few bytecodes, inside the curvature's differences
+    sys.setswitchinterval(1e-6)  # the threads take turns every few bytecodes, inside the curvature
     try:
         with ThreadPoolExecutor(max_workers=2) as pool:
             together = list(pool.map(lambda movement: torqueopt.simulate(planar3, resolver, *movement), movements))

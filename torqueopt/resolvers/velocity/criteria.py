@@ -87,8 +87,11 @@ class Criterion(ABC):
         (only for criteria with :attr:`has_curvature`)."""
         return self.hessian(kinematics, task).dot(v)
 
-    def scaled_curvature(self, kinematics: Kinematics, task: FrameTask, v: np.ndarray, gain: float) -> np.ndarray:
-        r""":math:`k\,\nabla^2 p\,v` for the gain k: :meth:`curvature` times k, or a criterion's own faster form of it."""
+    def scaled_curvature(
+        self, kinematics: Kinematics, task: FrameTask, v: np.ndarray, gain: float, decomposition=None
+    ) -> np.ndarray:
+        r""":math:`k\,\nabla^2 p\,v` for the gain k: :meth:`curvature` times k, or a criterion's own faster form of it.
+        ``decomposition``: as :meth:`scaled_gradient`'s."""
         return gain * self.curvature(kinematics, task, v)
 
 
@@ -254,8 +257,9 @@ class Manipulability(Criterion):
 
     def __init__(self):
         # Per thread, as a resolver (and its criterion) may serve runs in several threads at once: the kinematics
-        # the curvature's differences move, apart from those of the caller ("offsets"), and one SVD object per
-        # shape of J, refactored at each configuration ("svd").
+        # the curvature's differences move, apart from those of the caller ("offsets"), one SVD object per
+        # shape of J, refactored at each configuration ("svd"), and the model whose joints were checked for the
+        # closed-form curvature ("simple").
         self._workspaces = threading.local()
 
     def __getstate__(self):
@@ -276,14 +280,8 @@ class Manipulability(Criterion):
 
     def _decomposed_gradient(self, kinematics, task, gain: float) -> np.ndarray:
         """−k ∂w/∂q with w and J⁺ from the criterion's own SVD of J."""
-        jacobian = task.jacobian(kinematics)
-        workspaces = self._workspaces
-        shape_and_svd = getattr(workspaces, "svd", None)
-        if shape_and_svd is None or shape_and_svd[0] != jacobian.shape:
-            shape_and_svd = workspaces.svd = (jacobian.shape, eigenpy.HhJacobiSVD(*jacobian.shape, _THIN_UV))
-        svd = shape_and_svd[1].compute(jacobian)
-        singular_values = svd.singularValues().reshape(-1).tolist()
-        return self._scaled_gradient(kinematics, task, gain, singular_values, svd.solve(identity(jacobian.shape[0])))
+        singular_values, pseudo = self._decomposition(task.jacobian(kinematics))
+        return self._scaled_gradient(kinematics, task, gain, singular_values, pseudo)
 
     def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         r""":math:`-k\,\partial w/\partial q`; w and :math:`J^\dagger` from ``decomposition`` (the SVD the resolver
@@ -303,14 +301,71 @@ class Manipulability(Criterion):
     has_curvature = True
 
     def curvature(self, kinematics, task, v: np.ndarray) -> np.ndarray:
-        r""":math:`\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
-        (step ``CURVATURE_STEP`` = 1e-5 rad): the Hessian of w needs third derivatives of the kinematics, which
-        Pinocchio does not give. The differences move a ``Kinematics`` of the criterion's own: the
-        caller's stay at their configuration, with what was computed there."""
+        r""":math:`\nabla^2 p\,v`, the rate of ∂p/∂q along the motion at joint velocity v, in closed form
+        (:meth:`scaled_curvature` with k = 1)."""
         return self.scaled_curvature(kinematics, task, v, 1.0)
 
-    def scaled_curvature(self, kinematics, task, v: np.ndarray, gain: float) -> np.ndarray:
-        r""":math:`k\,\nabla^2 p\,v` as :meth:`curvature` takes it, the gain joined to the difference's 1/2δ."""
+    def scaled_curvature(self, kinematics, task, v: np.ndarray, gain: float, decomposition=None) -> np.ndarray:
+        r""":math:`k\nabla^2 p\,v = -k\,\frac{d}{dt}\big(w\,\mathrm{tr}(J^\dagger\,\partial J/\partial q_k)\big)` in
+        closed form, the formula of the stacked step (``StackedManipulabilityGradient``, whose docstring derives
+        it) on one state. With :math:`L_i, \omega_i` the frame Jacobian's (LOCAL_WORLD_ALIGNED) linear and angular
+        columns, :math:`f_i` the rows of :math:`J^\dagger` written in the task's rows of a 3-vector,
+        :math:`B_k = \sum_{i\le k}\omega_i\times f_i` and :math:`A_k = \sum_{i>k} L_i\times f_i`:
+
+        .. math::
+
+            \mathrm{tr}\Big(J^\dagger\frac{\partial J}{\partial q_k}\Big) = \omega_k\cdot A_k - L_k\cdot B_k,
+            \qquad \frac{d}{dt}\mathrm{tr}\Big(J^\dagger\frac{\partial J}{\partial q_k}\Big)
+            = \dot\omega_k\cdot A_k + \omega_k\cdot\dot A_k - \dot L_k\cdot B_k - L_k\cdot\dot B_k,
+
+        :math:`\dot L, \dot\omega` the columns of the frame Jacobian's rate along v (Pinocchio's
+        ``getFrameJacobianTimeVariation``), :math:`\dot f_i` the rows of
+        :math:`\frac{d}{dt}J^\dagger = (I - J^\dagger J)\dot J^\top J^{\dagger\top}J^\dagger - J^\dagger\dot J J^\dagger`
+        and :math:`\dot w = w\,v\cdot\mathrm{tr}(J^\dagger\,\partial J/\partial q)`. The stack's sums run here on
+        floats (``_traces_and_rates``). J⁺ and w from ``decomposition`` (the SVD the
+        resolver made of J at this configuration) when given, else from the criterion's own SVD. A pose task or a
+        robot with a multi-degree-of-freedom joint, which the sums do not cover, takes
+        :meth:`differenced_curvature`."""
+        model, rows = kinematics.model, task.dimension
+        simple = getattr(self._workspaces, "simple", None)
+        if simple is None or simple[0] is not model:
+            simple = self._workspaces.simple = (model, all(model.nvs[joint] == 1 for joint in range(1, model.njoints)))
+        if task.kind == "pose" or not simple[1]:
+            return self.differenced_curvature(kinematics, task, v, gain)
+        frame = task.frame_id(kinematics)
+        frame_jacobian = kinematics.frame_jacobian(frame)
+        frame_rate = kinematics.frame_jacobian_time_variation(frame, v)
+        jacobian, jacobian_rate = frame_jacobian[:rows], frame_rate[:rows]
+        if decomposition is None:
+            singular_values, pseudo = self._decomposition(jacobian)
+        else:
+            singular_values, pseudo = decomposition.singular_values, decomposition.decomposed_pseudoinverse()
+        w = math.prod(singular_values)  # Eq. (6) as the product of J's singular values
+        # d/dt J⁺ = (I − J⁺J) J̇ᵀ G⁻¹ − J⁺ J̇ J⁺, with G⁻¹ = (JJᵀ)⁻¹ = J⁺ᵀJ⁺
+        lifted = jacobian_rate.T.dot(pseudo.T.dot(pseudo))
+        pseudo_rate = lifted - pseudo.dot(jacobian.dot(lifted) + jacobian_rate.dot(pseudo))
+        traces, traces_rate = _traces_and_rates(
+            frame_jacobian.T.tolist(), frame_rate.T.tolist(), pseudo.tolist(), pseudo_rate.tolist()
+        )
+        # k ∇²p v = −k d/dt (w tr(J⁺ ∂J/∂q_k)) = −k (ẇ tr + w d/dt tr), ẇ = w (v · tr); p = −w of Eq. (6)
+        scale = -gain * w
+        along = scale * sum(map(operator.mul, traces, v.tolist()))
+        return np.array([along * trace + scale * rate for trace, rate in zip(traces, traces_rate)])
+
+    def _decomposition(self, jacobian: np.ndarray):
+        """J's singular values (a list) and J⁺ by the criterion's own SVD (one object per shape of J and thread)."""
+        workspaces = self._workspaces
+        shape_and_svd = getattr(workspaces, "svd", None)
+        if shape_and_svd is None or shape_and_svd[0] != jacobian.shape:
+            shape_and_svd = workspaces.svd = (jacobian.shape, eigenpy.HhJacobiSVD(*jacobian.shape, _THIN_UV))
+        svd = shape_and_svd[1].compute(jacobian)
+        return svd.singularValues().reshape(-1).tolist(), svd.solve(identity(jacobian.shape[0]))
+
+    def differenced_curvature(self, kinematics, task, v: np.ndarray, gain: float) -> np.ndarray:
+        r""":math:`k\nabla^2 p\,v` by a central difference of the analytic :meth:`gradient` along :math:`v/|v|`
+        (step ``CURVATURE_STEP`` = 1e-5 rad): the plain reference the tests hold :meth:`scaled_curvature` to, and
+        its form for a pose task or a multi-degree-of-freedom joint. The differences move a ``Kinematics`` of
+        the criterion's own: the caller's stay at their configuration, with what was computed there."""
         speed = math.hypot(*v.tolist())
         if speed == 0.0:
             return np.zeros(kinematics.nv)
@@ -325,7 +380,7 @@ class Manipulability(Criterion):
         return forward - backward
 
 
-#: Step [rad] of :meth:`Manipulability.curvature`'s central difference: its O(δ²) truncation and its round-off
+#: Step [rad] of :meth:`Manipulability.differenced_curvature`'s central difference: its O(δ²) truncation and its round-off
 #: ε|∂p/∂q|/δ balance near 1e-5.
 CURVATURE_STEP = 1e-5
 
@@ -333,6 +388,70 @@ CURVATURE_STEP = 1e-5
 def manipulability(jacobian: np.ndarray) -> float:
     r"""Yoshikawa's :math:`w = \sqrt{\det(JJ^\top)}`, Eq. (6), as the product of J's singular values."""
     return float(np.prod(np.linalg.svd(jacobian, compute_uv=False)))
+
+
+def _traces_and_rates(columns, column_rates, weights, weight_rates):
+    r"""The traces :math:`\mathrm{tr}(J^\dagger\,\partial J/\partial q_k) = \omega_k\cdot A_k - L_k\cdot B_k` and their
+    rates :math:`\dot\omega_k\cdot A_k + \omega_k\cdot\dot A_k - \dot L_k\cdot B_k - L_k\cdot\dot B_k`
+    (:meth:`Manipulability.scaled_curvature`), two lists of n floats, on floats: numpy's cost per call on
+    3-vectors is many times theirs.
+
+    Args:
+        columns, column_rates: the frame Jacobian's columns and their rates, n lists (L, ω) of 6 floats.
+        weights, weight_rates: the rows :math:`f_i` of J⁺ and of its rate, n lists of m ≤ 3 floats (the task's
+            rows of a 3-vector, the rest zero).
+    """
+    padding = (0.0,) * (3 - len(weights[0]))
+    # per column i: L_i × f_i, its rate L̇_i × f_i + L_i × ḟ_i, ω_i × f_i and its rate
+    crossed = []
+    for column, rate, weight, weight_rate in zip(columns, column_rates, weights, weight_rates):
+        f, f_rate = (*weight, *padding), (*weight_rate, *padding)
+        crossed.append(
+            (
+                _cross(column[:3], f),
+                _add(_cross(rate[:3], f), _cross(column[:3], f_rate)),
+                _cross(column[3:], f),
+                _add(_cross(rate[3:], f), _cross(column[3:], f_rate)),
+            )
+        )
+    n = len(columns)
+    # A_k = Σ_{i>k} L_i × f_i and Ȧ_k, from the last column back
+    after, after_rate = [(0.0, 0.0, 0.0)] * n, [(0.0, 0.0, 0.0)] * n
+    for k in range(n - 2, -1, -1):
+        linear, linear_rate, _, _ = crossed[k + 1]
+        after[k], after_rate[k] = _add(after[k + 1], linear), _add(after_rate[k + 1], linear_rate)
+    traces, traces_rate = [], []
+    before, before_rate = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    for k in range(n):
+        # B_k = Σ_{i≤k} ω_i × f_i and Ḃ_k, from the first column on
+        _, _, angular, angular_rate = crossed[k]
+        before, before_rate = _add(before, angular), _add(before_rate, angular_rate)
+        column, rate = columns[k], column_rates[k]
+        traces.append(_dot(column[3:], after[k]) - _dot(column[:3], before))
+        traces_rate.append(
+            _dot(rate[3:], after[k])
+            + _dot(column[3:], after_rate[k])
+            - _dot(rate[:3], before)
+            - _dot(column[:3], before_rate)
+        )
+    return traces, traces_rate
+
+
+def _cross(a, b) -> tuple[float, float, float]:
+    """a × b of two 3-sequences of floats."""
+    ax, ay, az = a
+    bx, by, bz = b
+    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+def _add(a, b) -> tuple[float, float, float]:
+    """a + b of two 3-sequences of floats."""
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _dot(a, b) -> float:
+    """a · b of two 3-sequences of floats."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 class CallableCriterion(Criterion):

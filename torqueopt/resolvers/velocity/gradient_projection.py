@@ -115,8 +115,8 @@ class GradientProjection(CriterionGain, VelocityResolver):
 
         which for k = 0 is velocity-pinv's. :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇);
         :math:`\nabla^2 p\,\dot q` from the criterion (:meth:`Criterion.curvature`): exact for the joint limits,
-        a central difference of the analytic gradient along q̇ for the manipulability (its Hessian needs third
-        derivatives of the kinematics). A callable's gradient is itself a difference: None, and the loop takes
+        and for the manipulability in the closed form of its stacked step (``StackedManipulabilityGradient``),
+        from the frame's Jacobian and its rate. A callable's gradient is itself a difference: None, and the loop takes
         q̈ by its central difference. J, its SVD (whence J⁺) and k ∂p/∂q at q are those the rates computed
         there, when they did.
         """
@@ -184,7 +184,7 @@ def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, cr
         shifted = pseudoinverse.dot(command) + scaled_gradient  # u + k ∂p/∂q
         # J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇ (row-vector products: no transposes)
         inner = shifted.dot(pseudoinverse).dot(jacobian_rate) - criterion.scaled_curvature(
-            kinematics, task, velocity, k
+            kinematics, task, velocity, k, solver
         )
         # the derivative of Eq. (4) along the motion: J⁺(ċ − J̇q̇) + (I − J⁺J)·inner = J⁺(ċ − J̇q̇ − J·inner) + inner
         return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)) + inner
@@ -269,8 +269,8 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
     (:meth:`GradientProjection.acceleration_function`), is the same sums differentiated in closed form,
     with :math:`\dot L, \dot\omega` the frame Jacobian's rate (the forest's pass at (q, q̇)),
     :math:`\frac{d}{dt}J^\dagger = (I - J^\dagger J)\dot J^\top G^{-1} - J^\dagger\dot J J^\dagger` and
-    :math:`\dot w = \dot q\cdot\partial w/\partial q`, where the single-state step takes a central difference of
-    the gradient along q̇ (the test holds the two to each other).
+    :math:`\dot w = \dot q\cdot\partial w/\partial q`, the formula the single-state step takes
+    (:meth:`Manipulability.scaled_curvature`, the tests hold the two to each other and to differences).
 
     Args:
         tolerance: the smallest σmin/σmax of J a row may have.
