@@ -402,56 +402,40 @@ def _traces_and_rates(columns, column_rates, weights, weight_rates):
             rows of a 3-vector, the rest zero).
     """
     padding = (0.0,) * (3 - len(weights[0]))
-    # per column i: L_i × f_i, its rate L̇_i × f_i + L_i × ḟ_i, ω_i × f_i and its rate
-    crossed = []
-    for column, rate, weight, weight_rate in zip(columns, column_rates, weights, weight_rates):
-        f, f_rate = (*weight, *padding), (*weight_rate, *padding)
-        crossed.append(
-            (
-                _cross(column[:3], f),
-                _add(_cross(rate[:3], f), _cross(column[:3], f_rate)),
-                _cross(column[3:], f),
-                _add(_cross(rate[3:], f), _cross(column[3:], f_rate)),
-            )
-        )
     n = len(columns)
-    # A_k = Σ_{i>k} L_i × f_i and Ȧ_k, from the last column back
-    after, after_rate = [(0.0, 0.0, 0.0)] * n, [(0.0, 0.0, 0.0)] * n
-    for k in range(n - 2, -1, -1):
-        linear, linear_rate, _, _ = crossed[k + 1]
-        after[k], after_rate[k] = _add(after[k + 1], linear), _add(after_rate[k + 1], linear_rate)
+    # A_k = Σ_{i>k} L_i × f_i and Ȧ_k (L̇_i × f_i + L_i × ḟ_i summed), from the last column back; the products
+    # written out, as a function call per 3-vector costs more than its arithmetic
+    after = [None] * n
+    ax = ay = az = dax = day = daz = 0.0
+    for k in range(n - 1, -1, -1):
+        after[k] = (ax, ay, az, dax, day, daz)
+        lx, ly, lz, _, _, _ = columns[k]
+        rx, ry, rz, _, _, _ = column_rates[k]
+        fx, fy, fz = (*weights[k], *padding)
+        gx, gy, gz = (*weight_rates[k], *padding)
+        ax, ay, az = ax + ly * fz - lz * fy, ay + lz * fx - lx * fz, az + lx * fy - ly * fx
+        dax += ry * fz - rz * fy + ly * gz - lz * gy
+        day += rz * fx - rx * fz + lz * gx - lx * gz
+        daz += rx * fy - ry * fx + lx * gy - ly * gx
+    # B_k = Σ_{i≤k} ω_i × f_i and Ḃ_k, from the first column on, and the traces and their rates
     traces, traces_rate = [], []
-    before, before_rate = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    bx = by = bz = dbx = dby = dbz = 0.0
     for k in range(n):
-        # B_k = Σ_{i≤k} ω_i × f_i and Ḃ_k, from the first column on
-        _, _, angular, angular_rate = crossed[k]
-        before, before_rate = _add(before, angular), _add(before_rate, angular_rate)
-        column, rate = columns[k], column_rates[k]
-        traces.append(_dot(column[3:], after[k]) - _dot(column[:3], before))
+        lx, ly, lz, wx, wy, wz = columns[k]
+        rx, ry, rz, vx, vy, vz = column_rates[k]
+        fx, fy, fz = (*weights[k], *padding)
+        gx, gy, gz = (*weight_rates[k], *padding)
+        bx, by, bz = bx + wy * fz - wz * fy, by + wz * fx - wx * fz, bz + wx * fy - wy * fx
+        dbx += vy * fz - vz * fy + wy * gz - wz * gy
+        dby += vz * fx - vx * fz + wz * gx - wx * gz
+        dbz += vx * fy - vy * fx + wx * gy - wy * gx
+        ax, ay, az, dax, day, daz = after[k]
+        traces.append(wx * ax + wy * ay + wz * az - lx * bx - ly * by - lz * bz)
         traces_rate.append(
-            _dot(rate[3:], after[k])
-            + _dot(column[3:], after_rate[k])
-            - _dot(rate[:3], before)
-            - _dot(column[:3], before_rate)
-        )
+            vx * ax + vy * ay + vz * az + wx * dax + wy * day + wz * daz
+            - rx * bx - ry * by - rz * bz - lx * dbx - ly * dby - lz * dbz
+        )  # fmt: skip
     return traces, traces_rate
-
-
-def _cross(a, b) -> tuple[float, float, float]:
-    """a × b of two 3-sequences of floats."""
-    ax, ay, az = a
-    bx, by, bz = b
-    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
-
-
-def _add(a, b) -> tuple[float, float, float]:
-    """a + b of two 3-sequences of floats."""
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-def _dot(a, b) -> float:
-    """a · b of two 3-sequences of floats."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 class CallableCriterion(Criterion):
