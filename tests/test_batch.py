@@ -42,6 +42,35 @@ def assert_same_run(batched, reference, tolerance=1e-9):
             assert np.max(np.abs(ours - theirs)[finite] / (1.0 + np.abs(theirs[finite]))) <= tolerance, name
 
 
+def batch_on_stacks(robot, resolver, lines, q0s, **ceilings):
+    """``simulate_batch``'s runs, checking that it ran the movements on stacks (the velocity level's lanes,
+    ``KinematicStack``), not one at a time through the kinematic loop."""
+    from torqueopt.batch import KinematicStack
+    from torqueopt.engine import run_movements
+
+    seen = []
+
+    def watching(lanes, steps):
+        seen.append(type(lanes))
+        run_movements(lanes, steps)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(torqueopt.batch, "run_movements", watching)
+        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
+    assert seen == [KinematicStack]
+    return runs
+
+
+def assert_stacks_equal_simulate(robot, resolver, lines, q0s, **ceilings):
+    """The batch's runs on stacks (:func:`batch_on_stacks`) equal ``simulate``'s run by run
+    (:func:`assert_same_run`); ``simulate``'s runs returned, for the caller to check what they cover."""
+    runs = batch_on_stacks(robot, resolver, lines, q0s, **ceilings)
+    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run(run, single)
+    return singles
+
+
 def _population(robot, count, seed):
     rng = np.random.default_rng(seed)
     q0s = rng.uniform(-np.pi, np.pi, (count, robot.nv))
@@ -271,26 +300,11 @@ def test_velocity_level_stacks_stop_where_the_kinematic_loop_does(planar3, name,
     """velocity-pinv's, gradient projection's, the kinetic-energy pseudoinverse's and task priority's (below a
     posture task) stacked forms (forest kinematics, closed-form q̈, RK4 on the stack) equal their kinematic loop
     run by run, through each of its stops: the method undefined, its rates and its torques past a ceiling."""
-    from torqueopt.batch import KinematicStack
-    from torqueopt.engine import run_movements
-
-    seen = []
-
-    def watching(lanes, steps):
-        seen.append(type(lanes))
-        run_movements(lanes, steps)
-
     resolver = torqueopt.get_resolver(name, **options)
     q0s, directions = _population(planar3, 8, seed=5)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.5) for d in directions]
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(torqueopt.batch, "run_movements", watching)
-        runs = simulate_batch(planar3, resolver, lines, q0s, **ceilings)
-    assert seen == [KinematicStack]
-    singles = [torqueopt.simulate(planar3, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
-    for run, single in zip(runs, singles):
-        assert_same_run(run, single)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, **ceilings)
     assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
     assert any(single.stop_reason is None for single in singles)
 

@@ -6,7 +6,6 @@ import pytest
 
 import torqueopt
 from torqueopt import Circle, StraightLine
-from torqueopt.batch import KinematicStack, simulate_batch
 from torqueopt.errors import SingularJacobian
 from torqueopt.resolvers.velocity import PostureDistance
 from torqueopt.resolvers.velocity.extended_jacobian import (
@@ -20,33 +19,13 @@ from torqueopt.robot_copies import RobotForest
 from torqueopt.tasks import FrameTask, Kinematics, PostureTask
 
 from .conftest import PAPER_Q0
-from .test_batch import assert_same_run
+from .test_batch import assert_stacks_equal_simulate
 
 
 @pytest.fixture(scope="module")
 def panda4():
     """panda with its last three joints locked: four joints for the three rows of the position task (n − m = 1)."""
     return torqueopt.load_robot("panda", lock=["panda_joint5", "panda_joint6", "panda_joint7"])
-
-
-def _batch_equals_the_loop(robot, resolver, lines, q0s, **ceilings):
-    """The batch's runs (on stacks: the lanes are checked) against ``simulate``'s; the loop's runs."""
-    seen = []
-
-    def watching(lanes, steps):
-        seen.append(type(lanes))
-        run_movements(lanes, steps)
-
-    from torqueopt.engine import run_movements
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(torqueopt.batch, "run_movements", watching)
-        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
-    assert seen == [KinematicStack]
-    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
-    for run, single in zip(runs, singles):
-        assert_same_run(run, single)
-    return singles
 
 
 def _planar_movements(count, seed, duration):
@@ -71,7 +50,7 @@ def test_the_stack_equals_the_kinematic_loop_on_planar3(planar3, options, ceilin
     below its cutoff), J singular, the rates and the torques past their ceilings."""
     resolver = torqueopt.get_resolver("extended-jacobian", **options)
     lines, q0s = _planar_movements(8, seed=5, duration=1.5)
-    singles = _batch_equals_the_loop(planar3, resolver, lines, q0s, **ceilings)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, **ceilings)
     reasons = [single.stop_reason or "" for single in singles]
     for stop in stops:
         assert any(reason.startswith(stop) for reason in reasons), (stop, reasons)
@@ -81,7 +60,7 @@ def test_the_stack_equals_the_kinematic_loop_on_planar3(planar3, options, ceilin
 def test_the_stack_stops_at_the_fold_as_the_loop_does(planar3):
     """At 5 ms the circle's run reaches the fold within one step (test_kinematic.py): the stage's refusal."""
     lines = [Circle(0.3, 2.0), StraightLine([0.3, -1.0], duration=2.0)]
-    singles = _batch_equals_the_loop(planar3, "extended-jacobian", lines, [PAPER_Q0, [0.3, 1.4, -1.0]], dt=0.005)
+    singles = assert_stacks_equal_simulate(planar3, "extended-jacobian", lines, [PAPER_Q0, [0.3, 1.4, -1.0]], dt=0.005)
     assert singles[0].stop_reason.startswith("extended Jacobian is singular (an algorithmic singularity")
     assert singles[1].completed
 
@@ -93,7 +72,7 @@ def test_the_stack_equals_the_kinematic_loop_with_a_posture_criterion(planar3):
     )
     assert isinstance(resolver.stack_rate_function(planar3), StackedExtendedJacobian)
     lines, q0s = _planar_movements(4, seed=9, duration=1.0)
-    _batch_equals_the_loop(planar3, resolver, lines, q0s)
+    assert_stacks_equal_simulate(planar3, resolver, lines, q0s)
 
 
 @pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
@@ -104,7 +83,7 @@ def test_the_stack_equals_the_kinematic_loop_on_panda_with_four_joints(panda4, o
     rng = np.random.default_rng(3)
     q0s = [panda4.default_configuration + rng.normal(scale=0.3, size=panda4.nv) for _ in range(4)]
     lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.4) for _ in q0s]
-    _batch_equals_the_loop(panda4, resolver, lines, q0s)
+    assert_stacks_equal_simulate(panda4, resolver, lines, q0s)
 
 
 def test_the_stack_is_for_what_it_can_compute(planar3, panda_pose):

@@ -7,8 +7,6 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
-from torqueopt.batch import KinematicStack, simulate_batch
-from torqueopt.engine import run_movements
 from torqueopt.linalg import JacobianSolver
 from torqueopt.resolvers.velocity.criteria import Manipulability
 from torqueopt.resolvers.velocity.gradient_projection import (
@@ -20,7 +18,7 @@ from torqueopt.robot_copies import RobotForest
 from torqueopt.tasks import FrameTask, Kinematics
 
 from .conftest import PAPER_Q0
-from .test_batch import _population, assert_same_run
+from .test_batch import _population, assert_same_run, batch_on_stacks
 
 
 def _states(robot, count, seed):
@@ -127,21 +125,6 @@ def test_a_pose_task_takes_the_central_difference(panda_pose):
     )
 
 
-def _watched_batch(robot, resolver, lines, q0s, **ceilings):
-    """simulate_batch, checking that it ran the movements on stacks (KinematicStack), not one at a time."""
-    seen = []
-
-    def watching(lanes, steps):
-        seen.append(type(lanes))
-        run_movements(lanes, steps)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(torqueopt.batch, "run_movements", watching)
-        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
-    assert seen == [KinematicStack]
-    return runs
-
-
 @pytest.mark.parametrize(
     ("options", "ceilings", "stop"),
     [
@@ -164,7 +147,7 @@ def test_the_batch_on_stacks_equals_simulate_on_planar3(planar3, options, ceilin
     q0s, directions = _population(planar3, 8, seed=5)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.5) for d in directions]
-    runs = _watched_batch(planar3, resolver, lines, q0s, **ceilings)
+    runs = batch_on_stacks(planar3, resolver, lines, q0s, **ceilings)
     singles = [torqueopt.simulate(planar3, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
     for run, single in zip(runs, singles):
         assert_same_run(run, single)
@@ -179,7 +162,7 @@ def test_the_batch_on_stacks_equals_simulate_on_panda(panda, options):
     rng = np.random.default_rng(8)
     q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(4)]
     lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
-    runs = _watched_batch(panda, resolver, lines, q0s)
+    runs = batch_on_stacks(panda, resolver, lines, q0s)
     for run, line, q0 in zip(runs, lines, q0s):
         assert_same_run(run, torqueopt.simulate(panda, resolver, line, q0))
 

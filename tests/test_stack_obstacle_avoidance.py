@@ -5,35 +5,14 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
-from torqueopt.batch import KinematicStack, simulate_batch
 from torqueopt.resolvers.velocity.obstacle_avoidance import stacked_undamped_pseudoinverse
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, undamped_pseudoinverse
 
 from .conftest import PAPER_Q0
-from .test_batch import _population, assert_same_run
+from .test_batch import _population, assert_stacks_equal_simulate
 
 #: The CLI's example obstacle (centre x, y, z and radius [m]), in reach of planar3's paper movement.
 OBSTACLE = "1.2,0.3,0.0,0.1"
-
-
-def _batch_and_singles(robot, resolver, lines, q0s, **ceilings):
-    """The batch's runs (asserted to go through the stacked lanes, not one movement at a time) and simulate's."""
-    seen = []
-
-    def watching(lanes, steps):
-        seen.append(type(lanes))
-        run_movements(lanes, steps)
-
-    from torqueopt.engine import run_movements
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(torqueopt.batch, "run_movements", watching)
-        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
-    assert seen == [KinematicStack]
-    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
-    for run, single in zip(runs, singles):
-        assert_same_run(run, single)
-    return singles
 
 
 def _closest_segments(robot, obstacle, influence, run):
@@ -64,7 +43,7 @@ def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_planar3(plana
     q0s, directions = _population(planar3, 12, seed=21)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.0) for d in directions]
-    singles = _batch_and_singles(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
     segments = [_closest_segments(planar3, resolver.obstacle, resolver.influence, single) for single in singles]
     assert any(not seen for seen in segments)  # never within the influence distance
     assert any(len(seen) == 1 for seen in segments)  # within it, on one segment
@@ -90,7 +69,7 @@ def test_obstacle_avoidance_on_stacks_stops_where_the_kinematic_loop_does(planar
     q0s, directions = _population(planar3, 8, seed=5)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.5) for d in directions]
-    singles = _batch_and_singles(planar3, resolver, lines, q0s, **ceilings)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, **ceilings)
     assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
     assert any(single.stop_reason is None for single in singles)
     assert any(_closest_segments(planar3, resolver.obstacle, resolver.influence, single) for single in singles)
@@ -103,7 +82,7 @@ def test_an_obstacle_on_a_chain_ending_at_another_frame_on_stacks(planar3):
     resolver = torqueopt.get_resolver("obstacle-avoidance", obstacle=obstacle, influence=0.6, critical=0.1)
     q0s, directions = _population(planar3, 6, seed=21)
     lines = [StraightLine(d, duration=1.0) for d in directions]
-    singles = _batch_and_singles(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
     assert any(_closest_segments(planar3, obstacle, resolver.influence, single) for single in singles)
 
 
@@ -126,7 +105,7 @@ def test_obstacle_avoidance_on_stacks_equals_the_kinematic_loop_on_panda(panda, 
     rng = np.random.default_rng(3)
     q0s = [panda.default_configuration + rng.normal(scale=0.3, size=panda.nv) for _ in range(5)]
     lines = [StraightLine(rng.normal(size=3), accel=0.5, duration=0.3) for _ in q0s]
-    singles = _batch_and_singles(panda, resolver, lines[:count], q0s[:count])
+    singles = assert_stacks_equal_simulate(panda, resolver, lines[:count], q0s[:count])
     segments = [_closest_segments(panda, obstacle, resolver.influence, single) for single in singles]
     assert all(single.completed for single in singles)
     inner = {segment for seen in segments for segment in seen} - {len(obstacle.chain(panda.model, panda.frame)[0]) - 1}

@@ -5,33 +5,16 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
-from torqueopt.batch import KinematicStack, simulate_batch
 from torqueopt.resolvers.velocity.task_priority import StackedPriorityBelowFrame, StackedPriorityBelowFrameInPlane
 from torqueopt.robot_copies import RobotForest, point_kinematics, point_products
 from torqueopt.tasks import FrameTask, ObstacleTask, PostureTask
 
 from .conftest import PAPER_Q0
-from .test_batch import _assert_batch_equals_simulate_on_panda, _population, assert_same_run
-
-
-def _batch_equals_the_kinematic_loop(robot, resolver, lines, q0s, **ceilings):
-    """The batch's runs on stacks (no movement at a time) equal simulate's run by run; simulate's runs returned."""
-    from torqueopt.engine import run_movements
-
-    seen = []
-
-    def watching(lanes, steps):
-        seen.append(type(lanes))
-        run_movements(lanes, steps)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(torqueopt.batch, "run_movements", watching)
-        runs = simulate_batch(robot, resolver, lines, q0s, **ceilings)
-    assert seen == [KinematicStack]
-    singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
-    for run, single in zip(runs, singles):
-        assert_same_run(run, single)
-    return singles
+from .test_batch import (
+    _assert_batch_equals_simulate_on_panda,
+    _population,
+    assert_stacks_equal_simulate,
+)
 
 
 def test_a_frame_task_below_has_a_stacked_form_and_the_rest_none(planar3):
@@ -73,7 +56,7 @@ def test_task_priority_below_a_frame_task_on_stacks_equals_the_kinematic_loop(pl
     q0s, directions = _population(planar3, 6, seed=9)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.0) for d in directions]
-    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
     assert any(single.stop_reason is None for single in singles)
 
 
@@ -88,7 +71,7 @@ def test_a_secondary_task_near_its_singularity_equals_the_kinematic_loop(planar3
     q0s = [[0.2, 0.9, 0.6], [0.4, 0.6, -0.5], [0.1, 1.2, 0.8], [0.3, 0.7, 0.4], [1.0, -0.5, -0.7], [0.0, 0.5, 1.0]]
     directions = [[-0.183, 0.541], [1.935, -0.27], [-0.244, 1.002], [-0.886, -0.292], [0.883, 0.58], [0.092, 0.67]]
     lines = [StraightLine(d, duration=1.0) for d in directions]
-    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=5.0)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, max_torque_ratio=5.0)
     near = [single for single in singles if np.abs(np.sin(single.q[:, 2])).min() < 0.1]
     assert near and all(single.stop_reason.startswith("torque of joint") for single in near)
     assert any(single.stop_reason is None for single in singles)
@@ -110,7 +93,7 @@ def test_task_priority_below_a_frame_task_stops_where_the_kinematic_loop_does(pl
     q0s, directions = _population(planar3, 8, seed=5)
     q0s, directions = np.vstack([q0s, PAPER_Q0]), np.vstack([directions, [1.0, 1.0]])
     lines = [StraightLine(d, duration=1.5) for d in directions]
-    singles = _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, **ceilings)
+    singles = assert_stacks_equal_simulate(planar3, resolver, lines, q0s, **ceilings)
     assert any(single.stop_reason and single.stop_reason.startswith(stop) for single in singles)
     assert any(single.stop_reason is None for single in singles)
 
@@ -145,7 +128,7 @@ def test_the_matrix_form_on_planar3_equals_the_kinematic_loop(planar3, options, 
     )
     q0s, directions = _population(planar3, 4, seed=9)
     lines = [StraightLine(d, duration=0.6) for d in directions]
-    _batch_equals_the_kinematic_loop(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
+    assert_stacks_equal_simulate(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
 
 
 @pytest.mark.parametrize(
