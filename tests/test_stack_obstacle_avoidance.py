@@ -5,8 +5,7 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
-from torqueopt.resolvers.velocity.obstacle_avoidance import stacked_undamped_pseudoinverse
-from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, undamped_pseudoinverse
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, stacked_undamped_pseudoinverse, undamped_pseudoinverse
 
 from .conftest import PAPER_Q0
 from .test_batch import _population, assert_stacks_equal_simulate

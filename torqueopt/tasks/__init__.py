@@ -17,6 +17,7 @@ from .stack import (
     pseudoinverse_rate,
     pseudoinverse_workspace,
     rates_through,
+    stacked_undamped_pseudoinverse,
     undamped_pseudoinverse,
 )
 from .task import Kinematics, PerConfiguration, Task
@@ -36,6 +37,7 @@ __all__ = [
     "prioritised_accelerations",
     "pseudoinverse",
     "undamped_pseudoinverse",
+    "stacked_undamped_pseudoinverse",
     "pseudoinverse_workspace",
     "pseudoinverse_rate",
     "ObstacleTask",

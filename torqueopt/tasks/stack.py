@@ -47,6 +47,7 @@ __all__ = [
     "prioritised_accelerations",
     "pseudoinverse",
     "undamped_pseudoinverse",
+    "stacked_undamped_pseudoinverse",
     "pseudoinverse_workspace",
     "pseudoinverse_rate",
 ]
@@ -108,6 +109,25 @@ def undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, svd=Non
     inverse = svd.solve(identity(rows))
     # eigenpy gives a result with one row or one column flat
     return inverse if inverse.ndim == 2 else inverse.reshape(matrix.shape[1], rows)
+
+
+def stacked_undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, rank_one: bool = False) -> np.ndarray:
+    r""":func:`undamped_pseudoinverse` of each matrix of an (A, r, c) stack, the same cutoff
+    (singular values at or below max(``tolerance``·σmax, 1e-10) dropped), by numpy's SVD.
+
+    ``rank_one``: every matrix has rank one or less (up to round-off), as :math:`J_o(I - J^\dagger J)` when
+    n − m = 1: then :math:`A = \sigma uv^\top` and :math:`A^\dagger = A^\top/\|A\|_F^2` (σ = ‖A‖_F), zero where
+    σ is at or below 1e-10, without an SVD (the tests hold it to the SVD's)."""
+    if rank_one:
+        squared = np.einsum("bij,bij->b", matrix, matrix)
+        kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
+        scale = kept / np.where(kept, squared, 1.0)
+        return np.swapaxes(matrix, 1, 2) * scale[:, None, None]
+    left, singular, right_t = np.linalg.svd(matrix, full_matrices=False)
+    cutoff = np.maximum(tolerance * singular[:, :1], ABSOLUTE_TOLERANCE)
+    kept = singular > cutoff
+    reciprocal = kept / np.where(kept, singular, 1.0)
+    return np.swapaxes(right_t, 1, 2) @ (reciprocal[:, :, None] * np.swapaxes(left, 1, 2))
 
 
 def pseudoinverse_workspace(rows: int, columns: int):

@@ -15,9 +15,9 @@ from ...tasks import (
     PerConfiguration,
     pseudoinverse_rate,
     pseudoinverse_workspace,
+    stacked_undamped_pseudoinverse,
     undamped_pseudoinverse,
 )
-from ...tasks.stack import ABSOLUTE_TOLERANCE
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -29,7 +29,6 @@ __all__ = [
     "StackedObstacleAvoidance",
     "activation",
     "activation_rate",
-    "stacked_undamped_pseudoinverse",
 ]
 
 
@@ -481,22 +480,3 @@ def _pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_time
         + along
         - times(inverse, times(matrix, along))
     )
-
-
-def stacked_undamped_pseudoinverse(matrix: np.ndarray, tolerance: float = 1e-10, rank_one: bool = False) -> np.ndarray:
-    r""":func:`~torqueopt.tasks.undamped_pseudoinverse` of each matrix of an (A, r, c) stack, the same cutoff
-    (singular values at or below max(``tolerance``·σmax, 1e-10) dropped), by numpy's SVD.
-
-    ``rank_one``: every matrix has rank one or less (up to round-off), as :math:`J_o(I - J^\dagger J)` when
-    n − m = 1: then :math:`A = \sigma uv^\top` and :math:`A^\dagger = A^\top/\|A\|_F^2` (σ = ‖A‖_F), zero where
-    σ is at or below 1e-10, without an SVD (the tests hold it to the SVD's)."""
-    if rank_one:
-        squared = np.einsum("bij,bij->b", matrix, matrix)
-        kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
-        scale = kept / np.where(kept, squared, 1.0)
-        return np.swapaxes(matrix, 1, 2) * scale[:, None, None]
-    left, singular, right_t = np.linalg.svd(matrix, full_matrices=False)
-    cutoff = np.maximum(tolerance * singular[:, :1], ABSOLUTE_TOLERANCE)
-    kept = singular > cutoff
-    reciprocal = kept / np.where(kept, singular, 1.0)
-    return np.swapaxes(right_t, 1, 2) @ (reciprocal[:, :, None] * np.swapaxes(left, 1, 2))

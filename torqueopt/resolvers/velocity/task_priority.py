@@ -20,7 +20,7 @@ from ...tasks import (
     rates_through,
     undamped_pseudoinverse,
 )
-from ...tasks.stack import ABSOLUTE_TOLERANCE
+from ...tasks.stack import ABSOLUTE_TOLERANCE, stacked_undamped_pseudoinverse
 from ...tasks.task import identity
 from ..options import LARGEST_WEIGHT, Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -296,10 +296,6 @@ def accelerations_below_one_task(
     return first_accelerations + projected_inverse.dot(inner) + along
 
 
-#: The relative singular-value cutoff of the lower pseudoinverse (``undamped_pseudoinverse``'s default).
-LOWER_TOLERANCE = 1e-10
-
-
 def _mv(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """Mx per row of (B, r, c) and (B, c) stacks."""
     return np.einsum("bij,bj->bi", matrices, vectors)
@@ -322,8 +318,8 @@ class StackedPriorityBelowFrame(StackedPseudoInverse):
     :math:`J^\dagger` as :class:`StackedPseudoInverse` forms it (a row whose σmin/σmax of J is below the tolerance
     fails, as the SVD's solver refuses it); the frame's position :math:`x_l`, Jacobian :math:`J_l` and its rate
     :math:`\dot J_l` from every joint's kinematics of the forest's pass (``RobotForest.frame_points``,
-    ``point_kinematics``), the task's rows. :math:`A^\dagger` drops, as ``undamped_pseudoinverse`` does, the
-    singular values of A at or below :math:`\max(10^{-10}\sigma_{max}, 10^{-10})`: for one degree of redundancy
+    ``point_kinematics``), the task's rows. :math:`A^\dagger` (``stacked_undamped_pseudoinverse``) drops, as
+    ``undamped_pseudoinverse`` does, the singular values of A at or below :math:`\max(10^{-10}\sigma_{max}, 10^{-10})`: for one degree of redundancy
     (n − m = 1) :math:`I - J^\dagger J = zz^\top` and :math:`A = (J_lz)z^\top` has rank one, its one singular value
     :math:`\|A\|_F` (kept where above :math:`10^{-10}`, the relative cutoff never binding on it) and
     :math:`A^\dagger = A^\top/\|A\|_F^2` in closed form on the batch axis; more redundancy by numpy's SVD per row.
@@ -348,22 +344,6 @@ class StackedPriorityBelowFrame(StackedPseudoInverse):
         self.rows, self.target, self.gain = lower.rows, lower.target, lower.gain
         self.rank_one = redundancy == 1
 
-    def lower_pseudoinverse(self, projected: np.ndarray) -> np.ndarray:
-        r""":math:`A^\dagger` (B, n, m_l) of each (m_l, n) A, the singular values at or below
-        :math:`\max(10^{-10}\sigma_{max}, 10^{-10})` dropped (``undamped_pseudoinverse``'s cutoff)."""
-        projected_t = np.swapaxes(projected, 1, 2)
-        if self.rank_one:
-            # A = (J_l z)zᵀ: σ_max = ‖A‖_F, A⁺ = Aᵀ/‖A‖_F² (zero where σ_max ≤ 10⁻¹⁰)
-            squared = np.einsum("bij,bij->b", projected, projected)
-            kept = squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE
-            return projected_t * (np.where(kept, 1.0, 0.0) / np.where(kept, squared, 1.0))[:, None, None]
-        left, singular, right = np.linalg.svd(projected, full_matrices=False)
-        cutoff = np.maximum(LOWER_TOLERANCE * singular[:, :1], ABSOLUTE_TOLERANCE)
-        kept = singular > cutoff
-        inverse_values = np.where(kept, 1.0, 0.0) / np.where(kept, singular, 1.0)
-        # V_r Σ_r⁻¹ U_rᵀ over the kept singular values
-        return (np.swapaxes(right, 1, 2) * inverse_values[:, None, :]) @ np.swapaxes(left, 1, 2)
-
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
@@ -381,7 +361,7 @@ class StackedPriorityBelowFrame(StackedPseudoInverse):
             lower_velocity = self.gain * (self.target - point[:, self.rows])  # ẋ_l = k(x* − x_l)
         projector = identity(jacobian.shape[2]) - inverse @ jacobian  # I − J⁺J
         projected = lower_jacobian @ projector  # J_l(I − J⁺J) of Eq. (10)
-        projected_inverse = self.lower_pseudoinverse(projected)
+        projected_inverse = stacked_undamped_pseudoinverse(projected, rank_one=self.rank_one)
         shortfall = lower_velocity - _mv(lower_jacobian, first_rates)
         particular = _mv(projected_inverse, shortfall)
         # Eq. (11): J⁺ẋ_h + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺ẋ_h)
