@@ -8,7 +8,7 @@ import numpy as np
 
 from ...errors import InvalidInput
 from ...robot import Robot
-from ...robot_copies import JointKinematics, RobotForest, point_kinematics, stacked_cross
+from ...robot_copies import RobotForest
 from ...tasks import (
     FrameTask,
     Kinematics,
@@ -247,15 +247,74 @@ _SMALLEST = 5e-324
 
 
 class _Closest(NamedTuple):
-    """The closest points of some rows of a stack (A rows), what Eq. (13)'s rates and q̈ read of them."""
+    """The closest point of every row of a stack, what Eq. (13)'s rates and q̈ read of it, rows last (each
+    coordinate a contiguous block over the rows)."""
 
-    point: np.ndarray  # (A, 3) x_o [m]
-    normal: np.ndarray  # (A, 3) n̂
-    distance: np.ndarray  # (A,) ‖x_o − c‖ [m]
-    start: np.ndarray  # (A, 3) the segment's start a [m] (its joint's origin)
-    axis: np.ndarray  # (A, 3) u = b − a [m]
-    inside: np.ndarray  # (A,) True where x_o is inside the segment (0 < (c − a)·u < ‖u‖²): it slides along it
-    columns: np.ndarray  # (A, 1, n) the joints that move the segment's body (its joint's support)
+    point: np.ndarray  # (3, B) x_o [m]
+    normal: np.ndarray  # (3, B) n̂
+    distance: np.ndarray  # (B,) ‖x_o − c‖ [m]
+    start: np.ndarray  # (3, B) the segment's start a [m] (its joint's origin)
+    axis: np.ndarray  # (3, B) u = b − a [m]
+    along: np.ndarray  # (B,) (c − a)·u [m²]: x_o is inside the segment (it slides along it) where 0 < it < ‖u‖²
+    length_squared: np.ndarray  # (B,) ‖u‖² [m²]
+    columns: np.ndarray  # (n, B) the joints that move the segment's body (its joint's support)
+
+
+class _Homogeneous(NamedTuple):
+    """What the rates leave to q̈ of the homogeneous term of Eq. (13), every row's, rows last."""
+
+    closest: _Closest
+    gain: np.ndarray  # (B,) α_h
+    slope: np.ndarray  # (B,) α_h' [1/m]
+    world: np.ndarray  # (6, n, B) J_O of the joints that move the closest segment's body
+    point_jacobian: np.ndarray  # (3, n, B) J_o
+    inverse: np.ndarray  # (n, m, B) J⁺
+    projector: np.ndarray  # (n, n, B) N = I − J⁺J
+    projected: np.ndarray  # (3, n, B) B = J_o N
+    projected_inverse: np.ndarray | None  # (n, 3, B) B⁺, None when B has rank one or less
+    scale: np.ndarray | None  # (B,) 1/‖B‖²_F (0 where B is dropped) when B has rank one or less, else None
+    particular: np.ndarray  # (n, B) p = J⁺c
+    shortfall: np.ndarray  # (3, B) e of Eq. (12)
+    phi: np.ndarray  # (n, B) φ̇ = B⁺e, Eq. (12)
+
+
+def _rows_last(stack: np.ndarray) -> np.ndarray:
+    """A (B, …) stack as a contiguous (…, B) one, the rows axis last."""
+    return stack.transpose((*range(1, stack.ndim), 0)).copy()
+
+
+def _times(matrices: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """The product of each row's matrices of two (r, k, B), (k, c, B) stacks, rows last: (r, c, B). One einsum
+    whose inner loop runs over the rows, where products of stacks of small matrices pay a set-up per matrix."""
+    return np.einsum("ikb,kjb->ijb", matrices, other)
+
+
+def _apply(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Each row's matrix (r, k, B) times its vector (k, B): (r, B), rows last."""
+    return np.einsum("ijb,jb->ib", matrices, vectors)
+
+
+def _apply_transposed(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Each row's transposed matrix, of (k, r, B), times its vector (k, B): (r, B), rows last."""
+    return np.einsum("jib,jb->ib", matrices, vectors)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a·b of each row's vectors of (3, B) stacks."""
+    return np.einsum("ib,ib->b", a, b)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b along axis 0 of (3, …) stacks (b broadcast against a's trailing axes), by components."""
+    first = a[1] * b[2]
+    first -= a[2] * b[1]
+    out = np.empty((3, *first.shape))
+    out[0] = first
+    np.multiply(a[2], b[0], out=out[1])
+    out[1] -= a[0] * b[2]
+    np.multiply(a[0], b[1], out=out[2])
+    out[2] -= a[1] * b[0]
+    return out
 
 
 class StackedObstacleAvoidance(StackedPseudoInverse):
@@ -265,11 +324,16 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
 
     The closest point of each row (:meth:`torqueopt.tasks.ObstacleTask.closest_point`, on every segment of every
     row at once) from the joints' origins the forest computes with J in the same pass (``reads_joints``) and the
-    end frame's position; its Jacobian :math:`J_o` and, along q̇, :math:`\dot J_o` by ``point_kinematics`` with the
-    columns of the joints that move the closest segment's body (``RobotForest.support_columns``, one row of
-    columns per segment, gathered per row), plus the slide of the closest point along its segment
-    (:meth:`torqueopt.tasks.ObstacleTask.point_rates`). Only the rows where :math:`\alpha_h > 0` compute the
-    homogeneous term; the others move by :math:`J^\dagger c` alone, as in the single-state step.
+    end frame's position; its Jacobian :math:`J_o = J_v + J_\omega\times x_o` and, along q̇,
+    :math:`\dot J_o = \dot J_v + \dot J_\omega\times x_o + J_\omega\times v_p` (as ``point_kinematics``, with the
+    point's own velocity :math:`v_p`, its slide along its segment included,
+    :meth:`torqueopt.tasks.ObstacleTask.point_rates`) from the world-frame Jacobian columns of the joints that move
+    the closest segment's body (``RobotForest.support_columns``, one row of columns per segment, gathered per row).
+
+    The homogeneous term is computed on every row, with the rows last (each operation a few passes over the
+    rows rather than one small matrix at a time), and added with :math:`\alpha_h` and :math:`\dot\alpha_h`, which
+    are 0 beyond the influence: such a row moves by :math:`J^\dagger c` alone, as in the single-state step, and
+    no row is computed when none is within it.
 
     Args:
         forest: the robot's forest (its support columns and frame placements).
@@ -295,31 +359,38 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         self.end_frame = None if frame_id == robot.frame_id else frame_id
         self.forest, self.center, self.radius = forest, obstacle.center, obstacle.radius
         self.speed, self.influence, self.critical = speed, influence, critical
-        # segment i moves with joint chain[i]'s body: the columns of that joint's support
-        self.segment_columns = np.array([forest.support_columns(joint) for joint in chain])
+        # segment i moves with joint chain[i]'s body: the columns of that joint's support, (n, segments)
+        self.segment_columns = np.array([forest.support_columns(joint) for joint in chain]).T.copy()
         self.rank_one = robot.nv - robot.m == 1
+        self.identity = np.eye(robot.nv)[:, :, None]
+        self._row_indices = np.arange(0)
 
     def _closest(self, kinematics):
         """Every row's clearance d [m] (B,) to its closest point on the chain's segments (the first of equals), and
-        what :meth:`_near` reads of them: the segments as (3, segments, B) arrays (each coordinate a contiguous
-        block, so that each operation is one pass over the stack) and the closest one's index per row."""
+        the closest point (:class:`_Closest`). The segments are (3, segments, B) arrays (each coordinate a
+        contiguous block, so that each operation is one pass over the stack), written in one (14, segments, B)
+        block from which one gather picks every row's closest segment."""
         joints = kinematics.joints
         end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
         count, segments = end.shape[0], self.segments
         corners = np.empty((3, segments + 1, count))
         corners[:, :segments] = joints.origins[:, self.chain].T
         corners[:, segments] = end.T
-        start = corners[:, :-1]
-        axis = corners[:, 1:] - start
+        # the block: start a (0:3), axis u (3:6), closest point x_o (6:9), x_o − c (9:12), (c − a)·u, ‖u‖²
+        block = np.empty((14, segments, count))
+        start, axis, points, offsets = block[0:3], block[3:6], block[6:9], block[9:12]
+        start[...] = corners[:, :-1]
+        np.subtract(corners[:, 1:], start, out=axis)
         to_center = self.center[:, None, None] - start
-        length_squared = axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]
-        along = to_center[0] * axis[0] + to_center[1] * axis[1] + to_center[2] * axis[2]
+        length_squared = np.einsum("ijb,ijb->jb", axis, axis, out=block[13])
+        along = np.einsum("ijb,ijb->jb", to_center, axis, out=block[12])
         # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length (whose u_i = 0 gives 0/5e-324)
         fraction = along / np.maximum(length_squared, _SMALLEST)
         np.clip(fraction, 0.0, 1.0, out=fraction)
-        points = start + fraction * axis
-        offsets = points - self.center[:, None, None]
-        distances = np.sqrt(offsets[0] * offsets[0] + offsets[1] * offsets[1] + offsets[2] * offsets[2])
+        np.multiply(fraction, axis, out=points)
+        points += start
+        np.subtract(points, self.center[:, None, None], out=offsets)
+        distances = np.sqrt(np.einsum("ijb,ijb->jb", offsets, offsets))
         # the first of equals, as the single-state loop's strict comparison
         segment = np.zeros(count, dtype=int)
         distance = distances[0].copy()
@@ -327,23 +398,19 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
             closer = distances[index] < distance
             segment[closer] = index
             np.minimum(distance, distances[index], out=distance)
-        return distance - self.radius, (segment, distance, points, offsets, start, axis, along, length_squared)
-
-    def _near(self, segments, rows: np.ndarray) -> _Closest:
-        """The closest points of ``rows`` from what :meth:`_closest` found."""
-        segment, distance, points, offsets, start, axis, along, length_squared = segments
-        count = distance.shape[0]
-        pick = segment[rows] * count + rows  # the closest segment's place in a (segments, B) array, raveled
-        offset = offsets.reshape(3, -1)[:, pick]
-        distance = distance[rows]
-        normal = offset / np.maximum(distance, _SMALLEST)  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
-        normal[0, distance == 0.0] = 1.0
-        along, length_squared = along.reshape(-1)[pick], length_squared.reshape(-1)[pick]
-        return _Closest(
-            points.reshape(3, -1)[:, pick].T, normal.T, distance, start.reshape(3, -1)[:, pick].T,
-            axis.reshape(3, -1)[:, pick].T, (along > 0.0) & (along < length_squared),
-            self.segment_columns[segment[rows]][:, None],
+        if self._row_indices.size != count:
+            self._row_indices = np.arange(count)
+        # the closest segment's place in a (segments, B) array, raveled
+        picked = np.take(block.reshape(14, -1), segment * count + self._row_indices, axis=1)
+        normal = picked[9:12] / np.maximum(distance, _SMALLEST)
+        at_center = distance == 0.0
+        if at_center.any():
+            normal[0, at_center] = 1.0  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
+        closest = _Closest(
+            picked[6:9], normal, distance, picked[0:3], picked[3:6], picked[12], picked[13],
+            np.take(self.segment_columns, segment, axis=1),
         )  # fmt: skip
+        return distance - self.radius, closest
 
     def _activation(self, clearance: np.ndarray):
         """α_h(d) and α_h'(d) [1/m] of every row (:func:`activation`, :func:`activation_rate`)."""
@@ -360,123 +427,119 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's."""
         particular, conditions, failures, inverse = super().rates(jacobian, command)
-        clearance, segments = self._closest(kinematics)
+        clearance, closest = self._closest(kinematics)
         gain, slope = self._activation(clearance)
         if failures:
             gain[list(failures)] = 0.0  # a singular row's J⁺ is not read
-        near = np.flatnonzero(gain > 0.0)
-        if near.size == 0:
-            return particular, conditions, failures, (inverse, particular, near, None)
-        closest = self._near(segments, near)
-        joints = kinematics.joints
-        point_jacobian = point_kinematics(
-            JointKinematics(joints.jacobian[near], None, None, None), closest.columns, closest.point
-        )[0][:, :3]
-        near_inverse = inverse[near]
-        projector = identity(jacobian.shape[2]) - near_inverse @ jacobian[near]  # I − J⁺J
-        projected = point_jacobian @ projector  # J_o(I − J⁺J)
-        projected_inverse = stacked_undamped_pseudoinverse(projected, rank_one=self.rank_one)
-        near_particular = particular[near]
+        if not gain.any():
+            return particular, conditions, failures, (inverse, particular, None)
+        # J_O of the joints that move the closest segment's body, (6, n, B), and J_o = J_v + J_ω × x_o
+        world = _rows_last(kinematics.joints.jacobian)
+        world *= closest.columns
+        point_jacobian = _cross(world[3:], closest.point)
+        point_jacobian += world[:3]
+        # N = I − J⁺J, B = J_o N
+        near_inverse = _rows_last(inverse)
+        projector = self.identity - _times(near_inverse, _rows_last(jacobian))
+        projected = _times(point_jacobian, projector)
+        near_particular = _rows_last(particular)
         # e of Eq. (12): ẋ_o − J_o J⁺c, with ẋ_o = v_o n̂
-        shortfall = self.speed * closest.normal - np.einsum("bij,bj->bi", point_jacobian, near_particular)
-        phi = np.einsum("bij,bj->bi", projected_inverse, shortfall)  # Eq. (12)
-        velocity = particular.copy()
-        # Eq. (13): J⁺c + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺c)
-        velocity[near] += gain[near, None] * phi
-        near_state = (
-            closest,
-            gain[near],
-            slope[near],
-            point_jacobian,
-            projector,
-            projected,
-            projected_inverse,
-            shortfall,
-            phi,
-        )
-        return velocity, conditions, failures, (inverse, particular, near, near_state)
+        shortfall = self.speed * closest.normal
+        shortfall -= _apply(point_jacobian, near_particular)
+        if self.rank_one:
+            # B = σuvᵀ: B⁺ = Bᵀ/‖B‖²_F, zero at σ ≤ 1e-10 (as stacked_undamped_pseudoinverse's rank_one)
+            squared = np.einsum("ijb,ijb->b", projected, projected)
+            kept = squared > 1e-20
+            scale = kept / np.where(kept, squared, 1.0)
+            projected_inverse = None
+            phi = _apply_transposed(projected, shortfall)  # Eq. (12)
+            phi *= scale
+        else:
+            scale = None
+            projected_inverse = stacked_undamped_pseudoinverse(projected.transpose(2, 0, 1)).transpose(1, 2, 0)
+            phi = _apply(projected_inverse, shortfall)  # Eq. (12)
+        # Eq. (13): J⁺c + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺c), the term 0 where α_h = 0
+        velocity = particular + (gain * phi).T
+        homogeneous = _Homogeneous(
+            closest, gain, slope, world, point_jacobian, near_inverse, projector, projected, projected_inverse, scale,
+            near_particular, shortfall, phi,
+        )  # fmt: skip
+        return velocity, conditions, failures, (inverse, particular, homogeneous)
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """The time derivative of Eq. (13) per row (see :meth:`ObstacleAvoidance.acceleration_function`).
         ``kinematics``: the forest's at the configuration and q̇, with every joint's and their rates."""
-        inverse, particular, near, near_state = state
+        inverse, particular, homogeneous = state
         # d/dt J⁺c = J⁺(ċ − J̇p) + (I − J⁺J)J̇ᵀJ⁺ᵀp, p = J⁺c, for J of full row rank
         turned = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", inverse, particular))
         particular_rate = np.einsum(
             "bij,bj->bi", inverse, command_rate - np.einsum("bij,bj->bi", jacobian_rate, particular)
         ) + (turned - np.einsum("bij,bj->bi", inverse, np.einsum("bij,bj->bi", jacobian, turned)))
-        if near.size == 0:
+        if homogeneous is None:
             return particular_rate  # beyond the influence α_h and its rate are 0
-        closest, gain, slope, point_jacobian, projector, projected, projected_inverse, shortfall, phi = near_state
-        joints, v = kinematics.joints, velocity[near]
-        moving_jacobian, moving_rate = point_kinematics(
-            JointKinematics(joints.jacobian[near], joints.rate[near], None, None), closest.columns, closest.point, v
+        closest, gain, slope, world, point_jacobian, near_inverse, projector, projected, projected_inverse, scale = (
+            homogeneous[:10]
         )
+        near_particular, shortfall, phi = homogeneous[10:]
+        v = _rows_last(velocity)
         # the body's angular velocity ω and the material point's velocity J_o q̇
-        angular_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, 3:], v)
-        material_velocity = np.einsum("bij,bj->bi", moving_jacobian[:, :3], v)
+        angular_velocity = _apply(world[3:], v)
+        material_velocity = _apply(point_jacobian, v)
         axis = closest.axis
         # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0; the joint origin a moves at
         # v_a = J_o q̇ − ω × (x_o − a), and x_o − a is along u: v_a·u = J_o q̇·u
-        slide = (
-            closest.inside
-            * (_dot(self.center - closest.start, _cross(angular_velocity, axis)) - _dot(material_velocity, axis))
-            / np.maximum(_dot(axis, axis), _SMALLEST)
-        )
-        sliding = slide[:, None] * axis
-        point_velocity = material_velocity + sliding  # v_p = J_o q̇ + ṡu
+        inside = (closest.along > 0.0) & (closest.along < closest.length_squared)
+        slide = _dot(self.center[:, None] - closest.start, _cross(angular_velocity, axis))
+        slide -= _dot(material_velocity, axis)
+        slide *= inside
+        slide /= np.maximum(closest.length_squared, _SMALLEST)
+        point_velocity = slide * axis
+        point_velocity += material_velocity  # v_p = J_o q̇ + ṡu
         normal = closest.normal
-        normal_rate = (point_velocity - normal * _dot(normal, point_velocity)[:, None]) / closest.distance[:, None]
-        # J̇_o: the material point's Jacobian rate, and the slide's J_ω × ṡu
-        point_jacobian_rate = moving_rate[:, :3] + stacked_cross(moving_jacobian[:, 3:], sliding[:, :, None])
-        gain_rate = slope * _dot(normal, point_velocity)  # α̇_h = α_h'(d) n̂·v_p
-        near_inverse, near_jacobian_rate = inverse[near], jacobian_rate[near]
+        normal_speed = _dot(normal, point_velocity)
+        normal_rate = point_velocity - normal * normal_speed
+        normal_rate /= closest.distance
+        # J̇_o = J̇_v + J̇_ω × x_o + J_ω × v_p: the material point's Jacobian rate and the slide's J_ω × ṡu
+        world_rate = _rows_last(kinematics.joints.rate)
+        world_rate *= closest.columns
+        point_jacobian_rate = _cross(world_rate[3:], closest.point)
+        point_jacobian_rate += _cross(world[3:], point_velocity)
+        point_jacobian_rate += world_rate[:3]
+        gain_rate = slope * normal_speed  # α̇_h = α_h'(d) n̂·v_p
         # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −(X + Xᵀ), X = J⁺J̇N
-        turn = near_inverse @ (near_jacobian_rate @ projector)
-        projected_rate = point_jacobian_rate @ projector - point_jacobian @ (turn + np.swapaxes(turn, 1, 2))
-        near_particular, near_particular_rate = particular[near], particular_rate[near]
-        shortfall_rate = (
-            self.speed * normal_rate
-            - np.einsum("bij,bj->bi", point_jacobian_rate, near_particular)
-            - np.einsum("bij,bj->bi", point_jacobian, near_particular_rate)
-        )
-        phi_rate = _pseudoinverse_rate_times(projected, projected_rate, projected_inverse, shortfall, phi) + np.einsum(
-            "bij,bj->bi", projected_inverse, shortfall_rate
-        )
-        acceleration = particular_rate
-        # d/dt of Eq. (13)
-        acceleration[near] += gain_rate[:, None] * phi + gain[:, None] * phi_rate
-        return acceleration
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a·b of (A, 3) stacks, by components (as the single-state step on floats)."""
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of (A, 3) stacks."""
-    return stacked_cross(a[:, :, None], b[:, :, None])[:, :, 0]
+        turn = _times(near_inverse, _times(_rows_last(jacobian_rate), projector))
+        turn += turn.transpose(1, 0, 2)
+        projected_rate = _times(point_jacobian_rate, projector)
+        projected_rate -= _times(point_jacobian, turn)
+        shortfall_rate = self.speed * normal_rate
+        shortfall_rate -= _apply(point_jacobian_rate, near_particular)
+        shortfall_rate -= _apply(point_jacobian, _rows_last(particular_rate))
+        if scale is not None:
+            # B⁺ = Bᵀ/‖B‖²_F of constant rank one: d/dt B⁺ = (Ḃᵀ − 2⟨B, Ḃ⟩B⁺)/‖B‖²_F, and B⁺ė = Bᵀė/‖B‖²_F
+            phi_rate = _apply_transposed(projected_rate, shortfall)
+            phi_rate += _apply_transposed(projected, shortfall_rate)
+            phi_rate -= (2.0 * np.einsum("ijb,ijb->b", projected, projected_rate)) * phi
+            phi_rate *= scale
+        else:
+            phi_rate = _pseudoinverse_rate_times(projected, projected_rate, projected_inverse, shortfall, phi)
+            phi_rate += _apply(projected_inverse, shortfall_rate)
+        # d/dt of Eq. (13), the term 0 where α_h = 0
+        phi_rate *= gain
+        phi_rate += gain_rate * phi
+        particular_rate += phi_rate.T
+        return particular_rate
 
 
 def _pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_times_vector) -> np.ndarray:
     r""":math:`\frac{d}{dt}A^\dagger\,e` per row, :func:`~torqueopt.tasks.pseudoinverse_rate` applied to a vector e
-    (``vector``, with :math:`y = A^\dagger e` given) in matrix-vector products:
-    :math:`-A^\dagger\dot Ay + A^\dagger A^{\dagger\top}\dot A^\top(e - Ay) + (I - A^\dagger A)\dot A^\top A^{\dagger\top}y`."""
-
-    def times(stack, vectors):
-        return np.einsum("bij,bj->bi", stack, vectors)
-
-    def transposed_times(stack, vectors):
-        return np.einsum("bji,bj->bi", stack, vectors)
-
-    along = transposed_times(matrix_rate, transposed_times(inverse, inverse_times_vector))  # ȦᵀA⁺ᵀy
-    return (
-        -times(inverse, times(matrix_rate, inverse_times_vector))
-        + times(
-            inverse,
-            transposed_times(inverse, transposed_times(matrix_rate, vector - times(matrix, inverse_times_vector))),
-        )
-        + along
-        - times(inverse, times(matrix, along))
+    (``vector``, with :math:`y = A^\dagger e` given) in matrix-vector products on stacks with the rows last:
+    :math:`A^\dagger(-\dot Ay + A^{\dagger\top}\dot A^\top(e - Ay) - A\,w) + w` with
+    :math:`w = \dot A^\top A^{\dagger\top}y`."""
+    along = _apply_transposed(matrix_rate, _apply_transposed(inverse, inverse_times_vector))  # ȦᵀA⁺ᵀy
+    residual = vector - _apply(matrix, inverse_times_vector)
+    inside = (
+        _apply_transposed(inverse, _apply_transposed(matrix_rate, residual))
+        - _apply(matrix_rate, inverse_times_vector)
+        - _apply(matrix, along)
     )
+    return _apply(inverse, inside) + along
