@@ -268,12 +268,10 @@ class _Homogeneous(NamedTuple):
     slope: np.ndarray  # (B,) α_h' [1/m]
     world: np.ndarray  # (6, n, B) J_O of the joints that move the closest segment's body
     point_jacobian: np.ndarray  # (3, n, B) J_o
-    inverse: np.ndarray  # (n, m, B) J⁺
     projector: np.ndarray  # (n, n, B) N = I − J⁺J
     projected: np.ndarray  # (3, n, B) B = J_o N
     projected_inverse: np.ndarray | None  # (n, 3, B) B⁺, None when B has rank one or less
     scale: np.ndarray | None  # (B,) 1/‖B‖²_F (0 where B is dropped) when B has rank one or less, else None
-    particular: np.ndarray  # (n, B) p = J⁺c
     shortfall: np.ndarray  # (3, B) e of Eq. (12)
     phi: np.ndarray  # (n, B) φ̇ = B⁺e, Eq. (12)
 
@@ -413,39 +411,63 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         return distance - self.radius, closest
 
     def _activation(self, clearance: np.ndarray):
-        """α_h(d) and α_h'(d) [1/m] of every row (:func:`activation`, :func:`activation_rate`)."""
+        """α_h(d) and α_h'(d) [1/m] of every row (:func:`activation`, :func:`activation_rate`): s clipped to
+        [0, 1] is 0 exactly where d ≥ ``influence`` and 1 where d ≤ ``critical``, where the cubic step gives 0 and 1
+        and its slope (−)0."""
         influence, critical = self.influence, self.critical
-        s = (influence - clearance) / (influence - critical)
-        gain = s * s * (3.0 - 2.0 * s)
-        slope = -6.0 * s * (1.0 - s) / (influence - critical)
-        beyond, within = clearance >= influence, clearance <= critical
-        gain[beyond], gain[within] = 0.0, 1.0
-        slope[beyond | within] = 0.0
+        s = influence - clearance
+        s /= influence - critical
+        np.clip(s, 0.0, 1.0, out=s)
+        gain = 3.0 - 2.0 * s
+        gain *= s * s
+        slope = s - 1.0
+        slope *= s
+        slope *= 6.0 / (influence - critical)
         return gain, slope
+
+    def _pseudoinverse(self, jacobian: np.ndarray, command: np.ndarray):
+        r"""J (m, n, B), J⁺ (n, m, B) and p = J⁺c (n, B) rows last, σmin/σmax (B,) and the singular rows; for m = 2
+        :math:`J^\dagger = J^\top G^{-1}`, :math:`G = JJ^\top` in closed form on the rows (the conditions and
+        singular rows :class:`StackedPseudoInverse`'s), else :class:`StackedPseudoInverse`'s J⁺."""
+        if jacobian.shape[1] != 2:
+            particular, conditions, failures, inverse = super().rates(jacobian, command)
+            return _rows_last(jacobian), _rows_last(inverse), _rows_last(particular), conditions, failures
+        jacobian_rows = _rows_last(jacobian)
+        gram = np.einsum("ikb,jkb->ijb", jacobian_rows, jacobian_rows)
+        conditions, failures, determinant = self.conditions(gram.transpose(2, 0, 1))
+        # G⁻¹ = ((d, −b), (−b, a))/(ad − b²), a singular row's the identity (a finite, unused answer)
+        gram_inverse = np.empty_like(gram)
+        gram_inverse[0, 0], gram_inverse[1, 1] = gram[1, 1], gram[0, 0]
+        np.negative(gram[0, 1], out=gram_inverse[0, 1])
+        gram_inverse[1, 0] = gram_inverse[0, 1]
+        if failures:
+            rows = list(failures)
+            gram_inverse[:, :, rows], determinant[rows] = np.eye(2)[:, :, None], 1.0
+        gram_inverse /= determinant
+        inverse = np.einsum("kib,kjb->ijb", jacobian_rows, gram_inverse)  # Eq. (3)
+        return jacobian_rows, inverse, _apply(inverse, command.T.copy()), conditions, failures
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's."""
-        particular, conditions, failures, inverse = super().rates(jacobian, command)
+        jacobian_rows, inverse, particular, conditions, failures = self._pseudoinverse(jacobian, command)
         clearance, closest = self._closest(kinematics)
         gain, slope = self._activation(clearance)
         if failures:
             gain[list(failures)] = 0.0  # a singular row's J⁺ is not read
         if not gain.any():
-            return particular, conditions, failures, (inverse, particular, None)
+            return particular.T.copy(), conditions, failures, (jacobian_rows, inverse, particular, None)
         # J_O of the joints that move the closest segment's body, (6, n, B), and J_o = J_v + J_ω × x_o
         world = _rows_last(kinematics.joints.jacobian)
         world *= closest.columns
         point_jacobian = _cross(world[3:], closest.point)
         point_jacobian += world[:3]
         # N = I − J⁺J, B = J_o N
-        near_inverse = _rows_last(inverse)
-        projector = self.identity - _times(near_inverse, _rows_last(jacobian))
+        projector = self.identity - _times(inverse, jacobian_rows)
         projected = _times(point_jacobian, projector)
-        near_particular = _rows_last(particular)
         # e of Eq. (12): ẋ_o − J_o J⁺c, with ẋ_o = v_o n̂
         shortfall = self.speed * closest.normal
-        shortfall -= _apply(point_jacobian, near_particular)
+        shortfall -= _apply(point_jacobian, particular)
         if self.rank_one:
             # B = σuvᵀ: B⁺ = Bᵀ/‖B‖²_F, zero at σ ≤ 1e-10 (as stacked_undamped_pseudoinverse's rank_one)
             squared = np.einsum("ijb,ijb->b", projected, projected)
@@ -459,28 +481,28 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
             projected_inverse = stacked_undamped_pseudoinverse(projected.transpose(2, 0, 1)).transpose(1, 2, 0)
             phi = _apply(projected_inverse, shortfall)  # Eq. (12)
         # Eq. (13): J⁺c + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺c), the term 0 where α_h = 0
-        velocity = particular + (gain * phi).T
+        velocity = gain * phi
+        velocity += particular
         homogeneous = _Homogeneous(
-            closest, gain, slope, world, point_jacobian, near_inverse, projector, projected, projected_inverse, scale,
-            near_particular, shortfall, phi,
+            closest, gain, slope, world, point_jacobian, projector, projected, projected_inverse, scale, shortfall, phi,
         )  # fmt: skip
-        return velocity, conditions, failures, (inverse, particular, homogeneous)
+        return velocity.T.copy(), conditions, failures, (jacobian_rows, inverse, particular, homogeneous)
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """The time derivative of Eq. (13) per row (see :meth:`ObstacleAvoidance.acceleration_function`).
         ``kinematics``: the forest's at the configuration and q̇, with every joint's and their rates."""
-        inverse, particular, homogeneous = state
+        jacobian_rows, inverse, particular, homogeneous = state
+        jacobian_rate_rows = _rows_last(jacobian_rate)
         # d/dt J⁺c = J⁺(ċ − J̇p) + (I − J⁺J)J̇ᵀJ⁺ᵀp, p = J⁺c, for J of full row rank
-        turned = np.einsum("bji,bj->bi", jacobian_rate, np.einsum("bji,bj->bi", inverse, particular))
-        particular_rate = np.einsum(
-            "bij,bj->bi", inverse, command_rate - np.einsum("bij,bj->bi", jacobian_rate, particular)
-        ) + (turned - np.einsum("bij,bj->bi", inverse, np.einsum("bij,bj->bi", jacobian, turned)))
+        turned = _apply_transposed(jacobian_rate_rows, _apply_transposed(inverse, particular))
+        residual = command_rate.T - _apply(jacobian_rate_rows, particular)
+        particular_rate = _apply(inverse, residual)
+        particular_rate += turned
+        particular_rate -= _apply(inverse, _apply(jacobian_rows, turned))
         if homogeneous is None:
-            return particular_rate  # beyond the influence α_h and its rate are 0
-        closest, gain, slope, world, point_jacobian, near_inverse, projector, projected, projected_inverse, scale = (
-            homogeneous[:10]
-        )
-        near_particular, shortfall, phi = homogeneous[10:]
+            return particular_rate.T.copy()  # beyond the influence α_h and its rate are 0
+        closest, gain, slope, world, point_jacobian, projector, projected, projected_inverse, scale = homogeneous[:9]
+        shortfall, phi = homogeneous[9:]
         v = _rows_last(velocity)
         # the body's angular velocity ω and the material point's velocity J_o q̇
         angular_velocity = _apply(world[3:], v)
@@ -507,13 +529,13 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         point_jacobian_rate += world_rate[:3]
         gain_rate = slope * normal_speed  # α̇_h = α_h'(d) n̂·v_p
         # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −(X + Xᵀ), X = J⁺J̇N
-        turn = _times(near_inverse, _times(_rows_last(jacobian_rate), projector))
+        turn = _times(inverse, _times(jacobian_rate_rows, projector))
         turn += turn.transpose(1, 0, 2)
         projected_rate = _times(point_jacobian_rate, projector)
         projected_rate -= _times(point_jacobian, turn)
         shortfall_rate = self.speed * normal_rate
-        shortfall_rate -= _apply(point_jacobian_rate, near_particular)
-        shortfall_rate -= _apply(point_jacobian, _rows_last(particular_rate))
+        shortfall_rate -= _apply(point_jacobian_rate, particular)
+        shortfall_rate -= _apply(point_jacobian, particular_rate)
         if scale is not None:
             # B⁺ = Bᵀ/‖B‖²_F of constant rank one: d/dt B⁺ = (Ḃᵀ − 2⟨B, Ḃ⟩B⁺)/‖B‖²_F, and B⁺ė = Bᵀė/‖B‖²_F
             phi_rate = _apply_transposed(projected_rate, shortfall)
@@ -526,8 +548,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # d/dt of Eq. (13), the term 0 where α_h = 0
         phi_rate *= gain
         phi_rate += gain_rate * phi
-        particular_rate += phi_rate.T
-        return particular_rate
+        particular_rate += phi_rate
+        return particular_rate.T.copy()
 
 
 def _pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_times_vector) -> np.ndarray:
