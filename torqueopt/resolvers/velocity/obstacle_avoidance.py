@@ -268,6 +268,7 @@ class _Homogeneous(NamedTuple):
     slope: np.ndarray  # (B,) α_h' [1/m]
     world: np.ndarray  # (6, n, B) J_O of the joints that move the closest segment's body
     point_jacobian: np.ndarray  # (3, n, B) J_o
+    crossing: np.ndarray  # (3, 3, B) [−x_o]×: a × x_o = [−x_o]× a
     projector: np.ndarray  # (n, n, B) N = I − J⁺J
     projected: np.ndarray  # (3, n, B) B = J_o N
     projected_inverse: np.ndarray | None  # (n, 3, B) B⁺, None when B has rank one or less
@@ -313,6 +314,19 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     np.multiply(a[0], b[1], out=out[2])
     out[2] -= a[1] * b[0]
     return out
+
+
+#: Where each entry of :math:`[-p]_\times` sits in (0, p_0, p_1, p_2, −p_0, −p_1, −p_2): (ω × p) = [−p]×ω.
+_CROSS_BY = np.array([[0, 3, 5], [6, 0, 1], [2, 4, 0]])
+
+
+def _crossing(vectors: np.ndarray) -> np.ndarray:
+    r"""The matrices :math:`[-p]_\times` (3, 3, B) of vectors p (3, B), rows last: :math:`[-p]_\times a = a\times p`,
+    so that the cross products of a stack's columns with p are one product of stacks (``_times``)."""
+    entries = np.empty((7, vectors.shape[1]))
+    entries[0], entries[1:4] = 0.0, vectors
+    np.negative(vectors, out=entries[4:])
+    return np.take(entries, _CROSS_BY, axis=0)
 
 
 class StackedObstacleAvoidance(StackedPseudoInverse):
@@ -366,22 +380,22 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
     def _closest(self, kinematics):
         """Every row's clearance d [m] (B,) to its closest point on the chain's segments (the first of equals), and
         the closest point (:class:`_Closest`). The segments are (3, segments, B) arrays (each coordinate a
-        contiguous block, so that each operation is one pass over the stack), written in one (14, segments, B)
+        contiguous block, so that each operation is one pass over the stack), written in one (14, segments + 1, B)
         block from which one gather picks every row's closest segment."""
         joints = kinematics.joints
         end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
         count, segments = end.shape[0], self.segments
-        corners = np.empty((3, segments + 1, count))
+        # the block: the corners, each segment's start a (0:3), axis u (3:6), closest point x_o (6:9), x_o − c
+        # (9:12), (c − a)·u, ‖u‖², of which segments (and the end, in 0:3) fill the first columns
+        block = np.empty((14, segments + 1, count))
+        corners, axis, points, offsets = block[0:3], block[3:6, :-1], block[6:9, :-1], block[9:12, :-1]
         corners[:, :segments] = joints.origins[:, self.chain].T
         corners[:, segments] = end.T
-        # the block: start a (0:3), axis u (3:6), closest point x_o (6:9), x_o − c (9:12), (c − a)·u, ‖u‖²
-        block = np.empty((14, segments, count))
-        start, axis, points, offsets = block[0:3], block[3:6], block[6:9], block[9:12]
-        start[...] = corners[:, :-1]
+        start = corners[:, :-1]
         np.subtract(corners[:, 1:], start, out=axis)
         to_center = self.center[:, None, None] - start
-        length_squared = np.einsum("ijb,ijb->jb", axis, axis, out=block[13])
-        along = np.einsum("ijb,ijb->jb", to_center, axis, out=block[12])
+        length_squared = np.einsum("ijb,ijb->jb", axis, axis, out=block[13, :-1])
+        along = np.einsum("ijb,ijb->jb", to_center, axis, out=block[12, :-1])
         # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length (whose u_i = 0 gives 0/5e-324)
         fraction = along / np.maximum(length_squared, _SMALLEST)
         np.clip(fraction, 0.0, 1.0, out=fraction)
@@ -401,9 +415,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # the closest segment's place in a (segments, B) array, raveled
         picked = np.take(block.reshape(14, -1), segment * count + self._row_indices, axis=1)
         normal = picked[9:12] / np.maximum(distance, _SMALLEST)
-        at_center = distance == 0.0
-        if at_center.any():
-            normal[0, at_center] = 1.0  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
+        if not distance.all():
+            normal[0, distance == 0.0] = 1.0  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
         closest = _Closest(
             picked[6:9], normal, distance, picked[0:3], picked[3:6], picked[12], picked[13],
             np.take(self.segment_columns, segment, axis=1),
@@ -418,10 +431,10 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         s = influence - clearance
         s /= influence - critical
         np.clip(s, 0.0, 1.0, out=s)
+        squared = s * s
         gain = 3.0 - 2.0 * s
-        gain *= s * s
-        slope = s - 1.0
-        slope *= s
+        gain *= squared
+        slope = squared - s
         slope *= 6.0 / (influence - critical)
         return gain, slope
 
@@ -460,7 +473,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # J_O of the joints that move the closest segment's body, (6, n, B), and J_o = J_v + J_ω × x_o
         world = _rows_last(kinematics.joints.jacobian)
         world *= closest.columns
-        point_jacobian = _cross(world[3:], closest.point)
+        crossing = _crossing(closest.point)
+        point_jacobian = _times(crossing, world[3:])
         point_jacobian += world[:3]
         # N = I − J⁺J, B = J_o N
         projector = self.identity - _times(inverse, jacobian_rows)
@@ -471,8 +485,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         if self.rank_one:
             # B = σuvᵀ: B⁺ = Bᵀ/‖B‖²_F, zero at σ ≤ 1e-10 (as stacked_undamped_pseudoinverse's rank_one)
             squared = np.einsum("ijb,ijb->b", projected, projected)
-            kept = squared > 1e-20
-            scale = kept / np.where(kept, squared, 1.0)
+            scale = (squared > 1e-20) / np.maximum(squared, 1e-20)
             projected_inverse = None
             phi = _apply_transposed(projected, shortfall)  # Eq. (12)
             phi *= scale
@@ -484,7 +497,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         velocity = gain * phi
         velocity += particular
         homogeneous = _Homogeneous(
-            closest, gain, slope, world, point_jacobian, projector, projected, projected_inverse, scale, shortfall, phi,
+            closest, gain, slope, world, point_jacobian, crossing, projector, projected, projected_inverse, scale,
+            shortfall, phi,
         )  # fmt: skip
         return velocity.T.copy(), conditions, failures, (jacobian_rows, inverse, particular, homogeneous)
 
@@ -501,8 +515,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         particular_rate -= _apply(inverse, _apply(jacobian_rows, turned))
         if homogeneous is None:
             return particular_rate.T.copy()  # beyond the influence α_h and its rate are 0
-        closest, gain, slope, world, point_jacobian, projector, projected, projected_inverse, scale = homogeneous[:9]
-        shortfall, phi = homogeneous[9:]
+        closest, gain, slope, world, point_jacobian, crossing, projector, projected, projected_inverse = homogeneous[:9]
+        scale, shortfall, phi = homogeneous[9:]
         v = _rows_last(velocity)
         # the body's angular velocity ω and the material point's velocity J_o q̇
         angular_velocity = _apply(world[3:], v)
@@ -524,8 +538,8 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # J̇_o = J̇_v + J̇_ω × x_o + J_ω × v_p: the material point's Jacobian rate and the slide's J_ω × ṡu
         world_rate = _rows_last(kinematics.joints.rate)
         world_rate *= closest.columns
-        point_jacobian_rate = _cross(world_rate[3:], closest.point)
-        point_jacobian_rate += _cross(world[3:], point_velocity)
+        point_jacobian_rate = _times(crossing, world_rate[3:])
+        point_jacobian_rate += _times(_crossing(point_velocity), world[3:])
         point_jacobian_rate += world_rate[:3]
         gain_rate = slope * normal_speed  # α̇_h = α_h'(d) n̂·v_p
         # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −(X + Xᵀ), X = J⁺J̇N
