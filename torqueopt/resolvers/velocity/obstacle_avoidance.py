@@ -253,11 +253,16 @@ class _Closest(NamedTuple):
     point: np.ndarray  # (3, B) x_o [m]
     normal: np.ndarray  # (3, B) n̂
     distance: np.ndarray  # (B,) ‖x_o − c‖ [m]
-    start: np.ndarray  # (3, B) the segment's start a [m] (its joint's origin)
-    axis: np.ndarray  # (3, B) u = b − a [m]
-    along: np.ndarray  # (B,) (c − a)·u [m²]: x_o is inside the segment (it slides along it) where 0 < it < ‖u‖²
-    length_squared: np.ndarray  # (B,) ‖u‖² [m²]
     columns: np.ndarray  # (n, B) the joints that move the segment's body (its joint's support)
+    # every segment's start a [m] (its joint's origin), axis u = b − a [m], (c − a)·u and ‖u‖² [m²] (x_o is inside
+    # the segment, sliding along it, where 0 < (c − a)·u < ‖u‖²), (8, (segments + 1)·B), read by ``segment``
+    segments: np.ndarray
+    picks: np.ndarray  # (B,) each row's closest segment's place in ``segments``' columns
+
+    def segment(self):
+        """a (3, B), u (3, B), (c − a)·u (B,) and ‖u‖² (B,) of each row's closest segment."""
+        picked = np.take(self.segments, self.picks, axis=1)
+        return picked[0:3], picked[3:6], picked[6], picked[7]
 
 
 class _Homogeneous(NamedTuple):
@@ -303,18 +308,8 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ib,ib->b", a, b)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b along axis 0 of (3, …) stacks (b broadcast against a's trailing axes), by components."""
-    first = a[1] * b[2]
-    first -= a[2] * b[1]
-    out = np.empty((3, *first.shape))
-    out[0] = first
-    np.multiply(a[2], b[0], out=out[1])
-    out[1] -= a[0] * b[2]
-    np.multiply(a[0], b[1], out=out[2])
-    out[2] -= a[1] * b[0]
-    return out
-
+#: The signs that make a 2×2 matrix reversed in both axes, ((d, c), (b, a)), its adjugate ((d, −b), (−c, a)).
+_ADJUGATE_SIGNS = np.array([[1.0, -1.0], [-1.0, 1.0]])[:, :, None]
 
 #: Where each entry of :math:`[-p]_\times` sits in (0, p_0, p_1, p_2, −p_0, −p_1, −p_2): (ω × p) = [−p]×ω.
 _CROSS_BY = np.array([[0, 3, 5], [6, 0, 1], [2, 4, 0]])
@@ -385,10 +380,10 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         joints = kinematics.joints
         end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
         count, segments = end.shape[0], self.segments
-        # the block: the corners, each segment's start a (0:3), axis u (3:6), closest point x_o (6:9), x_o − c
-        # (9:12), (c − a)·u, ‖u‖², of which segments (and the end, in 0:3) fill the first columns
+        # the block: each segment's closest point x_o (0:3), x_o − c (3:6), the corners (6:9, each segment's start
+        # a and the end), axis u (9:12), (c − a)·u, ‖u‖², of which segments fill the first columns
         block = np.empty((14, segments + 1, count))
-        corners, axis, points, offsets = block[0:3], block[3:6, :-1], block[6:9, :-1], block[9:12, :-1]
+        points, offsets, corners, axis = block[0:3, :-1], block[3:6, :-1], block[6:9], block[9:12, :-1]
         corners[:, :segments] = joints.origins[:, self.chain].T
         corners[:, segments] = end.T
         start = corners[:, :-1]
@@ -405,21 +400,22 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         distances = np.sqrt(np.einsum("ijb,ijb->jb", offsets, offsets))
         # the first of equals, as the single-state loop's strict comparison
         segment = np.zeros(count, dtype=int)
-        distance = distances[0].copy()
+        distance = distances[0]
         for index in range(1, segments):
             closer = distances[index] < distance
             segment[closer] = index
-            np.minimum(distance, distances[index], out=distance)
+            distance = np.minimum(distance, distances[index])
         if self._row_indices.size != count:
             self._row_indices = np.arange(count)
-        # the closest segment's place in a (segments, B) array, raveled
-        picked = np.take(block.reshape(14, -1), segment * count + self._row_indices, axis=1)
-        normal = picked[9:12] / np.maximum(distance, _SMALLEST)
+        # the closest segment's place in a (segments + 1, B) array, raveled
+        picks = segment * count + self._row_indices
+        picked = np.take(block[:6].reshape(6, -1), picks, axis=1)
+        normal = picked[3:6] / np.maximum(distance, _SMALLEST)
         if not distance.all():
             normal[0, distance == 0.0] = 1.0  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
         closest = _Closest(
-            picked[6:9], normal, distance, picked[0:3], picked[3:6], picked[12], picked[13],
-            np.take(self.segment_columns, segment, axis=1),
+            picked[0:3], normal, distance, np.take(self.segment_columns, segment, axis=1), block[6:].reshape(8, -1),
+            picks,
         )  # fmt: skip
         return distance - self.radius, closest
 
@@ -449,10 +445,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         gram = np.einsum("ikb,jkb->ijb", jacobian_rows, jacobian_rows)
         conditions, failures, determinant = self.conditions(gram.transpose(2, 0, 1))
         # G⁻¹ = ((d, −b), (−b, a))/(ad − b²), a singular row's the identity (a finite, unused answer)
-        gram_inverse = np.empty_like(gram)
-        gram_inverse[0, 0], gram_inverse[1, 1] = gram[1, 1], gram[0, 0]
-        np.negative(gram[0, 1], out=gram_inverse[0, 1])
-        gram_inverse[1, 0] = gram_inverse[0, 1]
+        gram_inverse = gram[::-1, ::-1] * _ADJUGATE_SIGNS
         if failures:
             rows = list(failures)
             gram_inverse[:, :, rows], determinant[rows] = np.eye(2)[:, :, None], 1.0
@@ -521,14 +514,14 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # the body's angular velocity ω and the material point's velocity J_o q̇
         angular_velocity = _apply(world[3:], v)
         material_velocity = _apply(point_jacobian, v)
-        axis = closest.axis
+        start, axis, along, length_squared = closest.segment()
         # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0; the joint origin a moves at
         # v_a = J_o q̇ − ω × (x_o − a), and x_o − a is along u: v_a·u = J_o q̇·u
-        inside = (closest.along > 0.0) & (closest.along < closest.length_squared)
-        slide = _dot(self.center[:, None] - closest.start, _cross(angular_velocity, axis))
+        inside = (along > 0.0) & (along < length_squared)
+        slide = _dot(self.center[:, None] - start, _apply(_crossing(axis), angular_velocity))
         slide -= _dot(material_velocity, axis)
         slide *= inside
-        slide /= np.maximum(closest.length_squared, _SMALLEST)
+        slide /= np.maximum(length_squared, _SMALLEST)
         point_velocity = slide * axis
         point_velocity += material_velocity  # v_p = J_o q̇ + ṡu
         normal = closest.normal
