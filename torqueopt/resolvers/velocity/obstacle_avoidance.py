@@ -254,13 +254,13 @@ class _Closest(NamedTuple):
     normal: np.ndarray  # (3, B) n̂
     distance: np.ndarray  # (B,) ‖x_o − c‖ [m]
     columns: np.ndarray  # (n, B) the joints that move the segment's body (its joint's support)
-    # every segment's start a [m] (its joint's origin), axis u = b − a [m], (c − a)·u and ‖u‖² [m²] (x_o is inside
-    # the segment, sliding along it, where 0 < (c − a)·u < ‖u‖²), (8, (segments + 1)·B), read by ``segment``
+    # every segment's c − a [m] (a its start, its joint's origin), axis u = b − a [m], (c − a)·u and ‖u‖² [m²] (x_o
+    # is inside the segment, sliding along it, where 0 < (c − a)·u < ‖u‖²), (8, (segments + 1)·B), read by ``segment``
     segments: np.ndarray
     picks: np.ndarray  # (B,) each row's closest segment's place in ``segments``' columns
 
     def segment(self):
-        """a (3, B), u (3, B), (c − a)·u (B,) and ‖u‖² (B,) of each row's closest segment."""
+        """c − a (3, B), u (3, B), (c − a)·u (B,) and ‖u‖² (B,) of each row's closest segment."""
         picked = np.take(self.segments, self.picks, axis=1)
         return picked[0:3], picked[3:6], picked[6], picked[7]
 
@@ -280,6 +280,8 @@ class _Homogeneous(NamedTuple):
     scale: np.ndarray | None  # (B,) 1/‖B‖²_F (0 where B is dropped) when B has rank one or less, else None
     shortfall: np.ndarray  # (3, B) e of Eq. (12)
     phi: np.ndarray  # (n, B) φ̇ = B⁺e, Eq. (12)
+    velocity: np.ndarray  # (n, B) q̇ of Eq. (13), of which the rates return the (B, n) copy ``returned``
+    returned: np.ndarray
 
 
 def _rows_last(stack: np.ndarray) -> np.ndarray:
@@ -380,22 +382,22 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         joints = kinematics.joints
         end = kinematics.tip if self.end_frame is None else self.forest.frame_points(joints, self.end_frame)
         count, segments = end.shape[0], self.segments
-        # the block: each segment's closest point x_o (0:3), x_o − c (3:6), the corners (6:9, each segment's start
-        # a and the end), axis u (9:12), (c − a)·u, ‖u‖², of which segments fill the first columns
+        # the block: each segment's closest point x_o (0:3), x_o − c (3:6), c − a (6:9), axis u (9:12), (c − a)·u,
+        # ‖u‖², in its first columns; 0:3 holds the corners (each segment's start a and the end) until x_o
         block = np.empty((14, segments + 1, count))
-        points, offsets, corners, axis = block[0:3, :-1], block[3:6, :-1], block[6:9], block[9:12, :-1]
+        corners, offsets, to_center, axis = block[0:3], block[3:6, :-1], block[6:9, :-1], block[9:12, :-1]
         corners[:, :segments] = joints.origins[:, self.chain].T
         corners[:, segments] = end.T
         start = corners[:, :-1]
         np.subtract(corners[:, 1:], start, out=axis)
-        to_center = self.center[:, None, None] - start
+        np.subtract(self.center[:, None, None], start, out=to_center)
         length_squared = np.einsum("ijb,ijb->jb", axis, axis, out=block[13, :-1])
         along = np.einsum("ijb,ijb->jb", to_center, axis, out=block[12, :-1])
         # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length (whose u_i = 0 gives 0/5e-324)
         fraction = along / np.maximum(length_squared, _SMALLEST)
         np.clip(fraction, 0.0, 1.0, out=fraction)
-        np.multiply(fraction, axis, out=points)
-        points += start
+        points = start  # x_o = a + s u, written over a
+        points += fraction * axis
         np.subtract(points, self.center[:, None, None], out=offsets)
         distances = np.sqrt(np.einsum("ijb,ijb->jb", offsets, offsets))
         # the first of equals, as the single-state loop's strict comparison
@@ -489,11 +491,12 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # Eq. (13): J⁺c + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺c), the term 0 where α_h = 0
         velocity = gain * phi
         velocity += particular
+        returned = velocity.T.copy()
         homogeneous = _Homogeneous(
             closest, gain, slope, world, point_jacobian, crossing, projector, projected, projected_inverse, scale,
-            shortfall, phi,
+            shortfall, phi, velocity, returned,
         )  # fmt: skip
-        return velocity.T.copy(), conditions, failures, (jacobian_rows, inverse, particular, homogeneous)
+        return returned, conditions, failures, (jacobian_rows, inverse, particular, homogeneous)
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """The time derivative of Eq. (13) per row (see :meth:`ObstacleAvoidance.acceleration_function`).
@@ -509,19 +512,19 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         if homogeneous is None:
             return particular_rate.T.copy()  # beyond the influence α_h and its rate are 0
         closest, gain, slope, world, point_jacobian, crossing, projector, projected, projected_inverse = homogeneous[:9]
-        scale, shortfall, phi = homogeneous[9:]
-        v = _rows_last(velocity)
+        scale, shortfall, phi = homogeneous[9:12]
+        v = homogeneous.velocity if velocity is homogeneous.returned else _rows_last(velocity)
         # the body's angular velocity ω and the material point's velocity J_o q̇
         angular_velocity = _apply(world[3:], v)
         material_velocity = _apply(point_jacobian, v)
-        start, axis, along, length_squared = closest.segment()
+        to_center, axis, along, length_squared = closest.segment()
         # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0; the joint origin a moves at
         # v_a = J_o q̇ − ω × (x_o − a), and x_o − a is along u: v_a·u = J_o q̇·u
         inside = (along > 0.0) & (along < length_squared)
-        slide = _dot(self.center[:, None] - start, _apply(_crossing(axis), angular_velocity))
+        slide = _dot(to_center, _apply(_crossing(axis), angular_velocity))
         slide -= _dot(material_velocity, axis)
-        slide *= inside
         slide /= np.maximum(length_squared, _SMALLEST)
+        slide = np.where(inside, slide, 0.0)
         point_velocity = slide * axis
         point_velocity += material_velocity  # v_p = J_o q̇ + ṡu
         normal = closest.normal
