@@ -258,6 +258,7 @@ class _Closest(NamedTuple):
     # is inside the segment, sliding along it, where 0 < (c − a)·u < ‖u‖²), (8, (segments + 1)·B), read by ``segment``
     segments: np.ndarray
     picks: np.ndarray  # (B,) each row's closest segment's place in ``segments``' columns
+    zeros: np.ndarray  # (1, B) zeros
 
     def segment(self):
         """c − a (3, B), u (3, B), (c − a)·u (B,) and ‖u‖² (B,) of each row's closest segment."""
@@ -313,17 +314,15 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 #: The signs that make a 2×2 matrix reversed in both axes, ((d, c), (b, a)), its adjugate ((d, −b), (−c, a)).
 _ADJUGATE_SIGNS = np.array([[1.0, -1.0], [-1.0, 1.0]])[:, :, None]
 
-#: Where each entry of :math:`[-p]_\times` sits in (0, p_0, p_1, p_2, −p_0, −p_1, −p_2): (ω × p) = [−p]×ω.
-_CROSS_BY = np.array([[0, 3, 5], [6, 0, 1], [2, 4, 0]])
+#: Where each entry of :math:`[-p]_\times` sits in (p_0, p_1, p_2, −p_0, −p_1, −p_2, 0): (ω × p) = [−p]×ω.
+_CROSS_BY = np.array([[6, 2, 4], [5, 6, 0], [1, 3, 6]])
 
 
-def _crossing(vectors: np.ndarray) -> np.ndarray:
+def _crossing(vectors: np.ndarray, zeros: np.ndarray) -> np.ndarray:
     r"""The matrices :math:`[-p]_\times` (3, 3, B) of vectors p (3, B), rows last: :math:`[-p]_\times a = a\times p`,
-    so that the cross products of a stack's columns with p are one product of stacks (``_times``)."""
-    entries = np.empty((7, vectors.shape[1]))
-    entries[0], entries[1:4] = 0.0, vectors
-    np.negative(vectors, out=entries[4:])
-    return np.take(entries, _CROSS_BY, axis=0)
+    so that the cross products of a stack's columns with p are one product of stacks (``_times``). ``zeros``:
+    (1, B) zeros."""
+    return np.take(np.concatenate((vectors, -vectors, zeros)), _CROSS_BY, axis=0)
 
 
 class StackedObstacleAvoidance(StackedPseudoInverse):
@@ -372,7 +371,14 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         self.segment_columns = np.array([forest.support_columns(joint) for joint in chain]).T.copy()
         self.rank_one = robot.nv - robot.m == 1
         self.identity = np.eye(robot.nv)[:, :, None]
-        self._row_indices = np.arange(0)
+        self._count = None
+
+    def _per_count(self, count: int):
+        """For stacks of ``count`` rows: the rows' indices, (1, count) zeros, and the columns of each segment's
+        joints for each row, (n, segments·count), kept while the count stays."""
+        if self._count is None or self._count[0].size != count:
+            self._count = (np.arange(count), np.zeros((1, count)), np.repeat(self.segment_columns, count, axis=1))
+        return self._count
 
     def _closest(self, kinematics):
         """Every row's clearance d [m] (B,) to its closest point on the chain's segments (the first of equals), and
@@ -401,23 +407,21 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         np.subtract(points, self.center[:, None, None], out=offsets)
         distances = np.sqrt(np.einsum("ijb,ijb->jb", offsets, offsets))
         # the first of equals, as the single-state loop's strict comparison
-        segment = np.zeros(count, dtype=int)
+        rows, zeros, columns = self._per_count(count)
+        # the closest segment's place in a (segments + 1, B) array, raveled: segment·B + row
+        picks = np.zeros(count, dtype=int)
         distance = distances[0]
         for index in range(1, segments):
             closer = distances[index] < distance
-            segment[closer] = index
+            picks[closer] = index * count
             distance = np.minimum(distance, distances[index])
-        if self._row_indices.size != count:
-            self._row_indices = np.arange(count)
-        # the closest segment's place in a (segments + 1, B) array, raveled
-        picks = segment * count + self._row_indices
+        picks += rows
         picked = np.take(block[:6].reshape(6, -1), picks, axis=1)
         normal = picked[3:6] / np.maximum(distance, _SMALLEST)
         if not distance.all():
             normal[0, distance == 0.0] = 1.0  # a point on the obstacle's centre: offset 0, n̂ = (1, 0, 0)
         closest = _Closest(
-            picked[0:3], normal, distance, np.take(self.segment_columns, segment, axis=1), block[6:].reshape(8, -1),
-            picks,
+            picked[0:3], normal, distance, np.take(columns, picks, axis=1), block[6:].reshape(8, -1), picks, zeros,
         )  # fmt: skip
         return distance - self.radius, closest
 
@@ -468,7 +472,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # J_O of the joints that move the closest segment's body, (6, n, B), and J_o = J_v + J_ω × x_o
         world = _rows_last(kinematics.joints.jacobian)
         world *= closest.columns
-        crossing = _crossing(closest.point)
+        crossing = _crossing(closest.point, closest.zeros)
         point_jacobian = _times(crossing, world[3:])
         point_jacobian += world[:3]
         # N = I − J⁺J, B = J_o N
@@ -521,7 +525,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         # inside the segment ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², at an end 0; the joint origin a moves at
         # v_a = J_o q̇ − ω × (x_o − a), and x_o − a is along u: v_a·u = J_o q̇·u
         inside = (along > 0.0) & (along < length_squared)
-        slide = _dot(to_center, _apply(_crossing(axis), angular_velocity))
+        slide = _dot(to_center, _apply(_crossing(axis, closest.zeros), angular_velocity))
         slide -= _dot(material_velocity, axis)
         slide /= np.maximum(length_squared, _SMALLEST)
         slide = np.where(inside, slide, 0.0)
@@ -535,12 +539,12 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         world_rate = _rows_last(kinematics.joints.rate)
         world_rate *= closest.columns
         point_jacobian_rate = _times(crossing, world_rate[3:])
-        point_jacobian_rate += _times(_crossing(point_velocity), world[3:])
+        point_jacobian_rate += _times(_crossing(point_velocity, closest.zeros), world[3:])
         point_jacobian_rate += world_rate[:3]
         gain_rate = slope * normal_speed  # α̇_h = α_h'(d) n̂·v_p
         # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −(X + Xᵀ), X = J⁺J̇N
         turn = _times(inverse, _times(jacobian_rate_rows, projector))
-        turn += turn.transpose(1, 0, 2)
+        turn = turn + turn.transpose(1, 0, 2)
         projected_rate = _times(point_jacobian_rate, projector)
         projected_rate -= _times(point_jacobian, turn)
         shortfall_rate = self.speed * normal_rate
