@@ -150,3 +150,44 @@ def test_the_stacked_pseudoinverse_is_the_single_state_one(rng, planar3):
         found = stacked_undamped_pseudoinverse(matrices, rank_one=rank_one)
         np.testing.assert_allclose(found, expected, rtol=1e-9, atol=1e-12)
     assert not stacked_undamped_pseudoinverse(matrices[-2:], rank_one=True).any()
+
+
+@pytest.mark.parametrize(
+    ("robot_name", "options"),
+    [
+        ("planar3", {"obstacle": OBSTACLE}),
+        ("panda", {"obstacle": ObstacleTask([0.0, 0.0, 1.0], 0.05), "influence": 0.6, "critical": 0.2}),
+    ],
+)
+def test_the_stacked_rates_and_acceleration_are_the_single_state_step_row_by_row(robot_name, options, request, rng):
+    """At random states, the stack's q̇ of Eq. (13) and its q̈ (the homogeneous term computed on every row, rows
+    last, and added with α_h and α̇_h) equal the single-state step's row by row: rows beyond the influence (J⁺c
+    and its rate alone), between it and the critical clearance, and within that (α_h = 1)."""
+    from torqueopt.robot_copies import RobotForest
+
+    robot = request.getfixturevalue(robot_name)
+    resolver = torqueopt.get_resolver("obstacle-avoidance", **options)
+    stack = resolver.stack_rate_function(robot)
+    rates, acceleration = resolver.step_functions(robot, FrameTask.of_robot(robot))
+    count = 60
+    q = np.array([robot.configuration(rng.uniform(-np.pi, np.pi, robot.nv)) for _ in range(count)])
+    command, command_rate = rng.normal(size=(count, robot.m)), rng.normal(size=(count, robot.m))
+    forest, rows = RobotForest(robot), robot.task_rows
+    still = forest.kinematics(q, joints=True)
+    jacobian = still.jacobian[:, rows]
+    velocity, conditions, failures, state = stack.rates(jacobian, command, q, still)
+    moving = forest.kinematics(q, velocity, joints=True)
+    found = stack.acceleration(jacobian, moving.rate[:, rows], velocity, command_rate, state, moving)
+    kinematics, gains = Kinematics(robot), []
+    for row in range(count):
+        if row in failures:
+            continue
+        kinematics.update(q[row])
+        expected, condition = rates(kinematics, command[row])
+        np.testing.assert_allclose(velocity[row], expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+        assert conditions[row] == pytest.approx(condition, rel=1e-9)
+        expected = acceleration(kinematics, velocity[row], command[row], command_rate[row])
+        np.testing.assert_allclose(found[row], expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max())
+        clearance = resolver.obstacle.closest_point(kinematics).clearance
+        gains.append(0.0 if clearance >= resolver.influence else 1.0 if clearance <= resolver.critical else 0.5)
+    assert {0.0, 0.5, 1.0} <= set(gains)
