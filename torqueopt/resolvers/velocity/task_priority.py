@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot
-from ...robot_copies import RobotForest, point_kinematics, point_products, stacked_cross
+from ...robot_copies import RobotForest, point_kinematics
 from ...tasks import (
     FrameTask,
     Kinematics,
@@ -423,66 +423,106 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
     (:math:`A^\dagger e = z\,b^\top e/b^\top b`; :math:`\dot z` from :math:`Jz = 0` and :math:`z^\top z = 1`):
     ``accelerations_below_one_task`` for this A of rank one. A's one singular value is :math:`\|b\|`, dropped
     (s = 0) at or below :math:`10^{-10}` as ``undamped_pseudoinverse`` drops it. :math:`J_l` and :math:`\dot J_l`
-    enter only through their products with vectors (``point_products``), J⁺ only in q̈; the q̈ of
-    :class:`StackedPriorityBelowFrame` in fewer and smaller products (the tests hold both to the kinematic loop).
+    enter only through their products with vectors, from the joints' world-frame :math:`J_O`, :math:`\dot J_O` as
+    ``point_products`` forms them, J⁺ only in q̈; the q̈ of :class:`StackedPriorityBelowFrame` in fewer and
+    smaller products (the tests hold both to the kinematic loop). Every quantity is held component-first, the
+    batch axis last ((3, B) for a vector, (6, n, B) for :math:`J_O`): each numpy operation then runs over the
+    batch, where numpy's product of (B, ·, ·) stacks calls BLAS once per row.
     """
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
-        # numpy multiplies stacks of small matrices several times faster with a contiguous second factor
-        gram = jacobian @ np.ascontiguousarray(np.swapaxes(jacobian, 1, 2))
-        conditions, failures, determinant = self.conditions(gram)
-        gram_inverse = stacked_inverse(gram, failures, determinant)
-        multipliers = _mv(gram_inverse, command)  # w = (JJᵀ)⁻¹c
-        first_rates = np.einsum("bji,bj->bi", jacobian, multipliers)  # q̇_1 = Jᵀw = J⁺c, Eq. (3)
-        null = stacked_cross(jacobian[:, 0], jacobian[:, 1])  # J's rows' cross product spans its null space
-        length = np.sqrt(null[:, 0] * null[:, 0] + null[:, 1] * null[:, 1] + null[:, 2] * null[:, 2])
-        null /= np.where(length > 0.0, length, 1.0)[:, None]  # z (a singular row's is unused)
-        point = self.forest.frame_points(kinematics.joints, self.frame_id)
-        vectors = np.stack((first_rates, null), axis=2)
-        products = point_products(kinematics.joints, self.columns, point, vectors)[0]  # J_l(q̇_1, z), all rows
-        lower_first, lower_null = products[:, self.rows, 0], products[:, self.rows, 1]  # J_l q̇_1, b = J_l z
+        rows = self.rows
+        task = np.ascontiguousarray(np.moveaxis(jacobian, 0, 2))  # J, (2, 3, B)
+        gram = np.einsum("ijb,kjb->ikb", task, task)  # JJᵀ, (2, 2, B)
+        conditions, failures, determinant = self.conditions(np.moveaxis(gram, 2, 0))
+        gram_inverse = _inverse_pairs(gram, failures, determinant)
+        multipliers = np.einsum("ijb,bj->ib", gram_inverse, command)  # w = (JJᵀ)⁻¹c
+        first_rates = np.einsum("ijb,ib->jb", task, multipliers)  # q̇_1 = Jᵀw = J⁺c, Eq. (3)
+        null = _cross_first(task[0], task[1])  # J's rows' cross product spans its null space
+        length = np.sqrt(np.einsum("ib,ib->b", null, null))
+        null /= np.where(length > 0.0, length, 1.0)  # z (a singular row's is unused)
+        joints = kinematics.joints
+        point = self.forest.frame_points(joints, self.frame_id).T  # (3, B)
+        world = _component_first(joints.jacobian, self.columns)  # J_O of the columns that move the frame
+        vectors = np.stack((first_rates, null), axis=1)  # (q̇_1, z), (3, 2, B)
+        spatial = np.einsum("rjb,jkb->rkb", world, vectors)  # J_O(q̇_1, z)
+        # J_l(q̇_1, z): linear rows J_O,v X + (J_O,ω X) × p, all rows
+        products = spatial[:3] + _cross_first(spatial[3:], point[:, None])
+        lower_first, lower_null = products[rows, 0], products[rows, 1]  # J_l q̇_1, b = J_l z
         if self.target is None:
             shortfall = -lower_first
         else:
-            shortfall = self.gain * (self.target - point[:, self.rows]) - lower_first  # e = k(x* − x_l) − J_l q̇_1
-        squared = np.einsum("bi,bi->b", lower_null, lower_null)
+            # e = k(x* − x_l) − J_l q̇_1
+            shortfall = self.gain * (self.target[:, None] - point[rows]) - lower_first
+        squared = np.einsum("ib,ib->b", lower_null, lower_null)
         # 1/‖b‖², zero where A's one singular value ‖b‖ is at or below the cutoff
         inverse_square = np.divide(1.0, squared, out=np.zeros_like(squared), where=squared > ABSOLUTE_TOLERANCE**2)
-        share = np.einsum("bi,bi->b", lower_null, shortfall) * inverse_square  # s = bᵀe/bᵀb
+        share = np.einsum("ib,ib->b", lower_null, shortfall) * inverse_square  # s = bᵀe/bᵀb
         # Eq. (11): J⁺c + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺c) = q̇_1 + z bᵀe/bᵀb
-        velocity = first_rates + share[:, None] * null
-        state = (gram_inverse, multipliers, vectors, point, products, shortfall, share, inverse_square)
+        velocity = np.ascontiguousarray((first_rates + share * null).T)
+        state = (task, gram_inverse, multipliers, vectors, point, spatial[3:], products, shortfall, share,
+                 inverse_square)  # fmt: skip
         return velocity, conditions, failures, state
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """q̈ of the class docstring per row. ``kinematics``: the forest's at the configuration and q̇, with every
         joint's kinematics and their rates."""
-        gram_inverse, multipliers, vectors, point, products, shortfall, share, inverse_square = state
-        null = vectors[:, :, 1]  # z
-        rows, column = self.rows, share[:, None]
-        inverse = np.swapaxes(jacobian, 1, 2) @ gram_inverse  # J⁺ = Jᵀ(JJᵀ)⁻¹, Eq. (3)
-        moved = jacobian_rate @ vectors  # J̇(q̇_1, z)
-        # J⁺(ċ − J̇q̇_1) and J⁺J̇z in one product
-        solved = inverse @ np.stack((command_rate - moved[:, :, 0], moved[:, :, 1]), axis=2)
+        task, gram_inverse, multipliers, vectors, point, angular, products, shortfall, share, inverse_square = state
+        null, rows = vectors[:, 1], self.rows  # z
+        moved = np.einsum("ijb,jkb->ikb", np.moveaxis(jacobian_rate, 0, 2), vectors)  # J̇(q̇_1, z)
+        # J⁺(ċ − J̇q̇_1) and J⁺J̇z in one product, J⁺ = Jᵀ(JJᵀ)⁻¹ (Eq. (3))
+        moved[:, 0] = command_rate.T - moved[:, 0]
+        solved = np.einsum("ijb,ikb->jkb", task, np.einsum("ijb,jkb->ikb", gram_inverse, moved))
         # q̈_1 = J⁺(ċ − J̇q̇_1) + z (J̇z)ᵀw
-        first_accelerations = solved[:, :, 0] + np.einsum("bi,bi->b", moved[:, :, 1], multipliers)[:, None] * null
-        null_rate = -solved[:, :, 1]  # ż = −J⁺J̇z
-        point_velocity = products[:, :3, 0] + column * products[:, :3, 1]  # ṗ = J_l q̇ (linear rows)
-        along, rate = point_products(
-            kinematics.joints, self.columns, point, np.stack((null_rate, first_accelerations), axis=2),
-            vectors, point_velocity,
-        )  # fmt: skip
-        lower = products[:, rows, 1]  # b = J_l z
-        lower_rate = rate[:, rows, 1] + along[:, rows, 0]  # ḃ = J̇_l z + J_l ż
+        first_accelerations = solved[:, 0] + np.einsum("ib,ib->b", moved[:, 1], multipliers) * null
+        null_rate = -solved[:, 1]  # ż = −J⁺J̇z
+        point_velocity = products[:, 0] + share * products[:, 1]  # ṗ = J_l q̇ (linear rows)
+        world = _component_first(kinematics.joints.jacobian, self.columns)
+        spatial = np.einsum("rjb,jkb->rkb", world, np.stack((null_rate, first_accelerations), axis=1))
+        along = spatial[:3] + _cross_first(spatial[3:], point[:, None])  # J_l(ż, q̈_1)
+        spatial_rate = np.einsum("rjb,jkb->rkb", _component_first(kinematics.joints.rate, self.columns), vectors)
+        # J̇_l(q̇_1, z) = J̇_O,v Y + (J̇_O,ω Y) × p + (J_O,ω Y) × ṗ
+        rate = spatial_rate[:3] + _cross_first(spatial_rate[3:], point[:, None])
+        rate += _cross_first(angular, point_velocity[:, None])
+        lower = products[rows, 1]  # b = J_l z
+        lower_rate = rate[rows, 1] + along[rows, 0]  # ḃ = J̇_l z + J_l ż
         # ė = ẍ_l − J̇_l q̇_1 − J_l q̈_1, ẍ_l = −k J_l q̇ (zero without a target)
-        shortfall_rate = -rate[:, rows, 0] - along[:, rows, 1]
+        shortfall_rate = -rate[rows, 0] - along[rows, 1]
         if self.target is not None:
-            shortfall_rate -= self.gain * (products[:, rows, 0] + column * lower)
+            shortfall_rate -= self.gain * (products[rows, 0] + share * lower)
         # ṡ = (ḃᵀe + bᵀė − 2s bᵀḃ)/bᵀb
         share_rate = (
-            np.einsum("bi,bi->b", lower_rate, shortfall - 2.0 * column * lower)
-            + np.einsum("bi,bi->b", lower, shortfall_rate)
+            np.einsum("ib,ib->b", lower_rate, shortfall - 2.0 * share * lower)
+            + np.einsum("ib,ib->b", lower, shortfall_rate)
         ) * inverse_square
-        return first_accelerations + column * null_rate + share_rate[:, None] * null
+        return np.ascontiguousarray((first_accelerations + share * null_rate + share_rate * null).T)
+
+
+def _component_first(stack: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """A (B, r, c) stack as a contiguous (r, c, B) array, its columns times ``columns`` (c,) (ones: as it is)."""
+    moved = np.moveaxis(stack, 0, 2)
+    return np.ascontiguousarray(moved) if columns.all() else moved * columns[:, None]
+
+
+def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b along axis 0 of (3, ...) arrays (broadcast): a₁b₂ − a₂b₁ and its cyclic shifts, in four takes."""
+    following, preceding = _CYCLE
+    return a.take(following, 0) * b.take(preceding, 0) - a.take(preceding, 0) * b.take(following, 0)
+
+
+_CYCLE = (np.array([1, 2, 0]), np.array([2, 0, 1]))
+
+
+def _inverse_pairs(gram: np.ndarray, failures: dict, determinant: np.ndarray) -> np.ndarray:
+    """The inverses (2, 2, B) of a (2, 2, B) stack of symmetric matrices, ((d, −b), (−b, a))/(ad − b²), from
+    their determinants; a row in ``failures`` gets the identity (a finite, unused answer)."""
+    inverse = np.empty_like(gram)
+    inverse[0, 0], inverse[1, 1] = gram[1, 1], gram[0, 0]
+    inverse[0, 1] = inverse[1, 0] = -gram[0, 1]
+    if failures:
+        rows = list(failures)
+        inverse[:, :, rows], determinant[rows] = identity(2)[:, :, None], 1.0
+    inverse /= determinant
+    return inverse
