@@ -30,7 +30,7 @@ import pinocchio as pin
 
 from .errors import InvalidInput
 from .robot import Robot
-from .tasks.task import rotations_view, translations_view
+from .tasks.task import identity, rotations_view, translations_view
 
 __all__ = [
     "FOREST_DOFS", "JointKinematics", "RobotForest", "TaskKinematics", "point_kinematics", "point_products",
@@ -269,12 +269,15 @@ class RobotForest:
     def _joints(self, used: list[_Pass], count: int, world: np.ndarray, rate: np.ndarray | None) -> JointKinematics:
         """Every joint's kinematics of the ``used`` passes' rows, copies of what the pass computed."""
         joints = (self.model.njoints - 1) // self.copies + 1  # the robot's own, the universe counted
-        origins = np.zeros((count, joints, 3))
-        origins[:, 1:] = _gathered(used, "origins", count)
-        rotations = np.empty((count, joints, 3, 3))
-        rotations[:, 0] = np.eye(3)
-        rotations[:, 1:] = _gathered(used, "rotations", count)
-        return JointKinematics(world.copy(), None if rate is None else rate.copy(), origins, rotations)
+        rows = len(used) * self.copies  # the passes' rows, the last pass's unused trees too: read straight into place
+        origins = np.zeros((rows, joints, 3))
+        np.concatenate([forest_pass.origins for forest_pass in used], out=origins[:, 1:])
+        rotations = np.empty((rows, joints, 3, 3))
+        rotations[:, 0] = identity(3)
+        np.concatenate([forest_pass.rotations for forest_pass in used], out=rotations[:, 1:])
+        return JointKinematics(
+            world.copy(), None if rate is None else rate.copy(), origins[:count], rotations[:count]
+        )  # fmt: skip
 
     def support_columns(self, joint: int) -> np.ndarray:
         """(n,) ones at the velocity indices of the joints that move the robot's joint ``joint`` (its support, the
