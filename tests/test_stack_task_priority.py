@@ -152,3 +152,23 @@ def test_point_products_are_the_point_jacobian_and_its_rate_times_vectors(robot_
     np.testing.assert_allclose(products, jacobian @ vectors, rtol=0, atol=1e-12)
     np.testing.assert_allclose(rate_products, rate @ rate_vectors, rtol=0, atol=1e-12)
     assert point_products(moving.joints, columns, point, vectors)[1] is None
+
+
+@pytest.mark.parametrize("robot_name", ["planar3", "panda"])
+@pytest.mark.parametrize("count", [1, 16, 37])
+def test_every_joints_placements_are_pinocchios_bit_for_bit(robot_name, count):
+    """The joints' origins and rotations the forest gives (read into place from its passes, a last pass partly
+    filled) are ``pin.forwardKinematics``' placements exactly, row 0 the universe's, every row its own state."""
+    import pinocchio as pin
+
+    robot = torqueopt.load_robot(robot_name)
+    forest, data = RobotForest(robot), robot.model.createData()
+    q = np.random.default_rng(3).uniform(-2.0, 2.0, (count, robot.nv))
+    joints = forest.kinematics(q, np.ones_like(q), joints=True).joints
+    assert joints.origins.shape == (count, robot.model.njoints, 3)
+    assert joints.rotations.shape == (count, robot.model.njoints, 3, 3)
+    for row in range(count):
+        pin.forwardKinematics(robot.model, data, q[row])
+        for joint in range(robot.model.njoints):
+            assert np.array_equal(joints.origins[row, joint], data.oMi[joint].translation)
+            assert np.array_equal(joints.rotations[row, joint], data.oMi[joint].rotation)
