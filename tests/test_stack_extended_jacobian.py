@@ -11,6 +11,8 @@ from torqueopt.resolvers.velocity import PostureDistance
 from torqueopt.resolvers.velocity.extended_jacobian import (
     StackedExtendedJacobian,
     cross_product_curvature,
+    cross_product_frame_row,
+    cross_product_row,
     null_vector,
     stacked_null_vectors,
     stacked_row_cofactors,
@@ -256,3 +258,80 @@ def test_the_curvature_on_floats_is_the_stacks(planar3, rng):
             * (1.0 + velocity.dot(velocity))
         )
         assert abs(got - expected) <= 1e-12 * scale, (got, expected)
+
+
+@pytest.fixture(scope="module")
+def panda3():
+    """panda with its last four joints locked and the ``xy`` task: three joints for two rows (n − m = 1), the
+    single-state step's 2×3 path on a spatial chain (joint axes along z, y and z again, none parallel to all)."""
+    return torqueopt.load_robot(
+        "panda", task="xy", lock=["panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"]
+    )
+
+
+def test_the_row_from_the_frame_is_the_kinematic_hessians(planar3, panda3, rng):
+    """``cross_product_frame_row`` (the row from the frame's J alone, the stack's closed form) against
+    ``cross_product_row`` (from Pinocchio's kinematic Hessian) at 1e-12 of the row's size on planar3 and a spatial
+    chain, and against the stack's row on random 6×3 frames (every row and angular column nonzero)."""
+    for robot in (planar3, panda3):
+        task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
+        for _ in range(6):
+            kinematics.update(robot.default_configuration + rng.uniform(-1.0, 1.0, 3))
+            gradient, weights = rng.normal(size=3).tolist(), rng.uniform(0.1, 2.0, 3).tolist()
+            frame = kinematics.frame_jacobian(task.frame_id(kinematics))
+            expected_row, expected_normal = cross_product_row(
+                frame[:2].tolist(), task.jacobian_derivative(kinematics), gradient, np.diag(weights).tolist()
+            )
+            row, normal = cross_product_frame_row(frame.tolist(), gradient, weights)
+            scale = np.abs(expected_row).max()
+            np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * scale)
+            np.testing.assert_allclose(normal, expected_normal, rtol=0, atol=1e-15)
+    frame, q = rng.normal(size=(6, 3)), rng.normal(size=3)
+    centre, weights = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
+    stack = StackedExtendedJacobian(planar3, 1e-3, 0.0, [0, 1, 2], [0, 1, 2], centre, weights)
+    lanes = type("Lanes", (), {"frame_jacobian": frame[None]})
+    expected_row = stack.rates(frame[None, :2], np.zeros((1, 2)), q[None], lanes)[3][7][0]
+    row, _ = cross_product_frame_row(frame.tolist(), (weights * (q - centre)).tolist(), weights.tolist())
+    np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * np.abs(expected_row).max())
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_the_step_on_floats_is_the_lu_reference_on_a_spatial_chain(panda3, rng, gain):
+    """The 2×3 step on floats (row and curvature from the frame's J and J̇) against ``lu_step_functions`` (the row
+    from Pinocchio's kinematic Hessian, J_ex's LU factors) on a spatial chain: q̇ and σmin/σmax at 1e-12, q̈ at
+    1e-12 (both with the curvature's closed form) and at 1e-10 with its central difference in both."""
+    resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
+    task = FrameTask.of_robot(panda3)
+    fast, reference = resolver.step_functions(panda3, task), resolver.lu_step_functions(panda3, task)
+    assert fast[0].__qualname__.startswith("ExtendedJacobian.cross_product_step_functions")
+    differenced = (
+        resolver.cross_product_step_functions(panda3, task, closed_form=False)[1],
+        resolver.lu_step_functions(panda3, task, closed_form=False)[1],
+    )
+    kinematics, tested = Kinematics(panda3), 0
+    while tested < 8:
+        q, velocity = panda3.default_configuration + rng.uniform(-1.0, 1.0, 3), rng.normal(size=3)
+        command, command_rate = rng.normal(size=2), rng.normal(size=2)
+        try:
+            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
+        except SingularJacobian:
+            continue
+        tested += 1
+        got_rates, got_condition = fast[0](kinematics, command)
+        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
+        assert got_condition == pytest.approx(expected_condition, rel=1e-12)
+        expected = reference[1](kinematics, velocity, command, command_rate)
+        got = fast[1](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        expected = differenced[1](kinematics, velocity, command, command_rate)
+        got = differenced[0](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+
+
+def test_the_stack_equals_the_kinematic_loop_on_a_spatial_chain(panda3):
+    """Two task rows, three joints whose axes are not parallel, gravity on: the loop's 2×3 step on floats."""
+    resolver = torqueopt.get_resolver("extended-jacobian")
+    rng = np.random.default_rng(4)
+    q0s = [panda3.default_configuration + rng.normal(scale=0.3, size=3) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=2), accel=0.5, duration=0.4) for _ in q0s]
+    assert_stacks_equal_simulate(panda3, resolver, lines, q0s)

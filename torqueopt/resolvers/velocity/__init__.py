@@ -25,6 +25,7 @@ from .criteria import (
 from .extended_jacobian import (
     ExtendedJacobian,
     cross_product_curvature,
+    cross_product_frame_row,
     cross_product_row,
     cross_product_slope,
     null_vector,
@@ -54,6 +55,7 @@ __all__ = [
     "null_vector",
     "null_vector_derivative",
     "cross_product_row",
+    "cross_product_frame_row",
     "cross_product_slope",
     "cross_product_curvature",
     "VELOCITY_RESOLVERS",

@@ -25,6 +25,7 @@ __all__ = [
     "null_vector",
     "null_vector_derivative",
     "cross_product_row",
+    "cross_product_frame_row",
     "cross_product_slope",
     "cross_product_curvature",
 ]
@@ -161,6 +162,53 @@ def cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient_values, hess
     )
 
 
+def cross_product_frame_row(frame_rows, gradient_values, weights):
+    r"""(∂G/∂q, n_J) of :func:`cross_product_row` for a 2×3 Jacobian (the x and y rows of a frame, planar3's task)
+    and a diagonal quadratic criterion, from the frame's whole J alone: ``StackedExtendedJacobian``'s closed form
+    of the row (see there) for one state, on floats (the tests hold it to :func:`cross_product_row`, which reads
+    Pinocchio's kinematic Hessian).
+
+    The kinematic Hessian of the task point is :math:`\partial J_j/\partial q_k = \omega_{\min(j,k)}\times
+    J_{\max(j,k)}` (the joint Jacobians' brackets, from which ``pin.computeJointKinematicHessians`` computes it),
+    so with J's rows a, b, :math:`g = \nabla p`, the cofactors :math:`K_j = ((b\times g)_j, (g\times a)_j, 0)` and
+    the frame's linear and angular columns :math:`J_j, \omega_j`, Jacobi's formula on :math:`G = \det[a; b; g]`
+    (Eq. (14)) gives
+
+    .. math::
+
+        \frac{\partial G}{\partial q_k} = J_k\cdot\sum_{j\le k} K_j\times\omega_j
+        + \omega_k\cdot\sum_{j>k} J_j\times K_j + w_k\,n_{J,k},\qquad n_J = a\times b.
+
+    Args:
+        frame_rows: the frame's 6×3 J (linear rows first), as lists of rows.
+        gradient_values: ∂p/∂q as three floats.
+        weights: the diagonal :math:`w` of ∇²p, three floats.
+
+    Returns:
+        ∂G/∂q and n_J (lists of three floats).
+    """
+    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame_rows
+    g0, g1, g2 = gradient_values
+    n0, n1, n2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # n_J = a × b
+    c0, c1, c2 = y1 * g2 - y2 * g1, y2 * g0 - y0 * g2, y0 * g1 - y1 * g0  # K's x components: b × g
+    e0, e1, e2 = g1 * x2 - g2 * x1, g2 * x0 - g0 * x2, g0 * x1 - g1 * x0  # K's y components: g × a
+    # Σ_{j≤k} K_j × ω_j, with K_j × ω_j = (e_j r_j, −c_j r_j, c_j q_j − e_j p_j)
+    u0, v0, s0 = e0 * r0, -c0 * r0, c0 * q0 - e0 * p0
+    u1, v1, s1 = u0 + e1 * r1, v0 - c1 * r1, s0 + c1 * q1 - e1 * p1
+    u2, v2, s2 = u1 + e2 * r2, v1 - c2 * r2, s1 + c2 * q2 - e2 * p2
+    # Σ_{j>k} J_j × K_j, with J_j × K_j = (−z_j e_j, z_j c_j, x_j e_j − y_j c_j)
+    h1, i1, l1 = -z2 * e2, z2 * c2, x2 * e2 - y2 * c2
+    h0, i0, l0 = h1 - z1 * e1, i1 + z1 * c1, l1 + x1 * e1 - y1 * c1
+    w0, w1, w2 = weights
+    # ∂G/∂θ, the last row of J_ex in Eq. (15), one q_k a line
+    row = [
+        x0 * u0 + y0 * v0 + z0 * s0 + p0 * h0 + q0 * i0 + r0 * l0 + w0 * n0,
+        x1 * u1 + y1 * v1 + z1 * s1 + p1 * h1 + q1 * i1 + r1 * l1 + w1 * n1,
+        x2 * u2 + y2 * v2 + z2 * s2 + w2 * n2,
+    ]
+    return row, [n0, n1, n2]
+
+
 def cross_product_curvature(frame_rows, frame_rate_rows, gradient_values, weights, velocity) -> float:
     r""":math:`\dot q^\top\nabla^2 G\,\dot q` for a 2×3 Jacobian (the x and y rows of a frame, planar3's task) and
     a diagonal quadratic criterion, on floats: ``StackedExtendedJacobian``'s closed form (see there) for one state
@@ -172,10 +220,13 @@ def cross_product_curvature(frame_rows, frame_rate_rows, gradient_values, weight
 
     .. math::
 
-        \dot q^\top\nabla^2 G\,\dot q = \sum_k \dot q_k\big(\omega_k'\cdot\sum_{j>k} J_j\times K_j
-        + \omega_k\cdot\sum_{j>k} J_j'\times K_j + J_k\cdot\sum_{j\le k} K_j\times\omega_j'
-        + J_k'\cdot\sum_{j\le k} K_j\times\omega_j\big)
-        + 2\,g'\cdot(a'\times b + a\times b') + 2\,g\cdot(a'\times b').
+        \dot q^\top\nabla^2 G\,\dot q = \sum_j K_j\cdot J_j''
+        + 2\,g'\cdot(a'\times b + a\times b') + 2\,g\cdot(a'\times b'),
+
+        J_j'' = \Omega_{<j}'\times J_j + \Omega_{<j}\times J_j' + \omega_j'\times P_{\ge j} + \omega_j\times P_{\ge j}',
+        \qquad \Omega_{<j} = \sum_{k<j}\dot q_k\omega_k,\quad P_{\ge j} = \sum_{k\ge j}\dot q_k J_k,
+
+    only the x and y components of :math:`J_j''` (K's third is zero), written out for three joints.
 
     Args:
         frame_rows, frame_rate_rows: the frame's 6×3 J and :math:`\dot J` (linear rows first), as lists of rows.
@@ -183,50 +234,42 @@ def cross_product_curvature(frame_rows, frame_rate_rows, gradient_values, weight
         weights: the diagonal of ∇²p, three floats.
         velocity: q̇ as three floats.
     """
-    xs, ys, zs, ps, qs, rs = frame_rows
-    dxs, dys, dzs, dps, dqs, drs = frame_rate_rows
-    (a0, a1, a2), (b0, b1, b2), (g0, g1, g2) = xs, ys, gradient_values
-    first = (b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0)  # K's x components: b × g
-    second = (g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0)  # K's y components: g × a
-    # K_j × ω_j = (k1 r, −k0 r, k0 q − k1 p) and J_j × K_j = (−z k1, z k0, x k1 − y k0), K_j = (k0, k1, 0)
-    before = [0.0, 0.0, 0.0]  # Σ_{j≤k} K_j × ω_j
-    rate_before = [0.0, 0.0, 0.0]  # Σ_{j≤k} K_j × ω'_j
-    after = [0.0, 0.0, 0.0]  # Σ_{j>k} J_j × K_j
-    rate_after = [0.0, 0.0, 0.0]  # Σ_{j>k} J'_j × K_j
-    afters, rate_afters = [None] * 3, [None] * 3
-    for k in (2, 1, 0):
-        afters[k], rate_afters[k] = tuple(after), tuple(rate_after)
-        k0, k1 = first[k], second[k]
-        after[0] -= zs[k] * k1
-        after[1] += zs[k] * k0
-        after[2] += xs[k] * k1 - ys[k] * k0
-        rate_after[0] -= dzs[k] * k1
-        rate_after[1] += dzs[k] * k0
-        rate_after[2] += dxs[k] * k1 - dys[k] * k0
-    curvature = 0.0
-    for k in range(3):
-        k0, k1 = first[k], second[k]
-        before[0] += k1 * rs[k]
-        before[1] -= k0 * rs[k]
-        before[2] += k0 * qs[k] - k1 * ps[k]
-        rate_before[0] += k1 * drs[k]
-        rate_before[1] -= k0 * drs[k]
-        rate_before[2] += k0 * dqs[k] - k1 * dps[k]
-        (u0, u1, u2), (e0, e1, e2) = afters[k], rate_afters[k]
-        term = dps[k] * u0 + dqs[k] * u1 + drs[k] * u2  # ω'_k·Σ_{j>k} J_j × K_j
-        term += ps[k] * e0 + qs[k] * e1 + rs[k] * e2  # ω_k·Σ_{j>k} J'_j × K_j
-        term += xs[k] * rate_before[0] + ys[k] * rate_before[1] + zs[k] * rate_before[2]  # J_k·Σ_{j≤k} K_j × ω'_j
-        term += dxs[k] * before[0] + dys[k] * before[1] + dzs[k] * before[2]  # J'_k·Σ_{j≤k} K_j × ω_j
-        curvature += velocity[k] * term
-    (s0, s1, s2), (t0, t1, t2), (v0, v1, v2) = dxs, dys, velocity
+    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame_rows
+    (dx0, dx1, dx2), (dy0, dy1, dy2), (dz0, dz1, dz2), (dp0, dp1, dp2), (dq0, dq1, dq2), (dr0, dr1, dr2) = (
+        frame_rate_rows
+    )
+    g0, g1, g2 = gradient_values
+    v0, v1, v2 = velocity
+    c0, c1, c2 = y1 * g2 - y2 * g1, y2 * g0 - y0 * g2, y0 * g1 - y1 * g0  # K's x components: b × g
+    e0, e1, e2 = g1 * x2 - g2 * x1, g2 * x0 - g0 * x2, g0 * x1 - g1 * x0  # K's y components: g × a
+    # P_{≥j} and P'_{≥j}, from the last joint back
+    px2, py2, pz2, dpx2, dpy2, dpz2 = v2 * x2, v2 * y2, v2 * z2, v2 * dx2, v2 * dy2, v2 * dz2
+    px1, py1, pz1 = px2 + v1 * x1, py2 + v1 * y1, pz2 + v1 * z1
+    dpx1, dpy1, dpz1 = dpx2 + v1 * dx1, dpy2 + v1 * dy1, dpz2 + v1 * dz1
+    px0, py0, pz0 = px1 + v0 * x0, py1 + v0 * y0, pz1 + v0 * z0
+    dpx0, dpy0, dpz0 = dpx1 + v0 * dx0, dpy1 + v0 * dy0, dpz1 + v0 * dz0
+    # Ω_{<j} and Ω'_{<j}, from the first joint on (zero for j = 0)
+    ox1, oy1, oz1, dox1, doy1, doz1 = v0 * p0, v0 * q0, v0 * r0, v0 * dp0, v0 * dq0, v0 * dr0
+    ox2, oy2, oz2 = ox1 + v1 * p1, oy1 + v1 * q1, oz1 + v1 * r1
+    dox2, doy2, doz2 = dox1 + v1 * dp1, doy1 + v1 * dq1, doz1 + v1 * dr1
+    # K_j·J_j'' = c_j J''_{j,x} + e_j J''_{j,y}, with (u × w)_x = u_y w_z − u_z w_y, (u × w)_y = u_z w_x − u_x w_z
+    curvature = c0 * (dq0 * pz0 - dr0 * py0 + q0 * dpz0 - r0 * dpy0) + e0 * (
+        dr0 * px0 - dp0 * pz0 + r0 * dpx0 - p0 * dpz0
+    )
+    curvature += c1 * (
+        doy1 * z1 - doz1 * y1 + oy1 * dz1 - oz1 * dy1 + dq1 * pz1 - dr1 * py1 + q1 * dpz1 - r1 * dpy1
+    ) + e1 * (doz1 * x1 - dox1 * z1 + oz1 * dx1 - ox1 * dz1 + dr1 * px1 - dp1 * pz1 + r1 * dpx1 - p1 * dpz1)
+    curvature += c2 * (
+        doy2 * z2 - doz2 * y2 + oy2 * dz2 - oz2 * dy2 + dq2 * pz2 - dr2 * py2 + q2 * dpz2 - r2 * dpy2
+    ) + e2 * (doz2 * x2 - dox2 * z2 + oz2 * dx2 - ox2 * dz2 + dr2 * px2 - dp2 * pz2 + r2 * dpx2 - p2 * dpz2)
     h0, h1, h2 = weights[0] * v0, weights[1] * v1, weights[2] * v2  # g' = ∇²p q̇
     # 2 g'·n_J' with n_J' = a' × b + a × b', and 2 g·(a' × b'), the pair of rows replaced
     curvature += 2.0 * (
-        h0 * (s1 * b2 - s2 * b1 + a1 * t2 - a2 * t1)
-        + h1 * (s2 * b0 - s0 * b2 + a2 * t0 - a0 * t2)
-        + h2 * (s0 * b1 - s1 * b0 + a0 * t1 - a1 * t0)
+        h0 * (dx1 * y2 - dx2 * y1 + x1 * dy2 - x2 * dy1)
+        + h1 * (dx2 * y0 - dx0 * y2 + x2 * dy0 - x0 * dy2)
+        + h2 * (dx0 * y1 - dx1 * y0 + x0 * dy1 - x1 * dy0)
     )
-    curvature += 2.0 * (g0 * (s1 * t2 - s2 * t1) + g1 * (s2 * t0 - s0 * t2) + g2 * (s0 * t1 - s1 * t0))
+    curvature += 2.0 * (g0 * (dx1 * dy2 - dx2 * dy1) + g1 * (dx2 * dy0 - dx0 * dy2) + g2 * (dx0 * dy1 - dx1 * dy0))
     return curvature
 
 
@@ -406,24 +449,29 @@ class ExtendedJacobian(VelocityResolver):
         r""":meth:`step_functions` for a 2×3 Jacobian (planar3's task, n = 3, m = 2), on floats: the fast twin of
         :meth:`lu_step_functions` (the tests hold them equal), whose numpy calls cost many times these few products.
 
-        The row by :func:`~torqueopt.resolvers.velocity.cross_product_row`. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
+        Where the curvature has a closed form (:meth:`curvature_function`, and ``closed_form``), the row and the
+        curvature are the stack's, from the task frame's whole J and :math:`\dot J` alone
+        (:func:`~torqueopt.resolvers.velocity.cross_product_frame_row`,
+        :func:`~torqueopt.resolvers.velocity.cross_product_curvature`), with the criterion's gradient
+        :math:`w_i(q_{a_i} - \bar q_i)`; else the row by :func:`~torqueopt.resolvers.velocity.cross_product_row`
+        from Pinocchio's kinematic Hessian, and the curvature by its central difference, which takes the row along
+        q̇ at q ± δq̇ by :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic
+        Hessian there), on kinematics of their own, so the step's stay at q. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
         |J_0\times J_1|/\lambda_{max}(JJ^\top)`, since :math:`\sigma_{min}\sigma_{max} = |J_0\times J_1|` (Lagrange's
         identity) and :math:`\sigma_{max}^2 = \lambda_{max}`. :math:`J_{ex}^{-1} = \operatorname{adj}J_{ex}/\det J_{ex}`,
         Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
         :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
         :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
-        times :math:`|r|\,|n_J|`. The curvature in closed form by
-        :func:`~torqueopt.resolvers.velocity.cross_product_curvature` where :meth:`curvature_function` has one
-        (and ``closed_form``); else its central difference takes the row along q̇ at q ± δq̇ by
-        :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic Hessian
-        there), on kinematics of their own, so the step's stay at q.
+        times :math:`|r|\,|n_J|`.
         """
         tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
         shifted, euclidean = Kinematics(robot), robot.euclidean
         criterion = self._closed_form_criterion(robot, task) if closed_form else None
         if criterion is not None:
+            # p = ½ Σ w_i (q_{a_i} − q̄_i)²: the terms (a_i, b_i, q̄_i, w_i), and w as ∇²p's diagonal
+            terms = list(zip(*(np.asarray(values).tolist() for values in criterion)))
             weights = [0.0] * robot.nv
-            for joint, weight in zip(criterion[1].tolist(), np.asarray(criterion[3], dtype=float).tolist()):
+            for _, joint, _, weight in terms:
                 weights[joint] = weight
         # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
         constant = [None, None]
@@ -446,11 +494,20 @@ class ExtendedJacobian(VelocityResolver):
             return ahead, np.array((q0 - step * v0, q1 - step * v1, q2 - step * v2))
 
         def row_at(kinematics: Kinematics):
-            """J's rows and (∂G/∂q, n_J), Eq. (14), at the kinematics' configuration."""
+            """(J's rows, ∂p/∂q, (∂G/∂q, n_J)), Eq. (14), at the kinematics' configuration; with the closed form,
+            J's rows are the frame's six."""
+            if criterion is not None:
+                frame = kinematics.frame_jacobian(task.frame_id(kinematics)).tolist()
+                configuration = kinematics.q.tolist()
+                gradient = [0.0] * 3
+                for q_i, v_i, middle, weight in terms:
+                    gradient[v_i] = weight * (configuration[q_i] - middle)  # ∂/∂θ of Eq. (5), or of the posture's
+                return frame, gradient, cross_product_frame_row(frame, gradient, weights)
             jacobian_rows = task.jacobian(kinematics).tolist()
             derivative = task.jacobian_derivative(kinematics)
             gradient = objective.gradient_values(kinematics, task)
-            return jacobian_rows, cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
+            row = cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
+            return jacobian_rows, gradient, row
 
         def slope_at(kinematics: Kinematics, velocity: np.ndarray, velocity_values) -> float:
             """∂G/∂q·q̇ at the kinematics' configuration, from J̇ (:func:`~torqueopt.resolvers.velocity.cross_product_slope`)."""
@@ -462,7 +519,8 @@ class ExtendedJacobian(VelocityResolver):
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
-            ((a0, a1, a2), (b0, b1, b2)), ((r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
+            rows, gradient, ((r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
+            (a0, a1, a2), (b0, b1, b2) = rows[0], rows[1]
             # J itself must keep full rank: σ_min/σ_max = |J_0 × J_1| / λ_max(JJᵀ)
             aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
             largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)
@@ -481,10 +539,10 @@ class ExtendedJacobian(VelocityResolver):
                 r1 * a2 - r2 * a1, r2 * a0 - r0 * a2, r0 * a1 - r1 * a0,
                 n0, n1, n2,
             )  # fmt: skip
-            return adjugate, determinant, inverse_condition
+            return adjugate, determinant, inverse_condition, rows, gradient
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            (u0, u1, u2, w0, w1, w2, *_), determinant, inverse_condition = at_configuration(kinematics)
+            (u0, u1, u2, w0, w1, w2, *_), determinant, inverse_condition, *_ = at_configuration(kinematics)
             x0, x1 = task_velocity.tolist()
             # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0]
             joint_rates = (
@@ -496,13 +554,10 @@ class ExtendedJacobian(VelocityResolver):
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
-            (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _ = at_configuration(kinematics)
+            (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _, frame, gradient = at_configuration(kinematics)
             values = v0, v1, v2 = velocity.tolist()
             if criterion is not None:
-                frame_id = task.frame_id(kinematics)
-                frame_rate = kinematics.frame_jacobian_time_variation(frame_id, velocity).tolist()
-                frame = kinematics.frame_jacobian(frame_id).tolist()
-                gradient = objective.gradient_values(kinematics, task)
+                frame_rate = kinematics.frame_jacobian_time_variation(task.frame_id(kinematics), velocity).tolist()
                 curvature = cross_product_curvature(frame, frame_rate, gradient, weights, values)  # q̇ᵀ∇²G q̇
                 (s0, s1, s2), (t0, t1, t2) = frame_rate[0], frame_rate[1]  # J̇ of the task's rows, x and y
             else:
