@@ -7,12 +7,14 @@ import pytest
 
 import torqueopt
 from torqueopt import StraightLine
+from torqueopt.errors import SingularJacobian
 from torqueopt.linalg import JacobianSolver
 from torqueopt.resolvers.velocity.criteria import Manipulability
 from torqueopt.resolvers.velocity.gradient_projection import (
     StackedGradientProjection,
     StackedManipulabilityGradient,
     hessian_traces,
+    projected_gradient_steps,
 )
 from torqueopt.robot_copies import RobotForest
 from torqueopt.tasks import FrameTask, Kinematics
@@ -177,3 +179,70 @@ def test_what_the_manipulability_stack_leaves_to_one_movement_at_a_time(planar3,
     assert isinstance(joint_limits.stack_rate_function(planar3), StackedGradientProjection)
     default = manipulability.stack_rate_function(planar3)
     assert default.gain == 1.0 and default.m == 2  # the criterion's default gain, planar3's xy task
+
+
+@pytest.fixture(scope="module")
+def panda3():
+    """panda with its last four joints locked and the ``xy`` task: a 2×3 Jacobian of a spatial chain."""
+    return torqueopt.load_robot(
+        "panda", task="xy", lock=["panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"]
+    )
+
+
+@pytest.mark.parametrize("options", [{}, {"k": 5.0, "position_gain": 3.0}])
+def test_the_step_on_floats_is_the_general_step(planar3, panda3, options):
+    """The 2×3 step on floats (J⁺ by cross products, the traces and their rates from the frame's J and J̇) against
+    ``projected_gradient_steps`` (J⁺ by SVD, the traces from Pinocchio's kinematic Hessian): q̇ and σmin/σmax at
+    1e-12, q̈ at 1e-12, on planar3 and a spatial chain, and the same refusals in the same words (planar3
+    stretched, nearly stretched, and a cutoff that many states miss)."""
+    rng = np.random.default_rng(21)
+    for robot in (planar3, panda3):
+        resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", **options)
+        task = FrameTask.of_robot(robot)
+        fast = resolver.step_functions(robot, task)
+        assert fast[0].__qualname__.startswith("cross_product_manipulability_steps")
+        reference = projected_gradient_steps(
+            robot, task, resolver.singular_tolerance, resolver.objective, resolver.gain
+        )
+        kinematics = Kinematics(robot)
+        for _ in range(8):
+            q, velocity = robot.default_configuration + rng.uniform(-1.0, 1.0, 3), rng.normal(size=3)
+            command, command_rate = rng.normal(size=2), rng.normal(size=2)
+            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
+            got_rates, got_condition = fast[0](kinematics.update(q), command)
+            np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
+            assert got_condition == pytest.approx(expected_condition, rel=1e-12)
+            expected = reference[1](kinematics.update(q), velocity, command, command_rate)
+            got = fast[1](kinematics.update(q), velocity, command, command_rate)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    strict = torqueopt.get_resolver("gradient-projection", criterion="manipulability", singular_tolerance=0.4)
+    cases = [(torqueopt.get_resolver("gradient-projection", criterion="manipulability"), np.zeros(3))]
+    cases += [(strict, np.array([0.0, 1e-7, 0.0]))] + [(strict, rng.uniform(-2.0, 2.0, 3)) for _ in range(10)]
+    task, kinematics, refused = FrameTask.of_robot(planar3), Kinematics(planar3), 0
+    for resolver, q in cases:
+        messages = []
+        for rates in (
+            resolver.step_functions(planar3, task)[0],
+            projected_gradient_steps(planar3, task, resolver.singular_tolerance, resolver.objective, resolver.gain)[0],
+        ):
+            try:
+                rates(kinematics.update(q), np.ones(2))
+                messages.append(None)
+            except SingularJacobian as error:
+                messages.append(str(error))
+        assert messages[0] == messages[1]
+        refused += messages[0] is not None
+    assert 3 <= refused < len(cases)
+
+
+def test_the_batch_on_stacks_equals_simulate_on_a_spatial_chain(panda3):
+    """Two task rows, three joints whose axes are not parallel, gravity on: the loop's 2×3 step on floats."""
+    resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", k=3.0)
+    rng = np.random.default_rng(7)
+    q0s = [panda3.default_configuration + rng.normal(scale=0.3, size=3) for _ in range(4)]
+    lines = [StraightLine(rng.normal(size=2), accel=0.5, duration=0.4) for _ in q0s]
+    runs = batch_on_stacks(panda3, resolver, lines, q0s)
+    singles = [torqueopt.simulate(panda3, resolver, line, q0) for line, q0 in zip(lines, q0s)]
+    for run, single in zip(runs, singles):
+        assert_same_run(run, single)
+    assert all(single.completed for single in singles)
