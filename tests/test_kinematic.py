@@ -154,8 +154,10 @@ def test_task_priority_below_one_task_is_the_readable_recursion(rng, n, rows, lo
 
 def test_task_priority_below_one_task_rates_are_those_of_the_recursion(planar3, panda, rng):
     """Below one frame task without damping, the rates of Eq. (11) from the levels built at each configuration
-    (the lower SVD in one object for the run) against rates_through the levels priority_levels gives: bit for bit."""
+    (the lower SVD in one object for the run, below_one_task_steps) against rates_through the levels
+    priority_levels gives: bit for bit."""
     from torqueopt.linalg import JacobianSolver
+    from torqueopt.resolvers.velocity.task_priority import below_one_task_steps
     from torqueopt.tasks import priority_levels, rates_through
 
     pin.seed(int(rng.integers(2**31)))  # randomConfiguration's generator is Pinocchio's global one
@@ -164,7 +166,7 @@ def test_task_priority_below_one_task_rates_are_those_of_the_recursion(planar3, 
     for robot, lower in ((planar3, elbow), (panda, link4)):
         resolver = torqueopt.get_resolver("task-priority", secondary=lower)
         task = FrameTask.of_robot(robot)
-        rates, _ = resolver.step_functions(robot, task)
+        rates, _ = below_one_task_steps(robot, task, lower, resolver.singular_tolerance)
         for _ in range(3):
             kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
             command = rng.normal(size=robot.m)

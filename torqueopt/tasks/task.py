@@ -115,6 +115,15 @@ class Kinematics:
         pin.computeJointJacobiansTimeVariation(self.model, self.data, self.q, v)
         return pin.getFrameJacobianTimeVariation(self.model, self.data, frame_id, _LWA)
 
+    def jacobian_time_variations(self, v: np.ndarray, frame_ids=(), joint_ids=()):
+        r""":math:`\dot J` (6×n, world-aligned) of several frames (:meth:`frame_jacobian_time_variation`) and joints
+        (at the joint's origin) moving at joint velocity v, from one ``computeJointJacobiansTimeVariation`` for all
+        of them: (the frames' list, the joints' list)."""
+        model, data = self.model, self.data
+        pin.computeJointJacobiansTimeVariation(model, data, self.q, v)
+        frames = [pin.getFrameJacobianTimeVariation(model, data, frame_id, _LWA) for frame_id in frame_ids]
+        return frames, [pin.getJointJacobianTimeVariation(model, data, joint_id, _LWA) for joint_id in joint_ids]
+
     def frame_jacobian_derivative(self, frame_id: int) -> np.ndarray:
         r"""Derivatives of the frame Jacobian: array D (6, n, n) with
         :math:`D[:, i, k] = \partial J_{:,i} / \partial q_k`, from Pinocchio's kinematic Hessian.

@@ -1,0 +1,149 @@
+"""The single-movement steps on floats for planar3's task (a 2×3 Jacobian) against the general steps they stand in
+for: the same rates, q̈ and σmin/σmax at each state, the same refusals, the same runs."""
+
+import numpy as np
+import pytest
+
+import torqueopt
+import torqueopt.resolvers.velocity.task_priority as task_priority
+from torqueopt.errors import SingularJacobian
+from torqueopt.resolvers.velocity.task_priority import below_one_task_steps, in_plane_below_one_task_steps
+from torqueopt.tasks import FrameTask, Kinematics
+
+from .conftest import PAPER_Q0
+
+ELBOW_TARGET = [0.5, -0.5]
+
+
+def _well_conditioned_priority(task, lower, kinematics) -> bool:
+    """J away from singular (σmin/σmax >= 0.1) and J_l z (z spanning J's null space) at least 0.05 long: near
+    either the rates grow as 1/σ, and so do both paths' round-off."""
+    jacobian = task.jacobian(kinematics)
+    null = np.cross(jacobian[0], jacobian[1])
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    return singular[-1] >= 0.1 * singular[0] and np.linalg.norm(lower.jacobian(kinematics).dot(null)) >= 0.05 * (
+        np.linalg.norm(null)
+    )
+
+
+@pytest.mark.parametrize(
+    "lower",
+    [
+        FrameTask("link3", "xy", target=ELBOW_TARGET, gain=2.0),
+        FrameTask("link3", "xy"),  # no target: ẋ_l = 0
+        FrameTask("link2", "xy", target=[0.3, 0.4], gain=0.5),
+    ],
+    ids=["elbow", "no-target", "link2"],
+)
+def test_task_priority_in_plane_steps_equal_the_general_ones(planar3, rng, lower):
+    """Rates, σmin/σmax and the closed-form q̈ of Eq. (11) below one xy frame task, on floats, against
+    below_one_task_steps (SVDs and the q̈ of accelerations_below_one_task) at random states: 1e-12."""
+    task = FrameTask.of_robot(planar3)
+    general = below_one_task_steps(planar3, task, lower, 1e-6)
+    fast = in_plane_below_one_task_steps(planar3, task, lower, 1e-6)
+    reference, kinematics = Kinematics(planar3), Kinematics(planar3)
+    tested = 0
+    while tested < 40:
+        q = rng.uniform(-2.5, 2.5, 3)
+        if not _well_conditioned_priority(task, lower, reference.update(q)):
+            continue
+        tested += 1
+        command, command_rate = rng.normal(size=2), rng.normal(size=2)
+        expected, expected_condition = general[0](reference.update(q), command)
+        got, condition = fast[0](kinematics.update(q), command)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        assert condition == pytest.approx(expected_condition, rel=1e-12)
+        velocity = expected
+        expected_acceleration = general[1](reference, velocity, command, command_rate)
+        got_acceleration = fast[1](kinematics, velocity, command, command_rate)
+        np.testing.assert_allclose(
+            got_acceleration, expected_acceleration, rtol=0, atol=1e-12 * np.abs(expected_acceleration).max()
+        )
+
+
+def test_task_priority_in_plane_steps_drop_a_lower_task_the_null_space_cannot_move(planar3, rng):
+    """Below the tip's own xy task, J_l(I − J⁺J) = 0: both paths drop it (q̇ = J⁺c and its derivative)."""
+    task = FrameTask.of_robot(planar3)
+    lower = FrameTask("tip", "xy", target=[1.0, 1.0], gain=3.0)
+    general = below_one_task_steps(planar3, task, lower, 1e-6)
+    fast = in_plane_below_one_task_steps(planar3, task, lower, 1e-6)
+    reference, kinematics = Kinematics(planar3), Kinematics(planar3)
+    for _ in range(10):
+        q, command, command_rate = rng.uniform(-2, 2, 3), rng.normal(size=2), rng.normal(size=2)
+        expected = general[0](reference.update(q), command)[0]
+        got = fast[0](kinematics.update(q), command)[0]
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        np.testing.assert_allclose(
+            fast[1](kinematics, expected, command, command_rate),
+            general[1](reference, expected, command, command_rate),
+            rtol=0,
+            atol=1e-11 * np.abs(expected).max(),
+        )
+
+
+def test_task_priority_in_plane_steps_refuse_a_singular_task_jacobian_as_the_svd_does(planar3):
+    """The outstretched arm (q = 0): J has rank one, both paths raise SingularJacobian saying so."""
+    task = FrameTask.of_robot(planar3)
+    lower = FrameTask("link3", "xy", target=ELBOW_TARGET)
+    for steps in (below_one_task_steps, in_plane_below_one_task_steps):
+        rates, _ = steps(planar3, task, lower, 1e-6)
+        with pytest.raises(SingularJacobian, match="task Jacobian is singular: smallest/largest singular value"):
+            rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
+
+
+def test_task_priority_takes_the_in_plane_steps_on_planar3_below_one_xy_frame_task_only(planar3, panda):
+    """The float twin runs planar3's task below one xy frame task; a position frame task, two tasks, damping and
+    panda keep the general steps."""
+
+    def fast(robot, **options):
+        resolver = torqueopt.get_resolver("task-priority", **options)
+        resolver.check(robot)
+        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
+        return rates.__qualname__.startswith("in_plane_below_one_task_steps")
+
+    assert fast(planar3, secondary="link3:0.5,-0.5")
+    assert not fast(planar3, secondary="link3:0.5,-0.5,0")
+    assert not fast(planar3, secondary="link3:0.5,-0.5;link2:0.1,0.2")
+    assert not fast(planar3, secondary="link3:0.5,-0.5", damping=0.01)
+    assert not fast(panda, secondary="panda_link4:0.3,0,0.6")
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_task_priority_runs_on_the_in_plane_steps_equal_those_on_the_general_ones(planar3, monkeypatch, gain):
+    """The paper's movement below the elbow's xy task, whole runs: the float twin's q, q̇, q̈, τ and σmin/σmax
+    against those of below_one_task_steps (the dispatch patched to it), within round-off (1e-12 of each array's
+    largest value)."""
+    line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
+    options = {"secondary": "link3:0.5,-0.5", "position_gain": gain}
+    fast = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(
+        task_priority,
+        "in_plane_below_one_task_steps",
+        lambda robot, task, lower, tolerance: below_one_task_steps(robot, task, lower, tolerance),
+    )
+    general = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
+    assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
+    for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
+        got, expected = getattr(fast, name), getattr(general, name)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max(), err_msg=name)
+
+
+def test_jacobian_time_variations_of_frames_and_joints_from_one_computation(planar3, panda, rng):
+    """Kinematics.jacobian_time_variations: each frame's J̇ that of frame_jacobian_time_variation (bit for bit), each
+    joint's a central difference of Pinocchio's joint Jacobian (world-aligned, at the joint's origin) along v."""
+    import pinocchio as pin
+
+    pin.seed(int(rng.integers(2**31)))
+    world_aligned = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    for robot in (planar3, panda):
+        model, kinematics = robot.model, Kinematics(robot)
+        q, v = pin.randomConfiguration(model), rng.normal(size=robot.nv)
+        frame_ids, joint_ids = (robot.frame_id, model.nframes - 1), (1, model.njoints - 1)
+        frames, joints = kinematics.update(q).jacobian_time_variations(v, frame_ids, joint_ids)
+        for frame_id, rate in zip(frame_ids, frames):
+            np.testing.assert_array_equal(rate, kinematics.frame_jacobian_time_variation(frame_id, v))
+        step = 1e-6
+        for joint_id, rate in zip(joint_ids, joints):
+            ahead = pin.getJointJacobian(model, kinematics.update(q + step * v).data, joint_id, world_aligned).copy()
+            behind = pin.getJointJacobian(model, kinematics.update(q - step * v).data, joint_id, world_aligned)
+            np.testing.assert_allclose(rate, (ahead - behind) / (2 * step), rtol=0, atol=1e-7)
