@@ -7,8 +7,9 @@ import pytest
 import torqueopt
 import torqueopt.resolvers.velocity.task_priority as task_priority
 from torqueopt.errors import SingularJacobian
+from torqueopt.resolvers.velocity.obstacle_avoidance import ObstacleAvoidance
 from torqueopt.resolvers.velocity.task_priority import below_one_task_steps, in_plane_below_one_task_steps
-from torqueopt.tasks import FrameTask, Kinematics
+from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask
 
 from .conftest import PAPER_Q0
 
@@ -147,3 +148,89 @@ def test_jacobian_time_variations_of_frames_and_joints_from_one_computation(plan
             ahead = pin.getJointJacobian(model, kinematics.update(q + step * v).data, joint_id, world_aligned).copy()
             behind = pin.getJointJacobian(model, kinematics.update(q - step * v).data, joint_id, world_aligned)
             np.testing.assert_allclose(rate, (ahead - behind) / (2 * step), rtol=0, atol=1e-7)
+
+
+def _obstacle_resolver(robot, center, radius, influence, critical):
+    resolver = torqueopt.get_resolver(
+        "obstacle-avoidance", obstacle=ObstacleTask(center, radius), influence=influence, critical=critical
+    )
+    resolver.check(robot)
+    return resolver
+
+
+def _well_conditioned_obstacle(resolver, task, kinematics) -> bool:
+    """J away from singular (σmin/σmax >= 0.1) and, where the avoidance acts, b = J_o z at least 0.05 long."""
+    jacobian = task.jacobian(kinematics)
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    if singular[-1] < 0.1 * singular[0]:
+        return False
+    obstacle = resolver.obstacle
+    closest = obstacle.closest_point(kinematics)
+    null = np.cross(jacobian[0], jacobian[1])
+    return np.linalg.norm(obstacle.point_jacobian(kinematics, closest).dot(null)) >= 0.05 * np.linalg.norm(null)
+
+
+@pytest.mark.parametrize(
+    "influence, critical", [(3.0, 0.0), (0.5, 0.1), (0.05, 0.0)], ids=["activating", "paper", "mostly-off"]
+)
+def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones(planar3, rng, influence, critical):
+    """Rates, σmin/σmax and the closed-form q̈ of Eq. (13), on floats, against general_step_functions (SVDs, numpy
+    and pseudoinverse_rate) at random states and obstacles, with the avoidance partly, fully and not acting: 1e-12."""
+    task = FrameTask.of_robot(planar3)
+    reference, kinematics = Kinematics(planar3), Kinematics(planar3)
+    acting = 0
+    for _ in range(8):
+        resolver = _obstacle_resolver(planar3, rng.uniform(-1.5, 1.5, 2), rng.uniform(0.0, 0.2), influence, critical)
+        general = resolver.general_step_functions(planar3, task)
+        fast = resolver.in_plane_step_functions(planar3, task)
+        tested = 0
+        while tested < 6:
+            q = rng.uniform(-2.5, 2.5, 3)
+            if not _well_conditioned_obstacle(resolver, task, reference.update(q)):
+                continue
+            tested += 1
+            acting += resolver.obstacle.clearance(reference) < influence
+            command, command_rate = rng.normal(size=2), rng.normal(size=2)
+            expected, expected_condition = general[0](reference.update(q), command)
+            got, condition = fast[0](kinematics.update(q), command)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+            assert condition == pytest.approx(expected_condition, rel=1e-12)
+            expected_acceleration = general[1](reference, expected, command, command_rate)
+            got_acceleration = fast[1](kinematics, expected, command, command_rate)
+            np.testing.assert_allclose(
+                got_acceleration, expected_acceleration, rtol=0, atol=1e-12 * np.abs(expected_acceleration).max()
+            )
+    assert acting > 0 and (influence > 0.05 or acting < 24)  # the avoidance acts at some states, not all
+
+
+def test_obstacle_avoidance_in_plane_steps_refuse_a_singular_task_jacobian_as_the_svd_does(planar3):
+    """The outstretched arm (q = 0): both paths raise SingularJacobian saying so."""
+    resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 0.5, 0.1)
+    task = FrameTask.of_robot(planar3)
+    for steps in (resolver.general_step_functions, resolver.in_plane_step_functions):
+        rates, _ = steps(planar3, task)
+        with pytest.raises(SingularJacobian, match="task Jacobian is singular: smallest/largest singular value"):
+            rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
+
+
+def test_obstacle_avoidance_takes_the_in_plane_steps_on_planar3_only(planar3, panda):
+    for robot, expected in ((planar3, True), (panda, False)):
+        resolver = _obstacle_resolver(robot, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
+        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
+        assert rates.__qualname__.startswith("ObstacleAvoidance.in_plane_step_functions") is expected
+
+
+@pytest.mark.parametrize("gain", [0.0, 5.0])
+def test_obstacle_avoidance_runs_on_the_in_plane_steps_equal_those_on_the_general_ones(planar3, monkeypatch, gain):
+    """The paper's movement past the CLI's obstacle (1.2, 0.3, r = 0.1), whole runs: the float twin's q, q̇, q̈, τ
+    and σmin/σmax against those of general_step_functions (the dispatch patched to it), 1e-12 of each array's
+    largest value."""
+    line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
+    options = {"obstacle": "1.2,0.3,0,0.1", "position_gain": gain}
+    fast = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(ObstacleAvoidance, "in_plane_step_functions", ObstacleAvoidance.general_step_functions)
+    general = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
+    assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
+    for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
+        got, expected = getattr(fast, name), getattr(general, name)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max(), err_msg=name)

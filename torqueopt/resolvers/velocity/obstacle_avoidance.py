@@ -7,6 +7,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...errors import InvalidInput
+from ...linalg import two_row_pseudoinverse
 from ...robot import Robot
 from ...robot_copies import RobotForest
 from ...tasks import (
@@ -18,6 +19,7 @@ from ...tasks import (
     stacked_undamped_pseudoinverse,
     undamped_pseudoinverse,
 )
+from ...tasks.stack import ABSOLUTE_TOLERANCE
 from ...tasks.task import identity
 from ..options import Option, number
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
@@ -162,7 +164,170 @@ class ObstacleAvoidance(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
-        configuration."""
+        configuration: :meth:`in_plane_step_functions` for a 2×3 J (planar3's task), :meth:`general_step_functions`
+        for any other."""
+        if task.dimension == 2 and robot.nv == 3:
+            return self.in_plane_step_functions(robot, task)
+        return self.general_step_functions(robot, task)
+
+    def in_plane_step_functions(self, robot: Robot, task: FrameTask):
+        r""":meth:`general_step_functions` for a 2×3 J (planar3's task), on Python floats: its fast twin (the tests
+        hold them equal), whose numpy calls on these 3-vectors and 3×3 matrices cost many times the few products
+        they do.
+
+        With one degree of redundancy :math:`I - J^\dagger J = zz^\top` (z the unit vector spanning J's null space,
+        ``two_row_pseudoinverse``), so :math:`B = J_o(I - J^\dagger J) = bz^\top`, :math:`b = J_oz`, has rank one,
+        its one singular value :math:`\|b\|` (dropped at or below :math:`10^{-10}`, as ``undamped_pseudoinverse``
+        drops it), :math:`B^\dagger = zb^\top/b^\top b`, and Eq. (12), Eq. (13) are
+
+        .. math::
+
+            \dot\phi = sz,\quad s = \frac{b^\top e}{b^\top b},\quad e = v_o\hat n - J_op,\quad p = J^\dagger c,\qquad
+            \dot q = p + \alpha_h sz,
+
+        and their time derivative (:meth:`acceleration_function` for this B of rank one)
+
+        .. math::
+
+            \ddot q = \dot p + \dot\alpha_h sz + \alpha_h(\dot sz + s\dot z),\quad
+            \dot p = J^\dagger(\dot c - \dot Jp) + z(\dot Jz)^\top w,\ w = (JJ^\top)^{-1}c,\quad
+            \dot z = -J^\dagger\dot Jz,
+
+            \dot s = \frac{\dot b^\top(e - 2sb) + b^\top\dot e}{b^\top b},\quad \dot b = \dot J_oz + J_o\dot z,\quad
+            \dot e = v_o\dot{\hat n} - \dot J_op - J_o\dot p.
+
+        The closest point by :meth:`~torqueopt.tasks.ObstacleTask.closest_values`; :math:`J_o`, :math:`\dot J_o`,
+        the point's velocity and its normal's rate as :meth:`~torqueopt.tasks.ObstacleTask.point_jacobian` and
+        :meth:`~torqueopt.tasks.ObstacleTask.point_rates` form them, on floats (``_point_rates``);
+        :math:`\dot J` and the carrying joint's :math:`\dot J` from one Jacobian time variation.
+        """
+        obstacle, influence, critical, tolerance = self.obstacle, self.influence, self.critical, self.singular_tolerance
+        speed = obstacle.speed if self.speed is None else self.speed
+        task_frame = robot.model.getFrameId(task.frame)
+        center, radius = tuple(obstacle.center.tolist()), obstacle.radius
+
+        @PerConfiguration
+        def at_configuration(kinematics: Kinematics):
+            """(J's rows, (JJᵀ)⁻¹, z, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, its joint, the joint's
+            Jacobian rows, a, r = x_o − a, u, whether x_o is inside its segment, n̂, J_o's rows, b = J_o z, 1/bᵀb) as
+            floats, and σmin/σmax of J."""
+            jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
+            gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
+            distance, segment, (px, py, pz), start, axis, inside = obstacle.closest_values(kinematics)
+            gain = activation(distance - radius, influence, critical)
+            if gain == 0.0:
+                return (jacobian, gram_inverse, null, gain, None), inverse_condition
+            joint = obstacle.joint_of(kinematics, segment)
+            joint_jacobian = kinematics.joint_jacobian(joint).tolist()
+            (vx, vy, vz, wx, wy, wz), (ax, ay, az) = joint_jacobian, start
+            rx, ry, rz = px - ax, py - ay, pz - az  # the lever r = x_o − a from the joint's origin
+            # J_o = J_v − [r]×J_ω, row by row
+            point_jacobian = (
+                [v - ry * oz + rz * oy for v, oy, oz in zip(vx, wy, wz)],
+                [v - rz * ox + rx * oz for v, ox, oz in zip(vy, wx, wz)],
+                [v - rx * oy + ry * ox for v, ox, oy in zip(vz, wx, wy)],
+            )
+            lever_null = _float_times(point_jacobian, null)  # b = J_o z
+            squared = _float_dot(lever_null, lever_null)
+            inverse_square = 1.0 / squared if squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE else 0.0
+            cx, cy, cz = center
+            if distance > 0.0:
+                normal = (px - cx) / distance, (py - cy) / distance, (pz - cz) / distance
+            else:
+                normal = (1.0, 0.0, 0.0)  # a point on the obstacle's centre, as closest_point says
+            point = (distance, joint, joint_jacobian, start, (rx, ry, rz), axis, inside, normal, point_jacobian,
+                     lever_null, inverse_square)  # fmt: skip
+            return (jacobian, gram_inverse, null, gain, point), inverse_condition
+
+        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
+            (jacobian, gram_inverse, (z0, z1, z2), gain, point), inverse_condition = at_configuration(kinematics)
+            _, (p0, p1, p2) = _particular(jacobian, gram_inverse, task_velocity.tolist())  # J⁺ẋ
+            if gain == 0.0:
+                return np.array((p0, p1, p2)), inverse_condition
+            (n0, n1, n2), point_jacobian, (b0, b1, b2), inverse_square = point[-4:]
+            o0, o1, o2 = _float_times(point_jacobian, (p0, p1, p2))
+            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ) = z bᵀe/bᵀb, with ẋ_o = v_o n̂
+            share = (b0 * (speed * n0 - o0) + b1 * (speed * n1 - o1) + b2 * (speed * n2 - o2)) * inverse_square
+            # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
+            share *= gain
+            return np.array((p0 + share * z0, p1 + share * z1, p2 + share * z2)), inverse_condition
+
+        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
+            (jacobian, gram_inverse, null, gain, point), _ = at_configuration(kinematics)
+            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (z0, z1, z2) = jacobian, gram_inverse, null
+            (w0, w1), particular = _particular(jacobian, gram_inverse, command.tolist())
+            p0, p1, p2 = particular
+            joints = () if gain == 0.0 else (point[1],)
+            (task_rate,), joint_rates = kinematics.jacobian_time_variations(velocity, (task_frame,), joints)
+            (da0, da1, da2), (db0, db1, db2) = task_rate[:2].tolist()  # J̇
+            r0, r1 = command_rate.tolist()
+            r0, r1 = r0 - da0 * p0 - da1 * p1 - da2 * p2, r1 - db0 * p0 - db1 * p1 - db2 * p2  # ċ − J̇p
+            m0, m1 = da0 * z0 + da1 * z1 + da2 * z2, db0 * z0 + db1 * z1 + db2 * z2  # J̇z
+            # J⁺y = Jᵀ(JJᵀ)⁻¹y, for y = ċ − J̇p and y = J̇z
+            y0, y1 = g00 * r0 + g01 * r1, g01 * r0 + g11 * r1
+            u0, u1 = g00 * m0 + g01 * m1, g01 * m0 + g11 * m1
+            turn = m0 * w0 + m1 * w1  # (J̇z)ᵀw
+            # ṗ = J⁺(ċ − J̇p) + z (J̇z)ᵀw
+            particular_rate = (
+                y0 * a0 + y1 * b0 + turn * z0,
+                y0 * a1 + y1 * b1 + turn * z1,
+                y0 * a2 + y1 * b2 + turn * z2,
+            )
+            if gain == 0.0:
+                return np.array(particular_rate)  # beyond the influence α_h and its rate are 0
+            null_rate = -u0 * a0 - u1 * b0, -u0 * a1 - u1 * b1, -u0 * a2 - u1 * b2  # ż = −J⁺J̇z
+            (
+                distance,
+                _,
+                joint_jacobian,
+                start,
+                lever,
+                axis,
+                inside,
+                normal,
+                point_jacobian,
+                lever_null,
+                inverse_square,
+            ) = point
+            point_velocity, normal_rate, point_jacobian_rate = _point_rates(
+                joint_jacobian, joint_rates[0].tolist(), velocity.tolist(), start, lever, axis, inside, normal,
+                distance, center,
+            )  # fmt: skip
+            gain_rate = activation_rate(distance - radius, influence, critical) * _float_dot(normal, point_velocity)
+            # ḃ = J̇_o z + J_o ż
+            (i0, i1, i2), (j0, j1, j2) = (
+                _float_times(point_jacobian_rate, null),
+                _float_times(point_jacobian, null_rate),
+            )
+            lever_null_rate = i0 + j0, i1 + j1, i2 + j2
+            # e = ẋ_o − J_o p and ė = v_o ṅ − J̇_o p − J_o ṗ, with ẋ_o = v_o n̂
+            (o0, o1, o2), (l0, l1, l2) = (
+                _float_times(point_jacobian, particular),
+                _float_times(point_jacobian_rate, particular),
+            )
+            k0, k1, k2 = _float_times(point_jacobian, particular_rate)
+            (n0, n1, n2), (t0, t1, t2) = normal, normal_rate
+            e0, e1, e2 = speed * n0 - o0, speed * n1 - o1, speed * n2 - o2
+            shortfall_rate = speed * t0 - l0 - k0, speed * t1 - l1 - k1, speed * t2 - l2 - k2
+            (h0, h1, h2), (d0, d1, d2) = lever_null, lever_null_rate
+            s = (h0 * e0 + h1 * e1 + h2 * e2) * inverse_square  # φ̇ = sz, Eq. (12)
+            # ṡ = (ḃᵀ(e − 2sb) + bᵀė)/bᵀb
+            s_rate = (
+                d0 * (e0 - 2.0 * s * h0) + d1 * (e1 - 2.0 * s * h1) + d2 * (e2 - 2.0 * s * h2)
+                + _float_dot(lever_null, shortfall_rate)
+            ) * inverse_square  # fmt: skip
+            # d/dt of Eq. (13): ṗ + α̇_h s z + α_h(ṡ z + s ż)
+            along, across = gain_rate * s + gain * s_rate, gain * s
+            (f0, f1, f2), (x0, x1, x2) = particular_rate, null_rate
+            return np.array(
+                (f0 + along * z0 + across * x0, f1 + along * z1 + across * x1, f2 + along * z2 + across * x2)
+            )
+
+        return rates, acceleration
+
+    def general_step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (13)'s rates and their closed-form q̈ (None for a pose task) for any task, sharing what both read at a
+        configuration: the reference the fast pair is held to."""
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
         workspace = pseudoinverse_workspace(3, robot.nv)  # of [J_o(I − J⁺J)]⁺, kept for the run
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
@@ -240,6 +405,58 @@ class ObstacleAvoidance(VelocityResolver):
         return StackedObstacleAvoidance(
             RobotForest(robot), self.obstacle, speed, self.influence, self.critical, self.singular_tolerance
         )
+
+
+def _particular(jacobian, gram_inverse, command):
+    """w = (JJᵀ)⁻¹c and p = Jᵀw = J⁺c (Eq. (3)) for a 2×3 J of floats (``two_row_pseudoinverse``'s (JJᵀ)⁻¹)."""
+    (a0, a1, a2), (b0, b1, b2) = jacobian
+    g00, g01, g11 = gram_inverse
+    c0, c1 = command
+    w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
+    return (w0, w1), (w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2)
+
+
+def _float_dot(a, b) -> float:
+    """a·b of two 3-vectors of floats."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _float_times(rows, vector) -> tuple:
+    """Each row (three floats) times a 3-vector of floats."""
+    x, y, z = vector
+    return tuple([row[0] * x + row[1] * y + row[2] * z for row in rows])
+
+
+def _point_rates(joint_jacobian, joint_jacobian_rate, velocity, start, lever, axis, inside, normal, distance, center):
+    r""":meth:`~torqueopt.tasks.ObstacleTask.point_rates` on floats (see there for the formulas): the closest point's
+    velocity :math:`v_p`, its normal's rate :math:`\dot{\hat n}` and the rows of :math:`\dot J_o`, from the rows of
+    the carrying joint's Jacobian and its rate (6×3, world-aligned), q̇, the segment's start a, the lever
+    r = x_o − a, the segment's axis u, whether x_o is inside the segment, n̂, :math:`\|x_o - c\|` and c."""
+    vx, vy, vz, wx, wy, wz = _float_times(joint_jacobian, velocity)  # v_a and ω
+    (rx, ry, rz), (ux, uy, uz) = lever, axis
+    slide = 0.0
+    if inside:  # ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖²
+        (ax, ay, az), (cx, cy, cz) = start, center
+        turn = (cx - ax) * (wy * uz - wz * uy) + (cy - ay) * (wz * ux - wx * uz) + (cz - az) * (wx * uy - wy * ux)
+        slide = (turn - (vx * ux + vy * uy + vz * uz)) / (ux * ux + uy * uy + uz * uz)
+    # ṙ = ω × r + ṡ u, and v_p = v_a + ṙ
+    dx, dy, dz = wy * rz - wz * ry + slide * ux, wz * rx - wx * rz + slide * uy, wx * ry - wy * rx + slide * uz
+    ox, oy, oz = vx + dx, vy + dy, vz + dz
+    nx, ny, nz = normal
+    normal_speed = nx * ox + ny * oy + nz * oz
+    normal_rate = (
+        (ox - nx * normal_speed) / distance,
+        (oy - ny * normal_speed) / distance,
+        (oz - nz * normal_speed) / distance,
+    )  # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖
+    (_, _, _, jwx, jwy, jwz), (kvx, kvy, kvz, kwx, kwy, kwz) = joint_jacobian, joint_jacobian_rate
+    # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω, row by row
+    point_jacobian_rate = (
+        [v - dy * z + dz * y - ry * kz + rz * ky for v, y, z, ky, kz in zip(kvx, jwy, jwz, kwy, kwz)],
+        [v - dz * x + dx * z - rz * kx + rx * kz for v, x, z, kx, kz in zip(kvy, jwx, jwz, kwx, kwz)],
+        [v - dx * y + dy * x - rx * ky + ry * kx for v, x, y, kx, ky in zip(kvz, jwx, jwy, kwx, kwy)],
+    )
+    return (ox, oy, oz), normal_rate, point_jacobian_rate
 
 
 #: The smallest positive double: x / max(y, it) is x / y for every y > 0, and 0 for x = y = 0.

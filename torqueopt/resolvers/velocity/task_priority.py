@@ -2,12 +2,9 @@ r"""Task-priority resolution (Hanafusa, Yoshikawa & Nakamura, 1981), Eq. (7), Eq
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from ...errors import SingularJacobian
-from ...linalg import singular_message
+from ...linalg import two_row_pseudoinverse
 from ...robot import Robot
 from ...robot_copies import RobotForest, point_kinematics
 from ...tasks import (
@@ -277,9 +274,9 @@ def in_plane_below_one_task_steps(robot: Robot, task: FrameTask, lower: FrameTas
         \dot e = \ddot x_l - \dot J_l\dot q_1 - J_l\ddot q_1,\quad \ddot x_l = -kJ_l\dot q
 
     (:math:`\dot z` from :math:`Jz = 0` and :math:`z^\top z = 1`; :math:`\dot x_l` and :math:`\ddot x_l` zero
-    without a target). J's inverse condition :math:`\sigma_{min}/\sigma_{max} = |j_0\times j_1|/\lambda_{max}(JJ^\top)`
-    (Lagrange's identity gives :math:`\sigma_{min}\sigma_{max} = |j_0\times j_1|`), refused below ``tolerance``
-    as the SVD's solver refuses it; :math:`\dot J` and :math:`\dot J_l` from one Jacobian time variation.
+    without a target). :math:`(JJ^\top)^{-1}`, z and σmin/σmax of J by ``two_row_pseudoinverse`` (refused below
+    ``tolerance`` as the SVD's solver refuses it); :math:`\dot J` and :math:`\dot J_l` from one Jacobian time
+    variation.
     """
     model = robot.model
     task_frame, lower_frame = model.getFrameId(task.frame), model.getFrameId(lower.frame)
@@ -290,17 +287,9 @@ def in_plane_below_one_task_steps(robot: Robot, task: FrameTask, lower: FrameTas
     def at_configuration(kinematics: Kinematics):
         """(J's rows, (JJᵀ)⁻¹, z, J_l's rows, b = J_l z, 1/bᵀb (0 where A's one singular value is dropped), ẋ_l) as
         floats, and σmin/σmax of J."""
-        (a0, a1, a2), (b0, b1, b2) = jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
-        aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
-        n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # j_0 × j_1 spans J's null space
-        determinant = n0 * n0 + n1 * n1 + n2 * n2  # det JJᵀ = |j_0 × j_1|², Lagrange's identity
-        normal_norm = math.sqrt(determinant)
-        # the high-priority task must keep full rank: σmin/σmax = |j_0 × j_1| / λmax(JJᵀ)
-        largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)
-        inverse_condition = normal_norm / largest if largest > 0.0 else 0.0
-        if not inverse_condition >= tolerance:
-            raise SingularJacobian(singular_message(inverse_condition, tolerance))
-        z0, z1, z2 = n0 / normal_norm, n1 / normal_norm, n2 / normal_norm
+        jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
+        # the high-priority task must keep full rank: J⁺ = Jᵀ(JJᵀ)⁻¹, Eq. (3), and z
+        gram_inverse, (z0, z1, z2), inverse_condition = two_row_pseudoinverse(jacobian, tolerance)
         (k0, k1, k2), (l0, l1, l2) = lower_jacobian = kinematics.frame_jacobian(lower_frame)[:2].tolist()
         lz0, lz1 = k0 * z0 + k1 * z1 + k2 * z2, l0 * z0 + l1 * z1 + l2 * z2  # b = J_l z
         squared = lz0 * lz0 + lz1 * lz1
@@ -310,7 +299,6 @@ def in_plane_below_one_task_steps(robot: Robot, task: FrameTask, lower: FrameTas
         else:
             x, y = kinematics.frame_position_view(lower_frame)[:2].tolist()
             lower_velocity = gain * (target[0] - x), gain * (target[1] - y)  # ẋ_l = k(x* − x_l)
-        gram_inverse = bb / determinant, -ab / determinant, aa / determinant  # (JJᵀ)⁻¹, symmetric
         values = jacobian, gram_inverse, (z0, z1, z2), lower_jacobian, (lz0, lz1), inverse_square, lower_velocity
         return values, inverse_condition
 
