@@ -124,40 +124,45 @@ class ObstacleTask(Task):
         instructions) than the arithmetic it does. By callgrind on planar3, the loop on numpy 3-vectors cost
         158,000 instructions a call, the segments at once in numpy (einsums, a clip) 145,000, and floats 46,000.
         """
-        distance, segment, (px, py, pz), _, _, _ = self.closest_values(kinematics)
+        distance, segment, joint, (px, py, pz), _, _, _ = self.closest_values(kinematics)
         cx, cy, cz = self.center.tolist()
         ox, oy, oz = px - cx, py - cy, pz - cz
         normal = np.array((ox / distance, oy / distance, oz / distance) if distance > 0 else (1.0, 0.0, 0.0))
-        return ClosestPoint(
-            np.array((px, py, pz)), normal, distance - self.radius, self.joint_of(kinematics, segment), segment
-        )
+        return ClosestPoint(np.array((px, py, pz)), normal, distance - self.radius, joint, segment)
 
     def closest_values(self, kinematics: Kinematics):
         r""":meth:`closest_point`'s geometry as Python floats, for the steps on floats: (the distance
-        :math:`\|x_o - c\|` [m], the segment's index, :math:`x_o`, the segment's start a (its joint's origin), its
-        axis u = b − a, and whether :math:`x_o` is inside the segment, :math:`0 < (c - a)\cdot u < \|u\|^2`, where
-        it slides along it as the arm moves), the 3-vectors as tuples; the first of equally near segments."""
-        _, rows, end_frame = self._segments(kinematics)
+        :math:`\|x_o - c\|` [m], the segment's index, the joint that carries it, :math:`x_o`, the segment's start a
+        (its joint's origin), its axis u = b − a, and whether :math:`x_o` is inside the segment,
+        :math:`0 < (c - a)\cdot u < \|u\|^2`, where it slides along it as the arm moves), the 3-vectors as tuples;
+        the first of equally near segments."""
+        joints, rows, end_frame = self._segments(kinematics)
         # the origins once each, from views of Pinocchio's data (a segment's end is the next one's start)
         origins = kinematics.joint_origins()[rows].tolist()
         origins.append(kinematics.frame_position_view(end_frame).tolist())
         cx, cy, cz = self.center.tolist()
-        best = None
-        for index, ((ax, ay, az), (bx, by, bz)) in enumerate(zip(origins, origins[1:])):
+        best, nearest = None, math.inf
+        ax, ay, az = origins[0]
+        for index, (bx, by, bz) in enumerate(origins[1:]):
             ux, uy, uz = bx - ax, by - ay, bz - az
             length_squared = ux * ux + uy * uy + uz * uz
             along = (cx - ax) * ux + (cy - ay) * uy + (cz - az) * uz
-            fraction = 0.0 if length_squared == 0.0 else min(1.0, max(0.0, along / length_squared))
+            # s = (c − a)·u/‖u‖² clipped to [0, 1]
+            if along <= 0.0 or length_squared == 0.0:
+                fraction = 0.0
+            elif along >= length_squared:
+                fraction = 1.0
+            else:
+                fraction = along / length_squared
             px, py, pz = ax + fraction * ux, ay + fraction * uy, az + fraction * uz
             ox, oy, oz = px - cx, py - cy, pz - cz
             distance = math.sqrt(ox * ox + oy * oy + oz * oz)
-            if best is None or distance < best[0]:
+            if best is None or distance < nearest:
+                nearest = distance
                 best = (distance, index, (px, py, pz), (ax, ay, az), (ux, uy, uz), 0.0 < along < length_squared)
-        return best
-
-    def joint_of(self, kinematics: Kinematics, segment: int) -> int:
-        """The joint whose body carries segment ``segment`` (the joint at its start)."""
-        return self._segments(kinematics)[0][segment]
+            ax, ay, az = bx, by, bz
+        distance, index, point, start, axis, inside = best
+        return distance, index, joints[index], point, start, axis, inside
 
     def clearance(self, kinematics: Kinematics) -> float:
         """Distance from the arm to the obstacle's surface [m]."""

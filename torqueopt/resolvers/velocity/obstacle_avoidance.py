@@ -213,19 +213,21 @@ class ObstacleAvoidance(VelocityResolver):
             floats, and σmin/σmax of J."""
             jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
             gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
-            distance, segment, (px, py, pz), start, axis, inside = obstacle.closest_values(kinematics)
+            distance, _, joint, (px, py, pz), start, axis, inside = obstacle.closest_values(kinematics)
             gain = activation(distance - radius, influence, critical)
             if gain == 0.0:
                 return (jacobian, gram_inverse, null, gain, None), inverse_condition
-            joint = obstacle.joint_of(kinematics, segment)
             joint_jacobian = kinematics.joint_jacobian(joint).tolist()
-            (vx, vy, vz, wx, wy, wz), (ax, ay, az) = joint_jacobian, start
+            ax, ay, az = start
             rx, ry, rz = px - ax, py - ay, pz - az  # the lever r = x_o − a from the joint's origin
-            # J_o = J_v − [r]×J_ω, row by row
+            (vx0, vx1, vx2), (vy0, vy1, vy2), (vz0, vz1, vz2), (wx0, wx1, wx2), (wy0, wy1, wy2), (wz0, wz1, wz2) = (
+                joint_jacobian
+            )
+            # J_o = J_v − [r]×J_ω: column k is v_k − r × ω_k
             point_jacobian = (
-                [v - ry * oz + rz * oy for v, oy, oz in zip(vx, wy, wz)],
-                [v - rz * ox + rx * oz for v, ox, oz in zip(vy, wx, wz)],
-                [v - rx * oy + ry * ox for v, ox, oy in zip(vz, wx, wy)],
+                (vx0 - ry * wz0 + rz * wy0, vx1 - ry * wz1 + rz * wy1, vx2 - ry * wz2 + rz * wy2),
+                (vy0 - rz * wx0 + rx * wz0, vy1 - rz * wx1 + rx * wz1, vy2 - rz * wx2 + rx * wz2),
+                (vz0 - rx * wy0 + ry * wx0, vz1 - rx * wy1 + ry * wx1, vz2 - rx * wy2 + ry * wx2),
             )
             lever_null = _float_times(point_jacobian, null)  # b = J_o z
             squared = _float_dot(lever_null, lever_null)
@@ -241,7 +243,10 @@ class ObstacleAvoidance(VelocityResolver):
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
             (jacobian, gram_inverse, (z0, z1, z2), gain, point), inverse_condition = at_configuration(kinematics)
-            _, (p0, p1, p2) = _particular(jacobian, gram_inverse, task_velocity.tolist())  # J⁺ẋ
+            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
+            c0, c1 = task_velocity.tolist()
+            w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
+            p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # J⁺ẋ = Jᵀ(JJᵀ)⁻¹ẋ, Eq. (3)
             if gain == 0.0:
                 return np.array((p0, p1, p2)), inverse_condition
             (n0, n1, n2), point_jacobian, (b0, b1, b2), inverse_square = point[-4:]
@@ -422,9 +427,10 @@ def _float_dot(a, b) -> float:
 
 
 def _float_times(rows, vector) -> tuple:
-    """Each row (three floats) times a 3-vector of floats."""
+    """A 3×3 matrix of floats (its rows) times a 3-vector of floats."""
+    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = rows
     x, y, z = vector
-    return tuple([row[0] * x + row[1] * y + row[2] * z for row in rows])
+    return a0 * x + a1 * y + a2 * z, b0 * x + b1 * y + b2 * z, c0 * x + c1 * y + c2 * z
 
 
 def _point_rates(joint_jacobian, joint_jacobian_rate, velocity, start, lever, axis, inside, normal, distance, center):
@@ -432,7 +438,13 @@ def _point_rates(joint_jacobian, joint_jacobian_rate, velocity, start, lever, ax
     velocity :math:`v_p`, its normal's rate :math:`\dot{\hat n}` and the rows of :math:`\dot J_o`, from the rows of
     the carrying joint's Jacobian and its rate (6×3, world-aligned), q̇, the segment's start a, the lever
     r = x_o − a, the segment's axis u, whether x_o is inside the segment, n̂, :math:`\|x_o - c\|` and c."""
-    vx, vy, vz, wx, wy, wz = _float_times(joint_jacobian, velocity)  # v_a and ω
+    (vx0, vx1, vx2), (vy0, vy1, vy2), (vz0, vz1, vz2), (wx0, wx1, wx2), (wy0, wy1, wy2), (wz0, wz1, wz2) = (
+        joint_jacobian
+    )
+    q0, q1, q2 = velocity
+    # v_a and ω
+    vx, vy, vz = vx0 * q0 + vx1 * q1 + vx2 * q2, vy0 * q0 + vy1 * q1 + vy2 * q2, vz0 * q0 + vz1 * q1 + vz2 * q2
+    wx, wy, wz = wx0 * q0 + wx1 * q1 + wx2 * q2, wy0 * q0 + wy1 * q1 + wy2 * q2, wz0 * q0 + wz1 * q1 + wz2 * q2
     (rx, ry, rz), (ux, uy, uz) = lever, axis
     slide = 0.0
     if inside:  # ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖²
@@ -444,17 +456,32 @@ def _point_rates(joint_jacobian, joint_jacobian_rate, velocity, start, lever, ax
     ox, oy, oz = vx + dx, vy + dy, vz + dz
     nx, ny, nz = normal
     normal_speed = nx * ox + ny * oy + nz * oz
+    # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖
     normal_rate = (
         (ox - nx * normal_speed) / distance,
         (oy - ny * normal_speed) / distance,
         (oz - nz * normal_speed) / distance,
-    )  # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖
-    (_, _, _, jwx, jwy, jwz), (kvx, kvy, kvz, kwx, kwy, kwz) = joint_jacobian, joint_jacobian_rate
-    # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω, row by row
+    )
+    (kx0, kx1, kx2), (ky0, ky1, ky2), (kz0, kz1, kz2), (jx0, jx1, jx2), (jy0, jy1, jy2), (jz0, jz1, jz2) = (
+        joint_jacobian_rate
+    )
+    # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω: column k is v̇_k − ṙ × ω_k − r × ω̇_k
     point_jacobian_rate = (
-        [v - dy * z + dz * y - ry * kz + rz * ky for v, y, z, ky, kz in zip(kvx, jwy, jwz, kwy, kwz)],
-        [v - dz * x + dx * z - rz * kx + rx * kz for v, x, z, kx, kz in zip(kvy, jwx, jwz, kwx, kwz)],
-        [v - dx * y + dy * x - rx * ky + ry * kx for v, x, y, kx, ky in zip(kvz, jwx, jwy, kwx, kwy)],
+        (
+            kx0 - dy * wz0 + dz * wy0 - ry * jz0 + rz * jy0,
+            kx1 - dy * wz1 + dz * wy1 - ry * jz1 + rz * jy1,
+            kx2 - dy * wz2 + dz * wy2 - ry * jz2 + rz * jy2,
+        ),
+        (
+            ky0 - dz * wx0 + dx * wz0 - rz * jx0 + rx * jz0,
+            ky1 - dz * wx1 + dx * wz1 - rz * jx1 + rx * jz1,
+            ky2 - dz * wx2 + dx * wz2 - rz * jx2 + rx * jz2,
+        ),
+        (
+            kz0 - dx * wy0 + dy * wx0 - rx * jy0 + ry * jx0,
+            kz1 - dx * wy1 + dy * wx1 - rx * jy1 + ry * jx1,
+            kz2 - dx * wy2 + dy * wx2 - rx * jy2 + ry * jx2,
+        ),
     )
     return (ox, oy, oz), normal_rate, point_jacobian_rate
 
