@@ -535,15 +535,16 @@ class KinematicStack(MovementStack):
 
     def _task(self, q, v=None, tip=None):
         """The forest's kinematics at q (and v), the task's rows of J and J̇ (the frame's whole ones kept beside them,
-        ``frame_jacobian``, ``frame_rate``); H⁻¹ at q or Ḣq̇ at (q, v) from the same pass when the stacked form reads
-        them (its ``reads_inverse_inertia``, ``reads_inertia_rate``), and every joint's kinematics when it reads those
-        (``reads_joints``)."""
+        ``frame_jacobian``, ``frame_rate``); H⁻¹ or H at q, or Ḣq̇ at (q, v), from the same pass when the stacked form
+        reads them (its ``reads_inverse_inertia``, ``reads_inertia``, ``reads_inertia_rate``), and every joint's
+        kinematics when it reads those (``reads_joints``)."""
         stacked = self.stacked
         found = self.forest.kinematics(
             q, v, tip,
             inverse_inertia=v is None and stacked.reads_inverse_inertia,
             inertia_rate=v is not None and stacked.reads_inertia_rate,
             joints=stacked.reads_joints,
+            inertia=v is None and stacked.reads_inertia,
         )  # fmt: skip
         rows = self.rows
         return found._replace(
@@ -587,9 +588,11 @@ class KinematicStack(MovementStack):
         log["tau"][j, where] = torque
         log["jacobian_inverse_condition"][j, where] = conditions
         if self.with_extras:
-            # T and E_N at the recorded state: H by CRBA alone, J the step's own
+            # T and E_N at the recorded state: H the step's own pass computed (the stacks that read it) or by CRBA
+            # alone, J the step's own
+            inertia = self._kinematics.inertia if q is self._q else None
             log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
-                self.forest.inertia(q), velocity, jacobian=jacobian
+                self.forest.inertia(q) if inertia is None else inertia, velocity, jacobian=jacobian
             )
         # A row where the method is undefined is not recorded (as in the kinematic loop).
         failed = np.zeros(active.size, dtype=bool)

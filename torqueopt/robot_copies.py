@@ -97,7 +97,7 @@ class JointKinematics(NamedTuple):
 class TaskKinematics(NamedTuple):
     r"""What :meth:`RobotForest.kinematics` gives for S states: the task frame's J (S, 6, n), :math:`\dot J`
     (S, 6, n) or None, the frame's position (S, 3) [m], and when asked :math:`H^{-1}` (S, n, n),
-    :math:`\dot H\dot q` (S, n) [N·m] and every joint's kinematics (:class:`JointKinematics`). ``frame_jacobian``,
+    :math:`\dot H\dot q` (S, n) [N·m], :math:`H` (S, n, n) [kg·m²] and every joint's kinematics (:class:`JointKinematics`). ``frame_jacobian``,
     ``frame_rate``: the frame's whole J and :math:`\dot J` (S, 6, n) where ``jacobian`` and ``rate`` hold a task's
     rows of them only (the batch's velocity-level lanes), else None."""
 
@@ -109,6 +109,7 @@ class TaskKinematics(NamedTuple):
     joints: JointKinematics | None = None
     frame_jacobian: np.ndarray | None = None
     frame_rate: np.ndarray | None = None
+    inertia: np.ndarray | None = None
 
 
 class _Pass:
@@ -209,7 +210,7 @@ class RobotForest:
 
     def kinematics(
         self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None, *,
-        inverse_inertia: bool = False, inertia_rate: bool = False, joints: bool = False,
+        inverse_inertia: bool = False, inertia_rate: bool = False, joints: bool = False, inertia: bool = False,
     ) -> TaskKinematics:  # fmt: skip
         r"""The task frame's Jacobian :math:`J` (S, 6, n) in LOCAL_WORLD_ALIGNED, linear rows first, and its position (S, 3);
         with joint velocities v, also :math:`\dot J` (S, 6, n), the Jacobian's rate along v (else None).
@@ -227,16 +228,22 @@ class RobotForest:
         it returns, so the blocks read are whole. ``inertia_rate`` (with v): each pass is
         ``computeCoriolisMatrix``, which computes the same J and :math:`\dot J` on its way, and
         :math:`\dot H v = (C + C^\top)v` (S, n) is returned too (:math:`\dot H - 2C` is skew). One forest pass
-        where the kinetic-energy stack made two. ``joints``: every joint's kinematics from the same pass
+        where the kinetic-energy stack made two. ``inertia`` (without v, instead of ``inverse_inertia``): each pass
+        is CRBA in the WORLD convention, which computes the same joint Jacobians and placements on its way (bit for
+        bit, tests/test_robot_copies_inertia.py), and :math:`H` (S, n, n) is returned too. ``joints``: every joint's kinematics from the same pass
         (:class:`JointKinematics`; with v, their rates too), for tasks on other points (:func:`point_kinematics`).
         """
         count, model = q.shape[0], self.model
         if (inverse_inertia and v is not None) or (inertia_rate and v is None):
             raise ValueError("inverse_inertia is taken without joint velocities, inertia_rate with them")
+        if inertia and (v is not None or inverse_inertia):
+            raise ValueError("inertia is taken without joint velocities, and not with inverse_inertia")
         stacks = (q,) if v is None else (q, v)
         for forest_pass, q_forest, *v_forest in self._each_pass(*stacks):
             if inverse_inertia:
                 pin.computeMinverse(model, forest_pass.data, q_forest)
+            elif inertia:
+                pin.crba(model, forest_pass.data, q_forest, pin.Convention.WORLD)
             elif v is None:
                 pin.computeJointJacobians(model, forest_pass.data, q_forest)
             elif inertia_rate:
@@ -258,7 +265,8 @@ class RobotForest:
         jacobian, rate = _shifted(world, rate, tip, v)
         if v is None:
             inverse = _gathered(used, "inverse_inertia", count) if inverse_inertia else None
-            return TaskKinematics(jacobian, None, tip, inverse_inertia=inverse, joints=every_joint)
+            mass = _gathered(used, "inertia", count) if inertia else None
+            return TaskKinematics(jacobian, None, tip, inverse_inertia=inverse, joints=every_joint, inertia=mass)
         if not inertia_rate:
             return TaskKinematics(jacobian, rate, tip, joints=every_joint)
         coriolis = _gathered(used, "coriolis", count)

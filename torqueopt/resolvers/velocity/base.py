@@ -127,7 +127,8 @@ class VelocityStack:
     ``acceleration(J, J̇, q̇, ċ, state, moving) -> q̈`` (B, n): ``moving`` the forest's kinematics at (q, q̇).
 
     The flags say what the forest's pass must add to ``kinematics`` (at q) and ``moving`` (at (q, q̇)):
-    :math:`H^{-1}`, :math:`\dot H\dot q`, and every joint's kinematics (``joints``, for tasks on other points).
+    :math:`H^{-1}`, :math:`\dot H\dot q`, :math:`H` (``inertia``), and every joint's kinematics (``joints``, for tasks
+    on other points).
     The task frame's six rows of J and :math:`\dot J` are always there beside the task's (``frame_jacobian``,
     ``frame_rate``: references to what the pass computed, no copy).
     """
@@ -135,6 +136,7 @@ class VelocityStack:
     reads_inverse_inertia: bool = False
     reads_inertia_rate: bool = False
     reads_joints: bool = False
+    reads_inertia: bool = False
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         raise NotImplementedError

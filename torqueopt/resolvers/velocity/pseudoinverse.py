@@ -242,19 +242,21 @@ class KineticEnergyPseudoInverse(VelocityResolver):
 
 class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
     r""":math:`\dot q = H^{-1}J^\top(JH^{-1}J^\top)^{-1}c` (Eq. (16) with W = H) and its :math:`\ddot q` per row of
-    (B, m, n) stacks; :math:`H^{-1}` at each configuration and :math:`\dot H\dot q` at the step's start are those
-    the batch's forest computes with J and :math:`\dot J` in the same pass
-    (:meth:`RobotForest.kinematics <torqueopt.robot_copies.RobotForest.kinematics>`, ``inverse_inertia``,
-    ``inertia_rate``); σmin/σmax of J and the singular rows as :class:`StackedPseudoInverse` finds them."""
+    (B, m, n) stacks; H at each configuration and :math:`\dot H\dot q` at the step's start are those the batch's
+    forest computes with J and :math:`\dot J` in the same pass
+    (:meth:`RobotForest.kinematics <torqueopt.robot_copies.RobotForest.kinematics>`, ``inertia``,
+    ``inertia_rate``), :math:`H^{-1}` the inverse of each row's H (``stacked_symmetric_inverse``: its cofactors for
+    three joints; CRBA's pass costs less than ``computeMinverse``'s on the forest, whose H⁻¹ is computed whole);
+    σmin/σmax of J and the singular rows as :class:`StackedPseudoInverse` finds them."""
 
-    reads_inverse_inertia = True
+    reads_inertia = True
     reads_inertia_rate = True
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
-        ``kinematics``: the forest's at ``configuration``, with H⁻¹."""
+        ``kinematics``: the forest's at ``configuration``, with H."""
         conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
-        inverse_inertia = kinematics.inverse_inertia
+        inverse_inertia = stacked_symmetric_inverse(kinematics.inertia)
         weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
         gram_inverse = stacked_inverse(jacobian @ weighted_jt, failures)  # G⁻¹, G = JH⁻¹Jᵀ of Eq. (16)
         multipliers = np.einsum("bij,bj->bi", gram_inverse, command)  # λ = G⁻¹c
@@ -297,6 +299,25 @@ def stacked_inverse(gram: np.ndarray, failures: dict, determinant: np.ndarray | 
         rows = list(failures)
         inverse[rows], determinant[rows] = np.eye(2), 1.0
     return inverse / determinant[:, None, None]
+
+
+def stacked_symmetric_inverse(matrices: np.ndarray) -> np.ndarray:
+    """The inverse of each symmetric, invertible (n, n) matrix of a (B, n, n) stack (a fresh stack): for n = 3 by its
+    cofactors on the batch axis (the adjugate over the determinant), no LAPACK call per row; else by LAPACK."""
+    if matrices.shape[1] != 3:
+        return np.linalg.inv(matrices)
+    a, b, c = matrices[:, 0, 0], matrices[:, 0, 1], matrices[:, 0, 2]
+    d, e, f = matrices[:, 1, 1], matrices[:, 1, 2], matrices[:, 2, 2]
+    inverse = np.empty_like(matrices)
+    inverse[:, 0, 0] = d * f - e * e
+    inverse[:, 0, 1] = inverse[:, 1, 0] = c * e - b * f
+    inverse[:, 0, 2] = inverse[:, 2, 0] = b * e - c * d
+    inverse[:, 1, 1] = a * f - c * c
+    inverse[:, 1, 2] = inverse[:, 2, 1] = b * c - a * e
+    inverse[:, 2, 2] = a * d - b * b
+    determinant = a * inverse[:, 0, 0] + b * inverse[:, 0, 1] + c * inverse[:, 0, 2]
+    inverse /= determinant[:, None, None]
+    return inverse
 
 
 def inverse_inertia_at(kinematics: Kinematics) -> np.ndarray:
