@@ -500,7 +500,9 @@ class KinematicStack(MovementStack):
         self.references = [_EvenRows(reference) for reference in references]
         self.count, self.with_extras = count, extras
         self.q, self.v = q, None
-        self.forest = RobotForest(robot)
+        # a stack may ask for smaller forest passes (its ``forest_dofs``): the quadratic part of a pass falls
+        dofs = getattr(stacked, "forest_dofs", None)
+        self.forest = RobotForest(robot, None if dofs is None else max(1, dofs // robot.nv))
         self.rows = robot.task_rows
         self.gain = resolver.position_gain
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)

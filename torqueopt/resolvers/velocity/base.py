@@ -137,6 +137,8 @@ class VelocityStack:
     reads_inertia_rate: bool = False
     reads_joints: bool = False
     reads_inertia: bool = False
+    #: Joints per forest pass of the batch's forest, None for the forest's own (``FOREST_DOFS``).
+    forest_dofs: int | None = None
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         raise NotImplementedError
