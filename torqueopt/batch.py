@@ -571,6 +571,7 @@ class KinematicStack(MovementStack):
     def resolve(self, jacobian, command, j: int):
         index, where = 2 * j, self.where
         velocity, conditions, failures, state = self.stacked.rates(jacobian, command, self._q, self._kinematics)
+        self._state = state  # what the rates computed at the step's start, for the energy extras
         # ċ = ẍ_ref + K(ẋ_ref − J q̇)
         command_rate = self.acceleration[index, where] + self.gain * self.velocity[index, where]
         if self.gain != 0.0:
@@ -590,12 +591,15 @@ class KinematicStack(MovementStack):
         log["tau"][j, where] = torque
         log["jacobian_inverse_condition"][j, where] = conditions
         if self.with_extras:
-            # T and E_N at the recorded state: H the step's own pass computed (the stacks that read it) or by CRBA
-            # alone, J the step's own
-            inertia = self._kinematics.inertia if q is self._q else None
-            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
-                self.forest.inertia(q) if inertia is None else inertia, velocity, jacobian=jacobian
-            )
+            # T and E_N at the recorded state: the stack's own (its ``energies``) when it gives them, else H the
+            # step's own pass computed (the stacks that read it) or by CRBA alone, J the step's own
+            own = self.stacked.energies(jacobian, velocity, self._state, self._kinematics) if q is self._q else None
+            if own is None:
+                inertia = self._kinematics.inertia if q is self._q else None
+                own = self_motion_energy(
+                    self.forest.inertia(q) if inertia is None else inertia, velocity, jacobian=jacobian
+                )
+            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = own
         # A row where the method is undefined is not recorded (as in the kinematic loop).
         failed = np.zeros(active.size, dtype=bool)
         if failures:

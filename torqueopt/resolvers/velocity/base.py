@@ -146,6 +146,18 @@ class VelocityStack:
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         raise NotImplementedError
 
+    def energies(self, jacobian, velocity, state, kinematics):
+        r"""``(T, E_N)`` (B,) each [J] at the configurations ``rates`` was last given, from what it computed there
+        (``state``, ``kinematics``), or None (the default): the batch's energy extras then take them from
+        ``torqueopt.self_motion.self_motion_energy`` (H by CRBA), the figures a stack's own must equal to round-off.
+
+        J (B, m, n) and ``kinematics`` those ``rates`` was given, :math:`\dot q` (B, n) any joint velocities;
+        :math:`T = \tfrac12\dot q^\top H\dot q`, :math:`E_N = T - \tfrac12\dot x^\top(JH^{-1}J^\top)^{-1}\dot x`,
+        :math:`\dot x = J\dot q`. A row in ``rates``' failures may get any finite value (the batch does not
+        record it).
+        """
+        return None
+
 
 def pseudoinverse_solver(robot: Robot, tolerance: float, null_space: bool = True) -> JacobianSolver:
     r"""SVD solver returning :math:`(J^\dagger r, Z, \sigma_{min}/\sigma_{max})`, Eq. (3), Z a null-space basis."""

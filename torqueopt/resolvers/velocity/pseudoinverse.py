@@ -282,6 +282,17 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
         # the time derivative of Eq. (16) with W = H applied to c
         return inner + np.einsum("bij,bj->bi", weighted_jt, np.einsum("bij,bj->bi", gram_inverse, residual))
 
+    def energies(self, jacobian, velocity, state, kinematics):
+        r"""T and E_N per row (see :meth:`VelocityStack.energies`) from the pass's H and the G⁻¹ of :meth:`rates`:
+        :math:`T = \tfrac12\dot q^\top H\dot q`, :math:`E_N = T - \tfrac12\dot x^\top G^{-1}\dot x` with
+        :math:`G = JH^{-1}J^\top`, the task-space inertia's inverse, kept at or above 0 against round-off (for
+        this method's own q̇, Eq. (16) with W = H, :math:`E_N` is 0 but for round-off)."""
+        gram_inverse = state[2]
+        kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, kinematics.inertia, velocity)
+        tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)  # ẋ = Jq̇
+        task_energy = 0.5 * np.einsum("bi,bij,bj->b", tip_velocity, gram_inverse, tip_velocity)  # ½ẋᵀΛẋ, Λ = G⁻¹
+        return kinetic, np.maximum(kinetic - task_energy, 0.0)
+
 
 def stacked_inverse(gram: np.ndarray, failures: dict, determinant: np.ndarray | None = None) -> np.ndarray:
     """The inverse of each (m, m) matrix of a (B, m, m) stack, the rows in ``failures`` given the identity's (a
