@@ -245,9 +245,10 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
     (B, m, n) stacks; H at each configuration and :math:`\dot H\dot q` at the step's start are those the batch's
     forest computes with J and :math:`\dot J` in the same pass
     (:meth:`RobotForest.kinematics <torqueopt.robot_copies.RobotForest.kinematics>`, ``inertia``,
-    ``inertia_rate``), :math:`H^{-1}` the inverse of each row's H (``stacked_symmetric_inverse``: its cofactors for
-    three joints; CRBA's pass costs less than ``computeMinverse``'s on the forest, whose H⁻¹ is computed whole);
-    σmin/σmax of J and the singular rows as :class:`StackedPseudoInverse` finds them."""
+    ``inertia_rate``), :math:`H^{-1}` the inverse of each row's H (``symmetric_inverses_rows_last``: its cofactors
+    for three joints; CRBA's pass costs less than ``computeMinverse``'s on the forest, whose H⁻¹ is computed whole);
+    σmin/σmax of J and the singular rows as :class:`StackedPseudoInverse` finds them. What :meth:`rates` keeps for
+    :meth:`acceleration` and :meth:`energies` is held with the batch axis last."""
 
     reads_inertia = True
     reads_inertia_rate = True
@@ -258,39 +259,43 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
-        ``kinematics``: the forest's at ``configuration``, with H."""
-        conditions, failures, _ = self.conditions(jacobian @ np.swapaxes(jacobian, 1, 2))
-        inverse_inertia = stacked_symmetric_inverse(kinematics.inertia)
-        weighted_jt = inverse_inertia @ np.swapaxes(jacobian, 1, 2)  # A = H⁻¹Jᵀ
-        gram_inverse = stacked_inverse(jacobian @ weighted_jt, failures)  # G⁻¹, G = JH⁻¹Jᵀ of Eq. (16)
-        multipliers = np.einsum("bij,bj->bi", gram_inverse, command)  # λ = G⁻¹c
+        ``kinematics``: the forest's at ``configuration``, with H.
+
+        Held component-first, the batch axis last (J (m, n, B), H⁻¹ (n, n, B), ...): each small product is one
+        ``np.einsum`` over the batch, where numpy's product of (B, ·, ·) stacks calls BLAS once per row."""
+        task = np.ascontiguousarray(np.moveaxis(jacobian, 0, 2))  # J, (m, n, B)
+        conditions, failures, _ = self.conditions(np.moveaxis(np.einsum("ijb,kjb->ikb", task, task), 2, 0))
+        inverse_inertia = symmetric_inverses_rows_last(kinematics.inertia)  # H⁻¹, (n, n, B)
+        weighted_jt = np.einsum("ijb,kjb->ikb", inverse_inertia, task)  # A = H⁻¹Jᵀ, (n, m, B)
+        gram = np.einsum("ijb,jkb->ikb", task, weighted_jt)  # G = JH⁻¹Jᵀ of Eq. (16), (m, m, B)
+        gram_inverse = np.moveaxis(stacked_inverse(np.moveaxis(gram, 2, 0), failures), 0, 2)  # G⁻¹
+        multipliers = np.einsum("ijb,bj->ib", gram_inverse, command)  # λ = G⁻¹c, (m, B)
         # Eq. (16) with W = H: q̇ = Aλ, the least kinetic energy Eq. (17)
-        velocity = np.einsum("bij,bj->bi", weighted_jt, multipliers)
-        return velocity, conditions, failures, (inverse_inertia, weighted_jt, gram_inverse, multipliers)
+        velocity = np.einsum("ijb,jb->bi", weighted_jt, multipliers)
+        return velocity, conditions, failures, (task, inverse_inertia, weighted_jt, gram_inverse, multipliers)
 
     def acceleration(self, jacobian, jacobian_rate, velocity, command_rate, state, kinematics=None) -> np.ndarray:
         """r + AG⁻¹(ċ − J̇q̇ − Jr), r = H⁻¹(J̇ᵀλ − Ḣq̇), per row (see :meth:`KineticEnergyPseudoInverse.acceleration_function`).
         ``kinematics``: the forest's at the configuration and q̇, with Ḣq̇."""
-        inverse_inertia, weighted_jt, gram_inverse, multipliers = state
-        inertia_rate_velocity = kinematics.inertia_rate_velocity  # Ḣq̇ = (C + Cᵀ)q̇
+        task, inverse_inertia, weighted_jt, gram_inverse, multipliers = state
+        rate = np.ascontiguousarray(np.moveaxis(jacobian_rate, 0, 2))  # J̇, (m, n, B)
+        inertia_rate_velocity = kinematics.inertia_rate_velocity.T  # Ḣq̇ = (C + Cᵀ)q̇, (n, B)
         inner = np.einsum(
-            "bij,bj->bi", inverse_inertia, np.einsum("bji,bj->bi", jacobian_rate, multipliers) - inertia_rate_velocity
+            "ijb,jb->ib", inverse_inertia, np.einsum("jib,jb->ib", rate, multipliers) - inertia_rate_velocity
         )
-        residual = (
-            command_rate - np.einsum("bij,bj->bi", jacobian_rate, velocity) - np.einsum("bij,bj->bi", jacobian, inner)
-        )
+        residual = command_rate.T - np.einsum("ijb,bj->ib", rate, velocity) - np.einsum("ijb,jb->ib", task, inner)
         # the time derivative of Eq. (16) with W = H applied to c
-        return inner + np.einsum("bij,bj->bi", weighted_jt, np.einsum("bij,bj->bi", gram_inverse, residual))
+        return (inner + np.einsum("ijb,jb->ib", weighted_jt, np.einsum("ijb,jb->ib", gram_inverse, residual))).T.copy()
 
     def energies(self, jacobian, velocity, state, kinematics):
         r"""T and E_N per row (see :meth:`VelocityStack.energies`) from the pass's H and the G⁻¹ of :meth:`rates`:
         :math:`T = \tfrac12\dot q^\top H\dot q`, :math:`E_N = T - \tfrac12\dot x^\top G^{-1}\dot x` with
         :math:`G = JH^{-1}J^\top`, the task-space inertia's inverse, kept at or above 0 against round-off (for
         this method's own q̇, Eq. (16) with W = H, :math:`E_N` is 0 but for round-off)."""
-        gram_inverse = state[2]
+        task, gram_inverse = state[0], state[3]
         kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, kinematics.inertia, velocity)
-        tip_velocity = np.einsum("bij,bj->bi", jacobian, velocity)  # ẋ = Jq̇
-        task_energy = 0.5 * np.einsum("bi,bij,bj->b", tip_velocity, gram_inverse, tip_velocity)  # ½ẋᵀΛẋ, Λ = G⁻¹
+        tip_velocity = np.einsum("ijb,bj->ib", task, velocity)  # ẋ = Jq̇, (m, B)
+        task_energy = 0.5 * np.einsum("ib,ijb,jb->b", tip_velocity, gram_inverse, tip_velocity)  # ½ẋᵀΛẋ, Λ = G⁻¹
         return kinetic, np.maximum(kinetic - task_energy, 0.0)
 
 
@@ -317,21 +322,28 @@ def stacked_inverse(gram: np.ndarray, failures: dict, determinant: np.ndarray | 
 
 
 def stacked_symmetric_inverse(matrices: np.ndarray) -> np.ndarray:
-    """The inverse of each symmetric, invertible (n, n) matrix of a (B, n, n) stack (a fresh stack): for n = 3 by its
-    cofactors on the batch axis (the adjugate over the determinant), no LAPACK call per row; else by LAPACK."""
+    """The inverse of each symmetric, invertible (n, n) matrix of a (B, n, n) stack (a fresh stack, laid out as
+    :func:`symmetric_inverses_rows_last` computes it)."""
+    return symmetric_inverses_rows_last(matrices).transpose(2, 0, 1)
+
+
+def symmetric_inverses_rows_last(matrices: np.ndarray) -> np.ndarray:
+    """The inverse of each symmetric, invertible (n, n) matrix of a (B, n, n) stack, as an (n, n, B) array, the batch
+    axis last: for n = 3 by its cofactors on the batch axis (the adjugate over the determinant), no LAPACK call per
+    row; else by LAPACK."""
     if matrices.shape[1] != 3:
-        return np.linalg.inv(matrices)
+        return np.linalg.inv(matrices).transpose(1, 2, 0)
     a, b, c = matrices[:, 0, 0], matrices[:, 0, 1], matrices[:, 0, 2]
     d, e, f = matrices[:, 1, 1], matrices[:, 1, 2], matrices[:, 2, 2]
-    inverse = np.empty_like(matrices)
-    inverse[:, 0, 0] = d * f - e * e
-    inverse[:, 0, 1] = inverse[:, 1, 0] = c * e - b * f
-    inverse[:, 0, 2] = inverse[:, 2, 0] = b * e - c * d
-    inverse[:, 1, 1] = a * f - c * c
-    inverse[:, 1, 2] = inverse[:, 2, 1] = b * c - a * e
-    inverse[:, 2, 2] = a * d - b * b
-    determinant = a * inverse[:, 0, 0] + b * inverse[:, 0, 1] + c * inverse[:, 0, 2]
-    inverse /= determinant[:, None, None]
+    inverse = np.empty((3, 3, matrices.shape[0]))
+    inverse[0, 0] = d * f - e * e
+    inverse[0, 1] = inverse[1, 0] = c * e - b * f
+    inverse[0, 2] = inverse[2, 0] = b * e - c * d
+    inverse[1, 1] = a * f - c * c
+    inverse[1, 2] = inverse[2, 1] = b * c - a * e
+    inverse[2, 2] = a * d - b * b
+    determinant = a * inverse[0, 0] + b * inverse[0, 1] + c * inverse[0, 2]
+    inverse /= determinant
     return inverse
 
 
