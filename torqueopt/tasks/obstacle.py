@@ -69,6 +69,7 @@ class ObstacleTask(Task):
         self.radius = non_negative_number(radius, "obstacle radius", "m")
         self.speed = non_negative_number(speed, "obstacle speed", "m/s")
         self.frame = frame
+        self._center = tuple(self.center.tolist())  # the centre's coordinates as floats, for the float loops
         self._chain_key = None
         self._chain: tuple[list[int], int] = ([], 0)
         super().__init__(None, 1.0)
@@ -140,29 +141,31 @@ class ObstacleTask(Task):
         # the origins once each, from views of Pinocchio's data (a segment's end is the next one's start)
         origins = kinematics.joint_origins()[rows].tolist()
         origins.append(kinematics.frame_position_view(end_frame).tolist())
-        cx, cy, cz = self.center.tolist()
-        best, nearest = None, math.inf
+        cx, cy, cz = self._center
+        # the nearest by squared distance (one square root, for the nearest): the same first of equals
+        nearest = math.inf
         ax, ay, az = origins[0]
-        for index, (bx, by, bz) in enumerate(origins[1:]):
+        for index in range(len(origins) - 1):
+            bx, by, bz = origins[index + 1]
             ux, uy, uz = bx - ax, by - ay, bz - az
             length_squared = ux * ux + uy * uy + uz * uz
             along = (cx - ax) * ux + (cy - ay) * uy + (cz - az) * uz
             # s = (c − a)·u/‖u‖² clipped to [0, 1]
             if along <= 0.0 or length_squared == 0.0:
-                fraction = 0.0
+                px, py, pz = ax, ay, az
             elif along >= length_squared:
-                fraction = 1.0
+                px, py, pz = ax + ux, ay + uy, az + uz
             else:
                 fraction = along / length_squared
-            px, py, pz = ax + fraction * ux, ay + fraction * uy, az + fraction * uz
+                px, py, pz = ax + fraction * ux, ay + fraction * uy, az + fraction * uz
             ox, oy, oz = px - cx, py - cy, pz - cz
-            distance = math.sqrt(ox * ox + oy * oy + oz * oz)
-            if best is None or distance < nearest:
-                nearest = distance
-                best = (distance, index, (px, py, pz), (ax, ay, az), (ux, uy, uz), 0.0 < along < length_squared)
+            squared = ox * ox + oy * oy + oz * oz
+            if not squared >= nearest:  # (a NaN state keeps a segment too)
+                nearest = squared
+                best = index, px, py, pz, ax, ay, az, ux, uy, uz, 0.0 < along < length_squared
             ax, ay, az = bx, by, bz
-        distance, index, point, start, axis, inside = best
-        return distance, index, joints[index], point, start, axis, inside
+        index, px, py, pz, ax, ay, az, ux, uy, uz, inside = best
+        return math.sqrt(nearest), index, joints[index], (px, py, pz), (ax, ay, az), (ux, uy, uz), inside
 
     def clearance(self, kinematics: Kinematics) -> float:
         """Distance from the arm to the obstacle's surface [m]."""

@@ -164,16 +164,16 @@ class ObstacleAvoidance(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
-        configuration: :meth:`in_plane_step_functions` for a 2×3 J (planar3's task), :meth:`general_step_functions`
-        for any other."""
-        if task.dimension == 2 and robot.nv == 3:
+        configuration: :meth:`in_plane_step_functions` for a 2×3 J of an arm whose joints all turn about world z
+        (planar3 and its task), :meth:`general_step_functions` for any other."""
+        if task.dimension == 2 and robot.nv == 3 and _turns_about_world_z(robot.model):
             return self.in_plane_step_functions(robot, task)
         return self.general_step_functions(robot, task)
 
     def in_plane_step_functions(self, robot: Robot, task: FrameTask):
-        r""":meth:`general_step_functions` for a 2×3 J (planar3's task), on Python floats: its fast twin (the tests
-        hold them equal), whose numpy calls on these 3-vectors and 3×3 matrices cost many times the few products
-        they do.
+        r""":meth:`general_step_functions` for a 2×3 J of an arm whose joints all turn about world z (planar3 and its
+        ``xy`` task), on Python floats: its fast twin (the tests hold them equal), whose numpy calls on these
+        3-vectors and 3×3 matrices cost many times the few products they do.
 
         With one degree of redundancy :math:`I - J^\dagger J = zz^\top` (z the unit vector spanning J's null space,
         ``two_row_pseudoinverse``), so :math:`B = J_o(I - J^\dagger J) = bz^\top`, :math:`b = J_oz`, has rank one,
@@ -196,49 +196,47 @@ class ObstacleAvoidance(VelocityResolver):
             \dot s = \frac{\dot b^\top(e - 2sb) + b^\top\dot e}{b^\top b},\quad \dot b = \dot J_oz + J_o\dot z,\quad
             \dot e = v_o\dot{\hat n} - \dot J_op - J_o\dot p.
 
-        The closest point by :meth:`~torqueopt.tasks.ObstacleTask.closest_values`; :math:`J_o`, :math:`\dot J_o`,
-        the point's velocity and its normal's rate as :meth:`~torqueopt.tasks.ObstacleTask.point_jacobian` and
-        :meth:`~torqueopt.tasks.ObstacleTask.point_rates` form them, on floats (``_point_rates``);
-        :math:`\dot J` and the carrying joint's :math:`\dot J` from one Jacobian time variation.
+        Every joint axis stays along world z, so a joint Jacobian's angular rows are :math:`(0, 0, w_k)`, its linear
+        z row is 0, and :math:`\dot J_\omega = 0`: :math:`J_o = J_v - [r]_\times J_\omega` (r = x_o − a, a the
+        carrying joint's origin) has the rows :math:`(v_x - r_yw,\ v_y + r_xw)` and a zero z row, and
+        :math:`\dot J_o = \dot J_v - [\dot r]_\times J_\omega - [r]_\times\dot J_\omega` the rows
+        :math:`(\dot v_x - \dot r_yw,\ \dot v_y + \dot r_xw)`, so b, ḃ and the parts of e, ė that meet them are
+        in-plane (:meth:`~torqueopt.tasks.ObstacleTask.point_jacobian`, :meth:`~torqueopt.tasks.ObstacleTask.point_rates`
+        with those zeros left out). The closest point by :meth:`~torqueopt.tasks.ObstacleTask.closest_values`;
+        :math:`\dot J` and the carrying joint's :math:`\dot J_v` from one Jacobian time variation.
         """
         obstacle, influence, critical, tolerance = self.obstacle, self.influence, self.critical, self.singular_tolerance
         speed = obstacle.speed if self.speed is None else self.speed
         task_frame = robot.model.getFrameId(task.frame)
-        center, radius = tuple(obstacle.center.tolist()), obstacle.radius
+        (cx, cy, cz), radius = obstacle.center.tolist(), obstacle.radius
+        closest_values = obstacle.closest_values
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             """(J's rows, (JJᵀ)⁻¹, z, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, its joint, the joint's
-            Jacobian rows, a, r = x_o − a, u, whether x_o is inside its segment, n̂, J_o's rows, b = J_o z, 1/bᵀb) as
-            floats, and σmin/σmax of J."""
+            Jacobian rows v_x, v_y, w, a, r = x_o − a, u, whether x_o is inside its segment, n̂, J_o's x and y rows,
+            b = J_o z, 1/bᵀb, ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
             jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
             gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
-            distance, _, joint, (px, py, pz), start, axis, inside = obstacle.closest_values(kinematics)
+            distance, _, joint, (px, py, pz), (ax, ay, _), axis, inside = closest_values(kinematics)
             gain = activation(distance - radius, influence, critical)
             if gain == 0.0:
                 return (jacobian, gram_inverse, null, gain, None), inverse_condition
-            joint_jacobian = kinematics.joint_jacobian(joint).tolist()
-            ax, ay, az = start
-            rx, ry, rz = px - ax, py - ay, pz - az  # the lever r = x_o − a from the joint's origin
-            (vx0, vx1, vx2), (vy0, vy1, vy2), (vz0, vz1, vz2), (wx0, wx1, wx2), (wy0, wy1, wy2), (wz0, wz1, wz2) = (
-                joint_jacobian
-            )
-            # J_o = J_v − [r]×J_ω: column k is v_k − r × ω_k
-            point_jacobian = (
-                (vx0 - ry * wz0 + rz * wy0, vx1 - ry * wz1 + rz * wy1, vx2 - ry * wz2 + rz * wy2),
-                (vy0 - rz * wx0 + rx * wz0, vy1 - rz * wx1 + rx * wz1, vy2 - rz * wx2 + rx * wz2),
-                (vz0 - rx * wy0 + ry * wx0, vz1 - rx * wy1 + ry * wx1, vz2 - rx * wy2 + ry * wx2),
-            )
-            lever_null = _float_times(point_jacobian, null)  # b = J_o z
-            squared = _float_dot(lever_null, lever_null)
+            linear_x, linear_y, _, _, _, spin = kinematics.joint_jacobian(joint).tolist()
+            (vx0, vx1, vx2), (vy0, vy1, vy2), (w0, w1, w2), (z0, z1, z2) = linear_x, linear_y, spin, null
+            rx, ry = px - ax, py - ay  # the lever r = x_o − a from the joint's origin (its z meets no ω)
+            # J_o = J_v − [r]×J_ω, ω_k = (0, 0, w_k): rows v_x − r_y w and v_y + r_x w (its z row 0)
+            ox0, ox1, ox2 = vx0 - ry * w0, vx1 - ry * w1, vx2 - ry * w2
+            oy0, oy1, oy2 = vy0 + rx * w0, vy1 + rx * w1, vy2 + rx * w2
+            h0, h1 = ox0 * z0 + ox1 * z1 + ox2 * z2, oy0 * z0 + oy1 * z1 + oy2 * z2  # b = J_o z
+            squared = h0 * h0 + h1 * h1
             inverse_square = 1.0 / squared if squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE else 0.0
-            cx, cy, cz = center
             if distance > 0.0:
                 normal = (px - cx) / distance, (py - cy) / distance, (pz - cz) / distance
             else:
                 normal = (1.0, 0.0, 0.0)  # a point on the obstacle's centre, as closest_point says
-            point = (distance, joint, joint_jacobian, start, (rx, ry, rz), axis, inside, normal, point_jacobian,
-                     lever_null, inverse_square)  # fmt: skip
+            point = (distance, joint, linear_x, linear_y, spin, ax, ay, rx, ry, axis, inside, normal,
+                     (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, speed * normal[0], speed * normal[1])  # fmt: skip
             return (jacobian, gram_inverse, null, gain, point), inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
@@ -249,19 +247,21 @@ class ObstacleAvoidance(VelocityResolver):
             p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # J⁺ẋ = Jᵀ(JJᵀ)⁻¹ẋ, Eq. (3)
             if gain == 0.0:
                 return np.array((p0, p1, p2)), inverse_condition
-            (n0, n1, n2), point_jacobian, (b0, b1, b2), inverse_square = point[-4:]
-            o0, o1, o2 = _float_times(point_jacobian, (p0, p1, p2))
-            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ) = z bᵀe/bᵀb, with ẋ_o = v_o n̂
-            share = (b0 * (speed * n0 - o0) + b1 * (speed * n1 - o1) + b2 * (speed * n2 - o2)) * inverse_square
+            (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey = point[-7:]
+            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ) = z bᵀe/bᵀb, with ẋ_o = v_o n̂ (b's z is 0)
+            share = (
+                h0 * (ex - ox0 * p0 - ox1 * p1 - ox2 * p2) + h1 * (ey - oy0 * p0 - oy1 * p1 - oy2 * p2)
+            ) * inverse_square
             # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
             share *= gain
             return np.array((p0 + share * z0, p1 + share * z1, p2 + share * z2)), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            (jacobian, gram_inverse, null, gain, point), _ = at_configuration(kinematics)
-            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (z0, z1, z2) = jacobian, gram_inverse, null
-            (w0, w1), particular = _particular(jacobian, gram_inverse, command.tolist())
-            p0, p1, p2 = particular
+            (jacobian, gram_inverse, (z0, z1, z2), gain, point), _ = at_configuration(kinematics)
+            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
+            c0, c1 = command.tolist()
+            w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
+            p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # p = J⁺c, Eq. (3)
             joints = () if gain == 0.0 else (point[1],)
             (task_rate,), joint_rates = kinematics.jacobian_time_variations(velocity, (task_frame,), joints)
             (da0, da1, da2), (db0, db1, db2) = task_rate[:2].tolist()  # J̇
@@ -273,57 +273,41 @@ class ObstacleAvoidance(VelocityResolver):
             u0, u1 = g00 * m0 + g01 * m1, g01 * m0 + g11 * m1
             turn = m0 * w0 + m1 * w1  # (J̇z)ᵀw
             # ṗ = J⁺(ċ − J̇p) + z (J̇z)ᵀw
-            particular_rate = (
-                y0 * a0 + y1 * b0 + turn * z0,
-                y0 * a1 + y1 * b1 + turn * z1,
-                y0 * a2 + y1 * b2 + turn * z2,
-            )
+            f0, f1, f2 = y0 * a0 + y1 * b0 + turn * z0, y0 * a1 + y1 * b1 + turn * z1, y0 * a2 + y1 * b2 + turn * z2
             if gain == 0.0:
-                return np.array(particular_rate)  # beyond the influence α_h and its rate are 0
-            null_rate = -u0 * a0 - u1 * b0, -u0 * a1 - u1 * b1, -u0 * a2 - u1 * b2  # ż = −J⁺J̇z
-            (
-                distance,
-                _,
-                joint_jacobian,
-                start,
-                lever,
-                axis,
-                inside,
-                normal,
-                point_jacobian,
-                lever_null,
-                inverse_square,
-            ) = point
-            point_velocity, normal_rate, point_jacobian_rate = _point_rates(
-                joint_jacobian, joint_rates[0].tolist(), velocity.tolist(), start, lever, axis, inside, normal,
-                distance, center,
-            )  # fmt: skip
-            gain_rate = activation_rate(distance - radius, influence, critical) * _float_dot(normal, point_velocity)
+                return np.array((f0, f1, f2))  # beyond the influence α_h and its rate are 0
+            x0, x1, x2 = -u0 * a0 - u1 * b0, -u0 * a1 - u1 * b1, -u0 * a2 - u1 * b2  # ż = −J⁺J̇z
+            (distance, _, (vx0, vx1, vx2), (vy0, vy1, vy2), (w0, w1, w2), ax, ay, rx, ry, (ux, uy, uz), inside,
+             (nx, ny, nz), (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey) = point  # fmt: skip
+            v0, v1, v2 = velocity.tolist()
+            # the joint origin's velocity v_a and the body's angular velocity (0, 0, ω)
+            vx, vy, spin = vx0 * v0 + vx1 * v1 + vx2 * v2, vy0 * v0 + vy1 * v1 + vy2 * v2, w0 * v0 + w1 * v1 + w2 * v2
+            slide = 0.0
+            if inside:  # ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², ω × u = ω(−u_y, u_x, 0)
+                slide = (spin * ((cy - ay) * ux - (cx - ax) * uy) - (vx * ux + vy * uy)) / (ux * ux + uy * uy + uz * uz)
+            # ṙ = ω × r + ṡu, and the closest point's velocity v_p = v_a + ṙ
+            dx, dy = slide * ux - spin * ry, slide * uy + spin * rx
+            px, py, pz = vx + dx, vy + dy, slide * uz
+            normal_speed = nx * px + ny * py + nz * pz
+            gain_rate = activation_rate(distance - radius, influence, critical) * normal_speed  # α̇_h = α_h' n̂·v_p
+            # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖ (its x and y)
+            tx, ty = (px - nx * normal_speed) / distance, (py - ny * normal_speed) / distance
+            # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω, J̇_ω = 0: rows v̇_x − ṙ_y w and v̇_y + ṙ_x w
+            (kx0, kx1, kx2), (ky0, ky1, ky2) = joint_rates[0][:2].tolist()
+            jx0, jx1, jx2 = kx0 - dy * w0, kx1 - dy * w1, kx2 - dy * w2
+            jy0, jy1, jy2 = ky0 + dx * w0, ky1 + dx * w1, ky2 + dx * w2
             # ḃ = J̇_o z + J_o ż
-            (i0, i1, i2), (j0, j1, j2) = (
-                _float_times(point_jacobian_rate, null),
-                _float_times(point_jacobian, null_rate),
-            )
-            lever_null_rate = i0 + j0, i1 + j1, i2 + j2
+            i0 = jx0 * z0 + jx1 * z1 + jx2 * z2 + ox0 * x0 + ox1 * x1 + ox2 * x2
+            i1 = jy0 * z0 + jy1 * z1 + jy2 * z2 + oy0 * x0 + oy1 * x1 + oy2 * x2
             # e = ẋ_o − J_o p and ė = v_o ṅ − J̇_o p − J_o ṗ, with ẋ_o = v_o n̂
-            (o0, o1, o2), (l0, l1, l2) = (
-                _float_times(point_jacobian, particular),
-                _float_times(point_jacobian_rate, particular),
-            )
-            k0, k1, k2 = _float_times(point_jacobian, particular_rate)
-            (n0, n1, n2), (t0, t1, t2) = normal, normal_rate
-            e0, e1, e2 = speed * n0 - o0, speed * n1 - o1, speed * n2 - o2
-            shortfall_rate = speed * t0 - l0 - k0, speed * t1 - l1 - k1, speed * t2 - l2 - k2
-            (h0, h1, h2), (d0, d1, d2) = lever_null, lever_null_rate
-            s = (h0 * e0 + h1 * e1 + h2 * e2) * inverse_square  # φ̇ = sz, Eq. (12)
+            e0, e1 = ex - ox0 * p0 - ox1 * p1 - ox2 * p2, ey - oy0 * p0 - oy1 * p1 - oy2 * p2
+            l0 = speed * tx - jx0 * p0 - jx1 * p1 - jx2 * p2 - ox0 * f0 - ox1 * f1 - ox2 * f2
+            l1 = speed * ty - jy0 * p0 - jy1 * p1 - jy2 * p2 - oy0 * f0 - oy1 * f1 - oy2 * f2
+            s = (h0 * e0 + h1 * e1) * inverse_square  # φ̇ = sz, Eq. (12)
             # ṡ = (ḃᵀ(e − 2sb) + bᵀė)/bᵀb
-            s_rate = (
-                d0 * (e0 - 2.0 * s * h0) + d1 * (e1 - 2.0 * s * h1) + d2 * (e2 - 2.0 * s * h2)
-                + _float_dot(lever_null, shortfall_rate)
-            ) * inverse_square  # fmt: skip
+            s_rate = (i0 * (e0 - 2.0 * s * h0) + i1 * (e1 - 2.0 * s * h1) + h0 * l0 + h1 * l1) * inverse_square
             # d/dt of Eq. (13): ṗ + α̇_h s z + α_h(ṡ z + s ż)
             along, across = gain_rate * s + gain * s_rate, gain * s
-            (f0, f1, f2), (x0, x1, x2) = particular_rate, null_rate
             return np.array(
                 (f0 + along * z0 + across * x0, f1 + along * z1 + across * x1, f2 + along * z2 + across * x2)
             )
@@ -412,78 +396,14 @@ class ObstacleAvoidance(VelocityResolver):
         )
 
 
-def _particular(jacobian, gram_inverse, command):
-    """w = (JJᵀ)⁻¹c and p = Jᵀw = J⁺c (Eq. (3)) for a 2×3 J of floats (``two_row_pseudoinverse``'s (JJᵀ)⁻¹)."""
-    (a0, a1, a2), (b0, b1, b2) = jacobian
-    g00, g01, g11 = gram_inverse
-    c0, c1 = command
-    w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
-    return (w0, w1), (w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2)
-
-
-def _float_dot(a, b) -> float:
-    """a·b of two 3-vectors of floats."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _float_times(rows, vector) -> tuple:
-    """A 3×3 matrix of floats (its rows) times a 3-vector of floats."""
-    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = rows
-    x, y, z = vector
-    return a0 * x + a1 * y + a2 * z, b0 * x + b1 * y + b2 * z, c0 * x + c1 * y + c2 * z
-
-
-def _point_rates(joint_jacobian, joint_jacobian_rate, velocity, start, lever, axis, inside, normal, distance, center):
-    r""":meth:`~torqueopt.tasks.ObstacleTask.point_rates` on floats (see there for the formulas): the closest point's
-    velocity :math:`v_p`, its normal's rate :math:`\dot{\hat n}` and the rows of :math:`\dot J_o`, from the rows of
-    the carrying joint's Jacobian and its rate (6×3, world-aligned), q̇, the segment's start a, the lever
-    r = x_o − a, the segment's axis u, whether x_o is inside the segment, n̂, :math:`\|x_o - c\|` and c."""
-    (vx0, vx1, vx2), (vy0, vy1, vy2), (vz0, vz1, vz2), (wx0, wx1, wx2), (wy0, wy1, wy2), (wz0, wz1, wz2) = (
-        joint_jacobian
-    )
-    q0, q1, q2 = velocity
-    # v_a and ω
-    vx, vy, vz = vx0 * q0 + vx1 * q1 + vx2 * q2, vy0 * q0 + vy1 * q1 + vy2 * q2, vz0 * q0 + vz1 * q1 + vz2 * q2
-    wx, wy, wz = wx0 * q0 + wx1 * q1 + wx2 * q2, wy0 * q0 + wy1 * q1 + wy2 * q2, wz0 * q0 + wz1 * q1 + wz2 * q2
-    (rx, ry, rz), (ux, uy, uz) = lever, axis
-    slide = 0.0
-    if inside:  # ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖²
-        (ax, ay, az), (cx, cy, cz) = start, center
-        turn = (cx - ax) * (wy * uz - wz * uy) + (cy - ay) * (wz * ux - wx * uz) + (cz - az) * (wx * uy - wy * ux)
-        slide = (turn - (vx * ux + vy * uy + vz * uz)) / (ux * ux + uy * uy + uz * uz)
-    # ṙ = ω × r + ṡ u, and v_p = v_a + ṙ
-    dx, dy, dz = wy * rz - wz * ry + slide * ux, wz * rx - wx * rz + slide * uy, wx * ry - wy * rx + slide * uz
-    ox, oy, oz = vx + dx, vy + dy, vz + dz
-    nx, ny, nz = normal
-    normal_speed = nx * ox + ny * oy + nz * oz
-    # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖
-    normal_rate = (
-        (ox - nx * normal_speed) / distance,
-        (oy - ny * normal_speed) / distance,
-        (oz - nz * normal_speed) / distance,
-    )
-    (kx0, kx1, kx2), (ky0, ky1, ky2), (kz0, kz1, kz2), (jx0, jx1, jx2), (jy0, jy1, jy2), (jz0, jz1, jz2) = (
-        joint_jacobian_rate
-    )
-    # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω: column k is v̇_k − ṙ × ω_k − r × ω̇_k
-    point_jacobian_rate = (
-        (
-            kx0 - dy * wz0 + dz * wy0 - ry * jz0 + rz * jy0,
-            kx1 - dy * wz1 + dz * wy1 - ry * jz1 + rz * jy1,
-            kx2 - dy * wz2 + dz * wy2 - ry * jz2 + rz * jy2,
-        ),
-        (
-            ky0 - dz * wx0 + dx * wz0 - rz * jx0 + rx * jz0,
-            ky1 - dz * wx1 + dx * wz1 - rz * jx1 + rx * jz1,
-            ky2 - dz * wx2 + dx * wz2 - rz * jx2 + rx * jz2,
-        ),
-        (
-            kz0 - dx * wy0 + dy * wx0 - rx * jy0 + ry * jx0,
-            kz1 - dx * wy1 + dy * wx1 - rx * jy1 + ry * jx1,
-            kz2 - dx * wy2 + dy * wx2 - rx * jy2 + ry * jx2,
-        ),
-    )
-    return (ox, oy, oz), normal_rate, point_jacobian_rate
+def _turns_about_world_z(model) -> bool:
+    """True when every joint of ``model`` turns about its z axis, placed with that axis along its parent's z
+    (planar3's): every joint axis then stays along world z whatever the configuration."""
+    for joint in range(1, model.njoints):
+        rotation = model.jointPlacements[joint].rotation
+        if model.joints[joint].shortname() != "JointModelRZ" or rotation[:2, 2].any() or rotation[2, :2].any():
+            return False
+    return True
 
 
 #: The smallest positive double: x / max(y, it) is x / y for every y > 0, and 0 for x = y = 0.
