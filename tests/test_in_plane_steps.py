@@ -2,9 +2,11 @@
 for: the same rates, q̈ and σmin/σmax at each state, the same refusals, the same runs."""
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import torqueopt
+import torqueopt.resolvers.velocity.obstacle_avoidance as obstacle_avoidance
 import torqueopt.resolvers.velocity.task_priority as task_priority
 from torqueopt.errors import SingularJacobian
 from torqueopt.resolvers.velocity.obstacle_avoidance import ObstacleAvoidance
@@ -234,3 +236,80 @@ def test_obstacle_avoidance_runs_on_the_in_plane_steps_equal_those_on_the_genera
     for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
         got, expected = getattr(fast, name), getattr(general, name)
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max(), err_msg=name)
+
+
+def _support_columns(model, frame_id) -> np.ndarray:
+    """(n,) ones at the columns of the joints that move the frame's body, zeros elsewhere."""
+    columns = np.zeros(model.nv)
+    for joint in model.supports[model.frames[frame_id].parentJoint]:
+        if joint > 0:
+            columns[model.idx_vs[joint] : model.idx_vs[joint] + model.nvs[joint]] = 1.0
+    return columns
+
+
+def test_world_jacobians_moved_to_a_frame_are_pinocchios_frame_jacobian_and_its_rate(planar3, panda, rng):
+    """Kinematics.world_jacobians and world_jacobian_rates (views of Pinocchio's WORLD J and J̇ that hold the latest
+    update) moved to a frame's origin p over the joints that move it, J_v + J_ω × p and
+    J̇_v + J̇_ω × p + J_ω × ṗ, are getFrameJacobian and getFrameJacobianTimeVariation (LOCAL_WORLD_ALIGNED)."""
+    for robot in (planar3, panda):
+        model, kinematics = robot.model, Kinematics(robot)
+        for frame in (model.getFrameId(robot.frame), model.getFrameId(model.frames[model.nframes // 2].name)):
+            columns = _support_columns(model, frame)
+            for _ in range(4):
+                q, v = rng.uniform(-2.0, 2.0, model.nq), rng.normal(size=model.nv)
+                world = kinematics.update(q).world_jacobians()
+                assert world is kinematics.world_jacobians() and not world.flags.writeable
+                expected = kinematics.frame_jacobian(frame)
+                point = kinematics.frame_position(frame)
+                moved = world * columns
+                moved[:3] += np.cross(moved[3:].T, point).T
+                np.testing.assert_allclose(moved, expected, rtol=0, atol=1e-12)
+                rate = kinematics.world_jacobian_rates(v) * columns
+                moved_rate = rate.copy()
+                moved_rate[:3] += np.cross(rate[3:].T, point).T + np.cross(moved[3:].T, expected[:3].dot(v)).T
+                expected_rate = kinematics.frame_jacobian_time_variation(frame, v)
+                np.testing.assert_allclose(moved_rate, expected_rate, rtol=0, atol=1e-12)
+
+
+def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones_off_the_plane(planar3, rng):
+    """Spheres whose centre is off the arm's plane (z ≠ 0), so that n̂ has a z part: the float twin's rates, σmin/σmax
+    and q̈ (whose b and J_o drop the z row) against general_step_functions, 1e-12."""
+    task = FrameTask.of_robot(planar3)
+    reference, kinematics = Kinematics(planar3), Kinematics(planar3)
+    acting = 0
+    for _ in range(8):
+        center = [*rng.uniform(-1.5, 1.5, 2), rng.uniform(-0.4, 0.4)]
+        resolver = _obstacle_resolver(planar3, center, rng.uniform(0.0, 0.1), 1.0, 0.1)
+        general = resolver.general_step_functions(planar3, task)
+        fast = resolver.in_plane_step_functions(planar3, task)
+        tested = 0
+        while tested < 6:
+            q = rng.uniform(-2.5, 2.5, 3)
+            if not _well_conditioned_obstacle(resolver, task, reference.update(q)):
+                continue
+            tested += 1
+            acting += resolver.obstacle.clearance(reference) < 1.0
+            command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
+            expected, expected_condition = general[0](reference.update(q), command)
+            got, condition = fast[0](kinematics.update(q), command)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+            assert condition == pytest.approx(expected_condition, rel=1e-12)
+            expected_acceleration = general[1](reference, velocity, command, command_rate)
+            got_acceleration = fast[1](kinematics, velocity, command, command_rate)
+            np.testing.assert_allclose(
+                got_acceleration, expected_acceleration, rtol=0, atol=1e-12 * np.abs(expected_acceleration).max()
+            )
+    assert acting > 10
+
+
+def test_obstacle_avoidance_takes_the_in_plane_steps_for_joints_about_world_z_moving_the_task_frame_only(planar3):
+    """A task frame that the last joint does not move (link2), or a joint turned off world z: the general steps."""
+    resolver = _obstacle_resolver(planar3, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
+    rates, _ = resolver.step_functions(planar3, FrameTask("link2", "xy"))
+    assert rates.__qualname__.startswith("ObstacleAvoidance.general_step_functions")
+    model = planar3.model.copy()
+    assert obstacle_avoidance._planar_chain(model, model.getFrameId("tip"))
+    placement = model.jointPlacements[2]
+    placement.rotation = pin.utils.rotate("x", 0.3)
+    model.jointPlacements[2] = placement
+    assert not obstacle_avoidance._planar_chain(model, model.getFrameId("tip"))

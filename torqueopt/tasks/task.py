@@ -50,6 +50,7 @@ class Kinematics:
         # is a view into it): read after each update without a boost.python SE3 per read.
         self._translations: dict[int, np.ndarray] = {}
         self._joint_origins: np.ndarray | None = None
+        self._world_jacobians: tuple[np.ndarray, np.ndarray] | None = None
 
     def update(self, q: np.ndarray, v: np.ndarray | None = None) -> Kinematics:
         """Placements and joint Jacobians at q; with v, also the velocities that drifts need."""
@@ -92,6 +93,30 @@ class Kinematics:
         if self._joint_origins is None:
             self._joint_origins = translations_view(self.data.oMi, 0, len(self.data.oMi))
         return self._joint_origins
+
+    def world_jacobians(self) -> np.ndarray:
+        r"""Every joint's Jacobian columns in Pinocchio's WORLD frame (6×n, linear rows first): column k maps
+        :math:`\dot q_k` to the spatial velocity :math:`(v_O, \omega)` of joint k's body taken at the world origin, so a
+        point p on a body moves at :math:`v_O + \omega\times p` summed over the columns of the joints that move
+        that body. A read-only view of Pinocchio's ``data.J`` (not a copy), which holds them at the latest
+        :meth:`update`."""
+        return self._world_views()[0]
+
+    def world_jacobian_rates(self, v: np.ndarray) -> np.ndarray:
+        r""":math:`\dot J` (6×n) of :meth:`world_jacobians` along joint velocity v, from Pinocchio's
+        ``computeJointJacobiansTimeVariation`` at the configuration of the last :meth:`update`: a read-only view of
+        ``data.dJ`` (not a copy), which holds it until the next call."""
+        pin.computeJointJacobiansTimeVariation(self.model, self.data, self.q, v)
+        return self._world_views()[1]
+
+    def _world_views(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._world_jacobians is None:
+            # eigenpy returns Data's own matrices as views into them, which Pinocchio never reallocates
+            views = self.data.J, self.data.dJ
+            for view in views:
+                view.setflags(write=False)
+            self._world_jacobians = views
+        return self._world_jacobians
 
     def frame_jacobian(self, frame_id: int) -> np.ndarray:
         """6×n Jacobian of a frame at its origin, world-aligned axes (linear rows first)."""

@@ -165,8 +165,8 @@ class ObstacleAvoidance(VelocityResolver):
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
         configuration: :meth:`in_plane_step_functions` for a 2×3 J of an arm whose joints all turn about world z
-        (planar3 and its task), :meth:`general_step_functions` for any other."""
-        if task.dimension == 2 and robot.nv == 3 and _turns_about_world_z(robot.model):
+        and move the task frame (planar3 and its task), :meth:`general_step_functions` for any other."""
+        if task.dimension == 2 and robot.nv == 3 and _planar_chain(robot.model, robot.model.getFrameId(task.frame)):
             return self.in_plane_step_functions(robot, task)
         return self.general_step_functions(robot, task)
 
@@ -196,38 +196,49 @@ class ObstacleAvoidance(VelocityResolver):
             \dot s = \frac{\dot b^\top(e - 2sb) + b^\top\dot e}{b^\top b},\quad \dot b = \dot J_oz + J_o\dot z,\quad
             \dot e = v_o\dot{\hat n} - \dot J_op - J_o\dot p.
 
-        Every joint axis stays along world z, so a joint Jacobian's angular rows are :math:`(0, 0, w_k)`, its linear
-        z row is 0, and :math:`\dot J_\omega = 0`: :math:`J_o = J_v - [r]_\times J_\omega` (r = x_o − a, a the
-        carrying joint's origin) has the rows :math:`(v_x - r_yw,\ v_y + r_xw)` and a zero z row, and
-        :math:`\dot J_o = \dot J_v - [\dot r]_\times J_\omega - [r]_\times\dot J_\omega` the rows
-        :math:`(\dot v_x - \dot r_yw,\ \dot v_y + \dot r_xw)`, so b, ḃ and the parts of e, ė that meet them are
-        in-plane (:meth:`~torqueopt.tasks.ObstacleTask.point_jacobian`, :meth:`~torqueopt.tasks.ObstacleTask.point_rates`
-        with those zeros left out). The closest point by :meth:`~torqueopt.tasks.ObstacleTask.closest_values`;
-        :math:`\dot J` and the carrying joint's :math:`\dot J_v` from one Jacobian time variation.
+        Every joint axis stays along world z, so the joints' Jacobian columns in Pinocchio's WORLD frame
+        (:meth:`~torqueopt.tasks.Kinematics.world_jacobians`, the body's velocity at the world origin and its angular
+        velocity) are :math:`(v_{x,k}, v_{y,k}, 0, 0, 0, w_k)`, and their rates have no angular part: a point p
+        moving with the joints k of a set S has the Jacobian rows
+        :math:`(v_{x,k} - p_yw_k,\ v_{y,k} + p_xw_k)_{k\in S}` (:math:`J_v + J_\omega\times p`, its z row 0) and, moving
+        at :math:`\dot p`, their rates :math:`(\dot v_{x,k} - \dot p_yw_k,\ \dot v_{y,k} + \dot p_xw_k)`
+        (:math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot J_\omega = 0`), what
+        ``getFrameJacobian`` and its time variation give for a frame at p. So J is that of the task frame (every
+        joint moves it), :math:`J_o` that of :math:`x_o` on its segment's body, with the closest point's own velocity
+        :math:`v_p = J_o\dot q + \dot s u` for :math:`\dot J_o` (:meth:`~torqueopt.tasks.ObstacleTask.point_rates`:
+        inside the segment :math:`\dot s = ((c - a)\cdot(\omega\times u) - J_o\dot q\cdot u)/\|u\|^2`, at an end 0),
+        and b, ḃ and the parts of e, ė that meet them are in-plane. The closest point by
+        :meth:`~torqueopt.tasks.ObstacleTask.closest_values`; the Jacobians' rates from one time variation.
         """
         obstacle, influence, critical, tolerance = self.obstacle, self.influence, self.critical, self.singular_tolerance
         speed = obstacle.speed if self.speed is None else self.speed
-        task_frame = robot.model.getFrameId(task.frame)
+        model = robot.model
+        task_frame = model.getFrameId(task.frame)
         (cx, cy, cz), radius = obstacle.center.tolist(), obstacle.radius
         closest_values = obstacle.closest_values
+        # for each joint's body, 1.0 in the columns of the joints that move it (its support), 0.0 in the others
+        joints = range(1, model.njoints)
+        columns = {joint: tuple(float(k in model.supports[joint]) for k in joints) for joint in joints}
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
-            """(J's rows, (JJᵀ)⁻¹, z, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, its joint, the joint's
-            Jacobian rows v_x, v_y, w, a, r = x_o − a, u, whether x_o is inside its segment, n̂, J_o's x and y rows,
-            b = J_o z, 1/bᵀb, ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
-            jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
+            """(J's rows, (JJᵀ)⁻¹, z, the joints' w, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, the
+            columns of its joints, a, u, whether x_o is inside its segment, n̂, J_o's x and y rows, b = J_o z, 1/bᵀb,
+            ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
+            (vx0, vx1, vx2), (vy0, vy1, vy2), _, _, _, spin = kinematics.world_jacobians().tolist()
+            w0, w1, w2 = spin
+            tx, ty, _ = kinematics.frame_position_view(task_frame).tolist()
+            # the task frame's J: J_v + J_ω × p at its origin p
+            jacobian = (vx0 - ty * w0, vx1 - ty * w1, vx2 - ty * w2), (vy0 + tx * w0, vy1 + tx * w1, vy2 + tx * w2)
             gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
             distance, _, joint, (px, py, pz), (ax, ay, _), axis, inside = closest_values(kinematics)
             gain = activation(distance - radius, influence, critical)
             if gain == 0.0:
-                return (jacobian, gram_inverse, null, gain, None), inverse_condition
-            linear_x, linear_y, _, _, _, spin = kinematics.joint_jacobian(joint).tolist()
-            (vx0, vx1, vx2), (vy0, vy1, vy2), (w0, w1, w2), (z0, z1, z2) = linear_x, linear_y, spin, null
-            rx, ry = px - ax, py - ay  # the lever r = x_o − a from the joint's origin (its z meets no ω)
-            # J_o = J_v − [r]×J_ω, ω_k = (0, 0, w_k): rows v_x − r_y w and v_y + r_x w (its z row 0)
-            ox0, ox1, ox2 = vx0 - ry * w0, vx1 - ry * w1, vx2 - ry * w2
-            oy0, oy1, oy2 = vy0 + rx * w0, vy1 + rx * w1, vy2 + rx * w2
+                return (jacobian, gram_inverse, null, spin, gain, None), inverse_condition
+            (m0, m1, m2), (z0, z1, z2) = columns[joint], null
+            # J_o = J_v + J_ω × x_o over the joints that move the segment's body (its z row 0)
+            ox0, ox1, ox2 = m0 * (vx0 - py * w0), m1 * (vx1 - py * w1), m2 * (vx2 - py * w2)
+            oy0, oy1, oy2 = m0 * (vy0 + px * w0), m1 * (vy1 + px * w1), m2 * (vy2 + px * w2)
             h0, h1 = ox0 * z0 + ox1 * z1 + ox2 * z2, oy0 * z0 + oy1 * z1 + oy2 * z2  # b = J_o z
             squared = h0 * h0 + h1 * h1
             inverse_square = 1.0 / squared if squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE else 0.0
@@ -235,19 +246,19 @@ class ObstacleAvoidance(VelocityResolver):
                 normal = (px - cx) / distance, (py - cy) / distance, (pz - cz) / distance
             else:
                 normal = (1.0, 0.0, 0.0)  # a point on the obstacle's centre, as closest_point says
-            point = (distance, joint, linear_x, linear_y, spin, ax, ay, rx, ry, axis, inside, normal,
-                     (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, speed * normal[0], speed * normal[1])  # fmt: skip
-            return (jacobian, gram_inverse, null, gain, point), inverse_condition
+            point = (distance, columns[joint], ax, ay, axis, inside, normal, (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1,
+                     inverse_square, speed * normal[0], speed * normal[1])  # fmt: skip
+            return (jacobian, gram_inverse, null, spin, gain, point), inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            (jacobian, gram_inverse, (z0, z1, z2), gain, point), inverse_condition = at_configuration(kinematics)
+            (jacobian, gram_inverse, (z0, z1, z2), _, gain, point), inverse_condition = at_configuration(kinematics)
             ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
             c0, c1 = task_velocity.tolist()
             w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
             p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # J⁺ẋ = Jᵀ(JJᵀ)⁻¹ẋ, Eq. (3)
             if gain == 0.0:
                 return np.array((p0, p1, p2)), inverse_condition
-            (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey = point[-7:]
+            _, _, _, _, _, _, _, (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey = point
             # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ) = z bᵀe/bᵀb, with ẋ_o = v_o n̂ (b's z is 0)
             share = (
                 h0 * (ex - ox0 * p0 - ox1 * p1 - ox2 * p2) + h1 * (ey - oy0 * p0 - oy1 * p1 - oy2 * p2)
@@ -257,14 +268,18 @@ class ObstacleAvoidance(VelocityResolver):
             return np.array((p0 + share * z0, p1 + share * z1, p2 + share * z2)), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            (jacobian, gram_inverse, (z0, z1, z2), gain, point), _ = at_configuration(kinematics)
-            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
+            (jacobian, gram_inverse, (z0, z1, z2), spin, gain, point), _ = at_configuration(kinematics)
+            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (s0, s1, s2) = jacobian, gram_inverse, spin
             c0, c1 = command.tolist()
+            v0, v1, v2 = velocity.tolist()
             w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
             p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # p = J⁺c, Eq. (3)
-            joints = () if gain == 0.0 else (point[1],)
-            (task_rate,), joint_rates = kinematics.jacobian_time_variations(velocity, (task_frame,), joints)
-            (da0, da1, da2), (db0, db1, db2) = task_rate[:2].tolist()  # J̇
+            (kx0, kx1, kx2), (ky0, ky1, ky2) = kinematics.world_jacobian_rates(velocity)[:2].tolist()
+            # J̇ = J̇_v + J_ω × ṗ at the task frame's origin, moving at ṗ = J q̇
+            tx, ty = a0 * v0 + a1 * v1 + a2 * v2, b0 * v0 + b1 * v1 + b2 * v2
+            da0, da1, da2, db0, db1, db2 = (
+                kx0 - ty * s0, kx1 - ty * s1, kx2 - ty * s2, ky0 + tx * s0, ky1 + tx * s1, ky2 + tx * s2
+            )  # fmt: skip
             r0, r1 = command_rate.tolist()
             r0, r1 = r0 - da0 * p0 - da1 * p1 - da2 * p2, r1 - db0 * p0 - db1 * p1 - db2 * p2  # ċ − J̇p
             m0, m1 = da0 * z0 + da1 * z1 + da2 * z2, db0 * z0 + db1 * z1 + db2 * z2  # J̇z
@@ -277,25 +292,25 @@ class ObstacleAvoidance(VelocityResolver):
             if gain == 0.0:
                 return np.array((f0, f1, f2))  # beyond the influence α_h and its rate are 0
             x0, x1, x2 = -u0 * a0 - u1 * b0, -u0 * a1 - u1 * b1, -u0 * a2 - u1 * b2  # ż = −J⁺J̇z
-            (distance, _, (vx0, vx1, vx2), (vy0, vy1, vy2), (w0, w1, w2), ax, ay, rx, ry, (ux, uy, uz), inside,
-             (nx, ny, nz), (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey) = point  # fmt: skip
-            v0, v1, v2 = velocity.tolist()
-            # the joint origin's velocity v_a and the body's angular velocity (0, 0, ω)
-            vx, vy, spin = vx0 * v0 + vx1 * v1 + vx2 * v2, vy0 * v0 + vy1 * v1 + vy2 * v2, w0 * v0 + w1 * v1 + w2 * v2
-            slide = 0.0
-            if inside:  # ṡ = ((c − a)·(ω × u) − v_a·u)/‖u‖², ω × u = ω(−u_y, u_x, 0)
-                slide = (spin * ((cy - ay) * ux - (cx - ax) * uy) - (vx * ux + vy * uy)) / (ux * ux + uy * uy + uz * uz)
-            # ṙ = ω × r + ṡu, and the closest point's velocity v_p = v_a + ṙ
-            dx, dy = slide * ux - spin * ry, slide * uy + spin * rx
-            px, py, pz = vx + dx, vy + dy, slide * uz
+            (distance, (c0, c1, c2), ax, ay, (ux, uy, uz), inside, (nx, ny, nz), (ox0, ox1, ox2), (oy0, oy1, oy2),
+             h0, h1, inverse_square, ex, ey) = point  # fmt: skip
+            # the material point's velocity J_o q̇ and its body's angular velocity (0, 0, ω)
+            px, py = ox0 * v0 + ox1 * v1 + ox2 * v2, oy0 * v0 + oy1 * v1 + oy2 * v2
+            if inside:  # ṡ = ((c − a)·(ω × u) − J_o q̇·u)/‖u‖², ω × u = ω(−u_y, u_x, 0)
+                omega = c0 * s0 * v0 + c1 * s1 * v1 + c2 * s2 * v2
+                slide = (omega * ((cy - ay) * ux - (cx - ax) * uy) - (px * ux + py * uy)) / (
+                    ux * ux + uy * uy + uz * uz
+                )
+                px, py, pz = px + slide * ux, py + slide * uy, slide * uz  # v_p = J_o q̇ + ṡu
+            else:
+                pz = 0.0
             normal_speed = nx * px + ny * py + nz * pz
             gain_rate = activation_rate(distance - radius, influence, critical) * normal_speed  # α̇_h = α_h' n̂·v_p
             # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖ (its x and y)
             tx, ty = (px - nx * normal_speed) / distance, (py - ny * normal_speed) / distance
-            # J̇_o = J̇_v − [ṙ]×J_ω − [r]×J̇_ω, J̇_ω = 0: rows v̇_x − ṙ_y w and v̇_y + ṙ_x w
-            (kx0, kx1, kx2), (ky0, ky1, ky2) = joint_rates[0][:2].tolist()
-            jx0, jx1, jx2 = kx0 - dy * w0, kx1 - dy * w1, kx2 - dy * w2
-            jy0, jy1, jy2 = ky0 + dx * w0, ky1 + dx * w1, ky2 + dx * w2
+            # J̇_o = J̇_v + J_ω × v_p over the joints that move the segment's body
+            jx0, jx1, jx2 = c0 * (kx0 - py * s0), c1 * (kx1 - py * s1), c2 * (kx2 - py * s2)
+            jy0, jy1, jy2 = c0 * (ky0 + px * s0), c1 * (ky1 + px * s1), c2 * (ky2 + px * s2)
             # ḃ = J̇_o z + J_o ż
             i0 = jx0 * z0 + jx1 * z1 + jx2 * z2 + ox0 * x0 + ox1 * x1 + ox2 * x2
             i1 = jy0 * z0 + jy1 * z1 + jy2 * z2 + oy0 * x0 + oy1 * x1 + oy2 * x2
@@ -396,9 +411,12 @@ class ObstacleAvoidance(VelocityResolver):
         )
 
 
-def _turns_about_world_z(model) -> bool:
-    """True when every joint of ``model`` turns about its z axis, placed with that axis along its parent's z
-    (planar3's): every joint axis then stays along world z whatever the configuration."""
+def _planar_chain(model, frame_id: int) -> bool:
+    """True when every joint of ``model`` turns about its z axis, placed with that axis along its parent's z, and
+    moves the frame ``frame_id`` (planar3 and its tip): every joint axis then stays along world z whatever the
+    configuration."""
+    if len([joint for joint in model.supports[model.frames[frame_id].parentJoint] if joint > 0]) != model.njoints - 1:
+        return False
     for joint in range(1, model.njoints):
         rotation = model.jointPlacements[joint].rotation
         if model.joints[joint].shortname() != "JointModelRZ" or rotation[:2, 2].any() or rotation[2, :2].any():
