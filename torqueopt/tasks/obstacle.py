@@ -131,16 +131,17 @@ class ObstacleTask(Task):
         normal = np.array((ox / distance, oy / distance, oz / distance) if distance > 0 else (1.0, 0.0, 0.0))
         return ClosestPoint(np.array((px, py, pz)), normal, distance - self.radius, joint, segment)
 
-    def closest_values(self, kinematics: Kinematics):
+    def closest_values(self, kinematics: Kinematics, end=None):
         r""":meth:`closest_point`'s geometry as Python floats, for the steps on floats: (the distance
         :math:`\|x_o - c\|` [m], the segment's index, the joint that carries it, :math:`x_o`, the segment's start a
         (its joint's origin), its axis u = b − a, and whether :math:`x_o` is inside the segment,
         :math:`0 < (c - a)\cdot u < \|u\|^2`, where it slides along it as the arm moves), the 3-vectors as tuples;
-        the first of equally near segments."""
+        the first of equally near segments. ``end``: the position [m] of the frame that ends the chain (3 floats) when
+        the caller has read it at this configuration, else None (read here)."""
         joints, rows, end_frame = self._segments(kinematics)
         # the origins once each, from views of Pinocchio's data (a segment's end is the next one's start)
         origins = kinematics.joint_origins()[rows].tolist()
-        origins.append(kinematics.frame_position_view(end_frame).tolist())
+        origins.append(kinematics.frame_position_view(end_frame).tolist() if end is None else end)
         cx, cy, cz = self._center
         # the nearest by squared distance (one square root, for the nearest): the same first of equals
         nearest = math.inf

@@ -216,6 +216,8 @@ class ObstacleAvoidance(VelocityResolver):
         task_frame = model.getFrameId(task.frame)
         (cx, cy, cz), radius = obstacle.center.tolist(), obstacle.radius
         closest_values = obstacle.closest_values
+        # the chain that closest_values reads ends at the task frame, whose position the twin reads anyway
+        ends_at_task_frame = obstacle.chain(model, robot.frame)[1] == task_frame
         # for each joint's body, 1.0 in the columns of the joints that move it (its support), 0.0 in the others
         joints = range(1, model.njoints)
         columns = {joint: tuple(float(k in model.supports[joint]) for k in joints) for joint in joints}
@@ -227,11 +229,14 @@ class ObstacleAvoidance(VelocityResolver):
             ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
             (vx0, vx1, vx2), (vy0, vy1, vy2), _, _, _, spin = kinematics.world_jacobians().tolist()
             w0, w1, w2 = spin
-            tx, ty, _ = kinematics.frame_position_view(task_frame).tolist()
+            tip = kinematics.frame_position_view(task_frame).tolist()
+            tx, ty, _ = tip
             # the task frame's J: J_v + J_ω × p at its origin p
             jacobian = (vx0 - ty * w0, vx1 - ty * w1, vx2 - ty * w2), (vy0 + tx * w0, vy1 + tx * w1, vy2 + tx * w2)
             gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
-            distance, _, joint, (px, py, pz), (ax, ay, _), axis, inside = closest_values(kinematics)
+            distance, _, joint, (px, py, pz), (ax, ay, _), axis, inside = closest_values(
+                kinematics, tip if ends_at_task_frame else None
+            )
             gain = activation(distance - radius, influence, critical)
             if gain == 0.0:
                 return (jacobian, gram_inverse, null, spin, gain, None), inverse_condition
