@@ -72,6 +72,8 @@ class ObstacleTask(Task):
         self._center = tuple(self.center.tolist())  # the centre's coordinates as floats, for the float loops
         self._chain_key = None
         self._chain: tuple[list[int], int] = ([], 0)
+        self._views_of: Kinematics | None = None
+        self._views: tuple = ()
         super().__init__(None, 1.0)
 
     @classmethod
@@ -107,6 +109,17 @@ class ObstacleTask(Task):
             self._chain_key = key
         return self._chain
 
+    def _chain_views(self, kinematics: Kinematics):
+        """(the chain's joint ids, their rows in :meth:`Kinematics.joint_origins`, a view of those rows (None for a
+        chain that is not consecutive, read by a copy), a view of the end frame's position), kept for the last
+        kinematics read: views of Pinocchio's data that hold its latest update."""
+        if kinematics is not self._views_of:
+            joints, rows, end_frame = self._segments(kinematics)
+            origins = kinematics.joint_origins()[rows] if type(rows) is slice else None
+            self._views = joints, rows, origins, kinematics.frame_position_view(end_frame)
+            self._views_of = kinematics
+        return self._views
+
     def chain(self, model: pin.Model, task_frame: str) -> tuple[list[int], int]:
         """The joint ids of the chain from the base, and the id of the frame that ends it (this task's ``frame``,
         else ``task_frame``): segment i starts at joint i's origin and moves with that joint's body, the last ends
@@ -139,10 +152,10 @@ class ObstacleTask(Task):
         :math:`0 < (c - a)\cdot u < \|u\|^2`, where it slides along it as the arm moves), the 3-vectors as tuples;
         the first of equally near segments. ``end``: the position [m] of the frame that ends the chain (3 floats) when
         the caller has read it at this configuration, else None (read here)."""
-        joints, rows, end_frame = self._segments(kinematics)
+        joints, rows, origins_view, end_view = self._chain_views(kinematics)
         # the origins once each, from views of Pinocchio's data (a segment's end is the next one's start)
-        origins = kinematics.joint_origins()[rows].tolist()
-        origins.append(kinematics.frame_position_view(end_frame).tolist() if end is None else end)
+        origins = (kinematics.joint_origins()[rows] if origins_view is None else origins_view).tolist()
+        origins.append(end_view.tolist() if end is None else end)
         cx, cy, cz = self._center
         # the nearest by squared distance (one square root, for the nearest): the same first of equals
         nearest = math.inf
