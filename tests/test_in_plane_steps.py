@@ -313,3 +313,17 @@ def test_obstacle_avoidance_takes_the_in_plane_steps_for_joints_about_world_z_mo
     placement.rotation = pin.utils.rotate("x", 0.3)
     model.jointPlacements[2] = placement
     assert not obstacle_avoidance._planar_chain(model, model.getFrameId("tip"))
+
+
+def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, panda, rng):
+    """One obstacle read in turn through two Kinematics at different configurations: each call gives what a fresh
+    obstacle (nothing kept from earlier calls) gives for that kinematics."""
+    for robot in (planar3, panda):
+        obstacle = ObstacleTask([0.4, 0.3, 0.2], 0.05)
+        first, second = Kinematics(robot), Kinematics(robot)
+        for _ in range(3):
+            first.update(rng.uniform(-2.0, 2.0, robot.model.nq))
+            second.update(rng.uniform(-2.0, 2.0, robot.model.nq))
+            for kinematics in (first, second, first, second):
+                expected = ObstacleTask([0.4, 0.3, 0.2], 0.05).closest_values(kinematics)
+                assert obstacle.closest_values(kinematics) == expected
