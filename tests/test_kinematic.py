@@ -639,6 +639,30 @@ def test_the_joint_limit_gradient_on_floats_is_the_gradient(planar3, panda, rng)
     assert objective.gradient_values(kinematics, None) == objective.gradient(kinematics, None).tolist()
 
 
+def assert_float_steps_are_the_lu_reference(kinematics, fast, reference, differenced, draw_q, rng, count):
+    """The extended Jacobian's float step functions against its LU reference at ``count`` drawn states where J is
+    not singular: q̇ and σmin/σmax at 1e-12, q̈ at 1e-12 (curvature in closed form in both) and at 1e-10 (by its
+    central difference in both; ``differenced`` = (float, LU) acceleration functions)."""
+    tested = 0
+    while tested < count:
+        q, velocity = draw_q(), rng.normal(size=3)
+        command, command_rate = rng.normal(size=2), rng.normal(size=2)
+        try:
+            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
+        except SingularJacobian:
+            continue
+        tested += 1
+        got_rates, got_condition = fast[0](kinematics, command)
+        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
+        assert got_condition == pytest.approx(expected_condition, rel=1e-12)
+        expected = reference[1](kinematics, velocity, command, command_rate)
+        got = fast[1](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        expected = differenced[1](kinematics, velocity, command, command_rate)
+        got = differenced[0](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+
+
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_the_extended_jacobian_on_floats_is_its_lu_reference(planar3, rng, gain):
     """planar3's step functions (cross products, J_ex⁻¹ by its adjugate, J's inverse condition from |J_0 × J_1|)
@@ -655,24 +679,10 @@ def test_the_extended_jacobian_on_floats_is_its_lu_reference(planar3, rng, gain)
     )
     assert fast[0].__qualname__.startswith("ExtendedJacobian.cross_product_step_functions")
     kinematics = Kinematics(planar3)
-    tested = 0
-    while tested < 10:
-        q, velocity = rng.uniform(-2, 2, 3), rng.normal(size=3)
-        command, command_rate = rng.normal(size=2), rng.normal(size=2)
-        try:
-            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
-        except SingularJacobian:
-            continue
-        tested += 1
-        got_rates, got_condition = fast[0](kinematics, command)
-        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
-        assert got_condition == pytest.approx(expected_condition, rel=1e-12)
-        expected = reference[1](kinematics, velocity, command, command_rate)
-        got = fast[1](kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
-        expected = differenced[1](kinematics, velocity, command, command_rate)
-        got = differenced[0](kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    assert_float_steps_are_the_lu_reference(
+        kinematics, fast, reference, differenced, lambda: rng.uniform(-2, 2, 3), rng, count=10
+    )
+    command = rng.normal(size=2)
     # stretched (J of rank 1), nearly stretched, and with an alignment cutoff most states miss
     strict = torqueopt.get_resolver("extended-jacobian", algorithmic_tolerance=0.9)
     cases = [(resolver, np.zeros(3)), (resolver, np.array([0.0, 1e-7, 0.0]))]

@@ -22,6 +22,7 @@ from torqueopt.tasks import FrameTask, Kinematics, PostureTask
 
 from .conftest import PAPER_Q0
 from .test_batch import assert_stacks_equal_simulate
+from .test_kinematic import assert_float_steps_are_the_lu_reference
 
 
 @pytest.fixture(scope="module")
@@ -308,24 +309,11 @@ def test_the_step_on_floats_is_the_lu_reference_on_a_spatial_chain(panda3, rng, 
         resolver.cross_product_step_functions(panda3, task, closed_form=False)[1],
         resolver.lu_step_functions(panda3, task, closed_form=False)[1],
     )
-    kinematics, tested = Kinematics(panda3), 0
-    while tested < 8:
-        q, velocity = panda3.default_configuration + rng.uniform(-1.0, 1.0, 3), rng.normal(size=3)
-        command, command_rate = rng.normal(size=2), rng.normal(size=2)
-        try:
-            expected_rates, expected_condition = reference[0](kinematics.update(q), command)
-        except SingularJacobian:
-            continue
-        tested += 1
-        got_rates, got_condition = fast[0](kinematics, command)
-        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
-        assert got_condition == pytest.approx(expected_condition, rel=1e-12)
-        expected = reference[1](kinematics, velocity, command, command_rate)
-        got = fast[1](kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
-        expected = differenced[1](kinematics, velocity, command, command_rate)
-        got = differenced[0](kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+
+    def draw_q():
+        return panda3.default_configuration + rng.uniform(-1.0, 1.0, 3)
+
+    assert_float_steps_are_the_lu_reference(Kinematics(panda3), fast, reference, differenced, draw_q, rng, count=8)
 
 
 def test_the_stack_equals_the_kinematic_loop_on_a_spatial_chain(panda3):
