@@ -172,17 +172,15 @@ def _well_conditioned_obstacle(resolver, task, kinematics) -> bool:
     return np.linalg.norm(obstacle.point_jacobian(kinematics, closest).dot(null)) >= 0.05 * np.linalg.norm(null)
 
 
-@pytest.mark.parametrize(
-    "influence, critical", [(3.0, 0.0), (0.5, 0.1), (0.05, 0.0)], ids=["activating", "paper", "mostly-off"]
-)
-def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones(planar3, rng, influence, critical):
-    """Rates, σmin/σmax and the closed-form q̈ of Eq. (13), on floats, against general_step_functions (SVDs, numpy
-    and pseudoinverse_rate) at random states and obstacles, with the avoidance partly, fully and not acting: 1e-12."""
+def _acting_states_where_the_twins_agree(planar3, rng, draw_resolver, influence, own_rates):
+    """Eight drawn obstacles, six well-conditioned states each: obstacle avoidance's in-plane step functions against
+    general_step_functions (rates, σmin/σmax, q̈ at 1e-12; q̈ at the rates themselves if ``own_rates``, else at a
+    random velocity). Returns how many states had the arm within ``influence`` of the obstacle."""
     task = FrameTask.of_robot(planar3)
     reference, kinematics = Kinematics(planar3), Kinematics(planar3)
     acting = 0
     for _ in range(8):
-        resolver = _obstacle_resolver(planar3, rng.uniform(-1.5, 1.5, 2), rng.uniform(0.0, 0.2), influence, critical)
+        resolver = draw_resolver()
         general = resolver.general_step_functions(planar3, task)
         fast = resolver.in_plane_step_functions(planar3, task)
         tested = 0
@@ -192,16 +190,31 @@ def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones(planar3, rng, 
                 continue
             tested += 1
             acting += resolver.obstacle.clearance(reference) < influence
-            command, command_rate = rng.normal(size=2), rng.normal(size=2)
+            command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
             expected, expected_condition = general[0](reference.update(q), command)
             got, condition = fast[0](kinematics.update(q), command)
             np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
             assert condition == pytest.approx(expected_condition, rel=1e-12)
-            expected_acceleration = general[1](reference, expected, command, command_rate)
-            got_acceleration = fast[1](kinematics, expected, command, command_rate)
+            velocity = expected if own_rates else velocity
+            expected_acceleration = general[1](reference, velocity, command, command_rate)
+            got_acceleration = fast[1](kinematics, velocity, command, command_rate)
             np.testing.assert_allclose(
                 got_acceleration, expected_acceleration, rtol=0, atol=1e-12 * np.abs(expected_acceleration).max()
             )
+    return acting
+
+
+@pytest.mark.parametrize(
+    "influence, critical", [(3.0, 0.0), (0.5, 0.1), (0.05, 0.0)], ids=["activating", "paper", "mostly-off"]
+)
+def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones(planar3, rng, influence, critical):
+    """Rates, σmin/σmax and the closed-form q̈ of Eq. (13), on floats, against general_step_functions (SVDs, numpy
+    and pseudoinverse_rate) at random states and obstacles, with the avoidance partly, fully and not acting: 1e-12."""
+
+    def in_the_plane():
+        return _obstacle_resolver(planar3, rng.uniform(-1.5, 1.5, 2), rng.uniform(0.0, 0.2), influence, critical)
+
+    acting = _acting_states_where_the_twins_agree(planar3, rng, in_the_plane, influence, own_rates=True)
     assert acting > 0 and (influence > 0.05 or acting < 24)  # the avoidance acts at some states, not all
 
 
@@ -274,31 +287,12 @@ def test_world_jacobians_moved_to_a_frame_are_pinocchios_frame_jacobian_and_its_
 def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones_off_the_plane(planar3, rng):
     """Spheres whose centre is off the arm's plane (z ≠ 0), so that n̂ has a z part: the float twin's rates, σmin/σmax
     and q̈ (whose b and J_o drop the z row) against general_step_functions, 1e-12."""
-    task = FrameTask.of_robot(planar3)
-    reference, kinematics = Kinematics(planar3), Kinematics(planar3)
-    acting = 0
-    for _ in range(8):
+
+    def off_the_plane():
         center = [*rng.uniform(-1.5, 1.5, 2), rng.uniform(-0.4, 0.4)]
-        resolver = _obstacle_resolver(planar3, center, rng.uniform(0.0, 0.1), 1.0, 0.1)
-        general = resolver.general_step_functions(planar3, task)
-        fast = resolver.in_plane_step_functions(planar3, task)
-        tested = 0
-        while tested < 6:
-            q = rng.uniform(-2.5, 2.5, 3)
-            if not _well_conditioned_obstacle(resolver, task, reference.update(q)):
-                continue
-            tested += 1
-            acting += resolver.obstacle.clearance(reference) < 1.0
-            command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
-            expected, expected_condition = general[0](reference.update(q), command)
-            got, condition = fast[0](kinematics.update(q), command)
-            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
-            assert condition == pytest.approx(expected_condition, rel=1e-12)
-            expected_acceleration = general[1](reference, velocity, command, command_rate)
-            got_acceleration = fast[1](kinematics, velocity, command, command_rate)
-            np.testing.assert_allclose(
-                got_acceleration, expected_acceleration, rtol=0, atol=1e-12 * np.abs(expected_acceleration).max()
-            )
+        return _obstacle_resolver(planar3, center, rng.uniform(0.0, 0.1), 1.0, 0.1)
+
+    acting = _acting_states_where_the_twins_agree(planar3, rng, off_the_plane, 1.0, own_rates=False)
     assert acting > 10
 
 
