@@ -122,10 +122,6 @@ class Kinematics:
         """6×n Jacobian of a frame at its origin, world-aligned axes (linear rows first)."""
         return pin.getFrameJacobian(self.model, self.data, frame_id, _LWA)
 
-    def joint_jacobian(self, joint_id: int) -> np.ndarray:
-        """6×n Jacobian of a joint at its origin, world-aligned axes (linear rows first)."""
-        return pin.getJointJacobian(self.model, self.data, joint_id, _LWA)
-
     def frame_drift(self, frame_id: int) -> np.ndarray:
         r""":math:`\dot J\dot q` of a frame (6 values, classical acceleration at zero q̈, world-aligned)."""
         if self.v is None:
