@@ -386,22 +386,74 @@ def test_pinv_and_velocity_pinv_are_told_apart_by_colour():
     assert len(set(RESOLVER_COLORS.values())) == len(RESOLVER_COLORS)
 
 
+def curves_under_legends(figure) -> list[tuple[str, str, int]]:
+    """(panel title, curve label, points) for every curve drawn in data coordinates with points under its own
+    panel's legend: a legend that hides what it names."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    covered = []
+    for ax in figure.axes:
+        if ax.get_legend() is None:
+            continue
+        box = ax.get_legend().get_window_extent(canvas.get_renderer())
+        for curve in ax.get_lines():
+            if curve.get_transform() != ax.transData:
+                continue  # a limit or an event line spans the whole panel
+            points = ax.transData.transform(np.column_stack([curve.get_xdata(), curve.get_ydata()]))
+            inside = (points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0)
+            inside &= points[:, 1] < box.y1
+            if inside.any():
+                covered.append((ax.get_title(loc="left"), curve.get_label(), int(inside.sum())))
+    return covered
+
+
 def test_the_velocity_legend_covers_no_curve_of_a_7_joint_arm(panda, tmp_path, saved_figures):
     """The panda plot's velocity legend (7 joints) sat on top of the curves."""
     line = torqueopt.StraightLine((0.0, 1.0, 0.0), accel=0.5, duration=0.4)
     run = torqueopt.simulate(panda, "pinv", line, panda.default_configuration)
     plots.plot_run(run, tmp_path / "panda.png")
     (figure,) = saved_figures
+    assert curves_under_legends(figure) == []
+
+
+def test_the_run_figure_of_an_arm_leaving_its_limits_keeps_every_title_inside_it(panda, tmp_path, saved_figures):
+    """panda's joint 7 leaves its velocity limit at 3 ms and its position limit at 65 ms (null-space, 0.4 s along
+    y): the velocity panel's title named both on one line, which ran off the figure's right edge."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    line = torqueopt.StraightLine((0.0, 1.0, 0.0), duration=0.4)
+    run = torqueopt.simulate(panda, "null-space", line, panda.default_configuration)
+    assert run.first_position_violation[:2] == (0.065, "panda_joint7")
+    assert run.first_velocity_violation[:2] == (0.003, "panda_joint7")
+    plots.plot_run(run, tmp_path / "panda.png")
+    (figure,) = saved_figures
     canvas = FigureCanvasAgg(figure)
     canvas.draw()
-    speed_ax = next(ax for ax in figure.axes if ax.get_title(loc="left").startswith("joint velocities"))
-    box = speed_ax.get_legend().get_window_extent(canvas.get_renderer())
-    for curve in speed_ax.get_lines():
-        points = speed_ax.transData.transform(np.column_stack([curve.get_xdata(), curve.get_ydata()]))
-        inside = (points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)
-        assert not inside.any(), curve.get_label()
+    speed_title = next(ax for ax in figure.axes if ax.get_title(loc="left").startswith("joint velocities"))
+    assert speed_title.get_title(loc="left").splitlines()[1:] == [
+        "position limit left at 0.065 s (panda_joint7)",
+        "velocity limit left at 0.003 s (panda_joint7)",
+    ]
+    for ax in figure.axes:
+        box = ax._left_title.get_window_extent(canvas.get_renderer())
+        assert box.x0 >= 0.0 and box.x1 <= figure.bbox.width, ax.get_title(loc="left")
+    assert curves_under_legends(figure) == []
+
+
+def test_no_legend_of_a_circle_run_covers_its_curves(planar3, tmp_path, saved_figures):
+    """On a circle that null-space loses (unstable at 0.57 s, stopped at 1.16 s) the dexterity ratios fill their
+    panel: its legend, kept at the upper left with head room above the curves, covered hundreds of points of
+    each of the three."""
+    circle = torqueopt.Circle(0.3, 2.0)
+    run = torqueopt.simulate(planar3, "null-space", circle, np.radians([-45, 135, -135]), dexterity=True)
+    assert run.stop_reason and run.dexterity
+    plots.plot_run(run, tmp_path / "circle.png")
+    (figure,) = saved_figures
+    titles = [ax.get_title(loc="left") for ax in figure.axes if ax.get_legend() is not None]
+    assert any(title.startswith("dexterity") for title in titles) and "tip path" in titles
+    assert curves_under_legends(figure) == []
 
 
 def test_torque_panel_titles_of_six_runs_stay_inside_the_figure(planar3, tmp_path, saved_figures):

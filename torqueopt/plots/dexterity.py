@@ -34,12 +34,12 @@ def draw_dexterity(ax, result: SimResult) -> None:
         ax.plot(result.t, ratio, color=color, lw=1.2, label=f"{label} (start {values[0]:.3g})")
     ax.axhline(1.0, color="0.6", lw=0.8, ls=":")
     _mark_stops(ax, [result])
-    # Head room above the curves for the legend.
-    ax.set_ylim(0.0, 1.9 * highest)
+    ax.set_ylim(0.0, 1.1 * highest)
     ax.set_title("dexterity, as a ratio to its start value", fontsize=9, loc="left")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("ratio to start", fontsize=8)
-    ax.legend(fontsize=7, loc="upper left", framealpha=0.85)
+    # Beside the panel, not on it: on a run that loses dexterity the curves fill the panel (a circle's run).
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
 
 

@@ -104,7 +104,7 @@ def _draw_joint_limits(ax, result: SimResult) -> str:
             time, joint, _, _ = violation
             ax.axvline(time, color=color, ls="--", lw=1.1, label=f"{joint} leaves its {kind} limit")
             notes.append(f"{kind} limit left at {time:.3f} s ({joint})")
-    return "\n" + "; ".join(notes) if notes else ""
+    return "".join(f"\n{note}" for note in notes)  # a line each: two ran off a 7-joint arm's figure
 
 
 def _mark_stops(ax, results: Sequence[SimResult]) -> None:

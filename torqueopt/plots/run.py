@@ -76,7 +76,7 @@ def plot_run(
     speed_ax.grid(alpha=0.3)
     path_ax = fig.add_subplot(right[1])
     _draw_tip_path(path_ax, [result], single=True)
-    path_ax.legend(fontsize=7)
+    path_ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     error_ax = fig.add_subplot(right[2])
     error_ax.plot(result.t, result.tip_error * 1e3, color="tab:red", lw=1.2)
     _mark_stops(error_ax, [result])
