@@ -14,7 +14,6 @@ from torqueopt.resolvers.velocity.extended_jacobian import (
     cross_product_frame_row,
     cross_product_row,
     null_vector,
-    stacked_null_vectors,
     stacked_row_cofactors,
 )
 from torqueopt.robot_copies import RobotForest
@@ -102,11 +101,12 @@ def test_the_stack_is_for_what_it_can_compute(planar3, panda_pose):
 
 
 def test_the_stacked_null_vectors_and_cofactors_are_their_definitions(rng):
-    """``stacked_null_vectors`` against :func:`null_vector` and ``stacked_row_cofactors`` against the adjugate
-    det(M)·M⁻¹ of M = [J; l], for m = 2 (cross products) and m = 3 (determinants)."""
+    """:func:`null_vector` of a stack and of each of its matrices against the adjugate det(M)·M⁻¹ of M = [J; l]
+    (its last column is (−1)^m n), and ``stacked_row_cofactors`` against its first m columns, for m = 2 (cross
+    products) and m = 3 (determinants)."""
     for m in (2, 3):
         jacobian, last = rng.normal(size=(5, m, m + 1)), rng.normal(size=(5, m + 1))
-        normals = stacked_null_vectors(jacobian)
+        normals = null_vector(jacobian)
         cofactors = stacked_row_cofactors(jacobian, last)
         for row in range(5):
             np.testing.assert_allclose(normals[row], null_vector(jacobian[row]), rtol=0, atol=1e-14)

@@ -32,15 +32,23 @@ __all__ = [
 
 
 def null_vector(jacobian: np.ndarray) -> np.ndarray:
-    r"""The generalised cross product of the rows of an m×(m+1) Jacobian: :math:`n_i = (-1)^i \det J_{\setminus i}`.
+    r"""The generalised cross product of the rows of an m×(m+1) Jacobian, or of each of a (…, m, m+1) stack:
+    :math:`n_i = (-1)^i \det J_{\setminus i}`.
 
     It spans the one-dimensional null space of J (:math:`J n = 0`, each row's
     product is the determinant of a matrix with a repeated row) and is what the
     paper calls "taking cross products of columns of J"; for m = 2 it is the
-    cross product of J's two rows.
+    cross product of J's two rows, by components.
     """
-    n = jacobian.shape[1]
-    minors = jacobian[:, _minor_columns(n)].transpose(1, 0, 2)  # minor i: J without column i
+    m, n = jacobian.shape[-2:]
+    if m == 2:
+        (a0, a1, a2), (b0, b1, b2) = (
+            (jacobian[..., row, 0], jacobian[..., row, 1], jacobian[..., row, 2]) for row in range(2)
+        )
+        normal = np.empty((*jacobian.shape[:-2], 3))
+        normal[..., 0], normal[..., 1], normal[..., 2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        return normal
+    minors = np.swapaxes(jacobian[..., _minor_columns(n)], -3, -2)  # (…, n, m, m): minor i is J without column i
     return _alternating_signs(n) * determinants(minors)
 
 
@@ -634,21 +642,6 @@ _ZERO = np.zeros(1)
 CURVATURE_STEP = 1e-5
 
 
-def stacked_null_vectors(matrices: np.ndarray) -> np.ndarray:
-    r""":func:`null_vector` of each m×(m+1) matrix of a (…, m, m+1) stack, :math:`n_i = (-1)^i\det M_{\setminus i}`
-    (for m = 2 the cross product of the two rows, by components)."""
-    m, n = matrices.shape[-2:]
-    if m == 2:
-        (a0, a1, a2), (b0, b1, b2) = (
-            (matrices[..., row, 0], matrices[..., row, 1], matrices[..., row, 2]) for row in range(2)
-        )
-        normal = np.empty((*matrices.shape[:-2], 3))
-        normal[..., 0], normal[..., 1], normal[..., 2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
-        return normal
-    minors = np.swapaxes(matrices[..., _minor_columns(n)], -3, -2)  # (…, n, m, m): minor i is M without column i
-    return _alternating_signs(n) * determinants(minors)
-
-
 def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
     r"""The cofactors of the first m rows of :math:`M = [J;\ l^\top]` ((m+1)×(m+1)) on (B, m, m+1) and (B, m+1)
     stacks, (B, m, m+1): row a is :math:`C_a = (-1)^a\,` :func:`null_vector` of M without row a, so that
@@ -662,7 +655,7 @@ def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
         return cofactors
     others = jacobian[:, _minor_columns(m)]  # (B, m, m − 1, n): J without row a
     matrices = np.concatenate((others, np.broadcast_to(last[:, None, None, :], (last.shape[0], m, 1, n))), axis=2)
-    return _alternating_signs(m)[:, None] * stacked_null_vectors(matrices)
+    return _alternating_signs(m)[:, None] * null_vector(matrices)
 
 
 def adjugate_times(jacobian: np.ndarray, last: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -762,7 +755,7 @@ class StackedExtendedJacobian(VelocityStack):
         frame = kinematics.frame_jacobian
         linear, angular = frame[:, :3], frame[:, 3:]
         gradient = self._gradient(configuration)
-        normal = stacked_null_vectors(jacobian)  # n_J
+        normal = null_vector(jacobian)  # n_J
         cofactors, before, after = self._cofactor_sums(jacobian, gradient, linear, angular)
         # ∂G/∂q_k = J_k·Σ_{j≤k} K_j × ω_j + ω_k·Σ_{j>k} J_j × K_j + w_k n_k, the last row of J_ex in Eq. (15)
         g_row = np.einsum("bik,bik->bk", linear, before) + np.einsum("bik,bik->bk", angular, after)
@@ -833,7 +826,7 @@ class StackedExtendedJacobian(VelocityStack):
         )
         curvature = np.einsum("bk,bk->b", per_joint, velocity)
         # n_J with one row of J replaced by its rate (their sum n_J'), and with two (the pairs a < b)
-        replaced = stacked_null_vectors(np.stack((jacobian, jacobian_rate), axis=1)[:, self.choices, self.row_numbers])
+        replaced = null_vector(np.stack((jacobian, jacobian_rate), axis=1)[:, self.choices, self.row_numbers])
         m = self.m
         gradient_rate = np.zeros_like(velocity)
         gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]  # g' = ∇²p q̇
