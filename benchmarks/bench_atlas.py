@@ -6,9 +6,10 @@ interleaved round by round so the shared machine's load hits all alike:
 
 * ``simulate``: one :func:`torqueopt.simulate` run, planar3, null-space, the
   paper's long movement (2 s, 2001 rows), in the benchmark's own process;
-* ``simulate (own process)``: the same run timed in a fresh interpreter of its
-  own (its imports and a warm-up run untimed), as ``torqueopt run`` would run
-  it: the benchmark's process also hosts the two idle Dask clusters (their
+* ``simulate (own process)``: the same run timed three times in a fresh
+  interpreter of its own each round (its imports and a warm-up run untimed;
+  one run of panda's 0.5 s line lasts about 30 ms, so one timing a round
+  spread 1.7-2.2x), as ``torqueopt run`` would run it: the benchmark's process also hosts the two idle Dask clusters (their
   schedulers and clients run event loops in threads of that process), and its
   ``simulate`` rounds ran up to 1.9x slower than the same call alone;
 * ``batch``: :func:`torqueopt.batch.simulate_batch` in this process, 256
@@ -117,14 +118,16 @@ robot_name, direction, accel, duration, start, q0 = sys.argv[1], *map(eval, sys.
 robot = torqueopt.load_robot(robot_name)
 line = torqueopt.StraightLine(direction, accel=accel, duration=duration, start=start)
 torqueopt.simulate(robot, "null-space", line, np.array(q0))  # warm-up
-started = time.perf_counter()
-run = torqueopt.simulate(robot, "null-space", line, np.array(q0))
-print((len(run.t) - 1) / (time.perf_counter() - started))
+for _ in range(3):
+    started = time.perf_counter()
+    run = torqueopt.simulate(robot, "null-space", line, np.array(q0))
+    print((len(run.t) - 1) / (time.perf_counter() - started))
 """
 
 
-def _simulate_in_own_process(robot_name, direction, accel, duration, q0, start=None) -> float:
-    """Trajectory-steps/s of one null-space ``simulate`` run timed in a fresh interpreter (imports untimed)."""
+def _simulate_in_own_process(robot_name, direction, accel, duration, q0, start=None) -> list[float]:
+    """Trajectory-steps/s of three null-space ``simulate`` runs timed one after another in a fresh interpreter
+    (imports and a warm-up run untimed)."""
     import subprocess
     import sys
 
@@ -133,7 +136,7 @@ def _simulate_in_own_process(robot_name, direction, accel, duration, q0, start=N
     done = subprocess.run(
         [sys.executable, "-c", _OWN_PROCESS_RUN, robot_name, *arguments], capture_output=True, text=True, check=True
     )
-    return float(done.stdout.split()[-1])
+    return [float(rate) for rate in done.stdout.split()[-3:]]
 
 
 def _terms_comparison(robot, count=256, repeats=30):
@@ -307,7 +310,7 @@ def main(argv=None):
         started = time.perf_counter()
         run = torqueopt.simulate(planar3, "null-space", paper_line, PAPER_Q0)
         results["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
-        results["simulate (own process)"].append(
+        results["simulate (own process)"].extend(
             _simulate_in_own_process("planar3", [1.0, 1.0], PAPER_ACCEL, 2.0, PAPER_Q0)
         )
         started = time.perf_counter()
@@ -343,7 +346,7 @@ def main(argv=None):
             started = time.perf_counter()
             run = torqueopt.simulate(sweep_panda, "null-space", first_line, first.q0)
             panda_sweeps["simulate"].append((len(run.t) - 1) / (time.perf_counter() - started))
-            panda_sweeps["simulate (own process)"].append(
+            panda_sweeps["simulate (own process)"].extend(
                 _simulate_in_own_process("panda", first.direction, accel, 0.5, first.q0, first.start)
             )
             for workers in (1, 2):
