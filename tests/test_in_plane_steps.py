@@ -321,3 +321,24 @@ def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, 
             for kinematics in (first, second, first, second):
                 expected = ObstacleTask([0.4, 0.3, 0.2], 0.05).closest_values(kinematics)
                 assert obstacle.closest_values(kinematics) == expected
+
+
+def test_obstacle_avoidance_in_plane_steps_read_the_configuration_of_the_kinematics_given(planar3, rng):
+    """One pair of the float twin's step functions read in turn through two Kinematics at different configurations
+    (what it keeps, the views of a Kinematics' data and its values at a configuration, belong to the last one read):
+    each call's rates, σmin/σmax and q̈ are what a fresh pair gives for that kinematics."""
+    resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 3.0, 0.0)
+    task = FrameTask.of_robot(planar3)
+    rates, acceleration = resolver.in_plane_step_functions(planar3, task)
+    first, second = Kinematics(planar3), Kinematics(planar3)
+    for _ in range(3):
+        for kinematics in (first, second):
+            kinematics.update(rng.uniform(0.3, 2.5, 3) * (1.0, -1.0, 1.0))
+        command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
+        for kinematics in (first, second, first, second):
+            fresh_rates, fresh_acceleration = resolver.in_plane_step_functions(planar3, task)
+            expected, expected_condition = fresh_rates(kinematics, command)
+            got, condition = rates(kinematics, command)
+            assert got.tolist() == expected.tolist() and condition == expected_condition
+            expected_acceleration = fresh_acceleration(kinematics, velocity, command, command_rate)
+            assert acceleration(kinematics, velocity, command, command_rate).tolist() == expected_acceleration.tolist()

@@ -221,15 +221,27 @@ class ObstacleAvoidance(VelocityResolver):
         # for each joint's body, 1.0 in the columns of the joints that move it (its support), 0.0 in the others
         joints = range(1, model.njoints)
         columns = {joint: tuple(float(k in model.supports[joint]) for k in joints) for joint in joints}
+        # Views of Pinocchio's data that hold its latest update, made once for the last Kinematics read: the WORLD
+        # columns' x and y rows and their ω_z row, the task frame's position, the x and y rows of the columns' rates.
+        views_of = rate_view = None
+        planar_rows = spin_row = tip_view = rate_rows = None
+        # at_configuration's value, kept while the Kinematics it was computed for stays at that configuration:
+        # PerConfiguration's rule, checked in the caller (each rates call at a new configuration saves a call).
+        kept_for, kept_revision, kept = None, -1, None
 
-        @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             """(J's rows, (JJᵀ)⁻¹, z, the joints' w, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, the
             columns of its joints, a, u, whether x_o is inside its segment, n̂, J_o's x and y rows, b = J_o z, 1/bᵀb,
             ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
-            (vx0, vx1, vx2), (vy0, vy1, vy2), _, _, _, spin = kinematics.world_jacobians().tolist()
+            nonlocal views_of, planar_rows, spin_row, tip_view
+            if kinematics is not views_of:
+                world = kinematics.world_jacobians()
+                planar_rows, spin_row, tip_view = world[:2], world[5], kinematics.frame_position_view(task_frame)
+                views_of = kinematics
+            (vx0, vx1, vx2), (vy0, vy1, vy2) = planar_rows.tolist()
+            spin = spin_row.tolist()
             w0, w1, w2 = spin
-            tip = kinematics.frame_position_view(task_frame).tolist()
+            tip = tip_view.tolist()
             tx, ty, _ = tip
             # the task frame's J: J_v + J_ω × p at its origin p
             jacobian = (vx0 - ty * w0, vx1 - ty * w1, vx2 - ty * w2), (vy0 + tx * w0, vy1 + tx * w1, vy2 + tx * w2)
@@ -256,7 +268,12 @@ class ObstacleAvoidance(VelocityResolver):
             return (jacobian, gram_inverse, null, spin, gain, point), inverse_condition
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            (jacobian, gram_inverse, (z0, z1, z2), _, gain, point), inverse_condition = at_configuration(kinematics)
+            nonlocal kept_for, kept_revision, kept
+            if kinematics.revision != kept_revision or kinematics is not kept_for:
+                kept_for = None  # a configuration that raises keeps nothing
+                kept = at_configuration(kinematics)
+                kept_for, kept_revision = kinematics, kinematics.revision
+            (jacobian, gram_inverse, (z0, z1, z2), _, gain, point), inverse_condition = kept
             ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
             c0, c1 = task_velocity.tolist()
             w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
@@ -273,13 +290,21 @@ class ObstacleAvoidance(VelocityResolver):
             return np.array((p0 + share * z0, p1 + share * z1, p2 + share * z2)), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            (jacobian, gram_inverse, (z0, z1, z2), spin, gain, point), _ = at_configuration(kinematics)
+            nonlocal kept_for, kept_revision, kept, rate_view, rate_rows
+            if kinematics.revision != kept_revision or kinematics is not kept_for:
+                kept_for = None
+                kept = at_configuration(kinematics)
+                kept_for, kept_revision = kinematics, kinematics.revision
+            (jacobian, gram_inverse, (z0, z1, z2), spin, gain, point), _ = kept
             ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (s0, s1, s2) = jacobian, gram_inverse, spin
             c0, c1 = command.tolist()
             v0, v1, v2 = velocity.tolist()
             w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
             p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # p = J⁺c, Eq. (3)
-            (kx0, kx1, kx2), (ky0, ky1, ky2) = kinematics.world_jacobian_rates(velocity)[:2].tolist()
+            world_rates = kinematics.world_jacobian_rates(velocity)
+            if world_rates is not rate_view:
+                rate_view, rate_rows = world_rates, world_rates[:2]
+            (kx0, kx1, kx2), (ky0, ky1, ky2) = rate_rows.tolist()
             # J̇ = J̇_v + J_ω × ṗ at the task frame's origin, moving at ṗ = J q̇
             tx, ty = a0 * v0 + a1 * v1 + a2 * v2, b0 * v0 + b1 * v1 + b2 * v2
             da0, da1, da2, db0, db1, db2 = (
