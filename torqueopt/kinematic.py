@@ -182,10 +182,16 @@ class KinematicMovement:
         self.log: list[tuple] = []
         self.torque_ceiling = rules.torque_ceiling.tolist()
         self.speed_ceiling = [rules.speed_ceiling] * robot.nv
+        self.ceilings = self.speed_ceiling + self.torque_ceiling
         self.within = partial(map, operator.le)
         self.x_ref: list[np.ndarray] = []
         self.task = task = FrameTask.of_robot(robot, reference_rotation=reference_rotation)
         self.kinematics = kinematics = Kinematics(robot)
+        # x of a position task read from a view of the frame's position in Pinocchio's data, made once (a copy per
+        # read: the log keeps it); a pose's rotation vector by FrameTask.value
+        self.task_position = (
+            None if task.kind == "pose" else kinematics.frame_position_view(task.frame_id(kinematics))[task.rows]
+        )
         # the joint rates and, when the resolver has it, q̈ in closed form (else a central difference of f)
         rates, self.closed_form = resolver.step_functions(robot, task)
         self.rates = rates
@@ -214,8 +220,8 @@ class KinematicMovement:
         return (self.dt * np.arange(start, stop)).tolist()
 
     def terms(self, q, v):
-        kinematics = self.kinematics.update(q)
-        return kinematics, self.task.value(kinematics)
+        kinematics, position = self.kinematics.update(q), self.task_position
+        return kinematics, self.task.value(kinematics) if position is None else position.copy()
 
     def command(self, j: int, kinematics, x):
         """c(t, q) at the step's sample, with the kinematics at q."""
@@ -265,14 +271,15 @@ class KinematicMovement:
         torque, acceleration, velocity, inverse_condition = resolution
         # The row that passes a ceiling stays in the result: peaks and verdicts count it.
         self.log.append((q, velocity, acceleration, torque, x, inverse_condition))
-        # One test per vector, all(|value| <= ceiling) on plain lists, which also fails inf and NaN.
+        # One test for both vectors, all(|value| <= ceiling) on a plain list, which also fails inf and NaN; the
+        # speeds, tested first, name a failure.
+        if all(self.within(map(abs, velocity.tolist() + torque.tolist()), self.ceilings)):
+            return False
         if not all(self.within(map(abs, velocity.tolist()), self.speed_ceiling)):
             self.stop_reason, self.stop_time = self._diagnosed(rules.rates(velocity, t), q), t
-            return True
-        if not all(self.within(map(abs, torque.tolist()), self.torque_ceiling)):
+        else:
             self.stop_reason, self.stop_time = self._diagnosed(rules.torque(torque, t), q), t
-            return True
-        return False
+        return True
 
     def _diagnosed(self, reason: str, q) -> str:
         return with_diagnosis(reason, self.resolver, self.kinematics.update(q), self.task)
