@@ -116,8 +116,8 @@ class _Pass:
     """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
 
     __slots__ = (
-        "bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_rate", "origins", "rotations",
-        "tips",
+        "bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_columns", "jacobian_rate",
+        "jacobian_rate_columns", "origins", "rotations", "tip_columns", "tips",
     )  # fmt: skip
 
     def __init__(self, forest: pin.Model, copies: int, n: int):
@@ -133,7 +133,11 @@ class _Pass:
         self.bias = data.nle.reshape(n, copies, order="F").T
         self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
         self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
+        # the same, batch-last: J and J̇ as (6, n, copies), exactly the layout of Pinocchio's column-major 6 × copies·n
+        self.jacobian_columns = data.J.reshape(6, n, copies, order="F")
+        self.jacobian_rate_columns = data.dJ.reshape(6, n, copies, order="F")
         self.tips = translations_view(data.oMf, 1, copies)  # every copy's task frame position [m], (copies, 3)
+        self.tip_columns = self.tips.T
         # every copy's joints' placements, (copies, joints, ...): copy c's joint j is the forest's 1 + c·joints + j − 1
         joints = (forest.njoints - 1) // copies
         self.origins = translations_view(data.oMi, 1, copies * joints).reshape(copies, joints, 3)
@@ -201,12 +205,16 @@ class RobotForest:
             pin.updateFramePlacements(model, data)
         used = self._passes(count)
         inertia, bias = _gathered(used, "inertia", count), _gathered(used, "bias", count)
-        world, world_rate = _gathered(used, "jacobian", count), _gathered(used, "jacobian_rate", count)
-        tip = _gathered(used, "tips", count)
+        # J_O and J̇_O of every row batch-last, (12, n, rows), so that numpy's inner loops run over the rows
+        world = np.empty((12, self.n, len(used) * self.copies))
+        np.concatenate([forest_pass.jacobian_columns for forest_pass in used], axis=2, out=world[:6])
+        np.concatenate([forest_pass.jacobian_rate_columns for forest_pass in used], axis=2, out=world[6:])
+        world = world[:, :, :count]
         if self._mask is not None:
-            world *= self._mask
-            world_rate *= self._mask
-        return (inertia, bias, *_at_point(world, world_rate, tip, v), tip)
+            world *= self._mask[:, None]
+        tip = np.concatenate([forest_pass.tip_columns for forest_pass in used], axis=1)[:, :count]
+        jacobian, drift = _at_point_batch_last(world, tip, v)
+        return inertia, bias, jacobian.transpose(2, 0, 1), drift.T, tip.T
 
     def kinematics(
         self, q: np.ndarray, v: np.ndarray | None = None, tip: np.ndarray | None = None, *,
@@ -416,19 +424,35 @@ def _cross_matrices(vectors: np.ndarray) -> np.ndarray:
     return matrices
 
 
-def _at_point(world: np.ndarray, world_rate: np.ndarray, point: np.ndarray, v: np.ndarray):
-    r"""A point's Jacobian and classical drift (LOCAL_WORLD_ALIGNED) from world-frame ones, per row.
+def _cross_first(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """a × b along axis 0 of (3, ...) stacks (broadcast), component by component, into ``out`` (a new array when
+    None): with the batch axis last, each product runs over the whole batch at once."""
+    if out is None:
+        out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    np.subtract(a[1] * b[2], a[2] * b[1], out=out[0])
+    np.subtract(a[2] * b[0], a[0] * b[2], out=out[1])
+    np.subtract(a[0] * b[1], a[1] * b[0], out=out[2])
+    return out
 
-    ``world`` = :math:`J_O` maps :math:`\dot q` to the body's spatial velocity
-    :math:`(v_O, \omega)` at the world origin, ``world_rate`` = :math:`\dot J_O`.
-    The point p moves at :math:`v_p = v_O + \omega\times p`, so its Jacobian's
-    linear rows are :math:`J_v + J_\omega\times p`; at zero :math:`\ddot q` it
-    accelerates at :math:`\dot v_O + \dot\omega\times p + \omega\times v_p`.
-    ``world`` is overwritten with the point's Jacobian (the caller's own stack).
+
+def _at_point_batch_last(world: np.ndarray, point: np.ndarray, v: np.ndarray):
+    r"""A point's Jacobian (6, n, S) and classical drift :math:`\dot J\dot q` (6, S) in LOCAL_WORLD_ALIGNED, linear
+    rows first, batch-last, from the world-frame quantities of the body that carries it.
+
+    ``world`` (12, n, S): :math:`J_O` (rows 0-5), which maps :math:`\dot q` to the body's spatial velocity
+    :math:`(v_O, \omega)` at the world origin, above :math:`\dot J_O` (rows 6-11); overwritten, its first six rows
+    become the point's Jacobian. ``point`` (3, S) [m], ``v`` (S, n) the joint velocities. One product of the twelve
+    rows with :math:`\dot q` gives :math:`(v_O, \omega)` and the acceleration at zero :math:`\ddot q`,
+    :math:`(\dot v_O, \dot\omega)`. The point p moves at :math:`v_p = v_O + \omega\times p`, so its Jacobian's
+    linear rows are :math:`J_v + J_\omega\times p`, and at zero :math:`\ddot q` it accelerates at
+    :math:`\dot v_O + \dot\omega\times p + \omega\times v_p`.
     """
-    jacobian = world
-    jacobian[:, :3] += stacked_cross(world[:, 3:], point[:, :, None])
-    velocity = (jacobian * v[:, None, :]).sum(axis=2)  # (v_p, ω)
-    drift = (world_rate * v[:, None, :]).sum(axis=2)  # (v̇_O, ω̇) at zero q̈
-    drift[:, :3] += stacked_cross(drift[:, 3:], point) + stacked_cross(velocity[:, 3:], velocity[:, :3])
+    velocities = np.einsum("rjb,jb->rb", world, np.ascontiguousarray(v.T))  # (v_O, ω, v̇_O, ω̇), (12, S)
+    jacobian = world[:6]
+    jacobian[:3] += _cross_first(jacobian[3:], point[:, None])
+    angular_velocity, angular_acceleration = velocities[3:6], velocities[9:]
+    point_velocity = velocities[:3] + _cross_first(angular_velocity, point)
+    drift = velocities[6:]
+    drift[:3] += _cross_first(angular_acceleration, point)
+    drift[:3] += _cross_first(angular_velocity, point_velocity)
     return jacobian, drift
