@@ -79,12 +79,20 @@ class PinocchioTerms:
         return StackTerms(inertia, bias, jacobian, drift, v, q), position
 
 
+#: Joints per forest pass of :class:`ForestTerms`: fewer than the forest's default (``FOREST_DOFS``, 48), because
+#: Pinocchio's ``crba`` binding zeroes the whole forest's mass matrix before each pass and returns a copy of it,
+#: work that grows with the square of the copies in a pass; 28 joints (9 copies of planar3, 4 of panda) cost fewer
+#: instructions per movement than 48 on both arms (BENCHMARKS.md).
+TERMS_FOREST_DOFS = 28
+
+
 class ForestTerms:
-    """Task terms of whole stacks from a :class:`~torqueopt.robot_copies.RobotForest` (robots whose joints all add)."""
+    """Task terms of whole stacks from a :class:`~torqueopt.robot_copies.RobotForest` (robots whose joints all add),
+    ``TERMS_FOREST_DOFS`` joints a pass."""
 
     def __init__(self, robot: Robot):
         self.robot = robot
-        self.forest = RobotForest(robot)
+        self.forest = RobotForest(robot, max(1, TERMS_FOREST_DOFS // robot.nv))
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, n) stacks, a few Pinocchio calls per forest pass."""
