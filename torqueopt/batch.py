@@ -349,6 +349,8 @@ class MovementStack:
         else:
             log["acceleration"][j, where] = joint_acceleration
             log["tau"][j, where] = torque
+            if not rules.any_torque_over(torque):
+                return False
             stopping = rules.torques_over(torque)
         if not stopping.any():
             return False
@@ -386,9 +388,9 @@ class MovementStack:
     def step(self, q, v, resolution, j: int, t: float):
         # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
         q, v = self.advance(q, v, resolution.torque, resolution.joint_acceleration)
-        fast = self.rules.speeds_over(v)
-        if not fast.any():
+        if not self.rules.any_speed_over(v):
             return q, v, False
+        fast = self.rules.speeds_over(v)
         for row in np.flatnonzero(fast).tolist():
             movement = int(self.active[row])
             self.stop_reason[movement] = self.rules.speed(v[row], t, self.dt)

@@ -72,6 +72,15 @@ class StopRules:
         """Per row of a (B, n) stack: True where a joint speed fails the ceiling (or is not finite)."""
         return ~(np.abs(velocity) <= self.speed_ceiling).all(axis=1)
 
+    def any_torque_over(self, torque: np.ndarray) -> bool:
+        """Whether some row of a non-empty (B, n) stack fails :meth:`torques_over`: one reduction over the stack (a
+        NaN carries through the maximum and fails the test), the rows sought only when it is True."""
+        return not (np.abs(torque).max(axis=0) <= self.torque_ceiling).all()
+
+    def any_speed_over(self, velocity: np.ndarray) -> bool:
+        """Whether some row of a non-empty (B, n) stack fails :meth:`speeds_over`, by one reduction over the stack."""
+        return not np.abs(velocity).max() <= self.speed_ceiling
+
     def torque(self, tau: np.ndarray, t: float) -> str:
         """Why torques that failed the ceiling at time t [s] end the run."""
         return torque_stop_reason(self.robot, tau, self.max_torque_ratio, t)
