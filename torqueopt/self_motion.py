@@ -57,7 +57,7 @@ import pinocchio as pin
 
 from .robot import Robot
 
-__all__ = ["SelfMotion", "self_motion", "self_motion_energy", "SelfMotionRate"]
+__all__ = ["SelfMotion", "self_motion", "self_motion_energy", "self_motion_energy_by_solve", "SelfMotionRate"]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -109,6 +109,20 @@ def self_motion_energy(inertia: np.ndarray, velocity: np.ndarray, *, jacobian=No
     The stacked form of :func:`self_motion`'s energy, for loops over many
     states. Kept at or above 0 (and, from Z, at or below T) against round-off. A matrix of a stack that is exactly
     singular is solved through its pseudoinverse.
+
+    With a basis of two or more columns, T and :math:`E_N` come from one symmetric
+    (r+1)×(r+1) matrix per row,
+
+    .. math::
+
+        M = [Z\ \dot q]^\top H\, [Z\ \dot q]
+          = \begin{pmatrix} Z^\top H Z & w \\ w^\top & 2T \end{pmatrix},
+
+    whose r pivots of symmetric elimination (on the batch axis, no LAPACK call per
+    row) leave :math:`-w^\top (Z^\top HZ)^{-1} w = -2E_N` where the corner was set
+    to 0: two stacked products and r broadcast updates in place of the three
+    contractions, the two products of :math:`Z^\top HZ` and the per-row solve of
+    :func:`self_motion_energy_by_solve`, the readable reference the tests hold it to.
     """
     if jacobian is not None:
         kinetic = 0.5 * np.einsum("bi,bij,bj->b", velocity, inertia, velocity)
@@ -117,6 +131,15 @@ def self_motion_energy(inertia: np.ndarray, velocity: np.ndarray, *, jacobian=No
         task_inverse_inertia = jacobian @ inverse_inertia_jt  # Λ⁻¹ = J H⁻¹ Jᵀ
         task_energy = 0.5 * np.einsum("bi,bi->b", tip_velocity, _solve(task_inverse_inertia, tip_velocity))
         return kinetic, np.maximum(kinetic - task_energy, 0.0)
+    if null_space_basis is not None and null_space_basis.shape[2] > 1:
+        return _energies_by_elimination(inertia, velocity, null_space_basis)
+    return self_motion_energy_by_solve(inertia, velocity, null_space_basis)
+
+
+def self_motion_energy_by_solve(inertia: np.ndarray, velocity: np.ndarray, null_space_basis=None):
+    r""":func:`self_motion_energy` from a basis Z (or None) as the formulas read: :math:`H\dot q`, T,
+    :math:`w = Z^\top H\dot q`, :math:`Z^\top HZ` and its solve per row by LAPACK; the reference of the
+    elimination :func:`self_motion_energy` uses for bases of two or more columns."""
     momentum = np.einsum("bij,bj->bi", inertia, velocity)  # H q̇
     kinetic = 0.5 * np.einsum("bi,bi->b", velocity, momentum)
     if null_space_basis is None:
@@ -128,6 +151,29 @@ def self_motion_energy(inertia: np.ndarray, velocity: np.ndarray, *, jacobian=No
     else:
         energy = 0.5 * np.einsum("bi,bi->b", projected, _solve(reduced, projected))
     return kinetic, np.clip(energy, 0.0, kinetic)
+
+
+def _energies_by_elimination(inertia: np.ndarray, velocity: np.ndarray, basis: np.ndarray):
+    """(T, E_N) per row from M = [Z q̇]ᵀ H [Z q̇] by r pivots of symmetric elimination (see
+    :func:`self_motion_energy`); rows with a pivot that is not positive (Zᵀ H Z not positive definite to working
+    accuracy) by :func:`self_motion_energy_by_solve`."""
+    count, n, r = basis.shape
+    stacked = np.empty((count, n, r + 1))
+    stacked[:, :, :r] = basis
+    stacked[:, :, r] = velocity
+    # [[ZᵀHZ, w], [wᵀ, q̇ᵀHq̇]] laid out batch-last, (r + 1, r + 1, B), for the updates on the batch axis
+    gram = np.ascontiguousarray((np.swapaxes(stacked, 1, 2) @ (inertia @ stacked)).transpose(1, 2, 0))
+    kinetic = 0.5 * gram[r, r]  # T = ½ q̇ᵀHq̇
+    gram[r, r] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero pivot's row is redone below
+        for k in range(r):  # after pivot k, the trailing block is its Schur complement
+            gram[k + 1 :, k + 1 :] -= gram[k + 1 :, k, None] * (gram[k, k + 1 :] / gram[k, k])
+        energy = np.clip(-0.5 * gram[r, r], 0.0, kinetic)  # the corner is −wᵀ(ZᵀHZ)⁻¹w = −2 E_N
+    pivots = np.diagonal(gram[:r, :r]).min(axis=1)
+    if not (pivots > 0.0).all():
+        rows = ~(pivots > 0.0)
+        kinetic[rows], energy[rows] = self_motion_energy_by_solve(inertia[rows], velocity[rows], basis[rows])
+    return kinetic, energy
 
 
 def _solve(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
