@@ -193,7 +193,7 @@ class HouseholderStack:
     __slots__ = ("reflectors", "upper")
 
     def __init__(self, matrix: np.ndarray):
-        work = np.ascontiguousarray(np.moveaxis(matrix, 0, -1), dtype=float)  # (r, c, B), a copy reduced in place
+        work = np.ascontiguousarray(matrix.transpose(1, 2, 0), dtype=float)  # (r, c, B), a copy reduced in place
         columns = work.shape[1]
         self.reflectors = []
         for k in range(columns):
@@ -210,8 +210,9 @@ class HouseholderStack:
                 rest = work[k:, k + 1 :]
                 rest -= (2.0 * v)[:, None] * (v[:, None] * rest).sum(axis=0)
             work[k, k] = alpha
+            work[k + 1 :, k] = 0.0  # what the reflection left below the diagonal: R is the top c rows
             self.reflectors.append(v)
-        self.upper = np.triu(work[:columns].transpose(2, 0, 1)).transpose(1, 2, 0)
+        self.upper = work[:columns]
 
     def apply_transpose(self, vector: np.ndarray) -> np.ndarray:
         r""":math:`Q^\top b` for (r, B) ``vector`` (a new array)."""
