@@ -34,7 +34,7 @@ run of null-space on the first of those lines, round by round.
 ``--count`` instead counts instructions with valgrind's callgrind (figures
 that do not move with the host's load): one process per case and length,
 the difference between a 150-step and a 50-step run divided by the
-trajectory-steps between them, for the batch (256 movements, null-space,
+trajectory-steps between them, for the batch (256 movements or ``--movements N``, null-space,
 with the energy extras) and for one ``simulate`` run (null-space), on
 planar3 or (``--robot panda``) panda's position task, each with the part
 spent inside Pinocchio's library.
@@ -193,11 +193,13 @@ def count_instructions(
     cases=("batch", "simulate"),
     resolver: str = "null-space",
     options: dict | None = None,
+    movements: int = 256,
 ) -> dict:
     """Instructions per trajectory-step of the batch (256 movements) and of one simulate run, by callgrind.
 
     ``steps`` are the (long, short) run lengths whose difference is counted; ``cases`` which of the two to count;
-    ``resolver`` the resolver of both, ``options`` its options as on ``torqueopt run``'s command line (text values).
+    ``resolver`` the resolver of both, ``options`` its options as on ``torqueopt run``'s command line (text values);
+    ``movements`` the batch's size (a smaller batch shows the fixed cost of each call).
 
     Each figure is (total, Pinocchio's own): the second sums the instructions
     spent inside Pinocchio's library (its functions' self cost, by
@@ -234,10 +236,10 @@ def count_instructions(
         return int(re.search(r"Collected : (\d+)", done.stderr).group(1)), pinocchio
 
     long, short = steps
-    runs = [(mode, length, 256 if mode == "batch" else 1) for mode in cases for length in (long, short)]
+    runs = [(mode, length, movements if mode == "batch" else 1) for mode in cases for length in (long, short)]
     with ThreadPoolExecutor(max_workers=2) as pool:
         totals = list(pool.map(lambda case: total(*case), runs))
-    names = {"batch": "batch of 256", "simulate": "simulate"}
+    names = {"batch": f"batch of {movements}", "simulate": "simulate"}
     return {
         names[mode]: [(a - b) / ((long - short) * count) for a, b in zip(totals[2 * i], totals[2 * i + 1])]
         for i, (mode, _, count) in enumerate(runs[::2])
@@ -262,6 +264,7 @@ def main(argv=None):
     parser.add_argument(
         "--cases", choices=["batch", "simulate", "both"], default="both", help="what --count counts (default both)"
     )
+    parser.add_argument("--movements", type=int, default=256, help="the batch's size in --count (default 256)")
     args = parser.parse_args(argv)
     if args.count:
         cases = ("batch", "simulate") if args.cases == "both" else (args.cases,)
@@ -271,7 +274,9 @@ def main(argv=None):
             if not equals or not name.strip():
                 parser.error(f"--option {text!r} must be NAME=VALUE")
             options[name.strip()] = value.strip()
-        counts = count_instructions(args.robot, tuple(args.steps), cases, args.resolver, options)
+        if args.movements < 1:
+            parser.error(f"--movements {args.movements} must be at least 1")
+        counts = count_instructions(args.robot, tuple(args.steps), cases, args.resolver, options, args.movements)
         print(
             f"instructions per trajectory-step ({args.robot}, {args.resolver}{''.join(f' {o}' for o in args.option)}, the batch with the energy extras, "
             f"{args.steps[0]} against {args.steps[1]} steps):"
