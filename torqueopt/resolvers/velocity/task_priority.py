@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...linalg import two_row_pseudoinverse
+from ...linalg import cross_along, two_row_pseudoinverse
 from ...robot import Robot
 from ...robot_copies import RobotForest, point_kinematics
 from ...tasks import (
@@ -547,13 +547,13 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
         """(q̇, σmin/σmax, failures, what :meth:`acceleration` reuses); a singular row gets a finite, unused answer.
         ``kinematics``: the forest's at ``configuration``, with every joint's kinematics."""
         rows = self.rows
-        task = np.ascontiguousarray(np.moveaxis(jacobian, 0, 2))  # J, (2, 3, B)
+        task = np.ascontiguousarray(jacobian.transpose(1, 2, 0))  # J, (2, 3, B)
         gram = np.einsum("ijb,kjb->ikb", task, task)  # JJᵀ, (2, 2, B)
-        conditions, failures, determinant = self.conditions(np.moveaxis(gram, 2, 0))
+        conditions, failures, determinant = self.conditions(gram.transpose(2, 0, 1))
         gram_inverse = _inverse_pairs(gram, failures, determinant)
         multipliers = np.einsum("ijb,bj->ib", gram_inverse, command)  # w = (JJᵀ)⁻¹c
         first_rates = np.einsum("ijb,ib->jb", task, multipliers)  # q̇_1 = Jᵀw = J⁺c, Eq. (3)
-        null = _cross_first(task[0], task[1])  # J's rows' cross product spans its null space
+        null = cross_along(task[0], task[1], 0)  # J's rows' cross product spans its null space
         length = np.sqrt(np.einsum("ib,ib->b", null, null))
         null /= np.where(length > 0.0, length, 1.0)  # z (a singular row's is unused)
         joints = kinematics.joints
@@ -562,7 +562,7 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
         vectors = np.stack((first_rates, null), axis=1)  # (q̇_1, z), (3, 2, B)
         spatial = np.einsum("rjb,jkb->rkb", world, vectors)  # J_O(q̇_1, z)
         # J_l(q̇_1, z): linear rows J_O,v X + (J_O,ω X) × p, all rows
-        products = spatial[:3] + _cross_first(spatial[3:], point[:, None])
+        products = spatial[:3] + cross_along(spatial[3:], point[:, None], 0)
         lower_first, lower_null = products[rows, 0], products[rows, 1]  # J_l q̇_1, b = J_l z
         if self.target is None:
             shortfall = -lower_first
@@ -584,7 +584,7 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
         joint's kinematics and their rates."""
         task, gram_inverse, multipliers, vectors, point, angular, products, shortfall, share, inverse_square = state
         null, rows = vectors[:, 1], self.rows  # z
-        moved = np.einsum("ijb,jkb->ikb", np.moveaxis(jacobian_rate, 0, 2), vectors)  # J̇(q̇_1, z)
+        moved = np.einsum("ijb,jkb->ikb", jacobian_rate.transpose(1, 2, 0), vectors)  # J̇(q̇_1, z)
         # J⁺(ċ − J̇q̇_1) and J⁺J̇z in one product, J⁺ = Jᵀ(JJᵀ)⁻¹ (Eq. (3))
         moved[:, 0] = command_rate.T - moved[:, 0]
         solved = np.einsum("ijb,ikb->jkb", task, np.einsum("ijb,jkb->ikb", gram_inverse, moved))
@@ -594,11 +594,11 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
         point_velocity = products[:, 0] + share * products[:, 1]  # ṗ = J_l q̇ (linear rows)
         world = _component_first(kinematics.joints.jacobian, self.columns)
         spatial = np.einsum("rjb,jkb->rkb", world, np.stack((null_rate, first_accelerations), axis=1))
-        along = spatial[:3] + _cross_first(spatial[3:], point[:, None])  # J_l(ż, q̈_1)
+        along = spatial[:3] + cross_along(spatial[3:], point[:, None], 0)  # J_l(ż, q̈_1)
         spatial_rate = np.einsum("rjb,jkb->rkb", _component_first(kinematics.joints.rate, self.columns), vectors)
         # J̇_l(q̇_1, z) = J̇_O,v Y + (J̇_O,ω Y) × p + (J_O,ω Y) × ṗ
-        rate = spatial_rate[:3] + _cross_first(spatial_rate[3:], point[:, None])
-        rate += _cross_first(angular, point_velocity[:, None])
+        rate = spatial_rate[:3] + cross_along(spatial_rate[3:], point[:, None], 0)
+        rate += cross_along(angular, point_velocity[:, None], 0)
         lower = products[rows, 1]  # b = J_l z
         lower_rate = rate[rows, 1] + along[rows, 0]  # ḃ = J̇_l z + J_l ż
         # ė = ẍ_l − J̇_l q̇_1 − J_l q̈_1, ẍ_l = −k J_l q̇ (zero without a target)
@@ -615,17 +615,8 @@ class StackedPriorityBelowFrameInPlane(StackedPriorityBelowFrame):
 
 def _component_first(stack: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """A (B, r, c) stack as a contiguous (r, c, B) array, its columns times ``columns`` (c,) (ones: as it is)."""
-    moved = np.moveaxis(stack, 0, 2)
+    moved = stack.transpose(1, 2, 0)
     return np.ascontiguousarray(moved) if columns.all() else moved * columns[:, None]
-
-
-def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b along axis 0 of (3, ...) arrays (broadcast): a₁b₂ − a₂b₁ and its cyclic shifts, in four takes."""
-    following, preceding = _CYCLE
-    return a.take(following, 0) * b.take(preceding, 0) - a.take(preceding, 0) * b.take(following, 0)
-
-
-_CYCLE = (np.array([1, 2, 0]), np.array([2, 0, 1]))
 
 
 def _inverse_pairs(gram: np.ndarray, failures: dict, determinant: np.ndarray) -> np.ndarray:
