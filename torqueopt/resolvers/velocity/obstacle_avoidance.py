@@ -613,21 +613,19 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         along = np.einsum("ijb,ijb->jb", to_center, axis, out=block[12, :-1])
         # s_i = (c − a_i)·u_i/‖u_i‖² clipped to [0, 1], 0 on a segment of no length (whose u_i = 0 gives 0/5e-324)
         fraction = along / np.maximum(length_squared, _SMALLEST)
-        np.clip(fraction, 0.0, 1.0, out=fraction)
+        np.minimum(np.maximum(fraction, 0.0, out=fraction), 1.0, out=fraction)  # np.clip's Python costs more
         points = start  # x_o = a + s u, written over a
         points += fraction * axis
         np.subtract(points, self.center[:, None, None], out=offsets)
         distances = np.sqrt(np.einsum("ijb,ijb->jb", offsets, offsets))
         # the first of equals, as the single-state loop's strict comparison
         rows, zeros, columns = self._per_count(count)
-        # the closest segment's place in a (segments + 1, B) array, raveled: segment·B + row
-        picks = np.zeros(count, dtype=int)
-        distance = distances[0]
-        for index in range(1, segments):
-            closer = distances[index] < distance
-            picks[closer] = index * count
-            distance = np.minimum(distance, distances[index])
+        # the closest segment's place in a (segments + 1, B) array, raveled: segment·B + row (argmin's first of
+        # equals is the strict comparison's)
+        picks = distances.argmin(axis=0)
+        picks *= count
         picks += rows
+        distance = distances.ravel().take(picks)  # the rows of distances are those of the block's first segments
         picked = np.take(block[:6].reshape(6, -1), picks, axis=1)
         normal = picked[3:6] / np.maximum(distance, _SMALLEST)
         if not distance.all():
@@ -644,7 +642,7 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         influence, critical = self.influence, self.critical
         s = influence - clearance
         s /= influence - critical
-        np.clip(s, 0.0, 1.0, out=s)
+        np.minimum(np.maximum(s, 0.0, out=s), 1.0, out=s)
         squared = s * s
         gain = 3.0 - 2.0 * s
         gain *= squared
