@@ -10,8 +10,9 @@ import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
-from ...linalg import InverseCondition, cross_along, determinants, singular_message
+from ...linalg import InverseCondition, determinants, singular_message
 from ...robot import Robot
+from ...robot_copies import stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
@@ -630,9 +631,6 @@ class ExtendedJacobian(VelocityResolver):
         return StackedExtendedJacobian(robot, self.singular_tolerance, self.algorithmic_tolerance, *criterion)
 
 
-#: The signs of J's rows reversed, (J_1, −J_0), whose cross products with l are the cofactors (C_0, C_1) for m = 2.
-_ROW_SIGNS = np.array([1.0, -1.0])[:, None]
-
 #: The last entry of Eq. (15)'s right-hand side, [ẋ; 0].
 _ZERO = np.zeros(1)
 
@@ -651,7 +649,10 @@ def stacked_row_cofactors(jacobian: np.ndarray, last: np.ndarray) -> np.ndarray:
     and :math:`M^{-1} = \operatorname{adj}M/\det M`."""
     m, n = jacobian.shape[1:]
     if m == 2:  # C_0 = J_1 × l, C_1 = l × J_0
-        return cross_along(jacobian[:, ::-1] * _ROW_SIGNS, last[:, None], 2)  # l × J_0 = (−J_0) × l
+        cofactors = np.empty_like(jacobian)
+        cofactors[:, 0] = stacked_cross(jacobian[:, 1], last)
+        cofactors[:, 1] = stacked_cross(last, jacobian[:, 0])
+        return cofactors
     others = jacobian[:, _minor_columns(m)]  # (B, m, m − 1, n): J without row a
     matrices = np.concatenate((others, np.broadcast_to(last[:, None, None, :], (last.shape[0], m, 1, n))), axis=2)
     return _alternating_signs(m)[:, None] * null_vector(matrices)
@@ -663,7 +664,7 @@ def adjugate_times(jacobian: np.ndarray, last: np.ndarray, weights: np.ndarray) 
     :math:`(w_0 J_1 - w_1 J_0)\times l`."""
     if jacobian.shape[1] == 2:
         combined = weights[:, 0, None] * jacobian[:, 1] - weights[:, 1, None] * jacobian[:, 0]
-        return cross_along(combined, last, 1)
+        return stacked_cross(combined, last)
     return np.einsum("ba,bak->bk", weights, stacked_row_cofactors(jacobian, last))
 
 
@@ -754,14 +755,11 @@ class StackedExtendedJacobian(VelocityStack):
         frame = kinematics.frame_jacobian
         linear, angular = frame[:, :3], frame[:, 3:]
         gradient = self._gradient(configuration)
-        normal = _null_vectors(jacobian)  # n_J
+        normal = null_vector(jacobian)  # n_J
         cofactors, before, after = self._cofactor_sums(jacobian, gradient, linear, angular)
         # ∂G/∂q_k = J_k·Σ_{j≤k} K_j × ω_j + ω_k·Σ_{j>k} J_j × K_j + w_k n_k, the last row of J_ex in Eq. (15)
         g_row = np.einsum("bik,bik->bk", linear, before) + np.einsum("bik,bik->bk", angular, after)
-        if self.every_joint:
-            g_row += self.curvature * normal
-        else:
-            g_row[:, self.v_index] += self.curvature * normal[:, self.v_index]
+        g_row[:, self.v_index] += self.curvature * normal[:, self.v_index]
         product = np.einsum("bk,bk->b", g_row, normal)
         scale = np.sqrt(np.einsum("bk,bk->b", g_row, g_row) * np.einsum("bk,bk->b", normal, normal))
         alignment = np.where(scale > 0.0, np.abs(product) / np.where(scale > 0.0, scale, 1.0), 0.0)
@@ -806,8 +804,8 @@ class StackedExtendedJacobian(VelocityStack):
         # K_a = ∂G/∂J_a: the cofactors of [J; ∇pᵀ]'s rows, G = (−1)^m det [J; ∇pᵀ] (Eq. (14)), as 3-vectors
         cofactors = np.zeros_like(linear)
         cofactors[:, self.rows] = self.sign * stacked_row_cofactors(jacobian, gradient)
-        before = _sums_up_to(cross_along(cofactors, angular, 1))
-        after = _sums_after(cross_along(linear, cofactors, 1))
+        before = _sums_up_to(stacked_cross(cofactors, angular))
+        after = _sums_after(stacked_cross(linear, cofactors))
         return cofactors, before, after
 
     def _curvature(
@@ -818,8 +816,8 @@ class StackedExtendedJacobian(VelocityStack):
         # Σ_j K_j·J_j'' with J_j'' = Ω'_{<j} × J_j + Ω_{<j} × J'_j + ω'_j × P_{≥j} + ω_j × P'_{≥j}, each term a triple
         # product summed over the joints before or after: Σ_k q̇_k (ω'_k·Σ_{j>k} J_j × K_j + ω_k·Σ_{j>k} J'_j × K_j
         # + J_k·Σ_{j≤k} K_j × ω'_j + J'_k·Σ_{j≤k} K_j × ω_j), the rates' sums reused
-        rate_after = _sums_after(cross_along(linear_rate, cofactors, 1))
-        rate_before = _sums_up_to(cross_along(cofactors, angular_rate, 1))
+        rate_after = _sums_after(stacked_cross(linear_rate, cofactors))
+        rate_before = _sums_up_to(stacked_cross(cofactors, angular_rate))
         per_joint = (
             np.einsum("bik,bik->bk", angular_rate, after)
             + np.einsum("bik,bik->bk", angular, rate_after)
@@ -828,13 +826,10 @@ class StackedExtendedJacobian(VelocityStack):
         )
         curvature = np.einsum("bk,bk->b", per_joint, velocity)
         # n_J with one row of J replaced by its rate (their sum n_J'), and with two (the pairs a < b)
-        replaced = _null_vectors(np.stack((jacobian, jacobian_rate), axis=1)[:, self.choices, self.row_numbers])
+        replaced = null_vector(np.stack((jacobian, jacobian_rate), axis=1)[:, self.choices, self.row_numbers])
         m = self.m
-        if self.every_joint:
-            gradient_rate = self.curvature * velocity  # g' = ∇²p q̇
-        else:
-            gradient_rate = np.zeros_like(velocity)
-            gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]
+        gradient_rate = np.zeros_like(velocity)
+        gradient_rate[:, self.v_index] = self.curvature * velocity[:, self.v_index]  # g' = ∇²p q̇
         curvature += 2.0 * np.einsum("bk,bk->b", gradient_rate, replaced[:, :m].sum(axis=1))  # 2 g'·n_J'
         curvature += 2.0 * np.einsum("bk,bk->b", gradient, replaced[:, m:].sum(axis=1))
         return curvature
@@ -846,14 +841,6 @@ class StackedExtendedJacobian(VelocityStack):
         gradient = np.zeros(configuration.shape)
         gradient[:, self.v_index] = self.curvature * (configuration[:, self.q_index] - self.centre)
         return gradient
-
-
-def _null_vectors(jacobian: np.ndarray) -> np.ndarray:
-    """:func:`null_vector` of each (m, m+1) matrix of a stack, for m = 2 by ``cross_along`` (the same products in
-    a quarter of the numpy calls)."""
-    if jacobian.shape[-2] != 2:
-        return null_vector(jacobian)
-    return cross_along(jacobian[..., 0, :], jacobian[..., 1, :], jacobian.ndim - 2)
 
 
 def _sums_up_to(columns: np.ndarray) -> np.ndarray:
