@@ -87,21 +87,26 @@ def least_energy(inertia, jacobian, velocity):
     return 0.5 * least @ inertia @ least
 
 
-@pytest.mark.parametrize("arm", ["planar3", "panda"])
-def test_the_self_motion_energy_by_the_jacobian_and_by_a_null_space_basis_is_a_direct_minimisation(arm, request, rng):
-    robot = request.getfixturevalue(arm)
+def random_inertias_and_jacobians(robot, count, rng):
+    """H (symmetric, by Pinocchio's CRBA) and the task's J at ``count`` random configurations of ``robot``."""
     pin.seed(int(rng.integers(2**31)))
     data = robot.model.createData()
-    count = 6
     inertia, jacobian = np.empty((count, robot.nv, robot.nv)), np.empty((count, robot.m, robot.nv))
-    velocity = rng.normal(size=(count, robot.nv))
     for row in range(count):
         q = pin.randomConfiguration(robot.model)
         upper = pin.crba(robot.model, data, q)
         inertia[row] = np.triu(upper) + np.triu(upper, 1).T
-        jacobian[row] = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, pin.LOCAL_WORLD_ALIGNED)[
-            robot.task_rows
-        ]
+        frame_jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, pin.LOCAL_WORLD_ALIGNED)
+        jacobian[row] = frame_jacobian[robot.task_rows]
+    return inertia, jacobian
+
+
+@pytest.mark.parametrize("arm", ["planar3", "panda"])
+def test_the_self_motion_energy_by_the_jacobian_and_by_a_null_space_basis_is_a_direct_minimisation(arm, request, rng):
+    robot = request.getfixturevalue(arm)
+    count = 6
+    inertia, jacobian = random_inertias_and_jacobians(robot, count, rng)
+    velocity = rng.normal(size=(count, robot.nv))
     basis = np.linalg.svd(jacobian)[2][:, robot.m :, :].transpose(0, 2, 1)  # orthonormal null space of each J
     kinetic, by_jacobian = self_motion_energy(inertia, velocity, jacobian=jacobian)
     kinetic_z, by_basis = self_motion_energy(inertia, velocity, null_space_basis=basis)
@@ -176,16 +181,7 @@ def test_the_self_motion_energy_by_elimination_is_the_solves(arm, request, rng):
     count = 300
     if arm == "panda":
         robot = request.getfixturevalue("panda")
-        pin.seed(int(rng.integers(2**31)))
-        data = robot.model.createData()
-        inertia, jacobian = np.empty((count, robot.nv, robot.nv)), np.empty((count, robot.m, robot.nv))
-        for row in range(count):
-            q = pin.randomConfiguration(robot.model)
-            upper = pin.crba(robot.model, data, q)
-            inertia[row] = np.triu(upper) + np.triu(upper, 1).T
-            jacobian[row] = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id, pin.LOCAL_WORLD_ALIGNED)[
-                robot.task_rows
-            ]
+        inertia, jacobian = random_inertias_and_jacobians(robot, count, rng)
         bases = [complete_qr(jacobian, np.zeros((count, robot.m)), True)[1]]
         velocity = rng.normal(size=(count, robot.nv)) * rng.uniform(0.01, 3.0, (count, 1))
     else:
