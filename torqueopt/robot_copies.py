@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import InvalidInput
+from .linalg import cross_along
 from .robot import Robot
 from .tasks.task import identity, rotations_view, translations_view
 
@@ -424,17 +425,6 @@ def _cross_matrices(vectors: np.ndarray) -> np.ndarray:
     return matrices
 
 
-def _cross_first(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """a × b along axis 0 of (3, ...) stacks (broadcast), component by component, into ``out`` (a new array when
-    None): with the batch axis last, each product runs over the whole batch at once."""
-    if out is None:
-        out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    np.subtract(a[1] * b[2], a[2] * b[1], out=out[0])
-    np.subtract(a[2] * b[0], a[0] * b[2], out=out[1])
-    np.subtract(a[0] * b[1], a[1] * b[0], out=out[2])
-    return out
-
-
 def _at_point_batch_last(world: np.ndarray, point: np.ndarray, v: np.ndarray):
     r"""A point's Jacobian (6, n, S) and classical drift :math:`\dot J\dot q` (6, S) in LOCAL_WORLD_ALIGNED, linear
     rows first, batch-last, from the world-frame quantities of the body that carries it.
@@ -449,10 +439,10 @@ def _at_point_batch_last(world: np.ndarray, point: np.ndarray, v: np.ndarray):
     """
     velocities = np.einsum("rjb,jb->rb", world, np.ascontiguousarray(v.T))  # (v_O, ω, v̇_O, ω̇), (12, S)
     jacobian = world[:6]
-    jacobian[:3] += _cross_first(jacobian[3:], point[:, None])
+    jacobian[:3] += cross_along(jacobian[3:], point[:, None], 0)
     angular_velocity, angular_acceleration = velocities[3:6], velocities[9:]
-    point_velocity = velocities[:3] + _cross_first(angular_velocity, point)
+    point_velocity = velocities[:3] + cross_along(angular_velocity, point, 0)
     drift = velocities[6:]
-    drift[:3] += _cross_first(angular_acceleration, point)
-    drift[:3] += _cross_first(angular_velocity, point_velocity)
+    drift[:3] += cross_along(angular_acceleration, point, 0)
+    drift[:3] += cross_along(angular_velocity, point_velocity, 0)
     return jacobian, drift

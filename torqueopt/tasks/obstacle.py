@@ -141,7 +141,7 @@ class ObstacleTask(Task):
         kept views, 23,300 with the distance inside a segment by Pythagoras and the point of the nearest only).
         """
         distance, segment, joint, (px, py, pz), _, _, _ = self.closest_values(kinematics)
-        cx, cy, cz = self.center.tolist()
+        cx, cy, cz = self._center
         ox, oy, oz = px - cx, py - cy, pz - cz
         normal = np.array((ox / distance, oy / distance, oz / distance) if distance > 0 else (1.0, 0.0, 0.0))
         return ClosestPoint(np.array((px, py, pz)), normal, distance - self.radius, joint, segment)

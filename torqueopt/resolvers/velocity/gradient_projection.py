@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ...errors import SingularJacobian
-from ...linalg import determinants, singular_message
+from ...linalg import cross_along, determinants, singular_message
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
@@ -523,16 +523,14 @@ def hessian_traces(linear: np.ndarray, angular: np.ndarray, weights: np.ndarray,
 
 
 def _cross(a: np.ndarray, b: np.ndarray, planar: bool = False) -> np.ndarray:
-    """a × b of (3, ...) stacks, component by component (``stacked_cross`` with the components first), a new
-    array; ``planar``: b's third component is zero."""
+    """a × b of (3, ...) stacks, a new array: ``linalg.cross_along`` on axis 0, or with ``planar`` (b's third
+    component is zero) the products that remain, component by component."""
+    if not planar:
+        return cross_along(a, b, 0)
     out = np.empty(a.shape)
-    if planar:
-        np.multiply(a[2], b[1], out=out[0])
-        np.negative(out[0], out=out[0])
-        np.multiply(a[2], b[0], out=out[1])
-    else:
-        np.subtract(a[1] * b[2], a[2] * b[1], out=out[0])
-        np.subtract(a[2] * b[0], a[0] * b[2], out=out[1])
+    np.multiply(a[2], b[1], out=out[0])
+    np.negative(out[0], out=out[0])
+    np.multiply(a[2], b[0], out=out[1])
     np.subtract(a[0] * b[1], a[1] * b[0], out=out[2])
     return out
 
