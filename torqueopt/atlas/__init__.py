@@ -91,6 +91,7 @@ from .sweep import (
     resolvers_from,
     run_chunks,
     scheduler_address,
+    start_fork_server,
 )
 from .verdicts import DEFAULT_ENERGY_FACTOR, DEFAULT_PINV_FACTOR, VERDICTS, Thresholds
 
@@ -236,6 +237,12 @@ def run_atlas(
         OutputError: a file of the atlas cannot be written.
         MissingDependency: pandas, pyarrow, dask[distributed] or tqdm missing.
     """
+    scheduler = scheduler_address(scheduler)
+    workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
+    if scheduler is None and workers != 0:
+        # The local cluster's fork server imports torqueopt and distributed while this process imports pandas and
+        # distributed and draws the population: started with the cluster, its imports came after all of those.
+        start_fork_server()
     pandas = require("pandas")
     require("pyarrow")
     spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
@@ -248,7 +255,6 @@ def run_atlas(
     keep_traces = whole_number(keep_traces, "keep_traces", minimum=0)
     if figures:
         require("plotly", "atlas")
-    scheduler = scheduler_address(scheduler)
     resolver_objects = resolvers_from(resolvers)
     chunk_size = whole_number(chunk_size, "chunk_size", minimum=1)
     global_optimum, margin = bool(global_optimum), bool(margin)
@@ -257,7 +263,6 @@ def run_atlas(
     margin_every = positive_number(margin_every, "margin_every", "s")
     if margin and margin_every < dt:
         raise InvalidInput(f"margin_every={margin_every:g} s is shorter than the step dt={dt:g} s; give at least dt")
-    workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
     dt = positive_number(dt, "dt", "s")
     for duration in population.durations:
         step_count(duration, dt)  # a dt that does not divide a duration would simulate another movement

@@ -57,7 +57,16 @@ from .margins import margin_columns
 from .population import Movement, movement_trajectory
 from .verdicts import Thresholds, run_row, self_motion_energy
 
-__all__ = ["CHUNK_FOLDER", "RobotSpec", "chunk_path", "executor", "read_chunks", "run_chunk", "run_chunks"]
+__all__ = [
+    "CHUNK_FOLDER",
+    "RobotSpec",
+    "chunk_path",
+    "executor",
+    "read_chunks",
+    "run_chunk",
+    "run_chunks",
+    "start_fork_server",
+]
 
 CHUNK_FOLDER = "chunks"
 BASELINE = "pinv"
@@ -414,7 +423,10 @@ def _client(distributed, scheduler, workers):
     # short would leave processes behind), then closes the cluster and ends.
     dask = require("dask")
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
-        _fork_server_with_workers_deaf_to_interrupts()
+        from distributed.utils import get_mp_context
+
+        get_mp_context()  # Dask's forkserver context, with Dask's preload, which start_fork_server replaces
+        start_fork_server()
         with interrupt_deferred() as interrupted:
             # Everything on the loopback interface: the embedded cluster serves no one else.
             cluster = distributed.LocalCluster(
@@ -436,13 +448,27 @@ def _client(distributed, scheduler, workers):
     return client, cluster
 
 
-def _fork_server_with_workers_deaf_to_interrupts() -> None:
-    """Dask's forkserver context, its server to preload torqueopt.atlas._fork_server (and distributed, as Dask
-    does), when it has not started yet."""
-    from distributed.utils import get_mp_context
+def start_fork_server() -> None:
+    """Start multiprocessing's fork server, which forks a LocalCluster's workers, unless it runs already.
 
-    context = get_mp_context()
-    context.set_forkserver_preload(["distributed", "torqueopt.atlas._fork_server"])
+    It preloads torqueopt.atlas._fork_server (torqueopt) and distributed, as Dask does: a second or two of
+    imports, in its own process. Started before this process imports pandas and distributed (:func:`run_atlas`),
+    the two import side by side, and the cluster forks its workers at once instead of waiting for them.
+
+    SIGINT is blocked while the server is spawned, as Python's resource tracker is: the server is born deaf to
+    a Ctrl-C (which would print the traceback of the import it cut short) and unblocks SIGINT once it ignores it
+    (torqueopt.atlas._fork_server). This process's own Ctrl-C waits in the mask until the spawn is done.
+    """
+    import multiprocessing
+    from multiprocessing import forkserver, resource_tracker
+
+    multiprocessing.get_context("forkserver").set_forkserver_preload(["distributed", "torqueopt.atlas._fork_server"])
+    resource_tracker.ensure_running()  # first: starting it unblocks SIGINT, which the server's start would do inside
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextlib.contextmanager
