@@ -92,6 +92,32 @@ def test_scipy_stats_imported_meanwhile_is_the_one_the_intervals_use():
     assert done.stdout.split() == ["True", "0.2775328"]
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("chunks", [1, 2, 5])
+def test_the_report_imports_start_once_a_worker_has_no_chunk_left(tmp_path, monkeypatch, chunks):
+    """Started with the sweep, scipy.stats's import took 1.3-1.6 s of CPU from two workers on two cores; now it
+    starts once fewer chunks are left than worker threads: with 2 threads and 5 chunks, after the fourth has
+    come back (3 written), with 1 chunk at once."""
+    import distributed
+
+    from torqueopt.atlas import sweep
+
+    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job["movements"][0]}])
+    jobs = {index: {"movements": [index], "digest": "0" * 16} for index in range(chunks)}
+    written_when_called = []
+
+    def note():
+        written_when_called.append(len(list((tmp_path / "chunks").glob("chunk-*.parquet"))))
+
+    with distributed.Client(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as client:
+        frames = sweep.run_chunks(
+            jobs, tmp_path, client, progress=False, total_paths=chunks, done_paths=0, description="",
+            once_a_worker_idles=note,
+        )  # fmt: skip
+    assert sorted(frames) == list(range(chunks))
+    assert written_when_called == [max(chunks - 2, 0)]
+
+
 def test_the_reach_is_sampled_once_per_robot_and_handed_out_as_a_copy(panda):
     base, reach = arm_reach(panda, samples=64)
     base[:] = 99.0

@@ -354,8 +354,6 @@ def run_atlas(
         )
     # The scheduler is reached (or the cluster started) before the first file is written.
     with executor(scheduler, workers, progress) if jobs else contextlib.nullcontext() as client:
-        if client is not None:  # this process waits on the workers: it loads what the report needs meanwhile
-            import_scipy_stats_meanwhile()
         if not resume:
             _claim_folder(out, config)
         remove_partial_chunks(out)
@@ -370,6 +368,8 @@ def run_atlas(
                     done_paths=done_paths,
                     description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers"
                     + (" and the global optimum of each (a path counted twice)" if global_optimum else ""),
+                    # This process loads what the report needs on the core the sweep's last chunks leave idle.
+                    once_a_worker_idles=import_scipy_stats_meanwhile,
                 )
             )
 

@@ -38,7 +38,7 @@ import os
 import re
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -362,11 +362,23 @@ def executor(scheduler: str | None, workers: int | None, progress: bool = False)
                 cluster.close()
 
 
-def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_paths, done_paths, description) -> dict:
+def run_chunks(
+    jobs: dict[int, dict],
+    out: Path,
+    client,
+    *,
+    progress,
+    total_paths,
+    done_paths,
+    description,
+    once_a_worker_idles: Callable[[], None] | None = None,
+) -> dict:
     """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows.
 
     With ``progress``, a bar of paths done on stderr (``torqueopt.progress.progress_bar``: on a terminal;
-    one line ``description ...`` otherwise).
+    one line ``description ...`` otherwise). ``once_a_worker_idles`` is called once, as soon as fewer chunks are
+    left than the cluster has worker threads: what it starts (the report's imports) then takes a core that the
+    sweep leaves idle, not one a worker computes on.
     """
     bar = progress_bar(description, total=total_paths, unit="path", enabled=progress, initial=done_paths)
     frames = {}
@@ -380,7 +392,18 @@ def run_chunks(jobs: dict[int, dict], out: Path, client, *, progress, total_path
         futures = {}
         for index, job in jobs.items():
             futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job['digest']}-{index}")] = index
+        threads, left = sum(client.nthreads().values()), len(futures)
+
+        def when_a_worker_idles():
+            nonlocal once_a_worker_idles
+            if once_a_worker_idles is not None and left < threads:
+                once_a_worker_idles()
+                once_a_worker_idles = None
+
+        when_a_worker_idles()
         for future in distributed.as_completed(list(futures)):
+            left -= 1
+            when_a_worker_idles()
             index = futures[future]
             frames[index] = write_chunk(out, index, future.result(), jobs[index]["digest"])
             bar.update(len(jobs[index]["movements"]))
