@@ -239,12 +239,6 @@ def run_atlas(
     """
     scheduler = scheduler_address(scheduler)
     workers = None if workers is None else whole_number(workers, "workers", 0, 1024)
-    if scheduler is None and workers != 0:
-        # The local cluster's fork server imports torqueopt and distributed while this process imports pandas and
-        # distributed and draws the population: started with the cluster, its imports came after all of those.
-        start_fork_server()
-    pandas = require("pandas")
-    require("pyarrow")
     spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
     population = PopulationSpec(
         mode=mode, paths=paths, durations=tuple(np.atleast_1d(np.asarray(durations, dtype=float)).tolist()), seed=seed,
@@ -270,6 +264,13 @@ def run_atlas(
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the atlas to '{out}': it is a file; give a folder")
     writable_paths(out / name for name in (_CONFIG, *_RESULT_FILES))
+    if scheduler is None and workers != 0:
+        # The local cluster's fork server imports torqueopt and distributed while this process imports pandas and
+        # distributed and draws the population: started with the cluster, its imports came after all of those.
+        # Started once the settings are known good, so that a refused call leaves no server behind.
+        start_fork_server()
+    pandas = require("pandas")
+    require("pyarrow")
 
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
