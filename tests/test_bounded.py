@@ -614,3 +614,13 @@ def test_a_torque_row_the_null_space_barely_moves_is_not_ignored(planar3):
         found = get_resolver(name).solver(planar3, 1e-3)(terms, command)
         assert found.infeasible and "torque limit (lower) of joint joint3" in found.limiting
         assert torque_utilisation(found.torque, planar3.torque_lower, planar3.torque_upper) <= 0.5 + BOUND_SLACK
+
+
+def test_the_command_line_starts_without_scipy_linalg():
+    """scipy.linalg (0.3-0.6 s to import) loads on the bounded QP's first vertex step, not with the package."""
+    import subprocess
+    import sys
+
+    code = "import sys, torqueopt.cli; print('scipy.linalg' in sys.modules)"
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert completed.stdout.strip() == "False"

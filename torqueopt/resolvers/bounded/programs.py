@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import eigenpy
 import numpy as np
-from scipy.linalg.lapack import dgesv as _lapack_solve
 
 from ...errors import MissingDependency, SolverFailure
 
@@ -21,6 +20,18 @@ __all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE"]
 FEASIBILITY_TOLERANCE = 1e-9
 #: How far inside each torque range [fraction of τ⁺ − τ⁻] the bounds given to DAQP lie.
 BOUND_MARGIN = 10 * FEASIBILITY_TOLERANCE
+
+
+def _lapack_solve(matrix, right_side):
+    """LAPACK's gesv (numpy's solve costs 5x on 2 × 2), imported on the first call: scipy.linalg's import takes
+    0.3-0.6 s, which every start of the command line would otherwise pay."""
+    global _lapack_solve
+    from scipy.linalg.lapack import dgesv
+
+    _lapack_solve = dgesv
+    return dgesv(matrix, right_side)
+
+
 _THIN_UV = eigenpy.DecompositionOptions.ComputeThinU | eigenpy.DecompositionOptions.ComputeThinV
 _EXIT_OPTIMAL = 1
 _EXIT_INFEASIBLE = -1
@@ -162,7 +173,7 @@ class _Program:
         rows = self._rows if not self._bounds else np.vstack([np.eye(self._bounds, x.size), self._rows])
         upper, lower = self._upper, self._lower
         side = np.where(multipliers[active] > 0, upper[active], lower[active])
-        _, _, vertex, singular = _lapack_solve(rows[active], side)  # LAPACK's gesv: numpy's solve costs 5x on 2 × 2
+        _, _, vertex, singular = _lapack_solve(rows[active], side)
         if singular:
             return x
         values = rows.dot(vertex)
