@@ -291,7 +291,7 @@ def test_the_row_from_the_frame_is_the_kinematic_hessians(planar3, panda3, rng):
     centre, weights = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
     stack = StackedExtendedJacobian(planar3, 1e-3, 0.0, [0, 1, 2], [0, 1, 2], centre, weights)
     lanes = type("Lanes", (), {"frame_jacobian": frame[None]})
-    expected_row = stack.rates(frame[None, :2], np.zeros((1, 2)), q[None], lanes)[3][7][0]
+    expected_row = stack.rates(frame[None, :2], np.zeros((1, 2)), q[None], lanes)[3][8][:, 0]
     row, _ = cross_product_frame_row(frame.tolist(), (weights * (q - centre)).tolist(), weights.tolist())
     np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * np.abs(expected_row).max())
 
