@@ -202,17 +202,19 @@ def test_the_two_terms_providers_give_the_same_terms(planar3, panda):
         assert isinstance(terms_provider(robot, 1), PinocchioTerms)
 
 
-@pytest.mark.parametrize("name", ["planar3", "panda"])
+@pytest.mark.parametrize("name", ["planar3", "panda", "baxter"])
 def test_the_forest_kinematics_and_inverse_dynamics_are_pinocchios_per_state(name):
     """J, J̇ along v and the tip of 13 states (three passes of 5 copies) against the frame calls on one data,
-    and RNEA of the stack against pin.rnea state by state."""
-    robot = torqueopt.load_robot(name, task=None if name == "planar3" else "position")
+    and RNEA of the stack against pin.rnea state by state; J̇v against the frame's classical acceleration at zero
+    q̈, and J̇ the same when the tip is handed in."""
+    robot = torqueopt.load_robot(name, task="position" if name == "panda" else None)
     rng = np.random.default_rng(3)
     q = np.array([robot.configuration(rng.uniform(-1, 1, robot.nv)) for _ in range(13)])
     v, acceleration = rng.normal(size=(13, robot.nv)), rng.normal(size=(13, robot.nv))
     forest = RobotForest(robot, copies=5)
     jacobian, rate, tip, *_ = forest.kinematics(q, v)
     alone, none, *_ = forest.kinematics(q)
+    assert np.array_equal(forest.kinematics(q, v, tip).rate, rate)
     torque = forest.inverse_dynamics(q, v, acceleration)
     assert none is None
     data = robot.model.createData()
@@ -226,6 +228,9 @@ def test_the_forest_kinematics_and_inverse_dynamics_are_pinocchios_per_state(nam
             rate[row], pin.getFrameJacobianTimeVariation(robot.model, data, frame, _LWA), atol=1e-12
         )
         np.testing.assert_allclose(tip[row], data.oMf[frame].translation, atol=1e-12)
+        pin.forwardKinematics(robot.model, data, q[row], v[row], np.zeros(robot.nv))
+        drift = pin.getFrameClassicalAcceleration(robot.model, data, frame, _LWA).vector
+        assert _relative(rate[row] @ v[row], drift) < 1e-13
         np.testing.assert_allclose(
             torque[row], pin.rnea(robot.model, data, q[row], v[row], acceleration[row]), atol=1e-10
         )

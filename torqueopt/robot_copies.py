@@ -117,8 +117,8 @@ class _Pass:
     """One Pinocchio data of a forest and views of what a pass reads from it (Eigen never reallocates them)."""
 
     __slots__ = (
-        "bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian", "jacobian_columns", "jacobian_rate",
-        "jacobian_rate_columns", "origins", "rotations", "tip_columns", "tips",
+        "bias", "coriolis", "data", "inertia", "inverse_inertia", "jacobian_columns", "jacobian_rate_columns",
+        "origins", "rotations", "tip_columns",
     )  # fmt: skip
 
     def __init__(self, forest: pin.Model, copies: int, n: int):
@@ -132,13 +132,10 @@ class _Pass:
             for matrix in (data.M, data.Minv, data.C)
         )
         self.bias = data.nle.reshape(n, copies, order="F").T
-        self.jacobian = data.J.reshape(6, n, copies, order="F").transpose(2, 0, 1)
-        self.jacobian_rate = data.dJ.reshape(6, n, copies, order="F").transpose(2, 0, 1)
-        # the same, batch-last: J and J̇ as (6, n, copies), exactly the layout of Pinocchio's column-major 6 × copies·n
+        # J and J̇ batch-last, (6, n, copies): exactly the layout of Pinocchio's column-major 6 × copies·n
         self.jacobian_columns = data.J.reshape(6, n, copies, order="F")
         self.jacobian_rate_columns = data.dJ.reshape(6, n, copies, order="F")
-        self.tips = translations_view(data.oMf, 1, copies)  # every copy's task frame position [m], (copies, 3)
-        self.tip_columns = self.tips.T
+        self.tip_columns = translations_view(data.oMf, 1, copies).T  # every copy's task frame position [m], (3, copies)
         # every copy's joints' placements, (copies, joints, ...): copy c's joint j is the forest's 1 + c·joints + j − 1
         joints = (forest.njoints - 1) // copies
         self.origins = translations_view(data.oMi, 1, copies * joints).reshape(copies, joints, 3)
@@ -262,16 +259,20 @@ class RobotForest:
             if tip is None:
                 pin.updateFramePlacements(model, forest_pass.data)
         used = self._passes(count)
-        world = _gathered(used, "jacobian", count)
-        if tip is None:
-            tip = _gathered(used, "tips", count)
-        rate = None if v is None else _gathered(used, "jacobian_rate", count)
-        every_joint = self._joints(used, count, world, rate) if joints else None
+        # J_O, and with v J̇_O below it, of every row batch-last, (6 or 12, n, rows), as the passes computed them
+        world = np.empty((6 if v is None else 12, self.n, len(used) * self.copies))
+        np.concatenate([forest_pass.jacobian_columns for forest_pass in used], axis=2, out=world[:6])
+        if v is not None:
+            np.concatenate([forest_pass.jacobian_rate_columns for forest_pass in used], axis=2, out=world[6:])
+        world = world[:, :, :count]
+        every_joint = self._joints(used, count, world) if joints else None
         if self._mask is not None:
-            world *= self._mask
-            if rate is not None:
-                rate *= self._mask
-        jacobian, rate = _shifted(world, rate, tip, v)
+            world *= self._mask[:, None]
+        if tip is None:
+            tip = np.concatenate([forest_pass.tip_columns for forest_pass in used], axis=1)[:, :count].T
+        jacobian, rate = _shifted_batch_last(world, tip.T, v)
+        jacobian = jacobian.transpose(2, 0, 1)
+        rate = None if rate is None else rate.transpose(2, 0, 1)
         if v is None:
             inverse = _gathered(used, "inverse_inertia", count) if inverse_inertia else None
             mass = _gathered(used, "inertia", count) if inertia else None
@@ -283,8 +284,9 @@ class RobotForest:
         rate_times = np.einsum("bij,bj->bi", coriolis, v) + np.einsum("bji,bj->bi", coriolis, v)
         return TaskKinematics(jacobian, rate, tip, inertia_rate_velocity=rate_times, joints=every_joint)
 
-    def _joints(self, used: list[_Pass], count: int, world: np.ndarray, rate: np.ndarray | None) -> JointKinematics:
-        """Every joint's kinematics of the ``used`` passes' rows, copies of what the pass computed."""
+    def _joints(self, used: list[_Pass], count: int, world: np.ndarray) -> JointKinematics:
+        """Every joint's kinematics of the ``used`` passes' rows, copies of what the pass computed; ``world`` the
+        rows' J_O (and J̇_O below it) batch-last, (6 or 12, n, count), read before the task's columns are masked."""
         joints = (self.model.njoints - 1) // self.copies + 1  # the robot's own, the universe counted
         rows = len(used) * self.copies  # the passes' rows, the last pass's unused trees too: read straight into place
         origins = np.zeros((rows, joints, 3))
@@ -292,9 +294,10 @@ class RobotForest:
         rotations = np.empty((rows, joints, 3, 3))
         rotations[:, 0] = identity(3)
         np.concatenate([forest_pass.rotations for forest_pass in used], out=rotations[:, 1:])
-        return JointKinematics(
-            world.copy(), None if rate is None else rate.copy(), origins[:count], rotations[:count]
-        )  # fmt: skip
+        # (S, 6, n) views of one batch-last copy: a stack that works batch-last reads it back without a copy
+        own = world.copy().transpose(2, 0, 1)
+        rate = own[:, 6:] if own.shape[1] == 12 else None
+        return JointKinematics(own[:, :6], rate, origins[:count], rotations[:count])
 
     def support_columns(self, joint: int) -> np.ndarray:
         """(n,) ones at the velocity indices of the joints that move the robot's joint ``joint`` (its support, the
@@ -423,6 +426,22 @@ def _cross_matrices(vectors: np.ndarray) -> np.ndarray:
     matrices[:, 0, 1], matrices[:, 0, 2], matrices[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
     matrices[:, 1, 0], matrices[:, 2, 0], matrices[:, 2, 1] = vectors[:, 2], -vectors[:, 1], vectors[:, 0]
     return matrices
+
+
+def _shifted_batch_last(world: np.ndarray, point: np.ndarray, v: np.ndarray | None):
+    r""":func:`_shifted` batch-last: a point's Jacobian (6, n, S) and, with v, its rate (6, n, S) from ``world``
+    (6 or 12, n, S), :math:`J_O` above :math:`\dot J_O` (overwritten, the caller's own); ``point`` (3, S) [m].
+    The same products in the same order as :func:`_shifted` (bit for bit), with the rows in numpy's inner loops."""
+    jacobian = world[:6]
+    angular = jacobian[3:]
+    jacobian[:3] += cross_along(angular, point[:, None], 0)  # J = J_v + J_ω × p
+    if v is None:
+        return jacobian, None
+    rate = world[6:]
+    point_velocity = np.einsum("rjb,jb->rb", jacobian[:3], np.ascontiguousarray(v.T))  # ṗ = J_lin v, (3, S)
+    # J̇ = J̇_v + J̇_ω × p + J_ω × ṗ
+    rate[:3] += cross_along(rate[3:], point[:, None], 0) + cross_along(angular, point_velocity[:, None], 0)
+    return jacobian, rate
 
 
 def _at_point_batch_last(world: np.ndarray, point: np.ndarray, v: np.ndarray):
