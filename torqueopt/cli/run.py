@@ -10,7 +10,7 @@ import numpy as np
 
 from ..dexterity import summarise_along
 from ..errors import InvalidInput
-from ..io import writable_paths, written_together
+from ..io import json_file_with, refuse_foreign, writable_paths, written_together
 from ..resolvers import Resolver
 from ..result import SimResult
 from ..result_files import run_files
@@ -33,6 +33,9 @@ from .play import add_playback_options, check_frames, play_live, playback_option
 from .resolvers import add_resolver_arguments, resolver_from_args
 
 __all__ = ["add_parser", "format_summary"]
+
+#: Keys every run sidecar has: a .csv.json with them is one torqueopt wrote, and may be replaced.
+SIDECAR_KEYS = ("robot", "frame", "task", "resolver", "joint_names", "dt")
 
 
 def add_parser(subparsers) -> None:
@@ -109,6 +112,9 @@ def run_command(args: argparse.Namespace) -> int:
     q0 = start_from_args(args, robot)
     # Every file the run will write, checked before it starts, and no two of them one file.
     writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
+    if args.out and len(run_files(args.out)) == 2:
+        sidecar = run_files(args.out)[1]
+        refuse_foreign([sidecar], json_file_with(sidecar, SIDECAR_KEYS), "a run's sidecar", "give --out another name")
     result = simulate(
         robot,
         resolver,
