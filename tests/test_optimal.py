@@ -564,3 +564,11 @@ def test_the_docs_give_panda_s_joint_limited_optimum_as_the_run_does():
     assert found, "the sentence is gone from the page"
     assert result.status == "converged"
     assert found.groups() == (str(result.iterations), f"{result.cost:.1f}", f"{result.warm_start_cost:.1f}")
+
+
+def test_a_grid_step_longer_than_the_movement_leaves_two_intervals():
+    from torqueopt.optimal.whole_path import transcription_intervals
+
+    # --grid-step 1e308 gave 0 intervals and a ZeroDivisionError traceback.
+    assert [transcription_intervals(0.5, step) for step in (0.25, 0.3, 1.0, 1e308)] == [2, 2, 2, 2]
+    assert transcription_intervals(2.0, 0.005) == 400 and transcription_intervals(0.5, 0.2) == 4

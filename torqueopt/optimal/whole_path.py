@@ -82,7 +82,7 @@ def transcription_intervals(duration: float, grid_step: float) -> int:
         raise InvalidInput(
             f"grid_step={grid_step!r} s is too small: the duration {duration:g} s has no finite count of its intervals"
         )
-    return 2 * math.ceil(ratio - 1e-9)
+    return 2 * max(1, math.ceil(ratio - 1e-9))  # a step longer than T/2 still leaves two intervals
 
 
 def _check_size(robot: Robot, duration, grid_step, intervals: int, torque_bounds: bool, max_nonzeros: int) -> None:
