@@ -221,3 +221,33 @@ def test_the_comparison_sees_a_number_urdfdom_drops():
         dropped = pin.buildModelFromXML(text)
     assert dropped.inertias[1].mass == 0.0
     assert not np.array_equal(_model_numbers(dropped), _model_numbers(pin.buildModelFromXML(_canonical(text))))
+
+
+def _chain(joints):
+    inertial = (
+        '<inertial><mass value="0.1"/><inertia ixx="1e-3" ixy="0" ixz="0" iyy="1e-3" iyz="0" izz="1e-3"/></inertial>'
+    )
+    parts = [f'<robot name="chain"><link name="l0">{inertial}</link>']
+    for i in range(1, joints + 1):
+        parts.append(
+            f'<link name="l{i}">{inertial}</link><joint name="j{i}" type="revolute"><parent link="l{i - 1}"/>'
+            f'<child link="l{i}"/><origin xyz="0.1 0 0"/><axis xyz="0 0 1"/>'
+            '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint>'
+        )
+    return "".join(parts) + "</robot>"
+
+
+def test_a_chain_too_long_for_pinocchio_s_data_is_refused_before_it_is_made(tmp_path):
+    # Pinocchio's Data grows as 64·nv³ bytes (68 MB measured at nv = 100): a 1000-joint chain asked for 64 GB.
+    import resource
+
+    from torqueopt.loading import MAX_DOFS
+
+    path = tmp_path / "chain.urdf"
+    path.write_text(_chain(MAX_DOFS + 1))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(UrdfError, match=rf"has {MAX_DOFS + 1} degrees of freedom, more than the {MAX_DOFS} torqueopt"):
+        torqueopt.load_robot(str(path), frame=f"l{MAX_DOFS + 1}", task="xy")
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # kB: no Data of it was made
+    path.write_text(_chain(12))
+    assert torqueopt.load_robot(str(path), frame="l12", task="xy").nv == 12
