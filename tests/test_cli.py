@@ -474,3 +474,21 @@ def test_no_python_warning_leaks_into_the_output(arguments, warnings_folder):
                              check=False)  # fmt: skip
     assert process.returncode == 0, process.stderr
     assert "Warning" not in process.stderr and "Exception ignored" not in process.stderr, process.stderr
+
+
+def test_run_says_up_front_when_the_path_leaves_the_arm_s_reach(tmp_path, capsys):
+    from torqueopt.cli.run import path_beyond_reach
+
+    planar3 = torqueopt.load_robot("planar3")
+    q0 = np.radians([-45.0, 135.0, -135.0])  # planar3 reaches 3 m (three 1 m links) from its base at the origin
+    start = planar3.frame_placement(q0).translation[:2]
+    # The paper's 2 s line is 1.41 m long along (1, 1)/√2: it ends inside; 3 s (3.18 m) ends beyond 3 m.
+    assert path_beyond_reach(planar3, torqueopt.StraightLine((1.0, 1.0), duration=2.0), q0) == ""
+    note = path_beyond_reach(planar3, torqueopt.StraightLine((1.0, 1.0), duration=3.0), q0)
+    end = np.linalg.norm(start + np.sqrt(2) * 9 / 4 * np.array([1, 1]) / np.sqrt(2))
+    assert note.startswith(f"the path passes {end:.3g} m from the arm's base at t = 3 s, beyond the 3 m its task")
+    panda = torqueopt.load_robot("panda")
+    line = torqueopt.StraightLine((0.0, 1.0, 0.0), duration=2.0)  # run's default: 1.41 m on an arm of 0.86 m
+    assert "beyond the 0.857 m" in path_beyond_reach(panda, line, panda.default_configuration)
+    code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.1"])
+    assert code == 0 and "note: the path" not in capsys.readouterr().err
