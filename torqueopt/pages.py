@@ -14,7 +14,8 @@ Three kinds of marker, each on one line:
     the page writes and whose rows are one per element of the list ``ROWS``,
     one cell per ``EXPR`` evaluated on that element.
 
-``EXPR`` is a key, optionally followed by ``|FORMAT``. A key is a dotted path:
+``EXPR`` is a key, optionally followed by `` as FORMAT`` (no ``|``: a page's
+tables would split there). A key is a dotted path:
 ``runs.0.peak_torque`` indexes lists by position, ``runs[movement=short,
 resolver=pinv]`` picks the one element of a list whose fields have those
 values, and a key starting with ``/`` in a table's cell is read from the
@@ -51,10 +52,12 @@ _TABLE = re.compile(r"^<!-- table ([\w-]+):([^\n]+?) -->\n((?:.*\n)*?)<!-- /tabl
 _FILTER = re.compile(r"^([\w-]+)\[(.*)\]$")
 
 
-def lookup(data, key: str):
-    """The value at the dotted ``key`` of ``data`` (module docstring)."""
+def lookup(data, key: str, rows: bool = False):
+    """The value at the dotted ``key`` of ``data`` (module docstring); with ``rows``, a last ``field[...]`` gives
+    every element that matches, not one."""
     value = data
-    for part in re.split(r"\.(?![^\[]*\])", key):
+    parts = re.split(r"\.(?![^\[]*\])", key)
+    for index, part in enumerate(parts):
         match = _FILTER.match(part)
         if match:
             field, wanted = match.groups()
@@ -64,6 +67,8 @@ def lookup(data, key: str):
                 for row in value[field]
                 if all(str(row.get(name)) == text.strip() for name, text in conditions.items())
             ]
+            if rows and index == len(parts) - 1:
+                return found
             if len(found) != 1:
                 raise InvalidInput(f"'{part}' picks {len(found)} rows of '{field}', not one")
             value = found[0]
@@ -77,9 +82,9 @@ def lookup(data, key: str):
 
 
 def evaluate(source, expression: str, row=None) -> str:
-    """``expression`` (``KEY[ / KEY][|FORMAT]``) evaluated on ``source``, or on ``row`` for a key not starting
+    """``expression`` (``KEY[ / KEY][ as FORMAT]``) evaluated on ``source``, or on ``row`` for a key not starting
     with ``/``, as the text the page shows."""
-    expression, _, spec = expression.partition("|")
+    expression, _, spec = expression.partition(" as ")
     parts = re.split(r" ([/-]) ", expression.strip())
 
     def read(key):
@@ -110,6 +115,9 @@ def _formatted(value, spec: str) -> str:
 
 def render_page(text: str, folder: Path) -> str:
     """``text`` (a page in ``folder``) with every marked number and table written from its sources."""
+    first = re.search(r"^[ \t]*<!-- [\w-]+:[^\n]*?<!-- / -->", text, re.M)
+    if first:  # a line that opens with a comment would be read as a block of raw HTML, not as prose
+        raise InvalidInput(f"a marked number starts a line: '{first[0].strip()[:60]}'; move a word before it")
     sources = {name: json.loads((folder / path).read_text()) for name, path in _SOURCE.findall(text)}
 
     def source(name):
@@ -123,7 +131,7 @@ def render_page(text: str, folder: Path) -> str:
         header = body.splitlines()[:2]
         rows = [
             "| " + " | ".join(evaluate(source(name), column, row) for column in columns) + " |"
-            for row in lookup(source(name), rows_key)
+            for row in lookup(source(name), rows_key, rows=True)
         ]
         return "\n".join([f"<!-- table {name}:{spec} -->", *header, *rows, "<!-- /table -->"])
 
