@@ -39,7 +39,7 @@ __all__ = ["FORMATS", "evaluate", "render_page", "stale_pages"]
 
 #: Formats by name, beside Python's format specifications.
 FORMATS = {
-    "pct": lambda x: f"{round(100 * x) + 0:.0f} %",  # a share as a whole percentage (no "-0 %")
+    "pct": lambda x: f"{round(100 * x)} %",  # a share as a whole percentage
     "pct1": lambda x: f"{100 * x:.1f} %",
     "mm": lambda x: f"{1e3 * x:.3g}",  # metres as millimetres
     "holds": lambda x: "holds" if x else "does not hold",
