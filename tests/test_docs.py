@@ -138,7 +138,7 @@ def test_a_marked_number_is_the_key_it_names_in_the_format_it_names(expression, 
     assert evaluate(SOURCE, expression) == shown
 
 
-def test_a_page_is_written_from_its_source_and_its_mistakes_named(tmp_path):
+def test_a_page_is_written_from_its_source_and_its_mistakes_named(tmp_path, capsys):
     import json
 
     from torqueopt.errors import InvalidInput
@@ -169,5 +169,14 @@ def test_a_page_is_written_from_its_source_and_its_mistakes_named(tmp_path):
         render_page("<!-- numbers d: data.json -->\nx <!-- d:runs.0.peaks -->1<!-- / -->", tmp_path)
     with pytest.raises(InvalidInput, match=r"the page names no source 'e' \(<!-- numbers e: PATH -->\)"):
         render_page("<!-- numbers d: data.json -->\nx <!-- e:share -->1<!-- / -->", tmp_path)
+    with pytest.raises(InvalidInput, match=r"'5' in 'runs.5.peak' is no index of a list of 3"):
+        render_page("<!-- numbers d: data.json -->\nx <!-- d:runs.5.peak -->1<!-- / -->", tmp_path)
+    with pytest.raises(InvalidInput, match="format 'percent' is neither a Python format specification for -0.004 "):
+        render_page("<!-- numbers d: data.json -->\nx <!-- d:share as percent -->1<!-- / -->", tmp_path)
     with pytest.raises(InvalidInput, match="a marked number starts a line: '<!-- d:share -->1<!-- / -->'"):
         render_page("<!-- numbers d: data.json -->\n<!-- d:share -->1<!-- / --> x", tmp_path)
+    page.write_text("<!-- numbers d: data.json -->\nx <!-- d:nothing -->1<!-- / -->\n")
+    assert main([str(page)]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt.pages: {page}: no key 'nothing' in 'nothing'; the keys there are runs, share, error\n"
+    )

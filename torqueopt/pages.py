@@ -20,9 +20,10 @@ tables would split there). A key is a dotted path:
 resolver=pinv]`` picks the one element of a list whose fields have those
 values, and a key starting with ``/`` in a table's cell is read from the
 source's root, with ``{field}`` replaced by the row's field. Two keys joined
-by `` / `` or `` - `` give their quotient or difference. ``FORMAT`` is a Python
-format specification, or one of :data:`FORMATS`; a list is formatted element
-by element, joined by ", ", and a null reads "-".
+by `` / `` or `` - `` give their quotient or difference (left to right; a
+number may stand for a key). ``FORMAT`` is a Python format specification, one
+of :data:`FORMATS`, or ``count`` (a list's length); a list is formatted
+element by element, joined by ", ", and a null reads "-".
 """
 
 from __future__ import annotations
@@ -43,7 +44,6 @@ FORMATS = {
     "pct1": lambda x: f"{100 * x:.1f} %",
     "mm": lambda x: f"{1e3 * x:.3g}",  # metres as millimetres
     "holds": lambda x: "holds" if x else "does not hold",
-    "count": len,
 }
 
 _SOURCE = re.compile(r"<!-- numbers ([\w-]+): (\S+) -->")
@@ -73,6 +73,8 @@ def lookup(data, key: str, rows: bool = False):
                 raise InvalidInput(f"'{part}' picks {len(found)} rows of '{field}', not one")
             value = found[0]
         elif isinstance(value, list):
+            if not part.isdigit() or int(part) >= len(value):
+                raise InvalidInput(f"'{part}' in '{key}' is no index of a list of {len(value)}")
             value = value[int(part)]
         else:
             if part not in value:
@@ -110,7 +112,13 @@ def _formatted(value, spec: str) -> str:
         return "-"
     if spec in FORMATS:
         return FORMATS[spec](value)
-    return format(value, spec) if spec else str(value)
+    try:
+        return format(value, spec) if spec else str(value)
+    except ValueError:
+        raise InvalidInput(
+            f"format '{spec}' is neither a Python format specification for {value!r} nor one of "
+            f"{', '.join(FORMATS)}, count"
+        ) from None
 
 
 def render_page(text: str, folder: Path) -> str:
@@ -148,7 +156,11 @@ def main(argv=None) -> int:
     """``python -m torqueopt.pages PAGE ...``: write every page's marked numbers from its sources."""
     for path in map(Path, sys.argv[1:] if argv is None else argv):
         text = path.read_text()
-        rendered = render_page(text, path.parent)
+        try:
+            rendered = render_page(text, path.parent)
+        except InvalidInput as error:
+            print(f"torqueopt.pages: {path}: {error}", file=sys.stderr)
+            return 2
         if rendered != text:
             path.write_text(rendered)
             print(f"wrote {path}")
