@@ -150,6 +150,21 @@ class Resolver(ABC):
         """
         return resolver_label(self.name, self.declared_options(), self.settings)
 
+    @property
+    def spec(self) -> str:
+        """The text that makes this resolver again in any process, for ``get_resolver(spec)`` (the atlas's workers).
+
+        Its :attr:`label` when the registry holds its class under its name; else the class's import path with the
+        same brackets, ``mypkg.module:MyResolver[gain=2]`` (a class defined inside a function has none: it is
+        made only in the process that defined it).
+        """
+        from .registry import RESOLVERS
+
+        if RESOLVERS.get(self.name) is type(self):
+            return self.label
+        cls = type(self)
+        return cls.__module__ + ":" + cls.__qualname__ + self.label[len(self.name) :]
+
     def changed_settings(self) -> dict:
         """The options whose values differ from their defaults (those :attr:`label` names), as JSON-ready values."""
         from .options import label_value

@@ -67,6 +67,7 @@ from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .null_space import torque_midpoint
 from .options import LARGEST_WEIGHT, Option, choice_or_vector, number
+from .registry import register_resolver
 from .stacks import least_squares
 
 __all__ = [
@@ -119,6 +120,7 @@ def torque_weight_root(torque_weight, robot: Robot, resolver: str) -> np.ndarray
     return np.sqrt(torque_weight)
 
 
+@register_resolver
 class SelfMotionDamping(NullSpaceResolver):
     r"""Null-space velocity damping: q̈ = J⁺(ẍ − J̇q̇) − K_D Z Zᵀ q̇ (De Luca, Oriolo & Siciliano 1992).
 
@@ -152,6 +154,7 @@ class SelfMotionDamping(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class DampedNullSpaceTorque(NullSpaceResolver):
     r"""Torque optimisation blended with self-motion damping: min ‖S(τ − τ_mid)‖² + μ̄²‖y + K_D Zᵀq̇‖².
 

@@ -38,10 +38,12 @@ import numpy as np
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
+from .registry import register_resolver
 
 __all__ = ["InverseInertiaTorque", "InverseInertiaSquaredTorque"]
 
 
+@register_resolver
 class InverseInertiaTorque(NullSpaceResolver):
     r"""Minimum τᵀH⁻¹τ (Gauss's principle of least constraint): ZᵀHZ y = −Zᵀτ̃.
 
@@ -77,6 +79,7 @@ class InverseInertiaTorque(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class InverseInertiaSquaredTorque(NullSpaceResolver):
     r"""Minimum τᵀH⁻²τ = ‖q̈ + H⁻¹b‖²: y = −Zᵀ H⁻¹ τ̃.
 

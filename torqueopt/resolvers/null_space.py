@@ -11,6 +11,7 @@ from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, vector_or_matrix
+from .registry import register_resolver
 from .stacks import least_squares
 
 __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
@@ -24,6 +25,7 @@ def torque_midpoint(robot: Robot) -> np.ndarray:
     return 0.5 * (upper + lower)
 
 
+@register_resolver
 class NullSpaceTorque(NullSpaceResolver):
     r"""Unweighted null-space torque optimisation, Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36).
 
@@ -71,6 +73,7 @@ class NullSpaceTorque(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class WeightedNullSpaceTorque(NullSpaceResolver):
     r"""Null-space torque optimisation weighted by torque range, Eq. (32), Eq. (33), Eq. (37).
 

@@ -7,10 +7,12 @@ import numpy as np
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
+from .registry import register_resolver
 
 __all__ = ["PseudoInverse", "InertiaWeightedPseudoInverse"]
 
 
+@register_resolver
 class PseudoInverse(NullSpaceResolver):
     r"""Unweighted pseudoinverse, Eq. (34).
 
@@ -33,6 +35,7 @@ class PseudoInverse(NullSpaceResolver):
         return None
 
 
+@register_resolver
 class InertiaWeightedPseudoInverse(NullSpaceResolver):
     r"""Inertia-weighted pseudoinverse, Eq. (16), Eq. (19), Eq. (35).
 
