@@ -56,6 +56,12 @@ class InverseInertiaTorque(NullSpaceResolver):
 
     name = "inverse-inertia-torque"
 
+    def objective_function(self, robot: Robot):
+        def gauss(terms: TaskTerms, torque):
+            return float(torque @ np.linalg.solve(terms.inertia, torque))  # τᵀH⁻¹τ
+
+        return gauss
+
     def stack_null_space_function(self, robot: Robot):
         def coordinates(terms, null_space_basis, particular):
             # y = −(ZᵀHZ)⁻¹ Zᵀτ̃, τ̃ = H J⁺r + b (Eq. (28)); ZᵀHZ is positive definite
@@ -90,6 +96,13 @@ class InverseInertiaSquaredTorque(NullSpaceResolver):
     """
 
     name = "inverse-inertia-squared-torque"
+
+    def objective_function(self, robot: Robot):
+        def squared(terms: TaskTerms, torque):
+            scaled = np.linalg.solve(terms.inertia, torque)
+            return float(scaled @ scaled)  # τᵀH⁻²τ
+
+        return squared
 
     def stack_null_space_function(self, robot: Robot):
         def coordinates(terms, null_space_basis, particular):

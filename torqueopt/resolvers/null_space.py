@@ -49,6 +49,14 @@ class NullSpaceTorque(NullSpaceResolver):
     equations = (28, 29, 30, 31, 36)
     needs_redundancy = True
 
+    def objective_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+
+        def torque_distance(terms: TaskTerms, torque):
+            return float(np.sum((torque - midpoint) ** 2))  # Eq. (29)
+
+        return torque_distance
+
     def stack_null_space_function(self, robot: Robot):
         midpoint = torque_midpoint(robot)
 
@@ -102,6 +110,16 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
             default_text="1/(τ⁺−τ⁻)², Eq. (33)",
         ),
     )
+
+    def objective_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+
+        def weighted_torque_distance(terms: TaskTerms, torque):
+            weighted = root * (torque - midpoint) if root.ndim == 1 else root @ (torque - midpoint)
+            return float(weighted @ weighted)  # Eq. (32)
+
+        return weighted_torque_distance
 
     @property
     def needs_torque_limits(self) -> bool:
