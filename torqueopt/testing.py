@@ -210,9 +210,11 @@ def _declaration_failures(resolver: Resolver) -> list[str]:
     try:
         again = get_resolver(resolver.spec)
     except Exception as error:
+        local = "<locals>" in type(resolver).__qualname__
         failures.append(
             f"declaration: its spec '{resolver.spec}' does not make it again ({type(error).__name__}: {error}); "
-            "define the class at module level, importable, so the atlas's workers can make it"
+            + ("define the class at module level, " if local else "")
+            + "the atlas's workers make it from that text"
         )
     else:
         if type(again) is not type(resolver) or again.label != resolver.label:
