@@ -120,7 +120,7 @@ def get_resolver(resolver: str | type | Resolver, **options) -> Resolver:
 
     ``resolver`` may be
 
-    * a registered name, ``"bounded-torque"`` (:data:`RESOLVERS`: the built-in ones, ``@register_resolver``,
+    * a registered name, ``"bounded-torque"`` (``torqueopt.resolvers.RESOLVERS``: the built-in ones, ``@register_resolver``,
       entry points of the group ``torqueopt.resolvers``);
     * an import path, ``"mypkg.module:MyResolver"``: the class is imported, not registered;
     * either with options, ``"bounded-torque[joint_limits=off,damping=2]"`` (text, checked by the resolver's

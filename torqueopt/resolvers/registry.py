@@ -97,7 +97,7 @@ class ResolverRegistry(MutableMapping):
         return cls
 
     def load_entry_points(self) -> None:
-        """Register every entry point of :attr:`group` (once); each that fails is kept as a failure, not raised."""
+        """Register every entry point of the registry's ``group`` (once); one that fails is kept as a failure, not raised."""
         if self._entry_points_loaded:
             return
         self._entry_points_loaded = True
@@ -120,7 +120,7 @@ class ResolverRegistry(MutableMapping):
 
     @property
     def failures(self) -> dict[str, str]:
-        """{name: why its entry point failed to load}, one line each."""
+        """The names whose entry points failed to load, each with one line saying which entry point and why."""
         self.load_entry_points()
         return dict(self._failures)
 
