@@ -277,3 +277,29 @@ def test_an_option_of_a_plug_in_is_checked_by_its_declaration():
     with pytest.raises(InvalidInput) as error:
         torqueopt.get_resolver(BRAKE + "[gain=-1]")
     assert str(error.value) == "option gain=-1 of resolver 'self-motion-brake' must be a finite number >= 0 [1/s]"
+
+
+@pytest.mark.slow
+def test_an_entry_point_runs_in_a_two_worker_atlas(tmp_path):
+    """The plug-in by its entry-point name in an atlas on 2 Dask workers (separate processes, which import it),
+    row by row equal to the built-in law it restates, self-motion-damping at the same rate, in the same atlas."""
+    pandas = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    pytest.importorskip("distributed")
+    site = write_distribution(tmp_path / "site", {"self-motion-brake": BRAKE})
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(site)])}
+    out = tmp_path / "atlas"
+    process = subprocess.run(
+        [sys.executable, "-m", "torqueopt", "atlas", "--robot", "planar3", "--paths", "4", "--durations", "0.5",
+         "--workers", "2", "--chunk-size", "2", "--no-figures", "--no-progress", "--out", str(out),
+         "--resolvers", "pinv,self-motion-damping[damping=3],self-motion-brake[gain=3]"],
+        capture_output=True, text=True, cwd=tmp_path, env=environment, timeout=600,
+    )  # fmt: skip
+    assert process.returncode == 0, process.stderr
+    table = pandas.read_parquet(out / "results.parquet")
+    brake = table[table["resolver"] == "self-motion-brake[gain=3]"].sort_values("path").reset_index(drop=True)
+    damping = table[table["resolver"] == "self-motion-damping[damping=3]"].sort_values("path").reset_index(drop=True)
+    assert len(brake) == len(damping) == 4
+    numbers = [column for column in brake.columns if pandas.api.types.is_float_dtype(brake[column])]
+    assert "peak_torque_ratio" in numbers
+    np.testing.assert_allclose(brake[numbers].to_numpy(), damping[numbers].to_numpy(), rtol=1e-9, atol=1e-12)
