@@ -14,6 +14,7 @@ from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, ResolverNotFound
 from torqueopt.resolvers import RESOLVERS, NullSpaceTorque, register_resolver
 from torqueopt.resolvers.registry import ResolverRegistry
+from torqueopt.resolvers.velocity import VelocityPseudoInverse
 from torqueopt.testing import ContractViolation, check_resolver
 
 from .plugin_pkg.resolvers import SelfMotionBrake
@@ -62,6 +63,22 @@ class StackDisagrees(SelfMotionBrake):
         return lambda terms, basis, particular: -gain * np.einsum("bji,bj->bi", basis, terms.joint_velocity)
 
 
+class OvershootingRates(VelocityPseudoInverse):
+    """velocity-pinv whose rates overshoot the task by 10 % of ‖ẋ‖ (so not affine in ẋ either)."""
+
+    def rate_function(self, robot, task):
+        correct = super().rate_function(robot, task)
+
+        def rates(kinematics, task_velocity):
+            joint_rates, inverse_condition = correct(kinematics, task_velocity)
+            return joint_rates * (1 + 0.1 * np.linalg.norm(task_velocity)), inverse_condition
+
+        return rates
+
+    def step_functions(self, robot, task):
+        return self.rate_function(robot, task), None
+
+
 def test_check_resolver_passes_a_correct_plug_in(planar3, panda):
     for robot in (planar3, panda):
         report = check_resolver(SelfMotionBrake(), robot)
@@ -87,6 +104,16 @@ def test_check_resolver_fails_on_an_ignored_option(planar3):
     assert str(failure.value).splitlines()[1:] == [
         "options: gain=8 changed no torque at 6 states (from 4): the step ignores it"
     ]
+
+
+def test_check_resolver_fails_on_rates_that_miss_the_task(planar3):
+    with pytest.raises(ContractViolation) as failure:
+        check_resolver(OvershootingRates(), planar3)
+    lines = str(failure.value).splitlines()[1:]
+    assert lines[0].startswith("rates: state 0: J q̇ = [") and ", not the commanded ẋ = [" in lines[0]
+    assert any("the rates are not affine in ẋ" in line for line in lines)
+    assert {line.split(":")[0] for line in lines} == {"rates"}
+    check_resolver("velocity-pinv", planar3, options={"self_motion": [0.3, 0.3, 0.3]})
 
 
 def test_check_resolver_fails_where_stacks_differ_from_single_steps(planar3):

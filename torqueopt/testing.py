@@ -33,7 +33,10 @@ the resolver does not compute itself:
     each of its own options, set to another value, changes the torque at some state (an option the
     resolver ignores is a broken promise).
 
-Velocity-level resolvers (``level = "velocity"``) have no torque step: they get the ``declaration`` checks.
+Velocity-level resolvers (``level = "velocity"``) have no torque step: on them the ``task`` check is ``rates``
+(:func:`torqueopt.kinematic.joint_rates` gives q̇ with :math:`J\dot q = \dot x`, affine in :math:`\dot x` as
+the loop's time derivative assumes) and the ``options`` check compares joint rates (``position_gain``, which
+acts only in closed loop, is left out).
 """
 
 from __future__ import annotations
@@ -175,7 +178,17 @@ def check_resolver(
         failures += option_failures
         unchecked += skipped
     else:
-        unchecked.append(f"task, objective, batch, options: '{resolver.name}' is velocity-level (no torque step)")
+        resolver.check(robot)
+        drawn = contract_states(robot, states, seed)
+        checks += ["rates", "options"]
+        rate_failures, rates = _rate_failures(resolver, robot, drawn)
+        failures += rate_failures
+        option_failures, changed, skipped = _option_failures(
+            resolver, robot, drawn, None, rates, {"position_gain": None, **(options or {})}
+        )
+        failures += option_failures
+        unchecked += skipped
+        unchecked.append("objective, batch: not checked on velocity-level resolvers")
     if failures:
         raise ContractViolation(
             f"resolver '{resolver.label}' on robot '{robot.name}' (task {robot.task}) breaks its contract:\n"
@@ -303,6 +316,35 @@ def _differences(cost, size: int, step: float) -> tuple[np.ndarray, np.ndarray]:
     return gradient, hessian
 
 
+def _rate_failures(resolver, robot, drawn) -> tuple[list[str], list]:
+    """A velocity-level resolver's rates at the states: J q̇ = ẋ, and affine in ẋ (what the loop differentiates)."""
+    from .kinematic import joint_rates
+
+    failures, rates = [], []
+    for index, (q, _, task_velocity) in enumerate(drawn):
+        try:
+            rate = joint_rates(robot, resolver, q, task_velocity)
+        except Exception as error:
+            failures.append(f"rates: state {index}: joint_rates raised {type(error).__name__}: {error}")
+            rates.append(None)
+            continue
+        rates.append(rate)
+        jacobian = robot.terms(q, np.zeros(robot.nv)).jacobian
+        if np.abs(jacobian @ rate - task_velocity).max() > 1e-8 * _scale(task_velocity):
+            failures.append(
+                f"rates: state {index}: J q̇ = {_vector(jacobian @ rate)}, not the commanded ẋ = {_vector(task_velocity)}"
+            )
+        other = np.roll(task_velocity, 1) - 0.5
+        mixed = joint_rates(robot, resolver, q, 0.25 * task_velocity + 0.75 * other)
+        expected = 0.25 * rate + 0.75 * joint_rates(robot, resolver, q, other)
+        if np.abs(mixed - expected).max() > 1e-8 * _scale(rate):
+            failures.append(
+                f"rates: state {index}: the rates are not affine in ẋ (f(¼a + ¾b) − ¼f(a) − ¾f(b) = "
+                f"{_vector(mixed - expected)}), which the loop's time derivative assumes"
+            )
+    return failures, rates
+
+
 def _batch_failures(resolver, robot, drawn, terms, resolutions) -> list[str]:
     stack = StackTerms(*(np.stack([getattr(state, field) for state in terms]) for field in StackTerms._fields))
     accelerations = np.stack([task_acceleration for _, _, task_acceleration in drawn])
@@ -361,7 +403,7 @@ def _option_failures(resolver, robot, drawn, terms, resolutions, chosen):
             f"its options: {', '.join(option.name for option in resolver.declared_options())}"
         )
     failures, changed, skipped = [], [], []
-    given = resolver.changed_settings()
+    given = {name: _given_value(resolver, name, value) for name, value in resolver.changed_settings().items()}
     for option in type(resolver).options:
         if option.name in chosen and chosen[option.name] is None:
             skipped.append(f"options: {option.name} left out by the caller")
@@ -373,21 +415,47 @@ def _option_failures(resolver, robot, drawn, terms, resolutions, chosen):
         variant = type(resolver)(**{**given, option.name: value})
         shown = f"{option.name}={format_value(variant.settings[option.name])}"
         variant.check(robot)
-        step = variant.solver(robot)
-        differs = False
-        for (_, _, task_acceleration), state, resolution in zip(drawn, terms, resolutions):
-            if resolution is None:
-                continue
-            torque = np.asarray(resolution.torque)
-            differs = differs or np.abs(step(state, task_acceleration).torque - torque).max() > 1e-9 * _scale(torque)
-        if differs:
+        if differs_somewhere(variant, robot, drawn, terms, resolutions):
             changed.append(shown)
         else:
             failures.append(
-                f"options: {shown} changed no torque at {len(drawn)} states (from {format_value(option.default)}): "
-                "the step ignores it"
+                f"options: {shown} changed no {'torque' if terms is not None else 'rate'} at {len(drawn)} states "
+                f"(from {format_value(option.default)}): the step ignores it"
             )
     return failures, changed, skipped
+
+
+def _given_value(resolver, name: str, file_value):
+    """The value of option ``name`` to make ``resolver`` again: the object it holds when its converter takes it back
+    (a task, a vector), else the value its files write (a criterion's name)."""
+    option = next(option for option in resolver.declared_options() if option.name == name)
+    try:
+        option.convert(resolver.settings[name])
+    except Exception:
+        return file_value
+    return resolver.settings[name]
+
+
+def differs_somewhere(variant, robot, drawn, terms, answers) -> bool:
+    """True when ``variant`` answers otherwise than ``answers`` at one of the states, at least: its torque (the
+    resolutions of a torque step, with the states' ``terms``) or its joint rates (velocity level, ``terms`` None)."""
+    if terms is None:
+        from .kinematic import joint_rates
+
+        ours = [
+            None if answer is None else joint_rates(robot, variant, q, xd) for (q, _, xd), answer in zip(drawn, answers)
+        ]
+        theirs = answers
+    else:
+        step = variant.solver(robot)
+        ours = [
+            None if answer is None else step(state, xdd).torque
+            for (_, _, xdd), state, answer in zip(drawn, terms, answers)
+        ]
+        theirs = [None if answer is None else answer.torque for answer in answers]
+    return any(
+        a is not None and np.abs(np.asarray(a) - np.asarray(b)).max() > 1e-9 * _scale(b) for a, b in zip(ours, theirs)
+    )
 
 
 def _vector(array) -> str:
