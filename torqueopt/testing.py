@@ -34,7 +34,7 @@ the resolver does not compute itself:
     resolver ignores is a broken promise).
 
 Velocity-level resolvers (``level = "velocity"``) have no torque step: on them the ``task`` check is ``rates``
-(:func:`torqueopt.kinematic.joint_rates` gives q̇ with :math:`J\dot q = \dot x`, affine in :math:`\dot x` as
+(``torqueopt.kinematic.joint_rates`` gives q̇ with :math:`J\dot q = \dot x`, affine in :math:`\dot x` as
 the loop's time derivative assumes) and the ``options`` check compares joint rates (``position_gain``, which
 acts only in closed loop, is left out).
 """
@@ -165,12 +165,20 @@ def check_resolver(
                 resolutions.append(None)
         checks.append("task")
         failures += _task_failures(robot, drawn, terms, resolutions)
-        objective = resolver.objective_function(robot)
-        if objective is not None and robot.redundancy > 0:
+        try:
+            objective = resolver.objective_function(robot)
+        except Exception as error:
+            failures.append(f"objective: objective_function raised {type(error).__name__}: {error}")
+            objective = False
+        if objective is False:
+            pass
+        elif objective is not None and robot.redundancy > 0:
             checks.append("objective")
             failures += _objective_failures(resolver, objective, drawn, terms, resolutions)
         elif objective is None:
             unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
+        else:
+            unchecked.append(f"objective: robot '{robot.name}' leaves task '{robot.task}' no null space")
         checks.append("batch")
         failures += _batch_failures(resolver, robot, drawn, terms, resolutions)
         checks.append("options")
@@ -206,7 +214,7 @@ def _declaration_failures(resolver: Resolver) -> list[str]:
         failures.append(f"declaration: options declared twice: {sorted({n for n in names if names.count(n) > 1})}")
     if declared[-1] is not SINGULAR_TOLERANCE_OPTION:
         failures.append("declaration: declared_options() must end with singular_tolerance (Resolver's own)")
-    fresh = cls()
+    given = resolver.changed_settings()
     for option in declared:
         if not (option.kind and option.meaning and isinstance(option.unit, str)):
             failures.append(f"declaration: option {option.name} needs a kind, a meaning and a unit ('' for none)")
@@ -218,8 +226,14 @@ def _declaration_failures(resolver: Resolver) -> list[str]:
                     f"declaration: option {option.name}'s default {format_value(option.default)} is refused by "
                     f"its own converter: {error}"
                 )
-        if getattr(fresh, option.name, object()) is not option.default:
-            failures.append(f"declaration: a new {cls.__name__}() does not set attribute {option.name} to its default")
+        held = resolver.settings.get(option.name, resolver)
+        if getattr(resolver, option.name, resolver) is not held or (
+            option.name not in given and held is not option.default
+        ):
+            failures.append(
+                f"declaration: the constructor does not set attribute {option.name} to its value (its default "
+                "when not given); call Resolver.__init__ with the options"
+            )
     try:
         again = get_resolver(resolver.spec)
     except Exception as error:
@@ -412,10 +426,16 @@ def _option_failures(resolver, robot, drawn, terms, resolutions, chosen):
         if value is None:
             skipped.append(f"options: {option.name} has no default other value; give one in options=")
             continue
-        variant = type(resolver)(**{**given, option.name: value})
-        shown = f"{option.name}={format_value(variant.settings[option.name])}"
-        variant.check(robot)
-        if differs_somewhere(variant, robot, drawn, terms, resolutions):
+        shown = f"{option.name}={format_value(value)}"
+        try:
+            variant = type(resolver)(**{**given, option.name: value})
+            shown = f"{option.name}={format_value(variant.settings[option.name])}"
+            variant.check(robot)
+            differs = differs_somewhere(variant, robot, drawn, terms, resolutions)
+        except Exception as error:  # the user's code: one line, not a traceback
+            failures.append(f"options: {shown} raised {type(error).__name__}: {error}")
+            continue
+        if differs:
             changed.append(shown)
         else:
             failures.append(
