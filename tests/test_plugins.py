@@ -276,7 +276,9 @@ def test_an_entry_point_whose_class_says_another_name_fails_to_load(tmp_path, mo
 
 def test_an_entry_point_runs_from_the_cli_and_is_listed(tmp_path):
     """A fresh process, as a user's: the entry point of an installed distribution, by name, on the command line."""
-    site = write_distribution(tmp_path / "site", {"self-motion-brake": BRAKE})
+    site = write_distribution(
+        tmp_path / "site", {"self-motion-brake": BRAKE, "broken": "tests.plugin_pkg.nothing:Broken"}
+    )
     environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(site)])}
     out = tmp_path / "brake.npz"
 
@@ -290,6 +292,23 @@ def test_an_entry_point_runs_from_the_cli_and_is_listed(tmp_path):
         "\nself-motion-brake: Brakes the self-motion: y = −k Zᵀq̇, the least ‖(I − J⁺J)(q̈ + k q̇)‖².\n" in listed.stdout
     )
     assert "    gain [1/s]: number >= 0, default 4\n" in listed.stdout
+    assert listed.stdout.endswith(
+        "plug-ins that failed to load:\n    broken: entry point 'broken = tests.plugin_pkg.nothing:Broken' of group "
+        "torqueopt.resolvers (distribution torqueopt-brake 0.1) failed to load: ModuleNotFoundError: No module named "
+        "'tests.plugin_pkg.nothing'\n"
+    )
+    broken = torqueopt_cli("run", *PAPER, "--duration", "0.2", "--resolver", "broken")
+    assert broken.returncode == 2 and broken.stderr == (
+        "torqueopt run: error: resolver 'broken': entry point 'broken = tests.plugin_pkg.nothing:Broken' of group "
+        "torqueopt.resolvers (distribution torqueopt-brake 0.1) failed to load: ModuleNotFoundError: No module named "
+        "'tests.plugin_pkg.nothing'\n"
+    )
+    imported = subprocess.run(
+        [sys.executable, "-c", "import sys, torqueopt, torqueopt.atlas; "
+         "print(torqueopt.resolvers.RESOLVERS._entry_points_loaded, 'tests.plugin_pkg.resolvers' in sys.modules)"],
+        capture_output=True, text=True, cwd=tmp_path, env=environment,
+    )  # fmt: skip
+    assert imported.stdout == "False False\n"  # importing torqueopt loads no plug-in
     run = torqueopt_cli(
         "run", *PAPER, "--duration", "0.2", "--resolver", "self-motion-brake[gain=3]", "--out", str(out)
     )
