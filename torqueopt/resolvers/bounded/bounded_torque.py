@@ -7,6 +7,7 @@ import numpy as np
 from ...robot import Robot, TaskTerms
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
+from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver, _solver_bounds
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
 from .programs import _EXIT_INFEASIBLE, _Program
@@ -17,6 +18,7 @@ __all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
 TORQUE_WEIGHTS = ("unit", "range")
 
 
+@register_resolver
 class BoundedTorque(_BoundedResolver):
     r"""Torque optimisation with hard torque bounds, by quadratic programming.
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot, TaskTerms
+from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
 from .programs import _EXIT_OPTIMAL, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
@@ -12,6 +13,7 @@ from .programs import _EXIT_OPTIMAL, BOUND_MARGIN, _MinMax, _Program, _RangeBasi
 __all__ = ["MinMaxTorque"]
 
 
+@register_resolver
 class MinMaxTorque(_BoundedResolver):
     r"""The paper's suggestion (Discussion): linear programming on the largest normalised torque.
 
