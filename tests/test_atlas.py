@@ -26,9 +26,10 @@ pytest.importorskip("tqdm")
 
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population, run_atlas
-from torqueopt.atlas.population import arm_reach, path_length
+from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
+from torqueopt.atlas.population import Movement, arm_reach, path_length
 from torqueopt.atlas.stats import claims, proportion, unstable_fractions, wilson_interval
-from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.sweep import resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds, self_motion_energy
 from torqueopt.batch import simulate_batch
 from torqueopt.cli import main
@@ -102,8 +103,11 @@ def test_the_report_imports_start_once_a_worker_has_no_chunk_left(tmp_path, monk
 
     from torqueopt.atlas import sweep
 
-    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job["movements"][0]}])
-    jobs = {index: {"movements": [index], "digest": "0" * 16} for index in range(chunks)}
+    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job.movements[0]}])
+    jobs = {
+        index: ResolverChunk(RobotSpec("planar3"), (), (index,), 1e-3, Thresholds(), True, "0" * 16)
+        for index in range(chunks)
+    }
     written_when_called = []
 
     def note():
@@ -267,19 +271,12 @@ PAPER_ACCEL = math.sqrt(2.0)
 
 def _rows(movements, accel=PAPER_ACCEL, resolvers=PAPER_RESOLVERS, batch=True):
     planar3 = torqueopt.load_robot("planar3")
-    job = {
-        "robot": RobotSpec("planar3"),
-        "resolvers": resolvers_from(resolvers),
-        "dt": 1e-3,
-        "accel": accel,
-        "thresholds": Thresholds().as_dict(),
-        "batch": batch,
-        "movements": [
-            (i, duration, np.asarray(q0, float), np.asarray(d, float) / np.linalg.norm(d),
-             planar3.task_position(planar3.configuration(q0)))
-            for i, (duration, q0, d) in enumerate(movements)
-        ],
-    }  # fmt: skip
+    lines = tuple(
+        Movement(i, duration, np.asarray(q0, float), np.asarray(d, float) / np.linalg.norm(d),
+                 planar3.task_position(planar3.configuration(q0)), accel=accel)
+        for i, (duration, q0, d) in enumerate(movements)
+    )  # fmt: skip
+    job = ResolverChunk(RobotSpec("planar3"), tuple(resolvers_from(resolvers)), lines, 1e-3, Thresholds(), batch, "")
     return {(row["path"], row["resolver"]): row for row in run_chunk(job)}
 
 

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .pinv_paths import median_interval
 from .stats import proportion
 
 __all__ = ["TORQUE_BOUND", "WHIP_BOUND", "guarantee_markdown", "guarantee_summary", "least_paths"]
@@ -60,11 +61,9 @@ def least_paths(bound: float = WHIP_BOUND) -> int:
 
 
 def _median(values) -> dict:
-    from .arms import _median_interval
-
     values = np.asarray(values, float)
     values = values[np.isfinite(values)]
-    median, low, high = _median_interval(values)
+    median, low, high = median_interval(values)
     return {"median": median, "low": low, "high": high, "runs": int(values.size)}
 
 
