@@ -217,7 +217,8 @@ class Settings:
                 lines.append(_group(field).arguments_doc(indent))
                 continue
             meta = field.metadata
-            unit = f" [{meta['unit']}]" if meta.get("unit") else ""
             text = meta.get("doc") or meta["help"]
-            lines.append(f"{indent}{field.name}: {text() if callable(text) else text}{unit}.")
+            text = text() if callable(text) else text
+            unit = f" [{meta['unit']}]" if meta.get("unit") and f"[{meta['unit']}]" not in text else ""
+            lines.append(f"{indent}{field.name}: {text.replace('%%', '%')}{unit}.")
         return "\n".join(lines)

@@ -267,17 +267,17 @@ class TuneResult:
 def tune(settings: TuneSettings | object = None, resolver: str | None = None, **keywords) -> TuneResult:
     """Choose ``resolver``'s options on ``robot`` from a seeded atlas (see the module docstring).
 
-        Call it with a :class:`TuneSettings`, or with the settings themselves: ``robot`` and ``resolver`` by position
-        or keyword, every other one by keyword (``tune("panda", "damped-null-space", paths=300)``).
+    Call it with a :class:`TuneSettings`, or with the settings themselves: ``robot`` and ``resolver`` by position
+    or keyword, every other one by keyword (``tune("panda", "damped-null-space", paths=300)``).
 
-        Args:
-    {arguments}
+    Args:
+        {arguments}
 
-        Raises:
-            InvalidInput: bad settings, a resolver without a grid (give one), a grid too large, an ``out`` folder
-                that holds anything but this tune.
-            OutputError: a file cannot be written.
-            TypeError: a keyword that is no setting, or settings given twice.
+    Raises:
+        InvalidInput: bad settings, a resolver without a grid (give one), a grid too large, an ``out`` folder
+            that holds anything but this tune.
+        OutputError: a file cannot be written.
+        TypeError: a keyword that is no setting, or settings given twice.
     """
     from .atlas import run_atlas
 
@@ -737,4 +737,4 @@ def _check_folder(out: Path, config: dict) -> bool:
     return resumable_folder(out, _CONFIG, config, "tune")
 
 
-tune.__doc__ = tune.__doc__.replace("{arguments}", TuneSettings.arguments_doc())
+tune.__doc__ = tune.__doc__.replace("        {arguments}", TuneSettings.arguments_doc("        "))

@@ -135,25 +135,25 @@ class AtlasResult:
 def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> AtlasResult:
     """Run the stability atlas and write its files into ``out``.
 
-        Call it with an :class:`~torqueopt.atlas.settings.AtlasSettings`, or with the settings themselves:
-        ``robot, paths, durations, resolvers, out`` in this order or by keyword, every other one by keyword
-        (``run_atlas("panda", paths=50, out="atlas", path="circle", workers=2)``). An existing atlas in ``out``
-        with the same settings is resumed; one with other settings is refused.
+    Call it with an :class:`~torqueopt.atlas.settings.AtlasSettings`, or with the settings themselves:
+    ``robot, paths, durations, resolvers, out`` in this order or by keyword, every other one by keyword
+    (``run_atlas("panda", paths=50, out="atlas", path="circle", workers=2)``). An existing atlas in ``out``
+    with the same settings is resumed; one with other settings is refused.
 
-        Args:
-    {arguments}
+    Args:
+        {arguments}
 
-        A chunk already in ``out/chunks`` that does not prove to be this
-        atlas's (another atlas's, truncated, corrupt) is recomputed, with a
-        :class:`~torqueopt.errors.TorqueoptWarning` naming it.
+    A chunk already in ``out/chunks`` that does not prove to be this
+    atlas's (another atlas's, truncated, corrupt) is recomputed, with a
+    :class:`~torqueopt.errors.TorqueoptWarning` naming it.
 
-        Raises:
-            InvalidInput: bad settings, a sweep larger than ``max_steps``, a
-                scheduler that cannot be reached, or an ``out`` folder that holds
-                an atlas with other settings or anything that is not an atlas's.
-            OutputError: a file of the atlas cannot be written.
-            MissingDependency: pandas, pyarrow, dask[distributed] or tqdm missing.
-            TypeError: a keyword that is no setting, or settings given twice.
+    Raises:
+        InvalidInput: bad settings, a sweep larger than ``max_steps``, a
+            scheduler that cannot be reached, or an ``out`` folder that holds
+            an atlas with other settings or anything that is not an atlas's.
+        OutputError: a file of the atlas cannot be written.
+        MissingDependency: pandas, pyarrow, dask[distributed] or tqdm missing.
+        TypeError: a keyword that is no setting, or settings given twice.
     """
     settings = _settings_of(settings, args, keywords)
     execution, frontier = settings.execution, settings.frontier
@@ -279,7 +279,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     return AtlasResult(table=table, summary=summary, out=out)
 
 
-run_atlas.__doc__ = run_atlas.__doc__.replace("{arguments}", AtlasSettings.arguments_doc())
+run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
 
 
 def _settings_of(settings, args: tuple, keywords: dict) -> AtlasSettings:
