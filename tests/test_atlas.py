@@ -944,23 +944,37 @@ def _live_processes_of_group(group: int) -> list[str]:
 
 
 def test_a_ctrl_c_while_the_command_imports_its_modules_is_one_line_and_exit_130():
-    """Before the CLI's own handler, a Ctrl-C cut an import short with a traceback of numpy's or Pinocchio's."""
+    """A Ctrl-C that cut an import short printed the traceback of numpy's or Pinocchio's; here it lands while
+    ``torqueopt.cli.main`` imports the first command's module."""
     code = (
-        "import os, signal, sys\n"
-        "sys.argv[0] = os.path.join(os.path.dirname(sys.executable), 'torqueopt')  # the console script\n"
-        "import torqueopt.cli\n"  # the package's first line installs the handler
-        "os.kill(os.getpid(), signal.SIGINT)\n"
-        "signal.pause()\n"
+        "import importlib, os, signal, sys\n"
+        "import torqueopt.cli\n"
+        "real = importlib.import_module\n"
+        "def interrupted(name):\n"
+        "    os.kill(os.getpid(), signal.SIGINT)  # what the terminal does on Ctrl-C\n"
+        "    return real(name)\n"
+        "torqueopt.cli.importlib.import_module = interrupted\n"
+        "sys.exit(torqueopt.cli.main(['robots']))\n"
     )
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
                              timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
     assert (process.returncode, process.stderr) == (130, "torqueopt: interrupted\n")
-    # A program that imports torqueopt keeps Python's own handler (KeyboardInterrupt).
-    library = "import signal, torqueopt\nprint(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
-    process = subprocess.run([sys.executable, "-c", library], env=environment, capture_output=True, text=True,
+
+
+def test_importing_torqueopt_or_its_command_line_leaves_ctrl_c_to_python():
+    """No import side effect: SIGINT keeps Python's handler (KeyboardInterrupt) after importing the package and
+    the CLI, even in a process that is the ``torqueopt`` command (its first lines installed a handler of its own)."""
+    code = (
+        "import os, signal, sys\n"
+        "sys.argv[0] = os.path.join(os.path.dirname(sys.executable), 'torqueopt')  # the console script\n"
+        "import torqueopt, torqueopt.cli\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    )
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
                              timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
-    assert process.stdout == "True\n"
+    assert process.stdout == "True\n", process.stderr
 
 
 def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_path, capsys):
