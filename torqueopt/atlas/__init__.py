@@ -66,7 +66,6 @@ from .global_optimum import DEFAULT_GLOBAL_CHUNK_SIZE, GLOBAL_RESOLVER, add_glob
 from .jobs import GlobalChunk, ResolverChunk
 from .margins import MARGIN_STEP_EQUIVALENT
 from .population import Movement, PopulationSpec, arm_reach, draw_population, grid_start_points
-from .report import summarise, write_figures, write_markdown
 from .settings import (
     DEFAULT_CHUNK_SIZE,
     DEFAULT_MAX_STEPS,
@@ -255,6 +254,9 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
     if frontier.global_optimum:
         table = add_global_ratios(table)
+    # Imported here, not with the package: `python -m torqueopt.atlas.frontier` runs a module the report imports.
+    from .report import summarise, write_figures, write_markdown
+
     summary = summarise(table, config)
     summary["resumed_chunks"] = len(done)
     keep_traces = execution.keep_traces
