@@ -116,7 +116,7 @@ def _metadata(result) -> dict:
 
 
 def read_result(path: str | os.PathLike, result_type, robot=None):
-    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz) as a ``result_type``
+    """Read a run written by :meth:`torqueopt.SimResult.to_csv` (CSV with its JSON sidecar, or .npz) as a ``result_type``
     (:class:`~torqueopt.result.SimResult`, which :func:`torqueopt.load_result` passes: this module writes and
     reads its fields, and needs no import of it).
 

@@ -11,7 +11,7 @@ the rows:
 * **within the torque limits wherever pinv is**: on the paths where
   ``pinv``'s peak :math:`|\tau|/\tau^+` is at most 1, its own must be too
   (counted on those paths, and on the paths ``pinv`` *handles*, stable as
-  well: :func:`torqueopt.atlas.arms.pinv_paths_summary`);
+  well: :func:`torqueopt.atlas.pinv_paths.pinv_paths_summary`);
 * **saving torque**: the median of ``torque_vs_pinv`` (its peak
   :math:`|\tau|/\tau^+` over pinv's on the same path) at or below
   :data:`TORQUE_BOUND` (0.95), with the distribution-free 95 % interval of

@@ -88,8 +88,10 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
 
 
 def main(argv=None) -> int:
-    """``python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE]`` (:func:`write_atlas_page`) and
-    ``python -m torqueopt.atlas.frontier readme README.md SUMMARY.json`` (:func:`readme_answer`)."""
+    """``python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE]``
+    (:func:`~torqueopt.atlas.frontier.write_atlas_page`; a sweep's folder gets its :func:`prefix_report` first) and
+    ``python -m torqueopt.atlas.frontier readme README.md SUMMARY.json``
+    (:func:`~torqueopt.atlas.frontier.readme_answer`)."""
     command, *args = list(sys.argv[1:] if argv is None else argv)
     if command == "page" and len(args) in (3, 4):
         folder, note = Path(args[0]), args[3] if len(args) == 4 else ""

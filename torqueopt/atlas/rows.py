@@ -41,7 +41,7 @@ def start_columns(movement: Movement) -> dict:
 
 
 def peak_applied_ratio(result) -> float:
-    """The run's peak |τ|/τ⁺ over its applied torques and its limited joints (NaN when there is none)."""
+    """The run's peak torque over its limit, over its applied torques and its limited joints (NaN when none is)."""
     applied = applied_rows(result)[0]
     limited = np.isfinite(applied.torque_upper)
     ratios = applied.torque_ratio[:, limited]
