@@ -237,8 +237,15 @@ class TuneSettings(Settings):
     )
 
     def check_together(self) -> None:
-        settings_grid(self.resolver, self.grid, self.options)
-        self.population_spec()
+        count = len(settings_grid(self.resolver, self.grid, self.options)[1])
+        durations = self.population_spec().durations
+        total = self.paths * sum(round(d / self.dt) + 1 for d in durations) * (count + 2)
+        if total > self.max_steps:
+            raise InvalidInput(
+                f"the tune would simulate up to {total:.3g} trajectory-steps (pinv, then {count} settings with "
+                f"pinv beside them, on {self.paths} paths x {len(durations)} durations), more than "
+                f"max_steps={self.max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
+            )
 
     def population_spec(self):
         """The population of the pinv atlas (its acceleration given apart: run_atlas sizes it to the arm)."""
@@ -281,28 +288,12 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     """
     from .atlas import run_atlas
 
-    if isinstance(settings, TuneSettings):
-        if resolver is not None or keywords:
-            raise TypeError("tune() takes TuneSettings alone, or the settings themselves, not both")
-    else:
-        positional = {"robot": settings, "resolver": resolver}
-        positional = {key: value for key, value in positional.items() if value is not None}
-        twice = sorted(set(positional) & set(keywords))
-        if twice:
-            raise TypeError(f"tune() got {', '.join(twice)} by position and by keyword")
-        settings = TuneSettings.from_keywords(**positional, **keywords)
+    settings = _settings_of(settings, resolver, keywords)
     spec, paths, dt, accel = settings.robot, settings.paths, settings.dt, settings.accel
     workers, progress, whiplash_bound = settings.workers, settings.progress, settings.whiplash_bound
     name, resolvers, fixed = settings_grid(settings.resolver, settings.grid, settings.options)
     grid_options = tuple(settings.grid) if settings.grid is not None else tuple(DEFAULT_GRIDS[name])
     population = settings.population_spec()
-    total = paths * sum(round(d / dt) + 1 for d in population.durations) * (len(resolvers) + 2)
-    if total > settings.max_steps:
-        raise InvalidInput(
-            f"the tune would simulate up to {total:.3g} trajectory-steps (pinv, then {len(resolvers)} settings with "
-            f"pinv beside them, on {paths} paths x {len(population.durations)} durations), more than "
-            f"max_steps={settings.max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
-        )
     out = writable_path(settings.out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the tune to '{out}': it is a file; give a folder")
@@ -310,23 +301,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     loaded = spec.load()
     for setting_ in resolvers:
         setting_.check(loaded)
-    config = {
-        "format": _FORMAT,
-        "robot": spec.as_dict(),
-        "resolver": name,
-        "fixed_options": {key: _json_value(value) for key, value in fixed.items()},
-        "grid": [
-            {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in resolvers
-        ],
-        "paths": paths,
-        "durations": list(population.durations),
-        "seed": population.seed,
-        "accel": accel,
-        "path": population.path,
-        "dt": float(dt),
-        "whiplash_bound": whiplash_bound,
-        "eliminate": settings.eliminate,
-    }
+    config = _tune_config(settings, name, resolvers, fixed, grid_options, population)
     resume = _check_folder(out, config)
     if not resume:
         text = json.dumps(config, indent=2, sort_keys=True).encode()
@@ -366,12 +341,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         "format": _FORMAT,
         "config": config,
         "robot_name": loaded.name,
-        "criteria": {
-            "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
-            "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
-            "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
-            "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
-        },
+        "criteria": _criteria(whiplash_bound),
         "atlas_config": atlas_config,
         "pinv_handles": len(handled),
         "movements": len(baseline.table),
@@ -385,6 +355,51 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
     return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def _settings_of(settings, resolver, keywords: dict) -> TuneSettings:
+    """The TuneSettings of tune's arguments: given whole, or made from the settings themselves."""
+    if isinstance(settings, TuneSettings):
+        if resolver is not None or keywords:
+            raise TypeError("tune() takes TuneSettings alone, or the settings themselves, not both")
+        return settings
+    positional = {"robot": settings, "resolver": resolver}
+    positional = {key: value for key, value in positional.items() if value is not None}
+    twice = sorted(set(positional) & set(keywords))
+    if twice:
+        raise TypeError(f"tune() got {', '.join(twice)} by position and by keyword")
+    return TuneSettings.from_keywords(**positional, **keywords)
+
+
+def _criteria(whiplash_bound: float) -> dict:
+    """The criteria as tune.json states them."""
+    return {
+        "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
+        "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
+        "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
+        "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
+    }
+
+
+def _tune_config(settings: TuneSettings, name: str, resolvers, fixed: dict, grid_options, population) -> dict:
+    """The settings as tune-config.json records them: the tune's fingerprint."""
+    return {
+        "format": _FORMAT,
+        "robot": settings.robot.as_dict(),
+        "resolver": name,
+        "fixed_options": {key: _json_value(value) for key, value in fixed.items()},
+        "grid": [
+            {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in resolvers
+        ],
+        "paths": settings.paths,
+        "durations": list(population.durations),
+        "seed": population.seed,
+        "accel": settings.accel,
+        "path": population.path,
+        "dt": float(settings.dt),
+        "whiplash_bound": settings.whiplash_bound,
+        "eliminate": settings.eliminate,
+    }
 
 
 def handled_paths(table) -> list[int]:

@@ -159,8 +159,6 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     if execution.figures:
         require("plotly", "atlas")
     resolver_objects = list(settings.resolvers)
-    dt = settings.population.dt
-    population = settings.population_spec()
     out = writable_path(settings.out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the atlas to '{out}': it is a file; give a folder")
@@ -173,27 +171,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     pandas = require("pandas")
     require("pyarrow")
 
-    # Bound the work before drawing anything: the population's size is known up front in random mode.
-    max_steps = execution.max_steps
-    steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
-    work = _Work(len(resolver_objects), frontier.global_optimum, frontier.margin, frontier.margin_every / dt)
-    if population.mode == "random":
-        _check_size(population.paths * sum(steps_per_run.values()) * work.per_step, max_steps, population, work)
-
-    with said_if_slow(f"torqueopt atlas: loading robot '{settings.robot.source}'", enabled=execution.progress):
-        loaded = settings.robot.load()
-    for resolver in resolver_objects:
-        resolver.check(loaded)
-    if frontier.global_optimum:
-        check_transcription(loaded, population.durations)
-    if population.mode == "grid":
-        # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
-        _check_grid_size(grid_start_points(loaded, population), steps_per_run, max_steps, population, work, dt)
-    reach = arm_reach(loaded)[1]
-    population = population.sized(reach)  # the acceleration, when not given, from the arm's reach
-    movements = draw_population(loaded, population, progress=execution.progress)
-    total_steps = sum(steps_per_run[m.duration] for m in movements) * work.per_step
-    _check_size(total_steps, max_steps, population, work)
+    loaded, reach, movements = _load_and_draw(settings)
 
     config = atlas_config(settings, loaded, reach, len(movements))
     digest = config_digest(config)
@@ -205,21 +183,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
         chunks += _chunks(movements, min(execution.chunk_size, DEFAULT_GLOBAL_CHUNK_SIZE))
     frames, rejected = read_chunks(out, len(chunks), digest) if resume else ({}, [])
     done = set(frames)
-    jobs = {}
-    for index, chunk in enumerate(chunks):
-        if index in done:
-            continue
-        if index >= local_chunks:
-            jobs[index] = GlobalChunk(settings.robot, tuple(chunk), dt, settings.verdicts, digest, config["global"])
-        else:
-            margin_every = frontier.margin_every if frontier.margin else None
-            jobs[index] = ResolverChunk(
-                settings.robot, tuple(resolver_objects), tuple(chunk), dt, settings.verdicts, execution.batch,
-                digest, margin_every,
-            )  # fmt: skip
-    # Sent in the order of their first path, each resolver chunk before the global chunks of its paths: the paths
-    # finish in order, both halves of a path together, so a sweep stopped early leaves a whole prefix of paths.
-    jobs = dict(sorted(jobs.items(), key=lambda item: (item[1].movements[0].path, isinstance(item[1], GlobalChunk))))
+    jobs = _pending_jobs(settings, chunks, local_chunks, done, digest, config)
     done_paths = sum(len(chunks[index]) for index in done)
     if rejected:
         warnings.warn(
@@ -254,15 +218,75 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
     if frontier.global_optimum:
         table = add_global_ratios(table)
+    summary = _write_report(settings, out, table, config, loaded, movements, resumed_chunks=len(done))
+    return AtlasResult(table=table, summary=summary, out=out)
+
+
+run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
+
+
+def _load_and_draw(settings: AtlasSettings) -> tuple:
+    """(the robot, its reach [m], the population's movements), the sweep's size checked against ``max_steps``
+    before anything is drawn and again once it is."""
+    execution, frontier, dt = settings.execution, settings.frontier, settings.population.dt
+    population = settings.population_spec()
+    # Bound the work before drawing anything: the population's size is known up front in random mode.
+    max_steps = execution.max_steps
+    steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
+    work = _Work(len(settings.resolvers), frontier.global_optimum, frontier.margin, frontier.margin_every / dt)
+    if population.mode == "random":
+        _check_size(population.paths * sum(steps_per_run.values()) * work.per_step, max_steps, population, work)
+
+    with said_if_slow(f"torqueopt atlas: loading robot '{settings.robot.source}'", enabled=execution.progress):
+        loaded = settings.robot.load()
+    for resolver in settings.resolvers:
+        resolver.check(loaded)
+    if frontier.global_optimum:
+        check_transcription(loaded, population.durations)
+    if population.mode == "grid":
+        # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
+        _check_grid_size(grid_start_points(loaded, population), steps_per_run, max_steps, population, work, dt)
+    reach = arm_reach(loaded)[1]
+    population = population.sized(reach)  # the acceleration, when not given, from the arm's reach
+    movements = draw_population(loaded, population, progress=execution.progress)
+    total_steps = sum(steps_per_run[m.duration] for m in movements) * work.per_step
+    _check_size(total_steps, max_steps, population, work)
+    return loaded, reach, movements
+
+
+def _pending_jobs(settings: AtlasSettings, chunks, local_chunks: int, done, digest: str, config: dict) -> dict:
+    """``{chunk index: job}`` of the chunks not done yet, sent in the order of their first path, each resolver
+    chunk before the global chunks of its paths: the paths finish in order, both halves of a path together, so a
+    sweep stopped early leaves a whole prefix of paths."""
+    frontier, dt = settings.frontier, settings.population.dt
+    margin_every = frontier.margin_every if frontier.margin else None
+    jobs = {}
+    for index, chunk in enumerate(chunks):
+        if index in done:
+            continue
+        if index >= local_chunks:
+            jobs[index] = GlobalChunk(settings.robot, tuple(chunk), dt, settings.verdicts, digest, config["global"])
+        else:
+            jobs[index] = ResolverChunk(
+                settings.robot, settings.resolvers, tuple(chunk), dt, settings.verdicts, settings.execution.batch,
+                digest, margin_every,
+            )  # fmt: skip
+    return dict(sorted(jobs.items(), key=lambda item: (item[1].movements[0].path, isinstance(item[1], GlobalChunk))))
+
+
+def _write_report(settings: AtlasSettings, out: Path, table, config: dict, robot, movements, resumed_chunks: int):
+    """Write the table, the summaries and (unless ``figures`` is off) the figures and the explorer, together;
+    returns the summary."""
     # Imported here, not with the package: `python -m torqueopt.atlas.frontier` runs a module the report imports.
     from .report import summarise, write_figures, write_markdown
 
+    execution = settings.execution
     summary = summarise(table, config)
-    summary["resumed_chunks"] = len(done)
-    keep_traces = execution.keep_traces
+    summary["resumed_chunks"] = resumed_chunks
     traces = (
         explorer.keep_traces(
-            loaded, table, movements, resolver_objects, dt=dt, batch=execution.batch, keep=keep_traces,
+            robot, table, movements, list(settings.resolvers), dt=settings.population.dt, batch=execution.batch,
+            keep=execution.keep_traces,
         )
         if execution.figures
         else {}
@@ -272,16 +296,13 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
         text = json_text(summary).encode()
         atomic_write(out / "atlas.json", lambda handle: handle.write(text))
         if execution.figures:
-            summary["figures"] = write_figures(table, summary, out, loaded)
+            summary["figures"] = write_figures(table, summary, out, robot)
             summary["figures"]["explorer: the map, and the runs of each kept path"] = explorer.write_explorer(
-                out / "explorer.html", table, summary, traces, keep_traces
+                out / "explorer.html", table, summary, traces, execution.keep_traces
             )
         markdown = write_markdown(summary).encode()
         atomic_write(out / "atlas.md", lambda handle: handle.write(markdown))
-    return AtlasResult(table=table, summary=summary, out=out)
-
-
-run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
+    return summary
 
 
 def _settings_of(settings, args: tuple, keywords: dict) -> AtlasSettings:
