@@ -18,9 +18,9 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any, ClassVar
 
-from .checks import parse_number, parse_positive, parse_vector, parse_whole
+from .checks import parse_number, parse_positive, parse_vector, parse_whole, positive_number, whole_number
 
-__all__ = ["Settings", "group", "setting", "whole", "positive", "number", "numbers"]
+__all__ = ["Settings", "group", "number", "numbers", "positive", "positive_in", "setting", "whole", "whole_at_least"]
 
 
 def setting(
@@ -51,7 +51,7 @@ def setting(
         flag: the option (default ``--`` and the name with dashes).
         metavar, choices: as argparse's.
         switch: ``"on"`` for a flag that turns the setting on (``--global``), ``"off"`` for one that turns it
-            off (``--no-figures``); the setting is then a bool.
+            off (``--no-figures``); the setting is then a bool (any value given is made one).
         repeat: the option may be given several times; ``parse`` reads the list of their texts.
         cli: False for a setting of the API only.
         cli_required: the command line requires the option although the API has a default.
@@ -62,6 +62,16 @@ def setting(
         "choices": choices, "switch": switch, "repeat": repeat, "cli": cli, "cli_required": cli_required, "doc": doc,
     }  # fmt: skip
     return dataclasses.field(default=default, metadata=metadata)
+
+
+def whole_at_least(minimum: int = 0, maximum: int | None = None) -> Callable[[Any, str], int]:
+    """The API's rule for a whole number within the bounds (``name=value must be a whole number ...``)."""
+    return lambda value, name: whole_number(value, name, minimum, maximum)
+
+
+def positive_in(unit: str | None = None, hint: str | None = None) -> Callable[[Any, str], float]:
+    """The API's rule for a positive finite number in ``unit`` (``name=value must be a positive ...``)."""
+    return lambda value, name: positive_number(value, name, unit, hint)
 
 
 def whole(minimum: int = 0, maximum: int | None = None) -> Callable[[str, str], int]:
@@ -89,6 +99,10 @@ def group(settings: type[Settings]) -> Any:
     return dataclasses.field(default_factory=settings, metadata={"group": settings})
 
 
+def _switched(value, name) -> bool:
+    return bool(value)
+
+
 def _is_group(field: dataclasses.Field) -> bool:
     return "group" in field.metadata
 
@@ -113,7 +127,7 @@ class Settings:
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
-            check = field.metadata.get("check")
+            check = field.metadata.get("check") or (_switched if field.metadata.get("switch") else None)
             if check is not None:
                 object.__setattr__(self, field.name, check(getattr(self, field.name), field.name))
         self.check_together()

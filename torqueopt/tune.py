@@ -55,12 +55,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import number_in_range, whole_number
+from .checks import number_in_range
 from .errors import InvalidInput, OutputError
 from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
 from .resolvers import RESOLVERS, Resolver, get_resolver
 from .resolvers.options import label_value
-from .settings import Settings, number, numbers, positive, setting, whole
+from .settings import Settings, number, numbers, positive, setting, whole, whole_at_least
 
 __all__ = [
     "DEFAULT_GRIDS",
@@ -181,7 +181,7 @@ class TuneSettings(Settings):
     paths: int = setting(
         DEFAULT_PATHS,
         f"movements per duration (default {DEFAULT_PATHS})",
-        check=lambda value, name: whole_number(value, name, 1),
+        check=whole_at_least(1),
         parse=whole(1),
         metavar="N",
     )
@@ -189,7 +189,7 @@ class TuneSettings(Settings):
         DEFAULT_CHUNK_SIZE,
         f"paths per chunk of the settings' runs; settings certain to fail are dropped between chunks "
         f"(default {DEFAULT_CHUNK_SIZE})",
-        check=lambda value, name: whole_number(value, name, 1),
+        check=whole_at_least(1),
         parse=whole(1),
         metavar="N",
     )
@@ -226,7 +226,7 @@ class TuneSettings(Settings):
         parse=whole(1),
         metavar="N",
     )
-    progress: bool = setting(True, "no progress bars", check=lambda value, name: bool(value), switch="off",
+    progress: bool = setting(True, "no progress bars", switch="off",
                              flag="--no-progress", doc="progress bars on stderr")  # fmt: skip
     eliminate: bool = setting(
         True,

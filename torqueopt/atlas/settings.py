@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import positive_number, step_count, whole_number
+from ..checks import step_count
 from ..errors import InvalidInput
 from ..resolvers import Resolver, resolver_names
 from ..resolvers.options import split_resolver_list
 from ..robot import Robot
-from ..settings import Settings, group, number, numbers, positive, setting, whole
+from ..settings import Settings, group, number, numbers, positive, positive_in, setting, whole, whole_at_least
 from .explorer import DEFAULT_KEEP_TRACES
 from .global_optimum import DEFAULT_GLOBAL_MAX_ITERATIONS, DEFAULT_GLOBAL_MAX_TIME
 from .global_optimum import settings as global_settings
@@ -66,10 +66,6 @@ def _optional(check):
     return lambda value, name: None if value is None else check(value, name)
 
 
-def _switch(value, name) -> bool:
-    return bool(value)
-
-
 @dataclass(frozen=True)
 class PopulationSettings(Settings):
     """How the movements are drawn and stepped (:class:`~torqueopt.atlas.population.PopulationSpec` checks them)."""
@@ -111,7 +107,7 @@ class PopulationSettings(Settings):
         1e-3,
         "integration step [s] (default 0.001)",
         unit="s",
-        check=lambda value, name: positive_number(value, name, "s"),
+        check=positive_in("s"),
         parse=positive,
     )
 
@@ -131,14 +127,14 @@ class ExecutionSettings(Settings):
     workers: int | None = setting(
         None,
         "local cluster worker processes (default: the machine's cores; 0: no Dask)",
-        check=_optional(lambda value, name: whole_number(value, name, 0, 1024)),
+        check=_optional(whole_at_least(0, 1024)),
         parse=whole(),
         metavar="N",
     )
     chunk_size: int = setting(
         DEFAULT_CHUNK_SIZE,
         f"movements per chunk of work (default {DEFAULT_CHUNK_SIZE})",
-        check=lambda value, name: whole_number(value, name, minimum=1),
+        check=whole_at_least(1),
         parse=whole(1),
         metavar="N",
     )
@@ -153,7 +149,6 @@ class ExecutionSettings(Settings):
     batch: bool = setting(
         True,
         "simulate each movement alone (the reference path)",
-        check=_switch,
         switch="off",
         flag="--no-batch",
         doc="use the batched simulation path where it applies",
@@ -161,7 +156,6 @@ class ExecutionSettings(Settings):
     progress: bool = setting(
         True,
         "no progress bar",
-        check=_switch,
         switch="off",
         flag="--no-progress",
         doc="show a progress bar (paths done, rate, time left) on stderr",
@@ -169,7 +163,6 @@ class ExecutionSettings(Settings):
     figures: bool = setting(
         True,
         "skip the figures and explorer.html (no traces are kept)",
-        check=_switch,
         switch="off",
         flag="--no-figures",
         doc="draw the figures (needs matplotlib) and write explorer.html (needs plotly); False writes neither "
@@ -180,7 +173,7 @@ class ExecutionSettings(Settings):
         f"explorer.html keeps the runs of N paths (default {DEFAULT_KEEP_TRACES}): every resolver's torque, the "
         "arm at the instability; paths where a resolver whips first, then the others, simulated again after "
         "the sweep; 0: the map only",
-        check=lambda value, name: whole_number(value, name, minimum=0),
+        check=whole_at_least(0),
         parse=whole(),
         metavar="N",
     )
@@ -196,14 +189,13 @@ class FrontierSettings(Settings):
         False,
         "also run torqueopt.optimize on every movement: rows with resolver global-optimum (judged from the "
         "open-loop replay of its torques) and the columns cost_vs_global, peak_vs_global on every row",
-        check=_switch,
         switch="on",
         flag="--global",
     )
     global_max_iterations: int = setting(
         DEFAULT_GLOBAL_MAX_ITERATIONS,
         f"IPOPT iterations per Hessian tried, per path (default {DEFAULT_GLOBAL_MAX_ITERATIONS})",
-        check=lambda value, name: whole_number(value, name, 1, 100_000),
+        check=whole_at_least(1, 100_000),
         parse=whole(1),
         metavar="N",
     )
@@ -211,21 +203,20 @@ class FrontierSettings(Settings):
         DEFAULT_GLOBAL_MAX_TIME,
         f"wall time of one path's solve [s] (default {DEFAULT_GLOBAL_MAX_TIME:g})",
         unit="s",
-        check=lambda value, name: positive_number(value, name, "s"),
+        check=positive_in("s"),
         parse=positive,
         metavar="S",
     )
     margin: bool = setting(
         False,
         "record peak_stability_margin and margin_warning_time per row (the margin on a subsample of each run)",
-        check=_switch,
         switch="on",
     )
     margin_every: float = setting(
         DEFAULT_MARGIN_EVERY,
         f"time between the states whose margin is evaluated [s] (default {DEFAULT_MARGIN_EVERY:g})",
         unit="s",
-        check=lambda value, name: positive_number(value, name, "s"),
+        check=positive_in("s"),
         parse=positive,
         metavar="S",
     )

@@ -97,11 +97,10 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import pinocchio as pin
 
-from ..checks import positive_number
 from ..result import SimResult
 from ..robot import Robot
 from ..self_motion import self_motion
-from ..settings import Settings, positive, setting
+from ..settings import Settings, positive, positive_in, setting
 from ..whiplash import DEFAULT_LIMIT_FACTOR, DEFAULT_PATH_TOLERANCE, detect_whiplash
 
 __all__ = [
@@ -131,21 +130,21 @@ class Thresholds(Settings):
     limit_factor: float = setting(
         DEFAULT_LIMIT_FACTOR,
         "2x-limit rule: unstable above K x the limit (default 2)",
-        check=lambda value, name: positive_number(value, name, hint="a multiple of the torque limit, such as 2"),
+        check=positive_in(hint="a multiple of the torque limit, such as 2"),
         parse=positive,
         metavar="K",
     )
     pinv_factor: float = setting(
         DEFAULT_PINV_FACTOR,
         f"runaway above K x pinv's peak torque on the path (default {DEFAULT_PINV_FACTOR:g})",
-        check=lambda value, name: positive_number(value, name, hint="a multiple of pinv's torque, such as 2"),
+        check=positive_in(hint="a multiple of pinv's torque, such as 2"),
         parse=positive,
         metavar="K",
     )
     energy_factor: float = setting(
         DEFAULT_ENERGY_FACTOR,
         f"runaway when self-motion energy exceeds K x the task's (default {DEFAULT_ENERGY_FACTOR:g})",
-        check=lambda value, name: positive_number(value, name, hint="a ratio of energies, such as 10"),
+        check=positive_in(hint="a ratio of energies, such as 10"),
         parse=positive,
         metavar="K",
     )
