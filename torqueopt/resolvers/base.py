@@ -161,11 +161,9 @@ class Resolver(ABC):
         same brackets, ``mypkg.module:MyResolver[gain=2]`` (a class defined inside a function has none: it is
         made only in the process that defined it).
         """
-        from .registry import RESOLVERS
-
-        if RESOLVERS.get(self.name) is type(self):
-            return self.label
         cls = type(self)
+        if vars(cls).get("_registered_name") == self.name:  # set by the registry (resolvers.registry)
+            return self.label
         return cls.__module__ + ":" + cls.__qualname__ + self.label[len(self.name) :]
 
     def changed_settings(self) -> dict:

@@ -55,8 +55,10 @@ class ResolverRegistry(MutableMapping):
     entries is for tests that change the registry and put it back.
     """
 
-    def __init__(self, group: str = ENTRY_POINT_GROUP):
+    def __init__(self, group: str = ENTRY_POINT_GROUP, primary: bool = False):
         self.group = group
+        #: True for :data:`RESOLVERS`, the registry ``get_resolver`` reads: it marks the classes it holds.
+        self.primary = primary
         self._classes: dict[str, type[Resolver]] = {}
         #: {name: one line saying which entry point failed to load and why}
         self._failures: dict[str, str] = {}
@@ -93,7 +95,7 @@ class ResolverRegistry(MutableMapping):
                 f"resolver name '{name}' of class {_path(cls)} is taken by {_path(taken)}; choose another name"
             )
         cls.name = name
-        self._classes[name] = cls
+        self[name] = cls
         return cls
 
     def load_entry_points(self) -> None:
@@ -150,9 +152,15 @@ class ResolverRegistry(MutableMapping):
 
     def __setitem__(self, name: str, cls: type[Resolver]) -> None:
         self._classes[name] = cls
+        if self.primary:
+            # What Resolver.spec reads (this very class, not a subclass, is what get_resolver(name) makes), so
+            # that base.py need not import the registry, which imports it.
+            cls._registered_name = name
 
     def __delitem__(self, name: str) -> None:
-        del self._classes[name]
+        cls = self._classes.pop(name)
+        if self.primary and vars(cls).get("_registered_name") == name:
+            del cls._registered_name
 
     def __iter__(self) -> Iterator[str]:
         self.load_entry_points()
@@ -175,7 +183,7 @@ class ResolverRegistry(MutableMapping):
 
 
 #: Every registered resolver class by name: the built-in ones, those of ``@register_resolver`` and of entry points.
-RESOLVERS = ResolverRegistry()
+RESOLVERS = ResolverRegistry(primary=True)
 
 
 def register_resolver(name_or_class=None):
