@@ -262,3 +262,23 @@ def test_every_option_of_the_command_sets_its_setting_as_the_api_does():
     assert all(from_api.as_keywords()[name] != defaults[name] for name in every)
     with pytest.raises(TypeError, match=r"unknown setting path_kind; the settings are: robot, resolver, grid"):
         tune("planar3", path_kind="line")
+
+
+def test_a_plug_in_resolver_is_tuned_by_its_import_path(tmp_path):
+    # tune read the registry by name (RESOLVERS[name]: a KeyError traceback for module:Class). The plug-in brakes
+    # the self-motion as self-motion-damping does, so its evidence equals that resolver's at the same rate.
+    small = {**SMALL, "paths": 4, "durations": (0.3,)}
+    plug_in = tune("planar3", "tests.plugin_pkg.resolvers:SelfMotionBrake", out=tmp_path / "p",
+                   **{**small, "grid": {"gain": (3.0, 8.0)}})  # fmt: skip
+    built_in = tune("planar3", "self-motion-damping", out=tmp_path / "b", **{**small, "grid": {"damping": (3.0, 8.0)}})
+    assert plug_in.resolver == "tests.plugin_pkg.resolvers:SelfMotionBrake"
+    for ours, theirs in zip(plug_in.settings, built_in.settings):
+        assert ours["flags"].startswith("--resolver tests.plugin_pkg.resolvers:SelfMotionBrake --option gain=")
+        figures = sorted(set(ours) - {"options", "flags", "label"})
+        assert figures == sorted(set(theirs) - {"options", "flags", "label"})
+        # Its law is the built-in's, written outside the package (its own steps: equal to round-off).
+        for key in figures:
+            if isinstance(theirs[key], float):
+                assert ours[key] == pytest.approx(theirs[key], rel=1e-9, nan_ok=True), key
+            else:
+                assert ours[key] == theirs[key], key

@@ -58,7 +58,7 @@ import numpy as np
 from .checks import number_in_range
 from .errors import InvalidInput, OutputError
 from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
-from .resolvers import RESOLVERS, Resolver, get_resolver
+from .resolvers import Resolver, get_resolver
 from .resolvers.options import label_value
 from .settings import Settings, number, numbers, positive, setting, whole, whole_at_least
 
@@ -508,22 +508,23 @@ def settings_grid(resolver: str, grid: dict | None, options: dict | None) -> tup
             given, an option the resolver does not declare, a value it refuses, an option both fixed and in the
             grid, an empty list of values, or more than ``MAX_SETTINGS`` (64) settings.
     """
-    name = get_resolver(resolver).name
-    if name == BASELINE:
+    made = get_resolver(resolver)
+    name = made.spec.split("[", 1)[0]  # its registry name, or a plug-in's module:Class: what get_resolver takes
+    if made.name == BASELINE:
         raise InvalidInput("pinv is the baseline every setting is measured against; tune another resolver")
     if grid is None:
-        if name not in DEFAULT_GRIDS:
+        if made.name not in DEFAULT_GRIDS:
             tunable = ", ".join(DEFAULT_GRIDS)
             raise InvalidInput(
-                f"resolver '{name}' has no default grid (those with one: {tunable}); give the values to try, "
+                f"resolver '{made.name}' has no default grid (those with one: {tunable}); give the values to try, "
                 "e.g. --values damping=5,10,20"
             )
-        grid = DEFAULT_GRIDS[name]
+        grid = DEFAULT_GRIDS[made.name]
     options = dict(options or {})
     both = sorted(set(grid) & set(options))
     if both:
         raise InvalidInput(f"option {', '.join(both)} is both held fixed and in the grid; give it once")
-    declared = [option.name for option in RESOLVERS[name].declared_options()]
+    declared = [option.name for option in made.declared_options()]
     for option, values in grid.items():
         if option not in declared:
             get_resolver(name, **{option: None})  # the resolver's own one-line message for an unknown option

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import time
 
+from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
-from .common import parse_vector
+from .common import importable_from_here, parse_vector
 
 __all__ = ["add_parser", "add_robot_spec_options", "robot_spec"]
 
@@ -55,6 +56,8 @@ def atlas_command(args: argparse.Namespace) -> int:
     from ..atlas.settings import AtlasSettings
 
     started = time.perf_counter()
+    for spec in split_resolver_list(args.resolvers or ""):
+        importable_from_here(spec)  # before the cluster forks its workers, which then import it too
     settings = AtlasSettings.from_arguments(args, robot=robot_spec(args))
     result = run_atlas(settings)
     summary = result.summary

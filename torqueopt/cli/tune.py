@@ -8,6 +8,7 @@ import time
 
 from . import EXIT_NONE_QUALIFIES, EXIT_OK
 from .atlas import add_robot_spec_options, robot_spec
+from .common import importable_from_here
 
 __all__ = ["add_parser"]
 
@@ -42,6 +43,7 @@ def tune_command(args: argparse.Namespace) -> int:
     from ..tune import TuneSettings, tune
 
     started = time.perf_counter()
+    importable_from_here(args.resolver)
     given = {"robot": robot_spec(args)}
     if args.out is None:
         given["out"] = "tune-" + re.sub(r"[^A-Za-z0-9_.-]+", "-", args.robot.rsplit("/", 1)[-1])
