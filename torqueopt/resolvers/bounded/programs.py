@@ -9,12 +9,14 @@ rather than on :math:`y` of Eq. (26) itself.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import eigenpy
 import numpy as np
 
 from ...errors import MissingDependency, SolverFailure
 
-__all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE"]
+__all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE", "BoundProgram", "solve_program", "torque_bound_rows", "with_rows"]
 
 #: Feasibility tolerance of every bound row, as a fraction of the joint's torque range.
 FEASIBILITY_TOLERANCE = 1e-9
@@ -55,6 +57,59 @@ def _daqp():
     except ImportError:  # pragma: no cover - daqp is a core dependency
         raise MissingDependency("the bounded resolvers need the QP solver DAQP: pip install daqp") from None
     return daqp
+
+
+class BoundProgram(NamedTuple):
+    r"""A bounded resolver's program: :math:`\min_x \tfrac12 x^\top H x + f^\top x` s.t. :math:`l \le A x \le u`.
+
+    What a resolver returns for one state (``rows`` (k × v)), or for a stack
+    with a leading batch axis on every array (``rows`` (B, k, v)); ``row(i)``
+    is one movement's program. ``hessian`` or ``cost`` None keep the numbers
+    the workspace was set up with (an LP's zero Hessian, a fixed cost). A
+    workspace's first ``bounds`` rows of ``upper``/``lower`` are simple bounds on
+    the first variables (:class:`_Program`).
+    """
+
+    hessian: np.ndarray | None
+    cost: np.ndarray | None
+    rows: np.ndarray
+    upper: np.ndarray
+    lower: np.ndarray
+
+    def row(self, index: int) -> BoundProgram:
+        """Movement ``index``'s program of a stacked one."""
+        return BoundProgram(*(None if field is None else field[index] for field in self))
+
+
+def solve_program(workspace: _Program, program: BoundProgram):
+    """(x, exit flag) of ``program`` in its DAQP ``workspace``: warm start, then a cold start, then HiGHS
+    (:meth:`_Program.solve`, the one place where the fall-backs live)."""
+    numbers = {"A": program.rows, "bupper": program.upper, "blower": program.lower}
+    if program.hessian is not None:
+        numbers["H"] = program.hessian
+    if program.cost is not None:
+        numbers["f"] = program.cost
+    x, flag, _ = workspace.solve(**numbers)
+    return x, flag
+
+
+def torque_bound_rows(inertia_basis, tilde_torque, bounded, upper, lower, spread):
+    r"""(rows, upper, lower) of the torque bounds :math:`\tau^- \le \tilde\tau + HZ y \le \tau^+` on y, each row
+    divided by its joint's range (Eq. (27)): ``inertia_basis`` HZ (n × r) or a stack (B, n, r), ``tilde_torque``
+    τ̃ (n) or (B, n); ``upper``, ``lower`` and ``spread`` of the ``bounded`` joints (:func:`~torqueopt.resolvers.bounded.infeasible.solver_bounds`)."""
+    rows = inertia_basis[..., bounded, :] * (1.0 / spread)[:, None]
+    base = tilde_torque[..., bounded]
+    return rows, (upper - base) / spread, (lower - base) / spread
+
+
+def with_rows(program_rows, extra):
+    """(rows, upper, lower) followed by the ``extra`` (rows, upper, lower), for one state or a stack."""
+    rows, upper, lower = program_rows
+    return (
+        np.concatenate([rows, extra[0]], axis=-2),
+        np.concatenate([upper, extra[1]], axis=-1),
+        np.concatenate([lower, extra[2]], axis=-1),
+    )
 
 
 class _Program:
