@@ -27,7 +27,7 @@ from ...linalg import JacobianSolver
 from ...robot import Robot, TaskTerms
 from ..base import Resolution
 from ..null_space import torque_midpoint
-from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
+from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, BoundProgram, _MinMax, _Program, _RangeBasis, solve_program
 
 __all__ = ["BoundedStep", "acceleration_rows", "largest_task_scaling", "least_error_task", "least_joint_excess"]
 
@@ -126,7 +126,7 @@ def largest_task_scaling(program: _Program, rows, upper, lower, command):
     """
     m = command.size
     scaled_rows = np.hstack([rows[:, :m].dot(command)[:, None], rows[:, m:]])
-    x, flag, _ = program.solve(A=scaled_rows, bupper=np.r_[1.0, upper], blower=np.r_[0.0, lower])
+    x, flag = solve_program(program, BoundProgram(None, None, scaled_rows, np.r_[1.0, upper], np.r_[0.0, lower]))
     if flag == _EXIT_INFEASIBLE:
         return None
     return float(np.clip(x[0], 0.0, 1.0)) * command, x[1:]
@@ -139,7 +139,7 @@ def least_error_task(program: _Program, rows, upper, lower, command):
     """
     m = command.size
     redundancy = rows.shape[1] - m
-    x, flag, _ = program.solve(f=np.r_[-command, np.zeros(redundancy)], A=rows, bupper=upper, blower=lower)
+    x, flag = solve_program(program, BoundProgram(None, np.r_[-command, np.zeros(redundancy)], rows, upper, lower))
     if flag == _EXIT_INFEASIBLE:
         return None
     return x[:m], x[m:]
@@ -164,7 +164,7 @@ def least_joint_excess(program: _Program, torque_part, joint_part, task_dimensio
     program_rows = np.vstack([np.hstack([np.zeros((nb, nj)), torque_rows]), above, below])
     program_upper = np.r_[np.full(nj, np.inf), torque_upper, np.where(finite_upper, upper, 1.0), np.full(nj, np.inf)]
     program_lower = np.r_[np.zeros(nj), torque_lower, np.full(nj, -np.inf), np.where(finite_lower, lower, -1.0)]
-    x, flag, _ = program.solve(A=program_rows, bupper=program_upper, blower=program_lower)
+    x, flag = solve_program(program, BoundProgram(None, None, program_rows, program_upper, program_lower))
     if flag == _EXIT_INFEASIBLE:  # pragma: no cover - H is invertible: the box holds some torque
         return None
     return np.maximum(x[:nj], 0.0), (x[nj : nj + m], x[nj + m :])

@@ -16,7 +16,15 @@ import numpy as np
 
 from ...errors import MissingDependency, SolverFailure
 
-__all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE", "BoundProgram", "solve_program", "torque_bound_rows", "with_rows"]
+__all__ = [
+    "BOUND_MARGIN",
+    "FEASIBILITY_TOLERANCE",
+    "BoundProgram",
+    "minmax_torque_rows",
+    "solve_program",
+    "torque_bound_rows",
+    "with_rows",
+]
 
 #: Feasibility tolerance of every bound row, as a fraction of the joint's torque range.
 FEASIBILITY_TOLERANCE = 1e-9
@@ -110,6 +118,14 @@ def with_rows(program_rows, extra):
         np.concatenate([upper, extra[1]], axis=-1),
         np.concatenate([lower, extra[2]], axis=-1),
     )
+
+
+def minmax_torque_rows(range_rows, tilde_torque, bounded, middle, inverse_spread):
+    r"""(:math:`U_i/(\tau^+_i - \tau^-_i)`, :math:`(\tau_{mid,i} - \tilde\tau_i)/(\tau^+_i - \tau^-_i)`) of the
+    bounded joints, for the min-max LP's rows :math:`\pm(\tilde\tau_i + U_i z - \tau_{mid,i}) \le t(\tau^+_i - \tau^-_i)`:
+    ``range_rows`` U (n × r) or a stack (B, n, r), ``tilde_torque`` τ̃ (n) or (B, n), ``middle`` the bounded joints'
+    τ_mid and ``inverse_spread`` their 1/(τ⁺ − τ⁻)."""
+    return range_rows[..., bounded, :] * inverse_spread[:, None], (middle - tilde_torque[..., bounded]) * inverse_spread
 
 
 class _Program:
@@ -348,7 +364,6 @@ class _MinMax:
         self._bounded = bounded
         self._midpoint = midpoint[bounded]
         self._inverse_spread = 1.0 / spread
-        self._inverse_spread_column = self._inverse_spread[:, None]
         self._r = redundancy
         sign = np.r_[-np.ones(nb), np.ones(nb), np.zeros(extra_rows)][:, None]
         rows = np.hstack([np.zeros((2 * nb + extra_rows, redundancy)), sign])
@@ -380,17 +395,17 @@ class _MinMax:
         ``extra``: (rows, upper, lower) of the extra rows on z (None: they bound nothing); t is
         None when they leave no z.
         """
-        bounded = self._bounded
-        np.multiply(range_basis[bounded], self._inverse_spread_column, out=self._rows_plus)
+        self._rows_plus[...], self._upper_plus[...] = minmax_torque_rows(
+            range_basis, tilde_torque, self._bounded, self._midpoint, self._inverse_spread
+        )
         self._rows_minus[...] = self._rows_plus
-        np.multiply(self._midpoint - tilde_torque[bounded], self._inverse_spread, out=self._upper_plus)
         self._lower_minus[...] = self._upper_plus
         if self._extra:
             if extra is None:
                 self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = 0.0, np.inf, -np.inf
             else:
                 self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = extra
-        x, flag, _ = self.program.solve(A=self._rows, bupper=self._upper, blower=self._lower)
+        x, flag = solve_program(self.program, BoundProgram(None, None, self._rows, self._upper, self._lower))
         if flag != _EXIT_OPTIMAL:
             if self._extra and flag == _EXIT_INFEASIBLE:
                 return x[: self._r], None
