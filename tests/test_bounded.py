@@ -782,3 +782,45 @@ def test_acceleration_rows_are_the_joint_limits_and_own_rows_on_the_coordinates(
     assert raised_upper[3] == pytest.approx(upper[3] + 1.0, abs=1e-12)
     matrix, upper, lower = acceleration_rows(joints, bounds, scale, own, offset, rows, raised=DROPPED, free_joints=True)
     assert not matrix.any() and (upper == 1.0).all() and (lower == -1.0).all()
+
+
+def test_each_policy_called_alone_on_a_state_without_an_optimum(tight_planar3):
+    from torqueopt.resolvers.bounded.infeasible import BoundedStep
+
+    robot = tight_planar3
+    terms, xdd = robot.terms(PAPER_Q0, np.zeros(3)), np.array([40.0, 40.0])
+    ref = Reference(robot, terms, xdd)
+    steps = {
+        policy: BoundedStep(get_resolver("bounded-torque", infeasible=policy), robot)
+        for policy in ("scale", "least-error", "exceed", "stop")
+    }
+    state = steps["scale"].state(terms, xdd)
+    assert steps["scale"].optimum(
+        terms, state.basis, state.inertia_basis, state.tilde_torque, state.particular, steps["scale"].rows_at(state)
+    ) is None  # fmt: skip
+
+    def range_rows(policy):  # U of the range of HZ; each step's basis remembers its last G
+        return steps[policy].range_basis(state.inertia_basis)
+
+    joint_rows = steps["scale"].rows_at(state)  # the joint limits' rows on q̈ (not binding at this state)
+    # scale: the largest s by bisection on HiGHS feasibility.
+    scaled = steps["scale"].give_up_task(state, range_rows("scale"), joint_rows)
+    np.testing.assert_allclose(1.0 - scaled.task_error / np.linalg.norm(xdd), _largest_scaling(ref), atol=1e-7)
+    # least-error: bounded least squares over the torque box.
+    task_map = ref.J @ np.linalg.inv(ref.H)
+    target = xdd - ref.drift + task_map @ ref.b
+    best = lsq_linear(task_map, target, bounds=(ref.lower, ref.upper), tol=1e-12, method="bvls")
+    least = steps["least-error"].give_up_task(state, range_rows("least-error"), joint_rows)
+    np.testing.assert_allclose(least.task_error, np.linalg.norm(task_map @ best.x - target), rtol=1e-5, atol=1e-7)
+    for found in (scaled, least):
+        assert found.infeasible and torque_utilisation(found.torque, ref.lower, ref.upper) <= 0.5
+    # exceed: the min-max LP by HiGHS, the task realised.
+    exceeded = steps["exceed"].exceed(state, range_rows("exceed"))
+    np.testing.assert_allclose(
+        torque_utilisation(exceeded.torque, ref.lower, ref.upper), _minmax_reference(ref), rtol=1e-8
+    )
+    np.testing.assert_allclose(ref.J @ exceeded.joint_acceleration + ref.drift, xdd, atol=1e-9)
+    assert str(steps["stop"].stop_error(state)) == (
+        "resolver 'bounded-torque' (infeasible='stop'): no torque within bounds realises the task acceleration "
+        "[40.0, 40.0] within the joint limits"
+    )
