@@ -84,12 +84,14 @@ def scipy_case(method):
     return f"planar3 short, 10 ms, scipy {method}", run
 
 
-def shooting_population(paths: int, grid_step: float) -> None:
+def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...]) -> None:
     from torqueopt.atlas.population import PopulationSpec, draw_population, movement_trajectory
 
     robot = torqueopt.load_robot("panda", task="position")
     rows = []
     for kind, duration in (("line", 2.0), ("circle", 1.0)):
+        if kind not in kinds:
+            continue
         movements = draw_population(robot, PopulationSpec(paths=paths, durations=(duration,), path=kind, seed=0))
         for index, movement in enumerate(movements):
             began = time.perf_counter()
@@ -114,7 +116,7 @@ def shooting_population(paths: int, grid_step: float) -> None:
                 f"wall {wall:7.2f} s | {starts}",
                 flush=True,
             )
-    for kind in ("line", "circle"):
+    for kind in kinds:
         chosen = [(result, wall) for k, result, wall in rows if k == kind]
         converged = sum(result.status == "converged" for result, _ in chosen)
         seconds = [s["seconds"] for result, _ in chosen for s in result.starts]
@@ -131,9 +133,10 @@ def main() -> None:
     parser.add_argument("--scipy", action="store_true", help="also time scipy's SLSQP and trust-constr (slow)")
     parser.add_argument("--shooting", type=int, default=0, metavar="PATHS")
     parser.add_argument("--grid-step", type=float, default=0.02)
+    parser.add_argument("--kinds", default="line,circle", help="of --shooting: line, circle or both")
     args = parser.parse_args()
     if args.shooting:
-        shooting_population(args.shooting, args.grid_step)
+        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")))
         return
     cases = [
         planar_case(0.01, "gauss-newton", False),

@@ -69,7 +69,7 @@ class OptimalResult:
     hessian: str
     warm_start: str
     warm_start_cost: float
-    #: ``direct`` or ``shooting`` (:data:`torqueopt.optimal.TRANSCRIPTIONS`).
+    #: ``direct`` or ``shooting`` (``torqueopt.optimal.TRANSCRIPTIONS``).
     transcription: str = "direct"
     #: Every start the ``shooting`` transcription solved from: warm_start, status, solver_message,
     #: iterations, grid_cost, constraint_violation, seconds (empty for ``direct``).

@@ -142,17 +142,15 @@ class ShootingTranscription(Transcription):
         """The IPOPT solver of :meth:`nlp` (built once per :attr:`key` and options when ``keep``; compiled to C
         when asked and a compiler exists)."""
         casadi = _casadi()
-        key = (self.key, compiled, repr(sorted((options or {}).items())))
+        library = _compiled_library(self, casadi) if compiled else None
+        key = (self.key, library, repr(sorted((options or {}).items())))
         if keep and key in _SOLVERS:
             return _SOLVERS[key]
         base = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "calc_lam_p": False}
         base.update(options or {})
-        solver = None
-        if compiled:
-            library = _compiled_library(self, casadi)
-            if library is not None:
-                solver = casadi.nlpsol("shooting", "ipopt", str(library), base)
-        if solver is None:
+        if library is not None:
+            solver = casadi.nlpsol("shooting", "ipopt", str(library), base)
+        else:
             # expanded to SX: measured 1.7x faster per iteration than the MX graph of mapped functions (panda)
             solver = casadi.nlpsol("shooting", "ipopt", self.nlp(), {**base, "expand": True})
         if keep:

@@ -156,17 +156,17 @@ def optimize(
         grid_step: the longest transcription interval [s]; the grid has an even number N of
             intervals, h = T/N ≤ grid_step.
         warm_start: a resolver (name or object) whose simulated run starts the solve, or a SimResult.
-        transcription: ``direct`` (:mod:`~torqueopt.optimal.transcription`: Pinocchio's first
+        transcription: ``direct`` (``torqueopt.optimal.transcription``: Pinocchio's first
             derivatives, the Hessian of ``hessian``) or ``shooting``
-            (:mod:`~torqueopt.optimal.shooting`: the same program with CasADi's exact derivatives,
+            (``torqueopt.optimal.shooting``: the same program with CasADi's exact derivatives,
             the Lagrangian's Hessian included, solved from each of ``starts``).
         starts: ``shooting`` only: the warm starts to solve from, each as ``warm_start``;
-            default :data:`DEFAULT_STARTS` (``warm_start`` first). The best converged optimum is
+            default ``DEFAULT_STARTS`` (``warm_start`` first). The best converged optimum is
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
             cost are in ``result.starts``.
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
-            (kept in :func:`~torqueopt.optimal.shooting.cache_directory`); without a C compiler
+            (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
             CasADi's virtual machine evaluates them.
         hessian: ``direct`` only: ``gauss-newton`` (the block Gauss-Newton matrix of the cost), ``limited-memory``
             (IPOPT's L-BFGS), or ``auto`` (the default): Gauss-Newton, and when it ends short of
