@@ -45,7 +45,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InvalidInput
 from .ipopt import _STATUS, SolverOutput, _iteration_callback
 from .symbolic import _casadi, model_digest, symbolic_dynamics
 from .transcription import Transcription
@@ -200,8 +199,6 @@ def solve_shooting(
     more than the tolerance), never an iteration limit.
     """
     casadi = _casadi()
-    if problem.joint_limits and not np.isfinite(problem.variable_bounds()[0]).any():
-        raise InvalidInput("joint_limits needs finite joint limits in the URDF")
     options = {"ipopt.tol": float(tolerance), "ipopt.max_iter": int(max_iterations)}
     options["ipopt.print_level"] = 5 if verbose else 0
     if max_time is not None:
