@@ -246,7 +246,7 @@ class BoundedStep:
     """A bounded resolver's step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once.
 
     ``dt`` [s] is the step over which the run holds the torque: the joint-limit bounds keep the state after it
-    within the limits (:data:`~torqueopt.resolvers.bounded.joint_limits.DEFAULT_STEP` when None).
+    within the limits (``joint_limits.DEFAULT_STEP``, 1 ms, when None).
     """
 
     def __init__(self, resolver, robot: Robot, dt: float | None = None):
