@@ -10,9 +10,10 @@ from torqueopt import StraightLine, load_result, simulate
 from torqueopt.cli import main
 from torqueopt.cli.plant import PLANT_OPTIONS
 from torqueopt.errors import InvalidInput, MissingDependency
-from torqueopt.integrators import rk4_reference_step
 from torqueopt.plants import PinocchioPlant, make_plant
 from torqueopt.plants.mujoco import OPTION_DEFAULTS, OPTION_NAMES
+
+from .test_integrator import rk4_reference_step
 
 LINE = StraightLine(direction=[1, 1], accel=1.0, duration=0.2)
 Q0 = [-0.785398, 2.356194, -2.356194]

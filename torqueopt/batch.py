@@ -13,9 +13,10 @@ one loop body (:func:`torqueopt.engine.run_movements`, the loop of
   <torqueopt.resolvers.base.Resolver.batch_solver>`): vectorised for the
   paper's resolvers and the remedies, the single-state step row by row for
   every other registered resolver (the bounded QP and LP ones included);
-* the integrator (:class:`torqueopt.integrators.HeldTorqueRK4`): RK4 with the
-  torque held, the resolver's :math:`\ddot q` as its first stage, the other
-  three stages of the whole stack by one ``pin.abaInParallel`` call each;
+* the integrator (:class:`torqueopt.integrators.RK4` of
+  :class:`~torqueopt.integrators.HeldTorque`): RK4 with the torque held, the
+  resolver's :math:`\ddot q` as its first stage, the other three stages of
+  the whole stack by one ``pin.abaInParallel`` call each;
 
 with the stop rules and messages of :class:`torqueopt.stop_rules.StopRules` and
 the results of :func:`torqueopt.run_records.build_result`, as ``simulate``. The
@@ -51,7 +52,7 @@ import numpy as np
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .engine import run_movements
 from .errors import InvalidInput
-from .integrators import HeldTorqueRK4
+from .integrators import RK4, HeldTorque, VelocityRates
 from .linalg import inverse_condition_number
 from .resolvers import Resolver, get_resolver
 from .resolvers.stacks import LoopedStackStep
@@ -261,7 +262,7 @@ class MovementStack:
     The stacked forms of the engine's pieces: the forest's terms
     (:class:`~torqueopt.terms.ForestTerms`), the resolver's step on stacks
     (:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`),
-    :meth:`HeldTorqueRK4.step_stack <torqueopt.integrators.HeldTorqueRK4.step_stack>`,
+    :class:`~torqueopt.integrators.RK4` on stacks,
     time-major logs grown a block at a time and the ceiling tests of
     :class:`~torqueopt.stop_rules.StopRules` on stacks. A resolver whose step is its
     single-state one looped row by row gains nothing from stacked terms: it gets
@@ -281,11 +282,12 @@ class MovementStack:
         self.count, self.with_extras = count, extras
         self.q, self.v = q, np.zeros((count, robot.nv))
         self.solve = resolver.batch_solver(robot, dt)
-        integrator = HeldTorqueRK4(robot, dt, threads=threads)
+        system = HeldTorque(robot, threads=threads)
+        integrator = RK4(system, dt)
         if isinstance(self.solve, LoopedStackStep):
-            self.provider, self.advance = PinocchioTerms(robot, integrator.data), integrator.step_rows
+            self.provider, self.advance = PinocchioTerms(robot, system.data), _row_by_row(integrator.step)
         else:
-            self.provider, self.advance = terms_provider(robot, count), integrator.step_stack
+            self.provider, self.advance = terms_provider(robot, count), integrator.step
         #: The terms provider's ``(q, v) -> (StackTerms, task positions)``.
         self.terms = self.provider.terms
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
@@ -507,6 +509,7 @@ class KinematicStack(MovementStack):
         self.forest = RobotForest(robot, None if dofs is None else max(1, dofs // robot.nv))
         self.rows = robot.task_rows
         self.gain = resolver.position_gain
+        self.integrator = RK4(VelocityRates(robot, self._stage_rates), dt)
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
         self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
         self.recorded = np.zeros(count, dtype=int)
@@ -646,14 +649,16 @@ class KinematicStack(MovementStack):
         )
         return velocity, failures
 
+    def _stage_rates(self, q, index: int):
+        """The rates of an RK4 stage; a row undefined there is kept with its first stage's message."""
+        velocity, failures = self._rates(q, index)
+        for row, message in failures.items():
+            self._stage_failures.setdefault(row, message)
+        return velocity
+
     def step(self, q, v, resolution, j: int, t: float):
-        h, index = self.dt, 2 * j
-        k1 = resolution[2]
-        k2, failed2 = self._rates(q + (0.5 * h) * k1, index + 1)
-        k3, failed3 = self._rates(q + (0.5 * h) * k2, index + 1)
-        k4, failed4 = self._rates(q + h * k3, index + 2)
-        next_q = q + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        failures = {**failed4, **failed3, **failed2}
+        self._stage_failures = failures = {}
+        next_q, _ = self.integrator.step(q, None, 2 * j, resolution[2])
         if not failures:
             return next_q, v, False
         for row, message in failures.items():
@@ -663,6 +668,16 @@ class KinematicStack(MovementStack):
         keep[list(failures)] = False
         self._keep = keep
         return next_q, v, True
+
+
+def _row_by_row(step):
+    """``step`` on one state, applied to every row of (B, ...) stacks: the arithmetic of ``simulate``."""
+
+    def advance(q, v, tau, acceleration):
+        rows = [step(*row) for row in zip(q, v, tau, acceleration)]
+        return np.array([row[0] for row in rows]).reshape(q.shape), np.array([row[1] for row in rows]).reshape(v.shape)
+
+    return advance
 
 
 def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras):
