@@ -258,23 +258,6 @@ def test_velocity_rk4_equals_its_reference_step_on_one_state_and_on_stacks(plana
             assert np.abs(reference - q).max() > 1e-4  # the step moved
 
 
-def test_a_plant_with_its_own_step_plugs_into_the_loop(planar3):
-    """Another plant (here Euler, deliberately not RK4) is called through its step(q, v, tau, dt)."""
-    from torqueopt.integrators import plant_stepper
-
-    class Euler:
-        name = "euler"
-
-        def step(self, q, v, tau, dt):
-            return q + dt * v, v + dt * planar3.forward_dynamics(q, v, tau)
-
-    advance = plant_stepper(Euler(), planar3, 1e-2)
-    for q, v, tau in _random_states(planar3, 4, seed=5):
-        expected_v = v + 1e-2 * planar3.forward_dynamics(q, v, tau)
-        np.testing.assert_allclose(advance(q, v, tau, None)[1], expected_v, rtol=0, atol=1e-15)
-        assert np.abs(expected_v - rk4_reference_step(planar3, q, v, tau, 1e-2)[1]).max() > 1e-6  # Euler is not RK4
-
-
 def test_velocity_rates_torque_is_rnea_in_a_fresh_array(planar3):
     """The torque a row keeps is not overwritten by the next step's: Pinocchio's RNEA returns a new array."""
     system = VelocityRates(planar3, None)

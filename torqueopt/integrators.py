@@ -47,7 +47,7 @@ import pinocchio as pin
 
 from .robot import Robot
 
-__all__ = ["HeldTorque", "RK4", "TABLEAU", "VelocityRates", "plant_stepper", "rk4_step", "rk4_stepper", "stage_weights"]
+__all__ = ["HeldTorque", "RK4", "TABLEAU", "VelocityRates", "rk4_step", "rk4_stepper", "stage_weights"]
 
 #: Classical RK4's Butcher tableau: the rows of a (stages 2, 3, 4 on k1..k4), then the weights b of the end.
 TABLEAU = (
@@ -188,11 +188,11 @@ class RK4:
     def step(self, q, v, parameter, k1):
         """The state after one step from (q, v) (see the class docstring)."""
         if q.shape != self._shape:
-            self._step, self._shape = self._stepper(q.shape), q.shape
+            self._step, self._shape = self.stepper(q.shape), q.shape
         return self._step(q, v, parameter, k1)
 
-    def _stepper(self, shape):
-        """The step on states of ``shape``: the rows' views and the weights made once."""
+    def stepper(self, shape):
+        """:meth:`step` on states of ``shape`` alone, as a function: its rows' views and weights made once."""
         robot, system = self.robot, self.system
         stacked = len(shape) > 1
         size = int(np.prod(shape[:-1], dtype=int)) * robot.nv
@@ -283,23 +283,3 @@ def rk4_step(robot: Robot, q, v, tau, dt: float, acceleration=None):
     if acceleration is None:
         acceleration = robot.forward_dynamics(q, v, tau, data=data)
     return rk4_stepper(robot, dt, data)(q, v, tau, acceleration)
-
-
-def plant_stepper(plant, robot: Robot, dt: float, data=None):
-    """The loop's ``advance(q, v, tau, acceleration) -> (q, v)`` for one movement on ``plant``.
-
-    The Pinocchio plant (:class:`torqueopt.plants.PinocchioPlant`) gets
-    :class:`RK4` of :class:`HeldTorque` computing in ``data``; another plant its own
-    ``step(q, v, tau, dt)``, whose state the next torque is computed from.
-    """
-    from .plants import PinocchioPlant
-
-    if plant is None or isinstance(plant, PinocchioPlant):
-        return RK4(HeldTorque(robot, data), dt).step
-    plant_step = plant.step
-
-    def advance(q, v, tau, _acceleration):
-        # The plant reports its own state; the resolver's next torque is computed from it.
-        return plant_step(q, v, tau, dt)
-
-    return advance
