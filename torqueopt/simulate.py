@@ -41,7 +41,7 @@ from .checks import (
 )
 from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
-from .integrators import plant_stepper, rk4_step
+from .integrators import rk4_step
 from .linalg import inverse_condition_number
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
@@ -169,11 +169,7 @@ def simulate(
                 f"resolver {resolver.name} works at the velocity level: the stability margin is of a torque "
                 "resolver's closed loop; give a torque resolver or leave margin off"
             )
-        if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
-            raise InvalidInput(
-                f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
-                "velocities, no torque drives a plant); a plant needs a torque resolver"
-            )
+        refuse_plant_at_velocity_level(resolver, plant, plant_options)
         from .kinematic import simulate_kinematic
 
         return simulate_kinematic(
@@ -217,13 +213,22 @@ def simulate(
     return result
 
 
+def refuse_plant_at_velocity_level(resolver: Resolver, plant, plant_options) -> None:
+    """InvalidInput for a velocity-level resolver given a plant other than the Pinocchio one."""
+    if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
+        raise InvalidInput(
+            f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
+            "velocities, no torque drives a plant); a plant needs a torque resolver"
+        )
+
+
 class OneMovement:
     """The engine's lanes for B = 1 at the torque level: one state as plain vectors (see :mod:`torqueopt.engine`).
 
     The B = 1 forms of the engine's pieces: the terms of Pinocchio on one
     data (:class:`~torqueopt.terms.PinocchioTerms`), the resolver's
     single-state step (a step that raises ends the movement), the plant's
-    step (:func:`~torqueopt.integrators.plant_stepper`), a log of one tuple
+    step (:meth:`Plant.step <torqueopt.plants.Plant.step>`), a log of one tuple
     per step and the ceiling tests on plain lists (cheaper than numpy at this
     size).
     """
@@ -253,7 +258,8 @@ class OneMovement:
         self.within = partial(map, operator.le)
         # Built once per run: the resolver's per-robot constants and workspaces.
         self.solve = resolver.solver_for_run(robot, dt)
-        self.advance = plant_stepper(plant, robot, dt, data)
+        # The plant reports its own state; the resolver's next torque is computed from it.
+        self.advance = plant.step
         #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
         self.terms = PinocchioTerms(robot, data).with_position(reference_rotation)
         self.command = self._command if feedback is not None else self._reference_command
@@ -308,7 +314,7 @@ class OneMovement:
         return q, v, resolution
 
     def step(self, q, v, resolution, j: int, t: float):
-        q, v = self.advance(q, v, resolution[0], resolution[1])
+        q, v = self.advance(q, v, resolution[0], self.dt, resolution[1])
         # RK4 weighs every stage acceleration that moves q into v as well, so a
         # finite v after the step means a finite q.
         if not all(self.within(map(abs, v.tolist()), self.speed_ceiling)):
