@@ -11,18 +11,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
 PACKAGE = Path(__file__).resolve().parents[1] / "torqueopt"
-
-#: Cycles other pieces of the house redesign are removing (issue 37), tolerated until they are merged; each as
-#: the sorted modules of its loop (both through imports inside functions). Empty this once they are.
-KNOWN_CYCLES_BEING_REMOVED = frozenset(
-    {
-        ("torqueopt.integrators", "torqueopt.plants", "torqueopt.plants.pinocchio"),
-        ("torqueopt.kinematic", "torqueopt.simulate"),
-    }
-)
 
 
 def module_name(path: Path) -> str:
@@ -144,21 +133,12 @@ def test_the_walker_sees_a_cycle_made_on_purpose():
 
 def test_no_import_cycle_at_module_level():
     """What runs when a module loads never loops back."""
-    found = cycles(import_graph())
-    assert not found - KNOWN_CYCLES_BEING_REMOVED, f"import cycles: {sorted(found - KNOWN_CYCLES_BEING_REMOVED)}"
+    assert cycles(import_graph()) == set()
 
 
 def test_no_import_cycle_even_inside_functions():
     """The layers import one way, also where an import waits inside a function (there were nine such loops:
     ``atlas`` <-> ``arms`` <-> ``frontier`` <-> ``prefix`` <-> ``report``, ``sweep`` <-> ``global_optimum``,
-    ``result`` <-> ``result_files``, and the two of KNOWN_CYCLES_BEING_REMOVED among them)."""
-    found = cycles(import_graph(functions=True))
-    assert not found - KNOWN_CYCLES_BEING_REMOVED, f"import cycles: {sorted(found - KNOWN_CYCLES_BEING_REMOVED)}"
-
-
-@pytest.mark.parametrize("cycle", sorted(KNOWN_CYCLES_BEING_REMOVED))
-def test_a_known_cycle_is_still_there(cycle):
-    """Once one of them is gone, this fails: take it out of KNOWN_CYCLES_BEING_REMOVED."""
-    assert cycle in cycles(import_graph(functions=True)), (
-        f"{cycle} is no longer a cycle: remove it from KNOWN_CYCLES_BEING_REMOVED"
-    )
+    ``result`` <-> ``result_files``, ``integrators`` <-> ``plants`` <-> ``plants.pinocchio``, ``kinematic`` <->
+    ``simulate``, and ``resolvers.base`` <-> ``resolvers.registry`` once plug-ins came)."""
+    assert cycles(import_graph(functions=True)) == set()

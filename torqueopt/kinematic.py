@@ -58,7 +58,15 @@ from functools import partial
 import numpy as np
 import pinocchio as pin
 
-from .checks import configuration_vector, finite_vector, positive_number, trajectory_dimension, velocity_vector
+from .checks import (
+    DEFAULT_MAX_STEPS,
+    configuration_vector,
+    finite_vector,
+    positive_number,
+    step_budget,
+    trajectory_dimension,
+    velocity_vector,
+)
 from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian
 from .integrators import RK4, VelocityRates
@@ -119,7 +127,6 @@ def simulate_kinematic(
     by a ceiling ends with the row that passed it, one stopped where the
     method is undefined with the last row where it was.
     """
-    from .simulate import DEFAULT_MAX_STEPS, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)

@@ -29,13 +29,12 @@ from functools import partial
 import numpy as np
 
 from .checks import (
-    bounded_count,
+    DEFAULT_MAX_STEPS,
     configuration_vector,
     finite_vector,
     non_negative_number,
     positive_number,
-    show_number,
-    step_count,
+    step_budget,
     trajectory_dimension,
     velocity_vector,
 )
@@ -58,8 +57,6 @@ __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAUL
 DEFAULT_MAX_JOINT_SPEED = 1.0e3
 #: Torque, as a multiple of its limit, beyond which a run is declared diverged.
 DEFAULT_MAX_TORQUE_RATIO = 1.0e3
-#: Most steps one run may take (1000 s at the paper's 1 ms); ``max_steps`` raises it.
-DEFAULT_MAX_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -403,29 +400,3 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
             f"[{lower[joint]:.4g}, {upper[joint]:.4g}]"
         )
     return notes
-
-
-def step_budget(
-    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str | None = "max_steps", row_bytes=None
-) -> int:
-    """The steps of a run of ``duration`` [s] at ``dt`` [s], checked before any work starts.
-
-    Raises:
-        InvalidInput: dt longer than the duration, more than ``max_steps``
-            steps (the message names ``option``, the option that raises the
-            limit, and the memory the run would need when ``row_bytes``, the
-            bytes per recorded step, is given), or a dt that does not divide
-            the duration (see :func:`torqueopt.checks.step_count`).
-    """
-    if dt > duration:
-        raise InvalidInput(f"dt={show_number(dt)} s is longer than the duration {show_number(duration)} s")
-    bounded_count(
-        duration / dt,
-        max_steps,
-        f"duration {duration:g} s at dt {dt:g} s",
-        "steps",
-        option,
-        remedy="or give a larger dt or a shorter duration",
-        item_bytes=row_bytes,
-    )
-    return step_count(duration, dt)
