@@ -564,11 +564,14 @@ def test_the_docs_give_panda_s_joint_limited_optimum_as_the_run_does():
     page = " ".join(
         (Path(__file__).resolve().parent.parent / "docs" / "discussion" / "local-global.md").read_text().split()
     )
-    found = re.search(r"with `--joint-limits` the 0\.5 s line converges in (\d+) iterations to ∫‖τ‖² = ([\d.]+) against "
-                      r"pinv's (\d+\.\d)", page)  # fmt: skip
+    found = re.search(r"with `--joint-limits` the 0\.5 s line converges in about (\d+) iterations to ∫‖τ‖² = ([\d.]+) "
+                      r"against pinv's (\d+\.\d)", page)  # fmt: skip
     assert found, "the sentence is gone from the page"
     assert result.status == "converged"
-    assert found.groups() == (str(result.iterations), f"{result.cost:.1f}", f"{result.warm_start_cost:.1f}")
+    assert found.groups()[1:] == (f"{result.cost:.1f}", f"{result.warm_start_cost:.1f}")
+    # IPOPT's path depends on the machine's arithmetic (90 iterations here, 91 on an AMD EPYC with pip's OpenBLAS):
+    # the page says "about", and the count is held to a fifth of it.
+    assert abs(result.iterations - int(found.group(1))) <= 0.2 * int(found.group(1))
 
 
 def test_a_grid_step_longer_than_the_movement_leaves_two_intervals():

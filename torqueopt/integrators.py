@@ -14,7 +14,7 @@ Configurations move by Pinocchio's ``integrate``, :math:`q \oplus \delta`,
 so continuous joints stay on their circle; for revolute and prismatic
 joints (``Robot.euclidean``) it is plain addition.
 
-The stages are those of the Butcher tableau (:data:`TABLEAU`),
+The stages are those of the Butcher tableau (``TABLEAU``),
 
 .. math::
 
@@ -69,7 +69,7 @@ def _times(power: float, coefficient) -> float:
 
 
 def stage_weights(dt: float, order: int, with_configuration: bool) -> list[np.ndarray]:
-    r"""The weights of the rows ``[q, v, k1, ..., k4]`` in stages 2, 3, 4 and the end, from :data:`TABLEAU`.
+    r"""The weights of the rows ``[q, v, k1, ..., k4]`` in stages 2, 3, 4 and the end, from ``TABLEAU``.
 
     ``order`` 1 has no ``v`` row and gives one row of weights per stage (the
     configuration); order 2 gives two, the configuration (increment) and the
@@ -174,7 +174,7 @@ class RK4:
     step: it does not read the time); a first-order one's is
     ``(configuration, sample) -> rate`` with the parameter the step start's
     reference sample on the half-step grid, read at ``parameter + 1``,
-    ``+ 1`` and ``+ 2`` (:data:`STAGE_HALF_STEPS`).
+    ``+ 1`` and ``+ 2`` (``STAGE_HALF_STEPS``).
     The arithmetic of a stack's rows is that of one state's (see the
     module docstring); its buffers are made once per state shape.
     """

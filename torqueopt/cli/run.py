@@ -157,8 +157,9 @@ def path_beyond_reach(robot: Robot, trajectory, q0, samples: int = 201) -> str:
     path is sampled at ``samples`` times, anchored at the tip's position at ``q0`` as :func:`simulate` anchors it.
     """
     from ..atlas.population import arm_reach, default_accel
+    from ..checks import trajectory_dimension
 
-    linear = min(robot.m, 3)
+    linear = trajectory_dimension(robot, trajectory)  # a path the task cannot follow is refused here, as simulate does
     if trajectory.start is None:
         trajectory = trajectory.anchored(robot.frame_placement(q0).translation[:linear])
     times = np.linspace(0.0, trajectory.duration, samples)

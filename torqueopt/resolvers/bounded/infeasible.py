@@ -207,7 +207,7 @@ def acceleration_rows(
 
 
 class StepState(NamedTuple):
-    """One state's numbers of Eq. (26)-(28) and its bounds on q̈."""
+    """One state's numbers of Eq. (26) to Eq. (28) and its bounds on q̈."""
 
     terms: TaskTerms
     #: ẍ, the task acceleration asked.
@@ -276,7 +276,7 @@ class BoundedStep:
         self.range_basis = _RangeBasis(n, r)
 
     def state(self, terms: TaskTerms, command: np.ndarray) -> StepState:
-        """Eq. (26)-(28) and the bounds on q̈ at this state."""
+        """Eq. (26) to Eq. (28) and the bounds on q̈ at this state."""
         particular, basis, inverse_condition = self.decompose(terms.jacobian, command - terms.drift)
         inertia = terms.inertia
         inertia_basis = inertia.dot(basis)
