@@ -140,13 +140,15 @@ def run_velocity(mode: str, path: Path) -> int:
 
 
 def commit_of_code() -> str:
-    """The commit of the torqueopt that is imported, with '+changes' when its tree differs from it."""
+    """HEAD of the imported torqueopt's repository and the last commit that changed torqueopt/ ('+changes': and
+    the tree differs from it)."""
     root = Path(torqueopt.__file__).resolve().parent.parent
-    head = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
-    dirty = subprocess.run(
-        ["git", "-C", str(root), "status", "--porcelain", "torqueopt"], capture_output=True, text=True
-    )
-    return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
+
+    def git(*arguments: str) -> str:
+        return subprocess.run(["git", "-C", str(root), *arguments], capture_output=True, text=True).stdout.strip()
+
+    changed = "+changes" if git("status", "--porcelain", "torqueopt") else ""
+    return f"{git('rev-parse', '--short', 'HEAD')} (torqueopt/ of {git('log', '-1', '--format=%h', '--', 'torqueopt')}{changed})"
 
 
 def cpu_seconds() -> float:
@@ -226,6 +228,11 @@ def compare_json(before, after, where: str = "summary") -> list[str]:
     return [] if before == after and type(before) is type(after) else [f"{where}: {before!r} -> {after!r}"]
 
 
+def plain(value):
+    """A NumPy scalar as the Python value it holds (for messages)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def compare_rows(before: pd.DataFrame, after: pd.DataFrame, skip_columns=()) -> tuple[list[str], list[dict]]:
     """(problems, per-resolver table) of two atlas tables matched by (path, resolver)."""
     problems = []
@@ -261,7 +268,7 @@ def compare_rows(before: pd.DataFrame, after: pd.DataFrame, skip_columns=()) -> 
                     where = int(np.argmax(difference))
                     problems.append(
                         f"{resolver} {column}: relative {largest:.2e} on path {int(rows['path'].iloc[where])} "
-                        f"({b.iloc[where]!r} -> {a.iloc[where]!r}), {int((difference > ROW_TOLERANCE).sum())} rows"
+                        f"({plain(b.iloc[where])!r} -> {plain(a.iloc[where])!r}), {int((difference > ROW_TOLERANCE).sum())} rows"
                     )
             else:
                 changed = ~((b == a) | (b.isna() & a.isna()))
@@ -270,7 +277,7 @@ def compare_rows(before: pd.DataFrame, after: pd.DataFrame, skip_columns=()) -> 
                     unequal.append(column)
                     problems.append(
                         f"{resolver} {column}: {int(changed.sum())} rows differ, e.g. path "
-                        f"{int(rows['path'].iloc[where])}: {b.iloc[where]!r} -> {a.iloc[where]!r}"
+                        f"{int(rows['path'].iloc[where])}: {plain(b.iloc[where])!r} -> {plain(a.iloc[where])!r}"
                     )
         table.append({"resolver": resolver, "rows": len(rows), "largest": worst, "column": worst_column,
                       "unequal": ", ".join(unequal)})  # fmt: skip
