@@ -53,7 +53,7 @@ def test_nan_against_a_number_fails_and_nan_against_nan_passes():
     after = _rows()
     after.loc[0, "instability_time"] = 1.0
     problems, _ = house_numbers.compare_rows(_rows(), after)
-    assert problems == ["pinv instability_time: relative inf on path 0 (nan -> 1.0), 1 rows"]
+    assert problems == ["pinv instability_time: relative inf on path 0, stable (nan -> 1.0), 1 rows"]
 
 
 def test_a_changed_verdict_or_stop_reason_fails():
@@ -89,3 +89,22 @@ def test_the_summary_comparison_names_the_key_and_the_size():
         "summary.runs[0].stable: True -> 1",
     ]
     assert house_numbers.compare_json([1, 2], [1]) == ["summary: 2 items -> 1"]
+
+
+def test_round_off_of_a_zero_quantity_passes_unless_strict():
+    """A tip error of 4.4233e-13 m that became 4.4234e-13 m when one RK4 sum was reordered: 1e-5 relative, round-off."""
+    before, after = _rows(), _rows()
+    before.loc[1, "peak_torque_ratio"], after.loc[1, "peak_torque_ratio"] = (
+        4.4233470023344283e-13,
+        4.4234028726447585e-13,
+    )
+    assert house_numbers.compare_rows(before, after)[0] == []
+    problems, _ = house_numbers.compare_rows(before, after, round_off=0.0)
+    assert problems == [
+        "null-space peak_torque_ratio: relative 1.26e-05 on path 0, whiplash (4.4233470023344283e-13 -> 4.4234028726447585e-13), "
+        "1 rows"
+    ]
+    assert house_numbers.compare_json([1e-15], [2e-15]) == []
+    assert house_numbers.compare_json([1e-15], [2e-15], round_off=0.0) == [
+        "summary[0]: 1e-15 -> 2e-15 (relative 5.00e-01)"
+    ]
