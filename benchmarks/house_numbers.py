@@ -38,7 +38,7 @@ kind (``torqueopt.atlas.population``): path k is the same whatever the populatio
 is drawn (cheap), the sample's movements are picked out with their own path numbers and run through the sweep's
 own ``run_chunk``, one chunk per duration, in this process; no hook in the atlas is needed. The sample's batches
 hold other movements than the atlas's chunks did, which moves a batched run by round-off only. The global
-optimum's rows and the columns made from them (``cost_vs_global``, ``peak_vs_global``) are left out unless
+optimum's rows and their columns (``optimizer_*``, ``cost_vs_global``, ``peak_vs_global``, ...) are left out unless
 ``--global`` is given (the optimiser stops on a wall-clock budget).
 
 The numbers a baseline holds are regression pins: what the project computed itself at one commit, not an
@@ -74,8 +74,10 @@ ROW_TOLERANCE = 1e-9
 #: tip error of velocity-level runs from 4.4233e-13 m to 4.4234e-13 m (1.3e-5 relative) and kinetic-energy-pinv's
 #: self-motion energy ratio from 5.2e-15 to 7.1e-15; ``compare --strict`` sets it to 0.
 ROUND_OFF = 1e-12
-#: Columns written from the global optimum's rows: compared only with ``committed --global``.
-GLOBAL_COLUMNS = ("cost_vs_global", "peak_vs_global")
+#: Columns of the global optimum's rows and made from them: compared only with ``committed --global``.
+GLOBAL_COLUMNS = (
+    "cost_vs_global", "peak_vs_global", "optimizer_status", "optimizer_iterations", "optimizer_cost", "replay_tip_error",
+)  # fmt: skip
 GLOBAL_RESOLVER = "global-optimum"
 
 #: Options a resolver needs on each robot (obstacle-avoidance has no default obstacle).
@@ -139,8 +141,11 @@ def run_one_atlas(settings: dict, out: Path) -> pd.DataFrame:
 
 
 def run_paper(out: Path) -> dict:
+    out.mkdir(parents=True, exist_ok=True)
+    # Run inside ``out``: ``python -m`` puts the working directory first on sys.path, before PYTHONPATH, and a
+    # worktree's directory would import that worktree's torqueopt instead of the one measured.
     subprocess.run(
-        [sys.executable, "-m", "torqueopt", "paper", "--out", str(out)], check=True, stdout=subprocess.DEVNULL
+        [sys.executable, "-m", "torqueopt", "paper", "--out", "."], check=True, stdout=subprocess.DEVNULL, cwd=out
     )
     return json.loads((out / "summary.json").read_text())
 
@@ -312,7 +317,7 @@ def print_table(table: list[dict]) -> None:
 def compare(directory: Path, only: list[str], round_off: float = ROUND_OFF) -> None:
     """Run the parts of the baseline in ``directory`` again (those whose name holds a word of ``only``, or all)."""
     manifest = json.loads((directory / "manifest.json").read_text())
-    print(f"baseline {directory} of commit {manifest['commit']}; this code: {commit_of_code()}")
+    print(f"baseline {directory} of commit {manifest['commit']}; this code: {commit_of_code()}, {torqueopt.__file__}")
 
     def wanted(part: str) -> bool:
         return not only or any(word in part for word in only)
