@@ -435,7 +435,18 @@ def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: 
     return table, len(movements)
 
 
-def committed(root: Path, sample_size: int, sample_seed: int, with_global: bool, only: list[str]) -> None:
+def committed(
+    root: Path,
+    sample_size: int,
+    sample_seed: int,
+    with_global: bool,
+    only: list[str],
+    save: Path | None = None,
+    against: Path | None = None,
+) -> None:
+    """Re-run each committed atlas's sample; compare with its committed rows, or with the sample's rows saved in
+    ``against`` (``save`` writes them: the rows the code of one commit gives, where the committed rows were made by
+    an older one)."""
     failed = []
     for folder, config, source in committed_atlases(root):
         name = str(folder.relative_to(root))
@@ -448,7 +459,11 @@ def committed(root: Path, sample_size: int, sample_seed: int, with_global: bool,
             print(f"{name}: cannot be run again today: {error}")
             failed.append(name)
             continue
-        before = pd.read_parquet(folder / "results.parquet")
+        saved = name.replace("/", "--") + ".parquet"
+        if save is not None:
+            save.mkdir(parents=True, exist_ok=True)
+            after.to_parquet(save / saved, index=False)
+        before = pd.read_parquet(folder / "results.parquet" if against is None else against / saved)
         before = before[before["path"].isin(after["path"].unique())]
         skip = ()
         if not with_global:
@@ -496,6 +511,10 @@ def main(argv=None) -> None:
     command.add_argument("--sample-seed", type=int, default=0, help="seed of the sample of paths (default 0)")
     command.add_argument("--global", dest="with_global", action="store_true", help="also the global optimum's rows")
     command.add_argument("--root", type=Path, default=REPO / "docs" / "atlas", help="where the atlases are")
+    command.add_argument("--save", type=Path, metavar="DIR", help="also write each sample's rows into DIR")
+    command.add_argument(
+        "--against", type=Path, metavar="DIR", help="compare with the rows --save wrote into DIR, not the committed"
+    )
     command.add_argument("only", nargs="*", help="only the atlases whose folder contains one of these words")
     arguments = parser.parse_args(argv)
     if arguments.command == "record":
@@ -504,7 +523,13 @@ def main(argv=None) -> None:
         compare(arguments.directory, arguments.only, 0.0 if arguments.strict else ROUND_OFF)
     else:
         committed(
-            arguments.root, arguments.paths_per_atlas, arguments.sample_seed, arguments.with_global, arguments.only
+            arguments.root,
+            arguments.paths_per_atlas,
+            arguments.sample_seed,
+            arguments.with_global,
+            arguments.only,
+            arguments.save,
+            arguments.against,
         )
 
 
