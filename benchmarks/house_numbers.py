@@ -37,7 +37,9 @@ rule. A population is drawn path by path from a stream that depends only on the 
 kind (``torqueopt.atlas.population``): path k is the same whatever the population's size. So the whole population
 is drawn (cheap), the sample's movements are picked out with their own path numbers and run through the sweep's
 own ``run_chunk``, one chunk per duration, in this process; no hook in the atlas is needed. The sample's batches
-hold other movements than the atlas's chunks did, which moves a batched run by round-off only. The global
+hold other movements than the atlas's chunks did: a batched torque resolver's row does not depend on them (bit for
+bit on planar3 with the margin), but the bounded family's does (minmax-torque on panda: which joint peaks, the whip
+descriptors of runs stopped at joint limits), so those rows reproduce only in the atlas's own chunks. The global
 optimum's rows and their columns (``optimizer_*``, ``cost_vs_global``, ``peak_vs_global``, ...) are left out unless
 ``--global`` is given (the optimiser stops on a wall-clock budget).
 
