@@ -600,6 +600,7 @@ def test_cli_runs_and_prints_the_claims(tmp_path, capsys):
         (["--paths", "3", "--resolvers", "pinv,nope"], "unknown resolver 'nope': choose one of"),
         (["--paths", "two"], "--paths: 'two' is not a whole number"),
         (["--paths", "3", "--durations", "0.5,x"], "--durations: 'x' is not a number"),
+        ([], "--paths N is required in random mode (the default); grid mode places its own starts"),
     ],
 )
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, arguments, message):
@@ -824,6 +825,14 @@ def test_a_grid_too_large_is_refused_before_it_is_built(tmp_path, capsys, monkey
     assert main([*TINY, "--mode", "grid", "--out", str(out), *arguments]) == 2
     assert capsys.readouterr().err == f"torqueopt atlas: error: {message}\n"
     assert not out.exists()
+
+
+def test_a_grid_atlas_needs_no_paths(tmp_path, capsys):
+    # --paths counts random movements only; the grid places its own starts (it was required all the same).
+    tiny = [a for a in TINY if a not in ("--paths", "3")]
+    out = tmp_path / "atlas"
+    assert main([*tiny, "--mode", "grid", "--grid-spacing", "1.0", "--grid-directions", "2", "--out", str(out)]) == 0
+    assert (out / "results.parquet").exists() and "wrote" in capsys.readouterr().out
 
 
 def test_the_grid_count_is_the_number_of_start_points_the_grid_tries(planar3, monkeypatch):

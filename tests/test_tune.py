@@ -187,6 +187,9 @@ def test_the_chosen_options_go_back_into_the_api_and_the_cli(tuned, planar3, cap
         (["--path", "square"], "--path: 'square' is not a kind of path for the atlas"),
         (["--paths", "1000000"], "the tune would simulate up to"),
         (["--whiplash-bound", "2"], "whiplash_bound=2.0 must be a number in (0, 1]"),
+        # Too few movements for the bound even if pinv handled every one: refused before any run.
+        (["--paths", "5", "--durations", "0.5,1"], "whiplash_bound=0.01 needs at least 381 movements that pinv "
+         "handles, and paths=5 over 2 durations gives 10 at most: give paths=191 or more"),
     ],
 )  # fmt: skip
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, arguments, message):
@@ -207,15 +210,17 @@ def test_a_folder_that_is_not_a_tunes_is_refused(tmp_path, capsys, tuned):
 
 
 def test_no_qualifying_setting_says_so_and_exits_4(tmp_path, capsys):
-    """A bound no count of these few paths can meet: no setting is run, the table says why, exit 4."""
-    code = main(["tune", "--robot", "planar3", "--values", "kinematic_weight=2", "--paths", "2",
-                 "--durations", "0.3", "--whiplash-bound", "0.01", "--workers", "0", "--no-progress",
+    """Limits pinv exceeds on every path: it handles none of the 4 the bound needs, no setting is run, the table says
+    why, exit 4."""
+    code = main(["tune", "--robot", "planar3", "--torque-limit", "0.01", "--values", "kinematic_weight=2", "--paths",
+                 "4", "--durations", "0.3", "--whiplash-bound", "0.5", "--workers", "0", "--no-progress",
                  "--out", str(tmp_path)])  # fmt: skip
     captured = capsys.readouterr()
     assert code == 4 and "Traceback" not in captured.err
     assert "no setting of damped-null-space qualifies on planar3: see the table" in captured.out
     written = json.loads((tmp_path / "tune.json").read_text())
-    assert written["chosen"] is None and "no whip at all needs 381 for the bound" in written["settings"][0]["reason"]
+    reason = written["settings"][0]["reason"]
+    assert written["chosen"] is None and reason == "pinv handles 0 paths; no whip at all needs 4 for the bound"
     assert written["settings"][0]["stage"] == "not run" and not (tmp_path / "settings").exists()
     assert "**No setting qualifies**" in (tmp_path / "tune.md").read_text()
     with pytest.raises(InvalidInput, match="chose no setting"):

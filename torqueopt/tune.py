@@ -294,6 +294,15 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     name, resolvers, fixed = settings_grid(settings.resolver, settings.grid, settings.options)
     grid_options = tuple(settings.grid) if settings.grid is not None else tuple(DEFAULT_GRIDS[name])
     population = settings.population_spec()
+    needed = least_trials(whiplash_bound)
+    durations = len(population.durations)
+    if paths * durations < needed:
+        # Refused before any work: even if pinv handled every movement, no setting could qualify.
+        raise InvalidInput(
+            f"whiplash_bound={whiplash_bound:g} needs at least {needed} movements that pinv handles, and "
+            f"paths={paths} over {durations} duration{'s' if durations > 1 else ''} gives {paths * durations} at "
+            f"most: give paths={math.ceil(needed / durations)} or more, or a larger whiplash_bound"
+        )
     out = writable_path(settings.out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the tune to '{out}': it is a file; give a folder")
@@ -315,7 +324,6 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     )  # fmt: skip
     atlas_config = baseline.summary["config"]
     handled = handled_paths(baseline.table)
-    needed = least_trials(whiplash_bound)
     labels = [setting_.label for setting_ in resolvers]
     if len(handled) < needed:
         rows_by_label = {label: _not_run(label, len(handled), needed) for label in labels}

@@ -255,7 +255,9 @@ class AtlasSettings(Settings):
         doc="a robot name or URDF (as :func:`torqueopt.load_robot`), or a "
         ":class:`~torqueopt.atlas.jobs.RobotSpec` with frame, task, limits",
     )
-    paths: int = setting(100, "movements per duration (random mode)", parse=whole(1), metavar="N", cli_required=True)
+    paths: int = setting(
+        100, "movements per duration (random mode; required there on the command line)", parse=whole(1), metavar="N"
+    )
     durations: tuple[float, ...] = setting(
         (0.5, 1.0, 1.5, 2.0),
         "movement durations [s] (default 0.5,1,1.5,2)",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
 from .common import importable_from_here, parse_vector
@@ -56,6 +57,8 @@ def atlas_command(args: argparse.Namespace) -> int:
     from ..atlas.settings import AtlasSettings
 
     started = time.perf_counter()
+    if args.paths is None and args.mode != "grid":
+        raise InvalidInput("--paths N is required in random mode (the default); grid mode places its own starts")
     for spec in split_resolver_list(args.resolvers or ""):
         importable_from_here(spec)  # before the cluster forks its workers, which then import it too
     settings = AtlasSettings.from_arguments(args, robot=robot_spec(args))

@@ -22,7 +22,7 @@ def add_parser(subparsers) -> None:
         description=(
             "Run a seeded atlas of pinv and a grid of a resolver's settings on one arm and choose the setting with "
             "the largest median torque saving against pinv among those that, on the paths pinv handles (stable, "
-            "within its torque limits), whip with a Wilson 95 %% upper bound of at most --whiplash-bound and stay "
+            "within its torque limits), whip with a Wilson 95 % upper bound of at most --whiplash-bound and stay "
             "within the torque, position and velocity limits wherever pinv does. Prints the --option flags that "
             "reproduce it; writes tune.json and tune.md (the evidence table) into --out. pinv runs first; the "
             "settings then run on the paths it handles, longest first, each dropped once it is certain to fail. Exit 4 when no setting "
@@ -46,7 +46,8 @@ def tune_command(args: argparse.Namespace) -> int:
     importable_from_here(args.resolver)
     given = {"robot": robot_spec(args)}
     if args.out is None:
-        given["out"] = "tune-" + re.sub(r"[^A-Za-z0-9_.-]+", "-", args.robot.rsplit("/", 1)[-1])
+        robot = args.robot.rsplit("/", 1)[-1].removesuffix(".urdf")  # a URDF's stem: tune-arm, not tune-arm.urdf
+        given["out"] = "tune-" + re.sub(r"[^A-Za-z0-9_.-]+", "-", robot)
     result = tune(TuneSettings.from_arguments(args, **given))
     width = max(len(_options_text(row)) for row in result.settings) + 2
     print(f"{'setting':<{width}}{'P':>6}{'whips [95% upper]':>20}{'over limits':>13}{'saving':>9}  qualifies")
