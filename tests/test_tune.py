@@ -174,6 +174,23 @@ def test_the_chosen_options_go_back_into_the_api_and_the_cli(tuned, planar3, cap
     assert capsys.readouterr().out != from_file
 
 
+def test_a_tune_file_is_checked_before_its_options_are_used(tuned, tmp_path, capsys):
+    flags = ["run", "--robot", "planar3", "--resolver", "damped-null-space", "--direction", "1,1", "--duration", "0.1"]
+    chosen = json.loads((tuned.out / "tune.json").read_text())
+    for name, content, message in [
+        ("missing.json", None, "tune file '{path}' does not exist"),
+        ("no-options.json", {**chosen, "chosen": {"label": "x"}}, "'{path}' is not a tune.json written by torqueopt tune"),
+        ("panda.json", {**chosen, "robot_name": "panda"},
+         "the tune in '{path}' was made on robot 'panda', not 'planar3': tune on 'planar3' (torqueopt tune) or give "
+         "the options with --option"),
+    ]:  # fmt: skip
+        path = tmp_path / name
+        if content is not None:
+            path.write_text(json.dumps(content))
+        assert main([*flags, "--options-from", str(path)]) == 2
+        assert capsys.readouterr().err == f"torqueopt run: error: {message.format(path=path)}\n"
+
+
 @pytest.mark.parametrize(
     "arguments, message",
     [

@@ -656,22 +656,34 @@ def choose(rows: list[dict]) -> dict | None:
     return best
 
 
-def tuned_options(path: str | os.PathLike) -> tuple[str, dict]:
+def tuned_options(path: str | os.PathLike, robot: str | None = None) -> tuple[str, dict]:
     """(resolver, options) of the setting a ``tune.json`` chose, for ``get_resolver(name, **options)``,
     ``simulate(..., resolver_options=options)`` and ``torqueopt run --options-from``.
 
+    ``robot``: the name of the robot the options are for; a tune made on another robot is refused (its options
+    were chosen for that arm's inertia and limits).
+
     Raises:
-        InvalidInput: the file is not a tune's, or its tune chose no setting.
+        InvalidInput: the file does not exist or is not a tune's, its tune chose no setting, or it was made
+            on another robot than ``robot``.
     """
     path = Path(path)
+    if not path.exists():
+        raise InvalidInput(f"tune file '{path}' does not exist")
     try:
         summary = json.loads(path.read_text(encoding="utf-8"))
-        resolver, chosen = summary["config"]["resolver"], summary["chosen"]
-    except (OSError, ValueError, KeyError, TypeError):
+        resolver, chosen, tuned_on = summary["config"]["resolver"], summary["chosen"], summary["robot_name"]
+        options = None if chosen is None else dict(chosen["options"])
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         raise InvalidInput(f"'{path}' is not a tune.json written by torqueopt tune") from None
-    if chosen is None:
+    if options is None:
         raise InvalidInput(f"the tune in '{path}' chose no setting (none qualified): it has no options to give")
-    return resolver, dict(chosen["options"])
+    if robot is not None and robot != tuned_on:
+        raise InvalidInput(
+            f"the tune in '{path}' was made on robot '{tuned_on}', not '{robot}': tune on '{robot}' "
+            "(torqueopt tune) or give the options with --option"
+        )
+    return resolver, options
 
 
 def write_markdown(summary: dict) -> str:

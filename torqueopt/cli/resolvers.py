@@ -113,9 +113,11 @@ def resolver_from_args(args: argparse.Namespace) -> Resolver:
             raise InvalidInput("--weight and --option weight= are the same option; give one")
         options["weight"] = args.weight
     if getattr(args, "options_from", None):
+        from ..catalog import find_robot
         from ..tune import tuned_options
 
-        tuned, chosen = tuned_options(args.options_from)
+        robot = getattr(args, "robot", None)
+        tuned, chosen = tuned_options(args.options_from, None if robot is None else find_robot(robot).name)
         if get_resolver(name).name != tuned:
             raise InvalidInput(
                 f"--options-from {args.options_from} holds options of {tuned}, not of --resolver {args.resolver}; "
