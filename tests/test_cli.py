@@ -492,3 +492,22 @@ def test_run_says_up_front_when_the_path_leaves_the_arm_s_reach(tmp_path, capsys
     assert "beyond the 0.857 m" in path_beyond_reach(panda, line, panda.default_configuration)
     code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.1"])
     assert code == 0 and "note: the path" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["run", *PAPER, "--resolver", "pinv", "--out", ""], "--out is empty"),
+        (["run", *PAPER, "--resolver", "pinv", "--frame", ""], "--frame is empty"),
+        (["run", *PAPER, "--resolver", "pinv", "--task", ""], "--task is empty"),
+        (["run", "--robot", "", "--resolver", "pinv", "--direction", "1,1"], "--robot is empty"),
+        (["play", ""], "RUN is empty; give a value"),
+    ],
+)
+def test_an_empty_value_is_refused_not_taken_for_the_default(arguments, message, capsys):
+    # --out '' wrote nothing with exit 0; --frame '' and --task '' fell back to the defaults; --robot '' was "a folder".
+    with pytest.raises(SystemExit) as stop:
+        main(arguments)
+    error = capsys.readouterr().err
+    assert stop.value.code == 2 and error.startswith(f"torqueopt {arguments[0]}: error: {message}")
+    assert error.count("\n") == 1

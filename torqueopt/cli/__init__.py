@@ -70,6 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Options whose empty text means something: an empty figure title is no title.
+_MAY_BE_EMPTY = frozenset({"title"})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it).
 
@@ -85,6 +89,14 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         # Name the subcommand's own help, where its options are listed.
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    # An empty value (--out '', --frame '') would fall back to a default or write nothing, silently.
+    empty = [name for name, value in vars(args).items() if value == "" and name not in _MAY_BE_EMPTY]
+    if empty:
+        action = next((a for a in args.parser._actions if a.dest == empty[0]), None)
+        if action is not None and not action.option_strings:  # a positional argument
+            args.parser.error(f"{action.metavar or action.dest.upper()} is empty; give a value")
+        option = action.option_strings[-1] if action is not None else "--" + empty[0].replace("_", "-")
+        args.parser.error(f"{option} is empty; give a value, or leave the option out for its default")
     # A reader that goes away (``torqueopt run ... | head -1``) must cost no
     # result: commands write their files before they print, and a closed
     # stdout only swallows the rest of what they print, so the command runs
