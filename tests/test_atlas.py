@@ -30,7 +30,7 @@ from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
 from torqueopt.atlas.population import Movement, arm_reach, path_length
 from torqueopt.atlas.stats import claims, proportion, unstable_fractions, wilson_interval
 from torqueopt.atlas.sweep import resolvers_from, run_chunk
-from torqueopt.atlas.verdicts import Thresholds, self_motion_energy
+from torqueopt.atlas.verdicts import VERDICT_COLOURS, Thresholds, self_motion_energy
 from torqueopt.batch import simulate_batch
 from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, MissingDependency
@@ -466,6 +466,12 @@ def test_the_atlas_figures_draw_the_table(reference_atlas, planar3, tmp_path, sa
                 np.reshape(offsets, (-1, 2)), [[r["start_1"], r["start_2"]] for r in chosen] or np.zeros((0, 2))
             )
         assert sum(len(offsets) for offsets in drawn.values()) == len(table["path"].unique()) // len(durations)
+        from matplotlib.colors import to_rgba
+
+        # Every verdict in a colour of its own, the explorer's (joint limits and lost path were one purple here).
+        colours = {c.get_label().split(" (")[0]: tuple(c.get_facecolor()[0]) for c in ax.collections}
+        assert len(set(colours.values())) == len(colours) == len(VERDICT_COLOURS)
+        assert colours == {v: to_rgba(c) for v, c in VERDICT_COLOURS.items()}
     (hist_ax,) = histogram.axes
     for patch in hist_ax.patches:
         resolver, count = patch.get_label().rsplit(" (", 1)

@@ -34,7 +34,7 @@ import numpy as np
 from ..io import atomic_write
 from .population import movement_trajectory
 from .sweep import require, simulate_all
-from .verdicts import applied_rows
+from .verdicts import VERDICT_COLOURS, applied_rows
 
 __all__ = ["DEFAULT_KEEP_TRACES", "MAX_SAMPLES", "choose_paths", "explorer_html", "keep_traces", "write_explorer"]
 
@@ -42,15 +42,6 @@ __all__ = ["DEFAULT_KEEP_TRACES", "MAX_SAMPLES", "choose_paths", "explorer_html"
 DEFAULT_KEEP_TRACES = 200
 #: Samples kept per run and joint (evenly spaced, plus each joint's peak).
 MAX_SAMPLES = 300
-VERDICT_COLOURS = {
-    "stable": "#2ca02c",
-    "whiplash": "#d62728",
-    "too demanding": "#ff7f0e",
-    "joint limits": "#9467bd",
-    "singular": "#7f7f7f",
-    "lost path": "#8c564b",
-    "stopped early": "black",
-}
 _RESOLVER_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 
 

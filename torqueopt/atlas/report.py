@@ -12,7 +12,7 @@ from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin
 from .global_optimum import GLOBAL_RESOLVER
 from .pinv_paths import pinv_paths_markdown, pinv_paths_summary
 from .stats import CRITERIA, claims, proportion, unstable_fractions
-from .verdicts import VERDICTS
+from .verdicts import VERDICT_COLOURS, VERDICTS
 
 __all__ = ["summarise", "write_figures", "write_markdown"]
 
@@ -212,15 +212,7 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
 
     # 2. Workspace map: start points coloured by verdict, one panel per resolver (planar tasks).
     if "start_2" in table.columns and "start_3" not in table.columns:
-        verdict_colours = {
-            "stable": "#2ca02c",
-            "whiplash": "#d62728",
-            "too demanding": "#ff7f0e",
-            "joint limits": "#9467bd",
-            "singular": "#7f7f7f",
-            "lost path": "#9467bd",
-            "stopped early": "black",
-        }
+        verdict_colours = VERDICT_COLOURS  # joint limits and lost path were one purple here
         longest = max(summary["durations"])
         columns = min(len(resolvers), 4)
         rows_of_panels = -(-len(resolvers) // columns)

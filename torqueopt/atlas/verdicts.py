@@ -103,6 +103,17 @@ from ..self_motion import self_motion
 from ..settings import Settings, positive, positive_in, setting
 from ..whiplash import DEFAULT_LIMIT_FACTOR, DEFAULT_PATH_TOLERANCE, detect_whiplash
 
+#: One colour per verdict, for every figure and page of the atlas (the workspace map, the explorer).
+VERDICT_COLOURS = {
+    "stable": "#2ca02c",
+    "whiplash": "#d62728",
+    "too demanding": "#ff7f0e",
+    "joint limits": "#9467bd",
+    "singular": "#7f7f7f",
+    "lost path": "#8c564b",
+    "stopped early": "black",
+}
+
 __all__ = [
     "DEFAULT_ENERGY_FACTOR",
     "DEFAULT_PINV_FACTOR",
