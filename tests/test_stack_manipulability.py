@@ -190,8 +190,9 @@ def panda3():
 
 
 @pytest.mark.parametrize("options", [{}, {"k": 5.0, "position_gain": 3.0}])
-def test_the_step_on_floats_is_the_general_step(planar3, panda3, options):
-    """The 2×3 step on floats (J⁺ by cross products, the traces and their rates from the frame's J and J̇) against
+def test_the_single_state_step_is_the_general_step(planar3, panda3, options):
+    """The single-state step (the stacked form on a stack of one: the traces and their rates from the frame's J
+    and J̇) against
     ``projected_gradient_steps`` (J⁺ by SVD, the traces from Pinocchio's kinematic Hessian): q̇ and σmin/σmax at
     1e-12, q̈ at 1e-12, on planar3 and a spatial chain, and the same refusals in the same words (planar3
     stretched, nearly stretched, and a cutoff that many states miss)."""
@@ -200,7 +201,7 @@ def test_the_step_on_floats_is_the_general_step(planar3, panda3, options):
         resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", **options)
         task = FrameTask.of_robot(robot)
         fast = resolver.step_functions(robot, task)
-        assert fast[0].__qualname__.startswith("cross_product_manipulability_steps")
+        assert fast[0].__qualname__.startswith("stack_of_one")
         reference = projected_gradient_steps(
             robot, task, resolver.singular_tolerance, resolver.objective, resolver.gain
         )
@@ -236,7 +237,7 @@ def test_the_step_on_floats_is_the_general_step(planar3, panda3, options):
 
 
 def test_the_batch_on_stacks_equals_simulate_on_a_spatial_chain(panda3):
-    """Two task rows, three joints whose axes are not parallel, gravity on: the loop's 2×3 step on floats."""
+    """Two task rows, three joints whose axes are not parallel, gravity on."""
     resolver = torqueopt.get_resolver("gradient-projection", criterion="manipulability", k=3.0)
     rng = np.random.default_rng(7)
     q0s = [panda3.default_configuration + rng.normal(scale=0.3, size=3) for _ in range(4)]
