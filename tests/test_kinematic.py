@@ -587,20 +587,6 @@ def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
         )  # Eq. (15)
 
 
-def test_the_joint_limit_gradient_on_floats_is_the_gradient(planar3, panda, rng):
-    """:meth:`JointLimits.gradient_values`, bit for bit :meth:`JointLimits.gradient`, on arms with every joint
-    limited and on kinova, whose continuous joints have no Eq. (5) term; the base class's for a callable."""
-    pin.seed(int(rng.integers(2**31)))
-    for robot in (planar3, panda, torqueopt.load_robot("kinova")):
-        criterion = JointLimits()
-        for _ in range(3):
-            kinematics = Kinematics(robot).update(pin.randomConfiguration(robot.model))
-            assert criterion.gradient_values(kinematics) == criterion.gradient(kinematics).tolist()
-    objective = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2)).objective
-    kinematics = Kinematics(planar3).update(rng.uniform(-2, 2, 3))
-    assert objective.gradient_values(kinematics, None) == objective.gradient(kinematics, None).tolist()
-
-
 def assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, draw_q, rng, count):
     """The extended Jacobian's single-state step (its stacked form on a stack of one: the row by Jacobi's formula,
     the curvature in closed form) against :meth:`ExtendedJacobian.lu_step_functions` (the row from Pinocchio's
