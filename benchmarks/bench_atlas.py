@@ -56,6 +56,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_variable] = "1"
 
 import argparse
+import dataclasses
 import json
 import platform
 import statistics
@@ -66,7 +67,8 @@ import numpy as np
 
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population
-from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
+from torqueopt.atlas.sweep import resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds
 from torqueopt.batch import simulate_batch
 from torqueopt.robot_copies import RobotForest
@@ -85,18 +87,11 @@ def _cpu_ticks():
 
 
 def _jobs(robot_name, movements, resolvers, chunk, accel=PAPER_ACCEL):
+    lines = tuple(dataclasses.replace(m, accel=accel) for m in movements)  # the lines at the acceleration given
+    resolvers = tuple(resolvers_from(resolvers))
     return [
-        {
-            "robot": RobotSpec(robot_name),
-            "resolvers": resolvers_from(resolvers),
-            "dt": 1e-3,
-            "accel": accel,
-            "thresholds": Thresholds().as_dict(),
-            "batch": True,
-            "digest": "bench",
-            "movements": [(m.path, m.duration, m.q0, m.direction, m.start) for m in movements[i : i + chunk]],
-        }
-        for i in range(0, len(movements), chunk)
+        ResolverChunk(RobotSpec(robot_name), resolvers, lines[i : i + chunk], 1e-3, Thresholds(), True, "bench")
+        for i in range(0, len(lines), chunk)
     ]
 
 

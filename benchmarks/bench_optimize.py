@@ -10,6 +10,11 @@ Cases (interleaved round by round, so a noisy neighbour hits every case alike):
   (--scipy), the alternatives to IPOPT.
 
 Run on one core: taskset -c 0 python benchmarks/bench_optimize.py [--rounds 3] [--scipy]
+
+``--shooting PATHS``: the shooting transcription (transcription="shooting") on the atlas's population
+(torqueopt.atlas.population, seed 0) of PATHS random 2 s panda lines and PATHS random 1 s panda circles,
+torque bounds and joint limits on, both default starts, compiled (the one-time compile is timed apart):
+convergence, iterations and time per solve. ``--grid-step`` sets the transcription grid (default 0.02 s).
 """
 
 from __future__ import annotations
@@ -79,11 +84,60 @@ def scipy_case(method):
     return f"planar3 short, 10 ms, scipy {method}", run
 
 
+def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...]) -> None:
+    from torqueopt.atlas.population import PopulationSpec, draw_population, movement_trajectory
+
+    robot = torqueopt.load_robot("panda", task="position")
+    rows = []
+    for kind, duration in (("line", 2.0), ("circle", 1.0)):
+        if kind not in kinds:
+            continue
+        movements = draw_population(robot, PopulationSpec(paths=paths, durations=(duration,), path=kind, seed=0))
+        for index, movement in enumerate(movements):
+            began = time.perf_counter()
+            result = optimize(
+                robot,
+                movement_trajectory(movement),
+                movement.q0,
+                transcription="shooting",
+                grid_step=grid_step,
+                torque_bounds=True,
+                joint_limits=True,
+                compiled=True,
+            )
+            wall = time.perf_counter() - began
+            starts = "; ".join(
+                f"{s['warm_start']}: {s['status']} {s['iterations']} it {s['grid_cost']:.6g} ({s['seconds']:.2f} s)"
+                for s in result.starts
+            )
+            rows.append((kind, result, wall))
+            print(
+                f"{kind} {index:3d} {result.status:>16} cost {result.cost:12.6g} pinv {result.warm_start_cost:12.6g} "
+                f"wall {wall:7.2f} s | {starts}",
+                flush=True,
+            )
+    for kind in kinds:
+        chosen = [(result, wall) for k, result, wall in rows if k == kind]
+        converged = sum(result.status == "converged" for result, _ in chosen)
+        seconds = [s["seconds"] for result, _ in chosen for s in result.starts]
+        iterations = [s["iterations"] for result, _ in chosen for s in result.starts]
+        print(
+            f"{kind}: {converged}/{len(chosen)} converged; per solve (start) median {statistics.median(seconds):.2f} s, "
+            f"max {max(seconds):.2f} s; iterations median {statistics.median(iterations):g}, max {max(iterations)}"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--scipy", action="store_true", help="also time scipy's SLSQP and trust-constr (slow)")
+    parser.add_argument("--shooting", type=int, default=0, metavar="PATHS")
+    parser.add_argument("--grid-step", type=float, default=0.02)
+    parser.add_argument("--kinds", default="line,circle", help="of --shooting: line, circle or both")
     args = parser.parse_args()
+    if args.shooting:
+        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")))
+        return
     cases = [
         planar_case(0.01, "gauss-newton", False),
         planar_case(0.01, "limited-memory", False),

@@ -26,9 +26,10 @@ pytest.importorskip("tqdm")
 
 import torqueopt
 from torqueopt.atlas import PopulationSpec, draw_population, run_atlas
-from torqueopt.atlas.population import arm_reach, path_length
+from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
+from torqueopt.atlas.population import Movement, arm_reach, path_length
 from torqueopt.atlas.stats import claims, proportion, unstable_fractions, wilson_interval
-from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.sweep import resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds, self_motion_energy
 from torqueopt.batch import simulate_batch
 from torqueopt.cli import main
@@ -102,8 +103,11 @@ def test_the_report_imports_start_once_a_worker_has_no_chunk_left(tmp_path, monk
 
     from torqueopt.atlas import sweep
 
-    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job["movements"][0]}])
-    jobs = {index: {"movements": [index], "digest": "0" * 16} for index in range(chunks)}
+    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job.movements[0]}])
+    jobs = {
+        index: ResolverChunk(RobotSpec("planar3"), (), (index,), 1e-3, Thresholds(), True, "0" * 16)
+        for index in range(chunks)
+    }
     written_when_called = []
 
     def note():
@@ -267,19 +271,12 @@ PAPER_ACCEL = math.sqrt(2.0)
 
 def _rows(movements, accel=PAPER_ACCEL, resolvers=PAPER_RESOLVERS, batch=True):
     planar3 = torqueopt.load_robot("planar3")
-    job = {
-        "robot": RobotSpec("planar3"),
-        "resolvers": resolvers_from(resolvers),
-        "dt": 1e-3,
-        "accel": accel,
-        "thresholds": Thresholds().as_dict(),
-        "batch": batch,
-        "movements": [
-            (i, duration, np.asarray(q0, float), np.asarray(d, float) / np.linalg.norm(d),
-             planar3.task_position(planar3.configuration(q0)))
-            for i, (duration, q0, d) in enumerate(movements)
-        ],
-    }  # fmt: skip
+    lines = tuple(
+        Movement(i, duration, np.asarray(q0, float), np.asarray(d, float) / np.linalg.norm(d),
+                 planar3.task_position(planar3.configuration(q0)), accel=accel)
+        for i, (duration, q0, d) in enumerate(movements)
+    )  # fmt: skip
+    job = ResolverChunk(RobotSpec("planar3"), tuple(resolvers_from(resolvers)), lines, 1e-3, Thresholds(), batch, "")
     return {(row["path"], row["resolver"]): row for row in run_chunk(job)}
 
 
@@ -947,23 +944,37 @@ def _live_processes_of_group(group: int) -> list[str]:
 
 
 def test_a_ctrl_c_while_the_command_imports_its_modules_is_one_line_and_exit_130():
-    """Before the CLI's own handler, a Ctrl-C cut an import short with a traceback of numpy's or Pinocchio's."""
+    """A Ctrl-C that cut an import short printed the traceback of numpy's or Pinocchio's; here it lands while
+    ``torqueopt.cli.main`` imports the first command's module."""
     code = (
-        "import os, signal, sys\n"
-        "sys.argv[0] = os.path.join(os.path.dirname(sys.executable), 'torqueopt')  # the console script\n"
-        "import torqueopt.cli\n"  # the package's first line installs the handler
-        "os.kill(os.getpid(), signal.SIGINT)\n"
-        "signal.pause()\n"
+        "import importlib, os, signal, sys\n"
+        "import torqueopt.cli\n"
+        "real = importlib.import_module\n"
+        "def interrupted(name):\n"
+        "    os.kill(os.getpid(), signal.SIGINT)  # what the terminal does on Ctrl-C\n"
+        "    return real(name)\n"
+        "torqueopt.cli.importlib.import_module = interrupted\n"
+        "sys.exit(torqueopt.cli.main(['robots']))\n"
     )
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
                              timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
     assert (process.returncode, process.stderr) == (130, "torqueopt: interrupted\n")
-    # A program that imports torqueopt keeps Python's own handler (KeyboardInterrupt).
-    library = "import signal, torqueopt\nprint(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
-    process = subprocess.run([sys.executable, "-c", library], env=environment, capture_output=True, text=True,
+
+
+def test_importing_torqueopt_or_its_command_line_leaves_ctrl_c_to_python():
+    """No import side effect: SIGINT keeps Python's handler (KeyboardInterrupt) after importing the package and
+    the CLI, even in a process that is the ``torqueopt`` command (its first lines installed a handler of its own)."""
+    code = (
+        "import os, signal, sys\n"
+        "sys.argv[0] = os.path.join(os.path.dirname(sys.executable), 'torqueopt')  # the console script\n"
+        "import torqueopt, torqueopt.cli\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    )
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True,
                              timeout=120, check=False, preexec_fn=_hears_ctrl_c)  # fmt: skip
-    assert process.stdout == "True\n"
+    assert process.stdout == "True\n", process.stderr
 
 
 def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_path, capsys):

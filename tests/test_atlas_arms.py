@@ -26,7 +26,7 @@ from torqueopt.atlas.arms import (
     readme_block,
     write_arm_page,
 )
-from torqueopt.atlas.arms import _median_interval as median_interval
+from torqueopt.atlas.pinv_paths import median_interval
 from torqueopt.errors import InvalidInput
 
 pandas = pytest.importorskip("pandas")

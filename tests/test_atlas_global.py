@@ -283,7 +283,7 @@ def test_the_page_and_the_readme_answer_are_rewritten_from_an_atlas_folder(globa
     """write_atlas_page copies the report, its summary, its rows and the trade-off figure into the docs' folder,
     the note under the title; readme_answer replaces the old paragraph by the new atlas's; bad input says why."""
     from torqueopt.atlas.frontier import ANSWER_BEGIN, ANSWER_END, broader_answer
-    from torqueopt.atlas.frontier import main as frontier
+    from torqueopt.atlas.prefix import main as frontier
     from torqueopt.atlas.prefix import prefix_report
 
     report = tmp_path / "report"

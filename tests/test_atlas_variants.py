@@ -14,7 +14,9 @@ import pytest
 
 import torqueopt
 from torqueopt.atlas import run_atlas
-from torqueopt.atlas.sweep import RobotSpec, resolvers_from, run_chunk
+from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
+from torqueopt.atlas.population import Movement
+from torqueopt.atlas.sweep import resolvers_from, run_chunk
 from torqueopt.atlas.verdicts import Thresholds, run_row, self_motion_energy
 from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, ResolverNotFound
@@ -114,15 +116,9 @@ def panda_rows():
     robot = torqueopt.load_robot("panda", task="position")
     q0 = robot.default_configuration
     direction = np.asarray(PANDA_LINE)
-    job = {
-        "robot": RobotSpec("panda", task="position"),
-        "resolvers": resolvers_from(["pinv", "bounded-torque", OFF]),
-        "dt": 1e-3,
-        "accel": ACCEL,
-        "thresholds": Thresholds().as_dict(),
-        "batch": True,
-        "movements": [(0, 1.0, q0, direction, robot.task_position(robot.configuration(q0)))],
-    }
+    movement = Movement(0, 1.0, q0, direction, robot.task_position(robot.configuration(q0)), accel=ACCEL)
+    resolvers = tuple(resolvers_from(["pinv", "bounded-torque", OFF]))
+    job = ResolverChunk(RobotSpec("panda", task="position"), resolvers, (movement,), 1e-3, Thresholds(), True, "")
     return robot, {row["resolver"]: row for row in run_chunk(job)}
 
 

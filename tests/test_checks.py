@@ -19,6 +19,7 @@ from torqueopt.checks import (
     number_in_range,
     parse_count,
     parse_whole,
+    positive_number,
     weight_matrix_root,
     whole_number,
 )
@@ -264,6 +265,21 @@ def test_parse_number_takes_any_finite_number_and_names_the_option():
     assert refused(parse_number, "abc", "min-condition") == "--min-condition: 'abc' is not a number"
     assert refused(parse_number, "nan", "min-condition") == "--min-condition: nan must be a finite number"
     assert refused(parse_number, "-inf", "min-condition") == "--min-condition: -inf must be a finite number"
+
+
+def test_numbers_are_read_as_a_person_types_them():
+    from torqueopt.checks import parse_number, parse_vector
+
+    assert parse_number(" 2.5e-1 ", "duration") == 0.25 and parse_vector("1, -2.5,.5", "q0").tolist() == [1, -2.5, 0.5]
+    # float() reads these too: digits of other scripts, full-width digits, digit separators.
+    assert refused(parse_number, "١", "duration") == "--duration: '١' is not a number"
+    assert refused(parse_vector, "1,５", "q0") == "--q0: '５' is not a number (give comma-separated numbers, e.g. 1,1)"
+    assert refused(parse_count, "1_000", "paths") == "--paths: '1_000' is not a whole number"
+    assert refused(positive_number, "٢", "dt") == "dt='٢' is not a number"
+    # A huge count is shown as a number, not as its 309 digits.
+    assert refused(whole_number, int(1e308), "paths", 1, 1_000_000) == (
+        "paths=1e+308 must be a whole number from 1 to 1,000,000"
+    )
 
 
 def test_one_value_per_joint_is_checked_alike_for_the_paper_scenario_and_the_posture_task(planar3):

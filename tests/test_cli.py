@@ -212,6 +212,39 @@ def test_missing_torque_limits_are_reported_and_required_where_divided_by(tmp_pa
     assert "no torque limit for joints joint3" in captured.out
 
 
+def test_a_user_s_file_that_shares_an_output_s_name_is_refused_before_any_work(tmp_path, capsys):
+    # A sidecar that is not a run's, and a folder of the user's files, are left as they were.
+    theirs = tmp_path / "data.csv.json"
+    theirs.write_text('{"mine": 1}')
+    code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.1", "--out", str(tmp_path / "data.csv")])
+    captured = capsys.readouterr()
+    assert code == 2 and captured.out == "" and theirs.read_text() == '{"mine": 1}'
+    assert captured.err == (
+        f"torqueopt run: error: cannot write '{theirs}': it is not a run's sidecar, and torqueopt replaces only "
+        "its own; give --out another name\n"
+    )
+    assert not (tmp_path / "data.csv").exists()
+    folder = tmp_path / "notes"
+    folder.mkdir()
+    (folder / "summary.md").write_text("my notes")
+    assert main(["paper", "--out", str(folder)]) == 2
+    assert capsys.readouterr().err == (
+        f"torqueopt paper: error: cannot write '{folder / 'summary.md'}': it is not a file of a torqueopt paper "
+        f"folder ('{folder}' holds no summary.json of one), and torqueopt replaces only its own; give an empty "
+        "or new --out\n"
+    )
+    assert (folder / "summary.md").read_text() == "my notes" and sorted(p.name for p in folder.iterdir()) == [
+        "summary.md"
+    ]
+
+
+def test_a_run_replaces_its_own_files(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    arguments = ["run", *PAPER, "--resolver", "pinv", "--duration", "0.1", "--out", str(out)]
+    assert main(arguments) == 0 and main(arguments) == 0
+    assert capsys.readouterr().out.endswith(f"wrote {out} and {out}.json\n")
+
+
 def test_robots_lists_the_paper_arm_and_the_7dof_arms(capsys):
     assert main(["robots"]) == 0
     rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
@@ -441,3 +474,21 @@ def test_no_python_warning_leaks_into_the_output(arguments, warnings_folder):
                              check=False)  # fmt: skip
     assert process.returncode == 0, process.stderr
     assert "Warning" not in process.stderr and "Exception ignored" not in process.stderr, process.stderr
+
+
+def test_run_says_up_front_when_the_path_leaves_the_arm_s_reach(tmp_path, capsys):
+    from torqueopt.cli.run import path_beyond_reach
+
+    planar3 = torqueopt.load_robot("planar3")
+    q0 = np.radians([-45.0, 135.0, -135.0])  # planar3 reaches 3 m (three 1 m links) from its base at the origin
+    start = planar3.frame_placement(q0).translation[:2]
+    # The paper's 2 s line is 1.41 m long along (1, 1)/√2: it ends inside; 3 s (3.18 m) ends beyond 3 m.
+    assert path_beyond_reach(planar3, torqueopt.StraightLine((1.0, 1.0), duration=2.0), q0) == ""
+    note = path_beyond_reach(planar3, torqueopt.StraightLine((1.0, 1.0), duration=3.0), q0)
+    end = np.linalg.norm(start + np.sqrt(2) * 9 / 4 * np.array([1, 1]) / np.sqrt(2))
+    assert note.startswith(f"the path passes {end:.3g} m from the arm's base at t = 3 s, beyond the 3 m its task")
+    panda = torqueopt.load_robot("panda")
+    line = torqueopt.StraightLine((0.0, 1.0, 0.0), duration=2.0)  # run's default: 1.41 m on an arm of 0.86 m
+    assert "beyond the 0.857 m" in path_beyond_reach(panda, line, panda.default_configuration)
+    code = main(["run", *PAPER, "--resolver", "pinv", "--duration", "0.1"])
+    assert code == 0 and "note: the path" not in capsys.readouterr().err

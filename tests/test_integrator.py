@@ -1,11 +1,62 @@
-"""RK4 with the torque held over each step: fourth-order convergence and
-conservation laws of the free planar arm."""
+"""RK4 with the torque held over each step, and RK4 of a velocity-level method's rates: the library's one
+stepper (:class:`torqueopt.integrators.RK4`) held to the textbook stages written one by one here, fourth-order
+convergence and conservation laws of the free planar arm."""
 
 import numpy as np
 import pinocchio as pin
 
 import torqueopt
-from torqueopt.integrators import rk4_reference_step
+from torqueopt.integrators import RK4, HeldTorque, VelocityRates
+
+
+def rk4_reference_step(robot, q, v, tau, dt, data=None):
+    r"""One classical RK4 step of the forward dynamics with τ held, the textbook stages one by one (the oracle).
+
+    .. math::
+
+        k_1^q = v, && k_1^v = a(q, v),
+
+        k_2^q = v + \tfrac{h}{2} k_1^v, && k_2^v = a(q \oplus \tfrac{h}{2} k_1^q,\ v + \tfrac{h}{2} k_1^v),
+
+        k_3^q = v + \tfrac{h}{2} k_2^v, && k_3^v = a(q \oplus \tfrac{h}{2} k_2^q,\ v + \tfrac{h}{2} k_2^v),
+
+        k_4^q = v + h k_3^v, && k_4^v = a(q \oplus h k_3^q,\ v + h k_3^v),
+
+        q^+ = q \oplus \tfrac{h}{6}(k_1^q + 2k_2^q + 2k_3^q + k_4^q), &&
+        v^+ = v + \tfrac{h}{6}(k_1^v + 2k_2^v + 2k_3^v + k_4^v),
+
+    with :math:`a(q, v) = \mathrm{ABA}(q, v, \tau)`.
+    """
+    data = robot.model.createData() if data is None else data
+    h = float(dt)
+
+    def acceleration(configuration, velocity):
+        return pin.aba(robot.model, data, configuration, velocity, tau)
+
+    def integrate(configuration, increment):
+        return pin.integrate(robot.model, configuration, increment)
+
+    k1_q, k1_v = v, acceleration(q, v)
+    k2_q, k2_v = v + h / 2 * k1_v, acceleration(integrate(q, h / 2 * k1_q), v + h / 2 * k1_v)
+    k3_q, k3_v = v + h / 2 * k2_v, acceleration(integrate(q, h / 2 * k2_q), v + h / 2 * k2_v)
+    k4_q, k4_v = v + h * k3_v, acceleration(integrate(q, h * k3_q), v + h * k3_v)
+    q_next = integrate(q, h / 6 * (k1_q + 2 * k2_q + 2 * k3_q + k4_q))
+    v_next = v + h / 6 * (k1_v + 2 * k2_v + 2 * k3_v + k4_v)
+    return q_next, v_next
+
+
+def velocity_reference_step(robot, f, q, index, dt):
+    """One classical RK4 step of q̇ = f(q, sample) from half-step sample ``index``, stage by stage (the oracle)."""
+    h = float(dt)
+
+    def integrate(configuration, increment):
+        return pin.integrate(robot.model, configuration, increment)
+
+    k1 = f(q, index)
+    k2 = f(integrate(q, h / 2 * k1), index + 1)
+    k3 = f(integrate(q, h / 2 * k2), index + 1)
+    k4 = f(integrate(q, h * k3), index + 2)
+    return integrate(q, h / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
 
 
 def integrate(robot, q, v, tau, dt, duration):
@@ -136,21 +187,19 @@ def test_a_whole_run_replayed_by_the_reference_stays_on_the_simulated_one():
     np.testing.assert_allclose(v, result.v[-1], rtol=0, atol=1e-9)
 
 
-# -- the integrator objects of the engine ------------------------------------------------
+# -- the one stepper on one state and on stacks -----------------------------------------
 
 
 def test_held_torque_rk4_on_stacks_equals_the_reference_step_row_by_row():
-    """step_stack (abaInParallel over the stack) and step (one movement) against the textbook stages."""
-    from torqueopt.integrators import HeldTorqueRK4
-
+    """The stepper on a (B, n) stack (abaInParallel per stage) and on one state, against the textbook stages."""
     for robot in _robots():
-        integrator = HeldTorqueRK4(robot, 1e-3)
+        integrator = RK4(HeldTorque(robot), 1e-3)
         states = list(_random_states(robot, 6, seed=11))
         q, v, tau = (np.array(column) for column in zip(*states))
         k1 = np.array([robot.forward_dynamics(*state) for state in states])
-        stack_q, stack_v = integrator.step_stack(q, v, tau, k1)
+        stack_q, stack_v = integrator.step(q, v, tau, k1)
         for row, (q_i, v_i, tau_i) in enumerate(states):
-            ref_q, ref_v = integrator.reference_step(q_i, v_i, tau_i)
+            ref_q, ref_v = rk4_reference_step(robot, q_i, v_i, tau_i, 1e-3)
             one_q, one_v = integrator.step(q_i, v_i, tau_i, k1[row])
             scale = 1.0 + np.abs(ref_v).max()
             for ours_q, ours_v in ((stack_q[row], stack_v[row]), (one_q, one_v)):
@@ -158,64 +207,63 @@ def test_held_torque_rk4_on_stacks_equals_the_reference_step_row_by_row():
                 np.testing.assert_allclose(ours_v, ref_v, rtol=0, atol=1e-12 * scale, err_msg=robot.name)
 
 
-def test_a_plant_with_its_own_step_plugs_into_the_loop_for_one_movement_and_for_stacks(planar3):
-    """Another plant (here Euler, deliberately not RK4) is called through its step(q, v, tau, dt), row by row."""
-    from torqueopt.integrators import HeldTorqueRK4, plant_stack_stepper, plant_stepper
+def test_the_stage_weights_are_rk4s_tableau_folded():
+    """The weights of stage 3 and of the end, written out by hand from the stages above."""
+    from torqueopt.integrators import stage_weights
 
-    class Euler:
-        name = "euler"
-
-        def step(self, q, v, tau, dt):
-            return q + dt * v, v + dt * planar3.forward_dynamics(q, v, tau)
-
-    states = list(_random_states(planar3, 4, seed=5))
-    q, v, tau = (np.array(column) for column in zip(*states))
-    stack_q, stack_v = plant_stack_stepper(Euler(), planar3, 1e-2)(q, v, tau, np.zeros_like(v))
-    advance = plant_stepper(Euler(), planar3, 1e-2)
-    rk4 = HeldTorqueRK4(planar3, 1e-2)
-    for row, (q_i, v_i, tau_i) in enumerate(states):
-        expected_v = v_i + 1e-2 * planar3.forward_dynamics(q_i, v_i, tau_i)
-        np.testing.assert_array_equal(stack_q[row], q_i + 1e-2 * v_i)
-        np.testing.assert_allclose(stack_v[row], expected_v, rtol=0, atol=1e-15)
-        np.testing.assert_allclose(advance(q_i, v_i, tau_i, None)[1], expected_v, rtol=0, atol=1e-15)
-        assert np.abs(stack_v[row] - rk4.reference_step(q_i, v_i, tau_i)[1]).max() > 1e-6  # Euler is not RK4
+    h = 0.01
+    _, stage3, _, end = stage_weights(h, 2, True)
+    np.testing.assert_array_equal(stage3, [[1.0, h / 2, h * h / 4, 0.0], [0.0, 1.0, 0.0, h / 2]])
+    np.testing.assert_array_equal(
+        end, [[1.0, h, h * h / 6, h * h / 6, h * h / 6, 0.0], [0, 1, h / 6, h / 3, h / 3, h / 6]]
+    )
+    np.testing.assert_array_equal(stage_weights(h, 1, False)[3], [h / 6, h / 3, h / 3, h / 6])
 
 
-def test_velocity_rk4_step_equals_its_reference_step(planar3, panda):
-    """The velocity-level integrator's step (k1 given) against its textbook stages, on a velocity-level method."""
-    from torqueopt.integrators import VelocityRK4
+def _velocity_rates(robot, count):
+    """Seeded rates of velocity-pinv, f(q, sample), for one state and for a stack of ``count`` (a loop of rows)."""
     from torqueopt.resolvers import get_resolver
     from torqueopt.tasks import FrameTask, Kinematics
 
+    task = FrameTask.of_robot(robot, reference_rotation=np.eye(3))
+    kinematics = Kinematics(robot)
+    rates = get_resolver("velocity-pinv").rate_function(robot, task)
+    commands = np.random.default_rng(2).normal(size=(3, count, robot.m))
+
+    def one(q, index, row=0):
+        kinematics.update(q)
+        return rates(kinematics, commands[index, row])[0]
+
+    def stack(q, index):
+        return np.array([one(q_i, index, row) for row, q_i in enumerate(q)])
+
+    return one, stack
+
+
+def test_velocity_rk4_equals_its_reference_step_on_one_state_and_on_stacks(planar3, panda):
+    """The velocity-level system's step (k1 given), single and stacked, against the textbook stages."""
     kinova = torqueopt.load_robot("kinova", task="position")
     assert not kinova.euclidean  # (cos, sin) joints: the folded stages give increments for integrate
     for robot in (planar3, panda, kinova):
-        resolver = get_resolver("velocity-pinv")
-        task = FrameTask.of_robot(robot, reference_rotation=np.eye(3))
-        kinematics = Kinematics(robot)
-        rates = resolver.rate_function(robot, task)
-        commands = np.random.default_rng(2).normal(size=(3, robot.m))
-
-        def f(q, index):
-            kinematics.update(q)
-            return rates(kinematics, commands[index])
-
-        integrator = VelocityRK4(robot, f, 1e-2)
-        for q, _, _ in _random_states(robot, 5, seed=3):
-            reference = integrator.reference_step(q, 0)
-            fast = integrator.step(q, f(q, 0)[0], 0)
-            np.testing.assert_allclose(fast, reference, rtol=0, atol=1e-12, err_msg=robot.name)
+        one, stack = _velocity_rates(robot, 5)
+        states = np.array([q for q, _, _ in _random_states(robot, 5, seed=3)])
+        single = RK4(VelocityRates(robot, one), 1e-2)
+        stacked_q, none = RK4(VelocityRates(robot, stack), 1e-2).step(states, None, 0, stack(states, 0))
+        assert none is None
+        for row, q in enumerate(states):
+            reference = velocity_reference_step(robot, lambda c, i, row=row: one(c, i, row), q, 0, 1e-2)
+            if row == 0:
+                np.testing.assert_allclose(single.step(q, None, 0, one(q, 0))[0], reference, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(stacked_q[row], reference, rtol=0, atol=1e-12, err_msg=robot.name)
             assert np.abs(reference - q).max() > 1e-4  # the step moved
 
 
-def test_velocity_rk4_torque_is_rnea_in_a_fresh_array(planar3):
+def test_velocity_rates_torque_is_rnea_in_a_fresh_array(planar3):
     """The torque a row keeps is not overwritten by the next step's: Pinocchio's RNEA returns a new array."""
-    from torqueopt.integrators import VelocityRK4
-
-    integrator = VelocityRK4(planar3, None, 1e-3)
+    system = VelocityRates(planar3, None)
     q, v, acceleration = np.array([0.3, -1.1, 0.7]), np.array([1.5, -2.0, 3.0]), np.array([4.0, -2.0, 0.5])
-    torque = integrator.torque(q, v, acceleration)
+    torque = system.torque(q, v, acceleration)
     kept = torque.copy()
-    integrator.torque(q + 0.1, -v, 2.0 * acceleration)
+    system.torque(q + 0.1, -v, 2.0 * acceleration)
     np.testing.assert_array_equal(torque, kept)
     np.testing.assert_allclose(torque, pin.rnea(planar3.model, planar3.model.createData(), q, v, acceleration))

@@ -334,3 +334,36 @@ def test_an_mjcfs_extra_joints_are_welded_and_its_actuators_removed(xarm7, xarm7
     assert 1e-3 < plant.start_inertia_difference < 0.1
     run = simulate(xarm7, "pinv", LINE, xarm7.default_configuration, plant=plant)
     assert run.completed and run.max_tip_error > 1e-3
+
+
+@pytest.mark.parametrize("resolver", ["pinv", "damped-null-space"])
+def test_a_mujoco_batch_equals_mujoco_single_runs(xarm7, resolver):
+    """Each movement of a batch on the MuJoCo plant is its own single run: states, stops and plant records.
+
+    One movement runs into joint4's limit (MuJoCo's limit force acts), one is pushed past the torque ceiling
+    so that it leaves the batch early. (bounded-torque is left out: on these movements its batch leaves its
+    single runs at step 226 with the Pinocchio plant too, already on main.)
+    """
+    from torqueopt.batch import simulate_batch
+
+    start = xarm7.default_configuration
+    lines = [
+        INTO_THE_LIMIT,
+        StraightLine(direction=[0, 1, -1], accel=1.0, duration=1.0),
+        StraightLine(direction=[1, 0, 1], accel=6.0, duration=1.0),
+    ]
+    options = {"damping": "zero"}
+    common = {"max_torque_ratio": 1.5}
+    batch = simulate_batch(xarm7, resolver, lines, [start] * 3, plant="mujoco", plant_options=options, **common)
+    for line, ours in zip(lines, batch):
+        single = simulate(xarm7, resolver, line, start, plant="mujoco", plant_options=options, **common)
+        assert ours.stop_reason == single.stop_reason and len(ours.t) == len(single.t)
+        assert np.abs(ours.joint_angles - single.joint_angles).max() < 1e-9
+        assert np.nanmax(np.abs(ours.tau - single.tau)) < 1e-9 * np.nanmax(np.abs(single.tau))
+        # the batch's torques are the stacked resolver's, equal to round-off: so are the limit forces they meet
+        assert {**ours.plant, "limit_events": None} == {**single.plant, "limit_events": None}
+        for event, expected in zip(ours.plant["limit_events"], single.plant["limit_events"], strict=True):
+            assert event == {**expected, "peak_force": pytest.approx(expected["peak_force"], rel=1e-9)}
+    assert "joint4" in [event["joint"] for event in batch[0].plant["limit_events"]]
+    assert batch[0].plant["limit_events"] != batch[1].plant["limit_events"]  # each movement's own record
+    assert not batch[2].completed and len(batch[2].t) < len(batch[0].t)  # it left the batch first

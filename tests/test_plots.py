@@ -474,3 +474,36 @@ def test_torque_panel_titles_of_six_runs_stay_inside_the_figure(planar3, tmp_pat
         box = title.get_window_extent(canvas.get_renderer())
         assert box.x0 >= 0.0 and box.x1 <= width, (title.get_text(), box.x1, width)
         assert all(name in title.get_text() for name in names)  # every run's peak is still named
+
+
+def _stretched(result, rows):
+    """``result`` with ``rows`` rows: its arrays repeated along time, its times evenly spaced (a long run's shapes)."""
+    import dataclasses
+
+    def stretch(value):
+        if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) == len(result.t):
+            return np.resize(value, (rows, *value.shape[1:]))
+        return value
+
+    changes = {f.name: stretch(getattr(result, f.name)) for f in dataclasses.fields(result) if f.init}
+    changes["t"] = np.arange(rows) * result.dt
+    changes["duration"] = float(changes["t"][-1])
+    changes["dexterity"] = {key: stretch(value) for key, value in (result.dexterity or {}).items()} or result.dexterity
+    return dataclasses.replace(result, **changes)
+
+
+@pytest.mark.slow
+def test_the_run_figure_of_100000_rows_takes_memory_linear_in_the_rows(short_runs, tmp_path):
+    # A 16 s run took 4.1 GB: the tip panel's full SVD of the N×3 reference built an N×N matrix (80 GB at
+    # 100,000 rows). It peaks at about 32 MB (the run's arrays and the drawn lines); N² of anything is 80 GB.
+    import tracemalloc
+
+    long_run = _stretched(short_runs[1], 100_000)
+    tracemalloc.start()
+    try:
+        plots.plot_run(long_run, tmp_path / "long.png")
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert_png(tmp_path / "long.png")
+    assert peak < 400e6, f"plotting 100,000 rows peaked at {peak / 1e6:.0f} MB"

@@ -220,3 +220,65 @@ def test_no_qualifying_setting_says_so_and_exits_4(tmp_path, capsys):
     assert "**No setting qualifies**" in (tmp_path / "tune.md").read_text()
     with pytest.raises(InvalidInput, match="chose no setting"):
         tuned_options(tmp_path / "tune.json")
+
+
+def test_every_option_of_the_command_sets_its_setting_as_the_api_does():
+    """``torqueopt tune``'s options and tune()'s keywords are one declaration (TuneSettings): each option, away
+    from its default, is read into the setting of its name with the value the keyword gives."""
+    from torqueopt.atlas.jobs import RobotSpec
+    from torqueopt.cli import build_parser
+    from torqueopt.cli.atlas import robot_spec
+    from torqueopt.tune import TuneSettings
+
+    every = {
+        "resolver": (["--resolver", "energy-bounded-torque"], "energy-bounded-torque"),
+        "grid": (["--values", "energy_limit=0.1,1", "--values", "energy_rate=10"],
+                 {"energy_limit": ["0.1", "1"], "energy_rate": ["10"]}),
+        "options": (["--option", "torque_weight=unit"], {"torque_weight": "unit"}),
+        "paths": (["--paths", "9"], 9),
+        "chunk_size": (["--chunk-size", "3"], 3),
+        "durations": (["--durations", "0.4,0.8"], (0.4, 0.8)),
+        "seed": (["--seed", "5"], 5),
+        "out": (["--out", "there"], "there"),
+        "whiplash_bound": (["--whiplash-bound", "0.2"], 0.2),
+        "path": (["--path", "min-jerk"], "min-jerk"),
+        "accel": (["--accel", "1.5"], 1.5),
+        "dt": (["--dt", "0.002"], 0.002),
+        "workers": (["--workers", "0"], 0),
+        "max_steps": (["--max-steps", "1e6"], 1_000_000),
+        "progress": (["--no-progress"], False),
+    }  # fmt: skip
+    assert set(every) == set(TuneSettings.names()) - {"robot", "eliminate"}  # eliminate: the API's only
+    argv = ["tune", "--robot", "planar3", "--torque-limit", "40"]
+    for arguments, _ in every.values():
+        argv += arguments
+    args = build_parser().parse_args(argv)
+    from_command = TuneSettings.from_arguments(args, robot=robot_spec(args))
+    from_api = TuneSettings.from_keywords(
+        robot=RobotSpec("planar3", torque_limit=(40.0,)), **{name: value for name, (_, value) in every.items()}
+    )
+    assert from_command == from_api
+    defaults = TuneSettings().as_keywords()
+    assert all(from_api.as_keywords()[name] != defaults[name] for name in every)
+    with pytest.raises(TypeError, match=r"unknown setting path_kind; the settings are: robot, resolver, grid"):
+        tune("planar3", path_kind="line")
+
+
+def test_a_plug_in_resolver_is_tuned_by_its_import_path(tmp_path):
+    # tune read the registry by name (RESOLVERS[name]: a KeyError traceback for module:Class). The plug-in brakes
+    # the self-motion as self-motion-damping does, so its evidence equals that resolver's at the same rate.
+    small = {**SMALL, "paths": 4, "durations": (0.3,)}
+    plug_in = tune("planar3", "tests.plugin_pkg.resolvers:SelfMotionBrake", out=tmp_path / "p",
+                   **{**small, "grid": {"gain": (3.0, 8.0)}})  # fmt: skip
+    built_in = tune("planar3", "self-motion-damping", out=tmp_path / "b", **{**small, "grid": {"damping": (3.0, 8.0)}})
+    assert plug_in.resolver == "tests.plugin_pkg.resolvers:SelfMotionBrake"
+    for ours, theirs in zip(plug_in.settings, built_in.settings):
+        assert ours["flags"].startswith("--resolver tests.plugin_pkg.resolvers:SelfMotionBrake --option gain=")
+        figures = sorted(set(ours) - {"options", "flags", "label"})
+        assert figures == sorted(set(theirs) - {"options", "flags", "label"})
+        # Its law is the built-in's, written outside the package (its own steps: equal to round-off).
+        for key in figures:
+            if isinstance(theirs[key], float):
+                assert ours[key] == pytest.approx(theirs[key], rel=1e-9, nan_ok=True), key
+            else:
+                assert ours[key] == theirs[key], key

@@ -38,6 +38,15 @@ BROKEN = [
     ('lower="-6.283185307179586"', 'lower="-inf"', "joint 'joint1' has lower position limit -inf; give a finite number (a revolute joint without position limits is type=\"continuous\")"),
     ('<child link="link2"/>', '<child link="link3"/>', "link 'link3' is the child of both joint 'joint2' and joint 'joint3', which closes a kinematic loop"),
     ('<link name="link3">', '<link name="link2"/><link name="link3">', "has two <link> elements named 'link2'; every link needs a name of its own"),
+    # Numbers Python reads but urdfdom does not: it would drop the element (the link's mass 0, exit 0).
+    ('<mass value="10.0"/>', '<mass value=" 10.0 "/>', 'link \'link1\': <mass> value=" 10.0 " is not a number as URDF parsers read it'),
+    ('<mass value="10.0"/>', '<mass value="1_0"/>', 'link \'link1\': <mass> value="1_0" is not a number as URDF parsers read it'),
+    ('<mass value="10.0"/>', '<mass value="１０"/>', "is not a number as URDF parsers read it"),
+    (FIRST_INERTIA, FIRST_INERTIA.replace('iyy="0.8333333333333334"', 'iyy="0.8333333333333334 "'), '<inertia> iyy="0.8333333333333334 " is not a number as URDF parsers read it'),
+    ('effort="24.0"', 'effort="24.0 "', "joint 'joint2': <limit effort>=\"24.0 \" is not a number as URDF parsers read it"),
+    ('<origin xyz="0.5 0 0" rpy="0 0 0"/>', '<origin xyz="0.5_0 0 0" rpy="0 0 0"/>', "link 'link1': <inertial><origin> xyz=\"0.5_0 0 0\" is not three numbers as URDF parsers read them"),
+    ('<origin xyz="0.5 0 0" rpy="0 0 0"/>', '<origin xyz="0.5&#9;0 0" rpy="0 0 0"/>', "<inertial><origin> xyz=\"0.5\t0 0\" is not three numbers"),
+    ('<joint name="joint3" type="revolute">', '<joint name="joint3" type="revolute"><dynamics damping="-1"/>', "joint 'joint3' has damping -1; give a finite number >= 0"),
     ('<joint name="joint3"', '<joint name="joint2" type="fixed"><parent link="link3"/><child link="extra"/></joint><link name="extra"/><joint name="joint3"', "has two <joint> elements named 'joint2'; every joint needs a name of its own"),
 ]  # fmt: skip
 
@@ -148,3 +157,97 @@ def test_a_floating_base_in_the_task_chain_is_refused_in_one_line(tmp_path, caps
     )
     robot = torqueopt.load_robot(str(path), frame="tip", task="xy", lock=["float"])
     assert robot.nv == 3
+
+
+#: Attributes of numbers, and of vectors of numbers, that Pinocchio's model is built from.
+_SCALARS = {"value", "ixx", "ixy", "ixz", "iyy", "iyz", "izz", "effort", "velocity", "lower", "upper", "damping",
+            "friction", "multiplier", "offset"}  # fmt: skip
+_VECTORS = {"xyz", "rpy"}
+
+
+def _canonical(text):
+    """The URDF with every number rewritten as Python reads it (``repr(float(...))``), the checks' reading."""
+    from xml.etree import ElementTree
+
+    root = ElementTree.fromstring(text)
+    for element in root.iter():
+        for name, value in element.attrib.items():
+            if name in _SCALARS:
+                element.set(name, repr(float(value)))
+            elif name in _VECTORS:
+                element.set(name, " ".join(repr(float(part)) for part in value.split()))
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+def _model_numbers(model):
+    inertias = [np.concatenate([[i.mass], i.lever, i.inertia.ravel()]) for i in model.inertias]
+    placements = [p.homogeneous.ravel() for p in model.jointPlacements]
+    limits = [model.effortLimit, model.velocityLimit, model.lowerPositionLimit, model.upperPositionLimit]
+    return np.concatenate([*inertias, *placements, *limits, model.damping, model.friction])
+
+
+ACCEPTED = [  # written otherwise, read alike by both parsers
+    ('<mass value="10.0"/>', '<mass value=" 10.0"/>'),
+    ('<mass value="10.0"/>', '<mass value="1e1"/>'),
+    ('<origin xyz="0.5 0 0" rpy="0 0 0"/>', '<origin xyz=" 0.5  0 0 " rpy="0 0 0"/>'),
+]
+
+
+@pytest.mark.parametrize("name", ["planar3", "panda", "xarm7", "baxter", "tiago", "kinova", *range(len(ACCEPTED))])
+def test_pinocchio_builds_the_numbers_the_checks_read(name, tmp_path):
+    # Independent of the checks' code: Pinocchio's model of the file equals its model of the file rewritten
+    # with every number as Python read it, so no number the checks passed was read otherwise (or dropped).
+    if isinstance(name, int):
+        path = variant(tmp_path, *ACCEPTED[name])
+    else:
+        path = find_robot(name).urdf
+    from torqueopt.urdf_checks import checked_urdf_text
+
+    text = checked_urdf_text(path)
+    built = _model_numbers(build_model(path, mimic=False))
+    canonical = tmp_path / "canonical.urdf"
+    canonical.write_text(_canonical(text))
+    np.testing.assert_array_equal(built, _model_numbers(build_model(canonical, mimic=False)))
+
+
+def test_the_comparison_sees_a_number_urdfdom_drops():
+    # The oracle above can fail: a trailing blank, read by Python, makes urdfdom drop link1's <inertial>.
+    import pinocchio as pin
+
+    from torqueopt.urdf_checks import quiet_stderr
+
+    text = PLANAR3.replace('<mass value="10.0"/>', '<mass value="10.0 "/>', 1)
+    with quiet_stderr():
+        dropped = pin.buildModelFromXML(text)
+    assert dropped.inertias[1].mass == 0.0
+    assert not np.array_equal(_model_numbers(dropped), _model_numbers(pin.buildModelFromXML(_canonical(text))))
+
+
+def _chain(joints):
+    inertial = (
+        '<inertial><mass value="0.1"/><inertia ixx="1e-3" ixy="0" ixz="0" iyy="1e-3" iyz="0" izz="1e-3"/></inertial>'
+    )
+    parts = [f'<robot name="chain"><link name="l0">{inertial}</link>']
+    for i in range(1, joints + 1):
+        parts.append(
+            f'<link name="l{i}">{inertial}</link><joint name="j{i}" type="revolute"><parent link="l{i - 1}"/>'
+            f'<child link="l{i}"/><origin xyz="0.1 0 0"/><axis xyz="0 0 1"/>'
+            '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint>'
+        )
+    return "".join(parts) + "</robot>"
+
+
+def test_a_chain_too_long_for_pinocchio_s_data_is_refused_before_it_is_made(tmp_path):
+    # Pinocchio's Data grows as 64·nv³ bytes (68 MB measured at nv = 100): a 1000-joint chain asked for 64 GB.
+    import resource
+
+    from torqueopt.loading import MAX_DOFS
+
+    path = tmp_path / "chain.urdf"
+    path.write_text(_chain(MAX_DOFS + 1))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(UrdfError, match=rf"has {MAX_DOFS + 1} degrees of freedom, more than the {MAX_DOFS} torqueopt"):
+        torqueopt.load_robot(str(path), frame=f"l{MAX_DOFS + 1}", task="xy")
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # kB: no Data of it was made
+    path.write_text(_chain(12))
+    assert torqueopt.load_robot(str(path), frame="l12", task="xy").nv == 12

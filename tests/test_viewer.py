@@ -244,6 +244,9 @@ PLAY_ERRORS = [
      "'planar3' with frame 'tip' moves 2 (joint1, joint2); give the robot the run was made with (robot 'planar3', frame 'tip')")),
     (["RUN", "--speed", "0"], "--speed: 0 must be a positive finite number"),
     (["RUN", "--fps", "many"], "--fps: 'many' is not a number"),
+    # Frame counts past the float range (an OverflowError traceback before).
+    (["RUN", "--fps", "1e308"], "needs infinitely many frames, more than the limit of"),
+    (["RUN", "--speed", "1e-320"], "needs infinitely many frames, more than the limit of"),
     (["RUN", "--frame", "hand"], "robot 'planar3' has no frame 'hand'"),
 ]  # fmt: skip
 

@@ -121,6 +121,16 @@ def test_mixed_limited_and_unlimited_joints_each_use_their_yardstick():
     assert report.time == pytest.approx(0.02) and report.joint == "j2" and report.criterion == "growth"
 
 
+def test_an_unlimited_wrist_is_measured_against_the_arm_s_starting_torque():
+    # The wrist starts at 0.05 N·m beside a limited shoulder at 4 N·m: 0.5 N·m on the wrist (10 times its own start)
+    # is no whip while the shoulder stays at 0.4 of its limit; the yardstick is 8 x 4 N·m.
+    tau = np.array([[4.0, 0.05], [4.0, 0.5], [4.0, 31.0], [4.0, 33.0]])
+    np.testing.assert_allclose(torque_demand(make_run(tau, [10.0, np.inf]))[:, 1], tau[:, 1] / 32.0)
+    report = detect_whiplash(make_run(tau, [10.0, np.inf]))
+    assert report.time == pytest.approx(0.03) and report.joint == "j2" and report.criterion == "growth"
+    assert "33 N·m, 8.25 times the 4 N·m the movement started with (threshold 8)" in report.reason
+
+
 def test_infeasible_from_the_start_is_reported_as_such():
     report = detect_whiplash(make_run([[30.0], [30.0]], 6.0))
     assert report.unstable and report.time == 0.0

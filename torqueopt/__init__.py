@@ -5,7 +5,6 @@ manipulators through torque optimization" (IEEE J. Robotics and Automation,
 1987) on top of Pinocchio.
 """
 
-from . import _interrupt_at_start  # noqa: F401, I001  (first: a Ctrl-C while the command imports ends it quietly)
 from . import atlas  # the subpackage (torqueopt.atlas.run_atlas); pandas and Dask load only when it runs
 from .dexterity import Dexterity, dexterity, dexterity_along
 from .errors import (

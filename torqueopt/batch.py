@@ -13,9 +13,13 @@ one loop body (:func:`torqueopt.engine.run_movements`, the loop of
   <torqueopt.resolvers.base.Resolver.batch_solver>`): vectorised for the
   paper's resolvers and the remedies, the single-state step row by row for
   every other registered resolver (the bounded QP and LP ones included);
-* the integrator (:class:`torqueopt.integrators.HeldTorqueRK4`): RK4 with the
-  torque held, the resolver's :math:`\ddot q` as its first stage, the other
-  three stages of the whole stack by one ``pin.abaInParallel`` call each;
+* the plant's step on stacks (:meth:`Plant.step_stack
+  <torqueopt.plants.Plant.step_stack>`): for the Pinocchio plant, RK4 with
+  the torque held (:class:`torqueopt.integrators.RK4` of
+  :class:`~torqueopt.integrators.HeldTorque`), the resolver's :math:`\ddot q`
+  as its first stage, the other three stages of the whole stack by one
+  ``pin.abaInParallel`` call each; for MuJoCo, each movement in a MuJoCo
+  data of its own;
 
 with the stop rules and messages of :class:`torqueopt.stop_rules.StopRules` and
 the results of :func:`torqueopt.run_records.build_result`, as ``simulate``. The
@@ -51,8 +55,9 @@ import numpy as np
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
 from .engine import run_movements
 from .errors import InvalidInput
-from .integrators import HeldTorqueRK4
+from .integrators import RK4, VelocityRates
 from .linalg import inverse_condition_number
+from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolver, get_resolver
 from .resolvers.stacks import LoopedStackStep
 from .result import SimResult, joint_limits_record
@@ -60,7 +65,13 @@ from .robot import Robot
 from .robot_copies import RobotForest
 from .run_records import REFERENCE_BLOCK, ReferenceBlocks, build_result
 from .self_motion import self_motion_energy
-from .simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_STEPS, DEFAULT_MAX_TORQUE_RATIO, step_budget
+from .simulate import (
+    DEFAULT_MAX_JOINT_SPEED,
+    DEFAULT_MAX_STEPS,
+    DEFAULT_MAX_TORQUE_RATIO,
+    refuse_plant_at_velocity_level,
+    step_budget,
+)
 from .simulate import simulate as simulate_one
 from .stop_rules import StopRules
 from .terms import PinocchioTerms, terms_provider
@@ -188,6 +199,8 @@ def simulate_batch(
     threads: int = 1,
     extras: bool = False,
     max_steps: int = DEFAULT_MAX_STEPS,
+    plant: str | Plant = "pinocchio",
+    plant_options: dict | None = None,
 ):
     """Simulate every (trajectory, q0) pair with ``resolver``, all movements of one duration together.
 
@@ -204,6 +217,9 @@ def simulate_batch(
             worker, where the sweep's processes use the cores).
         extras: also return one :class:`BatchExtras` per movement.
         max_steps: the most steps a movement may take, as in ``simulate``.
+        plant, plant_options: what the torques act on, as in ``simulate``
+            (a name and its options, or a :class:`~torqueopt.plants.Plant`);
+            each movement's result records the plant as its own run would.
 
     Returns:
         One :class:`SimResult` per movement, equal to what ``simulate``
@@ -232,6 +248,7 @@ def simulate_batch(
     steps = step_budget(duration, dt, max_steps)
     threads = whole_number(threads, "threads", 1)
     if getattr(resolver, "level", None) == "velocity":
+        refuse_plant_at_velocity_level(resolver, plant, plant_options)
         stacked = resolver.stack_rate_function(robot) if robot.euclidean and count > 1 else None
         if stacked is None:
             return _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max_torque_ratio, extras)
@@ -249,7 +266,13 @@ def simulate_batch(
         descriptions.append(describe(line))
         references.append(ReferenceBlocks(robot, line, dt, steps))
 
-    lanes = MovementStack(robot, resolver, q, dt, steps, references, threads, extras, max_torque_ratio, max_joint_speed)
+    if plant == "pinocchio" and not plant_options:
+        plant = PinocchioPlant(robot, threads=threads)
+    plant = make_plant(robot, plant, plant_options)
+    plant.reset(dt)
+    lanes = MovementStack(
+        robot, resolver, q, dt, steps, references, plant, extras, max_torque_ratio, max_joint_speed
+    )  # fmt: skip
     run_movements(lanes, steps)
     results = lanes.results(duration, descriptions)
     return (results, lanes.extras()) if extras else results
@@ -261,12 +284,13 @@ class MovementStack:
     The stacked forms of the engine's pieces: the forest's terms
     (:class:`~torqueopt.terms.ForestTerms`), the resolver's step on stacks
     (:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`),
-    :meth:`HeldTorqueRK4.step_stack <torqueopt.integrators.HeldTorqueRK4.step_stack>`,
+    the plant's :meth:`~torqueopt.plants.Plant.step_stack`,
     time-major logs grown a block at a time and the ceiling tests of
     :class:`~torqueopt.stop_rules.StopRules` on stacks. A resolver whose step is its
     single-state one looped row by row gains nothing from stacked terms: it gets
-    ``simulate``'s own terms and RK4, row by row, so its runs equal ``simulate``'s
-    bit for bit. Row r of every stack is movement ``active[r]``; a movement that
+    ``simulate``'s own terms, row by row, and since a stack's RK4 does each
+    row's arithmetic as one state's, its runs equal ``simulate``'s bit for
+    bit. Row r of every stack is movement ``active[r]``; a movement that
     stops leaves the stacks.
     """
 
@@ -274,18 +298,16 @@ class MovementStack:
 
     def __init__(
         self, robot: Robot, resolver: Resolver, q: np.ndarray, dt: float, steps: int, references: list,
-        threads: int, extras: bool, max_torque_ratio: float, max_joint_speed: float,
+        plant: Plant, extras: bool, max_torque_ratio: float, max_joint_speed: float,
     ):  # fmt: skip
         count = q.shape[0]
         self.robot, self.resolver, self.dt, self.steps, self.references = robot, resolver, dt, steps, references
         self.count, self.with_extras = count, extras
         self.q, self.v = q, np.zeros((count, robot.nv))
         self.solve = resolver.batch_solver(robot, dt)
-        integrator = HeldTorqueRK4(robot, dt, threads=threads)
-        if isinstance(self.solve, LoopedStackStep):
-            self.provider, self.advance = PinocchioTerms(robot, integrator.data), integrator.step_rows
-        else:
-            self.provider, self.advance = terms_provider(robot, count), integrator.step_stack
+        self.plant = plant
+        looped = isinstance(self.solve, LoopedStackStep)
+        self.provider = PinocchioTerms(robot) if looped else terms_provider(robot, count)
         #: The terms provider's ``(q, v) -> (StackTerms, task positions)``.
         self.terms = self.provider.terms
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
@@ -386,8 +408,8 @@ class MovementStack:
         return q[keep], v[keep], resolution
 
     def step(self, q, v, resolution, j: int, t: float):
-        # RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
-        q, v = self.advance(q, v, resolution.torque, resolution.joint_acceleration)
+        # For the Pinocchio plant, RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
+        q, v = self.plant.step_stack(q, v, resolution.torque, self.dt, resolution.joint_acceleration, self.active)
         if not self.rules.any_speed_over(v):
             return q, v, False
         fast = self.rules.speeds_over(v)
@@ -429,6 +451,7 @@ class MovementStack:
                     limiting=self.limiting[i],
                     joint_limits=joint_limits,
                     resolver_options=options,
+                    plant=None if self.plant is None else self.plant.record(i),
                 )
             )
         return results
@@ -507,6 +530,8 @@ class KinematicStack(MovementStack):
         self.forest = RobotForest(robot, None if dofs is None else max(1, dofs // robot.nv))
         self.rows = robot.task_rows
         self.gain = resolver.position_gain
+        self.integrator = RK4(VelocityRates(robot, self._stage_rates), dt)
+        self.plant = None  # the kinematic motion is integrated here; no torque drives a plant
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
         self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
         self.recorded = np.zeros(count, dtype=int)
@@ -646,14 +671,16 @@ class KinematicStack(MovementStack):
         )
         return velocity, failures
 
+    def _stage_rates(self, q, index: int):
+        """The rates of an RK4 stage; a row undefined there is kept with its first stage's message."""
+        velocity, failures = self._rates(q, index)
+        for row, message in failures.items():
+            self._stage_failures.setdefault(row, message)
+        return velocity
+
     def step(self, q, v, resolution, j: int, t: float):
-        h, index = self.dt, 2 * j
-        k1 = resolution[2]
-        k2, failed2 = self._rates(q + (0.5 * h) * k1, index + 1)
-        k3, failed3 = self._rates(q + (0.5 * h) * k2, index + 1)
-        k4, failed4 = self._rates(q + h * k3, index + 2)
-        next_q = q + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        failures = {**failed4, **failed3, **failed2}
+        self._stage_failures = failures = {}
+        next_q, _ = self.integrator.step(q, None, 2 * j, resolution[2])
         if not failures:
             return next_q, v, False
         for row, message in failures.items():

@@ -57,7 +57,15 @@ import numpy as np
 
 from .errors import InvalidInput, OutputError
 
-__all__ = ["atomic_write", "sidecar_path", "writable_path", "writable_paths", "written_together"]
+__all__ = [
+    "atomic_write",
+    "json_file_with",
+    "refuse_foreign",
+    "sidecar_path",
+    "writable_path",
+    "writable_paths",
+    "written_together",
+]
 
 
 def writable_path(path: str | os.PathLike, directory: bool = False) -> Path:
@@ -117,6 +125,34 @@ def writable_paths(paths: Iterable[str | os.PathLike], reading: Iterable[str | o
                     f"cannot write '{path}': it is the file{other} this command reads; give the output another name"
                 )
     return checked
+
+
+def json_file_with(path: str | os.PathLike, keys: Iterable[str]) -> bool:
+    """True when ``path`` holds a JSON object with every one of ``keys``: a file a torqueopt command wrote."""
+    try:
+        value = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(value, dict) and set(keys) <= value.keys()
+
+
+def refuse_foreign(paths: Iterable[str | os.PathLike], ours: bool, whose: str, remedy: str) -> None:
+    """Refuse, before any work, to replace a file at ``paths`` unless the files there are ``ours``.
+
+    A command replaces the files it wrote before (a second ``torqueopt paper``
+    into its folder), never a user's file that happens to share a name with
+    one of its outputs.
+
+    Raises:
+        OutputError: naming the first such file, ``whose`` it would have to be, and ``remedy``.
+    """
+    if ours:
+        return
+    for path in paths:
+        if os.path.lexists(path):
+            raise OutputError(
+                f"cannot write '{path}': it is not {whose}, and torqueopt replaces only its own; {remedy}"
+            )
 
 
 def _same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:

@@ -58,10 +58,18 @@ from functools import partial
 import numpy as np
 import pinocchio as pin
 
-from .checks import configuration_vector, finite_vector, positive_number, trajectory_dimension, velocity_vector
+from .checks import (
+    DEFAULT_MAX_STEPS,
+    configuration_vector,
+    finite_vector,
+    positive_number,
+    step_budget,
+    trajectory_dimension,
+    velocity_vector,
+)
 from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian
-from .integrators import VelocityRK4
+from .integrators import RK4, VelocityRates
 from .result import SimResult
 from .robot import Robot
 from .run_records import REFERENCE_BLOCK, ReferenceBlocks, logged_row_bytes, run_result
@@ -119,7 +127,6 @@ def simulate_kinematic(
     by a ceiling ends with the row that passed it, one stopped where the
     method is undefined with the last row where it was.
     """
-    from .simulate import DEFAULT_MAX_STEPS, step_budget
 
     _require_velocity_level(resolver)
     resolver.check(robot)
@@ -161,7 +168,8 @@ class KinematicMovement:
     The state is q alone (the joint rates are f(q, t)); the "terms" are the
     kinematics at q; the resolver's step gives q̇ = f(q, t), q̈ and the
     inverse-dynamics torque (see the module docstring), also at the final
-    sample; the integrator is :class:`~torqueopt.integrators.VelocityRK4`. The
+    sample; the integrator is :class:`~torqueopt.integrators.RK4` of
+    :class:`~torqueopt.integrators.VelocityRates`. The
     reference is sampled on the half-step grid RK4 reads (sample 2k at t_k,
     2k + 1 mid-step), a block of steps at a time with each step's own mid and
     end samples.
@@ -208,7 +216,8 @@ class KinematicMovement:
             return rates(kinematics, velocity)
 
         self.f = f
-        self.integrator = VelocityRK4(robot, f, dt)
+        self.system = VelocityRates(robot, lambda configuration, index: f(configuration, index)[0])
+        self.integrator = RK4(self.system, dt)
 
     def block(self, start: int) -> list[float]:
         # The block's steps: those whose end sample it holds, and the final sample once it holds it.
@@ -246,7 +255,7 @@ class KinematicMovement:
                     else time_rate - self.gain * self.task.jacobian(kinematics).dot(velocity)
                 )
                 acceleration = self.closed_form(kinematics, velocity, command, command_rate)
-                return self.integrator.torque(q, velocity, acceleration), acceleration, velocity, inverse_condition
+                return self.system.torque(q, velocity, acceleration), acceleration, velocity, inverse_condition
             # ∂f/∂c ∂c/∂t, exact for a map affine in c
             homogeneous = rates(kinematics, self.zero)[0]
             acceleration = rates(kinematics, time_rate)[0] - homogeneous
@@ -260,7 +269,7 @@ class KinematicMovement:
                 acceleration = acceleration + speed * (forward - backward) / (2.0 * DIFFERENCE_STEP)
         except SingularJacobian as error:
             return error
-        torque = self.integrator.torque(q, velocity, acceleration)  # Eq. (20) on the motion
+        torque = self.system.torque(q, velocity, acceleration)  # Eq. (20) on the motion
         return torque, acceleration, velocity, inverse_condition
 
     def record(self, j: int, t: float, q, v, x, kinematics, resolution) -> bool:
@@ -293,7 +302,7 @@ class KinematicMovement:
 
     def step(self, q, v, resolution, j: int, t: float):
         try:
-            return self.integrator.step(q, resolution[2], 2 * j), v, False
+            return self.integrator.step(q, v, 2 * j, resolution[2])[0], v, False
         except SingularJacobian as error:
             self.stop_reason, self.stop_time = self.rules.unresolved_during_step(error, t), t
             return q, v, True

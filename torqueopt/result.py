@@ -2,8 +2,8 @@
 
 :class:`SimResult` holds a run's arrays and computes its peaks, ratios and
 first violations; its files (CSV with a JSON sidecar, or ``.npz``) are
-written and read by :mod:`torqueopt.result_files`, whose
-:func:`~torqueopt.result_files.load_result` is importable from here too.
+written and read by :mod:`torqueopt.result_files` (:meth:`SimResult.to_csv`,
+:func:`load_result`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .result_files import csv_columns, json_number, load_result, write_result
+from .result_files import csv_columns, json_number, read_result, write_result
 
 __all__ = ["SimResult", "load_result"]
 
@@ -317,3 +317,17 @@ def joint_limits_record(lower, upper, velocity) -> dict:
         "position_upper": [json_number(x) for x in upper],
         "velocity": [json_number(x) for x in velocity],
     }
+
+
+def load_result(path: str | os.PathLike, robot=None) -> SimResult:
+    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz).
+
+    A CSV holds one angle per joint, not configuration vectors: with ``robot``
+    given, ``q`` is rebuilt from them (needed for continuous joints, whose
+    configuration is (cos, sin)); without it ``q`` holds the angles. A CSV
+    has no joint accelerations or Jacobian condition: those arrays are NaN.
+
+    Raises:
+        InvalidInput: the file is missing or is not a run file.
+    """
+    return read_result(path, SimResult, robot)

@@ -27,17 +27,13 @@ import warnings
 import zipfile
 from dataclasses import fields
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import InvalidInput
 from .io import atomic_write, sidecar_path, written_together
 
-if TYPE_CHECKING:
-    from .result import SimResult
-
-__all__ = ["csv_columns", "load_result", "run_files", "write_result"]
+__all__ = ["csv_columns", "read_result", "run_files", "write_result"]
 
 #: The per-step columns after xref, in this order.
 _STEP_COLUMNS = ("task_error", "infeasible")
@@ -73,13 +69,13 @@ def run_files(path: str | os.PathLike) -> list[Path]:
     return [path] if path.suffix.lower() == ".npz" else [path, sidecar_path(path)]
 
 
-def write_result(result: SimResult, path: str | os.PathLike) -> Path:
+def write_result(result, path: str | os.PathLike) -> Path:
     """Write ``result`` to ``path``; :meth:`torqueopt.SimResult.to_csv` documents the formats."""
     with written_together():
         return _write_result(result, Path(path))
 
 
-def _write_result(result: SimResult, path: Path) -> Path:
+def _write_result(result, path: Path) -> Path:
     if path.suffix.lower() == ".npz":
         arrays = {name: getattr(result, name) for name in _ARRAY_FIELDS}
         arrays.update({_DEXTERITY_KEY + name: values for name, values in (result.dexterity or {}).items()})
@@ -113,14 +109,16 @@ def _write_result(result: SimResult, path: Path) -> Path:
     return path
 
 
-def _metadata(result: SimResult) -> dict:
+def _metadata(result) -> dict:
     return {
         f.name: getattr(result, f.name) for f in fields(result) if f.name not in (*_ARRAY_FIELDS, "dexterity", _MARGIN)
     }
 
 
-def load_result(path: str | os.PathLike, robot=None) -> SimResult:
-    """Read a run written by :meth:`SimResult.to_csv` (CSV with its JSON sidecar, or .npz).
+def read_result(path: str | os.PathLike, result_type, robot=None):
+    """Read a run written by :meth:`torqueopt.SimResult.to_csv` (CSV with its JSON sidecar, or .npz) as a ``result_type``
+    (:class:`~torqueopt.result.SimResult`, which :func:`torqueopt.load_result` passes: this module writes and
+    reads its fields, and needs no import of it).
 
     A CSV holds one angle per joint, not configuration vectors: with ``robot``
     given, ``q`` is rebuilt from them (needed for continuous joints, whose
@@ -132,8 +130,8 @@ def load_result(path: str | os.PathLike, robot=None) -> SimResult:
         raise InvalidInput(f"run file '{path}' does not exist")
     try:
         if path.suffix.lower() == ".npz":
-            return _load_npz(path)
-        return _load_csv(path, robot)
+            return _load_npz(path, result_type)
+        return _load_csv(path, result_type, robot)
     except InvalidInput:
         raise
     except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, zipfile.BadZipFile) as error:
@@ -143,10 +141,7 @@ def load_result(path: str | os.PathLike, robot=None) -> SimResult:
         raise InvalidInput(f"run file '{path}' is malformed ({detail}); write runs with torqueopt run --out") from None
 
 
-def _load_npz(path: Path) -> SimResult:
-    # The result module imports this one for its file methods; the readers need its class only when they run.
-    from .result import SimResult
-
+def _load_npz(path: Path, result_type):
     with np.load(path, allow_pickle=False) as archive:
         metadata = json.loads(str(archive["metadata"]))
         arrays = {name: archive[name] for name in _ARRAY_FIELDS}
@@ -154,12 +149,10 @@ def _load_npz(path: Path) -> SimResult:
             key[len(_DEXTERITY_KEY) :]: archive[key] for key in archive.files if key.startswith(_DEXTERITY_KEY)
         }
         margin = archive[_MARGIN] if _MARGIN in archive.files else None
-    return SimResult(**metadata, **arrays, dexterity=dexterity or None, stability_margin=margin)
+    return result_type(**metadata, **arrays, dexterity=dexterity or None, stability_margin=margin)
 
 
-def _load_csv(path: Path, robot) -> SimResult:
-    from .result import SimResult
-
+def _load_csv(path: Path, result_type, robot):
     sidecar = sidecar_path(path)
     if not sidecar.is_file() and Path(f"{path}.json").is_file():
         sidecar = Path(f"{path}.json")  # where earlier versions wrote it, beside the link
@@ -183,7 +176,7 @@ def _load_csv(path: Path, robot) -> SimResult:
     margin = table[:, columns[_MARGIN][0]].copy() if _MARGIN in columns else None
     upper = np.array([np.inf if u is None else u for u in metadata.pop("torque_upper")], float)
     lower = np.array([-np.inf if u is None else u for u in metadata.pop("torque_lower")], float)
-    return SimResult(
+    return result_type(
         **metadata,
         t=t[:, 0],
         q=angles if robot is None else np.array([robot.configuration(row) for row in angles]).reshape(len(angles), -1),

@@ -29,19 +29,18 @@ from functools import partial
 import numpy as np
 
 from .checks import (
-    bounded_count,
+    DEFAULT_MAX_STEPS,
     configuration_vector,
     finite_vector,
     non_negative_number,
     positive_number,
-    show_number,
-    step_count,
+    step_budget,
     trajectory_dimension,
     velocity_vector,
 )
 from .engine import run_movements
 from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
-from .integrators import plant_stepper, rk4_step
+from .integrators import rk4_step
 from .linalg import inverse_condition_number
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
@@ -58,8 +57,6 @@ __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAUL
 DEFAULT_MAX_JOINT_SPEED = 1.0e3
 #: Torque, as a multiple of its limit, beyond which a run is declared diverged.
 DEFAULT_MAX_TORQUE_RATIO = 1.0e3
-#: Most steps one run may take (1000 s at the paper's 1 ms); ``max_steps`` raises it.
-DEFAULT_MAX_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -169,11 +166,7 @@ def simulate(
                 f"resolver {resolver.name} works at the velocity level: the stability margin is of a torque "
                 "resolver's closed loop; give a torque resolver or leave margin off"
             )
-        if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
-            raise InvalidInput(
-                f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
-                "velocities, no torque drives a plant); a plant needs a torque resolver"
-            )
+        refuse_plant_at_velocity_level(resolver, plant, plant_options)
         from .kinematic import simulate_kinematic
 
         return simulate_kinematic(
@@ -217,13 +210,22 @@ def simulate(
     return result
 
 
+def refuse_plant_at_velocity_level(resolver: Resolver, plant, plant_options) -> None:
+    """InvalidInput for a velocity-level resolver given a plant other than the Pinocchio one."""
+    if not (isinstance(plant, PinocchioPlant) or plant == "pinocchio") or plant_options:
+        raise InvalidInput(
+            f"resolver {resolver.name} works at the velocity level (the kinematic loop integrates its joint "
+            "velocities, no torque drives a plant); a plant needs a torque resolver"
+        )
+
+
 class OneMovement:
     """The engine's lanes for B = 1 at the torque level: one state as plain vectors (see :mod:`torqueopt.engine`).
 
     The B = 1 forms of the engine's pieces: the terms of Pinocchio on one
     data (:class:`~torqueopt.terms.PinocchioTerms`), the resolver's
     single-state step (a step that raises ends the movement), the plant's
-    step (:func:`~torqueopt.integrators.plant_stepper`), a log of one tuple
+    step (:meth:`Plant.step <torqueopt.plants.Plant.step>`), a log of one tuple
     per step and the ceiling tests on plain lists (cheaper than numpy at this
     size).
     """
@@ -253,7 +255,8 @@ class OneMovement:
         self.within = partial(map, operator.le)
         # Built once per run: the resolver's per-robot constants and workspaces.
         self.solve = resolver.solver_for_run(robot, dt)
-        self.advance = plant_stepper(plant, robot, dt, data)
+        # The plant reports its own state; the resolver's next torque is computed from it.
+        self.advance = plant.step
         #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
         self.terms = PinocchioTerms(robot, data).with_position(reference_rotation)
         self.command = self._command if feedback is not None else self._reference_command
@@ -308,7 +311,7 @@ class OneMovement:
         return q, v, resolution
 
     def step(self, q, v, resolution, j: int, t: float):
-        q, v = self.advance(q, v, resolution[0], resolution[1])
+        q, v = self.advance(q, v, resolution[0], self.dt, resolution[1])
         # RK4 weighs every stage acceleration that moves q into v as well, so a
         # finite v after the step means a finite q.
         if not all(self.within(map(abs, v.tolist()), self.speed_ceiling)):
@@ -397,29 +400,3 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
             f"[{lower[joint]:.4g}, {upper[joint]:.4g}]"
         )
     return notes
-
-
-def step_budget(
-    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str | None = "max_steps", row_bytes=None
-) -> int:
-    """The steps of a run of ``duration`` [s] at ``dt`` [s], checked before any work starts.
-
-    Raises:
-        InvalidInput: dt longer than the duration, more than ``max_steps``
-            steps (the message names ``option``, the option that raises the
-            limit, and the memory the run would need when ``row_bytes``, the
-            bytes per recorded step, is given), or a dt that does not divide
-            the duration (see :func:`torqueopt.checks.step_count`).
-    """
-    if dt > duration:
-        raise InvalidInput(f"dt={show_number(dt)} s is longer than the duration {show_number(duration)} s")
-    bounded_count(
-        duration / dt,
-        max_steps,
-        f"duration {duration:g} s at dt {dt:g} s",
-        "steps",
-        option,
-        remedy="or give a larger dt or a shorter duration",
-        item_bytes=row_bytes,
-    )
-    return step_count(duration, dt)

@@ -55,14 +55,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import number_in_range, whole_number
+from .checks import number_in_range
 from .errors import InvalidInput, OutputError
 from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
-from .resolvers import RESOLVERS, Resolver, get_resolver
+from .resolvers import Resolver, get_resolver
 from .resolvers.options import label_value
+from .settings import Settings, number, numbers, positive, setting, whole, whole_at_least
 
 __all__ = [
     "DEFAULT_GRIDS",
+    "TuneSettings",
     "DEFAULT_PATHS",
     "DEFAULT_CHUNK_SIZE",
     "MAX_SETTINGS",
@@ -101,6 +103,159 @@ _CONFIG = "tune-config.json"
 _RESULT_FILES = ("tune.json", "tune.md")
 
 
+def _option_pairs(texts: list[str], flag: str, example: str) -> dict[str, str]:
+    """``{NAME: VALUE}`` of repeated ``flag NAME=VALUE`` options."""
+    pairs = {}
+    for text in texts:
+        name, separator, value = text.partition("=")
+        name = name.strip()
+        if not separator or not name or not value.strip():
+            raise InvalidInput(f"{flag} '{text}' must be NAME=VALUE, e.g. {flag} {example}")
+        if name in pairs:
+            raise InvalidInput(f"{flag} {name} is given twice; give it once")
+        pairs[name] = value.strip()
+    return pairs
+
+
+def _grid_values(texts: list[str], name: str) -> dict | None:
+    values = _option_pairs(texts, "--values", "damping=5,10,20")
+    grid = {option: [v.strip() for v in text.split(",")] for option, text in values.items()} or None
+    if grid and any(not v for vs in grid.values() for v in vs):
+        raise InvalidInput("--values: an empty value between commas; give NAME=V1,V2,...")
+    return grid
+
+
+def _robot(value, name):
+    from .atlas.jobs import RobotSpec
+
+    return value if isinstance(value, RobotSpec) else RobotSpec(str(value))
+
+
+def _path_kind(text: str, name: str) -> str:
+    from .atlas.settings import path_kind
+
+    return path_kind(text, name)
+
+
+def default_grids_text() -> str:
+    """The default grids as `torqueopt tune --help` lists them."""
+    return "; ".join(
+        f"{name}: "
+        + " x ".join(f"{option} {','.join(label_value(v) for v in values)}" for option, values in grid.items())
+        for name, grid in DEFAULT_GRIDS.items()
+    )
+
+
+@dataclass(frozen=True)
+class TuneSettings(Settings):
+    """Every setting of a tune (see the module docstring); the fields are checked when the settings are made."""
+
+    robot: object = setting(
+        "panda",
+        "robot name or URDF (panda, xarm7, tiago, baxter, ...)",
+        check=_robot,
+        cli=False,
+        doc="a robot name or URDF, or a :class:`torqueopt.atlas.jobs.RobotSpec`",
+    )
+    resolver: str = setting("damped-null-space", "resolver to tune (default damped-null-space)")
+    grid: dict | None = setting(
+        None,
+        f"an option of the grid and its values, repeatable (replaces the default grid; at most {MAX_SETTINGS} "
+        "settings in all)",
+        flag="--values",
+        metavar="NAME=V1,V2,...",
+        parse=_grid_values,
+        repeat=True,
+        doc="``{option: values}``, the settings are every combination (at most ``MAX_SETTINGS``, 64); default "
+        ":data:`DEFAULT_GRIDS` of the resolver",
+    )
+    options: dict | None = setting(
+        None,
+        "an option held fixed in every setting, repeatable (e.g. --option torque_weight=range)",
+        flag="--option",
+        metavar="NAME=VALUE",
+        parse=lambda texts, name: _option_pairs(texts, "--option", "torque_weight=range"),
+        repeat=True,
+        doc='options held fixed in every setting (e.g. ``torque_weight="range"``)',
+    )
+    paths: int = setting(
+        DEFAULT_PATHS,
+        f"movements per duration (default {DEFAULT_PATHS})",
+        check=whole_at_least(1),
+        parse=whole(1),
+        metavar="N",
+    )
+    chunk_size: int = setting(
+        DEFAULT_CHUNK_SIZE,
+        f"paths per chunk of the settings' runs; settings certain to fail are dropped between chunks "
+        f"(default {DEFAULT_CHUNK_SIZE})",
+        check=whole_at_least(1),
+        parse=whole(1),
+        metavar="N",
+    )
+    durations: tuple[float, ...] = setting(
+        (0.5, 1.0, 1.5, 2.0), "movement durations [s] (default 0.5,1,1.5,2)", unit="s", parse=numbers(), metavar="T,..."
+    )
+    seed: int = setting(0, "seed of the population (default 0)", parse=whole())
+    out: str | os.PathLike = setting(
+        "tune",
+        "output folder (default tune-ROBOT; resumed if it holds this tune)",
+        metavar="DIR",
+        doc="the folder (new, empty, or this tune's to resume it)",
+    )
+    whiplash_bound: float = setting(
+        WHIPLASH_BOUND,
+        "largest Wilson 95 %% upper bound of a qualifying whiplash rate (default 0.01)",
+        check=lambda value, name: number_in_range(value, name, 0.0, 1.0, low_open=True),
+        parse=number,
+        metavar="P",
+        doc="the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate",
+    )
+    path: str = setting("line", "line, min-jerk or circle (default line)", metavar="KIND", parse=_path_kind)
+    accel: float | None = setting(
+        None, "acceleration [m/s²] (default: sized to the arm, √2 x reach / 3 m)", unit="m/s²", metavar="A",
+        parse=positive,
+    )  # fmt: skip
+    dt: float = setting(1e-3, "integration step [s] (default 0.001)", unit="s", parse=positive)
+    workers: int | None = setting(
+        None, "local Dask worker processes (default: the machine's cores; 0: no Dask)", parse=whole(), metavar="N"
+    )
+    max_steps: int = setting(
+        DEFAULT_MAX_STEPS,
+        "refuse tunes of more trajectory-steps, pinv and every setting on every path (default 1e9)",
+        parse=whole(1),
+        metavar="N",
+    )
+    progress: bool = setting(True, "no progress bars", switch="off",
+                             flag="--no-progress", doc="progress bars on stderr")  # fmt: skip
+    eliminate: bool = setting(
+        True,
+        "drop a setting as soon as a chunk shows it certain to fail (False: every setting on every path; the same "
+        "choice)",
+        check=lambda value, name: bool(value),
+        cli=False,
+    )
+
+    def check_together(self) -> None:
+        count = len(settings_grid(self.resolver, self.grid, self.options)[1])
+        durations = self.population_spec().durations
+        total = self.paths * sum(round(d / self.dt) + 1 for d in durations) * (count + 2)
+        if total > self.max_steps:
+            raise InvalidInput(
+                f"the tune would simulate up to {total:.3g} trajectory-steps (pinv, then {count} settings with "
+                f"pinv beside them, on {self.paths} paths x {len(durations)} durations), more than "
+                f"max_steps={self.max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
+            )
+
+    def population_spec(self):
+        """The population of the pinv atlas (its acceleration given apart: run_atlas sizes it to the arm)."""
+        from .atlas.population import PopulationSpec
+
+        return PopulationSpec(
+            paths=self.paths, durations=tuple(np.atleast_1d(self.durations).tolist()), seed=self.seed, path=self.path
+        )
+
+
 @dataclass
 class TuneResult:
     """What :func:`tune` found: every setting's evidence (dicts, as ``tune.json``), the choice, the folder.
@@ -116,90 +271,37 @@ class TuneResult:
     out: Path
 
 
-def tune(
-    robot="panda",
-    resolver: str = "damped-null-space",
-    *,
-    grid: dict | None = None,
-    options: dict | None = None,
-    paths: int = DEFAULT_PATHS,
-    durations=(0.5, 1.0, 1.5, 2.0),
-    seed: int = 0,
-    out: str | os.PathLike = "tune",
-    whiplash_bound: float = WHIPLASH_BOUND,
-    workers: int | None = None,
-    chunk_size: int = DEFAULT_CHUNK_SIZE,
-    eliminate: bool = True,
-    accel: float | None = None,
-    path: str = "line",
-    dt: float = 1e-3,
-    progress: bool = True,
-    max_steps: int = DEFAULT_MAX_STEPS,
-) -> TuneResult:
+def tune(settings: TuneSettings | object = None, resolver: str | None = None, **keywords) -> TuneResult:
     """Choose ``resolver``'s options on ``robot`` from a seeded atlas (see the module docstring).
 
+    Call it with a :class:`TuneSettings`, or with the settings themselves: ``robot`` and ``resolver`` by position
+    or keyword, every other one by keyword (``tune("panda", "damped-null-space", paths=300)``).
+
     Args:
-        robot: a robot name or URDF, or a :class:`torqueopt.atlas.sweep.RobotSpec`.
-        resolver: the resolver to tune (its name).
-        grid: ``{option: values}``, the settings are every combination (at most ``MAX_SETTINGS``, 64);
-            default :data:`DEFAULT_GRIDS` of the resolver.
-        options: options held fixed in every setting (e.g. ``torque_weight="range"``).
-        paths: movements per duration.
-        chunk_size: paths (of those pinv handles) per chunk of the settings' runs; eliminate: drop a setting
-            as soon as a chunk shows it certain to fail (False: every setting on every path; the same choice).
-        durations, seed, accel, path, dt: the population and the runs, as :func:`torqueopt.atlas.run_atlas`.
-        out: the folder (new, empty, or this tune's to resume it).
-        whiplash_bound: the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate.
-        workers: Dask worker processes (default the machine's cores; 0 runs in this process).
-        progress: progress bars on stderr. max_steps: refuse a larger tune (trajectory-steps, all stages).
+        {arguments}
 
     Raises:
         InvalidInput: bad settings, a resolver without a grid (give one), a grid too large, an ``out`` folder
             that holds anything but this tune.
         OutputError: a file cannot be written.
+        TypeError: a keyword that is no setting, or settings given twice.
     """
     from .atlas import run_atlas
-    from .atlas.population import PopulationSpec
-    from .atlas.sweep import RobotSpec
 
-    spec = robot if isinstance(robot, RobotSpec) else RobotSpec(str(robot))
-    name, settings, fixed = settings_grid(resolver, grid, options)
-    grid_options = tuple(grid) if grid is not None else tuple(DEFAULT_GRIDS[name])
-    paths = whole_number(paths, "paths", 1)
-    chunk_size = whole_number(chunk_size, "chunk_size", 1)
-    whiplash_bound = number_in_range(whiplash_bound, "whiplash_bound", 0.0, 1.0, low_open=True)
-    population = PopulationSpec(paths=paths, durations=tuple(np.atleast_1d(durations).tolist()), seed=seed, path=path)
-    total = paths * sum(round(d / dt) + 1 for d in population.durations) * (len(settings) + 2)
-    if total > max_steps:
-        raise InvalidInput(
-            f"the tune would simulate up to {total:.3g} trajectory-steps (pinv, then {len(settings)} settings with "
-            f"pinv beside them, on {paths} paths x {len(population.durations)} durations), more than "
-            f"max_steps={max_steps:.3g}: fewer settings, paths or durations, or raise max_steps (--max-steps)"
-        )
-    out = writable_path(out, directory=True)
+    settings = _settings_of(settings, resolver, keywords)
+    spec, paths, dt, accel = settings.robot, settings.paths, settings.dt, settings.accel
+    workers, progress, whiplash_bound = settings.workers, settings.progress, settings.whiplash_bound
+    name, resolvers, fixed = settings_grid(settings.resolver, settings.grid, settings.options)
+    grid_options = tuple(settings.grid) if settings.grid is not None else tuple(DEFAULT_GRIDS[name])
+    population = settings.population_spec()
+    out = writable_path(settings.out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the tune to '{out}': it is a file; give a folder")
     writable_paths(out / file for file in (_CONFIG, *_RESULT_FILES))
     loaded = spec.load()
-    for setting in settings:
-        setting.check(loaded)
-    config = {
-        "format": _FORMAT,
-        "robot": spec.as_dict(),
-        "resolver": name,
-        "fixed_options": {key: _json_value(value) for key, value in fixed.items()},
-        "grid": [
-            {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in settings
-        ],
-        "paths": paths,
-        "durations": list(population.durations),
-        "seed": population.seed,
-        "accel": accel,
-        "path": population.path,
-        "dt": float(dt),
-        "whiplash_bound": whiplash_bound,
-        "eliminate": bool(eliminate),
-    }
+    for setting_ in resolvers:
+        setting_.check(loaded)
+    config = _tune_config(settings, name, resolvers, fixed, grid_options, population)
     resume = _check_folder(out, config)
     if not resume:
         text = json.dumps(config, indent=2, sort_keys=True).encode()
@@ -214,7 +316,7 @@ def tune(
     atlas_config = baseline.summary["config"]
     handled = handled_paths(baseline.table)
     needed = least_trials(whiplash_bound)
-    labels = [setting.label for setting in settings]
+    labels = [setting_.label for setting_ in resolvers]
     if len(handled) < needed:
         rows_by_label = {label: _not_run(label, len(handled), needed) for label in labels}
     else:
@@ -222,15 +324,16 @@ def tune(
         # soon as it is certain to fail (the module docstring).
         by_path = {movement.path: movement for movement in _draw(loaded, population)}  # run_atlas's draw
         ordered = sorted(handled, key=lambda path: (-by_path[path].duration, path))
+        chunk_size = settings.chunk_size
         chunks = [[by_path[path] for path in ordered[i : i + chunk_size]] for i in range(0, len(ordered), chunk_size)]
         rows_by_label = _run_settings(
-            spec, settings, chunks, handled, out / "settings", config, dt=dt, workers=workers,
-            progress=progress, whiplash_bound=whiplash_bound, eliminate=eliminate,
+            spec, resolvers, chunks, handled, out / "settings", config, dt=dt, workers=workers,
+            progress=progress, whiplash_bound=whiplash_bound, eliminate=settings.eliminate,
         )  # fmt: skip
     rows = []
-    for setting in settings:
-        row = rows_by_label[setting.label]
-        row["options"] = {key: _json_value(value) for key, value in options_of(setting, grid_options, fixed).items()}
+    for setting_ in resolvers:
+        row = rows_by_label[setting_.label]
+        row["options"] = {key: _json_value(value) for key, value in options_of(setting_, grid_options, fixed).items()}
         row["flags"] = option_flags(name, row["options"])
         rows.append(row)
     chosen = choose(rows)
@@ -238,12 +341,7 @@ def tune(
         "format": _FORMAT,
         "config": config,
         "robot_name": loaded.name,
-        "criteria": {
-            "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
-            "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
-            "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
-            "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
-        },
+        "criteria": _criteria(whiplash_bound),
         "atlas_config": atlas_config,
         "pinv_handles": len(handled),
         "movements": len(baseline.table),
@@ -257,6 +355,51 @@ def tune(
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
     return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def _settings_of(settings, resolver, keywords: dict) -> TuneSettings:
+    """The TuneSettings of tune's arguments: given whole, or made from the settings themselves."""
+    if isinstance(settings, TuneSettings):
+        if resolver is not None or keywords:
+            raise TypeError("tune() takes TuneSettings alone, or the settings themselves, not both")
+        return settings
+    positional = {"robot": settings, "resolver": resolver}
+    positional = {key: value for key, value in positional.items() if value is not None}
+    twice = sorted(set(positional) & set(keywords))
+    if twice:
+        raise TypeError(f"tune() got {', '.join(twice)} by position and by keyword")
+    return TuneSettings.from_keywords(**positional, **keywords)
+
+
+def _criteria(whiplash_bound: float) -> dict:
+    """The criteria as tune.json states them."""
+    return {
+        "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
+        "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
+        "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
+        "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
+    }
+
+
+def _tune_config(settings: TuneSettings, name: str, resolvers, fixed: dict, grid_options, population) -> dict:
+    """The settings as tune-config.json records them: the tune's fingerprint."""
+    return {
+        "format": _FORMAT,
+        "robot": settings.robot.as_dict(),
+        "resolver": name,
+        "fixed_options": {key: _json_value(value) for key, value in fixed.items()},
+        "grid": [
+            {key: _json_value(value) for key, value in options_of(s, grid_options, fixed).items()} for s in resolvers
+        ],
+        "paths": settings.paths,
+        "durations": list(population.durations),
+        "seed": population.seed,
+        "accel": settings.accel,
+        "path": population.path,
+        "dt": float(settings.dt),
+        "whiplash_bound": settings.whiplash_bound,
+        "eliminate": settings.eliminate,
+    }
 
 
 def handled_paths(table) -> list[int]:
@@ -299,6 +442,7 @@ def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, worker
     """
     import pandas
 
+    from .atlas.jobs import ResolverChunk
     from .atlas.sweep import chunk_path, config_digest, executor, read_chunk, remove_partial_chunks, run_chunks
     from .atlas.verdicts import Thresholds
 
@@ -328,10 +472,9 @@ def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, worker
                 if frame is not None:
                     frames.append(frame)
                     continue
-                jobs[index] = {
-                    "robot": spec, "resolvers": resolvers, "dt": float(dt), "thresholds": Thresholds().as_dict(),
-                    "batch": True, "digest": digest, "movements": chunks[index],
-                }  # fmt: skip
+                jobs[index] = ResolverChunk(
+                    spec, tuple(resolvers), tuple(chunks[index]), float(dt), Thresholds(), True, digest
+                )
             if jobs:
                 written = run_chunks(
                     jobs, folder, client, progress=progress, total_paths=len(handled), done_paths=done_paths,
@@ -365,22 +508,23 @@ def settings_grid(resolver: str, grid: dict | None, options: dict | None) -> tup
             given, an option the resolver does not declare, a value it refuses, an option both fixed and in the
             grid, an empty list of values, or more than ``MAX_SETTINGS`` (64) settings.
     """
-    name = get_resolver(resolver).name
-    if name == BASELINE:
+    made = get_resolver(resolver)
+    name = made.spec.split("[", 1)[0]  # its registry name, or a plug-in's module:Class: what get_resolver takes
+    if made.name == BASELINE:
         raise InvalidInput("pinv is the baseline every setting is measured against; tune another resolver")
     if grid is None:
-        if name not in DEFAULT_GRIDS:
+        if made.name not in DEFAULT_GRIDS:
             tunable = ", ".join(DEFAULT_GRIDS)
             raise InvalidInput(
-                f"resolver '{name}' has no default grid (those with one: {tunable}); give the values to try, "
+                f"resolver '{made.name}' has no default grid (those with one: {tunable}); give the values to try, "
                 "e.g. --values damping=5,10,20"
             )
-        grid = DEFAULT_GRIDS[name]
+        grid = DEFAULT_GRIDS[made.name]
     options = dict(options or {})
     both = sorted(set(grid) & set(options))
     if both:
         raise InvalidInput(f"option {', '.join(both)} is both held fixed and in the grid; give it once")
-    declared = [option.name for option in RESOLVERS[name].declared_options()]
+    declared = [option.name for option in made.declared_options()]
     for option, values in grid.items():
         if option not in declared:
             get_resolver(name, **{option: None})  # the resolver's own one-line message for an unknown option
@@ -607,3 +751,6 @@ def _json_value(value):
 def _check_folder(out: Path, config: dict) -> bool:
     """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing."""
     return resumable_folder(out, _CONFIG, config, "tune")
+
+
+tune.__doc__ = tune.__doc__.replace("        {arguments}", TuneSettings.arguments_doc("        "))

@@ -17,6 +17,10 @@ one line:
   centimetre), for rounding in the file;
 * every ``<origin xyz rpy>`` and ``<axis xyz>`` finite, and a moving
   joint's axis not zero;
+* every number as urdfdom reads it (blanks before it, none after; no ``_``
+  separators or Unicode digits), since urdfdom drops the element of a number it
+  cannot read (a link's whole ``<inertial>``: the link would weigh nothing);
+* ``<dynamics damping friction>``: finite numbers >= 0;
 * ``<limit>``: ``effort`` and ``velocity`` finite numbers >= 0 or ``inf``
   (0 and ``inf`` both mean unbounded, as docs/robots.md says; urdfdom cannot read
   ``inf``, so Pinocchio is given 0 for it); ``lower <= upper``, both finite
@@ -42,6 +46,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import re
 import tempfile
 import warnings
 from functools import lru_cache
@@ -135,6 +140,12 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
         if mimic is not None:
             for attribute in ("multiplier", "offset"):
                 _finite_number(mimic, attribute, f"{label}: <mimic>")
+        dynamics = joint.find("dynamics")
+        if dynamics is not None:
+            for attribute in ("damping", "friction"):
+                value = _finite_number(dynamics, attribute, f"{label}: <dynamics>")
+                if value is not None and value < 0:
+                    raise UrdfError(f"{label} has {attribute} {value:g}; give a finite number >= 0")
 
     links = [link.get("name") for link in root.findall("link")]
     if not links:
@@ -187,6 +198,10 @@ def _check_inertial(link: ElementTree.Element, label: str, notes: list[str]) -> 
     inertial = link.find("inertial")
     if inertial is None:
         return 0.0, 0.0
+    origin = inertial.find("origin")
+    if origin is not None:
+        _finite_triple(origin, "xyz", f"{label}: <inertial><origin>")
+        _finite_triple(origin, "rpy", f"{label}: <inertial><origin>")
     mass_element = inertial.find("mass")
     mass = 0.0 if mass_element is None else _finite_number(mass_element, "value", f"{label}: <mass>")
     if mass is not None and mass < 0:
@@ -259,11 +274,24 @@ def _check_limit(limit: ElementTree.Element, kind: str, label: str) -> bool:
     return rewritten
 
 
+#: A number as urdfdom reads it (``std::istringstream >> double`` in the C locale, the whole text consumed):
+#: blanks before it, none after; no digit separators, no Unicode digits. Python's ``float`` reads more
+#: (" 10.0 ", "5_0", "５"), and urdfdom drops the whole element whose number it cannot read (a link's
+#: <inertial> goes, and the link weighs nothing), so a number is read here as urdfdom reads it, or refused.
+_URDF_NUMBER = re.compile(r"[ \t\n\r\f\v]*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
 def _number(text: str, label: str) -> float:
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise UrdfError(f'{label}="{text}" is not a number') from None
+    if math.isfinite(value) and not _URDF_NUMBER.fullmatch(text):
+        raise UrdfError(
+            f'{label}="{text}" is not a number as URDF parsers read it (Pinocchio\'s would drop the element): '
+            "write digits with an optional sign, point and exponent, and nothing after them"
+        )
+    return value
 
 
 def _text(element: ElementTree.Element, attribute: str) -> str:
@@ -284,10 +312,15 @@ def _finite_triple(element: ElementTree.Element, attribute: str, label: str) -> 
     text = element.get(attribute)
     if text is None:
         return None
+    # urdfdom splits a vector at spaces only (a tab is part of a number, which it then cannot read).
+    parts = [part for part in text.split(" ") if part]
     try:
-        values = np.array([float(part) for part in text.split()])
-    except ValueError:
-        raise UrdfError(f'{label} {attribute}="{text}" is not three numbers') from None
+        values = np.array([_number(part, f"{label} {attribute}") for part in parts])
+    except UrdfError:
+        raise UrdfError(
+            f'{label} {attribute}="{text}" is not three numbers as URDF parsers read them: '
+            "digits with an optional sign, point and exponent, separated by spaces"
+        ) from None
     if values.size != 3 or not np.isfinite(values).all():
         raise UrdfError(f'{label} has {attribute}="{text.strip()}"; it must be three finite numbers')
     return values

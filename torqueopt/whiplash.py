@@ -17,7 +17,7 @@ Every joint gets a yardstick :math:`s_i` [N·m or N] and a demand
     r_i(t) = \frac{|\tau_i(t)|}{s_i}, \qquad
     s_i = \begin{cases}
         k_\text{limit}\,\tau_i^{+} & \text{joint with a finite limit}\\
-        k_\text{growth}\,\max_{j\ \text{unlimited}} |\tau_j(0)| & \text{joint without one}
+        k_\text{growth}\,\max_j |\tau_j(0)| & \text{joint without one}
     \end{cases}
 
 The run is *unstable* from the first sample at which some :math:`r_i > 1`:
@@ -29,8 +29,11 @@ The run is *unstable* from the first sample at which some :math:`r_i > 1`:
   outstretched arm), so this puts every joint on the same footing;
 * a joint without a limit has no such yardstick, so it is measured against
   the torque the movement started with: it trips when it needs more than
-  ``growth_factor`` times the largest torque any unlimited joint needed at the
-  first sample (default 8).
+  ``growth_factor`` times the largest torque any joint needed at the first
+  sample (default 8). Every joint's, not only the unlimited ones': an arm
+  whose only unlimited joint is a light wrist starting at 0.05 N·m would
+  otherwise trip at 0.4 N·m while its limited joints stay far below their
+  limits. On an arm without any limit the two are the same.
 
 A movement that asks for more than ``limit_factor`` times a limit from its
 very first step is reported too (it cannot be executed either); its reason
@@ -155,7 +158,7 @@ def torque_demand(
 ) -> np.ndarray:
     r"""The demand :math:`r_i(t) = |\tau_i(t)| / s_i` of every joint at every sample, shape (N, n).
 
-    Columns of joints that cannot be judged (no limit, and no unlimited joint
+    Columns of joints that cannot be judged (no limit, and no joint
     applied torque at the first sample) are nan. See the module docstring.
     """
     limit_factor = positive_number(limit_factor, "limit_factor", hint="a multiple, such as 2")
@@ -165,7 +168,7 @@ def torque_demand(
     # torque_ratio divides by τ⁺ or |τ⁻| by the torque's sign, so asymmetric limits are right too.
     demand[:, limited] = result.torque_ratio[:, limited] / limit_factor
     if (~limited).any() and len(result.t):
-        start = float(np.abs(result.tau[0, ~limited]).max())
+        start = float(np.abs(result.tau[0]).max())
         if start > 0.0:  # False for NaN too: a run with no torque at its start has no yardstick
             demand[:, ~limited] = np.abs(result.tau[:, ~limited]) / (growth_factor * start)
     return demand

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..io import atomic_write
 from .population import movement_trajectory
-from .sweep import _simulate_all, require
+from .sweep import require, simulate_all
 from .verdicts import applied_rows
 
 __all__ = ["DEFAULT_KEEP_TRACES", "MAX_SAMPLES", "choose_paths", "explorer_html", "keep_traces", "write_explorer"]
@@ -79,7 +79,7 @@ def keep_traces(robot, table, movements, resolvers, *, dt: float, batch: bool, k
     whip_times = table.set_index(["path", "resolver"])["whip_time"]
     kept: dict = {}
     for resolver in resolvers:
-        results, _ = _simulate_all(robot, resolver, lines, q0s, dt, batch)
+        results, _ = simulate_all(robot, resolver, lines, q0s, dt, batch)
         for movement, result in zip(picked, results):
             result = applied_rows(result)[0]  # the torques the table's figures read: not the sample at t = T
             rows = _kept_rows(result)

@@ -51,9 +51,7 @@ README's paragraph between :data:`ANSWER_BEGIN` and :data:`ANSWER_END`.
 
 from __future__ import annotations
 
-import json
 import math
-import sys
 import textwrap
 from pathlib import Path
 
@@ -503,35 +501,7 @@ def write_atlas_page(folder, docs, name: str, note: str = "", figures=PAGE_FIGUR
     return page
 
 
-def main(argv=None) -> int:
-    """``python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE]`` (:func:`write_atlas_page`) and
-    ``python -m torqueopt.atlas.frontier readme README.md SUMMARY.json`` (:func:`readme_answer`)."""
-    command, *args = list(sys.argv[1:] if argv is None else argv)
-    if command == "page" and len(args) in (3, 4):
-        folder, note = Path(args[0]), args[3] if len(args) == 4 else ""
-        if (folder / "atlas-config.json").is_file() and (folder / "chunks").is_dir():
-            # A sweep's folder, finished or not: its report again, of its whole prefix of finished paths, with the
-            # summary this version computes.
-            import tempfile
-
-            from .prefix import prefix_report
-
-            with tempfile.TemporaryDirectory() as report:
-                prefix_report(folder, report)
-                print(write_atlas_page(report, args[1], args[2], note))
-        else:
-            print(write_atlas_page(folder, args[1], args[2], note))
-        return 0
-    if command == "readme" and len(args) == 2:
-        readme = Path(args[0])
-        readme.write_text(readme_answer(readme.read_text(), json.loads(Path(args[1]).read_text())))
-        return 0
-    print(
-        "usage: python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE] | readme README.md SUMMARY.json",
-        file=sys.stderr,
-    )
-    return 2
-
-
 if __name__ == "__main__":
+    from torqueopt.atlas.prefix import main
+
     raise SystemExit(main())

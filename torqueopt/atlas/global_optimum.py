@@ -50,7 +50,9 @@ from ..resolvers import get_resolver
 from ..result import SimResult, joint_limits_record
 from ..simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, simulate
 from ..stop_rules import StopRules
+from .jobs import GlobalChunk, worker_robot
 from .population import Movement, movement_trajectory
+from .rows import movement_columns, path_columns, peak_applied_ratio, start_columns
 from .verdicts import Thresholds, run_row, self_motion_energy
 
 __all__ = [
@@ -89,7 +91,7 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
     """(the ``global-optimum`` columns of one movement without the movement's own, pinv's peak torque ratio)."""
     line = movement_trajectory(movement)
     pinv_run = simulate(robot, get_resolver("pinv"), line, movement.q0, dt=dt)
-    pinv_peak = _peak_ratio(pinv_run)
+    pinv_peak = peak_applied_ratio(pinv_run)
     solved = optimize(
         robot,
         line,
@@ -179,27 +181,17 @@ def _inverse_condition(robot, data, q) -> float:
     return float(inverse_condition_number(jacobian[robot.task_rows]))
 
 
-def _peak_ratio(result) -> float:
-    from .sweep import _peak_applied_ratio
-
-    return _peak_applied_ratio(result)
-
-
-def run_global_chunk(job: dict) -> list[dict]:
-    """The ``global-optimum`` rows of one chunk of movements (``job`` as :func:`torqueopt.atlas.sweep.run_chunk`'s)."""
-    from .sweep import _as_movement, _movement_columns, _path_columns, _start_columns, _worker_robot
-
-    robot = _worker_robot(job["robot"])
-    thresholds = Thresholds(**job["thresholds"])
+def run_global_chunk(job: GlobalChunk) -> list[dict]:
+    """The ``global-optimum`` rows of one chunk of movements."""
+    robot = worker_robot(job.robot)
     rows = []
-    for item in job["movements"]:
-        movement = _as_movement(item, job.get("accel"))
-        row = _movement_columns(movement, GLOBAL_RESOLVER)
-        row["resolver_options"] = json.dumps(job["global"], sort_keys=True)
-        columns, pinv_peak = global_row(robot, movement, dt=job["dt"], thresholds=thresholds, settings=job["global"])
+    for movement in job.movements:
+        row = movement_columns(movement, GLOBAL_RESOLVER)
+        row["resolver_options"] = json.dumps(job.settings, sort_keys=True)
+        columns, pinv_peak = global_row(robot, movement, dt=job.dt, thresholds=job.thresholds, settings=job.settings)
         row.update(columns)
-        row.update(_start_columns(movement))
-        row.update(_path_columns(movement))
+        row.update(start_columns(movement))
+        row.update(path_columns(movement))
         row["pinv_peak_torque_ratio"] = pinv_peak
         row["batched"] = False
         rows.append(row)

@@ -11,7 +11,7 @@ the rows:
 * **within the torque limits wherever pinv is**: on the paths where
   ``pinv``'s peak :math:`|\tau|/\tau^+` is at most 1, its own must be too
   (counted on those paths, and on the paths ``pinv`` *handles*, stable as
-  well: :func:`torqueopt.atlas.arms.pinv_paths_summary`);
+  well: :func:`torqueopt.atlas.pinv_paths.pinv_paths_summary`);
 * **saving torque**: the median of ``torque_vs_pinv`` (its peak
   :math:`|\tau|/\tau^+` over pinv's on the same path) at or below
   :data:`TORQUE_BOUND` (0.95), with the distribution-free 95 % interval of
@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .pinv_paths import median_interval
 from .stats import proportion
 
 __all__ = ["TORQUE_BOUND", "WHIP_BOUND", "guarantee_markdown", "guarantee_summary", "least_paths"]
@@ -60,11 +61,9 @@ def least_paths(bound: float = WHIP_BOUND) -> int:
 
 
 def _median(values) -> dict:
-    from .arms import _median_interval
-
     values = np.asarray(values, float)
     values = values[np.isfinite(values)]
-    median, low, high = _median_interval(values)
+    median, low, high = median_interval(values)
     return {"median": median, "low": low, "high": high, "runs": int(values.size)}
 
 

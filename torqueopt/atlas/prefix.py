@@ -17,14 +17,19 @@ this version of the package computes (and no ``partial``).
 from __future__ import annotations
 
 import json
+import sys
+import tempfile
 from pathlib import Path
 
 from ..errors import InvalidInput
-from ..io import atomic_write, written_together
+from ..io import atomic_write, json_text, written_together
+from ..loading import load_robot
+from .frontier import readme_answer, write_atlas_page
 from .global_optimum import GLOBAL_RESOLVER, add_global_ratios
-from .sweep import CHUNK_FOLDER, config_digest, read_chunk, require
+from .report import summarise, write_figures, write_markdown
+from .sweep import CHUNK_FOLDER, collect, config_digest, read_chunk, require
 
-__all__ = ["prefix_report"]
+__all__ = ["main", "prefix_report"]
 
 
 def prefix_report(out, dest, *, note: str = "") -> dict:
@@ -38,10 +43,6 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
     Returns:
         The summary, as ``dest/atlas.json`` holds it.
     """
-    from ..io import json_text
-    from . import _collect
-    from .report import summarise, write_figures, write_markdown
-
     pandas = require("pandas")
     out, dest = Path(out), Path(dest)
     config = json.loads((out / "atlas-config.json").read_text())
@@ -65,15 +66,13 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
         paths += 1
     if not paths:
         raise InvalidInput(f"'{out}' has not finished every run of its first path yet")
-    table = _collect(pandas, [table[table["path"] < paths]], order)
+    table = collect(pandas, [table[table["path"] < paths]], order)
     if "global" in config:
         table = add_global_ratios(table)
     summary = summarise(table, config)
     if paths < int(config["movements"]):  # the report of a finished atlas is no part of one
         summary["partial"] = {"paths": paths, "of": int(config["movements"])}
     dest.mkdir(parents=True, exist_ok=True)
-    from ..loading import load_robot
-
     robot = load_robot(config["robot"]["source"], frame=config["robot"]["frame"], task=config["robot"]["task"])
     with written_together():
         atomic_write(dest / "results.parquet", lambda handle: table.to_parquet(handle, index=False))
@@ -86,3 +85,35 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
             markdown = f"{title}\n\n{note.replace('{paths}', str(paths))}\n{rest}"
         atomic_write(dest / "atlas.md", lambda handle: handle.write(markdown.encode()))
     return summary
+
+
+def main(argv=None) -> int:
+    """``python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE]``
+    (:func:`~torqueopt.atlas.frontier.write_atlas_page`; a sweep's folder gets its :func:`prefix_report` first) and
+    ``python -m torqueopt.atlas.frontier readme README.md SUMMARY.json``
+    (:func:`~torqueopt.atlas.frontier.readme_answer`)."""
+    command, *args = list(sys.argv[1:] if argv is None else argv)
+    if command == "page" and len(args) in (3, 4):
+        folder, note = Path(args[0]), args[3] if len(args) == 4 else ""
+        if (folder / "atlas-config.json").is_file() and (folder / "chunks").is_dir():
+            # A sweep's folder, finished or not: its report again, of its whole prefix of finished paths, with the
+            # summary this version computes.
+            with tempfile.TemporaryDirectory() as report:
+                prefix_report(folder, report)
+                print(write_atlas_page(report, args[1], args[2], note))
+        else:
+            print(write_atlas_page(folder, args[1], args[2], note))
+        return 0
+    if command == "readme" and len(args) == 2:
+        readme = Path(args[0])
+        readme.write_text(readme_answer(readme.read_text(), json.loads(Path(args[1]).read_text())))
+        return 0
+    print(
+        "usage: python -m torqueopt.atlas.frontier page FOLDER DOCS NAME [NOTE] | readme README.md SUMMARY.json",
+        file=sys.stderr,
+    )
+    return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
-from .arms import pinv_paths_markdown, pinv_paths_summary
 from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin_markdown, margin_summary
 from .global_optimum import GLOBAL_RESOLVER
+from .pinv_paths import pinv_paths_markdown, pinv_paths_summary
 from .stats import CRITERIA, claims, proportion, unstable_fractions
 from .verdicts import VERDICTS
 

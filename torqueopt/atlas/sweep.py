@@ -33,38 +33,37 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import math
 import os
 import re
 import signal
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
 
 from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
-from ..loading import load_robot
 from ..optimal import run_cost
 from ..progress import progress_bar, said_if_slow
 from ..resolvers import Resolver, get_resolver, resolver_from_label
-from ..robot import Robot
 from ..simulate import simulate
+from .global_optimum import run_global_chunk
+from .jobs import GlobalChunk, ResolverChunk, RobotSpec, worker_robot
 from .margins import margin_columns
-from .population import Movement, movement_trajectory
-from .verdicts import Thresholds, run_row, self_motion_energy
+from .population import movement_trajectory
+from .rows import movement_columns, path_columns, peak_applied_ratio, start_columns
+from .verdicts import run_row, self_motion_energy
 
 __all__ = [
     "CHUNK_FOLDER",
     "RobotSpec",
     "chunk_path",
+    "collect",
     "executor",
     "read_chunks",
     "run_chunk",
     "run_chunks",
+    "simulate_all",
     "start_fork_server",
 ]
 
@@ -89,97 +88,41 @@ def require(module: str, extra: str = "atlas"):
         ) from None
 
 
-@dataclass(frozen=True)
-class RobotSpec:
-    """What a worker needs to load the robot (a Robot object is not sent: each worker loads its own)."""
-
-    source: str
-    frame: str | None = None
-    task: str | None = None
-    torque_limit: tuple[float, ...] | None = None
-    gravity: bool | tuple[float, ...] | None = None
-
-    def load(self) -> Robot:
-        return load_robot(
-            self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity
-        )
-
-    def as_dict(self) -> dict:
-        return {
-            "source": self.source,
-            "frame": self.frame,
-            "task": self.task,
-            "torque_limit": None if self.torque_limit is None else list(self.torque_limit),
-            "gravity": list(self.gravity) if isinstance(self.gravity, tuple) else self.gravity,
-        }
-
-
-_LOCAL = threading.local()
-
-
-def _worker_robot(spec: RobotSpec) -> Robot:
-    """The robot for ``spec``, loaded once per worker thread."""
-    robots = getattr(_LOCAL, "robots", None)
-    if robots is None:
-        robots = _LOCAL.robots = {}
-    if spec not in robots:
-        robots[spec] = spec.load()
-    return robots[spec]
-
-
 def chunk_path(out: Path, index: int) -> Path:
     return out / CHUNK_FOLDER / f"chunk-{index:06d}.parquet"
 
 
-def run_chunk(job: dict) -> list[dict]:
-    """Every resolver on every movement of one chunk: the chunk's rows (plain dicts), pinv's first.
-
-    ``job`` holds the robot spec, the resolvers, dt, thresholds, whether to
-    batch, and the movements: :class:`~torqueopt.atlas.population.Movement`
-    objects, or (path, duration, q0, direction, start) tuples of lines at the
-    job's ``accel``. Deterministic: the same job gives the same rows.
-    """
-    if "global" in job:  # a chunk of global-optimum rows (torqueopt.atlas.global_optimum)
-        from .global_optimum import run_global_chunk
-
+def run_chunk(job: ResolverChunk | GlobalChunk) -> list[dict]:
+    """The rows of one chunk (plain dicts): every resolver on every movement, pinv's first, or the global
+    optimum of each movement (a :class:`~torqueopt.atlas.jobs.GlobalChunk`). The same job gives the same rows."""
+    if isinstance(job, GlobalChunk):
         return run_global_chunk(job)
-    robot = _worker_robot(job["robot"])
-    thresholds = Thresholds(**job["thresholds"])
-    margin_every = job.get("margin")
-    movements = [_as_movement(item, job.get("accel")) for item in job["movements"]]
+    robot = worker_robot(job.robot)
+    movements = list(job.movements)
     lines = [movement_trajectory(m) for m in movements]
     q0s = [m.q0 for m in movements]
-    resolvers: list[Resolver] = job["resolvers"]
     rows: list[dict] = []
     pinv_peaks = None
-    for resolver in resolvers:
-        results, energies = _simulate_all(robot, resolver, lines, q0s, job["dt"], job["batch"])
+    for resolver in job.resolvers:
+        results, energies = simulate_all(robot, resolver, lines, q0s, job.dt, job.batch)
         options_text = json.dumps(resolver.changed_settings(), sort_keys=True)
         if pinv_peaks is None:  # the first resolver is pinv, the baseline
-            pinv_peaks = [_peak_applied_ratio(result) for result in results]
+            pinv_peaks = [peak_applied_ratio(result) for result in results]
         for movement, line, result, (kinetic, self_energy), pinv_peak in zip(
             movements, lines, results, energies, pinv_peaks
         ):
-            row = _movement_columns(movement, resolver_label(resolver))
+            row = movement_columns(movement, resolver_label(resolver))
             row["resolver_options"] = options_text
-            row.update(run_row(result, kinetic, self_energy, pinv_peak, thresholds))
+            row.update(run_row(result, kinetic, self_energy, pinv_peak, job.thresholds))
             row["cost"] = run_cost(result, robot)  # ∫‖τ − τ_mid‖² dt, optimize's criterion, on the run's grid
-            if margin_every is not None:
-                row.update(margin_columns(robot, resolver, result, line, row, margin_every))
-            row.update(_start_columns(movement))
-            row.update(_path_columns(movement))
+            if job.margin_every is not None:
+                row.update(margin_columns(robot, resolver, result, line, row, job.margin_every))
+            row.update(start_columns(movement))
+            row.update(path_columns(movement))
             row["pinv_peak_torque_ratio"] = pinv_peak
-            row["batched"] = bool(job["batch"] and batch_supports(robot, resolver))
+            row["batched"] = bool(job.batch and batch_supports(robot, resolver))
             rows.append(row)
     return rows
-
-
-def _as_movement(item, accel) -> Movement:
-    """A job's movement: a Movement as it is, or a (path, duration, q0, direction, start) line at ``accel``."""
-    if isinstance(item, Movement):
-        return item
-    path, duration, q0, direction, start = item
-    return Movement(path, duration, np.asarray(q0), np.asarray(direction), np.asarray(start), accel=float(accel))
 
 
 def resolver_label(resolver: Resolver) -> str:
@@ -189,18 +132,7 @@ def resolver_label(resolver: Resolver) -> str:
     return resolver.label
 
 
-def _peak_applied_ratio(result) -> float:
-    from .verdicts import applied_rows
-
-    applied = applied_rows(result)[0]
-    limited = np.isfinite(applied.torque_upper)
-    ratios = applied.torque_ratio[:, limited]
-    if not ratios.size or np.isnan(ratios).all():
-        return math.nan
-    return float(np.nanmax(ratios))
-
-
-def _simulate_all(robot, resolver, lines, q0s, dt, batch):
+def simulate_all(robot, resolver, lines, q0s, dt, batch):
     """(results, [(kinetic energy, self-motion energy) per run]) for one resolver on a chunk's movements."""
     if batch and batch_supports(robot, resolver):
         results, energies = [None] * len(lines), [None] * len(lines)
@@ -216,30 +148,12 @@ def _simulate_all(robot, resolver, lines, q0s, dt, batch):
     return results, [self_motion_energy(robot, result) for result in results]
 
 
-def _movement_columns(movement: Movement, resolver: str) -> dict:
-    row = {"path": int(movement.path), "duration": float(movement.duration), "resolver": resolver}
-    for i, value in enumerate(movement.q0, start=1):
-        row[f"q0_{i}"] = float(value)
-    for i, value in enumerate(movement.direction, start=1):
-        row[f"direction_{i}"] = float(value)
-    return row
-
-
-def _path_columns(movement: Movement) -> dict:
-    """The path's kind and parameters: length [m] (a·T²/4, L or 2πr) and, for a circle, radius, centre and normal."""
-    row = {"path_kind": movement.kind, "path_length": float(movement.length)}
-    if movement.kind == "line":
-        row["path_accel"] = float(movement.accel)
-    if movement.kind == "circle":
-        row["radius"] = float(movement.radius)
-        row.update({f"centre_{i}": float(value) for i, value in enumerate(movement.centre, start=1)})
-        if movement.normal is not None:
-            row.update({f"normal_{i}": float(value) for i, value in enumerate(movement.normal, start=1)})
-    return row
-
-
-def _start_columns(movement: Movement) -> dict:
-    return {f"start_{i}": float(value) for i, value in enumerate(movement.start, start=1)}
+def collect(pandas, frames: list, resolver_order: list[str]):
+    """Every chunk's rows, sorted by path and resolver (the order of the settings)."""
+    table = pandas.concat(frames, ignore_index=True)
+    rank = {name: i for i, name in enumerate(resolver_order)}
+    table = table.assign(_rank=table["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")
+    return table.drop(columns="_rank").reset_index(drop=True)
 
 
 def config_digest(config: dict) -> str:
@@ -363,7 +277,7 @@ def executor(scheduler: str | None, workers: int | None, progress: bool = False)
 
 
 def run_chunks(
-    jobs: dict[int, dict],
+    jobs: dict[int, ResolverChunk | GlobalChunk],
     out: Path,
     client,
     *,
@@ -385,13 +299,13 @@ def run_chunks(
     try:
         if client is None:
             for index, job in jobs.items():
-                frames[index] = write_chunk(out, index, run_chunk(job), job["digest"])
-                bar.update(len(job["movements"]))
+                frames[index] = write_chunk(out, index, run_chunk(job), job.digest)
+                bar.update(len(job.movements))
             return frames
         distributed = require("distributed")
         futures = {}
         for index, job in jobs.items():
-            futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job['digest']}-{index}")] = index
+            futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job.digest}-{index}")] = index
         threads, left = sum(client.nthreads().values()), len(futures)
 
         def when_a_worker_idles():
@@ -405,8 +319,8 @@ def run_chunks(
             left -= 1
             when_a_worker_idles()
             index = futures[future]
-            frames[index] = write_chunk(out, index, future.result(), jobs[index]["digest"])
-            bar.update(len(jobs[index]["movements"]))
+            frames[index] = write_chunk(out, index, future.result(), jobs[index].digest)
+            bar.update(len(jobs[index].movements))
             future.release()
         return frames
     finally:

@@ -92,15 +92,15 @@ fastest joint with its speed (``whip_speed_joint``, ``whip_speed`` [rad/s]).
 from __future__ import annotations
 
 import math
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import pinocchio as pin
 
-from ..checks import positive_number
 from ..result import SimResult
 from ..robot import Robot
 from ..self_motion import self_motion
+from ..settings import Settings, positive, positive_in, setting
 from ..whiplash import DEFAULT_LIMIT_FACTOR, DEFAULT_PATH_TOLERANCE, detect_whiplash
 
 __all__ = [
@@ -121,20 +121,33 @@ _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _PER_JOINT_FIELDS = ("torque_upper", "torque_lower")
 
 
-class Thresholds:
+@dataclass(frozen=True)
+class Thresholds(Settings):
     """The verdict thresholds: ``limit_factor`` (2x-limit rule), ``pinv_factor`` and ``energy_factor`` (runaway)."""
 
-    def __init__(
-        self,
-        limit_factor: float = DEFAULT_LIMIT_FACTOR,
-        pinv_factor: float = DEFAULT_PINV_FACTOR,
-        energy_factor: float = DEFAULT_ENERGY_FACTOR,
-    ):
-        self.limit_factor = positive_number(
-            limit_factor, "limit_factor", hint="a multiple of the torque limit, such as 2"
-        )
-        self.pinv_factor = positive_number(pinv_factor, "pinv_factor", hint="a multiple of pinv's torque, such as 2")
-        self.energy_factor = positive_number(energy_factor, "energy_factor", hint="a ratio of energies, such as 10")
+    TITLE = "verdicts (see torqueopt.atlas.verdicts)"
+
+    limit_factor: float = setting(
+        DEFAULT_LIMIT_FACTOR,
+        "2x-limit rule: unstable above K x the limit (default 2)",
+        check=positive_in(hint="a multiple of the torque limit, such as 2"),
+        parse=positive,
+        metavar="K",
+    )
+    pinv_factor: float = setting(
+        DEFAULT_PINV_FACTOR,
+        f"runaway above K x pinv's peak torque on the path (default {DEFAULT_PINV_FACTOR:g})",
+        check=positive_in(hint="a multiple of pinv's torque, such as 2"),
+        parse=positive,
+        metavar="K",
+    )
+    energy_factor: float = setting(
+        DEFAULT_ENERGY_FACTOR,
+        f"runaway when self-motion energy exceeds K x the task's (default {DEFAULT_ENERGY_FACTOR:g})",
+        check=positive_in(hint="a ratio of energies, such as 10"),
+        parse=positive,
+        metavar="K",
+    )
 
     def as_dict(self) -> dict:
         return {"limit_factor": self.limit_factor, "pinv_factor": self.pinv_factor, "energy_factor": self.energy_factor}

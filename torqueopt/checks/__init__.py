@@ -36,7 +36,7 @@ from .numbers import (
     show_number,
     whole_number,
 )
-from .request_size import bounded_count, step_count
+from .request_size import DEFAULT_MAX_STEPS, bounded_count, step_budget, step_count
 from .robot import (
     RANK_SAMPLES,
     TASK_DIMENSIONS,
@@ -75,6 +75,8 @@ __all__ = [
     "parse_count",
     "bounded_count",
     "step_count",
+    "step_budget",
+    "DEFAULT_MAX_STEPS",
     "configuration_vector",
     "joint_vector",
     "velocity_vector",

@@ -18,6 +18,7 @@ Which vector check to use:
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from numbers import Real
 
@@ -39,6 +40,7 @@ __all__ = [
     "finite_array",
     "show_number",
     "count_values",
+    "decimal",
 ]
 
 
@@ -66,6 +68,8 @@ def show_number(value) -> str:
     """A number as the user gave it: ``-1``, ``-100.0``, ``inf`` (numpy scalars as plain numbers, never ``np.float64(-100.0)``)."""
     if isinstance(value, np.generic):
         value = value.item()
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**16:
+        return f"{value:.4g}"  # 1e+308 given as a count, not its 309 digits
     return repr(value)
 
 
@@ -74,9 +78,25 @@ def count_values(count: int, noun: str = "value") -> str:
     return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
 
 
+#: A number as a person types it: ASCII digits, an optional sign, point and exponent, or inf/nan.
+_DECIMAL = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf(?:inity)?|nan)", re.IGNORECASE)
+
+
+def decimal(text: str) -> float:
+    """The number written in ``text`` (blanks around it allowed), or ValueError.
+
+    ``float`` alone reads more than a person means as a number: digit
+    separators (``1_0``) and the digits of every script (``١``, ``５``).
+    """
+    stripped = str(text).strip()
+    if not _DECIMAL.fullmatch(stripped):
+        raise ValueError(f"not a decimal number: {text!r}")
+    return float(stripped)
+
+
 def _as_float(value, name: str, suffix: str) -> float:
     try:
-        return float(value)
+        return decimal(value) if isinstance(value, str) else float(value)
     except (TypeError, ValueError):
         raise InvalidInput(f"{name}={show_number(value)} is not a number{suffix}") from None
 
@@ -137,7 +157,7 @@ def number_at_least(value, minimum: float = 0.0, strict: bool = False, unit: str
     unit_text = f" [{unit}]" if unit else ""
     if isinstance(value, str):
         try:
-            value = float(value)
+            value = decimal(value)
         except ValueError:
             raise Refused(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}") from None
     if isinstance(value, bool) or not isinstance(value, Real):
@@ -158,7 +178,7 @@ def number_in_interval(
     unit_text = f" [{unit}]" if unit else ""
     if isinstance(value, str):
         try:
-            value = float(value)
+            value = decimal(value)
         except ValueError:
             raise Refused(f"is not a number; give a number in {interval}{unit_text}") from None
     if isinstance(value, bool) or not isinstance(value, Real):
@@ -180,7 +200,7 @@ def finite_array(value, what: str, example: str = "1,1,1") -> np.ndarray:
     """
     if isinstance(value, str):
         try:
-            array = np.array([float(part.strip()) for part in value.split(",")])
+            array = np.array([decimal(part) for part in value.split(",")])
         except ValueError:
             raise Refused(f"is not {what}; give comma-separated numbers, e.g. {example}") from None
     else:

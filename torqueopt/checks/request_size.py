@@ -7,7 +7,10 @@ import math
 from ..errors import InvalidInput
 from .numbers import show_number
 
-__all__ = ["bounded_count", "step_count"]
+__all__ = ["DEFAULT_MAX_STEPS", "bounded_count", "step_budget", "step_count"]
+
+#: Most steps one run may take (1000 s at the paper's 1 ms); ``max_steps`` raises it.
+DEFAULT_MAX_STEPS = 1_000_000
 
 
 def bounded_count(
@@ -76,6 +79,32 @@ def step_count(duration: float, dt: float) -> int:
         f"dt={dt:g} s does not divide the duration {duration:g} s ({ratio:.4g} steps); "
         f"give a dt that does, such as {choices}"
     )
+
+
+def step_budget(
+    duration: float, dt: float, max_steps: int = DEFAULT_MAX_STEPS, option: str | None = "max_steps", row_bytes=None
+) -> int:
+    """The steps of a run of ``duration`` [s] at ``dt`` [s], checked before any work starts.
+
+    Raises:
+        InvalidInput: dt longer than the duration, more than ``max_steps``
+            steps (the message names ``option``, the option that raises the
+            limit, and the memory the run would need when ``row_bytes``, the
+            bytes per recorded step, is given), or a dt that does not divide
+            the duration (see :func:`step_count`).
+    """
+    if dt > duration:
+        raise InvalidInput(f"dt={show_number(dt)} s is longer than the duration {show_number(duration)} s")
+    bounded_count(
+        duration / dt,
+        max_steps,
+        f"duration {duration:g} s at dt {dt:g} s",
+        "steps",
+        option,
+        remedy="or give a larger dt or a shorter duration",
+        item_bytes=row_bytes,
+    )
+    return step_count(duration, dt)
 
 
 def _bytes_text(size: float) -> str:

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from ..errors import InvalidInput
-from .numbers import _at_least, _is_whole, _whole_wording, count_values
+from .numbers import _at_least, _is_whole, _whole_wording, count_values, decimal
 
 __all__ = ["parse_vector", "parse_number", "parse_positive", "parse_count", "parse_whole"]
 
@@ -23,7 +23,7 @@ def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: 
     values = []
     for part in (part.strip() for part in str(text).split(",")):
         try:
-            value = float(part)
+            value = decimal(part)
         except ValueError:
             raise InvalidInput(f"--{name}: '{part}' is not a number (give comma-separated numbers, e.g. 1,1)") from None
         if math.isnan(value) or (math.isinf(value) and not allow_infinite):
@@ -36,7 +36,7 @@ def parse_vector(text: str, name: str, size: int | None = None, allow_infinite: 
 
 def _parse_number(text: str, name: str) -> float:
     try:
-        return float(text)
+        return decimal(text)
     except ValueError:
         raise InvalidInput(f"--{name}: '{text}' is not a number") from None
 
@@ -63,7 +63,7 @@ def parse_whole(text: str, name: str, minimum: int = 0, maximum: int | None = No
     Example message: ``--chunk-size: 0 must be a whole number >= 1``.
     """
     try:
-        value = float(text)
+        value = decimal(text)
     except ValueError:
         raise InvalidInput(f"--{name}: '{text}' is not a whole number") from None
     if not _is_whole(value, minimum, maximum):

@@ -71,12 +71,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (the console script exits with it)."""
-    from .._interrupt_at_start import release
+    """Run the CLI; returns the exit code (the console script exits with it).
 
-    release()  # a Ctrl-C is a KeyboardInterrupt again, which the lines below turn into one line
+    A Ctrl-C ends it with one line, ``torqueopt: interrupted`` while it imports the commands' modules (a second
+    or more on a loaded machine), ``torqueopt COMMAND: interrupted`` once a command runs, and exit code 130.
+    """
     try:
-        parser = build_parser()  # imports every command's module: a second or more on a loaded machine
+        parser = build_parser()  # imports every command's module
     except KeyboardInterrupt:
         print("torqueopt: interrupted", file=sys.stderr)
         return 130

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 
 import numpy as np
 
@@ -21,6 +23,7 @@ __all__ = [
     "parse_positive",
     "parse_count",
     "parse_whole",
+    "importable_from_here",
 ]
 
 
@@ -89,3 +92,15 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             gravity=args.gravity,
             lock=lock,
         )
+
+
+def importable_from_here(spec: str) -> None:
+    """Let a ``module:Class`` spec import from the working directory, as ``python -m`` would.
+
+    The ``torqueopt`` script's own directory, not the working directory, heads ``sys.path``; a user who gives
+    ``--resolver mymodule:MyResolver`` beside ``mymodule.py`` means the file in front of them (uvicorn and
+    gunicorn read an ``app:module`` the same way). Added before any Dask worker starts, so the workers, forked
+    with this ``sys.path``, import it too.
+    """
+    if ":" in str(spec).split("[", 1)[0] and os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())

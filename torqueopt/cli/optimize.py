@@ -8,7 +8,16 @@ import numpy as np
 
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
-from ..optimal import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, WEIGHTS, OptimalResult, optimize
+from ..optimal import (
+    DEFAULT_GRID_STEP,
+    DEFAULT_MAX_NONZEROS,
+    ENDS,
+    HESSIANS,
+    TRANSCRIPTIONS,
+    WEIGHTS,
+    OptimalResult,
+    optimize,
+)
 from ..optimal.whole_path import MAX_ITERATIONS, transcription_intervals
 from ..progress import progress_bar
 from ..resolvers import resolver_names
@@ -77,6 +86,18 @@ def add_parser(subparsers) -> None:
         default="pinv",
         metavar="RESOLVER",
         help=f"resolver whose run starts the solve: {', '.join(resolver_names())}",
+    )
+    group.add_argument(
+        "--transcription",
+        default="direct",
+        choices=TRANSCRIPTIONS,
+        help="direct (Pinocchio's first derivatives, --hessian) or shooting (the same program with CasADi's exact "
+        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default direct)",
+    )
+    group.add_argument(
+        "--compiled",
+        action="store_true",
+        help="with --transcription shooting: compile the problem's functions to C once (kept in ~/.cache/torqueopt)",
     )
     group.add_argument(
         "--hessian",
@@ -155,6 +176,8 @@ def optimize_command(args: argparse.Namespace) -> int:
             dt=dt,
             grid_step=grid_step,
             warm_start=args.warm_start,
+            transcription=args.transcription,
+            compiled=args.compiled,
             hessian=args.hessian,
             tolerance=tolerance,
             max_iterations=max_iterations,
@@ -210,6 +233,13 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
             f"cost on the {result.dt * 1e3:g} ms grid: {result.cost:.6g} {unit} "
             f"(warm start {result.warm_start}: {result.warm_start_cost:.6g})"
         ),
+    ]
+    for start in result.starts:
+        lines.append(
+            f"  start {start['warm_start']}: {start['status']} ({start['solver_message']}), {start['iterations']} "
+            f"iterations, grid cost {start['grid_cost']:.6g}, {start['seconds']:.2f} s"
+        )
+    lines += [
         f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
     ]
     for name, peak, limit, ratio in zip(

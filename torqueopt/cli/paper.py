@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
-from ..io import writable_path, writable_paths
+from ..io import json_file_with, refuse_foreign, writable_path, writable_paths
 from ..paper import MOVEMENTS, PAPER, PAPER_RUNS, PaperScenario, paper_files, run_paper, write_paper
 from ..paper.runner import check_scenario
 from ..plots import FIGURE_FORMATS
@@ -85,7 +86,13 @@ def paper_command(args: argparse.Namespace) -> int:
     scenario, limit_factor, growth_factor = scenario_from_args(args)
     writable_path(args.out, directory=True)
     remedies, sweep = not args.no_remedies, not args.no_remedy_sweep
-    writable_paths(paper_files(args.out, args.figure_format, remedies=remedies, sweep=sweep))
+    outputs = writable_paths(paper_files(args.out, args.figure_format, remedies=remedies, sweep=sweep))
+    refuse_foreign(
+        outputs,
+        json_file_with(Path(args.out) / "summary.json", ("runs", "claims")),
+        f"a file of a torqueopt paper folder ('{args.out}' holds no summary.json of one)",
+        "give an empty or new --out",
+    )
     check_scenario(scenario)  # a singular start is refused before the progress line
     remedy_runs = planned_runs(sweep) if remedies else 0
     then = f", then the remedies study ({remedy_runs} runs)" if remedies else ""

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InvalidInput
-from ..plants import PLANT_NAMES, Plant, make_plant
+from ..plants import Plant, make_plant, plant_names
 from ..result import SimResult
 
 __all__ = ["add_plant_options", "plant_from_args", "plant_summary"]
@@ -29,7 +29,7 @@ def add_plant_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("plant (what the torque acts on)")
     group.add_argument(
         "--plant",
-        choices=PLANT_NAMES,
+        choices=plant_names(),
         help="pinocchio: the robot's own model, RK4 with the torque held (the paper's); mujoco: a MuJoCo model of "
         "the arm (its URDF compiled by MuJoCo, or --mjcf) advanced by MuJoCo, the torque computed from its state "
         "(needs pip install 'torqueopt[mujoco]'); default pinocchio, mujoco with --mjcf",

@@ -11,7 +11,9 @@ import argparse
 
 from ..errors import InvalidInput
 from ..resolvers import RESOLVERS, Resolver, get_resolver
+from ..resolvers.options import parse_resolver_spec
 from . import EXIT_OK
+from .common import importable_from_here
 
 __all__ = ["add_parser", "add_resolver_arguments", "resolver_from_args", "describe_resolvers", "options_help"]
 
@@ -21,9 +23,11 @@ def add_parser(subparsers) -> None:
         "resolvers",
         help="list the resolvers and their options",
         description=(
-            "List the registered resolvers, what each minimises, and the options each accepts "
+            "List the registered resolvers (the built-in ones and those of installed plug-ins, entry points of "
+            "the group torqueopt.resolvers), what each minimises, and the options each accepts "
             "(give them to torqueopt run as --option NAME=VALUE, or as keywords of get_resolver, resolve "
-            "and simulate's resolver_options), with type, unit and default."
+            "and simulate's resolver_options), with type, unit and default. A plug-in that failed to load is "
+            "listed last, with why."
         ),
     )
     parser.set_defaults(handler=resolvers_command)
@@ -44,6 +48,10 @@ def describe_resolvers() -> str:
             lines.append(f"    {option.name}{unit}: {option.kind}, default {option.describe_default()}")
             lines.append(f"        {option.meaning}")
         lines.append("")
+    failures = RESOLVERS.failures
+    if failures:
+        lines.append("plug-ins that failed to load:")
+        lines.extend(f"    {name}: {why}" for name, why in failures.items())
     return "\n".join(lines).rstrip()
 
 
@@ -66,7 +74,13 @@ def options_help() -> str:
 
 def add_resolver_arguments(group) -> None:
     """``--resolver``, ``--option NAME=VALUE`` (repeatable) and ``--weight`` (alias of ``--option weight=``)."""
-    group.add_argument("--resolver", required=True, help=f"resolver: {', '.join(RESOLVERS)}")
+    group.add_argument(
+        "--resolver",
+        required=True,
+        metavar="RESOLVER",
+        help=f"resolver: {', '.join(RESOLVERS)}; or a class of yours, module:Class (importable from here); "
+        "either may carry its options as NAME[OPTION=VALUE,...], quoted for the shell",
+    )
     group.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", help=options_help())
     group.add_argument(
         "--weight",
@@ -82,16 +96,18 @@ def add_resolver_arguments(group) -> None:
 
 
 def resolver_from_args(args: argparse.Namespace) -> Resolver:
-    """The resolver named by ``--resolver`` with its ``--option`` values, checked against its declaration."""
-    options = {}
+    """The resolver ``--resolver`` names (a name or module:Class, with or without [OPTION=VALUE,...]) with its
+    ``--option`` values, checked against its declaration."""
+    importable_from_here(args.resolver)
+    name, options = parse_resolver_spec(args.resolver)
     for text in args.option:
-        name, separator, value = text.partition("=")
-        name = name.strip()
-        if not separator or not name or not value.strip():
+        option, separator, value = text.partition("=")
+        option = option.strip()
+        if not separator or not option or not value.strip():
             raise InvalidInput(f"--option '{text}' must be NAME=VALUE, e.g. --option damping=2")
-        if name in options:
-            raise InvalidInput(f"--option {name} is given twice; give it once")
-        options[name] = value.strip()
+        if option in options:
+            raise InvalidInput(f"--option {option} is given twice (in --resolver's brackets or --option); give it once")
+        options[option] = value.strip()
     if args.weight is not None:
         if "weight" in options:
             raise InvalidInput("--weight and --option weight= are the same option; give one")
@@ -100,7 +116,7 @@ def resolver_from_args(args: argparse.Namespace) -> Resolver:
         from ..tune import tuned_options
 
         tuned, chosen = tuned_options(args.options_from)
-        if get_resolver(args.resolver).name != tuned:
+        if get_resolver(name).name != tuned:
             raise InvalidInput(
                 f"--options-from {args.options_from} holds options of {tuned}, not of --resolver {args.resolver}; "
                 f"give --resolver {tuned}"
@@ -111,4 +127,4 @@ def resolver_from_args(args: argparse.Namespace) -> Resolver:
                 f"--option {', '.join(both)} is also in --options-from {args.options_from}; give it once"
             )
         options.update(chosen)
-    return get_resolver(args.resolver, **options)
+    return get_resolver(name, **options)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..dexterity import summarise_along
 from ..errors import InvalidInput
-from ..io import writable_paths, written_together
+from ..io import json_file_with, refuse_foreign, writable_paths, written_together
 from ..resolvers import Resolver
 from ..result import SimResult
 from ..result_files import run_files
@@ -33,6 +33,9 @@ from .play import add_playback_options, check_frames, play_live, playback_option
 from .resolvers import add_resolver_arguments, resolver_from_args
 
 __all__ = ["add_parser", "format_summary"]
+
+#: Keys every run sidecar has: a .csv.json with them is one torqueopt wrote, and may be replaced.
+SIDECAR_KEYS = ("robot", "frame", "task", "resolver", "joint_names", "dt")
 
 
 def add_parser(subparsers) -> None:
@@ -109,6 +112,12 @@ def run_command(args: argparse.Namespace) -> int:
     q0 = start_from_args(args, robot)
     # Every file the run will write, checked before it starts, and no two of them one file.
     writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
+    if args.out and len(run_files(args.out)) == 2:
+        sidecar = run_files(args.out)[1]
+        refuse_foreign([sidecar], json_file_with(sidecar, SIDECAR_KEYS), "a run's sidecar", "give --out another name")
+    reach_note = path_beyond_reach(robot, trajectory, q0)
+    if reach_note:
+        print(f"note: {reach_note}", file=sys.stderr)
     result = simulate(
         robot,
         resolver,
@@ -138,6 +147,31 @@ def run_command(args: argparse.Namespace) -> int:
     if playback.live:
         play_live(viewer)
     return EXIT_OK if result.completed else EXIT_STOPPED
+
+
+def path_beyond_reach(robot: Robot, trajectory, q0, samples: int = 201) -> str:
+    """A sentence when the tip path leaves the arm's sampled reach (no motion can follow it there), else ``""``.
+
+    The reach is :func:`torqueopt.atlas.population.arm_reach`'s: the farthest the task frame got from the first
+    moving joint over 4,096 random configurations (a lower bound of the true reach, exact for planar3). The
+    path is sampled at ``samples`` times, anchored at the tip's position at ``q0`` as :func:`simulate` anchors it.
+    """
+    from ..atlas.population import arm_reach, default_accel
+
+    linear = min(robot.m, 3)
+    if trajectory.start is None:
+        trajectory = trajectory.anchored(robot.frame_placement(q0).translation[:linear])
+    times = np.linspace(0.0, trajectory.duration, samples)
+    base, reach = arm_reach(robot)
+    distance = np.linalg.norm(trajectory.sample(times).position[:, :linear] - base[:linear], axis=1)
+    farthest = int(np.argmax(distance))
+    if distance[farthest] <= reach:
+        return ""
+    return (
+        f"the path passes {distance[farthest]:.3g} m from the arm's base at t = {times[farthest]:.3g} s, beyond the "
+        f"{reach:.3g} m its task frame reached in 4,096 random configurations, so no motion can follow it there; "
+        f"the atlas sizes a line to the arm with --accel {default_accel(reach):.3g} (m/s²)"
+    )
 
 
 def check_torque_limits(robot: Robot, resolver: Resolver) -> None:

@@ -11,19 +11,37 @@ analytical derivatives), :mod:`~torqueopt.optimal.ipopt` (the solver),
 :mod:`~torqueopt.optimal.whole_path` (warm start, mapping to the simulation
 grid, validation), :mod:`~torqueopt.optimal.result` (:class:`OptimalResult`,
 its summary and files), :mod:`~torqueopt.optimal.cost` (the cost of any run),
-:mod:`~torqueopt.optimal.replay` (open-loop replay).
+:mod:`~torqueopt.optimal.replay` (open-loop replay), :mod:`~torqueopt.optimal.shooting` (the same
+program with CasADi's exact derivatives, from several starts) and
+:mod:`~torqueopt.optimal.symbolic` (RNEA and the task frame as CasADi expressions).
 """
 
 from .cost import WEIGHTS, run_cost, torque_cost, weight_root
 from .ipopt import STATUSES
 from .replay import Replay, replay_torques
+from .shooting import ShootingTranscription, solve_shooting
+from .symbolic import symbolic_dynamics
 from .transcription import Transcription, TranscriptionSize
-from .whole_path import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, ENDS, HESSIANS, OptimalResult, optimize
+from .whole_path import (
+    DEFAULT_GRID_STEP,
+    DEFAULT_MAX_NONZEROS,
+    DEFAULT_STARTS,
+    ENDS,
+    HESSIANS,
+    TRANSCRIPTIONS,
+    OptimalResult,
+    optimize,
+)
 
 __all__ = [
     "DEFAULT_MAX_NONZEROS",
     "TranscriptionSize",
     "DEFAULT_GRID_STEP",
+    "DEFAULT_STARTS",
+    "ShootingTranscription",
+    "TRANSCRIPTIONS",
+    "solve_shooting",
+    "symbolic_dynamics",
     "ENDS",
     "HESSIANS",
     "STATUSES",

@@ -69,6 +69,11 @@ class OptimalResult:
     hessian: str
     warm_start: str
     warm_start_cost: float
+    #: ``direct`` or ``shooting`` (``torqueopt.optimal.TRANSCRIPTIONS``).
+    transcription: str = "direct"
+    #: Every start the ``shooting`` transcription solved from: warm_start, status, solver_message,
+    #: iterations, grid_cost, constraint_violation, seconds (empty for ``direct``).
+    starts: list = field(default_factory=list)
     #: The solver's multipliers and the transcription, for checks (not written to files).
     solution: dict = field(default_factory=dict, repr=False)
 
@@ -147,6 +152,8 @@ class OptimalResult:
             "constraint_violation": self.constraint_violation,
             "warm_start": self.warm_start,
             "warm_start_cost": self.warm_start_cost,
+            "transcription": self.transcription,
+            "starts": [dict(record) for record in self.starts],
         }
 
     def to_csv(self, path):

@@ -47,14 +47,17 @@ from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
 from .replay import replay_torques
 from .result import OptimalResult
+from .shooting import ShootingTranscription, solve_shooting
 from .transcription import Transcription
 
 __all__ = [
     "DEFAULT_GRID_STEP",
     "DEFAULT_MAX_NONZEROS",
     "ENDS",
+    "DEFAULT_STARTS",
     "HESSIANS",
     "OptimalResult",
+    "TRANSCRIPTIONS",
     "optimize",
     "transcription_intervals",
 ]
@@ -68,6 +71,12 @@ MAX_ITERATIONS = 100_000
 #: What ``auto`` tries, in order, and the statuses after which a second try cannot help.
 _AUTO = ("gauss-newton", "limited-memory")
 _FINAL = ("converged", "infeasible", "time limit")
+#: How the whole movement is transcribed: Pinocchio's derivatives with a Gauss-Newton or L-BFGS
+#: Hessian (``direct``), or CasADi's exact derivatives over the same program (``shooting``).
+TRANSCRIPTIONS = ("direct", "shooting")
+#: The warm starts of the ``shooting`` transcription after ``warm_start``: a damped null-space run,
+#: whose self-motion differs from pinv's, so a second local optimum can be found.
+DEFAULT_STARTS = ("pinv", "damped-null-space")
 #: Longest interval of the transcription grid [s].
 DEFAULT_GRID_STEP = 0.005
 #: Largest transcription (nonzeros of the constraint Jacobian and the Hessian) optimize builds unless told
@@ -82,7 +91,7 @@ def transcription_intervals(duration: float, grid_step: float) -> int:
         raise InvalidInput(
             f"grid_step={grid_step!r} s is too small: the duration {duration:g} s has no finite count of its intervals"
         )
-    return 2 * math.ceil(ratio - 1e-9)
+    return 2 * max(1, math.ceil(ratio - 1e-9))  # a step longer than T/2 still leaves two intervals
 
 
 def _check_size(robot: Robot, duration, grid_step, intervals: int, torque_bounds: bool, max_nonzeros: int) -> None:
@@ -118,6 +127,9 @@ def optimize(
     dt: float = 1e-3,
     grid_step: float = DEFAULT_GRID_STEP,
     warm_start: str | Resolver | SimResult = "pinv",
+    transcription: str = "direct",
+    starts=None,
+    compiled: bool = False,
     hessian: str = "auto",
     tolerance: float = 1e-8,
     max_iterations: int = 500,
@@ -144,7 +156,19 @@ def optimize(
         grid_step: the longest transcription interval [s]; the grid has an even number N of
             intervals, h = T/N ≤ grid_step.
         warm_start: a resolver (name or object) whose simulated run starts the solve, or a SimResult.
-        hessian: ``gauss-newton`` (the block Gauss-Newton matrix of the cost), ``limited-memory``
+        transcription: ``direct`` (``torqueopt.optimal.transcription``: Pinocchio's first
+            derivatives, the Hessian of ``hessian``) or ``shooting``
+            (``torqueopt.optimal.shooting``: the same program with CasADi's exact derivatives,
+            the Lagrangian's Hessian included, solved from each of ``starts``).
+        starts: ``shooting`` only: the warm starts to solve from, each as ``warm_start``;
+            default ``DEFAULT_STARTS`` (``warm_start`` first). The best converged optimum is
+            returned (the lowest cost; these are local optima of the whole-movement problem and
+            different starts may reach different ones); every start's status, iterations and
+            cost are in ``result.starts``.
+        compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
+            (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
+            CasADi's virtual machine evaluates them.
+        hessian: ``direct`` only: ``gauss-newton`` (the block Gauss-Newton matrix of the cost), ``limited-memory``
             (IPOPT's L-BFGS), or ``auto`` (the default): Gauss-Newton, and when it ends short of
             convergence (acceptable level, iteration limit, failure) L-BFGS from its last iterate.
             Measured: Gauss-Newton converges where L-BFGS stalls on panda; L-BFGS converges where
@@ -164,6 +188,8 @@ def optimize(
     """
     if end not in ENDS:
         raise InvalidInput(f"end '{end}' is not one of {', '.join(ENDS)}")
+    if transcription not in TRANSCRIPTIONS:
+        raise InvalidInput(f"transcription '{transcription}' is not one of {', '.join(TRANSCRIPTIONS)}")
     if hessian not in HESSIANS:
         raise InvalidInput(f"hessian '{hessian}' is not one of {', '.join(HESSIANS)}")
     dt = positive_number(dt, "dt", "s")
@@ -193,7 +219,7 @@ def optimize(
     intervals = transcription_intervals(duration, grid_step)
     _check_size(robot, duration, grid_step, intervals, torque_bounds, max_nonzeros)
     nodes = np.linspace(0.0, duration, intervals + 1)
-    problem = Transcription(
+    problem = (ShootingTranscription if transcription == "shooting" else Transcription)(
         robot,
         duration,
         intervals,
@@ -206,32 +232,50 @@ def optimize(
         joint_limits=joint_limits,
     )
     times = dt * np.arange(steps + 1)
-    if isinstance(warm_start, SimResult):
-        start_run, start_name = warm_start, warm_start.resolver
-    else:
-        resolver = get_resolver(warm_start)
-        start_run, start_name = simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
-    w0 = _warm_start(problem, start_run)
-    attempts, start, spent = [], w0, 0.0
-    for name in _AUTO if hessian == "auto" else (hessian,):
-        remaining = None if max_time is None else max_time - spent
-        if remaining is not None and remaining <= 0.0:
-            break
-        solved = solve_transcription(
+    if transcription == "shooting":
+        if hessian != "auto":
+            raise InvalidInput(f"transcription 'shooting' uses the exact Hessian: give hessian 'auto', not '{hessian}'")
+        chosen, attempts, tried = _solve_from_starts(
             problem,
-            start,
-            hessian=name,
-            tolerance=tolerance,
-            max_iterations=max_iterations,
-            max_time=remaining,
-            verbose=verbose,
-            on_iteration=progress,
+            robot,
+            trajectory,
+            q_start,
+            dt,
+            warm_start,
+            starts,
+            tolerance,
+            max_iterations,
+            max_time,
+            compiled,
+            verbose,
+            progress,
         )
-        attempts.append((name, solved))
-        spent += solved.seconds
-        if solved.status in _FINAL:
-            break
-        start = solved.w
+        start_run, start_name, solved = chosen
+        spent = sum(record["seconds"] for record in tried)
+    else:
+        tried = []
+        start_run, start_name = _start_run(robot, trajectory, q_start, dt, warm_start)
+        w0 = _warm_start(problem, start_run)
+        attempts, start, spent = [], w0, 0.0
+        for name in _AUTO if hessian == "auto" else (hessian,):
+            remaining = None if max_time is None else max_time - spent
+            if remaining is not None and remaining <= 0.0:
+                break
+            solved = solve_transcription(
+                problem,
+                start,
+                hessian=name,
+                tolerance=tolerance,
+                max_iterations=max_iterations,
+                max_time=remaining,
+                verbose=verbose,
+                on_iteration=progress,
+            )
+            attempts.append((name, solved))
+            spent += solved.seconds
+            if solved.status in _FINAL:
+                break
+            start = solved.w
     hessians_used = ", then ".join(name for name, _ in attempts)
     messages = ", then ".join(attempt.message for _, attempt in attempts)
     plan = _on_grid(problem, solved.w, times)
@@ -284,8 +328,89 @@ def optimize(
         hessian=hessians_used,
         warm_start=start_name,
         warm_start_cost=start_cost,
+        transcription=transcription,
+        starts=tried,
         solution={"problem": problem, "w": solved.w, "lam_g": solved.lam_g, "lam_x": solved.lam_x},
     )
+
+
+def _start_run(robot, trajectory, q_start, dt, warm_start) -> tuple[SimResult, str]:
+    """The run a warm start is taken from, and its name."""
+    if isinstance(warm_start, SimResult):
+        return warm_start, warm_start.resolver
+    resolver = get_resolver(warm_start)
+    return simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
+
+
+#: The order of preference of a start's outcome when no start converged.
+_PREFERENCE = ("converged", "acceptable", "iteration limit", "time limit", "failed", "infeasible")
+
+
+def _solve_from_starts(
+    problem,
+    robot,
+    trajectory,
+    q_start,
+    dt,
+    warm_start,
+    starts,
+    tolerance,
+    max_iterations,
+    max_time,
+    compiled,
+    verbose,
+    progress,
+):
+    """Solve the shooting program from every start; the best (status, then cost) and every start's record.
+
+    Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start]).
+    The status is ``infeasible`` only when every start ended infeasible.
+    """
+    if starts is None:
+        starts = (warm_start, *(name for name in DEFAULT_STARTS if name != warm_start))
+    elif isinstance(starts, (str, Resolver, SimResult)):
+        starts = (starts,)
+    if not len(starts):
+        raise InvalidInput("starts is empty: give at least one resolver name, e.g. ('pinv',)")
+    outcomes, records, spent = [], [], 0.0
+    for start in starts:
+        remaining = None if max_time is None else max_time - spent
+        if remaining is not None and remaining <= 0.0:
+            break
+        run, name = _start_run(robot, trajectory, q_start, dt, start)
+        solved = solve_shooting(
+            problem,
+            _warm_start(problem, run),
+            tolerance=tolerance,
+            max_iterations=max_iterations,
+            max_time=remaining,
+            compiled=compiled,
+            verbose=verbose,
+            on_iteration=progress,
+        )
+        spent += solved.seconds
+        outcomes.append((run, name, solved))
+        records.append(
+            {
+                "warm_start": name,
+                "status": solved.status,
+                "solver_message": solved.message,
+                "iterations": solved.iterations,
+                "grid_cost": solved.objective,
+                "constraint_violation": solved.constraint_violation,
+                "seconds": solved.seconds,
+            }
+        )
+    infeasible = all(outcome[2].status == "infeasible" for outcome in outcomes)
+    best = min(
+        outcomes,
+        key=lambda outcome: (
+            _PREFERENCE.index(outcome[2].status) if not infeasible else 0,
+            outcome[2].constraint_violation if outcome[2].status not in ("converged", "acceptable") else 0.0,
+            outcome[2].objective,
+        ),
+    )
+    return best, [("exact", best[2])], records
 
 
 def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:

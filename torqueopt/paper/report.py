@@ -16,7 +16,7 @@ from ..plots import FIGURE_FORMATS
 from .alignment import alignment_times
 from .figures import write_figures
 from .runner import PaperResults
-from .scenario import MOVEMENTS, PAPER_RESOLVERS
+from .scenario import PAPER_RESOLVERS
 
 __all__ = ["format_summary_markdown", "paper_files", "summary_entries", "write_paper"]
 
@@ -120,84 +120,61 @@ def _write_paper(results: PaperResults, out: Path, studies: Sequence, figure_for
 
 
 def format_summary_markdown(results: PaperResults, figures: list[str]) -> str:
-    """The readable summary: scenario, instability definition, one row per run, the claims."""
-    scenario = results.scenario
-    q0 = ", ".join(f"{a:g}°" for a in np.degrees(scenario.q0).round(6))
-    direction = np.asarray(scenario.direction) / np.linalg.norm(scenario.direction)
+    """``summary.md``: the numbers of ``summary.json`` as tables, for a reader of the output folder.
+
+    What the numbers mean and what they answer is said by the documentation's pages (docs/paper.md).
+    """
     lines = [
         "# Hollerbach & Suh 1987, reproduced by torqueopt",
         "",
-        f"Scenario `paper`: arm `{scenario.robot}` (three 1 m, 10 kg thin rods, no gravity), q0 = ({q0}), "
-        f"line direction ({direction[0]:.4g}, {direction[1]:.4g}), tangential acceleration {scenario.accel:.4g} m/s², "
-        f"torque limits {', '.join(f'{x:g}' for x in scenario.torque_limit)} N·m, "
-        f"W = diag(1/limit²), RK4 with dt = {scenario.dt * 1e3:g} ms and the torque held over each step, open loop. "
-        "Movements: " + ", ".join(f"{m} {d:g} s" for m, d in zip(MOVEMENTS, scenario.durations)) + ".",
-        "",
-        (
-            f"**Unstable** (whiplash): from the first sample at which some joint needs more than "
-            f"{results.limit_factor:g} times its torque limit (a joint without a limit: more than "
-            f"{results.growth_factor:g} times the torque the movement started with). Tip error is the distance "
-            "from the reference path; the simulation tracks open loop, as the paper did."
-        ),
-        "",
-        (
-            "| movement | resolver | duration [s] | peak torque [N·m] | limit [N·m] | first limit violation [s] "
-            "| unstable | instability time [s] | max tip error [mm] |"
-        ),
+        "| movement | resolver | duration [s] | peak torque [N·m] | limit [N·m] | first limit violation [s] "
+        "| unstable | instability time [s] | max tip error [mm] |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for entry in summary_entries(results):
-        peaks = ", ".join(f"{x:.3g}" for x in entry["peak_torque"])
-        limits = ", ".join("none" if x is None else f"{x:g}" for x in entry["torque_limit"])
-        violation = "-" if entry["first_limit_violation"] is None else f"{entry['first_limit_violation']:.3f}"
-        when = "-" if entry["instability_time"] is None else f"{entry['instability_time']:.3f}"
+        limits = ["none" if x is None else f"{x:g}" for x in entry["torque_limit"]]
         lines.append(
-            f"| {entry['movement']} | {entry['resolver']} | {entry['duration']:g} | {peaks} | {limits} | {violation} "
-            f"| {'**yes**' if entry['unstable'] else 'no'} | {when} | {entry['max_tip_error'] * 1e3:.3g} |"
+            f"| {entry['movement']} | {entry['resolver']} | {entry['duration']:g} | {_listed(entry['peak_torque'])} "
+            f"| {', '.join(limits)} | {_number(entry['first_limit_violation'], '.3f')} "
+            f"| {'**yes**' if entry['unstable'] else 'no'} | {_number(entry['instability_time'], '.3f')} "
+            f"| {entry['max_tip_error'] * 1e3:.3g} |"
         )
     stopped = [f"- {m} {n}: {results.runs[m, n].stop_reason}" for m, n in results.stopped_early]
     if stopped:
-        lines += ["", "Runs that stopped early (their rows up to then are summarised):", "", *stopped]
-    lines += ["", "## Why each unstable run tripped", ""]
-    tripped = [(key, report) for key, report in results.whiplash.items() if report.unstable]
-    lines += [f"- {m} {n}: {report.reason}" for (m, n), report in tripped] or ["- none"]
+        lines += ["", "Stopped early:", "", *stopped]
     swing = results.free_swing
-    gravity = results.free_swing_gravity
     lines += [
         "",
         "## Free swing (Fig. 7)",
         "",
-        f"Zero torque from q0 at rest, gravity ({gravity[0]:.4g}, {gravity[1]:.4g}, {gravity[2]:.4g}) m/s² "
-        f"({np.linalg.norm(gravity):.4g} m/s² along the line direction, so that the tip starts with "
-        f"{scenario.accel:.4g} m/s²), {swing.duration:g} s. Peak joint speeds "
-        + ", ".join(f"{name} {s:.3g} rad/s" for name, s in zip(swing.joint_names, np.abs(swing.v).max(axis=0)))
-        + "; links 2 and 3 in line at t = "
-        + (", ".join(f"{t:.3f}" for t in alignment_times(swing)) or "never")
-        + " s.",
+        "| joint | peak speed [rad/s] | at t [s] |",
+        "|---|---|---|",
+        *(
+            f"| {name} | {np.abs(swing.v[:, j]).max():.3g} | {swing.t[np.abs(swing.v[:, j]).argmax()]:.3f} |"
+            for j, name in enumerate(swing.joint_names)
+        ),
+        "",
+        f"Links 2 and 3 in line at t [s]: {_listed(alignment_times(swing), '.3f') or 'never'}.",
         "",
         "## The paper's claims",
         "",
+        "| claim | verdict |",
+        "|---|---|",
+        *(f"| {claim.number} | **{'holds' if claim.holds else 'DOES NOT HOLD'}** |" for claim in results.claims),
+        "",
+        "## Figures",
+        "",
+        *(f"- `{name}`" for name in figures),
     ]
-    for claim in results.claims:
-        lines.append(f"{claim.number}. **{'holds' if claim.holds else 'DOES NOT HOLD'}**: {claim.statement}.  ")
-        lines.append(f"   {claim.evidence}.")
-    lines += ["", "## Figures", ""]
-    descriptions = {
-        "fig2": "short movement, torques of pinv and null-space with the ± limits",
-        "fig3": "medium movement, the same",
-        "fig4": "long movement, the same: null-space goes unstable",
-        "fig5": "joint velocities and accelerations of the long null-space movement",
-        "fig6": "short movement, weighted-null-space and inertia-pinv",
-        "fig7": "the free-swinging arm as stick figures, with its joint speeds",
-        "tip_long": "tip paths of the long movement against the straight line",
-    }
-    for name in figures:
-        stem = Path(name).stem
-        text = descriptions.get(stem)
-        if text is None and stem.startswith("arm_long_"):
-            text = f"stick figures of the arm during the long movement, {stem[len('arm_long_') :]}"
-        lines.append(f"- `{name}`: {text}")
     return "\n".join(lines) + "\n"
+
+
+def _listed(values, spec: str = ".3g") -> str:
+    return ", ".join(format(x, spec) for x in values)
+
+
+def _number(value: float | None, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
 
 
 def _figure_format(name: str) -> str:

@@ -50,6 +50,7 @@ rad on xarm7 and panda.
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 from dataclasses import dataclass
@@ -59,6 +60,7 @@ import numpy as np
 
 from ..checks import show_number
 from ..errors import InvalidInput, MissingDependency, PlantError
+from .base import register_plant
 
 __all__ = [
     "MujocoPlant",
@@ -199,12 +201,16 @@ def mujoco_options(
     )
 
 
+@register_plant("mujoco")
 class MujocoPlant:
     """A MuJoCo model of ``robot``'s arm as the plant; see the module docstring for the model and options.
 
-    One plant holds one MuJoCo data: give each thread its own plant. While a
-    step runs, MuJoCo's warning handler (process-wide) is the plant's, so that
-    MuJoCo writes no ``MUJOCO_LOG.TXT``; the previous handler is restored after.
+    One plant holds one MuJoCo data for :meth:`step`, and one more per
+    movement of a stack for :meth:`step_stack` (each movement's state and
+    record its own, as if it ran alone): give each thread its own plant.
+    While a step runs, MuJoCo's warning handler (process-wide) is the
+    plant's, so that MuJoCo writes no ``MUJOCO_LOG.TXT``; the previous
+    handler is restored after.
 
     Args:
         robot: the controller's :class:`~torqueopt.robot.Robot`; the plant's
@@ -219,7 +225,7 @@ class MujocoPlant:
         InvalidInput: a bad option.
     """
 
-    name = "mujoco"
+    OPTION_NAMES = OPTION_NAMES
 
     def __init__(self, robot, options: MujocoOptions | None = None, **keywords):
         if options is None:
@@ -479,6 +485,7 @@ class MujocoPlant:
         self._diverged = None
         self._warning_texts = []
         self._dt = None
+        self._movements: dict[int, MujocoPlant] = {}
         if dt is not None:
             self._set_control_step(dt)
 
@@ -497,11 +504,12 @@ class MujocoPlant:
         self._dt, self.substeps = dt, substeps
         self.model.opt.timestep = dt / substeps
 
-    def step(self, q, v, tau, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    def step(self, q, v, tau, dt: float, acceleration=None) -> tuple[np.ndarray, np.ndarray]:
         """Set MuJoCo's state to (q, v), hold tau [N·m] as generalised force over dt [s], return the new (q, v).
 
         A state MuJoCo flags as bad (NaN, infinite or beyond 1e10 in qpos,
-        qvel or qacc) comes back as NaN, so that the run stops there.
+        qvel or qacc) comes back as NaN, so that the run stops there. The
+        controller's ``acceleration`` is not MuJoCo's and is ignored.
         """
         if dt != self._dt:
             self._set_control_step(dt)
@@ -534,6 +542,25 @@ class MujocoPlant:
             return np.full(robot.nq, np.nan), np.full(robot.nv, np.nan)
         angles = data.qpos[self._qpos] - self._offset
         return robot.configuration(angles), data.qvel[self._dof].copy()
+
+    def step_stack(self, q, v, tau, dt: float, acceleration=None, movements=None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`step` on each row of (B, ...) stacks, row r in the data of movement ``movements[r]``."""
+        movements = range(len(q)) if movements is None else movements
+        rows = [self._movement(int(m)).step(*row, dt) for m, *row in zip(movements, q, v, tau)]
+        if not rows:
+            return q.copy(), v.copy()
+        return np.array([row[0] for row in rows]), np.array([row[1] for row in rows])
+
+    def _movement(self, movement: int) -> MujocoPlant:
+        """The plant of one movement of a stack: this model, a MuJoCo data and a record of its own."""
+        plant = self._movements.get(movement)
+        if plant is None:
+            plant = copy.copy(self)
+            plant.data = self._mujoco.MjData(self.model)
+            plant.notes = list(self.notes)
+            plant.reset(self._dt)
+            self._movements[movement] = plant
+        return plant
 
     def _note_start_contacts(self, mujoco, model, data) -> None:
         """Say which links touch in the first step: a URDF's collision geometry often overlaps at rest."""
@@ -578,8 +605,10 @@ class MujocoPlant:
             if first is not None
         ]
 
-    def record(self) -> dict:
-        """The plant, its options, its notes and its limit events, JSON-ready, as the run file keeps them."""
+    def record(self, movement: int | None = None) -> dict:
+        """The plant, its options, its notes and its limit events (of ``movement`` of a stack), JSON-ready."""
+        if movement is not None:
+            return self._movement(movement).record()
         options = self.options
         return {
             "name": "mujoco",

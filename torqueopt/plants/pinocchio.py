@@ -4,38 +4,56 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..integrators import rk4_stepper
+from ..integrators import RK4, HeldTorque
+from .base import register_plant
 
 __all__ = ["PinocchioPlant"]
 
 
+@register_plant("pinocchio")
 class PinocchioPlant:
-    """The robot's own Pinocchio model as the plant: :func:`torqueopt.integrators.rk4_stepper` per step.
+    """The robot's own Pinocchio model as the plant: :class:`~torqueopt.integrators.RK4` of
+    :class:`~torqueopt.integrators.HeldTorque`, for one movement and for stacks.
 
-    This is what :func:`torqueopt.simulate` always did; it takes the
-    resolver's joint acceleration as RK4's first stage when it has it
-    (``acceleration``), which saves one ABA per step.
+    The resolver's joint acceleration, ABA(q, v, τ) on this very model, is
+    RK4's first stage when the caller gives it (``acceleration``), which
+    saves one ABA per step.
+
+    Args:
+        data: the Pinocchio data a movement's steps compute in (fresh when
+            None); one plant per run, so runs in threads never share one.
+        threads: OpenMP threads of ``abaInParallel`` for stacks.
     """
 
-    name = "pinocchio"
-
-    def __init__(self, robot):
+    def __init__(self, robot, data=None, threads: int = 1):
         self.robot = robot
-        self._steppers = {}
-        self._data = robot.model.createData()
+        self.system = HeldTorque(robot, data, threads)
+        self._dt = None
+        self._one = self._stack = None
 
     def reset(self, dt: float | None = None) -> None:
-        """Nothing to forget: the Pinocchio plant keeps no record of a run."""
+        """Make the steppers for the control step dt [s]; nothing else to forget."""
+        if dt is not None and dt != self._dt:
+            self._dt = dt
+            # One state's step as a bare function (one call per step); stacks' rebuilt as the batch shrinks.
+            self._one, self._stack = RK4(self.system, dt).stepper((self.robot.nq,)), RK4(self.system, dt).step
 
     def step(self, q, v, tau, dt: float, acceleration=None) -> tuple[np.ndarray, np.ndarray]:
         """One RK4 step of dt [s] with tau [N·m] held; ``acceleration`` is ABA(q, v, tau) when known."""
-        stepper = self._steppers.get(dt)
-        if stepper is None:
-            stepper = self._steppers[dt] = rk4_stepper(self.robot, dt, self._data)
+        if dt != self._dt:
+            self.reset(dt)
         if acceleration is None:
-            acceleration = self.robot.forward_dynamics(q, v, tau, data=self._data)
-        return stepper(q, v, tau, acceleration)
+            acceleration = self.robot.forward_dynamics(q, v, tau, data=self.system.data)
+        return self._one(q, v, tau, acceleration)
 
-    def record(self) -> dict:
+    def step_stack(self, q, v, tau, dt: float, acceleration=None, movements=None) -> tuple[np.ndarray, np.ndarray]:
+        """The RK4 step on (B, ...) stacks, the later stages of the whole stack by one ``abaInParallel`` each."""
+        if dt != self._dt:
+            self.reset(dt)
+        if acceleration is None:
+            acceleration = self.system.derivative(True)(q, v, tau)
+        return self._stack(q, v, tau, acceleration)
+
+    def record(self, movement: int | None = None) -> dict:
         """The plant as the run file keeps it."""
         return {"name": "pinocchio", "integrator": "rk4", "torque": "held over each step"}

@@ -150,7 +150,8 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
     linear = min(results[0].m, 3)
     reference = results[0].x_ref[:, :linear]
     origin = reference[0]
-    _, spread, axes = np.linalg.svd(reference - origin, full_matrices=True)
+    # The reduced SVD: its right factor is all that is read; the full one builds an N×N left factor.
+    _, spread, axes = np.linalg.svd(reference - origin, full_matrices=False)
     straight = spread.size < 2 or spread[1] <= 1e-9 * max(spread[0], 1e-300)
     if straight:
         direction = axes[0] if spread.size and spread[0] > 0 else np.eye(linear)[0]

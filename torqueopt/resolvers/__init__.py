@@ -1,4 +1,4 @@
-"""The registry of resolvers, by name.
+"""The registry of resolvers, by name (:mod:`torqueopt.resolvers.registry`: ``@register_resolver`` and entry points).
 
 Each resolver's equations of the paper, cited the same way in its module
 docstring, at the lines that compute them, and in the table of docs/resolvers/index.md:
@@ -36,9 +36,7 @@ lists the same numbers as its row.
 
 from __future__ import annotations
 
-import difflib
-
-from ..errors import InvalidInput, ResolverNotFound
+from ..errors import InvalidInput
 from .base import NullSpaceResolver, Resolution, Resolver, Step
 from .bounded import BoundedTorque, EnergyBoundedTorque, MinMaxTorque
 from .damping import DampedNullSpaceTorque, SelfMotionDamping
@@ -46,6 +44,7 @@ from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
 from .options import Option, parse_resolver_spec
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
+from .registry import ENTRY_POINT_GROUP, RESOLVERS, class_from_path, register_resolver
 from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
 from .velocity import VELOCITY_RESOLVERS
 
@@ -66,34 +65,43 @@ __all__ = [
     "BoundedTorque",
     "MinMaxTorque",
     "EnergyBoundedTorque",
+    "GradientProjectionAcceleration",
+    "TaskPriorityAcceleration",
+    "ENTRY_POINT_GROUP",
     "RESOLVERS",
+    "register_resolver",
     "get_resolver",
     "resolver_from_label",
     "resolver_names",
 ]
 
-RESOLVERS: dict[str, type[Resolver]] = {
-    cls.name: cls
-    for cls in (
-        PseudoInverse,
-        InertiaWeightedPseudoInverse,
-        NullSpaceTorque,
-        WeightedNullSpaceTorque,
-        DampedNullSpaceTorque,
-        SelfMotionDamping,
-        InverseInertiaTorque,
-        InverseInertiaSquaredTorque,
-        BoundedTorque,
-        MinMaxTorque,
-        EnergyBoundedTorque,
+for _velocity_resolver in VELOCITY_RESOLVERS:  # until their module registers them with @register_resolver
+    register_resolver(_velocity_resolver)
+
+# The order the listing, the help and the "choose one of ..." messages give: the paper's four first, then by
+# family, as the tables. Each class registers itself where it is defined; plug-ins follow, in the order they come.
+RESOLVERS.put_first(
+    (
+        "pinv",
+        "inertia-pinv",
+        "null-space",
+        "weighted-null-space",
+        "damped-null-space",
+        "self-motion-damping",
+        "inverse-inertia-torque",
+        "inverse-inertia-squared-torque",
+        "bounded-torque",
+        "minmax-torque",
+        "energy-bounded-torque",
+        *(cls.name for cls in VELOCITY_RESOLVERS),
+        "gradient-projection-acceleration",
+        "task-priority-acceleration",
     )
-}
-RESOLVERS.update((cls.name, cls) for cls in VELOCITY_RESOLVERS)
-RESOLVERS.update((cls.name, cls) for cls in (GradientProjectionAcceleration, TaskPriorityAcceleration))
+)
 
 
 def resolver_names(level: str | None = None) -> list[str]:
-    """Names of the registered resolvers, the paper's first.
+    """Names of the registered resolvers, the paper's first (plug-ins included).
 
     Args:
         level: ``"torque"`` for those that map a task acceleration to torques
@@ -107,13 +115,23 @@ def resolver_names(level: str | None = None) -> list[str]:
     return [name for name, cls in RESOLVERS.items() if getattr(cls, "level", "torque") == level]
 
 
-def get_resolver(resolver: str | Resolver, **options) -> Resolver:
-    """A resolver object from its registered name with ``options`` (its declared options), or the object itself.
+def get_resolver(resolver: str | type | Resolver, **options) -> Resolver:
+    """A resolver object from its name, spec or class, with ``options`` (its declared options); or the object itself.
+
+    ``resolver`` may be
+
+    * a registered name, ``"bounded-torque"`` (``torqueopt.resolvers.RESOLVERS``: the built-in ones, ``@register_resolver``,
+      entry points of the group ``torqueopt.resolvers``);
+    * an import path, ``"mypkg.module:MyResolver"``: the class is imported, not registered;
+    * either with options, ``"bounded-torque[joint_limits=off,damping=2]"`` (text, checked by the resolver's
+      own options, as ``--resolver`` on the command line);
+    * a :class:`Resolver` subclass, or a Resolver object (then without ``options``).
 
     Raises:
-        ResolverNotFound: no resolver has that name (the message lists those that exist).
-        InvalidInput: an option the resolver does not declare, or a value it refuses;
-            or options given with a Resolver object (set them when making the object).
+        ResolverNotFound: no resolver has that name (the message lists those that exist), the import path
+            does not lead to a Resolver class, or the name's entry point failed to load (the message says which).
+        InvalidInput: an option the resolver does not declare, or a value it refuses; an option given both in
+            brackets and as a keyword; or options given with a Resolver object (set them when making the object).
     """
     if isinstance(resolver, Resolver):
         if options:
@@ -122,27 +140,28 @@ def get_resolver(resolver: str | Resolver, **options) -> Resolver:
                 f"set them when making it, or give the resolver's name '{resolver.name}'"
             )
         return resolver
-    try:
-        cls = RESOLVERS[resolver]
-    except (KeyError, TypeError):
-        close = difflib.get_close_matches(str(resolver), list(RESOLVERS), n=1, cutoff=0.7)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-        raise ResolverNotFound(f"unknown resolver '{resolver}'{hint}: choose one of {', '.join(RESOLVERS)}") from None
-    return cls(**options)
+    if isinstance(resolver, type) and issubclass(resolver, Resolver):
+        return resolver(**options)
+    if not isinstance(resolver, str):
+        return RESOLVERS.lookup(resolver)  # raises, listing the names
+    name, given = parse_resolver_spec(resolver)
+    both = sorted(set(given) & set(options))
+    if both:
+        raise InvalidInput(f"resolver '{resolver}' gives option {', '.join(both)} again as a keyword; give it once")
+    cls = class_from_path(name) if ":" in name else RESOLVERS.lookup(name)
+    return cls(**given, **options)
 
 
 def resolver_from_label(spec: str | Resolver) -> Resolver:
-    """A resolver from ``NAME`` or ``NAME[OPTION=VALUE,...]`` (its :attr:`~Resolver.label`), or the object itself.
+    """A resolver from ``NAME`` or ``NAME[OPTION=VALUE,...]`` (its :attr:`~Resolver.label` or
+    :attr:`~Resolver.spec`), or the object itself.
 
     ``resolver_from_label("bounded-torque[joint_limits=off,damping=2]")`` is
     ``get_resolver("bounded-torque", joint_limits="off", damping="2")``: the
-    values are checked by the resolver's own options.
+    values are checked by the resolver's own options. NAME may be an import path, ``mypkg.module:MyResolver``.
 
     Raises:
         ResolverNotFound: no resolver has that name.
         InvalidInput: text not of that form, or an option or value the resolver refuses.
     """
-    if isinstance(spec, Resolver):
-        return spec
-    name, options = parse_resolver_spec(spec)
-    return get_resolver(name, **options)
+    return get_resolver(spec)

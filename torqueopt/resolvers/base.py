@@ -52,6 +52,7 @@ from .stacks import StackResolution, StackStep, StackTerms, looped_stack_step, s
 __all__ = [
     "NullSpaceFunction",
     "NullSpaceResolver",
+    "Objective",
     "Resolution",
     "Resolver",
     "SINGULAR_TOLERANCE_OPTION",
@@ -86,6 +87,8 @@ class Resolution(NamedTuple):
 
 #: A robot-bound step: ``(terms, task_acceleration) -> Resolution``.
 Step = Callable[[TaskTerms, np.ndarray], Resolution]
+#: A criterion on one state's torques: ``(terms, torque) -> cost``.
+Objective = Callable[[TaskTerms, np.ndarray], float]
 #: A robot-bound choice of the null-space coordinates: ``(terms, Z, particular) -> y``.
 NullSpaceFunction = Callable[[TaskTerms, np.ndarray, np.ndarray], np.ndarray]
 
@@ -150,6 +153,19 @@ class Resolver(ABC):
         """
         return resolver_label(self.name, self.declared_options(), self.settings)
 
+    @property
+    def spec(self) -> str:
+        """The text that makes this resolver again in any process, for ``get_resolver(spec)`` (the atlas's workers).
+
+        Its :attr:`label` when the registry holds its class under its name; else the class's import path with the
+        same brackets, ``mypkg.module:MyResolver[gain=2]`` (a class defined inside a function has none: it is
+        made only in the process that defined it).
+        """
+        cls = type(self)
+        if vars(cls).get("_registered_name") == self.name:  # set by the registry (resolvers.registry)
+            return self.label
+        return cls.__module__ + ":" + cls.__qualname__ + self.label[len(self.name) :]
+
     def changed_settings(self) -> dict:
         """The options whose values differ from their defaults (those :attr:`label` names), as JSON-ready values."""
         from .options import label_value
@@ -197,6 +213,15 @@ class Resolver(ABC):
         each step pays only for what changes with the state; nothing carries
         over from one run to the next.
         """
+
+    def objective_function(self, robot: Robot) -> Objective | None:
+        r"""The criterion this resolver minimises over the torques that realise the task, or None (it declares none).
+
+        A function ``(terms, torque) -> cost`` (a float) on ``robot``: the resolver's torque is its least value over
+        :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)). Nothing steps with it;
+        :func:`torqueopt.testing.check_resolver` holds each answer to it by finite differences.
+        """
+        return None
 
     def solver_for_run(self, robot: Robot, dt: float) -> Step:
         """The step of a run that holds each torque for ``dt`` [s]: :meth:`solver` unless the resolver looks a step ahead."""
@@ -295,6 +320,17 @@ class NullSpaceResolver(Resolver):
         or None for :math:`y = 0` at every state. What depends only on the
         robot (torque midpoint, weights, workspaces) is computed here, once.
         """
+
+
+def joint_acceleration_of(terms: TaskTerms, torque: np.ndarray) -> np.ndarray:
+    """q̈ = H⁻¹(τ − b) [rad/s²], Eq. (20) solved for the acceleration (what a criterion in q̈ reads)."""
+    return np.linalg.solve(terms.inertia, torque - terms.bias_torque)
+
+
+def null_space_projector(terms: TaskTerms) -> np.ndarray:
+    """I − J⁺J = Z Zᵀ, the projector onto the null space of the task Jacobian (whatever basis Z a step took)."""
+    jacobian = terms.jacobian
+    return np.eye(jacobian.shape[1]) - np.linalg.pinv(jacobian) @ jacobian
 
 
 def _defining_class(cls: type, name: str) -> type | None:

@@ -64,9 +64,10 @@ import numpy as np
 from ..errors import InvalidInput, NoRedundancy
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceFunction, NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver, joint_acceleration_of, null_space_projector
 from .null_space import torque_midpoint
 from .options import LARGEST_WEIGHT, Option, choice_or_vector, number
+from .registry import register_resolver
 from .stacks import least_squares
 
 __all__ = [
@@ -119,6 +120,7 @@ def torque_weight_root(torque_weight, robot: Robot, resolver: str) -> np.ndarray
     return np.sqrt(torque_weight)
 
 
+@register_resolver
 class SelfMotionDamping(NullSpaceResolver):
     r"""Null-space velocity damping: q̈ = J⁺(ẍ − J̇q̇) − K_D Z Zᵀ q̇ (De Luca, Oriolo & Siciliano 1992).
 
@@ -134,6 +136,16 @@ class SelfMotionDamping(NullSpaceResolver):
 
     name = "self-motion-damping"
     options = (_DAMPING_OPTION,)
+
+    def objective_function(self, robot: Robot):
+        damping = self.damping
+
+        def damped_self_motion(terms: TaskTerms, torque):
+            # ‖y + K_D Zᵀq̇‖² = ‖(I − J⁺J)(q̈ + K_D q̇)‖², whatever the basis Z
+            rest = null_space_projector(terms) @ (joint_acceleration_of(terms, torque) + damping * terms.joint_velocity)
+            return float(rest @ rest)
+
+        return damped_self_motion
 
     def stack_null_space_function(self, robot: Robot):
         damping = self.damping
@@ -152,6 +164,7 @@ class SelfMotionDamping(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class DampedNullSpaceTorque(NullSpaceResolver):
     r"""Torque optimisation blended with self-motion damping: min ‖S(τ − τ_mid)‖² + μ̄²‖y + K_D Zᵀq̇‖².
 
@@ -195,6 +208,20 @@ class DampedNullSpaceTorque(NullSpaceResolver):
             convert=choice_or_vector("unit", "range"),
         ),
     )
+
+    def objective_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+        relative_weight, damping = self.kinematic_weight, self.damping
+
+        def blend(terms: TaskTerms, torque):
+            projector = null_space_projector(terms)
+            weight = relative_weight * np.linalg.norm(root[:, None] * (terms.inertia @ projector))  # μ̄ = μ‖S H Z‖_F
+            rest = projector @ (joint_acceleration_of(terms, torque) + damping * terms.joint_velocity)
+            torque_term = root * (torque - midpoint)
+            return float(torque_term @ torque_term + weight**2 * (rest @ rest))
+
+        return blend
 
     @property
     def needs_torque_limits(self) -> bool:

@@ -38,10 +38,12 @@ import numpy as np
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
+from .registry import register_resolver
 
 __all__ = ["InverseInertiaTorque", "InverseInertiaSquaredTorque"]
 
 
+@register_resolver
 class InverseInertiaTorque(NullSpaceResolver):
     r"""Minimum τᵀH⁻¹τ (Gauss's principle of least constraint): ZᵀHZ y = −Zᵀτ̃.
 
@@ -53,6 +55,12 @@ class InverseInertiaTorque(NullSpaceResolver):
     """
 
     name = "inverse-inertia-torque"
+
+    def objective_function(self, robot: Robot):
+        def gauss(terms: TaskTerms, torque):
+            return float(torque @ np.linalg.solve(terms.inertia, torque))  # τᵀH⁻¹τ
+
+        return gauss
 
     def stack_null_space_function(self, robot: Robot):
         def coordinates(terms, null_space_basis, particular):
@@ -77,6 +85,7 @@ class InverseInertiaTorque(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class InverseInertiaSquaredTorque(NullSpaceResolver):
     r"""Minimum τᵀH⁻²τ = ‖q̈ + H⁻¹b‖²: y = −Zᵀ H⁻¹ τ̃.
 
@@ -87,6 +96,13 @@ class InverseInertiaSquaredTorque(NullSpaceResolver):
     """
 
     name = "inverse-inertia-squared-torque"
+
+    def objective_function(self, robot: Robot):
+        def squared(terms: TaskTerms, torque):
+            scaled = np.linalg.solve(terms.inertia, torque)
+            return float(scaled @ scaled)  # τᵀH⁻²τ
+
+        return squared
 
     def stack_null_space_function(self, robot: Robot):
         def coordinates(terms, null_space_basis, particular):

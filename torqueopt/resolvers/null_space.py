@@ -11,6 +11,7 @@ from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
 from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, vector_or_matrix
+from .registry import register_resolver
 from .stacks import least_squares
 
 __all__ = ["NullSpaceTorque", "WeightedNullSpaceTorque", "torque_midpoint"]
@@ -24,6 +25,7 @@ def torque_midpoint(robot: Robot) -> np.ndarray:
     return 0.5 * (upper + lower)
 
 
+@register_resolver
 class NullSpaceTorque(NullSpaceResolver):
     r"""Unweighted null-space torque optimisation, Eq. (28), Eq. (29), Eq. (30), Eq. (31), Eq. (36).
 
@@ -46,6 +48,14 @@ class NullSpaceTorque(NullSpaceResolver):
     name = "null-space"
     equations = (28, 29, 30, 31, 36)
     needs_redundancy = True
+
+    def objective_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+
+        def torque_distance(terms: TaskTerms, torque):
+            return float(np.sum((torque - midpoint) ** 2))  # Eq. (29)
+
+        return torque_distance
 
     def stack_null_space_function(self, robot: Robot):
         midpoint = torque_midpoint(robot)
@@ -71,6 +81,7 @@ class NullSpaceTorque(NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class WeightedNullSpaceTorque(NullSpaceResolver):
     r"""Null-space torque optimisation weighted by torque range, Eq. (32), Eq. (33), Eq. (37).
 
@@ -99,6 +110,16 @@ class WeightedNullSpaceTorque(NullSpaceResolver):
             default_text="1/(τ⁺−τ⁻)², Eq. (33)",
         ),
     )
+
+    def objective_function(self, robot: Robot):
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+
+        def weighted_torque_distance(terms: TaskTerms, torque):
+            weighted = root * (torque - midpoint) if root.ndim == 1 else root @ (torque - midpoint)
+            return float(weighted @ weighted)  # Eq. (32)
+
+        return weighted_torque_distance
 
     @property
     def needs_torque_limits(self) -> bool:

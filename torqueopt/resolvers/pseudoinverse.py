@@ -6,11 +6,13 @@ import numpy as np
 
 from ..linalg import LeastSquares
 from ..robot import Robot, TaskTerms
-from .base import NullSpaceFunction, NullSpaceResolver
+from .base import NullSpaceFunction, NullSpaceResolver, joint_acceleration_of
+from .registry import register_resolver
 
 __all__ = ["PseudoInverse", "InertiaWeightedPseudoInverse"]
 
 
+@register_resolver
 class PseudoInverse(NullSpaceResolver):
     r"""Unweighted pseudoinverse, Eq. (34).
 
@@ -26,6 +28,13 @@ class PseudoInverse(NullSpaceResolver):
     name = "pinv"
     equations = (34,)
 
+    def objective_function(self, robot: Robot):
+        def acceleration_norm(terms: TaskTerms, torque):
+            acceleration = joint_acceleration_of(terms, torque)
+            return float(acceleration @ acceleration)  # ‖q̈‖², which Eq. (34) minimises
+
+        return acceleration_norm
+
     def stack_null_space_function(self, robot: Robot):
         return None  # y = 0 on stacks too
 
@@ -33,6 +42,7 @@ class PseudoInverse(NullSpaceResolver):
         return None
 
 
+@register_resolver
 class InertiaWeightedPseudoInverse(NullSpaceResolver):
     r"""Inertia-weighted pseudoinverse, Eq. (16), Eq. (19), Eq. (35).
 
@@ -50,6 +60,13 @@ class InertiaWeightedPseudoInverse(NullSpaceResolver):
 
     name = "inertia-pinv"
     equations = (16, 19, 35)
+
+    def objective_function(self, robot: Robot):
+        def kinetic_metric(terms: TaskTerms, torque):
+            acceleration = joint_acceleration_of(terms, torque)
+            return float(acceleration @ terms.inertia @ acceleration)  # q̈ᵀHq̈, which Eq. (19) minimises
+
+        return kinetic_metric
 
     def stack_null_space_function(self, robot: Robot):
         def coordinates(terms, null_space_basis, particular):

@@ -37,6 +37,7 @@ from ..robot import Robot, TaskTerms
 from ..tasks import FrameTask, Kinematics, PostureTask, TaskStack, pseudoinverse
 from .base import NullSpaceFunction, NullSpaceResolver
 from .options import Option, number
+from .registry import register_resolver
 from .velocity.gradient_projection import CRITERION_OPTION, CriterionGain, gain_option
 from .velocity.options import task_stack
 
@@ -52,6 +53,7 @@ _DAMPING = Option(
 )
 
 
+@register_resolver
 class GradientProjectionAcceleration(CriterionGain, NullSpaceResolver):
     r"""Gradient projection at the acceleration level: q̈ = J⁺(ẍ − J̇q̇) − (I − J⁺J)(k ∂p/∂q + k_d q̇).
 
@@ -84,6 +86,7 @@ class GradientProjectionAcceleration(CriterionGain, NullSpaceResolver):
         return coordinates
 
 
+@register_resolver
 class TaskPriorityAcceleration(NullSpaceResolver):
     r"""Task priority at the acceleration level (Eq. (11) differentiated): the robot's task exactly, a lower one in its null space.
 

@@ -5,11 +5,13 @@ A study runs on the paper's results and is written into the same folder by
 
 * ``key``: its entry in ``summary.json``;
 * ``write_figures(out_dir) -> list[Path]``: its figures;
-* ``summary() -> dict``: JSON-ready numbers and the sentences they support;
-* ``markdown(figures) -> str``: its section of ``summary.md``.
+* ``summary() -> dict``: its JSON-ready numbers;
+* ``markdown(figures) -> str``: its section of ``summary.md``, tables of those numbers.
 
-One package per study, each split by job (running it, its record, its
-answers in words, its report, its figures):
+What the numbers answer is said by the documentation's pages
+(docs/discussion/), which read them from the committed JSON
+(:mod:`torqueopt.pages`). One package per study, each split by job
+(running it, its record, its report, its figures):
 :mod:`torqueopt.studies.remedies` (the Discussion's remedies for the
 whiplash: a kinematic term in the criterion, linear programming) and
 :mod:`torqueopt.studies.local_global` (local against whole-movement

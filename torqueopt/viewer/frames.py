@@ -67,7 +67,8 @@ def frame_count(
     """
     fps = positive_number(fps, "fps")
     speed = positive_number(speed, "speed")
-    count = math.floor(simulated_time / speed * fps + 1e-9) + 1
+    frames = simulated_time / speed * fps  # inf past the float range: refused below, not converted
+    count = math.floor(frames + 1e-9) + 1 if math.isfinite(frames) else frames
     return bounded_count(
         count,
         max_frames,

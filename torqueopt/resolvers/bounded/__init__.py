@@ -69,9 +69,13 @@ The LPs and the policies' programs use an orthonormal basis of the range of
 
 Modules: :mod:`~torqueopt.resolvers.bounded.bounded_torque` (the QP),
 :mod:`~torqueopt.resolvers.bounded.minmax_torque` (the LP),
-:mod:`~torqueopt.resolvers.bounded.base` (what both share: the bounded
-joints and the ``infeasible`` policies) and
-:mod:`~torqueopt.resolvers.bounded.programs` (the DAQP programs).
+:mod:`~torqueopt.resolvers.bounded.energy_bounded_torque` (the QP with the
+energy barrier), :mod:`~torqueopt.resolvers.bounded.base` (what they share:
+checks, the ``infeasible`` option, the step on stacks),
+:mod:`~torqueopt.resolvers.bounded.infeasible` (the step on one state and
+the ``infeasible`` policies, each a function) and
+:mod:`~torqueopt.resolvers.bounded.programs` (each program as a
+``BoundProgram``, solved by ``solve_program``: DAQP, then its fall-backs).
 """
 
 from .base import INFEASIBLE_OPTION, INFEASIBLE_POLICIES, torque_utilisation

@@ -1,9 +1,10 @@
-r"""What the two bounded resolvers share: the bounded joints, the ``infeasible`` option and its policies.
+r"""What the bounded resolvers share: their checks, the ``infeasible`` option and the step on stacks.
 
-``_BoundedResolver`` writes the step of both: the resolver's own
-optimum within bounds (``_optimum``, one per resolver), and, when there is
-none, the policy the ``infeasible`` option names (scale the task, least task
-error, exceed the bounds least, stop), in the coordinates of Eq. (26).
+``_BoundedResolver``'s step on one state is
+:class:`~torqueopt.resolvers.bounded.infeasible.BoundedStep`: the resolver's
+own optimum within bounds (``_optimum``, one per resolver), and, when there
+is none, the policy the ``infeasible`` option names (scale the task, least
+task error, exceed the bounds least, stop), in the coordinates of Eq. (26).
 
 Its step on stacks (``batch_solver``, ``BoundedStackStep``) builds every
 row's program with stacked numpy (null-space basis, criterion, torque-bound
@@ -16,25 +17,22 @@ optimum is infeasible goes through the single-state step, whose policies,
 
 from __future__ import annotations
 
-from functools import partial
-
 import numpy as np
 
 from ...checks import Refused
-from ...errors import NoRedundancy, SolverFailure, TorqueBoundsInfeasible
-from ...linalg import JacobianSolver
-from ...robot import Robot, TaskTerms
-from ..base import Resolution, Resolver, Step, _defining_class
+from ...errors import NoRedundancy, SolverFailure
+from ...robot import Robot
+from ..base import Resolver, Step, _defining_class
 from ..null_space import torque_midpoint
 from ..options import Option
 from ..stacks import LoopedStackStep, StackResolution, StackStep, StackTerms, singular_rows, task_factorisation
+from .infeasible import BoundedStep
+from .infeasible import bounded_joints as _bounded_joints
+from .infeasible import solver_bounds as _solver_bounds
 from .joint_limits import JointLimits
-from .programs import _EXIT_INFEASIBLE, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
 
 __all__ = ["INFEASIBLE_OPTION", "INFEASIBLE_POLICIES", "torque_utilisation"]
 
-#: ``raised`` value of a program's rows on q̈ that gives up the resolver's own rows.
-_DROPPED = "dropped"
 #: What a bounded resolver does when no torque within bounds realises the task.
 INFEASIBLE_POLICIES = ("scale", "least-error", "exceed", "stop")
 
@@ -56,26 +54,6 @@ def torque_utilisation(torque, torque_lower, torque_upper) -> np.ndarray:
     return (np.abs(torque[..., bounded] - middle) / spread).max(axis=-1)
 
 
-def _bounded_joints(robot: Robot):
-    """The joints with finite limits: their indices, or ``slice(None)`` (a view, no copy) when every joint has them."""
-    finite = np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)
-    return slice(None) if finite.all() else np.flatnonzero(finite)
-
-
-def _solver_bounds(robot: Robot, bounded):
-    """(τ⁺, τ⁻) of the bounded joints as given to DAQP, and their ranges τ⁺ − τ⁻ [N·m].
-
-    DAQP accepts a row that exceeds its bound by about ``primal_tol``
-    (measured: up to 1.4 times it on the LPs); the bounds it gets are pulled
-    in by :data:`BOUND_MARGIN` of each range, so that the torques it returns
-    never exceed the true limits.
-    """
-    upper, lower = robot.torque_upper[bounded], robot.torque_lower[bounded]
-    spread = upper - lower
-    margin = BOUND_MARGIN * spread
-    return upper - margin, lower + margin, spread
-
-
 def _policy(value) -> str:
     """Converter of the ``infeasible`` option."""
     text = str(value).strip() if isinstance(value, str) else value
@@ -95,26 +73,6 @@ INFEASIBLE_OPTION = Option(
     ),
     convert=_policy,
 )
-
-
-def _box(robot: Robot):
-    """(τ⁺, τ⁻) of every joint as the solver sees them (pulled in by :data:`BOUND_MARGIN`; ±inf when unbounded)."""
-    spread = robot.torque_upper - robot.torque_lower
-    margin = np.where(np.isfinite(spread), BOUND_MARGIN * spread, 0.0)
-    return robot.torque_upper - margin, robot.torque_lower + margin
-
-
-def _least_within_box(rows, inertia, bias_torque, box_upper, box_lower):
-    r"""The least value of each row of :math:`G\ddot q = G H^{-1}(\tau - b)` over the torques in the box.
-
-    Per row, with :math:`g = H^{-1}G^\top`: :math:`\sum_i \min(g_i\tau^+_i, g_i\tau^-_i) - g^\top b`,
-    the tip left free (−inf when a joint without limits moves the row).
-    """
-    weights = np.linalg.solve(inertia, rows.T)  # H⁻¹ Gᵀ, n × k
-    with np.errstate(invalid="ignore"):
-        ends = np.minimum(weights * box_upper[:, None], weights * box_lower[:, None])
-    ends = np.where(weights == 0.0, 0.0, ends)
-    return ends.sum(axis=0) - bias_torque.dot(weights)
 
 
 class _BoundedResolver(Resolver):
@@ -157,346 +115,13 @@ class _BoundedResolver(Resolver):
         return BoundedStackStep(self, robot, dt)
 
     def solver(self, robot: Robot, dt: float | None = None) -> Step:
-        """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once.
+        """The step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once (:class:`BoundedStep`).
 
         ``dt`` [s] is the step over which the run holds the torque: the
         joint-limit bounds keep the state after it within the limits
         (:data:`~torqueopt.resolvers.bounded.joint_limits.DEFAULT_STEP` when None).
         """
-        self.check(robot)
-        n, m = robot.nv, robot.m
-        r = n - m
-        bounded = _bounded_joints(robot)
-        upper, lower, spread = _solver_bounds(robot, bounded)
-        midpoint = torque_midpoint(robot)
-        decompose = JacobianSolver(m, n, self.singular_tolerance)
-        limits = self.joint_limits_of(robot, dt)
-        # The resolver's own constraints G q̈ <= h beside the joint limits (energy-bounded-torque's barrier).
-        own_count, constraints_at, constraint_names = self._acceleration_constraints(robot)
-        nl = (0 if limits is None else limits.count) + own_count
-        optimum = self._optimum(robot, bounded, spread, midpoint, nl)
-        nb = spread.size
-        box_upper, box_lower = _box(robot)
-        # Largest scaling: max s over (s, y), 0 <= s <= 1 a simple bound on the first variable.
-        rows_count = nb + nl
-        scaling = _Program(
-            np.zeros((1 + r, 1 + r)),
-            np.r_[-1.0, np.zeros(r)],
-            np.zeros((rows_count, 1 + r)),
-            np.r_[1.0, np.ones(rows_count)],
-            np.r_[0.0, -np.ones(rows_count)],
-            bounds=1,
-            linear=True,
-        )
-
-        # Least task error: min ½‖a − ẍ‖² over (a, y). Its Hessian is singular in y, as an
-        # LP's (a zero matrix) is everywhere: DAQP then runs proximal-point iterations, whose
-        # limit is an exact optimum.
-        def least_error_program(count):
-            return _Program(
-                np.diag(np.r_[np.ones(m), np.zeros(r)]),
-                np.zeros(n),
-                np.zeros((count, n)),
-                np.ones(count),
-                -np.ones(count),
-            )
-
-        least_error = least_error_program(rows_count)
-        # With joint limits, torque and joint bounds may leave no q̈ at all: then the torque bounds alone.
-        torque_least_error = least_error_program(nb) if nl else least_error
-        # The least excess of the joint limits' rows a torque within bounds allows: min Σ tᵢ over (t, a, z),
-        # t >= 0 simple bounds, row i within its bounds widened by tᵢ (in units of its joint's ā).
-        nj = 0 if limits is None else limits.count
-        excess_program = (
-            _Program(
-                np.zeros((nj + n, nj + n)),
-                np.r_[np.ones(nj), np.zeros(n)],
-                np.zeros((nb + 2 * nj, nj + n)),
-                np.r_[np.full(nj, np.inf), np.ones(nb + 2 * nj)],
-                np.r_[np.zeros(nj), -np.ones(nb + 2 * nj)],
-                bounds=nj,
-                linear=True,
-            )
-            if nj
-            else None
-        )
-        minmax = _MinMax(bounded, spread, midpoint, r, own_count) if self.infeasible == "exceed" else None
-        range_basis = _RangeBasis(n, r)
-        policy = self.infeasible
-        name = self.name
-        joint_names = robot.joint_names
-
-        def least_joint_excess(torque_rows, torque_upper, torque_lower, joint_part):
-            """(t, (a, z)): the least widenings t >= 0 (Σ t least, one per row) of the joint limits' rows
-            (``joint_part``: rows, upper, lower on x = (a, z), divided by ā) that leave a torque within bounds, and
-            a point x there; None when DAQP finds none."""
-            rows, upper, lower = joint_part
-            finite_upper, finite_lower = np.isfinite(upper), np.isfinite(lower)
-            # Each row twice, one side each (a row with no finite side holds whatever x: zeros within ±1).
-            slack = np.eye(nj)
-            above = np.hstack([-slack * finite_upper, np.where(finite_upper[:, None], rows, 0.0)])
-            below = np.hstack([slack * finite_lower, np.where(finite_lower[:, None], rows, 0.0)])
-            program_rows = np.vstack([np.hstack([np.zeros((nb, nj)), torque_rows]), above, below])
-            program_upper = np.r_[
-                np.full(nj, np.inf), torque_upper, np.where(finite_upper, upper, 1.0), np.full(nj, np.inf)
-            ]
-            program_lower = np.r_[np.zeros(nj), torque_lower, np.full(nj, -np.inf), np.where(finite_lower, lower, -1.0)]
-            x, flag, _ = excess_program.solve(A=program_rows, bupper=program_upper, blower=program_lower)
-            if flag == _EXIT_INFEASIBLE:  # pragma: no cover - H is invertible: the box holds some torque
-                return None
-            return np.maximum(x[:nj], 0.0), (x[nj : nj + m], x[nj + m :])
-
-        def least_error_task(rows, row_upper, row_lower, command, program=least_error):
-            """(a, z) of min ½‖a − ẍ‖² with τ = (rest) + H J⁺ a + U z within bounds, or None when there is none."""
-            x, flag, _ = program.solve(f=np.r_[-command, np.zeros(r)], A=rows, bupper=row_upper, blower=row_lower)
-            if flag == _EXIT_INFEASIBLE:
-                return None
-            return x[:m], x[m:]
-
-        def torque_bounds_active(torque):
-            """The torque bounds ``torque`` lies on, as texts."""
-            found = []
-            joints = np.arange(n)[bounded]
-            for side, bound in (("upper", robot.torque_upper), ("lower", robot.torque_lower)):
-                on = np.abs(torque[bounded] - bound[bounded]) <= 1e-6 * spread
-                found.extend(f"torque limit ({side}) of joint {joint_names[joints[row]]}" for row in np.flatnonzero(on))
-            return found
-
-        def step(terms: TaskTerms, task_acceleration: np.ndarray) -> Resolution:
-            command = task_acceleration
-            particular, basis, inverse_condition = decompose(terms.jacobian, command - terms.drift)
-            inertia = terms.inertia
-            inertia_basis = inertia.dot(basis)
-            tilde_torque = inertia.dot(particular) + terms.bias_torque  # Eq. (28)
-            joint_rows = joint_bounds = constraints = None
-            if limits is not None:
-                joint_bounds = limits(terms)
-                joint_scale = limits.scale(joint_bounds)
-                joints = limits.joints
-            if constraints_at is not None:
-                constraints = constraints_at(terms, basis)  # (G, h): G q̈ <= h, unit rows
-            if nl:
-
-                def joint_rows(offset, rows, raised=None, free_joints=False, widen=0.0):
-                    """Rows and bounds of the joint limits on q̈ = offset + rows · x, each divided by its ā (and
-                    widened by ``widen`` on both sides), then the resolver's own rows G q̈ <= h (h raised to
-                    ``raised`` where that is higher); with ``free_joints`` the joint limits' rows hold whatever x
-                    (the joint limits given up)."""
-                    parts = []
-                    if limits is not None and free_joints:
-                        parts.append(
-                            (np.zeros((joints.size, rows.shape[1])), np.ones(joints.size), -np.ones(joints.size))
-                        )
-                    elif limits is not None:
-                        parts.append(
-                            (
-                                rows[joints] / joint_scale[:, None],
-                                (joint_bounds.upper - offset[joints]) / joint_scale + widen,
-                                (joint_bounds.lower - offset[joints]) / joint_scale - widen,
-                            )
-                        )
-                    if constraints is not None and raised is _DROPPED:
-                        # Rows that hold whatever x (DAQP needs a finite bound on a general row).
-                        parts.append((np.zeros((own_count, rows.shape[1])), np.ones(own_count), -np.ones(own_count)))
-                    elif constraints is not None:
-                        own_rows, own_upper = constraints
-                        if raised is not None:
-                            own_upper = np.maximum(own_upper, raised)
-                        parts.append(
-                            (own_rows.dot(rows), own_upper - own_rows.dot(offset), np.full(own_count, -np.inf))
-                        )
-                    if len(parts) == 1:
-                        return parts[0]
-                    return tuple(np.concatenate(part) for part in zip(*parts))
-
-            found = optimum(terms, basis, inertia_basis, tilde_torque, particular, joint_rows)
-            if found is not None:
-                y, torque = found
-                return Resolution(torque, particular + basis.dot(y), inverse_condition, 0.0, False)  # Eq. (26)
-            if policy == "stop":
-                raise TorqueBoundsInfeasible(
-                    f"resolver '{name}' (infeasible='stop'): no torque within bounds realises the task "
-                    f"acceleration {np.round(command, 6).tolist()}"
-                    + (" within the joint limits" if limits is not None else "")
-                    + (f" within its {', '.join(constraint_names)}" if constraints is not None else "")
-                )
-            range_rows = range_basis(inertia_basis)  # U, orthonormal, spans the range of HZ
-            if policy == "exceed":
-                # The task kept, and the resolver's own rows (always feasible with the torques free); not the joint limits.
-                own = None
-                if constraints is not None:
-                    own_rows, own_upper = constraints
-                    own = (
-                        own_rows.dot(np.linalg.solve(inertia, range_rows)),  # q̈ = p + H⁻¹U z
-                        own_upper - own_rows.dot(particular),
-                        np.full(own_count, -np.inf),
-                    )
-                z, utilisation = minmax(range_rows, tilde_torque, own)
-                if utilisation is None:  # pragma: no cover - the barrier alone is always feasible
-                    z, _ = minmax(range_rows, tilde_torque)
-                y = range_basis.coordinates(range_rows.dot(z))
-                torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
-                acceleration = particular + basis.dot(y)
-                return Resolution(
-                    torque,
-                    acceleration,
-                    inverse_condition,
-                    0.0,
-                    True,
-                    limiting_bounds(torque, acceleration, joint_bounds, constraints),
-                )
-            # τ = rest + H J⁺ a + U z realises the task acceleration a (J q̈ + J̇q̇ = a).
-            pseudo_inverse = np.linalg.pinv(terms.jacobian)
-            task_torque = inertia.dot(pseudo_inverse)  # H J⁺, n × m
-            rest_torque = tilde_torque - task_torque.dot(command)  # b − H J⁺ J̇q̇
-            rows = np.hstack([task_torque, range_rows])[bounded] / spread[:, None]
-            row_upper = (upper - rest_torque[bounded]) / spread
-            row_lower = (lower - rest_torque[bounded]) / spread
-            torque_rows, torque_upper_rows, torque_lower_rows = rows, row_upper, row_lower
-            if joint_rows is not None:
-                # q̈ = H⁻¹(τ − b) = (p − J⁺ẍ) + J⁺ a + H⁻¹U z.
-                acceleration_offset = particular - pseudo_inverse.dot(command)
-                acceleration_coordinates = np.hstack([pseudo_inverse, np.linalg.solve(inertia, range_rows)])
-                acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
-                    acceleration_offset, acceleration_coordinates
-                )
-                rows = np.vstack([rows, acceleration_rows])
-                row_upper = np.r_[row_upper, acceleration_upper]
-                row_lower = np.r_[row_lower, acceleration_lower]
-            found_task = None
-            if policy == "scale":
-                # Flacco, De Luca & Khatib (ICRA 2012): the largest s in [0, 1] with a torque within bounds.
-                scaled_rows = np.hstack([rows[:, :m].dot(command)[:, None], rows[:, m:]])
-                x, flag, _ = scaling.solve(A=scaled_rows, bupper=np.r_[1.0, row_upper], blower=np.r_[0.0, row_lower])
-                if flag != _EXIT_INFEASIBLE:
-                    found_task = float(np.clip(x[0], 0.0, 1.0)) * command, x[1:]
-            # Not even s = 0 (the tip held on its path) has a torque within bounds, or the policy
-            # asks for it: give up the direction too, for the least task error.
-            if found_task is None:
-                found_task = least_error_task(rows, row_upper, row_lower, command)
-            within_joint_limits = True
-            widened = 0.0  # by how much (in units of each joint's ā) each joint limits' row was widened
-
-            def least_excess():
-                """The least widening of the joint limits' rows a torque within bounds allows (a hair more)."""
-                joint_part = (
-                    acceleration_coordinates[joints] / joint_scale[:, None],
-                    (joint_bounds.upper - acceleration_offset[joints]) / joint_scale,
-                    (joint_bounds.lower - acceleration_offset[joints]) / joint_scale,
-                )
-                least = least_joint_excess(torque_rows, torque_upper_rows, torque_lower_rows, joint_part)
-                if least is None:  # pragma: no cover - H is invertible: the box holds some torque
-                    return None, None
-                widen, point = least
-                if widen.max() <= 1e-9:
-                    # Within the joint limits after all (DAQP's least-error program called them infeasible).
-                    return np.zeros_like(widen), point
-                return widen * (1.0 + 1e-3) + 1e-6, point
-
-            if found_task is None and constraints is not None:
-                # The resolver's own rows yield first: each raised to the least value a torque within
-                # bounds gives it, the tip left free (the barrier: energy out as fast as the bounds allow).
-                least = _least_within_box(constraints[0], inertia, terms.bias_torque, box_upper, box_lower)
-                least_raised = least + 1e-9 * (1.0 + np.abs(least))
-                stages = [(least_raised, False, 0.0)]
-                if limits is not None:
-                    # The joint limits kept, the resolver's own rows given up; then the joint limits widened
-                    # least for the torque limits, and the resolver's own rows back, raised; then the joint
-                    # limits given up (always feasible: the least over the box).
-                    stages += [(_DROPPED, False, 0.0), (least_raised, False, None), (least_raised, True, 0.0)]
-                all_rows = joint_rows
-                for raised, free_joints, widen in stages:
-                    if widen is None:
-                        widen, _ = least_excess()
-                        if widen is None:  # pragma: no cover - H is invertible: the box holds some torque
-                            continue
-                    joint_rows = partial(all_rows, raised=raised, free_joints=free_joints, widen=widen)
-                    acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
-                        acceleration_offset, acceleration_coordinates
-                    )
-                    rows = np.vstack([rows[:nb], acceleration_rows])
-                    row_upper = np.r_[row_upper[:nb], acceleration_upper]
-                    row_lower = np.r_[row_lower[:nb], acceleration_lower]
-                    found_task = least_error_task(rows, row_upper, row_lower, command)
-                    if found_task is not None:
-                        within_joint_limits = not free_joints and not np.any(widen)
-                        widened = widen
-                        break
-            elif found_task is None and limits is not None:
-                # No q̈ within the joint limits has a torque within bounds: the joint limits widened least
-                # (every row by the same multiple of its joint's ā), for the least task error within them.
-                widen, point = least_excess()
-                if widen is not None:
-                    joint_rows = partial(joint_rows, widen=widen)
-                    acceleration_rows, acceleration_upper, acceleration_lower = joint_rows(
-                        acceleration_offset, acceleration_coordinates
-                    )
-                    found_task = least_error_task(
-                        np.vstack([torque_rows, acceleration_rows]),
-                        np.r_[torque_upper_rows, acceleration_upper],
-                        np.r_[torque_lower_rows, acceleration_lower],
-                        command,
-                    )
-                    if found_task is None:
-                        # DAQP's warm-started least-error program can call a feasible set infeasible (its
-                        # proximal iterations; measured on baxter, where HiGHS and a cold start solve it): the
-                        # LP's own point.
-                        found_task = point
-                    within_joint_limits, widened = not np.any(widen), widen
-            # The rows the resolver's own optimum below keeps: none when the torque bounds alone are left.
-            final_rows = joint_rows
-            if found_task is None:
-                within_joint_limits = joint_rows is None
-                final_rows = None
-                widened = 0.0
-                # No q̈ within the joint limits has a torque within bounds: the torque bounds win.
-                found_task = least_error_task(
-                    torque_rows, torque_upper_rows, torque_lower_rows, command, program=torque_least_error
-                )
-            if found_task is None:  # pragma: no cover - H is invertible: every torque in the box is some (a, z)
-                raise SolverFailure(f"resolver '{name}': DAQP found no torque in the box for the least task error")
-            achieved, z = found_task
-            # The resolver's own optimum at the achievable task acceleration; on the boundary
-            # round-off may make that program infeasible, and then the first stage's z stands.
-            shifted_particular = particular + pseudo_inverse.dot(achieved - command)
-            shifted_tilde = rest_torque + task_torque.dot(achieved)
-            found = optimum(
-                terms,
-                basis,
-                inertia_basis,
-                shifted_tilde,
-                shifted_particular,
-                final_rows,
-            )
-            if found is None:
-                y = range_basis.coordinates(range_rows.dot(z))
-                found = y, shifted_tilde + inertia_basis.dot(y)
-            y, torque = found
-            error = float(np.linalg.norm(achieved - command))
-            acceleration = shifted_particular + basis.dot(y)
-            limiting = limiting_bounds(torque, acceleration, joint_bounds, constraints)
-            if np.any(widened):
-                exceeded = "; ".join(limits.exceeded(joint_bounds, acceleration)) or "none beyond 1e-6 of ā"
-                limiting = f"joint limits exceeded least for the torque limits ({exceeded}); " + limiting
-            elif not within_joint_limits:
-                exceeded = "; ".join(limits.exceeded(joint_bounds, acceleration)) if limits is not None else ""
-                limiting = (
-                    "joint limits given up for the torque limits" + (f" ({exceeded})" if exceeded else "") + "; "
-                ) + limiting
-            return Resolution(torque, acceleration, inverse_condition, error, True, limiting)
-
-        def limiting_bounds(torque, acceleration, joint_bounds, constraints):
-            """The bounds the answer of an infeasible step lies on, in one line."""
-            found = torque_bounds_active(torque)
-            if joint_bounds is not None:
-                found += limits.active(joint_bounds, acceleration)
-            if constraints is not None:
-                own_rows, own_upper = constraints
-                slack = own_upper - own_rows.dot(acceleration)
-                found += [constraint_names[row] for row in np.flatnonzero(np.abs(slack) <= 1e-6)]
-            return "; ".join(found) if found else "no bound within 1e-6 of its range"
-
-        return step
+        return BoundedStep(self, robot, dt)
 
     def _acceleration_constraints(self, robot: Robot):
         """``(k, function, names)``: this resolver's own k constraints G q̈ <= h on the joint acceleration, beside

@@ -7,9 +7,10 @@ import numpy as np
 from ...robot import Robot, TaskTerms
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
+from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver, _solver_bounds
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
-from .programs import _EXIT_INFEASIBLE, _Program
+from .programs import _EXIT_INFEASIBLE, BoundProgram, _Program, solve_program, torque_bound_rows, with_rows
 
 __all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
 
@@ -17,6 +18,7 @@ __all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
 TORQUE_WEIGHTS = ("unit", "range")
 
 
+@register_resolver
 class BoundedTorque(_BoundedResolver):
     r"""Torque optimisation with hard torque bounds, by quadratic programming.
 
@@ -99,9 +101,9 @@ class BoundedTorque(_BoundedResolver):
         upper, lower, _ = _solver_bounds(robot, bounded)
         program = _Program(np.eye(r), np.zeros(r), np.zeros((rows_count, r)), np.ones(rows_count), -np.ones(rows_count))
         identity = np.eye(r)
-        inverse_spread = (1.0 / spread)[:, None]
 
-        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque, particular, joint_rows):
+        def program_at(terms: TaskTerms, basis, inertia_basis, tilde_torque, particular, joint_rows) -> BoundProgram:
+            """The QP in y at this state: the criterion, the torque bounds and the rows on q̈ = p + Z y."""
             weighted_basis = root * inertia_basis
             offset = (tilde_torque - midpoint)[:, None] * root  # S(τ̃ − τ_mid), Eq. (29), Eq. (32)
             hessian = weighted_basis.T.dot(weighted_basis)
@@ -114,18 +116,18 @@ class BoundedTorque(_BoundedResolver):
             # DAQP's pivot and zero tolerances are absolute: scale the criterion to a unit Hessian
             # trace (the minimiser is the same), so that range weights on large limits stay well above them.
             scale = r / hessian.trace()
-            rows = inertia_basis[bounded] * inverse_spread
-            base = tilde_torque[bounded]
-            row_upper, row_lower = (upper - base) / spread, (lower - base) / spread
+            rows = torque_bound_rows(inertia_basis, tilde_torque, bounded, upper, lower, spread)
             if joint_rows_count:
                 # q̈ = p + Z y within the joint limits' bounds (joint_limits.py); rows of zeros when not asked.
-                acceleration_rows, acceleration_upper, acceleration_lower = (
-                    joint_rows(particular, basis) if joint_rows is not None else _free_rows(joint_rows_count, r)
+                rows = with_rows(
+                    rows, joint_rows(particular, basis) if joint_rows is not None else _free_rows(joint_rows_count, r)
                 )
-                rows = np.vstack([rows, acceleration_rows])
-                row_upper = np.r_[row_upper, acceleration_upper]
-                row_lower = np.r_[row_lower, acceleration_lower]
-            y, flag, _ = program.solve(H=scale * hessian, f=scale * cost, A=rows, bupper=row_upper, blower=row_lower)
+            return BoundProgram(scale * hessian, scale * cost, *rows)
+
+        def optimum(terms: TaskTerms, basis, inertia_basis, tilde_torque, particular, joint_rows):
+            y, flag = solve_program(
+                program, program_at(terms, basis, inertia_basis, tilde_torque, particular, joint_rows)
+            )
             if flag == _EXIT_INFEASIBLE:
                 return None
             return y, tilde_torque + inertia_basis.dot(y)
@@ -140,7 +142,6 @@ class BoundedTorque(_BoundedResolver):
         relative_weight2 = self.kinematic_weight**2
         damping = self.damping
         upper, lower, _ = _solver_bounds(robot, bounded)
-        inverse_spread = 1.0 / spread
 
         def program():
             return _Program(
@@ -160,28 +161,18 @@ class BoundedTorque(_BoundedResolver):
                 cost = cost + (mu2 * damping)[:, None] * np.einsum("bki,bk->bi", basis, terms.joint_velocity)
                 trace = np.einsum("bii->b", hessian)
             scale = r / trace  # a unit Hessian trace, as the single-state step
-            rows = inertia_basis[:, bounded] * inverse_spread[:, None]
-            base = tilde_torque[:, bounded]
-            row_upper, row_lower = (upper - base) / spread, (lower - base) / spread
+            rows = torque_bound_rows(inertia_basis, tilde_torque, bounded, upper, lower, spread)
             if joint_rows_count:
                 # q̈ = p + Z y within the joint limits' bounds and the resolver's own rows.
-                extra = joint_rows(particular, basis)
-                rows = np.concatenate([rows, extra[0]], axis=1)
-                row_upper = np.concatenate([row_upper, extra[1]], axis=1)
-                row_lower = np.concatenate([row_lower, extra[2]], axis=1)
-            return (
+                rows = with_rows(rows, joint_rows(particular, basis))
+            return BoundProgram(
                 np.ascontiguousarray(scale[:, None, None] * hessian),
                 np.ascontiguousarray(scale[:, None] * cost),
-                np.ascontiguousarray(rows),
-                np.ascontiguousarray(row_upper),
-                np.ascontiguousarray(row_lower),
+                *(np.ascontiguousarray(part) for part in rows),
             )
 
         def solve(program, problem, row):
-            hessian, cost, rows, row_upper, row_lower = problem
-            y, flag, _ = program.solve(
-                H=hessian[row], f=cost[row], A=rows[row], bupper=row_upper[row], blower=row_lower[row]
-            )
+            y, flag = solve_program(program, problem.row(row))
             return None if flag == _EXIT_INFEASIBLE else y
 
         def free(problem):

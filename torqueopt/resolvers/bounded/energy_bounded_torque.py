@@ -7,6 +7,7 @@ import numpy as np
 from ...robot import Robot
 from ...self_motion import SelfMotionRate
 from ..options import Option, choice_or_vector, number
+from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION
 from .bounded_torque import TORQUE_WEIGHTS, BoundedTorque
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
@@ -23,6 +24,7 @@ DEFAULT_ENERGY_RATE = 20.0
 DEFAULT_TORQUE_WEIGHT = "range"
 
 
+@register_resolver
 class EnergyBoundedTorque(BoundedTorque):
     r"""The paper's torque criterion under a barrier on the self-motion energy E_N (a QP), torque bounds kept.
 

@@ -5,13 +5,24 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot, TaskTerms
+from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver
 from .joint_limits import JOINT_ACCELERATION_LIMIT_OPTION, JOINT_LIMITS_OPTION
-from .programs import _EXIT_OPTIMAL, BOUND_MARGIN, _MinMax, _Program, _RangeBasis
+from .programs import (
+    _EXIT_OPTIMAL,
+    BOUND_MARGIN,
+    BoundProgram,
+    _MinMax,
+    _Program,
+    _RangeBasis,
+    minmax_torque_rows,
+    solve_program,
+)
 
 __all__ = ["MinMaxTorque"]
 
 
+@register_resolver
 class MinMaxTorque(_BoundedResolver):
     r"""The paper's suggestion (Discussion): linear programming on the largest normalised torque.
 
@@ -77,11 +88,10 @@ class MinMaxTorque(_BoundedResolver):
             rows = np.zeros((count, total, r + 1))
             upper = np.empty((count, total))
             lower = np.empty((count, total))
-            scaled = range_rows[:, bounded] * inverse_spread[:, None]
+            # Row i: (U_i z − t) <= −c_i and (U_i z + t) >= −c_i, c_i = τ̃_i − τ_mid,i, divided by the range.
+            scaled, centre = minmax_torque_rows(range_rows, tilde_torque, bounded, middle, inverse_spread)
             rows[:, :nb, :r], rows[:, nb : 2 * nb, :r] = scaled, scaled
             rows[:, : 2 * nb, r] = sign[:, 0]
-            # Row i: (U_i z − t) <= −c_i and (U_i z + t) >= −c_i, c_i = τ̃_i − τ_mid,i, divided by the range.
-            centre = (middle - tilde_torque[:, bounded]) * inverse_spread
             upper[:, :nb], lower[:, :nb] = centre, -np.inf
             upper[:, nb : 2 * nb], lower[:, nb : 2 * nb] = np.inf, centre
             if joint_rows_count:
@@ -90,17 +100,16 @@ class MinMaxTorque(_BoundedResolver):
                     particular, np.linalg.solve(terms.inertia, range_rows)
                 )
                 rows[:, 2 * nb :, :r] = extra_rows
-            return rows, upper, lower, triangular
+            return BoundProgram(None, None, rows, upper, lower), triangular
 
         def solve(program, problem, row):
-            rows, upper, lower, _ = problem
-            x, flag, _ = program.solve(A=rows[row], bupper=upper[row], blower=lower[row])
+            x, flag = solve_program(program, problem[0].row(row))
             if flag != _EXIT_OPTIMAL or x[r] > ceiling:
                 return None
             return x[:r]
 
         def coordinates(problem, rows, solutions):
-            triangular = problem[3][rows]
+            triangular = problem[1][rows]
             return np.linalg.solve(triangular, solutions[..., None])[..., 0]  # R y = z: H Z y = U z
 
         return StackOptimum(program, build, solve, coordinates)

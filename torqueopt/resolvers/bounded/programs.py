@@ -9,12 +9,22 @@ rather than on :math:`y` of Eq. (26) itself.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import eigenpy
 import numpy as np
 
 from ...errors import MissingDependency, SolverFailure
 
-__all__ = ["BOUND_MARGIN", "FEASIBILITY_TOLERANCE"]
+__all__ = [
+    "BOUND_MARGIN",
+    "FEASIBILITY_TOLERANCE",
+    "BoundProgram",
+    "minmax_torque_rows",
+    "solve_program",
+    "torque_bound_rows",
+    "with_rows",
+]
 
 #: Feasibility tolerance of every bound row, as a fraction of the joint's torque range.
 FEASIBILITY_TOLERANCE = 1e-9
@@ -55,6 +65,67 @@ def _daqp():
     except ImportError:  # pragma: no cover - daqp is a core dependency
         raise MissingDependency("the bounded resolvers need the QP solver DAQP: pip install daqp") from None
     return daqp
+
+
+class BoundProgram(NamedTuple):
+    r"""A bounded resolver's program: :math:`\min_x \tfrac12 x^\top H x + f^\top x` s.t. :math:`l \le A x \le u`.
+
+    What a resolver returns for one state (``rows`` (k × v)), or for a stack
+    with a leading batch axis on every array (``rows`` (B, k, v)); ``row(i)``
+    is one movement's program. ``hessian`` or ``cost`` None keep the numbers
+    the workspace was set up with (an LP's zero Hessian, a fixed cost). A
+    workspace's first ``bounds`` rows of ``upper``/``lower`` are simple bounds on
+    the first variables (:class:`_Program`).
+    """
+
+    hessian: np.ndarray | None
+    cost: np.ndarray | None
+    rows: np.ndarray
+    upper: np.ndarray
+    lower: np.ndarray
+
+    def row(self, index: int) -> BoundProgram:
+        """Movement ``index``'s program of a stacked one."""
+        return BoundProgram(*(None if field is None else field[index] for field in self))
+
+
+def solve_program(workspace: _Program, program: BoundProgram):
+    """(x, exit flag) of ``program`` in its DAQP ``workspace``: warm start, then a cold start, then HiGHS
+    (:meth:`_Program.solve`, the one place where the fall-backs live)."""
+    numbers = {"A": program.rows, "bupper": program.upper, "blower": program.lower}
+    if program.hessian is not None:
+        numbers["H"] = program.hessian
+    if program.cost is not None:
+        numbers["f"] = program.cost
+    x, flag, _ = workspace.solve(**numbers)
+    return x, flag
+
+
+def torque_bound_rows(inertia_basis, tilde_torque, bounded, upper, lower, spread):
+    r"""(rows, upper, lower) of the torque bounds :math:`\tau^- \le \tilde\tau + HZ y \le \tau^+` on y, each row
+    divided by its joint's range (Eq. (27)): ``inertia_basis`` HZ (n × r) or a stack (B, n, r), ``tilde_torque``
+    τ̃ (n) or (B, n); ``upper``, ``lower`` and ``spread`` of the ``bounded`` joints (:func:`~torqueopt.resolvers.bounded.infeasible.solver_bounds`)."""
+    rows = inertia_basis[..., bounded, :] * (1.0 / spread)[:, None]
+    base = tilde_torque[..., bounded]
+    return rows, (upper - base) / spread, (lower - base) / spread
+
+
+def with_rows(program_rows, extra):
+    """(rows, upper, lower) followed by the ``extra`` (rows, upper, lower), for one state or a stack."""
+    rows, upper, lower = program_rows
+    return (
+        np.concatenate([rows, extra[0]], axis=-2),
+        np.concatenate([upper, extra[1]], axis=-1),
+        np.concatenate([lower, extra[2]], axis=-1),
+    )
+
+
+def minmax_torque_rows(range_rows, tilde_torque, bounded, middle, inverse_spread):
+    r"""(:math:`U_i/(\tau^+_i - \tau^-_i)`, :math:`(\tau_{mid,i} - \tilde\tau_i)/(\tau^+_i - \tau^-_i)`) of the
+    bounded joints, for the min-max LP's rows :math:`\pm(\tilde\tau_i + U_i z - \tau_{mid,i}) \le t(\tau^+_i - \tau^-_i)`:
+    ``range_rows`` U (n × r) or a stack (B, n, r), ``tilde_torque`` τ̃ (n) or (B, n), ``middle`` the bounded joints'
+    τ_mid and ``inverse_spread`` their 1/(τ⁺ − τ⁻)."""
+    return range_rows[..., bounded, :] * inverse_spread[:, None], (middle - tilde_torque[..., bounded]) * inverse_spread
 
 
 class _Program:
@@ -293,7 +364,6 @@ class _MinMax:
         self._bounded = bounded
         self._midpoint = midpoint[bounded]
         self._inverse_spread = 1.0 / spread
-        self._inverse_spread_column = self._inverse_spread[:, None]
         self._r = redundancy
         sign = np.r_[-np.ones(nb), np.ones(nb), np.zeros(extra_rows)][:, None]
         rows = np.hstack([np.zeros((2 * nb + extra_rows, redundancy)), sign])
@@ -325,17 +395,17 @@ class _MinMax:
         ``extra``: (rows, upper, lower) of the extra rows on z (None: they bound nothing); t is
         None when they leave no z.
         """
-        bounded = self._bounded
-        np.multiply(range_basis[bounded], self._inverse_spread_column, out=self._rows_plus)
+        self._rows_plus[...], self._upper_plus[...] = minmax_torque_rows(
+            range_basis, tilde_torque, self._bounded, self._midpoint, self._inverse_spread
+        )
         self._rows_minus[...] = self._rows_plus
-        np.multiply(self._midpoint - tilde_torque[bounded], self._inverse_spread, out=self._upper_plus)
         self._lower_minus[...] = self._upper_plus
         if self._extra:
             if extra is None:
                 self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = 0.0, np.inf, -np.inf
             else:
                 self._rows_extra[...], self._upper_extra[...], self._lower_extra[...] = extra
-        x, flag, _ = self.program.solve(A=self._rows, bupper=self._upper, blower=self._lower)
+        x, flag = solve_program(self.program, BoundProgram(None, None, self._rows, self._upper, self._lower))
         if flag != _EXIT_OPTIMAL:
             if self._extra and flag == _EXIT_INFEASIBLE:
                 return x[: self._r], None

@@ -32,7 +32,7 @@ The study's modules, one job each:
 
 * :mod:`~torqueopt.studies.local_global.study`: what it compares and its record (:class:`Row`, :class:`LocalGlobalStudy`);
 * :mod:`~torqueopt.studies.local_global.runner`: running it (:func:`run_local_global`);
-* :mod:`~torqueopt.studies.local_global.report`: its answer in words and its files (:func:`write_local_global`);
+* :mod:`~torqueopt.studies.local_global.report`: its files, ``global.json`` and ``global.md`` (:func:`write_local_global`);
 * :mod:`~torqueopt.studies.local_global.figures`: its figures.
 """
 

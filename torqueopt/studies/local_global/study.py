@@ -11,7 +11,7 @@ from ...result import SimResult
 from ...robot import Robot
 from ...whiplash import DEFAULT_PATH_TOLERANCE
 from .figures import write_figures
-from .report import answer_paragraph, markdown_text
+from .report import joint_3_range, markdown_text
 
 __all__ = ["GLOBAL_VARIANTS", "LOCAL", "REMEDIES", "STUDY_GRID_STEP", "LocalGlobalStudy", "Row"]
 
@@ -128,10 +128,6 @@ class LocalGlobalStudy:
     def row(self, movement: str, method: str) -> Row:
         return next(row for row in self.rows if row.movement == movement and row.method == method)
 
-    def answer(self) -> str:
-        """One paragraph that answers the paper's question with this study's numbers."""
-        return answer_paragraph(self)
-
     def summary(self) -> dict:
         return {
             "scenario": self.scenario.as_dict(),
@@ -140,7 +136,7 @@ class LocalGlobalStudy:
             "missing_remedies": list(self.missing_remedies),
             "rows": [row.as_dict() for row in self.rows],
             "all_optimal": self.all_optimal,
-            "answer": self.answer(),
+            "long_optimum_joint_3_deg": joint_3_range(self),
         }
 
     def markdown(self, figures: list[str]) -> str:

@@ -7,8 +7,9 @@ satisfactory" for staying within torque bounds? This study runs every
 registered remedy (:data:`REMEDIES`; those not registered in this build are
 skipped and said so) on the short, medium and long movements beside ``pinv``
 and ``null-space``, sweeps the blend ``damped-null-space`` over its kinematic
-weight μ and damping :math:`K_D`, and writes the answers as sentences
-generated from the numbers.
+weight μ and damping :math:`K_D`, and writes the numbers (key ``remedies`` of
+``summary.json``) and their tables; docs/discussion/remedies.md says what
+they answer.
 
 Measures (all on the paper's arm, open loop, as the paper):
 
@@ -25,8 +26,9 @@ The study's modules, one job each:
 * :mod:`~torqueopt.studies.remedies.measures`: what it runs and how it measures a run;
 * :mod:`~torqueopt.studies.remedies.runner`: running it (:func:`run_remedies`);
 * :mod:`~torqueopt.studies.remedies.study`: its record and numbers (:class:`RemediesStudy`, :class:`SweepPoint`);
-* :mod:`~torqueopt.studies.remedies.discussion_answers`: the answers as sentences;
-* :mod:`~torqueopt.studies.remedies.report`: its section of ``summary.md``;
+* :mod:`~torqueopt.studies.remedies.discussion_answers`: the numbers of the answers, and the sentences
+  ``summary.json`` has always carried beside them;
+* :mod:`~torqueopt.studies.remedies.report`: its tables in ``summary.md``;
 * :mod:`~torqueopt.studies.remedies.figures`: its figures.
 """
 

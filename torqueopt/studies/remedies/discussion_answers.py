@@ -1,4 +1,9 @@
-"""The remedies study's answers to the Discussion's two questions, as sentences generated from its numbers."""
+"""The remedies study's answers to the Discussion's two questions: their numbers, and sentences made of them.
+
+The sentences are the ``sentences`` of ``summary.json``'s ``remedies.answers``, kept as the file has always
+had them (and printed by ``torqueopt paper``); the documentation's page (docs/discussion/remedies.md)
+says the answers itself, from the numbers.
+"""
 
 from __future__ import annotations
 
