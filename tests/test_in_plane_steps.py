@@ -1,5 +1,5 @@
-"""The single-movement steps of task priority and obstacle avoidance (their stacked forms on a stack of one) on
-planar3's task against the general single-state steps (SVDs, numpy, ``pseudoinverse_rate``): the same rates, q̈ and
+"""The stacked forms of task priority and obstacle avoidance (the batch's) on a stack of one, on planar3's task,
+against the single-state steps that ``simulate`` takes (SVDs, numpy, ``pseudoinverse_rate``): the same rates, q̈ and
 σmin/σmax at each state, the same refusals, the same runs."""
 
 import numpy as np
@@ -13,15 +13,16 @@ from torqueopt.resolvers.velocity.task_priority import TaskPriority, below_one_t
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask
 
 from .conftest import PAPER_Q0
+from .velocity_oracles import stacked_steps
 
 ELBOW_TARGET = [0.5, -0.5]
 
 
 def stacked_priority_steps(robot, task, lower, tolerance):
-    """Task priority's single-state step below ``lower`` (the stacked form on a stack of one)."""
+    """Task priority's stacked form below ``lower`` on a stack of one."""
     resolver = torqueopt.get_resolver("task-priority", secondary=lower, singular_tolerance=tolerance)
     resolver.check(robot)
-    return resolver.step_functions(robot, task)
+    return stacked_steps(resolver, robot, task)
 
 
 def _well_conditioned_priority(task, lower, kinematics) -> bool:
@@ -100,15 +101,13 @@ def test_task_priority_stacked_step_refuses_a_singular_task_jacobian_as_the_svd_
             rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
 
 
-def test_task_priority_takes_the_stacked_step_where_the_stack_applies(planar3):
-    """One frame task (xy or position) below the robot's task runs on a stack of one; two tasks and damping keep
-    the general steps."""
+def test_task_priority_has_a_stacked_form_where_the_batch_has_one(planar3):
+    """One frame task (xy or position) below the robot's task has a stacked form; two tasks and damping do not."""
 
     def stacked(robot, **options):
         resolver = torqueopt.get_resolver("task-priority", **options)
         resolver.check(robot)
-        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
-        return rates.__qualname__.startswith("stack_of_one")
+        return stacked_steps(resolver, robot, FrameTask.of_robot(robot)) is not None
 
     assert stacked(planar3, secondary="link3:0.5,-0.5")
     assert stacked(planar3, secondary="link3:0.5,-0.5,0")
@@ -118,14 +117,14 @@ def test_task_priority_takes_the_stacked_step_where_the_stack_applies(planar3):
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_task_priority_runs_on_the_stacked_step_equal_those_on_the_general_one(planar3, monkeypatch, gain):
-    """The paper's movement below the elbow's xy task, whole runs: the stacked step's q, q̇, q̈, τ and σmin/σmax
-    against those of below_one_task_steps (the stack of one turned off), within round-off (1e-12 of each array's
-    largest value)."""
+    """The paper's movement below the elbow's xy task, whole runs: the stacked form's (on a stack of one) q, q̇, q̈,
+    τ and σmin/σmax against those of ``simulate``'s own step, below_one_task_steps, within round-off (1e-12 of each
+    array's largest value)."""
     line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
     options = {"secondary": "link3:0.5,-0.5", "position_gain": gain}
-    fast = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
-    monkeypatch.setattr(TaskPriority, "stack_step_functions", lambda self, robot, task: None)
     general = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(TaskPriority, "step_functions", stacked_steps)
+    fast = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
     assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
     for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
         got, expected = getattr(fast, name), getattr(general, name)
@@ -173,16 +172,16 @@ def _well_conditioned_obstacle(resolver, task, kinematics) -> bool:
 
 
 def _acting_states_where_the_steps_agree(planar3, rng, draw_resolver, influence, own_rates):
-    """Eight drawn obstacles, six well-conditioned states each: obstacle avoidance's stacked step (a stack of one) against
-    general_step_functions (rates, σmin/σmax, q̈ at 1e-12; q̈ at the rates themselves if ``own_rates``, else at a
-    random velocity). Returns how many states had the arm within ``influence`` of the obstacle."""
+    """Eight drawn obstacles, six well-conditioned states each: obstacle avoidance's stacked form (a stack of one)
+    against its single-state step, general_step_functions (rates, σmin/σmax, q̈ at 1e-12; q̈ at the rates
+    themselves if ``own_rates``, else at a random velocity). Returns how many states had the arm within ``influence`` of the obstacle."""
     task = FrameTask.of_robot(planar3)
     reference, kinematics = Kinematics(planar3), Kinematics(planar3)
     acting = 0
     for _ in range(8):
         resolver = draw_resolver()
-        general = resolver.general_step_functions(planar3, task)
-        fast = resolver.step_functions(planar3, task)
+        general = resolver.step_functions(planar3, task)
+        fast = stacked_steps(resolver, planar3, task)
         tested = 0
         while tested < 6:
             q = rng.uniform(-2.5, 2.5, 3)
@@ -222,29 +221,27 @@ def test_obstacle_avoidance_stacked_step_refuses_a_singular_task_jacobian_as_the
     """The outstretched arm (q = 0): both paths raise SingularJacobian saying so."""
     resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 0.5, 0.1)
     task = FrameTask.of_robot(planar3)
-    for steps in (resolver.general_step_functions, resolver.step_functions):
-        rates, _ = steps(planar3, task)
+    for rates, _ in (resolver.step_functions(planar3, task), stacked_steps(resolver, planar3, task)):
         with pytest.raises(SingularJacobian, match="task Jacobian is singular: smallest/largest singular value"):
             rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
 
 
-def test_obstacle_avoidance_takes_the_stacked_step_on_the_robots_position_task_only(planar3, panda):
+def test_obstacle_avoidance_has_a_stacked_form_on_the_robots_position_task_only(planar3, panda):
     for robot, expected in ((planar3, True), (panda, panda.task != "pose")):
         resolver = _obstacle_resolver(robot, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
-        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
-        assert rates.__qualname__.startswith("stack_of_one") is expected
+        assert (stacked_steps(resolver, robot, FrameTask.of_robot(robot)) is not None) is expected
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_obstacle_avoidance_runs_on_the_stacked_step_equal_those_on_the_general_one(planar3, monkeypatch, gain):
-    """The paper's movement past the CLI's obstacle (1.2, 0.3, r = 0.1), whole runs: the stacked step's q, q̇, q̈, τ
-    and σmin/σmax against those of general_step_functions (the stack of one turned off), 1e-12 of each array's
-    largest value."""
+    """The paper's movement past the CLI's obstacle (1.2, 0.3, r = 0.1), whole runs: the stacked form's (on a stack
+    of one) q, q̇, q̈, τ and σmin/σmax against those of ``simulate``'s own step, general_step_functions, 1e-12 of each
+    array's largest value."""
     line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
     options = {"obstacle": "1.2,0.3,0,0.1", "position_gain": gain}
-    fast = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
-    monkeypatch.setattr(ObstacleAvoidance, "stack_step_functions", lambda self, robot, task: None)
     general = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(ObstacleAvoidance, "step_functions", stacked_steps)
+    fast = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
     assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
     for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
         got, expected = getattr(fast, name), getattr(general, name)
@@ -296,13 +293,6 @@ def test_obstacle_avoidance_stacked_step_equals_the_general_one_off_the_plane(pl
     assert acting > 10
 
 
-def test_obstacle_avoidance_takes_the_general_step_for_another_task_frame(planar3):
-    """A task frame other than the robot's (link2): the stacked form, made for the robot's task, does not apply."""
-    resolver = _obstacle_resolver(planar3, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
-    rates, _ = resolver.step_functions(planar3, FrameTask("link2", "xy"))
-    assert rates.__qualname__.startswith("ObstacleAvoidance.general_step_functions")
-
-
 def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, panda, rng):
     """One obstacle read in turn through two Kinematics at different configurations: each call gives what a fresh
     obstacle (nothing kept from earlier calls) gives for that kinematics."""
@@ -317,20 +307,23 @@ def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, 
                 assert obstacle.closest_values(kinematics) == expected
 
 
-def test_obstacle_avoidance_stacked_step_reads_the_configuration_of_the_kinematics_given(planar3, rng):
-    """One pair of the stacked step's functions read in turn through two Kinematics at different configurations
-    (what it keeps, the views of a Kinematics' data and its values at a configuration, belong to the last one read):
-    each call's rates, σmin/σmax and q̈ are what a fresh pair gives for that kinematics."""
+@pytest.mark.parametrize("stacked", [False, True], ids=["single-state", "stack-of-one"])
+def test_obstacle_avoidance_step_reads_the_configuration_of_the_kinematics_given(planar3, rng, stacked):
+    """One pair of the step's functions (``simulate``'s, or the stacked form's on a stack of one) read in turn
+    through two Kinematics at different configurations (what it keeps, the views of a Kinematics' data and its
+    values at a configuration, belong to the last one read): each call's rates, σmin/σmax and q̈ are what a fresh
+    pair gives for that kinematics."""
     resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 3.0, 0.0)
     task = FrameTask.of_robot(planar3)
-    rates, acceleration = resolver.step_functions(planar3, task)
+    steps = stacked_steps if stacked else type(resolver).step_functions
+    rates, acceleration = steps(resolver, planar3, task)
     first, second = Kinematics(planar3), Kinematics(planar3)
     for _ in range(3):
         for kinematics in (first, second):
             kinematics.update(rng.uniform(0.3, 2.5, 3) * (1.0, -1.0, 1.0))
         command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
         for kinematics in (first, second, first, second):
-            fresh_rates, fresh_acceleration = resolver.step_functions(planar3, task)
+            fresh_rates, fresh_acceleration = steps(resolver, planar3, task)
             expected, expected_condition = fresh_rates(kinematics, command)
             got, condition = rates(kinematics, command)
             assert got.tolist() == expected.tolist() and condition == expected_condition
@@ -343,7 +336,7 @@ def test_the_stacked_step_takes_its_rates_again_for_another_command(planar3, rng
     gives after its rates for that command (the stack's state depends on the command)."""
     resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 3.0, 0.0)
     task = FrameTask.of_robot(planar3)
-    rates, acceleration = resolver.step_functions(planar3, task)
+    rates, acceleration = stacked_steps(resolver, planar3, task)
     kinematics = Kinematics(planar3).update(np.array([0.4, 1.2, -0.9]))
     command, other, command_rate, velocity = (
         rng.normal(size=2),
@@ -353,7 +346,7 @@ def test_the_stacked_step_takes_its_rates_again_for_another_command(planar3, rng
     )
     rates(kinematics, command)
     got = acceleration(kinematics, velocity, other, command_rate)
-    fresh_rates, fresh_acceleration = resolver.step_functions(planar3, task)
+    fresh_rates, fresh_acceleration = stacked_steps(resolver, planar3, task)
     fresh_rates(kinematics, other)
     assert got.tolist() == fresh_acceleration(kinematics, velocity, other, command_rate).tolist()
     assert got.tolist() != fresh_acceleration(kinematics, velocity, command, command_rate).tolist()

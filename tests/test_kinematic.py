@@ -21,6 +21,7 @@ from torqueopt.whiplash import detect_whiplash
 
 from .conftest import PAPER_Q0
 from .test_tasks import central, five_point, planar_jacobian, planar_points
+from .velocity_oracles import stacked_steps
 
 LONG = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
 #: A circle the paper's arm can go round from q0 on both branches (centre along +x of the start).
@@ -588,8 +589,8 @@ def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
 
 
 def assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, draw_q, rng, count):
-    """The extended Jacobian's single-state step (its stacked form on a stack of one: the row by Jacobi's formula,
-    the curvature in closed form) against :meth:`ExtendedJacobian.lu_step_functions` (the row from Pinocchio's
+    """The extended Jacobian's stacked form on a stack of one (the row by Jacobi's formula, the curvature in closed
+    form) against its single-state step, :meth:`ExtendedJacobian.lu_step_functions` (the row from Pinocchio's
     kinematic Hessian, J_ex's LU factors, the curvature by its central difference) at ``count`` drawn states
     where J is not singular: q̇ and σmin/σmax at 1e-12, q̈ at 1e-9 (the difference's round-off is about 1e-10 of
     q̈'s size)."""
@@ -614,14 +615,14 @@ def assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, draw_q,
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_the_extended_jacobian_step_is_its_lu_reference(planar3, rng, gain):
-    """planar3's single-state step (the stacked form on a stack of one: cross products, J_ex⁻¹ by its adjugate,
-    J's inverse condition from JJᵀ) against :meth:`ExtendedJacobian.lu_step_functions` (J_ex's LU factors, Eigen's
+    """planar3's stacked form on a stack of one (cross products, J_ex⁻¹ by its adjugate, J's inverse condition
+    from JJᵀ) against its single-state step, :meth:`ExtendedJacobian.lu_step_functions` (J_ex's LU factors, Eigen's
     SVD, the curvature by its central difference), and the same refusals with the same words where J or J_ex is
     singular."""
     resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
     task = FrameTask.of_robot(planar3)
-    fast, reference = resolver.step_functions(planar3, task), resolver.lu_step_functions(planar3, task)
-    assert fast[0].__qualname__.startswith("stack_of_one")
+    fast, reference = stacked_steps(resolver, planar3, task), resolver.step_functions(planar3, task)
+    assert reference[0].__qualname__.startswith("ExtendedJacobian.lu_step_functions")
     kinematics = Kinematics(planar3)
     assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, lambda: rng.uniform(-2, 2, 3), rng, count=10)
     command = rng.normal(size=2)
@@ -632,7 +633,7 @@ def test_the_extended_jacobian_step_is_its_lu_reference(planar3, rng, gain):
     refused = 0
     for method, q in cases:
         messages = []
-        for rates, _ in (method.step_functions(planar3, task), method.lu_step_functions(planar3, task)):
+        for rates, _ in (stacked_steps(method, planar3, task), method.step_functions(planar3, task)):
             try:
                 rates(kinematics.update(q), command)
                 messages.append(None)

@@ -19,6 +19,7 @@ from torqueopt.tasks import FrameTask, Kinematics, PostureTask
 from .conftest import PAPER_Q0
 from .test_batch import assert_stacks_equal_simulate
 from .test_kinematic import assert_stacked_step_is_the_lu_reference
+from .velocity_oracles import stacked_steps
 
 
 @pytest.fixture(scope="module")
@@ -65,13 +66,15 @@ def test_the_stack_stops_at_the_fold_as_the_loop_does(planar3):
 
 
 def test_the_stack_equals_the_kinematic_loop_with_a_posture_criterion(planar3):
-    """G of Eq. (14) with p = ½‖q − q*‖² (its Hessian the identity), toward a posture."""
+    """G of Eq. (14) with p = ½‖q − q*‖² (its Hessian the identity), toward a posture. At 2e-9: one run ends in
+    torques of 23,000 N·m, where τ from ``simulate``'s curvature by a central difference (round-off about 1e-10 of
+    q̈) is 1.2e-9 relative from the stack's closed form (measured)."""
     resolver = torqueopt.get_resolver(
         "extended-jacobian", criterion=PostureDistance(PostureTask(target=[0.5, 1.2, -0.8]))
     )
     assert isinstance(resolver.stack_rate_function(planar3), StackedExtendedJacobian)
     lines, q0s = _planar_movements(4, seed=9, duration=1.0)
-    assert_stacks_equal_simulate(planar3, resolver, lines, q0s)
+    assert_stacks_equal_simulate(planar3, resolver, lines, q0s, tolerance=2e-9)
 
 
 @pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
@@ -200,11 +203,11 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
 
 @pytest.mark.parametrize("gain", [0.0, 2.0])
 def test_the_single_state_step_is_the_lu_reference_on_four_joints(panda4, rng, gain):
-    """panda4's single-state step (the stacked form on a stack of one, the curvature in closed form) against
+    """panda4's stacked form on a stack of one (the curvature in closed form) against its single-state step,
     ``lu_step_functions`` (Pinocchio's kinematic Hessian, the curvature by its central difference); a callable
-    criterion, which has no stacked form, takes the LU step itself."""
+    criterion has no stacked form."""
     resolver, task = torqueopt.get_resolver("extended-jacobian", position_gain=gain), FrameTask.of_robot(panda4)
-    fast, reference = resolver.step_functions(panda4, task), resolver.lu_step_functions(panda4, task)
+    fast, reference = stacked_steps(resolver, panda4, task), resolver.step_functions(panda4, task)
     kinematics, tested = Kinematics(panda4), 0
     while tested < 8:
         q, velocity = rng.uniform(-2.0, 2.0, panda4.nv), rng.normal(size=panda4.nv)
@@ -222,9 +225,7 @@ def test_the_single_state_step_is_the_lu_reference_on_four_joints(panda4, rng, g
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
         assert np.abs(got - expected).max() > 0.0  # two computations, not one
     callable_criterion = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2))
-    assert callable_criterion.step_functions(panda4, task)[0].__qualname__.startswith(
-        "ExtendedJacobian.lu_step_functions"
-    )
+    assert stacked_steps(callable_criterion, panda4, task) is None
 
 
 @pytest.fixture(scope="module")
@@ -253,11 +254,11 @@ def test_the_stacks_row_is_the_kinematic_hessians(planar3, panda3, rng):
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
 def test_the_step_is_the_lu_reference_on_a_spatial_chain(panda3, rng, gain):
-    """The single-state step (the stacked form on a stack of one) against ``lu_step_functions`` on a spatial
+    """The stacked form on a stack of one against the single-state step, ``lu_step_functions``, on a spatial
     chain (see ``assert_stacked_step_is_the_lu_reference``)."""
     resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
     task = FrameTask.of_robot(panda3)
-    fast, reference = resolver.step_functions(panda3, task), resolver.lu_step_functions(panda3, task)
+    fast, reference = stacked_steps(resolver, panda3, task), resolver.step_functions(panda3, task)
 
     def draw_q():
         return panda3.default_configuration + rng.uniform(-1.0, 1.0, 3)

@@ -18,14 +18,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from ...errors import InvalidInput, SingularJacobian
+from ...errors import InvalidInput
 from ...linalg import JacobianSolver
 from ...robot import Robot
-from ...tasks import FrameTask, Kinematics, PerConfiguration
+from ...tasks import FrameTask
 from ..base import Resolver
 from ..options import LARGEST_WEIGHT, Option, number
 
-__all__ = ["VelocityResolver", "VelocityStack", "stack_of_one", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
+__all__ = ["VelocityResolver", "VelocityStack", "pseudoinverse_solver", "POSITION_GAIN_OPTION"]
 
 #: The option every velocity-level resolver accepts: closed-loop inverse kinematics.
 POSITION_GAIN_OPTION = Option(
@@ -90,15 +90,6 @@ class VelocityResolver(Resolver):
         """The joint rates and q̈ on (B, ...) stacks, for the batch, or None (the default: one movement at a time):
         a :class:`VelocityStack`, the stacked forms of :meth:`rate_function` and :meth:`acceleration_function`."""
         return None
-
-    def stack_step_functions(self, robot: Robot, task: FrameTask):
-        """The single-state pair of :meth:`step_functions` as the stacked form on a stack of one (:func:`stack_of_one`),
-        where :meth:`stack_rate_function` has one, the robot's joints add (``Robot.euclidean``, as the batch's forest
-        needs) and ``task`` is the robot's own (its frame and a position task); else None."""
-        if not robot.euclidean or task.kind == "pose" or task.frame != robot.frame or task.kind != robot.task:
-            return None
-        stack = self.stack_rate_function(robot)
-        return None if stack is None else stack_of_one(stack, robot, task)
 
     def settings_for_file(self) -> dict:
         """The option values as JSON-ready values: vectors as lists, task objects and callables by their repr."""
@@ -166,51 +157,6 @@ class VelocityStack:
         record it).
         """
         return None
-
-
-def stack_of_one(stack: VelocityStack, robot: Robot, task: FrameTask):
-    """The single-state pair (rates, q̈) of :meth:`VelocityResolver.step_functions` from a method's stacked form:
-    ``stack`` on a stack of one state, its kinematics from a forest of one copy of ``robot`` (the batch's own
-    pass), so that :func:`torqueopt.simulate` and the batch compute the same numbers. A row the stack finds
-    undefined raises SingularJacobian with the stack's words.
-
-    q̈ reads what the rates computed at the same configuration for the same command (the loop evaluates them
-    there first); for another command it takes the rates again."""
-    from ...robot_copies import RobotForest
-
-    forest, rows = RobotForest(robot, 1), task.rows
-    last: list = [None, None, None, None]  # the kinematics, its revision, the command, the stack's state
-
-    @PerConfiguration
-    def at_configuration(kinematics: Kinematics):
-        q = kinematics.q[None]
-        found = forest.kinematics(
-            q, inverse_inertia=stack.reads_inverse_inertia, joints=stack.reads_joints, inertia=stack.reads_inertia
-        )
-        return q, found._replace(jacobian=found.jacobian[:, rows], frame_jacobian=found.jacobian)
-
-    def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-        q, found = at_configuration(kinematics)
-        velocity, conditions, failures, state = stack.rates(found.jacobian, task_velocity[None], q, found)
-        if failures:
-            raise SingularJacobian(failures[0])
-        last[:] = kinematics, kinematics.revision, task_velocity, state
-        return velocity[0], float(conditions[0])
-
-    def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-        q, found = at_configuration(kinematics)
-        if not (last[0] is kinematics and last[1] == kinematics.revision and np.array_equal(last[2], command)):
-            rates(kinematics, command)
-        moving = forest.kinematics(
-            q, velocity[None], found.tip, inertia_rate=stack.reads_inertia_rate, joints=stack.reads_joints
-        )
-        moving = moving._replace(
-            jacobian=moving.jacobian[:, rows], rate=moving.rate[:, rows],
-            frame_jacobian=moving.jacobian, frame_rate=moving.rate,
-        )  # fmt: skip
-        return stack.acceleration(found.jacobian, moving.rate, velocity[None], command_rate[None], last[3], moving)[0]
-
-    return rates, acceleration
 
 
 def pseudoinverse_solver(robot: Robot, tolerance: float, null_space: bool = True) -> JacobianSolver:

@@ -196,20 +196,19 @@ class ExtendedJacobian(VelocityResolver):
 
         with :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). The curvature
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
-        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give. For a
-        diagonal quadratic criterion (``joint-limits``, a posture's distance) on a robot whose joints add, it is
-        taken in closed form from the task frame's J and :math:`\dot J` (``StackedExtendedJacobian``, on a stack of
-        one). Elsewhere (a callable criterion, joints that do not add) by a central difference of the row
-        :math:`\partial G/\partial q` along :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two
-        evaluations of the row instead of the loop's four of the whole rate map (:meth:`lu_step_functions`); the
-        tests hold the closed form to it.
+        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
+        taken by a central difference of the row :math:`\partial G/\partial q` along :math:`\dot q/|\dot q|` (step
+        ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the loop's four of the whole rate map
+        (:meth:`lu_step_functions`). The batch's stacked form (``StackedExtendedJacobian``) takes it in closed form
+        from the task frame's J and :math:`\dot J` for a diagonal quadratic criterion (``joint-limits``, a
+        posture's distance) on a robot whose joints add; the tests hold the closed form to the difference.
         """
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (15)'s rates and their q̈ (None for ``pose``): the stacked form on a stack of one where it applies
-        (:meth:`stack_rate_function`), else :meth:`lu_step_functions`."""
-        return self.stack_step_functions(robot, task) or self.lu_step_functions(robot, task)
+        """Eq. (15)'s rates and their q̈ (None for ``pose``): :meth:`lu_step_functions`. The batch takes the stacked
+        form (:meth:`stack_rate_function`), which the tests hold to this one."""
+        return self.lu_step_functions(robot, task)
 
     def lu_step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1 and any criterion with a Hessian,

@@ -123,12 +123,9 @@ class GradientProjection(CriterionGain, VelocityResolver):
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (4)'s rates and their closed-form q̈ (or None): the stacked form on a stack of one where it applies
-        (:meth:`stack_rate_function`), else ``projected_gradient_steps``, sharing J, J⁺ and ∂p/∂q at each
-        configuration."""
-        stacked = self.stack_step_functions(robot, task)
-        if stacked is not None:
-            return stacked
+        """Eq. (4)'s rates and their closed-form q̈ (or None): ``projected_gradient_steps``, sharing J, J⁺ and ∂p/∂q
+        at each configuration. The batch takes the stacked form (:meth:`stack_rate_function`), which the tests hold
+        to this one."""
         rates, acceleration = projected_gradient_steps(robot, task, self.singular_tolerance, self.objective, self.gain)
         return rates, None if task.kind == "pose" or not self.objective.has_curvature else acceleration
 

@@ -162,9 +162,9 @@ class ObstacleAvoidance(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
-        configuration: the stacked form on a stack of one where it applies (:meth:`stack_rate_function`), else
-        :meth:`general_step_functions`."""
-        return self.stack_step_functions(robot, task) or self.general_step_functions(robot, task)
+        configuration: :meth:`general_step_functions`. The batch takes the stacked form (:meth:`stack_rate_function`),
+        which the tests hold to this one."""
+        return self.general_step_functions(robot, task)
 
     def general_step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task) for any task, sharing what both read at a

@@ -115,17 +115,14 @@ class TaskPriority(VelocityResolver):
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration.
 
-        Where the stacked form applies (:meth:`stack_rate_function`), it runs on a stack of one. Elsewhere, below
-        posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4), toward the
-        first posture's target (:meth:`stack_rate_function` says why), and runs as such
+        Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4), toward
+        the first posture's target (:meth:`stack_rate_function` says why), and runs as such
         (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two;
-        below one other task without damping, ``below_one_task_steps``.
+        below one other task without damping, ``below_one_task_steps``. The batch takes the stacked form
+        (:meth:`stack_rate_function`), which the tests hold to these.
         """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
-        stacked = self.stack_step_functions(robot, task)
-        if stacked is not None:
-            return stacked
         if self._below_postures_only:
             posture = secondary.tasks[0]
             rates, acceleration = projected_gradient_steps(
