@@ -15,6 +15,7 @@ from ...robot import Robot
 from ...robot_copies import stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
 from .criteria import JointLimits, PostureDistance, criterion_from
 from .options import criterion_spec
@@ -88,6 +89,7 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
+@register_resolver
 class ExtendedJacobian(VelocityResolver):
     r"""Baillieul's extended Jacobian for n − m = 1, Eq. (14), Eq. (15).
 

@@ -8,6 +8,7 @@ from ...linalg import cross_along, determinants
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import Criterion, JointLimits, Manipulability, criterion_from
 from .options import criterion_spec
@@ -68,6 +69,7 @@ class CriterionGain:
         self.objective.check(robot)
 
 
+@register_resolver
 class GradientProjection(CriterionGain, VelocityResolver):
     r"""Resolved rate plus the projected gradient of a criterion p(q), Eq. (4).
 

@@ -20,8 +20,10 @@ from ...tasks import (
 )
 from ...tasks.task import identity
 from ..options import Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import obstacle as obstacle_option
+from .options import obstacle_text
 from .pseudoinverse import StackedPseudoInverse
 
 __all__ = [
@@ -52,6 +54,7 @@ def activation_rate(clearance: float, influence: float, critical: float) -> floa
     return -6.0 * s * (1.0 - s) / (influence - critical)
 
 
+@register_resolver
 class ObstacleAvoidance(VelocityResolver):
     r"""Resolved rate that moves the arm's closest point away from an obstacle, Eq. (13).
 
@@ -86,6 +89,7 @@ class ObstacleAvoidance(VelocityResolver):
             meaning="the point or sphere obstacle (centre in world axes, radius)",
             convert=obstacle_option,
             default_text="none (required)",
+            text=obstacle_text,
         ),
         Option(
             name="speed",

@@ -24,6 +24,7 @@ from ...tasks import (
 from ...tasks.stack import ABSOLUTE_TOLERANCE, stacked_undamped_pseudoinverse
 from ...tasks.task import identity
 from ..options import LARGEST_WEIGHT, Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import PostureDistance
 from .gradient_projection import StackedGradientProjection, projected_gradient_steps
@@ -33,6 +34,7 @@ from .pseudoinverse import StackedPseudoInverse, stacked_inverse
 __all__ = ["TaskPriority", "below_one_task_steps", "accelerations_below_one_task"]
 
 
+@register_resolver
 class TaskPriority(VelocityResolver):
     r"""The robot's task first; lower-priority tasks in what freedom is left, Eq. (11).
 
