@@ -61,13 +61,14 @@ def batch_on_stacks(robot, resolver, lines, q0s, **ceilings):
     return runs
 
 
-def assert_stacks_equal_simulate(robot, resolver, lines, q0s, **ceilings):
+def assert_stacks_equal_simulate(robot, resolver, lines, q0s, tolerance=1e-9, **ceilings):
     """The batch's runs on stacks (:func:`batch_on_stacks`) equal ``simulate``'s run by run
-    (:func:`assert_same_run`); ``simulate``'s runs returned, for the caller to check what they cover."""
+    (:func:`assert_same_run` at ``tolerance``); ``simulate``'s runs returned, for the caller to check what they
+    cover."""
     runs = batch_on_stacks(robot, resolver, lines, q0s, **ceilings)
     singles = [torqueopt.simulate(robot, resolver, line, q0, **ceilings) for line, q0 in zip(lines, q0s)]
     for run, single in zip(runs, singles):
-        assert_same_run(run, single)
+        assert_same_run(run, single, tolerance)
     return singles
 
 

@@ -1,21 +1,28 @@
-"""The single-movement steps on floats for planar3's task (a 2×3 Jacobian) against the general steps they stand in
-for: the same rates, q̈ and σmin/σmax at each state, the same refusals, the same runs."""
+"""The stacked forms of task priority and obstacle avoidance (the batch's) on a stack of one, on planar3's task,
+against the single-state steps that ``simulate`` takes (SVDs, numpy, ``pseudoinverse_rate``): the same rates, q̈ and
+σmin/σmax at each state, the same refusals, the same runs."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 import torqueopt
-import torqueopt.resolvers.velocity.obstacle_avoidance as obstacle_avoidance
-import torqueopt.resolvers.velocity.task_priority as task_priority
 from torqueopt.errors import SingularJacobian
 from torqueopt.resolvers.velocity.obstacle_avoidance import ObstacleAvoidance
-from torqueopt.resolvers.velocity.task_priority import below_one_task_steps, in_plane_below_one_task_steps
+from torqueopt.resolvers.velocity.task_priority import TaskPriority, below_one_task_steps
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask
 
 from .conftest import PAPER_Q0
+from .velocity_oracles import stacked_steps
 
 ELBOW_TARGET = [0.5, -0.5]
+
+
+def stacked_priority_steps(robot, task, lower, tolerance):
+    """Task priority's stacked form below ``lower`` on a stack of one."""
+    resolver = torqueopt.get_resolver("task-priority", secondary=lower, singular_tolerance=tolerance)
+    resolver.check(robot)
+    return stacked_steps(resolver, robot, task)
 
 
 def _well_conditioned_priority(task, lower, kinematics) -> bool:
@@ -38,12 +45,12 @@ def _well_conditioned_priority(task, lower, kinematics) -> bool:
     ],
     ids=["elbow", "no-target", "link2"],
 )
-def test_task_priority_in_plane_steps_equal_the_general_ones(planar3, rng, lower):
-    """Rates, σmin/σmax and the closed-form q̈ of Eq. (11) below one xy frame task, on floats, against
+def test_task_priority_stacked_step_equals_the_general_one(planar3, rng, lower):
+    """Rates, σmin/σmax and the closed-form q̈ of Eq. (11) below one xy frame task, on a stack of one, against
     below_one_task_steps (SVDs and the q̈ of accelerations_below_one_task) at random states: 1e-12."""
     task = FrameTask.of_robot(planar3)
     general = below_one_task_steps(planar3, task, lower, 1e-6)
-    fast = in_plane_below_one_task_steps(planar3, task, lower, 1e-6)
+    fast = stacked_priority_steps(planar3, task, lower, 1e-6)
     reference, kinematics = Kinematics(planar3), Kinematics(planar3)
     tested = 0
     while tested < 40:
@@ -64,12 +71,12 @@ def test_task_priority_in_plane_steps_equal_the_general_ones(planar3, rng, lower
         )
 
 
-def test_task_priority_in_plane_steps_drop_a_lower_task_the_null_space_cannot_move(planar3, rng):
+def test_task_priority_stacked_step_drops_a_lower_task_the_null_space_cannot_move(planar3, rng):
     """Below the tip's own xy task, J_l(I − J⁺J) = 0: both paths drop it (q̇ = J⁺c and its derivative)."""
     task = FrameTask.of_robot(planar3)
     lower = FrameTask("tip", "xy", target=[1.0, 1.0], gain=3.0)
     general = below_one_task_steps(planar3, task, lower, 1e-6)
-    fast = in_plane_below_one_task_steps(planar3, task, lower, 1e-6)
+    fast = stacked_priority_steps(planar3, task, lower, 1e-6)
     reference, kinematics = Kinematics(planar3), Kinematics(planar3)
     for _ in range(10):
         q, command, command_rate = rng.uniform(-2, 2, 3), rng.normal(size=2), rng.normal(size=2)
@@ -84,47 +91,40 @@ def test_task_priority_in_plane_steps_drop_a_lower_task_the_null_space_cannot_mo
         )
 
 
-def test_task_priority_in_plane_steps_refuse_a_singular_task_jacobian_as_the_svd_does(planar3):
+def test_task_priority_stacked_step_refuses_a_singular_task_jacobian_as_the_svd_does(planar3):
     """The outstretched arm (q = 0): J has rank one, both paths raise SingularJacobian saying so."""
     task = FrameTask.of_robot(planar3)
     lower = FrameTask("link3", "xy", target=ELBOW_TARGET)
-    for steps in (below_one_task_steps, in_plane_below_one_task_steps):
+    for steps in (below_one_task_steps, stacked_priority_steps):
         rates, _ = steps(planar3, task, lower, 1e-6)
         with pytest.raises(SingularJacobian, match="task Jacobian is singular: smallest/largest singular value"):
             rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
 
 
-def test_task_priority_takes_the_in_plane_steps_on_planar3_below_one_xy_frame_task_only(planar3, panda):
-    """The float twin runs planar3's task below one xy frame task; a position frame task, two tasks, damping and
-    panda keep the general steps."""
+def test_task_priority_has_a_stacked_form_where_the_batch_has_one(planar3):
+    """One frame task (xy or position) below the robot's task has a stacked form; two tasks and damping do not."""
 
-    def fast(robot, **options):
+    def stacked(robot, **options):
         resolver = torqueopt.get_resolver("task-priority", **options)
         resolver.check(robot)
-        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
-        return rates.__qualname__.startswith("in_plane_below_one_task_steps")
+        return stacked_steps(resolver, robot, FrameTask.of_robot(robot)) is not None
 
-    assert fast(planar3, secondary="link3:0.5,-0.5")
-    assert not fast(planar3, secondary="link3:0.5,-0.5,0")
-    assert not fast(planar3, secondary="link3:0.5,-0.5;link2:0.1,0.2")
-    assert not fast(planar3, secondary="link3:0.5,-0.5", damping=0.01)
-    assert not fast(panda, secondary="panda_link4:0.3,0,0.6")
+    assert stacked(planar3, secondary="link3:0.5,-0.5")
+    assert stacked(planar3, secondary="link3:0.5,-0.5,0")
+    assert not stacked(planar3, secondary="link3:0.5,-0.5;link2:0.1,0.2")
+    assert not stacked(planar3, secondary="link3:0.5,-0.5", damping=0.01)
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
-def test_task_priority_runs_on_the_in_plane_steps_equal_those_on_the_general_ones(planar3, monkeypatch, gain):
-    """The paper's movement below the elbow's xy task, whole runs: the float twin's q, q̇, q̈, τ and σmin/σmax
-    against those of below_one_task_steps (the dispatch patched to it), within round-off (1e-12 of each array's
-    largest value)."""
+def test_task_priority_runs_on_the_stacked_step_equal_those_on_the_general_one(planar3, monkeypatch, gain):
+    """The paper's movement below the elbow's xy task, whole runs: the stacked form's (on a stack of one) q, q̇, q̈,
+    τ and σmin/σmax against those of ``simulate``'s own step, below_one_task_steps, within round-off (1e-12 of each
+    array's largest value)."""
     line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
     options = {"secondary": "link3:0.5,-0.5", "position_gain": gain}
-    fast = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
-    monkeypatch.setattr(
-        task_priority,
-        "in_plane_below_one_task_steps",
-        lambda robot, task, lower, tolerance: below_one_task_steps(robot, task, lower, tolerance),
-    )
     general = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(TaskPriority, "step_functions", stacked_steps)
+    fast = torqueopt.simulate(planar3, "task-priority", line, PAPER_Q0, resolver_options=options)
     assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
     for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
         got, expected = getattr(fast, name), getattr(general, name)
@@ -134,7 +134,6 @@ def test_task_priority_runs_on_the_in_plane_steps_equal_those_on_the_general_one
 def test_jacobian_time_variations_of_frames_and_joints_from_one_computation(planar3, panda, rng):
     """Kinematics.jacobian_time_variations: each frame's J̇ that of frame_jacobian_time_variation (bit for bit), each
     joint's a central difference of Pinocchio's joint Jacobian (world-aligned, at the joint's origin) along v."""
-    import pinocchio as pin
 
     pin.seed(int(rng.integers(2**31)))
     world_aligned = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -172,17 +171,17 @@ def _well_conditioned_obstacle(resolver, task, kinematics) -> bool:
     return np.linalg.norm(obstacle.point_jacobian(kinematics, closest).dot(null)) >= 0.05 * np.linalg.norm(null)
 
 
-def _acting_states_where_the_twins_agree(planar3, rng, draw_resolver, influence, own_rates):
-    """Eight drawn obstacles, six well-conditioned states each: obstacle avoidance's in-plane step functions against
-    general_step_functions (rates, σmin/σmax, q̈ at 1e-12; q̈ at the rates themselves if ``own_rates``, else at a
-    random velocity). Returns how many states had the arm within ``influence`` of the obstacle."""
+def _acting_states_where_the_steps_agree(planar3, rng, draw_resolver, influence, own_rates):
+    """Eight drawn obstacles, six well-conditioned states each: obstacle avoidance's stacked form (a stack of one)
+    against its single-state step, general_step_functions (rates, σmin/σmax, q̈ at 1e-12; q̈ at the rates
+    themselves if ``own_rates``, else at a random velocity). Returns how many states had the arm within ``influence`` of the obstacle."""
     task = FrameTask.of_robot(planar3)
     reference, kinematics = Kinematics(planar3), Kinematics(planar3)
     acting = 0
     for _ in range(8):
         resolver = draw_resolver()
-        general = resolver.general_step_functions(planar3, task)
-        fast = resolver.in_plane_step_functions(planar3, task)
+        general = resolver.step_functions(planar3, task)
+        fast = stacked_steps(resolver, planar3, task)
         tested = 0
         while tested < 6:
             q = rng.uniform(-2.5, 2.5, 3)
@@ -207,44 +206,42 @@ def _acting_states_where_the_twins_agree(planar3, rng, draw_resolver, influence,
 @pytest.mark.parametrize(
     "influence, critical", [(3.0, 0.0), (0.5, 0.1), (0.05, 0.0)], ids=["activating", "paper", "mostly-off"]
 )
-def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones(planar3, rng, influence, critical):
-    """Rates, σmin/σmax and the closed-form q̈ of Eq. (13), on floats, against general_step_functions (SVDs, numpy
+def test_obstacle_avoidance_stacked_step_equals_the_general_one(planar3, rng, influence, critical):
+    """Rates, σmin/σmax and the closed-form q̈ of Eq. (13), on a stack of one, against general_step_functions (SVDs, numpy
     and pseudoinverse_rate) at random states and obstacles, with the avoidance partly, fully and not acting: 1e-12."""
 
     def in_the_plane():
         return _obstacle_resolver(planar3, rng.uniform(-1.5, 1.5, 2), rng.uniform(0.0, 0.2), influence, critical)
 
-    acting = _acting_states_where_the_twins_agree(planar3, rng, in_the_plane, influence, own_rates=True)
+    acting = _acting_states_where_the_steps_agree(planar3, rng, in_the_plane, influence, own_rates=True)
     assert acting > 0 and (influence > 0.05 or acting < 24)  # the avoidance acts at some states, not all
 
 
-def test_obstacle_avoidance_in_plane_steps_refuse_a_singular_task_jacobian_as_the_svd_does(planar3):
+def test_obstacle_avoidance_stacked_step_refuses_a_singular_task_jacobian_as_the_svd_does(planar3):
     """The outstretched arm (q = 0): both paths raise SingularJacobian saying so."""
     resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 0.5, 0.1)
     task = FrameTask.of_robot(planar3)
-    for steps in (resolver.general_step_functions, resolver.in_plane_step_functions):
-        rates, _ = steps(planar3, task)
+    for rates, _ in (resolver.step_functions(planar3, task), stacked_steps(resolver, planar3, task)):
         with pytest.raises(SingularJacobian, match="task Jacobian is singular: smallest/largest singular value"):
             rates(Kinematics(planar3).update(np.zeros(3)), np.ones(2))
 
 
-def test_obstacle_avoidance_takes_the_in_plane_steps_on_planar3_only(planar3, panda):
-    for robot, expected in ((planar3, True), (panda, False)):
+def test_obstacle_avoidance_has_a_stacked_form_on_the_robots_position_task_only(planar3, panda):
+    for robot, expected in ((planar3, True), (panda, panda.task != "pose")):
         resolver = _obstacle_resolver(robot, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
-        rates, _ = resolver.step_functions(robot, FrameTask.of_robot(robot))
-        assert rates.__qualname__.startswith("ObstacleAvoidance.in_plane_step_functions") is expected
+        assert (stacked_steps(resolver, robot, FrameTask.of_robot(robot)) is not None) is expected
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
-def test_obstacle_avoidance_runs_on_the_in_plane_steps_equal_those_on_the_general_ones(planar3, monkeypatch, gain):
-    """The paper's movement past the CLI's obstacle (1.2, 0.3, r = 0.1), whole runs: the float twin's q, q̇, q̈, τ
-    and σmin/σmax against those of general_step_functions (the dispatch patched to it), 1e-12 of each array's
-    largest value."""
+def test_obstacle_avoidance_runs_on_the_stacked_step_equal_those_on_the_general_one(planar3, monkeypatch, gain):
+    """The paper's movement past the CLI's obstacle (1.2, 0.3, r = 0.1), whole runs: the stacked form's (on a stack
+    of one) q, q̇, q̈, τ and σmin/σmax against those of ``simulate``'s own step, general_step_functions, 1e-12 of each
+    array's largest value."""
     line = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
     options = {"obstacle": "1.2,0.3,0,0.1", "position_gain": gain}
-    fast = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
-    monkeypatch.setattr(ObstacleAvoidance, "in_plane_step_functions", ObstacleAvoidance.general_step_functions)
     general = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
+    monkeypatch.setattr(ObstacleAvoidance, "step_functions", stacked_steps)
+    fast = torqueopt.simulate(planar3, "obstacle-avoidance", line, PAPER_Q0, resolver_options=options)
     assert (fast.stop_reason, len(fast.t)) == (general.stop_reason, len(general.t))
     for name in ("q", "v", "acceleration", "tau", "jacobian_inverse_condition"):
         got, expected = getattr(fast, name), getattr(general, name)
@@ -284,29 +281,16 @@ def test_world_jacobians_moved_to_a_frame_are_pinocchios_frame_jacobian_and_its_
                 np.testing.assert_allclose(moved_rate, expected_rate, rtol=0, atol=1e-12)
 
 
-def test_obstacle_avoidance_in_plane_steps_equal_the_general_ones_off_the_plane(planar3, rng):
-    """Spheres whose centre is off the arm's plane (z ≠ 0), so that n̂ has a z part: the float twin's rates, σmin/σmax
-    and q̈ (whose b and J_o drop the z row) against general_step_functions, 1e-12."""
+def test_obstacle_avoidance_stacked_step_equals_the_general_one_off_the_plane(planar3, rng):
+    """Spheres whose centre is off the arm's plane (z ≠ 0), so that n̂ has a z part: the stacked step's rates,
+    σmin/σmax and q̈ against general_step_functions, 1e-12."""
 
     def off_the_plane():
         center = [*rng.uniform(-1.5, 1.5, 2), rng.uniform(-0.4, 0.4)]
         return _obstacle_resolver(planar3, center, rng.uniform(0.0, 0.1), 1.0, 0.1)
 
-    acting = _acting_states_where_the_twins_agree(planar3, rng, off_the_plane, 1.0, own_rates=False)
+    acting = _acting_states_where_the_steps_agree(planar3, rng, off_the_plane, 1.0, own_rates=False)
     assert acting > 10
-
-
-def test_obstacle_avoidance_takes_the_in_plane_steps_for_joints_about_world_z_moving_the_task_frame_only(planar3):
-    """A task frame that the last joint does not move (link2), or a joint turned off world z: the general steps."""
-    resolver = _obstacle_resolver(planar3, [1.2, 0.3, 0.0], 0.1, 0.5, 0.1)
-    rates, _ = resolver.step_functions(planar3, FrameTask("link2", "xy"))
-    assert rates.__qualname__.startswith("ObstacleAvoidance.general_step_functions")
-    model = planar3.model.copy()
-    assert obstacle_avoidance._planar_chain(model, model.getFrameId("tip"))
-    placement = model.jointPlacements[2]
-    placement.rotation = pin.utils.rotate("x", 0.3)
-    model.jointPlacements[2] = placement
-    assert not obstacle_avoidance._planar_chain(model, model.getFrameId("tip"))
 
 
 def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, panda, rng):
@@ -323,22 +307,46 @@ def test_closest_values_read_the_configuration_of_the_kinematics_given(planar3, 
                 assert obstacle.closest_values(kinematics) == expected
 
 
-def test_obstacle_avoidance_in_plane_steps_read_the_configuration_of_the_kinematics_given(planar3, rng):
-    """One pair of the float twin's step functions read in turn through two Kinematics at different configurations
-    (what it keeps, the views of a Kinematics' data and its values at a configuration, belong to the last one read):
-    each call's rates, σmin/σmax and q̈ are what a fresh pair gives for that kinematics."""
+@pytest.mark.parametrize("stacked", [False, True], ids=["single-state", "stack-of-one"])
+def test_obstacle_avoidance_step_reads_the_configuration_of_the_kinematics_given(planar3, rng, stacked):
+    """One pair of the step's functions (``simulate``'s, or the stacked form's on a stack of one) read in turn
+    through two Kinematics at different configurations (what it keeps, the views of a Kinematics' data and its
+    values at a configuration, belong to the last one read): each call's rates, σmin/σmax and q̈ are what a fresh
+    pair gives for that kinematics."""
     resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 3.0, 0.0)
     task = FrameTask.of_robot(planar3)
-    rates, acceleration = resolver.in_plane_step_functions(planar3, task)
+    steps = stacked_steps if stacked else type(resolver).step_functions
+    rates, acceleration = steps(resolver, planar3, task)
     first, second = Kinematics(planar3), Kinematics(planar3)
     for _ in range(3):
         for kinematics in (first, second):
             kinematics.update(rng.uniform(0.3, 2.5, 3) * (1.0, -1.0, 1.0))
         command, command_rate, velocity = rng.normal(size=2), rng.normal(size=2), rng.normal(size=3)
         for kinematics in (first, second, first, second):
-            fresh_rates, fresh_acceleration = resolver.in_plane_step_functions(planar3, task)
+            fresh_rates, fresh_acceleration = steps(resolver, planar3, task)
             expected, expected_condition = fresh_rates(kinematics, command)
             got, condition = rates(kinematics, command)
             assert got.tolist() == expected.tolist() and condition == expected_condition
             expected_acceleration = fresh_acceleration(kinematics, velocity, command, command_rate)
             assert acceleration(kinematics, velocity, command, command_rate).tolist() == expected_acceleration.tolist()
+
+
+def test_the_stacked_step_takes_its_rates_again_for_another_command(planar3, rng):
+    """q̈ asked for a command other than the one the rates were last given at that configuration: what a fresh pair
+    gives after its rates for that command (the stack's state depends on the command)."""
+    resolver = _obstacle_resolver(planar3, [1.2, 0.3], 0.1, 3.0, 0.0)
+    task = FrameTask.of_robot(planar3)
+    rates, acceleration = stacked_steps(resolver, planar3, task)
+    kinematics = Kinematics(planar3).update(np.array([0.4, 1.2, -0.9]))
+    command, other, command_rate, velocity = (
+        rng.normal(size=2),
+        rng.normal(size=2),
+        rng.normal(size=2),
+        rng.normal(size=3),
+    )
+    rates(kinematics, command)
+    got = acceleration(kinematics, velocity, other, command_rate)
+    fresh_rates, fresh_acceleration = stacked_steps(resolver, planar3, task)
+    fresh_rates(kinematics, other)
+    assert got.tolist() == fresh_acceleration(kinematics, velocity, other, command_rate).tolist()
+    assert got.tolist() != fresh_acceleration(kinematics, velocity, command, command_rate).tolist()

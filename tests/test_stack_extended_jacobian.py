@@ -10,9 +10,6 @@ from torqueopt.errors import SingularJacobian
 from torqueopt.resolvers.velocity import PostureDistance
 from torqueopt.resolvers.velocity.extended_jacobian import (
     StackedExtendedJacobian,
-    cross_product_curvature,
-    cross_product_frame_row,
-    cross_product_row,
     null_vector,
     stacked_row_cofactors,
 )
@@ -21,7 +18,8 @@ from torqueopt.tasks import FrameTask, Kinematics, PostureTask
 
 from .conftest import PAPER_Q0
 from .test_batch import assert_stacks_equal_simulate
-from .test_kinematic import assert_float_steps_are_the_lu_reference
+from .test_kinematic import assert_stacked_step_is_the_lu_reference
+from .velocity_oracles import stacked_steps
 
 
 @pytest.fixture(scope="module")
@@ -68,13 +66,15 @@ def test_the_stack_stops_at_the_fold_as_the_loop_does(planar3):
 
 
 def test_the_stack_equals_the_kinematic_loop_with_a_posture_criterion(planar3):
-    """G of Eq. (14) with p = ½‖q − q*‖² (its Hessian the identity), toward a posture."""
+    """G of Eq. (14) with p = ½‖q − q*‖² (its Hessian the identity), toward a posture. At 2e-9: one run ends in
+    torques of 23,000 N·m, where τ from ``simulate``'s curvature by a central difference (round-off about 1e-10 of
+    q̈) is 1.2e-9 relative from the stack's closed form (measured)."""
     resolver = torqueopt.get_resolver(
         "extended-jacobian", criterion=PostureDistance(PostureTask(target=[0.5, 1.2, -0.8]))
     )
     assert isinstance(resolver.stack_rate_function(planar3), StackedExtendedJacobian)
     lines, q0s = _planar_movements(4, seed=9, duration=1.0)
-    assert_stacks_equal_simulate(planar3, resolver, lines, q0s)
+    assert_stacks_equal_simulate(planar3, resolver, lines, q0s, tolerance=2e-9)
 
 
 @pytest.mark.parametrize("options", [{}, {"position_gain": 4.0}])
@@ -140,7 +140,8 @@ def _stacked_step(robot, resolver, q, command, command_rate):
 def test_the_stacked_step_is_the_single_state_one(name, planar3, panda4, rng):
     """At random states: q̇ and σmin/σmax at 1e-12 of the single-state step's (the LU reference, whose row comes
     from Pinocchio's kinematic Hessian), the same refusals in the same words (a strict alignment cutoff that many
-    states miss, and planar3 stretched), and q̈ at 1e-12 (the step's curvature is the stack's closed form)."""
+    states miss, and planar3 stretched), and q̈ at 1e-9 (the reference's curvature is the row's central difference,
+    whose round-off is about 1e-10 of q̈)."""
     robot = {"planar3": planar3, "panda4": panda4}[name]
     for options in ({}, {"algorithmic_tolerance": 0.3}):
         resolver = torqueopt.get_resolver("extended-jacobian", **options)
@@ -162,7 +163,7 @@ def test_the_stacked_step_is_the_single_state_one(name, planar3, panda4, rng):
             np.testing.assert_allclose(velocity[row], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
             assert conditions[row] == pytest.approx(condition, rel=1e-12)
             expected = acceleration(kinematics, velocity[row], command[row], command_rate[row])
-            np.testing.assert_allclose(accelerations[row], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+            np.testing.assert_allclose(accelerations[row], expected, rtol=0, atol=1e-9 * np.abs(expected).max())
         assert refused >= (2 if options else 1) and refused < q.shape[0] - 8
 
 
@@ -200,65 +201,31 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
             assert abs(got - expected) <= 1e-10 * scale, (got, expected)
 
 
-@pytest.mark.parametrize("name", ["planar3", "panda4"])
-def test_the_single_state_closed_form_curvature_is_the_central_difference(name, planar3, panda4, rng):
-    r"""The single-state q̈ with its curvature :math:`\dot q^\top\nabla^2 G\,\dot q` in closed form (the stack's,
-    on a stack of one) against the same step with the plain central difference of the row (``CURVATURE_STEP``),
-    on both of planar3's steps (floats and the LU reference) and panda4's, at 1e-9 of q̈'s size (the difference's
-    round-off is about 1e-10 of it); the closed form is taken wherever the stack applies, else None."""
-    robot = {"planar3": planar3, "panda4": panda4}[name]
-    resolver, task = torqueopt.get_resolver("extended-jacobian", position_gain=2.0), FrameTask.of_robot(robot)
-    pairs = [(resolver.lu_step_functions(robot, task), resolver.lu_step_functions(robot, task, closed_form=False))]
-    if robot is planar3:
-        closed, differenced = (
-            resolver.cross_product_step_functions(robot, task, closed_form=flag) for flag in (True, False)
-        )
-        pairs.append((closed, differenced))
-    kinematics, tested = Kinematics(robot), 0
+@pytest.mark.parametrize("gain", [0.0, 2.0])
+def test_the_single_state_step_is_the_lu_reference_on_four_joints(panda4, rng, gain):
+    """panda4's stacked form on a stack of one (the curvature in closed form) against its single-state step,
+    ``lu_step_functions`` (Pinocchio's kinematic Hessian, the curvature by its central difference); a callable
+    criterion has no stacked form."""
+    resolver, task = torqueopt.get_resolver("extended-jacobian", position_gain=gain), FrameTask.of_robot(panda4)
+    fast, reference = stacked_steps(resolver, panda4, task), resolver.step_functions(panda4, task)
+    kinematics, tested = Kinematics(panda4), 0
     while tested < 8:
-        q, velocity = rng.uniform(-2.0, 2.0, robot.nv), rng.normal(size=robot.nv)
-        command, command_rate = rng.normal(size=robot.m), rng.normal(size=robot.m)
+        q, velocity = rng.uniform(-2.0, 2.0, panda4.nv), rng.normal(size=panda4.nv)
+        command, command_rate = rng.normal(size=panda4.m), rng.normal(size=panda4.m)
         try:
-            pairs[0][0][0](kinematics.update(q), command)
+            expected_rates, condition = reference[0](kinematics.update(q), command)
         except SingularJacobian:
             continue
         tested += 1
-        for (_, closed), (_, differenced) in pairs:
-            expected = differenced(kinematics.update(q), velocity, command, command_rate)
-            got = closed(kinematics.update(q), velocity, command, command_rate)
-            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
-            assert np.abs(got - expected).max() > 0.0  # two computations, not one
-    assert resolver.curvature_function(robot, task) is not None
+        got_rates, got_condition = fast[0](kinematics, command)
+        np.testing.assert_allclose(got_rates, expected_rates, rtol=0, atol=1e-12 * np.abs(expected_rates).max())
+        assert got_condition == pytest.approx(condition, rel=1e-12)
+        expected = reference[1](kinematics, velocity, command, command_rate)
+        got = fast[1](kinematics.update(q), velocity, command, command_rate)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+        assert np.abs(got - expected).max() > 0.0  # two computations, not one
     callable_criterion = torqueopt.get_resolver("extended-jacobian", criterion=lambda angles: float(angles[0] ** 2))
-    assert callable_criterion.curvature_function(robot, task) is None
-
-
-def test_the_curvature_on_floats_is_the_stacks(planar3, rng):
-    """``cross_product_curvature`` (planar3's single-state step) against ``StackedExtendedJacobian.curvature_along``
-    at 1e-12 of the size of its terms, on random 6×3 frame Jacobians and rates (every row and angular column
-    nonzero, which planar3's own frames, ω_j = e_z and a zero z row, would leave untested), and on planar3's."""
-    forest = RobotForest(planar3)
-    for trial in range(20):
-        q, velocity = rng.uniform(-2.0, 2.0, 3), rng.normal(size=3)
-        centre, weights = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
-        stack = StackedExtendedJacobian(planar3, 1e-3, 0.05, [0, 1, 2], [0, 1, 2], centre, weights)
-        if trial < 15:
-            frame, frame_rate = rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
-        else:
-            found = _lanes_kinematics(forest, planar3, q[None])
-            moving = _lanes_kinematics(forest, planar3, q[None], velocity[None], found.tip)
-            frame, frame_rate = found.frame_jacobian[0], moving.frame_rate[0]
-        expected = stack.curvature_along(frame[None], frame_rate[None], q[None], velocity[None])[0]
-        gradient = (weights * (q - centre)).tolist()
-        got = cross_product_curvature(
-            frame.tolist(), frame_rate.tolist(), gradient, weights.tolist(), velocity.tolist()
-        )
-        scale = (
-            (np.abs(frame).max() + np.abs(frame_rate).max()) ** 3
-            * (1.0 + np.abs(gradient).max())
-            * (1.0 + velocity.dot(velocity))
-        )
-        assert abs(got - expected) <= 1e-12 * scale, (got, expected)
+    assert stacked_steps(callable_criterion, panda4, task) is None
 
 
 @pytest.fixture(scope="module")
@@ -270,54 +237,37 @@ def panda3():
     )
 
 
-def test_the_row_from_the_frame_is_the_kinematic_hessians(planar3, panda3, rng):
-    """``cross_product_frame_row`` (the row from the frame's J alone, the stack's closed form) against
-    ``cross_product_row`` (from Pinocchio's kinematic Hessian) at 1e-12 of the row's size on planar3 and a spatial
-    chain, and against the stack's row on random 6×3 frames (every row and angular column nonzero)."""
+def test_the_stacks_row_is_the_kinematic_hessians(planar3, panda3, rng):
+    """The stack's row ∂G/∂q (Jacobi's formula from the frame's J alone) against
+    :meth:`ExtendedJacobian.extended_row` (from Pinocchio's kinematic Hessian) at 1e-12 of the row's size, on
+    planar3 and a spatial chain."""
     for robot in (planar3, panda3):
-        task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
+        resolver, task = torqueopt.get_resolver("extended-jacobian"), FrameTask.of_robot(robot)
+        stack, forest, kinematics = resolver.stack_rate_function(robot), RobotForest(robot), Kinematics(robot)
         for _ in range(6):
-            kinematics.update(robot.default_configuration + rng.uniform(-1.0, 1.0, 3))
-            gradient, weights = rng.normal(size=3).tolist(), rng.uniform(0.1, 2.0, 3).tolist()
-            frame = kinematics.frame_jacobian(task.frame_id(kinematics))
-            expected_row, expected_normal = cross_product_row(
-                frame[:2].tolist(), task.jacobian_derivative(kinematics), gradient, np.diag(weights).tolist()
-            )
-            row, normal = cross_product_frame_row(frame.tolist(), gradient, weights)
-            scale = np.abs(expected_row).max()
-            np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * scale)
-            np.testing.assert_allclose(normal, expected_normal, rtol=0, atol=1e-15)
-    frame, q = rng.normal(size=(6, 3)), rng.normal(size=3)
-    centre, weights = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
-    stack = StackedExtendedJacobian(planar3, 1e-3, 0.0, [0, 1, 2], [0, 1, 2], centre, weights)
-    lanes = type("Lanes", (), {"frame_jacobian": frame[None]})
-    expected_row = stack.rates(frame[None, :2], np.zeros((1, 2)), q[None], lanes)[3][8][:, 0]
-    row, _ = cross_product_frame_row(frame.tolist(), (weights * (q - centre)).tolist(), weights.tolist())
-    np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * np.abs(expected_row).max())
+            q = robot.default_configuration + rng.uniform(-1.0, 1.0, 3)
+            found = _lanes_kinematics(forest, robot, q[None])
+            row = stack.rates(found.jacobian, np.zeros((1, 2)), q[None], found)[3][8][:, 0]
+            _, expected_row, _ = resolver.extended_row(kinematics.update(q), task)
+            np.testing.assert_allclose(row, expected_row, rtol=0, atol=1e-12 * np.abs(expected_row).max())
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
-def test_the_step_on_floats_is_the_lu_reference_on_a_spatial_chain(panda3, rng, gain):
-    """The 2×3 step on floats (row and curvature from the frame's J and J̇) against ``lu_step_functions`` (the row
-    from Pinocchio's kinematic Hessian, J_ex's LU factors) on a spatial chain: q̇ and σmin/σmax at 1e-12, q̈ at
-    1e-12 (both with the curvature's closed form) and at 1e-10 with its central difference in both."""
+def test_the_step_is_the_lu_reference_on_a_spatial_chain(panda3, rng, gain):
+    """The stacked form on a stack of one against the single-state step, ``lu_step_functions``, on a spatial
+    chain (see ``assert_stacked_step_is_the_lu_reference``)."""
     resolver = torqueopt.get_resolver("extended-jacobian", position_gain=gain)
     task = FrameTask.of_robot(panda3)
-    fast, reference = resolver.step_functions(panda3, task), resolver.lu_step_functions(panda3, task)
-    assert fast[0].__qualname__.startswith("ExtendedJacobian.cross_product_step_functions")
-    differenced = (
-        resolver.cross_product_step_functions(panda3, task, closed_form=False)[1],
-        resolver.lu_step_functions(panda3, task, closed_form=False)[1],
-    )
+    fast, reference = stacked_steps(resolver, panda3, task), resolver.step_functions(panda3, task)
 
     def draw_q():
         return panda3.default_configuration + rng.uniform(-1.0, 1.0, 3)
 
-    assert_float_steps_are_the_lu_reference(Kinematics(panda3), fast, reference, differenced, draw_q, rng, count=8)
+    assert_stacked_step_is_the_lu_reference(Kinematics(panda3), fast, reference, draw_q, rng, count=8)
 
 
 def test_the_stack_equals_the_kinematic_loop_on_a_spatial_chain(panda3):
-    """Two task rows, three joints whose axes are not parallel, gravity on: the loop's 2×3 step on floats."""
+    """Two task rows, three joints whose axes are not parallel, gravity on."""
     resolver = torqueopt.get_resolver("extended-jacobian")
     rng = np.random.default_rng(4)
     q0s = [panda3.default_configuration + rng.normal(scale=0.3, size=3) for _ in range(4)]

@@ -14,8 +14,6 @@ for every module that records or checks it.
 
 from __future__ import annotations
 
-import math
-
 import eigenpy
 import numpy as np
 
@@ -29,7 +27,6 @@ __all__ = [
     "inverse_condition_number",
     "inverse_condition_number_of",
     "singular_message",
-    "two_row_pseudoinverse",
     "determinants",
     "cross_along",
 ]
@@ -195,29 +192,6 @@ def cross_along(a: np.ndarray, b: np.ndarray, axis: int) -> np.ndarray:
     product = a[first] * b[second]
     product -= a[second] * b[first]
     return product
-
-
-def two_row_pseudoinverse(rows, tolerance: float):
-    r"""What the pseudoinverse of a 2×3 matrix J of full row rank (planar3's task Jacobian) is made of, on Python
-    floats: ((JJᵀ)⁻¹ as its entries (g00, g01, g11), the unit vector z ∝ j_0 × j_1 spanning J's null space,
-    σmin/σmax of J), so that :math:`J^\dagger y = J^\top(JJ^\top)^{-1}y` (Eq. (3)) and :math:`I - J^\dagger J = zz^\top`.
-
-    σmin/σmax is :math:`|j_0\times j_1|/\lambda_{max}(JJ^\top)`: Lagrange's identity gives
-    :math:`\sigma_{min}\sigma_{max} = |j_0\times j_1| = \sqrt{\det JJ^\top}`. Below ``tolerance`` it raises
-    :class:`~torqueopt.errors.SingularJacobian`, as :class:`JacobianSolver` does. ``rows``: J's two rows, lists of
-    three floats (``J.tolist()``).
-    """
-    (a0, a1, a2), (b0, b1, b2) = rows
-    aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
-    n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # j_0 × j_1
-    determinant = n0 * n0 + n1 * n1 + n2 * n2  # det JJᵀ = |j_0 × j_1|²
-    normal_norm = math.sqrt(determinant)
-    largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)  # λmax(JJᵀ) = σmax²
-    inverse_condition = normal_norm / largest if largest > 0.0 else 0.0
-    if not inverse_condition >= tolerance:
-        raise SingularJacobian(singular_message(inverse_condition, tolerance))
-    gram_inverse = bb / determinant, -ab / determinant, aa / determinant
-    return gram_inverse, (n0 / normal_norm, n1 / normal_norm, n2 / normal_norm), inverse_condition
 
 
 def singular_message(inverse_condition: float, tolerance: float) -> str:

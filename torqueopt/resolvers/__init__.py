@@ -46,7 +46,6 @@ from .options import Option, parse_resolver_spec
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
 from .registry import ENTRY_POINT_GROUP, RESOLVERS, class_from_path, register_resolver
 from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
-from .velocity import VELOCITY_RESOLVERS
 
 __all__ = [
     "Resolution",
@@ -75,11 +74,9 @@ __all__ = [
     "resolver_names",
 ]
 
-for _velocity_resolver in VELOCITY_RESOLVERS:  # until their module registers them with @register_resolver
-    register_resolver(_velocity_resolver)
-
 # The order the listing, the help and the "choose one of ..." messages give: the paper's four first, then by
-# family, as the tables. Each class registers itself where it is defined; plug-ins follow, in the order they come.
+# family, as the tables. Each class registers itself where it is defined (the velocity-level ones when
+# .second_order imports .velocity); plug-ins follow, in the order they come.
 RESOLVERS.put_first(
     (
         "pinv",
@@ -93,7 +90,12 @@ RESOLVERS.put_first(
         "bounded-torque",
         "minmax-torque",
         "energy-bounded-torque",
-        *(cls.name for cls in VELOCITY_RESOLVERS),
+        "velocity-pinv",
+        "gradient-projection",
+        "task-priority",
+        "obstacle-avoidance",
+        "extended-jacobian",
+        "kinetic-energy-pinv",
         "gradient-projection-acceleration",
         "task-priority-acceleration",
     )

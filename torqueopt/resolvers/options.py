@@ -52,6 +52,8 @@ class Option:
             value; raises :class:`~torqueopt.checks.Refused` saying what it must be (its text
             completes "option NAME=VALUE of resolver 'R' ...").
         default_text: how the listing shows the default, when ``default`` alone does not say it.
+        text: how a resolver's label writes a value, as text that ``convert`` reads back, for a value that is
+            not numbers (an obstacle); None: :func:`label_value`.
     """
 
     name: str
@@ -61,6 +63,7 @@ class Option:
     meaning: str
     convert: Callable[[object], object]
     default_text: str | None = None
+    text: Callable[[object], str] | None = None
 
     def describe_default(self) -> str:
         return self.default_text if self.default_text is not None else format_value(self.default)
@@ -184,7 +187,7 @@ def resolver_label(name: str, declared: tuple[Option, ...], settings: Mapping[st
     order they are declared: the same settings always give the same label, and :func:`parse_resolver_spec`
     reads it back."""
     changed = [
-        f"{option.name}={label_value(settings[option.name])}"
+        f"{option.name}={(option.text or label_value)(settings[option.name])}"
         for option in declared
         if label_value(settings[option.name]) != label_value(option.default)
     ]

@@ -24,10 +24,6 @@ from .criteria import (
 )
 from .extended_jacobian import (
     ExtendedJacobian,
-    cross_product_curvature,
-    cross_product_frame_row,
-    cross_product_row,
-    cross_product_slope,
     null_vector,
     null_vector_derivative,
 )
@@ -54,10 +50,6 @@ __all__ = [
     "manipulability",
     "null_vector",
     "null_vector_derivative",
-    "cross_product_row",
-    "cross_product_frame_row",
-    "cross_product_slope",
-    "cross_product_curvature",
     "VELOCITY_RESOLVERS",
 ]
 

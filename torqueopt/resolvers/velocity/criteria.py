@@ -60,11 +60,6 @@ class Criterion(ABC):
     def gradient(self, kinematics: Kinematics, task: FrameTask) -> np.ndarray:
         """∂p/∂q (n values)."""
 
-    def gradient_values(self, kinematics: Kinematics, task: FrameTask) -> list[float]:
-        """∂p/∂q as a list of n floats, for a caller that computes on floats: :meth:`gradient`'s values, or a
-        criterion's own faster form of them (the same bits)."""
-        return self.gradient(kinematics, task).tolist()
-
     def scaled_gradient(self, kinematics: Kinematics, task: FrameTask, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q (n values) for the gain k: :meth:`gradient` times k, or a criterion's own faster form of it.
 
@@ -118,7 +113,6 @@ class JointLimits(Criterion):
     def __init__(self):
         self._key = None
         self._scaled: tuple[float, np.ndarray] | None = None
-        self._values: tuple[list[float], list[float]] | None = None
 
     def _limits(self, model) -> _LimitedJoints:
         if self._key != id(model):
@@ -146,7 +140,6 @@ class JointLimits(Criterion):
             )  # fmt: skip
             self._key = id(model)
             self._scaled = None
-            self._values = None
         return self._joints
 
     def check(self, robot) -> None:
@@ -170,18 +163,6 @@ class JointLimits(Criterion):
         gradient = np.zeros(kinematics.nv)
         gradient[joints.v_index] = joints.curvature * (kinematics.q[joints.q_index] - joints.middle)  # ∂/∂θ of Eq. (5)
         return gradient
-
-    def gradient_values(self, kinematics, task=None) -> list[float]:
-        """:meth:`gradient` on floats when every joint has limits, the same products (numpy's per-call cost on
-        a few joints is many times theirs)."""
-        joints = self._limits(kinematics.model)
-        if not joints.every_joint:
-            return self.gradient(kinematics, task).tolist()
-        if self._values is None:
-            self._values = (joints.curvature.tolist(), joints.middle.tolist())
-        curvature, middle = self._values
-        # ∂/∂θ of Eq. (5), joint by joint
-        return list(map(operator.mul, curvature, map(operator.sub, kinematics.q.tolist(), middle)))
 
     def scaled_gradient(self, kinematics, task, gain: float, decomposition=None) -> np.ndarray:
         """k ∂p/∂q as (k · 2/half range²) ∘ (q − mid-range) when every joint has limits: the gain joins the

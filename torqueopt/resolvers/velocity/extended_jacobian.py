@@ -10,11 +10,12 @@ import numpy as np
 
 from ...checks import Refused, number_in_interval
 from ...errors import NoRedundancy, SingularJacobian
-from ...linalg import InverseCondition, cross_along, determinants, singular_message
+from ...linalg import InverseCondition, cross_along, determinants
 from ...robot import Robot
 from ...robot_copies import stacked_cross
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
 from .criteria import JointLimits, PostureDistance, criterion_from
 from .options import criterion_spec
@@ -24,10 +25,6 @@ __all__ = [
     "ExtendedJacobian",
     "null_vector",
     "null_vector_derivative",
-    "cross_product_row",
-    "cross_product_frame_row",
-    "cross_product_slope",
-    "cross_product_curvature",
 ]
 
 
@@ -92,195 +89,7 @@ def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.n
     return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
-def cross_product_row(jacobian_rows, derivative: np.ndarray, gradient_values, hessian_rows):
-    r"""(∂G/∂q, n_J) of :meth:`ExtendedJacobian.extended_row` for a 2×3 Jacobian, as floats: its fast twin
-    (the tests hold them equal), for planar3's task.
-
-    With the 3×3 matrix :math:`A = [J_0;\ J_1;\ (\partial p/\partial q)^\top]` (rows),
-    :math:`G = \partial p/\partial q\cdot(J_0\times J_1) = \det A` (Eq. (14)), and Jacobi's formula on that one
-    determinant gives the whole row: the cofactors of A's rows are the cross products of the other two, so
-
-    .. math::
-
-        \frac{\partial G}{\partial q_k} = (J_1\times\nabla p)\cdot\frac{\partial J_0}{\partial q_k}
-        + (\nabla p\times J_0)\cdot\frac{\partial J_1}{\partial q_k} + n_J\cdot\nabla^2 p_{:,k},
-        \qquad n_J = J_0\times J_1,
-
-    the same sums as :func:`null_vector_derivative`'s, grouped by A's cofactors. On Python floats: numpy's cost
-    per call is many times that of these few products.
-
-    Args:
-        jacobian_rows: J as two lists of three floats (``J.tolist()``).
-        derivative: D (2, 3, 3), :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
-        gradient_values: ∂p/∂q as three floats.
-        hessian_rows: ∂²p/∂q² as three lists of three floats (``hessian.tolist()``).
-
-    Returns:
-        ∂G/∂q and n_J (lists of three floats).
-    """
-    (a0, a1, a2), (b0, b1, b2) = jacobian_rows
-    g0, g1, g2 = gradient_values
-    n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # n_J = J_0 × J_1
-    c0, c1, c2 = b1 * g2 - b2 * g1, b2 * g0 - b0 * g2, b0 * g1 - b1 * g0  # J_1 × ∇p, the cofactors of row 0
-    e0, e1, e2 = g1 * a2 - g2 * a1, g2 * a0 - g0 * a2, g0 * a1 - g1 * a0  # ∇p × J_0, the cofactors of row 1
-    derivative_0, derivative_1 = derivative.tolist()
-    (x00, x01, x02), (x10, x11, x12), (x20, x21, x22) = derivative_0  # x_jk = ∂J_0j/∂q_k
-    (y00, y01, y02), (y10, y11, y12), (y20, y21, y22) = derivative_1  # y_jk = ∂J_1j/∂q_k
-    (z00, z01, z02), (z10, z11, z12), (z20, z21, z22) = hessian_rows  # z_jk = ∂²p/∂q_j∂q_k
-    # ∂G/∂θ, the last row of J_ex in Eq. (15), by Jacobi's formula on det A, one q_k a line
-    row = [
-        c0 * x00 + c1 * x10 + c2 * x20 + e0 * y00 + e1 * y10 + e2 * y20 + n0 * z00 + n1 * z10 + n2 * z20,
-        c0 * x01 + c1 * x11 + c2 * x21 + e0 * y01 + e1 * y11 + e2 * y21 + n0 * z01 + n1 * z11 + n2 * z21,
-        c0 * x02 + c1 * x12 + c2 * x22 + e0 * y02 + e1 * y12 + e2 * y22 + n0 * z02 + n1 * z12 + n2 * z22,
-    ]
-    return row, [n0, n1, n2]
-
-
-def cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient_values, hessian_rows, velocity) -> float:
-    r""":math:`\partial G/\partial q\cdot\dot q` for a 2×3 Jacobian, the row of :func:`cross_product_row` along
-    :math:`\dot q`, from :math:`\dot J` instead of the kinematic Hessian: Jacobi's formula on
-    :math:`G = \det A` along the motion,
-
-    .. math::
-
-        \frac{\partial G}{\partial q}\cdot\dot q = (J_1\times\nabla p)\cdot\dot J_0 + (\nabla p\times J_0)\cdot\dot J_1
-        + n_J\cdot\nabla^2 p\,\dot q,\qquad \dot J = \sum_k \frac{\partial J}{\partial q_k}\dot q_k.
-
-    Args:
-        jacobian_rows, jacobian_rate_rows: J and :math:`\dot J` at joint velocity q̇, each as two lists of three floats.
-        gradient_values: ∂p/∂q as three floats.
-        hessian_rows: ∂²p/∂q² as three lists of three floats.
-        velocity: q̇ as three floats.
-    """
-    (a0, a1, a2), (b0, b1, b2) = jacobian_rows
-    (s0, s1, s2), (t0, t1, t2) = jacobian_rate_rows
-    g0, g1, g2 = gradient_values
-    v0, v1, v2 = velocity
-    (z00, z01, z02), (z10, z11, z12), (z20, z21, z22) = hessian_rows
-    return (
-        (b1 * g2 - b2 * g1) * s0
-        + (b2 * g0 - b0 * g2) * s1
-        + (b0 * g1 - b1 * g0) * s2  # (J_1 × ∇p)·J̇_0
-        + (g1 * a2 - g2 * a1) * t0
-        + (g2 * a0 - g0 * a2) * t1
-        + (g0 * a1 - g1 * a0) * t2  # (∇p × J_0)·J̇_1
-        + (a1 * b2 - a2 * b1) * (z00 * v0 + z01 * v1 + z02 * v2)  # n_J·∇²p q̇
-        + (a2 * b0 - a0 * b2) * (z10 * v0 + z11 * v1 + z12 * v2)
-        + (a0 * b1 - a1 * b0) * (z20 * v0 + z21 * v1 + z22 * v2)
-    )
-
-
-def cross_product_frame_row(frame_rows, gradient_values, weights):
-    r"""(∂G/∂q, n_J) of :func:`cross_product_row` for a 2×3 Jacobian (the x and y rows of a frame, planar3's task)
-    and a diagonal quadratic criterion, from the frame's whole J alone: ``StackedExtendedJacobian``'s closed form
-    of the row (see there) for one state, on floats (the tests hold it to :func:`cross_product_row`, which reads
-    Pinocchio's kinematic Hessian).
-
-    The kinematic Hessian of the task point is :math:`\partial J_j/\partial q_k = \omega_{\min(j,k)}\times
-    J_{\max(j,k)}` (the joint Jacobians' brackets, from which ``pin.computeJointKinematicHessians`` computes it),
-    so with J's rows a, b, :math:`g = \nabla p`, the cofactors :math:`K_j = ((b\times g)_j, (g\times a)_j, 0)` and
-    the frame's linear and angular columns :math:`J_j, \omega_j`, Jacobi's formula on :math:`G = \det[a; b; g]`
-    (Eq. (14)) gives
-
-    .. math::
-
-        \frac{\partial G}{\partial q_k} = J_k\cdot\sum_{j\le k} K_j\times\omega_j
-        + \omega_k\cdot\sum_{j>k} J_j\times K_j + w_k\,n_{J,k},\qquad n_J = a\times b.
-
-    Args:
-        frame_rows: the frame's 6×3 J (linear rows first), as lists of rows.
-        gradient_values: ∂p/∂q as three floats.
-        weights: the diagonal :math:`w` of ∇²p, three floats.
-
-    Returns:
-        ∂G/∂q and n_J (lists of three floats).
-    """
-    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame_rows
-    g0, g1, g2 = gradient_values
-    n0, n1, n2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # n_J = a × b
-    c0, c1, c2 = y1 * g2 - y2 * g1, y2 * g0 - y0 * g2, y0 * g1 - y1 * g0  # K's x components: b × g
-    e0, e1, e2 = g1 * x2 - g2 * x1, g2 * x0 - g0 * x2, g0 * x1 - g1 * x0  # K's y components: g × a
-    # Σ_{j≤k} K_j × ω_j, with K_j × ω_j = (e_j r_j, −c_j r_j, c_j q_j − e_j p_j)
-    u0, v0, s0 = e0 * r0, -c0 * r0, c0 * q0 - e0 * p0
-    u1, v1, s1 = u0 + e1 * r1, v0 - c1 * r1, s0 + c1 * q1 - e1 * p1
-    u2, v2, s2 = u1 + e2 * r2, v1 - c2 * r2, s1 + c2 * q2 - e2 * p2
-    # Σ_{j>k} J_j × K_j, with J_j × K_j = (−z_j e_j, z_j c_j, x_j e_j − y_j c_j)
-    h1, i1, l1 = -z2 * e2, z2 * c2, x2 * e2 - y2 * c2
-    h0, i0, l0 = h1 - z1 * e1, i1 + z1 * c1, l1 + x1 * e1 - y1 * c1
-    w0, w1, w2 = weights
-    # ∂G/∂θ, the last row of J_ex in Eq. (15), one q_k a line
-    row = [
-        x0 * u0 + y0 * v0 + z0 * s0 + p0 * h0 + q0 * i0 + r0 * l0 + w0 * n0,
-        x1 * u1 + y1 * v1 + z1 * s1 + p1 * h1 + q1 * i1 + r1 * l1 + w1 * n1,
-        x2 * u2 + y2 * v2 + z2 * s2 + w2 * n2,
-    ]
-    return row, [n0, n1, n2]
-
-
-def cross_product_curvature(frame_rows, frame_rate_rows, gradient_values, weights, velocity) -> float:
-    r""":math:`\dot q^\top\nabla^2 G\,\dot q` for a 2×3 Jacobian (the x and y rows of a frame, planar3's task) and
-    a diagonal quadratic criterion, on floats: ``StackedExtendedJacobian``'s closed form (see there) for one state
-    (the tests hold them equal), whose numpy calls on a stack of one cost many times these few products.
-
-    With :math:`a, b` J's rows, :math:`g = \nabla p`, :math:`g' = \nabla^2 p\,\dot q`, the cofactors
-    :math:`K_j = ((b\times g)_j, (g\times a)_j, 0)`, the frame's linear and angular columns :math:`J_j, \omega_j`
-    and their rates (′),
-
-    .. math::
-
-        \dot q^\top\nabla^2 G\,\dot q = \sum_j K_j\cdot J_j''
-        + 2\,g'\cdot(a'\times b + a\times b') + 2\,g\cdot(a'\times b'),
-
-        J_j'' = \Omega_{<j}'\times J_j + \Omega_{<j}\times J_j' + \omega_j'\times P_{\ge j} + \omega_j\times P_{\ge j}',
-        \qquad \Omega_{<j} = \sum_{k<j}\dot q_k\omega_k,\quad P_{\ge j} = \sum_{k\ge j}\dot q_k J_k,
-
-    only the x and y components of :math:`J_j''` (K's third is zero), written out for three joints.
-
-    Args:
-        frame_rows, frame_rate_rows: the frame's 6×3 J and :math:`\dot J` (linear rows first), as lists of rows.
-        gradient_values: ∂p/∂q as three floats.
-        weights: the diagonal of ∇²p, three floats.
-        velocity: q̇ as three floats.
-    """
-    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame_rows
-    (dx0, dx1, dx2), (dy0, dy1, dy2), (dz0, dz1, dz2), (dp0, dp1, dp2), (dq0, dq1, dq2), (dr0, dr1, dr2) = (
-        frame_rate_rows
-    )
-    g0, g1, g2 = gradient_values
-    v0, v1, v2 = velocity
-    c0, c1, c2 = y1 * g2 - y2 * g1, y2 * g0 - y0 * g2, y0 * g1 - y1 * g0  # K's x components: b × g
-    e0, e1, e2 = g1 * x2 - g2 * x1, g2 * x0 - g0 * x2, g0 * x1 - g1 * x0  # K's y components: g × a
-    # P_{≥j} and P'_{≥j}, from the last joint back
-    px2, py2, pz2, dpx2, dpy2, dpz2 = v2 * x2, v2 * y2, v2 * z2, v2 * dx2, v2 * dy2, v2 * dz2
-    px1, py1, pz1 = px2 + v1 * x1, py2 + v1 * y1, pz2 + v1 * z1
-    dpx1, dpy1, dpz1 = dpx2 + v1 * dx1, dpy2 + v1 * dy1, dpz2 + v1 * dz1
-    px0, py0, pz0 = px1 + v0 * x0, py1 + v0 * y0, pz1 + v0 * z0
-    dpx0, dpy0, dpz0 = dpx1 + v0 * dx0, dpy1 + v0 * dy0, dpz1 + v0 * dz0
-    # Ω_{<j} and Ω'_{<j}, from the first joint on (zero for j = 0)
-    ox1, oy1, oz1, dox1, doy1, doz1 = v0 * p0, v0 * q0, v0 * r0, v0 * dp0, v0 * dq0, v0 * dr0
-    ox2, oy2, oz2 = ox1 + v1 * p1, oy1 + v1 * q1, oz1 + v1 * r1
-    dox2, doy2, doz2 = dox1 + v1 * dp1, doy1 + v1 * dq1, doz1 + v1 * dr1
-    # K_j·J_j'' = c_j J''_{j,x} + e_j J''_{j,y}, with (u × w)_x = u_y w_z − u_z w_y, (u × w)_y = u_z w_x − u_x w_z
-    curvature = c0 * (dq0 * pz0 - dr0 * py0 + q0 * dpz0 - r0 * dpy0) + e0 * (
-        dr0 * px0 - dp0 * pz0 + r0 * dpx0 - p0 * dpz0
-    )
-    curvature += c1 * (
-        doy1 * z1 - doz1 * y1 + oy1 * dz1 - oz1 * dy1 + dq1 * pz1 - dr1 * py1 + q1 * dpz1 - r1 * dpy1
-    ) + e1 * (doz1 * x1 - dox1 * z1 + oz1 * dx1 - ox1 * dz1 + dr1 * px1 - dp1 * pz1 + r1 * dpx1 - p1 * dpz1)
-    curvature += c2 * (
-        doy2 * z2 - doz2 * y2 + oy2 * dz2 - oz2 * dy2 + dq2 * pz2 - dr2 * py2 + q2 * dpz2 - r2 * dpy2
-    ) + e2 * (doz2 * x2 - dox2 * z2 + oz2 * dx2 - ox2 * dz2 + dr2 * px2 - dp2 * pz2 + r2 * dpx2 - p2 * dpz2)
-    h0, h1, h2 = weights[0] * v0, weights[1] * v1, weights[2] * v2  # g' = ∇²p q̇
-    # 2 g'·n_J' with n_J' = a' × b + a × b', and 2 g·(a' × b'), the pair of rows replaced
-    curvature += 2.0 * (
-        h0 * (dx1 * y2 - dx2 * y1 + x1 * dy2 - x2 * dy1)
-        + h1 * (dx2 * y0 - dx0 * y2 + x2 * dy0 - x0 * dy2)
-        + h2 * (dx0 * y1 - dx1 * y0 + x0 * dy1 - x1 * dy0)
-    )
-    curvature += 2.0 * (g0 * (dx1 * dy2 - dx2 * dy1) + g1 * (dx2 * dy0 - dx0 * dy2) + g2 * (dx0 * dy1 - dx1 * dy0))
-    return curvature
-
-
+@register_resolver
 class ExtendedJacobian(VelocityResolver):
     r"""Baillieul's extended Jacobian for n − m = 1, Eq. (14), Eq. (15).
 
@@ -389,33 +198,26 @@ class ExtendedJacobian(VelocityResolver):
 
         with :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). The curvature
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
-        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give. For a
-        diagonal quadratic criterion (``joint-limits``, a posture's distance) on a robot whose joints add, it is
-        taken in closed form from the task frame's J and :math:`\dot J`: the batch's own formula, so that
-        ``simulate`` and the batch take the same curvature (:meth:`curvature_function`; on planar3's task its
-        float twin :func:`~torqueopt.resolvers.velocity.cross_product_curvature`). Elsewhere (a callable
-        criterion, joints that do not add) by a central difference, of the row :math:`\partial G/\partial q`
-        along :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row (on
-        planar3's task, of the row times q̇ alone: :func:`~torqueopt.resolvers.velocity.cross_product_slope`)
-        instead of the loop's four of the whole rate map; the tests hold the closed form to it. The LU factors of
-        :math:`J_{ex}` at q (its inverse on planar3's task) are those the rates computed there, when they did.
+        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
+        taken by a central difference of the row :math:`\partial G/\partial q` along :math:`\dot q/|\dot q|` (step
+        ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the loop's four of the whole rate map
+        (:meth:`lu_step_functions`). The batch's stacked form (``StackedExtendedJacobian``) takes it in closed form
+        from the task frame's J and :math:`\dot J` for a diagonal quadratic criterion (``joint-limits``, a
+        posture's distance) on a robot whose joints add; the tests hold the closed form to the difference.
         """
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (15)'s rates and their q̈ (None for ``pose``): :meth:`cross_product_step_functions` for a 2×3
-        Jacobian (planar3's task), :meth:`lu_step_functions` for any other."""
-        if task.dimension == 2 and robot.nv == 3:
-            return self.cross_product_step_functions(robot, task)
+        """Eq. (15)'s rates and their q̈ (None for ``pose``): :meth:`lu_step_functions`. The batch takes the stacked
+        form (:meth:`stack_rate_function`), which the tests hold to this one."""
         return self.lu_step_functions(robot, task)
 
-    def lu_step_functions(self, robot: Robot, task: FrameTask, closed_form: bool = True):
-        """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1, sharing J_ex's LU factors at each
-        configuration: the reference the fast pair is held to. The curvature of q̈ in closed form where
-        :meth:`curvature_function` gives it and ``closed_form``, else by the central difference."""
+    def lu_step_functions(self, robot: Robot, task: FrameTask):
+        """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1 and any criterion with a Hessian,
+        sharing J_ex's LU factors at each configuration, the curvature by its central difference: the step where
+        the stacked form does not apply, and the reference the tests hold that form to."""
         condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
         tolerance = self.algorithmic_tolerance
-        closed = self.curvature_function(robot, task) if closed_form else None
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
@@ -436,9 +238,6 @@ class ExtendedJacobian(VelocityResolver):
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
             q = kinematics.q
             extended, _ = at_configuration(kinematics)
-            if closed is not None:
-                curvature, jacobian_rate = closed(kinematics, velocity)
-                return extended.solve(np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
             jacobian_rate = task.jacobian_rate(kinematics, velocity)
             speed = math.sqrt(velocity.dot(velocity))
             curvature = 0.0
@@ -452,173 +251,6 @@ class ExtendedJacobian(VelocityResolver):
             return extended.solve(np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
 
         return rates, None if task.kind == "pose" else acceleration
-
-    def cross_product_step_functions(self, robot: Robot, task: FrameTask, closed_form: bool = True):
-        r""":meth:`step_functions` for a 2×3 Jacobian (planar3's task, n = 3, m = 2), on floats: the fast twin of
-        :meth:`lu_step_functions` (the tests hold them equal), whose numpy calls cost many times these few products.
-
-        Where the curvature has a closed form (:meth:`curvature_function`, and ``closed_form``), the row and the
-        curvature are the stack's, from the task frame's whole J and :math:`\dot J` alone
-        (:func:`~torqueopt.resolvers.velocity.cross_product_frame_row`,
-        :func:`~torqueopt.resolvers.velocity.cross_product_curvature`), with the criterion's gradient
-        :math:`w_i(q_{a_i} - \bar q_i)`; else the row by :func:`~torqueopt.resolvers.velocity.cross_product_row`
-        from Pinocchio's kinematic Hessian, and the curvature by its central difference, which takes the row along
-        q̇ at q ± δq̇ by :func:`~torqueopt.resolvers.velocity.cross_product_slope` (from :math:`\dot J`, no kinematic
-        Hessian there), on kinematics of their own, so the step's stay at q. J's inverse condition :math:`\sigma_{min}/\sigma_{max} =
-        |J_0\times J_1|/\lambda_{max}(JJ^\top)`, since :math:`\sigma_{min}\sigma_{max} = |J_0\times J_1|` (Lagrange's
-        identity) and :math:`\sigma_{max}^2 = \lambda_{max}`. :math:`J_{ex}^{-1} = \operatorname{adj}J_{ex}/\det J_{ex}`,
-        Eq. (15) solved by its adjugate, whose columns are the cross products :math:`J_1\times r`,
-        :math:`r\times J_0` and :math:`n_J = J_0\times J_1` of its rows (r = ∂G/∂q), with
-        :math:`\det J_{ex} = r\cdot n_J`, which the alignment check keeps at least ``algorithmic_tolerance``
-        times :math:`|r|\,|n_J|`.
-        """
-        tolerance, singular_tolerance, objective = self.algorithmic_tolerance, self.singular_tolerance, self.objective
-        shifted, euclidean = Kinematics(robot), robot.euclidean
-        criterion = self._closed_form_criterion(robot, task) if closed_form else None
-        if criterion is not None:
-            # p = ½ Σ w_i (q_{a_i} − q̄_i)²: the terms (a_i, b_i, q̄_i, w_i), and w as ∇²p's diagonal
-            terms = list(zip(*(np.asarray(values).tolist() for values in criterion)))
-            weights = [0.0] * robot.nv
-            for _, joint, _, weight in terms:
-                weights[joint] = weight
-        # a read-only Hessian is a criterion's constant (Eq. (5)'s): its rows are read once
-        constant = [None, None]
-
-        def hessian_rows(kinematics: Kinematics):
-            hessian = objective.hessian(kinematics, task)
-            if hessian is constant[0]:
-                return constant[1]
-            rows = hessian.tolist()
-            if not hessian.flags.writeable:
-                constant[:] = hessian, rows
-            return rows
-
-        def either_side(q: np.ndarray, step: float, velocity: np.ndarray, values):
-            """q ⊕ ±δq̇: q ± δq̇ on floats where every joint adds (what Pinocchio's integrate computes for them)."""
-            if not euclidean:
-                return robot.integrate(q, step * velocity), robot.integrate(q, -step * velocity)
-            (q0, q1, q2), (v0, v1, v2) = q.tolist(), values
-            ahead = np.array((q0 + step * v0, q1 + step * v1, q2 + step * v2))
-            return ahead, np.array((q0 - step * v0, q1 - step * v1, q2 - step * v2))
-
-        def row_at(kinematics: Kinematics):
-            """(J's rows, ∂p/∂q, (∂G/∂q, n_J)), Eq. (14), at the kinematics' configuration; with the closed form,
-            J's rows are the frame's six."""
-            if criterion is not None:
-                frame = kinematics.frame_jacobian(task.frame_id(kinematics)).tolist()
-                configuration = kinematics.q.tolist()
-                gradient = [0.0] * 3
-                for q_i, v_i, middle, weight in terms:
-                    gradient[v_i] = weight * (configuration[q_i] - middle)  # ∂/∂θ of Eq. (5), or of the posture's
-                return frame, gradient, cross_product_frame_row(frame, gradient, weights)
-            jacobian_rows = task.jacobian(kinematics).tolist()
-            derivative = task.jacobian_derivative(kinematics)
-            gradient = objective.gradient_values(kinematics, task)
-            row = cross_product_row(jacobian_rows, derivative, gradient, hessian_rows(kinematics))
-            return jacobian_rows, gradient, row
-
-        def slope_at(kinematics: Kinematics, velocity: np.ndarray, velocity_values) -> float:
-            """∂G/∂q·q̇ at the kinematics' configuration, from J̇ (:func:`~torqueopt.resolvers.velocity.cross_product_slope`)."""
-            jacobian_rows = task.jacobian(kinematics).tolist()
-            jacobian_rate_rows = task.jacobian_rate(kinematics, velocity).tolist()
-            gradient = objective.gradient_values(kinematics, task)
-            hessian = hessian_rows(kinematics)
-            return cross_product_slope(jacobian_rows, jacobian_rate_rows, gradient, hessian, velocity_values)
-
-        @PerConfiguration
-        def at_configuration(kinematics: Kinematics):
-            rows, gradient, ((r0, r1, r2), (n0, n1, n2)) = row_at(kinematics)
-            (a0, a1, a2), (b0, b1, b2) = rows[0], rows[1]
-            # J itself must keep full rank: σ_min/σ_max = |J_0 × J_1| / λ_max(JJᵀ)
-            aa, ab, bb = a0 * a0 + a1 * a1 + a2 * a2, a0 * b0 + a1 * b1 + a2 * b2, b0 * b0 + b1 * b1 + b2 * b2
-            largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)
-            normal_norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            inverse_condition = normal_norm / largest if largest > 0.0 else 0.0
-            if not inverse_condition >= singular_tolerance:
-                raise SingularJacobian(singular_message(inverse_condition, singular_tolerance))
-            determinant = r0 * n0 + r1 * n1 + r2 * n2  # det J_ex = ∂G/∂q · n_J
-            scale = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * normal_norm
-            alignment = abs(determinant) / scale if scale > 0 else 0.0
-            if not alignment >= tolerance:
-                raise _algorithmic_singularity(alignment, tolerance)
-            # J_ex⁻¹ of Eq. (15) is adj J_ex / det J_ex; the adjugate's columns are J_1 × r, r × J_0 and n_J
-            adjugate = (
-                b1 * r2 - b2 * r1, b2 * r0 - b0 * r2, b0 * r1 - b1 * r0,
-                r1 * a2 - r2 * a1, r2 * a0 - r0 * a2, r0 * a1 - r1 * a0,
-                n0, n1, n2,
-            )  # fmt: skip
-            return adjugate, determinant, inverse_condition, rows, gradient
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            (u0, u1, u2, w0, w1, w2, *_), determinant, inverse_condition, *_ = at_configuration(kinematics)
-            x0, x1 = task_velocity.tolist()
-            # Eq. (15): q̇ = J_ex⁻¹ [ẋ; 0]
-            joint_rates = (
-                (u0 * x0 + w0 * x1) / determinant,
-                (u1 * x0 + w1 * x1) / determinant,
-                (u2 * x0 + w2 * x1) / determinant,
-            )
-            return np.array(joint_rates), inverse_condition
-
-        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            q = kinematics.q
-            (u0, u1, u2, w0, w1, w2, z0, z1, z2), determinant, _, frame, gradient = at_configuration(kinematics)
-            values = v0, v1, v2 = velocity.tolist()
-            if criterion is not None:
-                frame_rate = kinematics.frame_jacobian_time_variation(task.frame_id(kinematics), velocity).tolist()
-                curvature = cross_product_curvature(frame, frame_rate, gradient, weights, values)  # q̇ᵀ∇²G q̇
-                (s0, s1, s2), (t0, t1, t2) = frame_rate[0], frame_rate[1]  # J̇ of the task's rows, x and y
-            else:
-                (s0, s1, s2), (t0, t1, t2) = task.jacobian_rate(kinematics, velocity).tolist()
-                speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-                curvature = 0.0
-                if speed > 0.0:
-                    step = CURVATURE_STEP / speed
-                    ahead, behind = either_side(q, step, velocity, values)
-                    forward = slope_at(shifted.update(ahead), velocity, values)
-                    backward = slope_at(shifted.update(behind), velocity, values)
-                    curvature = (forward - backward) / (2.0 * step)  # q̇ᵀ∇²G q̇
-            # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
-            rate0, rate1 = command_rate.tolist()
-            c0, c1 = rate0 - (s0 * v0 + s1 * v1 + s2 * v2), rate1 - (t0 * v0 + t1 * v1 + t2 * v2)
-            return np.array(
-                (
-                    (u0 * c0 + w0 * c1 - z0 * curvature) / determinant,
-                    (u1 * c0 + w1 * c1 - z1 * curvature) / determinant,
-                    (u2 * c0 + w2 * c1 - z2 * curvature) / determinant,
-                )
-            )
-
-        return rates, acceleration
-
-    def curvature_function(self, robot: Robot, task: FrameTask):
-        r"""The curvature :math:`\dot q^\top\nabla^2 G\,\dot q` of q̈ in closed form for the single-state step:
-        ``(kinematics, q̇) -> (curvature, J̇ of the task rows)``, by ``StackedExtendedJacobian.curvature_along`` on a
-        stack of one (the batch's own formula, so that ``simulate`` and the batch take the same curvature), from the
-        task frame's whole J and :math:`\dot J` at (q, q̇). None where the stack does not apply (a callable
-        criterion, a robot whose joints do not add, the pose task): there the step takes its central difference."""
-        criterion = self._closed_form_criterion(robot, task)
-        if criterion is None:
-            return None
-        stack = StackedExtendedJacobian(robot, self.singular_tolerance, self.algorithmic_tolerance, *criterion)
-        rows = task.rows
-
-        def curvature(kinematics: Kinematics, velocity: np.ndarray):
-            frame_id = task.frame_id(kinematics)
-            frame = kinematics.frame_jacobian(frame_id)
-            frame_rate = kinematics.frame_jacobian_time_variation(frame_id, velocity)
-            value = stack.curvature_along(frame[None], frame_rate[None], kinematics.q[None], velocity[None])
-            return float(value[0]), frame_rate[rows]
-
-        return curvature
-
-    def _closed_form_criterion(self, robot: Robot, task: FrameTask):
-        """``_diagonal_quadratic``'s (q_index, v_index, centre, curvature) where the curvature has a closed form, else
-        None."""
-        criterion = _diagonal_quadratic(self.objective, robot)
-        if task.kind == "pose" or not robot.euclidean or criterion is None or task.rows != robot.task_rows:
-            return None
-        return criterion
 
     def stack_rate_function(self, robot: Robot):
         """Eq. (15)'s rates and their q̈ on stacks (``StackedExtendedJacobian``), for a position task (``xy``,
@@ -692,7 +324,7 @@ class StackedExtendedJacobian(VelocityStack):
 
     :math:`\ddot q` solves :math:`J_{ex}\ddot q = [\dot c - \dot J\dot q;\ -\ddot G]` (see
     :meth:`ExtendedJacobian.acceleration_function`), with the curvature :math:`\ddot G = \dot q^\top\nabla^2 G\,\dot q`
-    in closed form (the single-state step's too, by :meth:`curvature_along` on a stack of one): along
+    in closed form: along
     :math:`q + s\dot q`, with :math:`'` for d/ds, :math:`g = \nabla p` (:math:`g' = \nabla^2 p\,\dot q`,
     :math:`g'' = 0`) and :math:`n_J` multilinear in J's rows,
 
@@ -797,18 +429,6 @@ class StackedExtendedJacobian(VelocityStack):
         last = (self.sign * curvature) * normal  # the last column of adj J_ex is (−1)^m n_J
         acceleration = (_adjugate_times(task, g_row, command_rate.T - drift) - last) / determinant
         return np.ascontiguousarray(acceleration.T)
-
-    def curvature_along(self, frame_jacobian, frame_rate, configuration, velocity) -> np.ndarray:
-        r""":math:`\ddot G = \dot q^\top\nabla^2 G\,\dot q` (B,) in closed form (see the class) from the task frame's
-        whole J and :math:`\dot J` (B, 6, n) at (q, q̇): what :meth:`acceleration` computes, from its inputs alone
-        (the single-state step's curvature, with B = 1, so that ``simulate`` and the batch take the same one)."""
-        frame = _batch_last(frame_jacobian)
-        linear, angular, task = frame[:3], frame[3:], frame[self.rows]
-        gradient = self._gradient(configuration)
-        cofactors, before, after = self._cofactor_sums(task, gradient, linear, angular)
-        joint_velocity = np.ascontiguousarray(velocity.T)
-        sums = linear, angular, gradient, cofactors, before, after
-        return self._curvature(task, _batch_last(frame_rate), joint_velocity, *sums)
 
     def _cofactor_sums(self, task, gradient, linear, angular):
         """(K, Σ_{j≤k} K_j × ω_j, Σ_{j>k} J_j × K_j): the cofactors as (3, n, B) columns and the row's sums."""

@@ -2,15 +2,13 @@ r"""Gradient projection (Liégeois, 1977), Eq. (4) of the paper."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from ...errors import SingularJacobian
-from ...linalg import cross_along, determinants, singular_message
+from ...linalg import cross_along, determinants
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import Criterion, JointLimits, Manipulability, criterion_from
 from .options import criterion_spec
@@ -19,7 +17,6 @@ from .pseudoinverse import StackedPseudoInverse, stacked_inverse
 __all__ = [
     "GradientProjection",
     "projected_gradient_steps",
-    "cross_product_manipulability_steps",
     "CriterionGain",
     "CRITERION_OPTION",
     "DEFAULT_GAINS",
@@ -72,6 +69,7 @@ class CriterionGain:
         self.objective.check(robot)
 
 
+@register_resolver
 class GradientProjection(CriterionGain, VelocityResolver):
     r"""Resolved rate plus the projected gradient of a criterion p(q), Eq. (4).
 
@@ -122,23 +120,14 @@ class GradientProjection(CriterionGain, VelocityResolver):
         and for the manipulability in the closed form of its stacked step (``StackedManipulabilityGradient``),
         from the frame's Jacobian and its rate. A callable's gradient is itself a difference: None, and the loop takes
         q̈ by its central difference. J, its SVD (whence J⁺) and k ∂p/∂q at q are those the rates computed
-        there, when they did (for the manipulability on planar3's 2×3 Jacobian, J⁺ by cross products and the
-        traces from the frame's J: ``cross_product_manipulability_steps``).
+        there, when they did.
         """
         return self.step_functions(robot, task)[1]
 
     def step_functions(self, robot: Robot, task: FrameTask):
-        """Eq. (4)'s rates and their closed-form q̈ (or None), sharing J, J⁺ and ∂p/∂q at each configuration: for the
-        manipulability on a 2×3 Jacobian (planar3's task) of one-degree-of-freedom joints
-        ``cross_product_manipulability_steps``, else ``projected_gradient_steps``."""
-        model = robot.model
-        if (
-            isinstance(self.objective, Manipulability)
-            and task.dimension == 2
-            and robot.nv == 3
-            and all(model.nvs[joint] == 1 for joint in range(1, model.njoints))
-        ):
-            return cross_product_manipulability_steps(task, self.singular_tolerance, self.gain)
+        """Eq. (4)'s rates and their closed-form q̈ (or None): ``projected_gradient_steps``, sharing J, J⁺ and ∂p/∂q
+        at each configuration. The batch takes the stacked form (:meth:`stack_rate_function`), which the tests hold
+        to this one."""
         rates, acceleration = projected_gradient_steps(robot, task, self.singular_tolerance, self.objective, self.gain)
         return rates, None if task.kind == "pose" or not self.objective.has_curvature else acceleration
 
@@ -203,132 +192,6 @@ def projected_gradient_steps(robot: Robot, task: FrameTask, tolerance: float, cr
         )
         # the derivative of Eq. (4) along the motion: J⁺(ċ − J̇q̇) + (I − J⁺J)·inner = J⁺(ċ − J̇q̇ − J·inner) + inner
         return pseudoinverse.dot(command_rate - jacobian_rate.dot(velocity) - jacobian.dot(inner)) + inner
-
-    return rates, acceleration
-
-
-def cross_product_manipulability_steps(task: FrameTask, tolerance: float, k: float):
-    r"""``projected_gradient_steps`` with the manipulability, :math:`p = -w` of Eq. (6), for a 2×3 Jacobian of
-    one-degree-of-freedom joints (planar3's task), on floats: its fast twin (the tests hold them equal), whose numpy
-    and SVD calls cost many times these few products. The same maths, in closed forms that hold for two rows a, b:
-
-    * :math:`n = a\times b`, :math:`\det JJ^\top = |n|^2` (Lagrange's identity), so :math:`w = |n|` (Eq. (6)) and
-      :math:`\sigma_{min}/\sigma_{max} = |n|/\lambda_{max}(JJ^\top)`, refused below ``tolerance`` in the SVD path's
-      words;
-    * :math:`J^\dagger = [b\times n,\ n\times a]/|n|^2` (Eq. (3): its columns are orthogonal to n, the null space,
-      and :math:`JJ^\dagger = I`), and :math:`I - J^\dagger J = nn^\top/|n|^2`;
-    * :math:`\partial w/\partial q_k = w\,\mathrm{tr}(J^\dagger\,\partial J/\partial q_k)` and the rate of
-      :math:`k\,\partial p/\partial q` by the sums of ``StackedManipulabilityGradient`` (see there) from the task
-      frame's whole J and :math:`\dot J`, written out for three joints;
-    * q̈ as :meth:`GradientProjection.acceleration_function` gives it, with
-      :math:`\frac{d}{dt}J^\dagger = (I - J^\dagger J)\dot J^\top(JJ^\top)^{-1} - J^\dagger\dot J J^\dagger`.
-
-    Args:
-        task: a 2-row position task (``xy``).
-        tolerance: the smallest σmin/σmax of J.
-        k: the gain [rad²/s per unit of p].
-    """
-
-    @PerConfiguration
-    def at_configuration(kinematics: Kinematics):
-        frame = kinematics.frame_jacobian(task.frame_id(kinematics)).tolist()
-        (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame
-        n0, n1, n2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # n = a × b, J's rows a, b
-        squared = n0 * n0 + n1 * n1 + n2 * n2  # det JJᵀ
-        aa, ab, bb = x0 * x0 + x1 * x1 + x2 * x2, x0 * y0 + x1 * y1 + x2 * y2, y0 * y0 + y1 * y1 + y2 * y2
-        largest = 0.5 * (aa + bb) + math.hypot(0.5 * (aa - bb), ab)  # σ_max²
-        w = math.sqrt(squared)  # Eq. (6): w = sqrt(det JJᵀ) = σ_min σ_max
-        inverse_condition = w / largest if largest > 0.0 else 0.0
-        if not inverse_condition >= tolerance:
-            raise SingularJacobian(singular_message(inverse_condition, tolerance))
-        # Eq. (3): the rows (u_i, v_i) of J⁺ = [b × n, n × a] / |n|²
-        inverse = 1.0 / squared
-        u0, u1, u2 = (y1 * n2 - y2 * n1) * inverse, (y2 * n0 - y0 * n2) * inverse, (y0 * n1 - y1 * n0) * inverse
-        v0, v1, v2 = (n1 * x2 - n2 * x1) * inverse, (n2 * x0 - n0 * x2) * inverse, (n0 * x1 - n1 * x0) * inverse
-        # B_k = Σ_{i≤k} ω_i × f_i and A_k = Σ_{i>k} L_i × f_i, f_i = (u_i, v_i, 0):
-        # ω_i × f_i = (−r_i v_i, r_i u_i, p_i v_i − q_i u_i), L_i × f_i = (−z_i v_i, z_i u_i, x_i v_i − y_i u_i)
-        bx0, by0, bz0 = -r0 * v0, r0 * u0, p0 * v0 - q0 * u0
-        bx1, by1, bz1 = bx0 - r1 * v1, by0 + r1 * u1, bz0 + p1 * v1 - q1 * u1
-        bx2, by2, bz2 = bx1 - r2 * v2, by1 + r2 * u2, bz1 + p2 * v2 - q2 * u2
-        ax1, ay1, az1 = -z2 * v2, z2 * u2, x2 * v2 - y2 * u2
-        ax0, ay0, az0 = ax1 - z1 * v1, ay1 + z1 * u1, az1 + x1 * v1 - y1 * u1
-        # tr(J⁺ ∂J/∂q_k) = ω_k·A_k − L_k·B_k
-        t0 = p0 * ax0 + q0 * ay0 + r0 * az0 - x0 * bx0 - y0 * by0 - z0 * bz0
-        t1 = p1 * ax1 + q1 * ay1 + r1 * az1 - x1 * bx1 - y1 * by1 - z1 * bz1
-        t2 = -x2 * bx2 - y2 * by2 - z2 * bz2
-        # k ∂p/∂q = −k ∂w/∂q = −k w tr(J⁺ ∂J/∂q_k), p = −w of Eq. (6)
-        scale = -k * w
-        g0, g1, g2 = scale * t0, scale * t1, scale * t2
-        rates_terms = (u0, u1, u2, v0, v1, v2, g0, g1, g2, x0 * g0 + x1 * g1 + x2 * g2, y0 * g0 + y1 * g1 + y2 * g2)
-        sums = (ax0, ay0, az0, ax1, ay1, az1, bx0, by0, bz0, bx1, by1, bz1, bx2, by2, bz2)
-        return inverse_condition, rates_terms, (frame, (n0, n1, n2, squared, aa, ab, bb), (t0, t1, t2), scale, sums)
-
-    def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-        inverse_condition, (u0, u1, u2, v0, v1, v2, g0, g1, g2, ag, bg), _ = at_configuration(kinematics)
-        c0, c1 = task_velocity.tolist()
-        # Eq. (4) with k' = −k: J⁺ẋ − k(I − J⁺J)∂p/∂q = J⁺(ẋ + J k∂p/∂q) − k∂p/∂q
-        e0, e1 = c0 + ag, c1 + bg
-        return np.array((u0 * e0 + v0 * e1 - g0, u1 * e0 + v1 * e1 - g1, u2 * e0 + v2 * e1 - g2)), inverse_condition
-
-    def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-        _, (u0, u1, u2, v0, v1, v2, g0, g1, g2, _, _), terms = at_configuration(kinematics)
-        frame, (n0, n1, n2, squared, aa, ab, bb), (t0, t1, t2), scale, sums = terms
-        (x0, x1, x2), (y0, y1, y2), (z0, z1, z2), (p0, p1, p2), (q0, q1, q2), (r0, r1, r2) = frame
-        ax0, ay0, az0, ax1, ay1, az1, bx0, by0, bz0, bx1, by1, bz1, bx2, by2, bz2 = sums
-        rate = kinematics.frame_jacobian_time_variation(task.frame_id(kinematics), velocity).tolist()
-        (dx0, dx1, dx2), (dy0, dy1, dy2), (dz0, dz1, dz2), (dp0, dp1, dp2), (dq0, dq1, dq2), (dr0, dr1, dr2) = rate
-        w0, w1, w2 = velocity.tolist()
-        # d/dt J⁺ = (I − J⁺J) J̇ᵀ G⁻¹ − J⁺ J̇ J⁺, with I − J⁺J = nnᵀ/|n|² and G⁻¹ = adj(JJᵀ)/|n|²: the first term
-        # is n hᵀ with h = G⁻¹ J̇ n / |n|², the second J⁺N with N = J̇J⁺ (2×2)
-        sn, tn = dx0 * n0 + dx1 * n1 + dx2 * n2, dy0 * n0 + dy1 * n1 + dy2 * n2  # J̇ n
-        inverse = 1.0 / (squared * squared)
-        h0, h1 = (bb * sn - ab * tn) * inverse, (aa * tn - ab * sn) * inverse
-        n00, n01 = dx0 * u0 + dx1 * u1 + dx2 * u2, dx0 * v0 + dx1 * v1 + dx2 * v2
-        n10, n11 = dy0 * u0 + dy1 * u1 + dy2 * u2, dy0 * v0 + dy1 * v1 + dy2 * v2
-        du0, dv0 = n0 * h0 - u0 * n00 - v0 * n10, n0 * h1 - u0 * n01 - v0 * n11
-        du1, dv1 = n1 * h0 - u1 * n00 - v1 * n10, n1 * h1 - u1 * n01 - v1 * n11
-        du2, dv2 = n2 * h0 - u2 * n00 - v2 * n10, n2 * h1 - u2 * n01 - v2 * n11
-        # Ȧ_k = Σ_{i>k} (L̇_i × f_i + L_i × ḟ_i) and Ḃ_k = Σ_{i≤k} (ω̇_i × f_i + ω_i × ḟ_i), ḟ_i = (du_i, dv_i, 0)
-        cx0, cy0, cz0 = -dr0 * v0 - r0 * dv0, dr0 * u0 + r0 * du0, dp0 * v0 - dq0 * u0 + p0 * dv0 - q0 * du0
-        cx1, cy1, cz1 = (
-            cx0 - dr1 * v1 - r1 * dv1,
-            cy0 + dr1 * u1 + r1 * du1,
-            cz0 + dp1 * v1 - dq1 * u1 + p1 * dv1 - q1 * du1,
-        )
-        cx2, cy2, cz2 = (
-            cx1 - dr2 * v2 - r2 * dv2,
-            cy1 + dr2 * u2 + r2 * du2,
-            cz1 + dp2 * v2 - dq2 * u2 + p2 * dv2 - q2 * du2,
-        )
-        ex1, ey1, ez1 = -dz2 * v2 - z2 * dv2, dz2 * u2 + z2 * du2, dx2 * v2 - dy2 * u2 + x2 * dv2 - y2 * du2
-        ex0, ey0, ez0 = (
-            ex1 - dz1 * v1 - z1 * dv1,
-            ey1 + dz1 * u1 + z1 * du1,
-            ez1 + dx1 * v1 - dy1 * u1 + x1 * dv1 - y1 * du1,
-        )
-        # d/dt tr(J⁺ ∂J/∂q_k) = ω̇_k·A_k + ω_k·Ȧ_k − L̇_k·B_k − L_k·Ḃ_k
-        s0 = (
-            dp0 * ax0 + dq0 * ay0 + dr0 * az0 + p0 * ex0 + q0 * ey0 + r0 * ez0
-            - dx0 * bx0 - dy0 * by0 - dz0 * bz0 - x0 * cx0 - y0 * cy0 - z0 * cz0
-        )  # fmt: skip
-        s1 = (
-            dp1 * ax1 + dq1 * ay1 + dr1 * az1 + p1 * ex1 + q1 * ey1 + r1 * ez1
-            - dx1 * bx1 - dy1 * by1 - dz1 * bz1 - x1 * cx1 - y1 * cy1 - z1 * cz1
-        )  # fmt: skip
-        s2 = -dx2 * bx2 - dy2 * by2 - dz2 * bz2 - x2 * cx2 - y2 * cy2 - z2 * cz2
-        # k ∇²p q̇ = −k d/dt (w tr_k) = −k w ((q̇·tr) tr_k + d/dt tr_k), as ẇ = w q̇·tr
-        along = w0 * t0 + w1 * t1 + w2 * t2
-        k0, k1, k2 = scale * (along * t0 + s0), scale * (along * t1 + s1), scale * (along * t2 + s2)
-        # inner = J̇ᵀJ⁺ᵀ(u + k ∂p/∂q) − k ∇²p q̇, u = J⁺c
-        c0, c1 = command.tolist()
-        m0, m1, m2 = u0 * c0 + v0 * c1 + g0, u1 * c0 + v1 * c1 + g1, u2 * c0 + v2 * c1 + g2
-        alpha, beta = u0 * m0 + u1 * m1 + u2 * m2, v0 * m0 + v1 * m1 + v2 * m2
-        i0, i1, i2 = alpha * dx0 + beta * dy0 - k0, alpha * dx1 + beta * dy1 - k1, alpha * dx2 + beta * dy2 - k2
-        # the derivative of Eq. (4) along the motion: J⁺(ċ − J̇q̇ − J·inner) + inner
-        rate0, rate1 = command_rate.tolist()
-        e0 = rate0 - (dx0 * w0 + dx1 * w1 + dx2 * w2) - (x0 * i0 + x1 * i1 + x2 * i2)
-        e1 = rate1 - (dy0 * w0 + dy1 * w1 + dy2 * w2) - (y0 * i0 + y1 * i1 + y2 * i2)
-        return np.array((u0 * e0 + v0 * e1 + i0, u1 * e0 + v1 * e1 + i1, u2 * e0 + v2 * e1 + i2))
 
     return rates, acceleration
 

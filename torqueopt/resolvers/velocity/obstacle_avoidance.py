@@ -7,7 +7,6 @@ from typing import NamedTuple
 import numpy as np
 
 from ...errors import InvalidInput
-from ...linalg import two_row_pseudoinverse
 from ...robot import Robot
 from ...robot_copies import RobotForest
 from ...tasks import (
@@ -19,11 +18,12 @@ from ...tasks import (
     stacked_undamped_pseudoinverse,
     undamped_pseudoinverse,
 )
-from ...tasks.stack import ABSOLUTE_TOLERANCE
 from ...tasks.task import identity
 from ..options import Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .options import obstacle as obstacle_option
+from .options import obstacle_text
 from .pseudoinverse import StackedPseudoInverse
 
 __all__ = [
@@ -54,6 +54,7 @@ def activation_rate(clearance: float, influence: float, critical: float) -> floa
     return -6.0 * s * (1.0 - s) / (influence - critical)
 
 
+@register_resolver
 class ObstacleAvoidance(VelocityResolver):
     r"""Resolved rate that moves the arm's closest point away from an obstacle, Eq. (13).
 
@@ -88,6 +89,7 @@ class ObstacleAvoidance(VelocityResolver):
             meaning="the point or sphere obstacle (centre in world axes, radius)",
             convert=obstacle_option,
             default_text="none (required)",
+            text=obstacle_text,
         ),
         Option(
             name="speed",
@@ -164,204 +166,13 @@ class ObstacleAvoidance(VelocityResolver):
 
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task), sharing what both read at a
-        configuration: :meth:`in_plane_step_functions` for a 2×3 J of an arm whose joints all turn about world z
-        and move the task frame (planar3 and its task), :meth:`general_step_functions` for any other."""
-        if task.dimension == 2 and robot.nv == 3 and _planar_chain(robot.model, robot.model.getFrameId(task.frame)):
-            return self.in_plane_step_functions(robot, task)
+        configuration: :meth:`general_step_functions`. The batch takes the stacked form (:meth:`stack_rate_function`),
+        which the tests hold to this one."""
         return self.general_step_functions(robot, task)
-
-    def in_plane_step_functions(self, robot: Robot, task: FrameTask):
-        r""":meth:`general_step_functions` for a 2×3 J of an arm whose joints all turn about world z (planar3 and its
-        ``xy`` task), on Python floats: its fast twin (the tests hold them equal), whose numpy calls on these
-        3-vectors and 3×3 matrices cost many times the few products they do.
-
-        With one degree of redundancy :math:`I - J^\dagger J = zz^\top` (z the unit vector spanning J's null space,
-        ``two_row_pseudoinverse``), so :math:`B = J_o(I - J^\dagger J) = bz^\top`, :math:`b = J_oz`, has rank one,
-        its one singular value :math:`\|b\|` (dropped at or below :math:`10^{-10}`, as ``undamped_pseudoinverse``
-        drops it), :math:`B^\dagger = zb^\top/b^\top b`, and Eq. (12), Eq. (13) are
-
-        .. math::
-
-            \dot\phi = sz,\quad s = \frac{b^\top e}{b^\top b},\quad e = v_o\hat n - J_op,\quad p = J^\dagger c,\qquad
-            \dot q = p + \alpha_h sz,
-
-        and their time derivative (:meth:`acceleration_function` for this B of rank one)
-
-        .. math::
-
-            \ddot q = \dot p + \dot\alpha_h sz + \alpha_h(\dot sz + s\dot z),\quad
-            \dot p = J^\dagger(\dot c - \dot Jp) + z(\dot Jz)^\top w,\ w = (JJ^\top)^{-1}c,\quad
-            \dot z = -J^\dagger\dot Jz,
-
-            \dot s = \frac{\dot b^\top(e - 2sb) + b^\top\dot e}{b^\top b},\quad \dot b = \dot J_oz + J_o\dot z,\quad
-            \dot e = v_o\dot{\hat n} - \dot J_op - J_o\dot p.
-
-        Every joint axis stays along world z, so the joints' Jacobian columns in Pinocchio's WORLD frame
-        (:meth:`~torqueopt.tasks.Kinematics.world_jacobians`, the body's velocity at the world origin and its angular
-        velocity) are :math:`(v_{x,k}, v_{y,k}, 0, 0, 0, w_k)`, and their rates have no angular part: a point p
-        moving with the joints k of a set S has the Jacobian rows
-        :math:`(v_{x,k} - p_yw_k,\ v_{y,k} + p_xw_k)_{k\in S}` (:math:`J_v + J_\omega\times p`, its z row 0) and, moving
-        at :math:`\dot p`, their rates :math:`(\dot v_{x,k} - \dot p_yw_k,\ \dot v_{y,k} + \dot p_xw_k)`
-        (:math:`\dot J_v + \dot J_\omega\times p + J_\omega\times\dot p`, :math:`\dot J_\omega = 0`), what
-        ``getFrameJacobian`` and its time variation give for a frame at p. So J is that of the task frame (every
-        joint moves it), :math:`J_o` that of :math:`x_o` on its segment's body, with the closest point's own velocity
-        :math:`v_p = J_o\dot q + \dot s u` for :math:`\dot J_o` (:meth:`~torqueopt.tasks.ObstacleTask.point_rates`:
-        inside the segment :math:`\dot s = ((c - a)\cdot(\omega\times u) - J_o\dot q\cdot u)/\|u\|^2`, at an end 0),
-        and b, ḃ and the parts of e, ė that meet them are in-plane. The closest point by
-        :meth:`~torqueopt.tasks.ObstacleTask.closest_values`; the Jacobians' rates from one time variation.
-        """
-        obstacle, influence, critical, tolerance = self.obstacle, self.influence, self.critical, self.singular_tolerance
-        speed = obstacle.speed if self.speed is None else self.speed
-        model = robot.model
-        task_frame = model.getFrameId(task.frame)
-        (cx, cy, cz), radius = obstacle.center.tolist(), obstacle.radius
-        closest_values = obstacle.closest_values
-        # the chain that closest_values reads ends at the task frame, whose position the twin reads anyway
-        ends_at_task_frame = obstacle.chain(model, robot.frame)[1] == task_frame
-        # for each joint's body, 1.0 in the columns of the joints that move it (its support), 0.0 in the others
-        joints = range(1, model.njoints)
-        columns = {joint: tuple(float(k in model.supports[joint]) for k in joints) for joint in joints}
-        # Views of Pinocchio's data that hold its latest update, made once for the last Kinematics read: the WORLD
-        # columns' x and y rows and their ω_z row, the task frame's position, the x and y rows of the columns' rates.
-        views_of = rate_view = None
-        planar_rows = spin_row = tip_view = rate_rows = None
-        # at_configuration's value, kept while the Kinematics it was computed for stays at that configuration:
-        # PerConfiguration's rule, checked in the caller (each rates call at a new configuration saves a call).
-        kept_for, kept_revision, kept = None, -1, None
-
-        def at_configuration(kinematics: Kinematics):
-            """(J's rows, (JJᵀ)⁻¹, z, the joints' w, α_h, and where α_h > 0 the closest point: ‖x_o − c‖, the
-            columns of its joints, a, u, whether x_o is inside its segment, n̂, J_o's x and y rows, b = J_o z, 1/bᵀb,
-            ẋ_o = v_o n̂) as floats, and σmin/σmax of J."""
-            nonlocal views_of, planar_rows, spin_row, tip_view
-            if kinematics is not views_of:
-                world = kinematics.world_jacobians()
-                planar_rows, spin_row, tip_view = world[:2], world[5], kinematics.frame_position_view(task_frame)
-                views_of = kinematics
-            (vx0, vx1, vx2), (vy0, vy1, vy2) = planar_rows.tolist()
-            spin = spin_row.tolist()
-            w0, w1, w2 = spin
-            tip = tip_view.tolist()
-            tx, ty, _ = tip
-            # the task frame's J: J_v + J_ω × p at its origin p
-            jacobian = (vx0 - ty * w0, vx1 - ty * w1, vx2 - ty * w2), (vy0 + tx * w0, vy1 + tx * w1, vy2 + tx * w2)
-            gram_inverse, null, inverse_condition = two_row_pseudoinverse(jacobian, tolerance)  # J⁺, Eq. (3), and z
-            distance, _, joint, (px, py, pz), (ax, ay, _), axis, inside = closest_values(
-                kinematics, tip if ends_at_task_frame else None
-            )
-            gain = activation(distance - radius, influence, critical)
-            if gain == 0.0:
-                return (jacobian, gram_inverse, null, spin, gain, None), inverse_condition
-            (m0, m1, m2), (z0, z1, z2) = columns[joint], null
-            # J_o = J_v + J_ω × x_o over the joints that move the segment's body (its z row 0)
-            ox0, ox1, ox2 = m0 * (vx0 - py * w0), m1 * (vx1 - py * w1), m2 * (vx2 - py * w2)
-            oy0, oy1, oy2 = m0 * (vy0 + px * w0), m1 * (vy1 + px * w1), m2 * (vy2 + px * w2)
-            h0, h1 = ox0 * z0 + ox1 * z1 + ox2 * z2, oy0 * z0 + oy1 * z1 + oy2 * z2  # b = J_o z
-            squared = h0 * h0 + h1 * h1
-            inverse_square = 1.0 / squared if squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE else 0.0
-            if distance > 0.0:
-                normal = (px - cx) / distance, (py - cy) / distance, (pz - cz) / distance
-            else:
-                normal = (1.0, 0.0, 0.0)  # a point on the obstacle's centre, as closest_point says
-            point = (distance, columns[joint], ax, ay, axis, inside, normal, (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1,
-                     inverse_square, speed * normal[0], speed * normal[1])  # fmt: skip
-            return (jacobian, gram_inverse, null, spin, gain, point), inverse_condition
-
-        def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            nonlocal kept_for, kept_revision, kept
-            if kinematics.revision != kept_revision or kinematics is not kept_for:
-                kept_for = None  # a configuration that raises keeps nothing
-                kept = at_configuration(kinematics)
-                kept_for, kept_revision = kinematics, kinematics.revision
-            (jacobian, gram_inverse, (z0, z1, z2), _, gain, point), inverse_condition = kept
-            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11) = jacobian, gram_inverse
-            c0, c1 = task_velocity.tolist()
-            w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
-            p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # J⁺ẋ = Jᵀ(JJᵀ)⁻¹ẋ, Eq. (3)
-            if gain == 0.0:
-                return np.array((p0, p1, p2)), inverse_condition
-            _, _, _, _, _, _, _, (ox0, ox1, ox2), (oy0, oy1, oy2), h0, h1, inverse_square, ex, ey = point
-            # Eq. (12): φ̇ = [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ) = z bᵀe/bᵀb, with ẋ_o = v_o n̂ (b's z is 0)
-            share = (
-                h0 * (ex - ox0 * p0 - ox1 * p1 - ox2 * p2) + h1 * (ey - oy0 * p0 - oy1 * p1 - oy2 * p2)
-            ) * inverse_square
-            # Eq. (13): J⁺ẋ + α_h [J_o(I − J⁺J)]⁺(ẋ_o − J_o J⁺ẋ)
-            share *= gain
-            return np.array((p0 + share * z0, p1 + share * z1, p2 + share * z2)), inverse_condition
-
-        def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            nonlocal kept_for, kept_revision, kept, rate_view, rate_rows
-            if kinematics.revision != kept_revision or kinematics is not kept_for:
-                kept_for = None
-                kept = at_configuration(kinematics)
-                kept_for, kept_revision = kinematics, kinematics.revision
-            (jacobian, gram_inverse, (z0, z1, z2), spin, gain, point), _ = kept
-            ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (s0, s1, s2) = jacobian, gram_inverse, spin
-            c0, c1 = command.tolist()
-            v0, v1, v2 = velocity.tolist()
-            w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1
-            p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # p = J⁺c, Eq. (3)
-            world_rates = kinematics.world_jacobian_rates(velocity)
-            if world_rates is not rate_view:
-                rate_view, rate_rows = world_rates, world_rates[:2]
-            (kx0, kx1, kx2), (ky0, ky1, ky2) = rate_rows.tolist()
-            # J̇ = J̇_v + J_ω × ṗ at the task frame's origin, moving at ṗ = J q̇
-            tx, ty = a0 * v0 + a1 * v1 + a2 * v2, b0 * v0 + b1 * v1 + b2 * v2
-            da0, da1, da2, db0, db1, db2 = (
-                kx0 - ty * s0, kx1 - ty * s1, kx2 - ty * s2, ky0 + tx * s0, ky1 + tx * s1, ky2 + tx * s2
-            )  # fmt: skip
-            r0, r1 = command_rate.tolist()
-            r0, r1 = r0 - da0 * p0 - da1 * p1 - da2 * p2, r1 - db0 * p0 - db1 * p1 - db2 * p2  # ċ − J̇p
-            m0, m1 = da0 * z0 + da1 * z1 + da2 * z2, db0 * z0 + db1 * z1 + db2 * z2  # J̇z
-            # J⁺y = Jᵀ(JJᵀ)⁻¹y, for y = ċ − J̇p and y = J̇z
-            y0, y1 = g00 * r0 + g01 * r1, g01 * r0 + g11 * r1
-            u0, u1 = g00 * m0 + g01 * m1, g01 * m0 + g11 * m1
-            turn = m0 * w0 + m1 * w1  # (J̇z)ᵀw
-            # ṗ = J⁺(ċ − J̇p) + z (J̇z)ᵀw
-            f0, f1, f2 = y0 * a0 + y1 * b0 + turn * z0, y0 * a1 + y1 * b1 + turn * z1, y0 * a2 + y1 * b2 + turn * z2
-            if gain == 0.0:
-                return np.array((f0, f1, f2))  # beyond the influence α_h and its rate are 0
-            x0, x1, x2 = -u0 * a0 - u1 * b0, -u0 * a1 - u1 * b1, -u0 * a2 - u1 * b2  # ż = −J⁺J̇z
-            (distance, (c0, c1, c2), ax, ay, (ux, uy, uz), inside, (nx, ny, nz), (ox0, ox1, ox2), (oy0, oy1, oy2),
-             h0, h1, inverse_square, ex, ey) = point  # fmt: skip
-            # the material point's velocity J_o q̇ and its body's angular velocity (0, 0, ω)
-            px, py = ox0 * v0 + ox1 * v1 + ox2 * v2, oy0 * v0 + oy1 * v1 + oy2 * v2
-            if inside:  # ṡ = ((c − a)·(ω × u) − J_o q̇·u)/‖u‖², ω × u = ω(−u_y, u_x, 0)
-                omega = c0 * s0 * v0 + c1 * s1 * v1 + c2 * s2 * v2
-                slide = (omega * ((cy - ay) * ux - (cx - ax) * uy) - (px * ux + py * uy)) / (
-                    ux * ux + uy * uy + uz * uz
-                )
-                px, py, pz = px + slide * ux, py + slide * uy, slide * uz  # v_p = J_o q̇ + ṡu
-            else:
-                pz = 0.0
-            normal_speed = nx * px + ny * py + nz * pz
-            gain_rate = activation_rate(distance - radius, influence, critical) * normal_speed  # α̇_h = α_h' n̂·v_p
-            # ṅ = (I − n̂n̂ᵀ)v_p/‖x_o − c‖ (its x and y)
-            tx, ty = (px - nx * normal_speed) / distance, (py - ny * normal_speed) / distance
-            # J̇_o = J̇_v + J_ω × v_p over the joints that move the segment's body
-            jx0, jx1, jx2 = c0 * (kx0 - py * s0), c1 * (kx1 - py * s1), c2 * (kx2 - py * s2)
-            jy0, jy1, jy2 = c0 * (ky0 + px * s0), c1 * (ky1 + px * s1), c2 * (ky2 + px * s2)
-            # ḃ = J̇_o z + J_o ż
-            i0 = jx0 * z0 + jx1 * z1 + jx2 * z2 + ox0 * x0 + ox1 * x1 + ox2 * x2
-            i1 = jy0 * z0 + jy1 * z1 + jy2 * z2 + oy0 * x0 + oy1 * x1 + oy2 * x2
-            # e = ẋ_o − J_o p and ė = v_o ṅ − J̇_o p − J_o ṗ, with ẋ_o = v_o n̂
-            e0, e1 = ex - ox0 * p0 - ox1 * p1 - ox2 * p2, ey - oy0 * p0 - oy1 * p1 - oy2 * p2
-            l0 = speed * tx - jx0 * p0 - jx1 * p1 - jx2 * p2 - ox0 * f0 - ox1 * f1 - ox2 * f2
-            l1 = speed * ty - jy0 * p0 - jy1 * p1 - jy2 * p2 - oy0 * f0 - oy1 * f1 - oy2 * f2
-            s = (h0 * e0 + h1 * e1) * inverse_square  # φ̇ = sz, Eq. (12)
-            # ṡ = (ḃᵀ(e − 2sb) + bᵀė)/bᵀb
-            s_rate = (i0 * (e0 - 2.0 * s * h0) + i1 * (e1 - 2.0 * s * h1) + h0 * l0 + h1 * l1) * inverse_square
-            # d/dt of Eq. (13): ṗ + α̇_h s z + α_h(ṡ z + s ż)
-            along, across = gain_rate * s + gain * s_rate, gain * s
-            return np.array(
-                (f0 + along * z0 + across * x0, f1 + along * z1 + across * x1, f2 + along * z2 + across * x2)
-            )
-
-        return rates, acceleration
 
     def general_step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (13)'s rates and their closed-form q̈ (None for a pose task) for any task, sharing what both read at a
-        configuration: the reference the fast pair is held to."""
+        configuration: the step where the stacked form does not apply, and the reference the tests hold it to."""
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
         workspace = pseudoinverse_workspace(3, robot.nv)  # of [J_o(I − J⁺J)]⁺, kept for the run
         obstacle, influence, critical = self.obstacle, self.influence, self.critical
@@ -439,19 +250,6 @@ class ObstacleAvoidance(VelocityResolver):
         return StackedObstacleAvoidance(
             RobotForest(robot), self.obstacle, speed, self.influence, self.critical, self.singular_tolerance
         )
-
-
-def _planar_chain(model, frame_id: int) -> bool:
-    """True when every joint of ``model`` turns about its z axis, placed with that axis along its parent's z, and
-    moves the frame ``frame_id`` (planar3 and its tip): every joint axis then stays along world z whatever the
-    configuration."""
-    if len([joint for joint in model.supports[model.frames[frame_id].parentJoint] if joint > 0]) != model.njoints - 1:
-        return False
-    for joint in range(1, model.njoints):
-        rotation = model.jointPlacements[joint].rotation
-        if model.joints[joint].shortname() != "JointModelRZ" or rotation[:2, 2].any() or rotation[2, :2].any():
-            return False
-    return True
 
 
 #: The smallest positive double: x / max(y, it) is x / y for every y > 0, and 0 for x = y = 0.

@@ -7,6 +7,7 @@ import numpy as np
 
 from ...checks import Refused, finite_array
 from ...tasks import FrameTask, ObstacleTask, PostureTask, Task, TaskStack
+from ..options import label_value
 
 __all__ = ["vector_or_callable", "task_stack", "obstacle", "criterion_spec"]
 
@@ -57,6 +58,14 @@ def obstacle(value) -> ObstacleTask:
     if numbers.size not in (2, 3, 4):
         raise Refused("must be an ObstacleTask or 2-4 numbers: x,y[,z[,radius]] [m]")
     return ObstacleTask.from_spec(numbers)
+
+
+def obstacle_text(value: ObstacleTask) -> str:
+    """The obstacle as :func:`obstacle` reads it back, x,y,z,radius [m]; its repr where the numbers cannot say it
+    (a speed or an end frame of its own, set on the object)."""
+    text = label_value([*value.center, value.radius])
+    fresh = ObstacleTask.from_spec(_vector(text))
+    return text if (fresh.speed, fresh.frame) == (value.speed, value.frame) else repr(value)
 
 
 def criterion_spec(value):

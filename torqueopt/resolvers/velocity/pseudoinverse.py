@@ -11,6 +11,7 @@ from ...linalg import InverseCondition, PseudoInverse, inverse_condition_number_
 from ...robot import Robot
 from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
+from ..registry import register_resolver
 from ..stacks import singular_rows
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack, pseudoinverse_solver
 from .options import vector_or_callable
@@ -18,6 +19,7 @@ from .options import vector_or_callable
 __all__ = ["VelocityPseudoInverse", "KineticEnergyPseudoInverse"]
 
 
+@register_resolver
 class VelocityPseudoInverse(VelocityResolver):
     r"""Resolved rate (Whitney) with the Moore-Penrose pseudoinverse, Eq. (1), Eq. (2), Eq. (3).
 
@@ -157,6 +159,7 @@ class StackedPseudoInverse(VelocityStack):
         )
 
 
+@register_resolver
 class KineticEnergyPseudoInverse(VelocityResolver):
     r"""Weighted pseudoinverse with :math:`W = H`: minimum kinetic energy, Eq. (16), Eq. (17).
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...linalg import cross_along, two_row_pseudoinverse
+from ...linalg import cross_along
 from ...robot import Robot
 from ...robot_copies import RobotForest, point_kinematics
 from ...tasks import (
@@ -24,15 +24,17 @@ from ...tasks import (
 from ...tasks.stack import ABSOLUTE_TOLERANCE, stacked_undamped_pseudoinverse
 from ...tasks.task import identity
 from ..options import LARGEST_WEIGHT, Option, number
+from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, pseudoinverse_solver
 from .criteria import PostureDistance
 from .gradient_projection import StackedGradientProjection, projected_gradient_steps
 from .options import task_stack
 from .pseudoinverse import StackedPseudoInverse, stacked_inverse
 
-__all__ = ["TaskPriority", "below_one_task_steps", "in_plane_below_one_task_steps", "accelerations_below_one_task"]
+__all__ = ["TaskPriority", "below_one_task_steps", "accelerations_below_one_task"]
 
 
+@register_resolver
 class TaskPriority(VelocityResolver):
     r"""The robot's task first; lower-priority tasks in what freedom is left, Eq. (11).
 
@@ -115,11 +117,11 @@ class TaskPriority(VelocityResolver):
     def step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (11)'s rates and their closed-form q̈ (or None), sharing the recursion's levels at each configuration.
 
-        Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4),
-        toward the first posture's target (:meth:`stack_rate_function` says why), and runs as such
-        (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two.
-        Below one other task without damping, ``below_one_task_steps``; on planar3's task (a 2×3 J) below one frame
-        task of kind ``xy``, its float twin ``in_plane_below_one_task_steps``.
+        Below posture tasks only (the default) and without damping, Eq. (11) is gradient projection, Eq. (4), toward
+        the first posture's target (:meth:`stack_rate_function` says why), and runs as such
+        (``projected_gradient_steps`` with the criterion ``PostureDistance``): one SVD per configuration, not two;
+        below one other task without damping, ``below_one_task_steps``. The batch takes the stacked form
+        (:meth:`stack_rate_function`), which the tests hold to these.
         """
         secondary, damping = self.stack, self.damping
         secondary.check(robot)
@@ -131,8 +133,6 @@ class TaskPriority(VelocityResolver):
             return rates, None if task.kind == "pose" else acceleration
         if len(secondary) == 1 and damping == 0.0:
             lower = secondary.tasks[0]
-            if task.dimension == 2 and robot.nv == 3 and type(lower) is FrameTask and lower.kind == "xy":
-                return in_plane_below_one_task_steps(robot, task, lower, self.singular_tolerance)
             rates, acceleration = below_one_task_steps(robot, task, lower, self.singular_tolerance)
             return rates, acceleration if task.kind != "pose" and secondary.tasks[0].closed_form_rates else None
         solver = pseudoinverse_solver(robot, self.singular_tolerance, null_space=False)
@@ -244,114 +244,6 @@ def below_one_task_steps(robot: Robot, task: FrameTask, lower: Task, tolerance: 
             lower_velocity,
             lower.desired_velocity_rate(kinematics, velocity),
         )
-
-    return rates, acceleration
-
-
-def in_plane_below_one_task_steps(robot: Robot, task: FrameTask, lower: FrameTask, tolerance: float):
-    r""":func:`below_one_task_steps` for a 2×3 J (planar3's task) below one ``xy`` frame task, on Python floats: its
-    fast twin (the tests hold them equal), whose numpy calls on these 2- and 3-vectors cost many times the few
-    products they do. The formulas of ``StackedPriorityBelowFrameInPlane`` for one state.
-
-    With J's rows :math:`j_0, j_1`, its null space is spanned by the unit vector :math:`z \propto j_0\times j_1`,
-    so :math:`I - J^\dagger J = zz^\top` and :math:`J_l(I - J^\dagger J) = bz^\top`, :math:`b = J_lz`, of rank one
-    (its one singular value :math:`\|b\|`, dropped at or below :math:`10^{-10}` as ``undamped_pseudoinverse``
-    drops it), and Eq. (11) is
-
-    .. math::
-
-        \dot q = \dot q_1 + sz,\quad \dot q_1 = J^\dagger c = J^\top w,\quad w = (JJ^\top)^{-1}c,\quad
-        s = \frac{b^\top e}{b^\top b},\quad e = \dot x_l - J_l\dot q_1,\quad \dot x_l = k(x^* - x_l),
-
-    and its time derivative (:func:`accelerations_below_one_task` for this A of rank one)
-
-    .. math::
-
-        \ddot q = \ddot q_1 + s\dot z + \dot sz,\quad
-        \ddot q_1 = J^\dagger(\dot c - \dot J\dot q_1) + z\,(\dot Jz)^\top w,\quad \dot z = -J^\dagger\dot Jz,
-
-        \dot s = \frac{\dot b^\top(e - 2sb) + b^\top\dot e}{b^\top b},\quad \dot b = \dot J_lz + J_l\dot z,\quad
-        \dot e = \ddot x_l - \dot J_l\dot q_1 - J_l\ddot q_1,\quad \ddot x_l = -kJ_l\dot q
-
-    (:math:`\dot z` from :math:`Jz = 0` and :math:`z^\top z = 1`; :math:`\dot x_l` and :math:`\ddot x_l` zero
-    without a target). :math:`(JJ^\top)^{-1}`, z and σmin/σmax of J by ``two_row_pseudoinverse`` (refused below
-    ``tolerance`` as the SVD's solver refuses it); :math:`\dot J` and :math:`\dot J_l` from one Jacobian time
-    variation.
-    """
-    model = robot.model
-    task_frame, lower_frame = model.getFrameId(task.frame), model.getFrameId(lower.frame)
-    gain = lower.gain
-    target = None if lower.target is None else lower.target.tolist()
-
-    @PerConfiguration
-    def at_configuration(kinematics: Kinematics):
-        """(J's rows, (JJᵀ)⁻¹, z, J_l's rows, b = J_l z, 1/bᵀb (0 where A's one singular value is dropped), ẋ_l) as
-        floats, and σmin/σmax of J."""
-        jacobian = kinematics.frame_jacobian(task_frame)[:2].tolist()
-        # the high-priority task must keep full rank: J⁺ = Jᵀ(JJᵀ)⁻¹, Eq. (3), and z
-        gram_inverse, (z0, z1, z2), inverse_condition = two_row_pseudoinverse(jacobian, tolerance)
-        (k0, k1, k2), (l0, l1, l2) = lower_jacobian = kinematics.frame_jacobian(lower_frame)[:2].tolist()
-        lz0, lz1 = k0 * z0 + k1 * z1 + k2 * z2, l0 * z0 + l1 * z1 + l2 * z2  # b = J_l z
-        squared = lz0 * lz0 + lz1 * lz1
-        inverse_square = 1.0 / squared if squared > ABSOLUTE_TOLERANCE * ABSOLUTE_TOLERANCE else 0.0
-        if target is None:
-            lower_velocity = (0.0, 0.0)
-        else:
-            x, y = kinematics.frame_position_view(lower_frame)[:2].tolist()
-            lower_velocity = gain * (target[0] - x), gain * (target[1] - y)  # ẋ_l = k(x* − x_l)
-        values = jacobian, gram_inverse, (z0, z1, z2), lower_jacobian, (lz0, lz1), inverse_square, lower_velocity
-        return values, inverse_condition
-
-    def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-        values, inverse_condition = at_configuration(kinematics)
-        jacobian, gram_inverse, null, lower_jacobian, lower_null, scale, lower_velocity = values
-        ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (z0, z1, z2) = jacobian, gram_inverse, null
-        ((k0, k1, k2), (l0, l1, l2)), (lz0, lz1), (x0, x1) = lower_jacobian, lower_null, lower_velocity
-        c0, c1 = task_velocity.tolist()
-        w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1  # w = (JJᵀ)⁻¹c
-        p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # q̇_1 = Jᵀw = J⁺c, Eq. (3)
-        # s = bᵀe/bᵀb, e = ẋ_l − J_l q̇_1
-        s = (lz0 * (x0 - k0 * p0 - k1 * p1 - k2 * p2) + lz1 * (x1 - l0 * p0 - l1 * p1 - l2 * p2)) * scale
-        # Eq. (11): J⁺ẋ_h + [J_l(I − J⁺J)]⁺(ẋ_l − J_l J⁺ẋ_h) = q̇_1 + z bᵀe/bᵀb
-        return np.array((p0 + s * z0, p1 + s * z1, p2 + s * z2)), inverse_condition
-
-    def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-        values, _ = at_configuration(kinematics)
-        jacobian, gram_inverse, null, lower_jacobian, lower_null, scale, lower_velocity = values
-        ((a0, a1, a2), (b0, b1, b2)), (g00, g01, g11), (z0, z1, z2) = jacobian, gram_inverse, null
-        ((k0, k1, k2), (l0, l1, l2)), (lz0, lz1), (x0, x1) = lower_jacobian, lower_null, lower_velocity
-        c0, c1 = command.tolist()
-        w0, w1 = g00 * c0 + g01 * c1, g01 * c0 + g11 * c1  # w = (JJᵀ)⁻¹c
-        p0, p1, p2 = w0 * a0 + w1 * b0, w0 * a1 + w1 * b1, w0 * a2 + w1 * b2  # q̇_1 = Jᵀw
-        e0, e1 = x0 - k0 * p0 - k1 * p1 - k2 * p2, x1 - l0 * p0 - l1 * p1 - l2 * p2  # e = ẋ_l − J_l q̇_1
-        s = (lz0 * e0 + lz1 * e1) * scale  # s = bᵀe/bᵀb
-        (task_rate, lower_rate), _ = kinematics.jacobian_time_variations(velocity, (task_frame, lower_frame))
-        (da0, da1, da2), (db0, db1, db2) = task_rate[:2].tolist()  # J̇
-        (dk0, dk1, dk2), (dl0, dl1, dl2) = lower_rate[:2].tolist()  # J̇_l
-        r0, r1 = command_rate.tolist()
-        r0, r1 = r0 - da0 * p0 - da1 * p1 - da2 * p2, r1 - db0 * p0 - db1 * p1 - db2 * p2  # ċ − J̇q̇_1
-        m0, m1 = da0 * z0 + da1 * z1 + da2 * z2, db0 * z0 + db1 * z1 + db2 * z2  # J̇z
-        # J⁺y = Jᵀ(JJᵀ)⁻¹y, for y = ċ − J̇q̇_1 and y = J̇z
-        y0, y1 = g00 * r0 + g01 * r1, g01 * r0 + g11 * r1
-        o0, o1 = g00 * m0 + g01 * m1, g01 * m0 + g11 * m1
-        turn = m0 * w0 + m1 * w1  # (J̇z)ᵀw
-        # q̈_1 = J⁺(ċ − J̇q̇_1) + z (J̇z)ᵀw
-        f0, f1, f2 = y0 * a0 + y1 * b0 + turn * z0, y0 * a1 + y1 * b1 + turn * z1, y0 * a2 + y1 * b2 + turn * z2
-        dz0, dz1, dz2 = -o0 * a0 - o1 * b0, -o0 * a1 - o1 * b1, -o0 * a2 - o1 * b2  # ż = −J⁺J̇z
-        # ḃ = J̇_l z + J_l ż
-        dlz0 = dk0 * z0 + dk1 * z1 + dk2 * z2 + k0 * dz0 + k1 * dz1 + k2 * dz2
-        dlz1 = dl0 * z0 + dl1 * z1 + dl2 * z2 + l0 * dz0 + l1 * dz1 + l2 * dz2
-        # ė = ẍ_l − J̇_l q̇_1 − J_l q̈_1, with ẍ_l = −k J_l q̇ (zero without a target)
-        de0 = -dk0 * p0 - dk1 * p1 - dk2 * p2 - k0 * f0 - k1 * f1 - k2 * f2
-        de1 = -dl0 * p0 - dl1 * p1 - dl2 * p2 - l0 * f0 - l1 * f1 - l2 * f2
-        if target is not None:
-            v0, v1, v2 = velocity.tolist()
-            de0 -= gain * (k0 * v0 + k1 * v1 + k2 * v2)
-            de1 -= gain * (l0 * v0 + l1 * v1 + l2 * v2)
-        # ṡ = (ḃᵀ(e − 2sb) + bᵀė)/bᵀb
-        ds = (dlz0 * (e0 - 2.0 * s * lz0) + dlz1 * (e1 - 2.0 * s * lz1) + lz0 * de0 + lz1 * de1) * scale
-        # the time derivative of Eq. (11): q̈_1 + s ż + ṡ z
-        return np.array((f0 + s * dz0 + ds * z0, f1 + s * dz1 + ds * z1, f2 + s * dz2 + ds * z2))
 
     return rates, acceleration
 
