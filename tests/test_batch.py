@@ -269,8 +269,11 @@ def test_every_registered_resolver_batched_equals_simulate_on_planar3(planar3, n
     lines = [StraightLine(d, duration=0.5 if name in _COSTLY else 1.2) for d in directions]
     runs = simulate_batch(planar3, resolver, lines, q0s, max_torque_ratio=20.0)
     assert len(runs) == len(lines)
+    # The extended Jacobian's single-state q̈ takes its curvature by a central difference (δ = 1e-5 rad), its
+    # stack in closed form: τ differs by the difference's own error (2.1e-9 of it measured; q and q̇ far less).
+    tolerance = 1e-8 if name == "extended-jacobian" else 1e-9
     for run, line, q0 in zip(runs, lines, q0s):
-        assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0, max_torque_ratio=20.0))
+        assert_same_run(run, torqueopt.simulate(planar3, resolver, line, q0, max_torque_ratio=20.0), tolerance)
 
 
 @pytest.mark.parametrize(

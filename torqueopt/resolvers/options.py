@@ -53,7 +53,7 @@ class Option:
             completes "option NAME=VALUE of resolver 'R' ...").
         default_text: how the listing shows the default, when ``default`` alone does not say it.
         text: how a resolver's label writes a value, as text that ``convert`` reads back, for a value that is
-            not numbers (an obstacle); None: :func:`label_value`.
+            not numbers (an obstacle); None: ``label_value``.
     """
 
     name: str
