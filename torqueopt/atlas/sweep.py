@@ -37,6 +37,7 @@ import os
 import re
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -315,17 +316,31 @@ def run_chunks(
                 once_a_worker_idles = None
 
         when_a_worker_idles()
-        for future in distributed.as_completed(list(futures)):
-            left -= 1
-            when_a_worker_idles()
-            index = futures[future]
-            frames[index] = write_chunk(out, index, future.result(), jobs[index].digest)
-            bar.update(len(jobs[index].movements))
-            future.release()
+        pending = distributed.as_completed(list(futures))
+        # A Ctrl-C is held and read between polls, never raised inside Dask's waiting (a KeyboardInterrupt there
+        # could leave the client's machinery half-way, and closing the cluster then hung): the chunks still
+        # pending are cancelled and the block's end raises it.
+        with interrupt_deferred() as interrupted:
+            while not interrupted and not pending.is_empty():
+                batch = pending.next_batch(block=False)
+                if not batch:
+                    time.sleep(_POLL_SECONDS)
+                for future in batch:
+                    left -= 1
+                    when_a_worker_idles()
+                    index = futures[future]
+                    frames[index] = write_chunk(out, index, future.result(), jobs[index].digest)
+                    bar.update(len(jobs[index].movements))
+                    future.release()
+            if interrupted:
+                client.cancel(list(futures))
         return frames
     finally:
         bar.close()
 
+
+#: How often the sweep looks for finished chunks and for a Ctrl-C [s].
+_POLL_SECONDS = 0.05
 
 _SCHEDULER_ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):[0-9]{1,5}$")
 
