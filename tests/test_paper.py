@@ -243,6 +243,22 @@ def test_paper_command_writes_every_figure_and_both_summaries(paper_command):
     assert "claim 6: holds" in printed
 
 
+def test_a_sweep_setting_that_loses_its_path_is_not_called_unstable(paper_command):
+    # μ = 0.1, K_D = 50: the whiplash detector says not unstable (lost path, 1.15 mm); summary.md marked it **U**
+    # and the answer said "every K_D swept leaves it unstable".
+    _, out, _ = paper_command
+    summary = json.loads((out / "summary.json").read_text())
+    point = next(
+        p for p in summary["remedies"]["sweep"]["points"] if (p["kinematic_weight"], p["damping"]) == (0.1, 50.0)
+    )
+    assert not point["long_stable"] and point["long_instability_time"] is None
+    row = next(line for line in (out / "summary.md").read_text().splitlines() if line.startswith("| 0.1 |"))
+    assert row.endswith("/ 1.15 **L** |") and row.count("**U**") == 4
+    sentences = " ".join(summary["remedies"]["answers"]["kinematic_term"]["sentences"])
+    assert "With μ = 0.1 no K_D swept keeps it stable: it whips or leaves its path at each." in sentences
+    assert "every K_D swept leaves it unstable" not in sentences
+
+
 @pytest.mark.slow
 def test_the_summary_the_pages_read_is_what_the_command_writes(paper_command):
     """docs/data/paper-summary.json, whence the numbers of docs/paper.md and docs/discussion/remedies.md (test_docs

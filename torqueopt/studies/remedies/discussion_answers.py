@@ -71,14 +71,23 @@ def kinematic_term_answer(study: RemediesStudy) -> dict:
             f"Of the {len(points)} settings with μ > 0, {len(stable)} keep the long movement stable and "
             f"{len(within)} also within its limits."
         )
-        always_unstable = [
+        never_stable = [
             mu for mu in sorted({p.kinematic_weight for p in points})
             if not any(p.long_stable for p in points if p.kinematic_weight == mu)
         ]  # fmt: skip
-        if always_unstable:
+        always_whips = [
+            mu for mu in never_stable
+            if all(p.long_instability_time is not None for p in points if p.kinematic_weight == mu)
+        ]  # fmt: skip
+        if always_whips:
             sentences.append(
-                f"With μ = {_listing(always_unstable)} every K_D swept leaves it unstable: the term must weigh "
+                f"With μ = {_listing(always_whips)} every K_D swept leaves it unstable: the term must weigh "
                 "enough against the torque criterion to hold the self-motion down."
+            )
+        others = [mu for mu in never_stable if mu not in always_whips]
+        if others:
+            sentences.append(
+                f"With μ = {_listing(others)} no K_D swept keeps it stable: it whips or leaves its path at each."
             )
         if stable:
             kept = [p.short_kept for p in stable]

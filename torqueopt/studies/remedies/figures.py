@@ -57,7 +57,8 @@ def plot_long_torques(study: RemediesStudy, path: Path) -> Path:
 
 
 def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
-    """The sweep in two panels, one line per K_D, filled circles stable, crosses unstable.
+    """The sweep in two panels, one line per K_D, filled circles stable, crosses unstable, triangles neither (the
+    long movement lost its path or stopped early).
 
     Left: the trade-off itself, the share of the short movement's cut given up
     (x, log; μ = 0 gives up nothing and sits at the left edge) against the long
@@ -85,8 +86,9 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
         by_weight.plot([p.kinematic_weight for p in swept], [p.long_peak_ratio for p in swept], color=color, lw=1.2,
                        label=f"K_D = {damping:g} 1/s")  # fmt: skip
         for p, xi, yi in zip(points, x, y):
-            style = {"marker": "o" if p.long_stable else "x", "color": color, "ms": 6,
-                     "mfc": color if p.long_stable else "none"}  # fmt: skip
+            # Stable, unstable (the whiplash detector's), or neither: a run that lost its path or stopped early.
+            marker = "o" if p.long_stable else ("x" if p.long_instability_time is not None else "^")
+            style = {"marker": marker, "color": color, "ms": 6, "mfc": color if p.long_stable else "none"}
             trade.plot(xi, yi, **style)
             if p.kinematic_weight > 0:
                 by_weight.plot(p.kinematic_weight, yi, **style)
@@ -117,7 +119,8 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
     trade.set_xlabel(
         f"short movement: share of {study.sweep_reference}'s torque cut given up [%] (μ = 0 drawn at {floor:.2g} %)"
     )
-    trade.set_title("Torque saving against stability (o stable, x unstable)", fontsize=10, loc="left")
+    trade.set_title("Torque saving against stability (o stable, x unstable, △ lost its path or stopped)", fontsize=10,
+                    loc="left")  # fmt: skip
     trade.legend(fontsize=8, loc="upper right")
     by_weight.set_xscale("log")
     by_weight.set_xlabel("kinematic weight μ (relative to ‖SHZ‖_F)")

@@ -38,7 +38,8 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
     lines += ["", f"### Sweep of {SWEPT_RESOLVER} (torque_weight={study.sweep_torque_weight})", ""]
     if study.sweep:
         lines += [
-            "Each cell: short movement's cut kept / long movement's peak |τ|/limit (**U**: unstable).",
+            "Each cell: short movement's cut kept / long movement's peak |τ|/limit (**U**: unstable; **L**: lost its "
+            "path or stopped early).",
             "",
             "| μ \\ K_D [1/s] | " + " | ".join(f"{d:g}" for d in study.dampings) + " |",
             "|---|" + "---|" * len(study.dampings),
@@ -48,7 +49,7 @@ def markdown_section(study: RemediesStudy, figures: Sequence[str]) -> str:
             cells = []
             for damping in study.dampings:
                 point = by_setting[mu, damping]
-                mark = "" if point.long_stable else " **U**"
+                mark = "" if point.long_stable else " **U**" if point.long_instability_time is not None else " **L**"
                 cells.append(f"{percent(point.short_kept)} / {point.long_peak_ratio:.3g}{mark}")
             lines.append(f"| {mu:g} | " + " | ".join(cells) + " |")
     else:
