@@ -87,7 +87,7 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
                        label=f"K_D = {damping:g} 1/s")  # fmt: skip
         for p, xi, yi in zip(points, x, y):
             # Stable, unstable (the whiplash detector's), or neither: a run that lost its path or stopped early.
-            marker = "o" if p.long_stable else ("x" if p.long_instability_time is not None else "^")
+            marker = "o" if p.long_stable else ("x" if p.long_instability_time is not None else "v")
             style = {"marker": marker, "color": color, "ms": 6, "mfc": color if p.long_stable else "none"}
             trade.plot(xi, yi, **style)
             if p.kinematic_weight > 0:
@@ -119,7 +119,7 @@ def plot_tradeoff(study: RemediesStudy, path: Path) -> Path:
     trade.set_xlabel(
         f"short movement: share of {study.sweep_reference}'s torque cut given up [%] (μ = 0 drawn at {floor:.2g} %)"
     )
-    trade.set_title("Torque saving against stability (o stable, x unstable, △ lost its path or stopped)", fontsize=10,
+    trade.set_title("Torque saving against stability (o stable, x unstable, ▽ lost its path or stopped)", fontsize=10,
                     loc="left")  # fmt: skip
     trade.legend(fontsize=8, loc="upper right")
     by_weight.set_xscale("log")
