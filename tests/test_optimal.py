@@ -580,3 +580,36 @@ def test_a_grid_step_longer_than_the_movement_leaves_two_intervals():
     # --grid-step 1e308 gave 0 intervals and a ZeroDivisionError traceback.
     assert [transcription_intervals(0.5, step) for step in (0.25, 0.3, 1.0, 1e308)] == [2, 2, 2, 2]
     assert transcription_intervals(2.0, 0.005) == 400 and transcription_intervals(0.5, 0.2) == 4
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_ipopt_exits_130_and_writes_nothing(tmp_path):
+    """IPOPT runs in C++, where Python hears no Ctrl-C: the solve went on, its second stage ran, the files were
+    written, exit 3. The command holds SIGINT, stops IPOPT at its next iteration and raises it before writing."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import threading
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    command = [sys.executable, "-m", "torqueopt", "optimize", "--robot", "panda", "--direction", "0,1,0",
+               "--duration", "2", "--out", str(tmp_path / "run.csv")]  # fmt: skip
+    process = subprocess.Popen(command, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(root)},
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
+    reader.start()
+    deadline = time.monotonic() + 120
+    while not any("IPOPT on" in line for line in lines) and time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.05)  # the first IPOPT iteration has started: its progress line is out
+    assert process.poll() is None, lines
+    process.send_signal(signal.SIGINT)
+    sent = time.monotonic()
+    process.wait(timeout=60)
+    reader.join(timeout=10)
+    assert process.returncode == 130 and lines[-1] == "torqueopt optimize: interrupted\n", lines
+    assert time.monotonic() - sent < 10  # one IPOPT iteration: a second or two on a loaded machine
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -19,11 +19,12 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import signal
 import sys
 import threading
 from collections.abc import Iterator
 
-__all__ = ["SLOW", "SLOW_VARIABLE", "progress_bar", "said_if_slow", "slow_after"]
+__all__ = ["SLOW", "SLOW_VARIABLE", "interrupt_deferred", "progress_bar", "said_if_slow", "slow_after"]
 
 #: Seconds after which work in :func:`said_if_slow` says what it is doing.
 SLOW = 1.0
@@ -105,3 +106,26 @@ def said_if_slow(description: str, enabled: bool = True) -> Iterator[None]:
         yield
     finally:
         timer.cancel()
+
+
+@contextlib.contextmanager
+def interrupt_deferred() -> Iterator[list]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise KeyboardInterrupt; yields the list of those held.
+
+    Outside the main thread (where Python runs no signal handler), nothing is held.
+    """
+    held: list[int] = []
+    if not _main_thread():
+        yield held
+        return
+    previous = signal.signal(signal.SIGINT, lambda number, frame: held.append(number))
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        raise KeyboardInterrupt
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()

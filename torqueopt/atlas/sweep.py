@@ -36,7 +36,6 @@ import json
 import os
 import re
 import signal
-import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -45,7 +44,7 @@ from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..optimal import run_cost
-from ..progress import progress_bar, said_if_slow
+from ..progress import interrupt_deferred, progress_bar, said_if_slow
 from ..resolvers import Resolver, get_resolver, resolver_from_label
 from ..simulate import simulate
 from .global_optimum import run_global_chunk
@@ -421,29 +420,6 @@ def start_fork_server() -> None:
         forkserver.ensure_running()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-@contextlib.contextmanager
-def interrupt_deferred() -> Iterator[list]:
-    """Hold a Ctrl-C (SIGINT) until the block ends, then raise KeyboardInterrupt; yields the list of those held.
-
-    Outside the main thread (where Python runs no signal handler), nothing is held.
-    """
-    held: list[int] = []
-    if not _main_thread():
-        yield held
-        return
-    previous = signal.signal(signal.SIGINT, lambda number, frame: held.append(number))
-    try:
-        yield held
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if held:
-        raise KeyboardInterrupt
-
-
-def _main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
 
 
 def resolvers_from(names) -> list[Resolver]:

@@ -19,7 +19,7 @@ from ..optimal import (
     optimize,
 )
 from ..optimal.whole_path import MAX_ITERATIONS, transcription_intervals
-from ..progress import progress_bar
+from ..progress import interrupt_deferred, progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
 from . import EXIT_OK, EXIT_STOPPED
@@ -156,36 +156,41 @@ def optimize_command(args: argparse.Namespace) -> int:
         f"(up to {max_iterations} iterations per run)"
     )
     bars = []
+    interrupted: list = []
 
-    def iteration(number: int) -> None:
+    def iteration(number: int) -> bool:
         # The bar (or its one line) starts with IPOPT's first iteration, after every check has passed.
         if not bars:
             bars.append(progress_bar(description, total=max_iterations, unit="iteration", enabled=not args.verbose))
         bars[0].n = number  # each IPOPT run counts from 0
         bars[0].refresh()
+        return bool(interrupted)  # a Ctrl-C stops IPOPT at its next iteration (and any run after it at its first)
 
+    # IPOPT runs in C++ where Python hears no Ctrl-C: it is held here, read at each iteration, and raised once the
+    # solve has stopped, before any file is written.
     try:
-        result = optimize(
-            robot,
-            trajectory,
-            q0,
-            weight=weight,
-            end=args.end,
-            torque_bounds=args.torque_bounds,
-            joint_limits=args.joint_limits,
-            dt=dt,
-            grid_step=grid_step,
-            warm_start=args.warm_start,
-            transcription=args.transcription,
-            compiled=args.compiled,
-            hessian=args.hessian,
-            tolerance=tolerance,
-            max_iterations=max_iterations,
-            max_time=max_time,
-            max_nonzeros=max_nonzeros,
-            verbose=args.verbose,
-            progress=iteration,
-        )
+        with interrupt_deferred() as interrupted:
+            result = optimize(
+                robot,
+                trajectory,
+                q0,
+                weight=weight,
+                end=args.end,
+                torque_bounds=args.torque_bounds,
+                joint_limits=args.joint_limits,
+                dt=dt,
+                grid_step=grid_step,
+                warm_start=args.warm_start,
+                transcription=args.transcription,
+                compiled=args.compiled,
+                hessian=args.hessian,
+                tolerance=tolerance,
+                max_iterations=max_iterations,
+                max_time=max_time,
+                max_nonzeros=max_nonzeros,
+                verbose=args.verbose,
+                progress=iteration,
+            )
     finally:
         for bar in bars:
             bar.close()

@@ -122,7 +122,8 @@ def _function_class(casadi):
 
 
 def _iteration_callback(casadi, size: int, count: int, on_iteration):
-    """A casadi Callback that nlpsol calls at each iteration with its outputs (x, f, g, multipliers)."""
+    """A casadi Callback that nlpsol calls at each iteration with its outputs (x, f, g, multipliers);
+    ``on_iteration(number)`` returning true stops the solve (a Ctrl-C the command line holds)."""
 
     class Iterations(casadi.Callback):
         def __init__(self):
@@ -148,9 +149,9 @@ def _iteration_callback(casadi, size: int, count: int, on_iteration):
             return casadi.Sparsity.dense(rows, 1)
 
         def eval(self, arguments):
-            on_iteration(self.iteration)
+            stop = on_iteration(self.iteration)  # true: stop the solve here (IPOPT's User_Requested_Stop)
             self.iteration += 1
-            return [0]
+            return [1 if stop else 0]
 
     return Iterations()
 
