@@ -443,7 +443,7 @@ def test_bad_options_and_robots_without_limits_are_refused(planar3):
     ):
         get_resolver("bounded-torque", torque_weight="ranges")
     with pytest.raises(
-        InvalidInput, match="option damping=-1 of resolver 'bounded-torque' must be a finite number >= 0"
+        InvalidInput, match="option damping=-1 of resolver 'bounded-torque' must be a number in \\[0, 1e\\+06\\]"
     ):
         get_resolver("bounded-torque", damping=-1)
     message = "option torque_weight=1,1 of resolver 'bounded-torque' must be 'unit', 'range' or 3 non-negative numbers, one per joint"

@@ -476,6 +476,24 @@ def test_no_python_warning_leaks_into_the_output(arguments, warnings_folder):
     assert "Warning" not in process.stderr and "Exception ignored" not in process.stderr, process.stderr
 
 
+@pytest.mark.parametrize(
+    "arguments, code",
+    [
+        (["--resolver", "pinv", "--torque-limit", "1e308"], 0),  # the stop ceiling 1000 x 1e308 overflowed
+        (["--resolver", "pinv", "--accel", "1e308"], 3),  # the torque overflows: the run stops and says so
+        (["--resolver", "damped-null-space", "--option", "damping=1e308"], 2),  # damping has a ceiling, 1e6
+    ],
+)
+def test_extreme_values_leak_no_floating_point_warning(arguments, code):
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    environment.pop("PYTHONWARNINGS", None)
+    process = subprocess.run([sys.executable, "-W", "error::Warning", "-m", "torqueopt", "run", *PAPER, "--duration",
+                              "0.2", *arguments], env=environment, capture_output=True, text=True, timeout=300,
+                             check=False)  # fmt: skip
+    assert process.returncode == code, process.stderr
+    assert "Warning" not in process.stderr and "Traceback" not in process.stderr, process.stderr
+
+
 def test_run_says_up_front_when_the_path_leaves_the_arm_s_reach(tmp_path, capsys):
     from torqueopt.cli.run import path_beyond_reach
 

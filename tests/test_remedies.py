@@ -210,7 +210,7 @@ def test_self_motion_damping_makes_a_free_self_motion_decay(robot_name, request,
 
 def test_new_option_values_are_checked_with_one_line_messages(planar3):
     cases = [
-        ({"damping": -1}, "option damping=-1 of resolver 'damped-null-space' must be a finite number >= 0 [1/s]"),
+        ({"damping": -1}, "option damping=-1 of resolver 'damped-null-space' must be a number in [0, 1e+06] [1/s]"),
         ({"kinematic_weight": "lots"}, "option kinematic_weight=lots of resolver 'damped-null-space' is not a number; give a number in [0, 1e+06]"),
         ({"torque_weight": "ranges"}, "option torque_weight=ranges of resolver 'damped-null-space' must be 'unit' | 'range' or a vector of numbers [1/(N·m)² for a vector]"),
         ({"kinematic_wieght": 1.0}, "unknown option 'kinematic_wieght' for resolver 'damped-null-space' (did you mean 'kinematic_weight'?); valid options: kinematic_weight, damping, torque_weight, singular_tolerance"),
@@ -254,7 +254,7 @@ def test_remedies_run_from_the_cli_with_their_options(tmp_path, capsys):
                  "--option", "damping=abc"]) == 2  # fmt: skip
     assert capsys.readouterr().err.strip() == (
         "torqueopt run: error: option damping=abc of resolver 'self-motion-damping' is not a number; "
-        "give a finite number >= 0 [1/s]"
+        "give a number in [0, 1e+06] [1/s]"
     )
 
 

@@ -230,9 +230,10 @@ def _measures(jacobian, inertia, gravity, upper, lower):
         khatib = mobility * khatib_range[..., None, :]
     bounded = bool(np.isfinite(upper).all() and np.isfinite(lower).all())
     if bounded:
-        dynamic = np.prod(np.linalg.svd(yoshikawa, compute_uv=False), axis=-1)  # Eq. (25)
-        khatib_values = np.linalg.svd(khatib, compute_uv=False)
-        khatib_manipulability = np.prod(khatib_values, axis=-1)  # Eq. (25) with Khatib's W
+        with np.errstate(over="ignore"):  # limits near the largest float: the volume is inf, said as such
+            dynamic = np.prod(np.linalg.svd(yoshikawa, compute_uv=False), axis=-1)  # Eq. (25)
+            khatib_values = np.linalg.svd(khatib, compute_uv=False)
+            khatib_manipulability = np.prod(khatib_values, axis=-1)  # Eq. (25) with Khatib's W
         isotropy = inverse_condition_number_of(khatib_values)
     else:
         dynamic = khatib_manipulability = isotropy = np.full(len(jacobian), np.nan)

@@ -90,6 +90,13 @@ def run_movements(lanes: Lanes, steps: int) -> None:
     The lanes keep what the run recorded; the loop only orders the step's
     parts (see the module docstring) and drops the movements that stop.
     """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # A diverging run overflows: the stop rules end it on the first non-finite torque or state and say so,
+        # so numpy's floating-point warnings would only repeat it (and leak into a command's output).
+        _run_movements(lanes, steps)
+
+
+def _run_movements(lanes: Lanes, steps: int) -> None:
     q, v = lanes.q, lanes.v
     terms_at, command_at, resolve, record, advance = lanes.terms, lanes.command, lanes.resolve, lanes.record, lanes.step
     resolves_final = lanes.resolves_final

@@ -25,7 +25,9 @@ def stop_ceilings(robot: Robot, max_torque_ratio: float, max_joint_speed: float)
     False); the reason is worked out only then.
     """
     largest = sys.float_info.max
-    return np.minimum(max_torque_ratio * robot.torque_upper, largest), min(max_joint_speed, largest)
+    with np.errstate(over="ignore"):  # a limit near the largest float times the ratio is inf: capped just below
+        ceiling = np.minimum(max_torque_ratio * robot.torque_upper, largest)
+    return ceiling, min(max_joint_speed, largest)
 
 
 def torque_stop_reason(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t: float) -> str:

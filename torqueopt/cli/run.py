@@ -164,8 +164,9 @@ def path_beyond_reach(robot: Robot, trajectory, q0, samples: int = 201) -> str:
         trajectory = trajectory.anchored(robot.frame_placement(q0).translation[:linear])
     times = np.linspace(0.0, trajectory.duration, samples)
     base, reach = arm_reach(robot)
-    distance = np.linalg.norm(trajectory.sample(times).position[:, :linear] - base[:linear], axis=1)
-    farthest = int(np.argmax(distance))
+    with np.errstate(over="ignore", invalid="ignore"):  # --accel 1e308: the path runs to inf, beyond any reach
+        distance = np.linalg.norm(trajectory.sample(times).position[:, :linear] - base[:linear], axis=1)
+    farthest = int(np.argmax(np.nan_to_num(distance, nan=np.inf)))
     if distance[farthest] <= reach:
         return ""
     return (

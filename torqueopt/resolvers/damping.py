@@ -95,11 +95,11 @@ DEFAULT_KINEMATIC_WEIGHT = 0.5
 
 _DAMPING_OPTION = Option(
     name="damping",
-    kind="number >= 0",
+    kind="number in [0, 1e6]",
     unit="1/s",
     default=DEFAULT_DAMPING,
     meaning="K_D: the self-motion velocity Zᵀq̇ is driven towards zero at this rate",
-    convert=number(0.0, unit="1/s"),
+    convert=number(0.0, unit="1/s", maximum=LARGEST_WEIGHT),
 )
 
 

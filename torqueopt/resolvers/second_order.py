@@ -36,7 +36,7 @@ import numpy as np
 from ..robot import Robot, TaskTerms
 from ..tasks import FrameTask, Kinematics, PostureTask, TaskStack, pseudoinverse
 from .base import NullSpaceFunction, NullSpaceResolver
-from .options import Option, number
+from .options import LARGEST_WEIGHT, Option, number
 from .registry import register_resolver
 from .velocity.gradient_projection import CRITERION_OPTION, CriterionGain, gain_option
 from .velocity.options import task_stack
@@ -45,11 +45,11 @@ __all__ = ["GradientProjectionAcceleration", "TaskPriorityAcceleration"]
 
 _DAMPING = Option(
     name="damping",
-    kind="number >= 0",
+    kind="number in [0, 1e6]",
     unit="1/s",
     default=5.0,
     meaning="self-motion damping k_d: the null-space acceleration includes −k_d q̇",
-    convert=number(0.0, unit="1/s"),
+    convert=number(0.0, unit="1/s", maximum=LARGEST_WEIGHT),
 )
 
 
@@ -119,11 +119,11 @@ class TaskPriorityAcceleration(NullSpaceResolver):
         ),
         Option(
             name="damping",
-            kind="number >= 0",
+            kind="number in [0, 1e6]",
             unit="1/s",
             default=10.0,
             meaning="k_d of the lower task's acceleration (10 with k_p = 25: critically damped)",
-            convert=number(0.0, unit="1/s"),
+            convert=number(0.0, unit="1/s", maximum=LARGEST_WEIGHT),
         ),
     )
 

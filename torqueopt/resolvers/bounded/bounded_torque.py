@@ -72,11 +72,11 @@ class BoundedTorque(_BoundedResolver):
         ),
         Option(
             name="damping",
-            kind="number >= 0",
+            kind="number in [0, 1e6]",
             unit="1/s",
             default=DEFAULT_DAMPING,
             meaning="K_D of the kinematic term, as in damped-null-space: the self-motion velocity Zᵀq̇ is driven to 0",
-            convert=number(0.0, unit="1/s"),
+            convert=number(0.0, unit="1/s", maximum=LARGEST_WEIGHT),
         ),
         INFEASIBLE_OPTION,
         JOINT_LIMITS_OPTION,
