@@ -1016,3 +1016,19 @@ def test_the_console_table_and_claims_say_which_criterion_and_stay_aligned(tmp_p
     # --no-figures: no figure is written, and the last line does not say there are any
     assert lines[-1].startswith(f"wrote {out}/results.parquet, atlas.md and atlas.json in ")
     assert not list(out.glob("*.png"))
+
+
+def test_a_second_atlas_on_a_folder_in_use_is_refused(tmp_path, capsys):
+    # Two atlases on one --out both did all the work; the first holds the folder while its chunks run.
+    from torqueopt.io import held_exclusively
+
+    out = tmp_path / "atlas"
+    assert main([*TINY, "--out", str(out)]) == 0
+    capsys.readouterr()
+    with held_exclusively(out / "atlas-config.json", "torqueopt atlas"):  # as a run in progress holds it
+        assert main([*TINY, "--out", str(out)]) == 2
+        assert capsys.readouterr().err == (
+            f"torqueopt atlas: error: '{out}' is in use by another torqueopt atlas running now: wait for it to "
+            "finish (then run this again to read its results), or give another --out\n"
+        )
+    assert main([*TINY, "--out", str(out)]) == 0  # released: it resumes

@@ -59,6 +59,7 @@ from .errors import InvalidInput, OutputError
 
 __all__ = [
     "atomic_write",
+    "held_exclusively",
     "json_file_with",
     "refuse_foreign",
     "sidecar_path",
@@ -153,6 +154,31 @@ def refuse_foreign(paths: Iterable[str | os.PathLike], ours: bool, whose: str, r
             raise OutputError(
                 f"cannot write '{path}': it is not {whose}, and torqueopt replaces only its own; {remedy}"
             )
+
+
+@contextlib.contextmanager
+def held_exclusively(path: str | os.PathLike, what: str) -> Iterator[None]:
+    """Hold an exclusive lock on the existing file ``path`` (its folder's configuration) for the block.
+
+    Two commands on one folder would both do all the work; the second is refused at once instead, naming
+    ``what`` holds it. The lock is the kernel's (``flock``): it goes with the process, even a killed one, and
+    the file itself is not changed.
+
+    Raises:
+        InvalidInput: another process holds the lock.
+    """
+    import fcntl
+
+    with open(path, "rb") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            folder = Path(path).parent
+            raise InvalidInput(
+                f"'{folder}' is in use by another {what} running now: wait for it to finish (then run this again to "
+                "read its results), or give another --out"
+            ) from None
+        yield
 
 
 def _same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:

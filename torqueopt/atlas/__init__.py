@@ -58,7 +58,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InvalidInput, OutputError, TorqueoptWarning
-from ..io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
+from ..io import (
+    atomic_write,
+    held_exclusively,
+    json_text,
+    resumable_folder,
+    writable_path,
+    writable_paths,
+    written_together,
+)
 from ..progress import said_if_slow
 from . import explorer
 from .explorer import DEFAULT_KEEP_TRACES
@@ -193,10 +201,14 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
         )
     # The scheduler is reached (or the cluster started) before the first file is written.
     with (
-        executor(execution.scheduler, execution.workers, execution.progress) if jobs else contextlib.nullcontext()
-    ) as client:
+        contextlib.ExitStack() as lock,  # the folder, held while its chunks run (a second atlas would redo them)
+        (
+            executor(execution.scheduler, execution.workers, execution.progress) if jobs else contextlib.nullcontext()
+        ) as client,
+    ):
         if not resume:
             _claim_folder(out, config)
+        lock.enter_context(held_exclusively(out / _CONFIG, "torqueopt atlas"))
         remove_partial_chunks(out)
         if jobs:
             frames.update(
