@@ -529,3 +529,23 @@ def test_an_empty_value_is_refused_not_taken_for_the_default(arguments, message,
     error = capsys.readouterr().err
     assert stop.value.code == 2 and error.startswith(f"torqueopt {arguments[0]}: error: {message}")
     assert error.count("\n") == 1
+
+
+def test_a_long_run_says_how_far_it_is(monkeypatch, capsys):
+    # A run of 1e6 steps (2 min 45 s) printed nothing until its end. simulate calls progress as each block of
+    # 4,096 steps starts; run shows a bar (one line off a terminal) from LONG_RUN_STEPS on.
+    from torqueopt.cli import run as run_module
+
+    planar3 = torqueopt.load_robot("planar3")
+    told = []
+    line = torqueopt.StraightLine((1.0, 0.0), accel=1e-3, duration=10.0)
+    torqueopt.simulate(planar3, "pinv", line, [-0.78, 2.36, -2.36], progress=told.append)
+    assert told == [0, 4096, 8192]
+    told.clear()
+    torqueopt.simulate(planar3, "velocity-pinv", line, [-0.78, 2.36, -2.36], progress=told.append)
+    # The kinematic loop's rows are half steps, told in steps; each of its blocks starts on the last one's end row.
+    assert told == [0, 4095, 8190]
+    arguments = ["run", *PAPER, "--resolver", "pinv", "--accel", "1e-3", "--duration", "10"]
+    assert main(arguments) == 0 and "torqueopt run:" not in capsys.readouterr().err
+    monkeypatch.setattr(run_module, "LONG_RUN_STEPS", 10_000)
+    assert main(arguments) == 0 and capsys.readouterr().err == "torqueopt run: 10,000 steps ...\n"

@@ -116,6 +116,7 @@ def simulate_kinematic(
     max_torque_ratio: float,
     dexterity: bool = False,
     max_steps: int | None = None,
+    progress=None,
 ) -> SimResult:
     """Run a velocity-level resolver along ``trajectory``; called by :func:`torqueopt.simulate`.
 
@@ -152,7 +153,9 @@ def simulate_kinematic(
     reference_rotation = placement.rotation.copy()
     trajectory = _anchored(robot, trajectory, placement)
     # Reference at every step start and mid-step (RK4 evaluates f at t, t + h/2 and t + h), a block at a time.
-    reference = ReferenceBlocks(robot, trajectory, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK)
+    # Rows at half steps: the progress is told steps.
+    told = None if progress is None else (lambda row: progress(row // 2))
+    reference = ReferenceBlocks(robot, trajectory, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK, progress=told)
 
     lanes = KinematicMovement(
         robot, resolver, trajectory, q, dt, steps, reference, reference_rotation,

@@ -165,15 +165,27 @@ class ReferenceBlocks:
     :meth:`block` samples rows ``start`` … ``start + size - 1`` (fewer at the
     end), so a loop that stops early never samples, nor holds, the rest of a
     long requested duration. :meth:`positions` joins the position rows
-    sampled so far, for the result.
+    sampled so far, for the result. ``progress(row)`` is called with the block's first row as each block starts:
+    a long run's progress, at no cost per step.
     """
 
-    def __init__(self, robot: Robot, trajectory: Trajectory, spacing: float, last: int, size: int = REFERENCE_BLOCK):
+    def __init__(
+        self,
+        robot: Robot,
+        trajectory: Trajectory,
+        spacing: float,
+        last: int,
+        size: int = REFERENCE_BLOCK,
+        progress=None,
+    ):
         self.robot, self.trajectory, self.spacing, self.last, self.size = robot, trajectory, spacing, last, size
+        self.progress = progress
         self._positions: list[np.ndarray] = []
 
     def block(self, start: int):
         """(times, sample) of the rows from ``start``: ``times`` a list of floats, ``sample`` the reference rows."""
+        if self.progress is not None:
+            self.progress(start)
         indices = np.arange(start, min(start + self.size, self.last + 1))
         times = self.spacing * indices
         sample = task_reference(self.robot, self.trajectory, times)

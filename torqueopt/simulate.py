@@ -106,6 +106,7 @@ def simulate(
     plant: str | Plant = "pinocchio",
     plant_options: dict | None = None,
     margin: bool = False,
+    progress=None,
 ) -> SimResult:
     """Simulate ``resolver`` tracking ``trajectory`` from (q0, v0).
 
@@ -145,6 +146,8 @@ def simulate(
         plant_options: the plant's options by name, for a plant name
             (``{"integrator": "euler", "joint-limits": "off", "mjcf": "arm.xml"}``;
             see :mod:`torqueopt.plants.mujoco`).
+        progress: called with the number of steps taken as each block of 4,096 steps starts (a long run's
+            progress bar; ``torqueopt run`` shows one for runs of 100,000 steps or more).
 
     Returns:
         SimResult with one row per step start, t = 0, dt, ..., duration.
@@ -172,6 +175,7 @@ def simulate(
         return simulate_kinematic(
             robot, resolver, trajectory, q0, v0, dt, duration=duration, feedback=feedback,
             max_joint_speed=max_joint_speed, max_torque_ratio=max_torque_ratio, dexterity=dexterity, max_steps=max_steps,
+            progress=progress,
         )  # fmt: skip
     resolver.check(robot)
     check_trajectory(trajectory)
@@ -195,7 +199,7 @@ def simulate(
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 
     # The reference a block of steps at a time, so memory follows the steps taken, not the duration asked for.
-    reference = ReferenceBlocks(robot, trajectory, dt, steps)
+    reference = ReferenceBlocks(robot, trajectory, dt, steps, progress=progress)
 
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.

@@ -11,6 +11,7 @@ import numpy as np
 from ..dexterity import summarise_along
 from ..errors import InvalidInput
 from ..io import json_file_with, refuse_foreign, writable_paths, written_together
+from ..progress import progress_bar
 from ..resolvers import Resolver
 from ..result import SimResult
 from ..result_files import run_files
@@ -33,6 +34,9 @@ from .play import add_playback_options, check_frames, play_live, playback_option
 from .resolvers import add_resolver_arguments, resolver_from_args
 
 __all__ = ["add_parser", "format_summary"]
+
+#: Steps from which ``torqueopt run`` shows its progress (100 s at the default 1 ms).
+LONG_RUN_STEPS = 100_000
 
 #: Keys every run sidecar has: a .csv.json with them is one torqueopt wrote, and may be replaced.
 SIDECAR_KEYS = ("robot", "frame", "task", "resolver", "joint_names", "dt")
@@ -118,18 +122,25 @@ def run_command(args: argparse.Namespace) -> int:
     reach_note = path_beyond_reach(robot, trajectory, q0)
     if reach_note:
         print(f"note: {reach_note}", file=sys.stderr)
-    result = simulate(
-        robot,
-        resolver,
-        trajectory,
-        q0,
-        dt=dt,
-        feedback=feedback,
-        max_steps=max_steps,
-        dexterity=args.dexterity,
-        plant=plant,
-        margin=args.margin,
-    )
+    steps = round(trajectory.duration / dt)
+    # A long run (100 s at 1 ms and more: a minute or more of work) says how far it is; a short one says nothing.
+    bar = progress_bar(f"torqueopt run: {steps:,} steps", total=steps, unit="step", enabled=steps >= LONG_RUN_STEPS)
+    try:
+        result = simulate(
+            robot,
+            resolver,
+            trajectory,
+            q0,
+            dt=dt,
+            feedback=feedback,
+            max_steps=max_steps,
+            dexterity=args.dexterity,
+            plant=plant,
+            margin=args.margin,
+            progress=lambda done: bar.update(done - bar.n),
+        )
+    finally:
+        bar.close()
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
     lines = []
