@@ -1032,3 +1032,16 @@ def test_a_second_atlas_on_a_folder_in_use_is_refused(tmp_path, capsys):
             "finish (then run this again to read its results), or give another --out\n"
         )
     assert main([*TINY, "--out", str(out)]) == 0  # released: it resumes
+
+
+def test_drawing_a_large_population_says_so(planar3, monkeypatch, capsys):
+    # --paths 1000000 printed nothing for almost 4 minutes while it drew the movements.
+    from torqueopt.atlas import population
+
+    spec = PopulationSpec(paths=30, durations=(0.5, 1.0), seed=3)
+    quiet = draw_population(planar3, spec, progress=True)
+    assert capsys.readouterr().err == ""  # 60 movements: below DRAW_PROGRESS_FROM
+    monkeypatch.setattr(population, "DRAW_PROGRESS_FROM", 60)
+    said = draw_population(planar3, spec, progress=True)
+    assert capsys.readouterr().err == "torqueopt atlas: drawing 60 movements ...\n"
+    assert [m.q0.tolist() for m in said] == [m.q0.tolist() for m in quiet]  # the same draw, told or not

@@ -274,6 +274,10 @@ def _sampled_reach(robot: Robot, samples: int) -> tuple[np.ndarray, float]:
     return base.copy(), reach
 
 
+#: Populations of this many movements and more show a bar while they are drawn (about 25 s at 4,000 a second).
+DRAW_PROGRESS_FROM = 100_000
+
+
 def draw_population(robot: Robot, spec: PopulationSpec, progress: bool = False) -> list[Movement]:
     """Every movement of the atlas, durations in the given order, paths numbered from 0.
 
@@ -293,30 +297,41 @@ def draw_population(robot: Robot, spec: PopulationSpec, progress: bool = False) 
     low, high = _joint_ranges(robot)
     dimension = min(robot.m, 3)
     data = robot.model.createData()
-    for duration in spec.durations:
-        # One stream per (seed, duration in µs, kind): other durations do not shift it.
-        key = [spec.seed, round(duration * 1e6), *_KIND_KEYS[spec.path]]
-        rng = np.random.default_rng(np.random.SeedSequence(key))
-        line_length = path_length(spec.accel, duration)
-        kept, draws = 0, 0
-        while kept < spec.paths:
-            draws += 1
-            if draws > spec.max_draws_per_path * spec.paths:
-                raise InvalidInput(
-                    f"the acceptance rules kept only {kept} of {draws - 1} draws for duration {duration:g} s "
-                    f"({spec.path} paths, line length {line_length:.3g} m, reach {reach:.3g} m): lower min_condition "
-                    f"({spec.min_condition:g}) or raise reach_fraction ({spec.reach_fraction:g}), or shorten the duration"
-                )
-            angles = rng.uniform(low, high)
-            direction = rng.normal(size=dimension)
-            direction /= np.linalg.norm(direction)
-            shape = _draw_shape(rng, spec, direction, line_length)
-            start = _accept(robot, data, angles, shape, base, reach, spec)
-            if start is None:
-                continue
-            movements.append(_movement(len(movements), duration, angles, start, shape, spec.accel))
-            kept += 1
+    total = spec.paths * len(spec.durations)
+    # Drawing a million movements takes minutes (about 4,000 a second): a large population says how far it is.
+    bar = progress_bar(f"torqueopt atlas: drawing {total:,} movements", total=total, unit="movement",
+                       enabled=progress and total >= DRAW_PROGRESS_FROM)  # fmt: skip
+    with bar:
+        for duration in spec.durations:
+            _draw_duration(robot, spec, data, duration, movements, low, high, dimension, base, reach, bar)
     return movements
+
+
+def _draw_duration(robot, spec, data, duration, movements, low, high, dimension, base, reach, bar) -> None:
+    """Append the movements of one duration, drawn from its own seeded stream, to ``movements``."""
+    # One stream per (seed, duration in µs, kind): other durations do not shift it.
+    key = [spec.seed, round(duration * 1e6), *_KIND_KEYS[spec.path]]
+    rng = np.random.default_rng(np.random.SeedSequence(key))
+    line_length = path_length(spec.accel, duration)
+    kept, draws = 0, 0
+    while kept < spec.paths:
+        draws += 1
+        if draws > spec.max_draws_per_path * spec.paths:
+            raise InvalidInput(
+                f"the acceptance rules kept only {kept} of {draws - 1} draws for duration {duration:g} s "
+                f"({spec.path} paths, line length {line_length:.3g} m, reach {reach:.3g} m): lower min_condition "
+                f"({spec.min_condition:g}) or raise reach_fraction ({spec.reach_fraction:g}), or shorten the duration"
+            )
+        angles = rng.uniform(low, high)
+        direction = rng.normal(size=dimension)
+        direction /= np.linalg.norm(direction)
+        shape = _draw_shape(rng, spec, direction, line_length)
+        start = _accept(robot, data, angles, shape, base, reach, spec)
+        if start is None:
+            continue
+        movements.append(_movement(len(movements), duration, angles, start, shape, spec.accel))
+        kept += 1
+        bar.update(1)
 
 
 def _draw_shape(rng, spec: PopulationSpec, direction: np.ndarray, line_length: float) -> dict:
