@@ -103,7 +103,7 @@ def run_command(args: argparse.Namespace) -> int:
     trajectory = trajectory_from_args(args)
     dt = parse_positive(args.dt, "dt")
     max_steps = parse_count(args.max_steps, "max-steps")
-    step_budget(trajectory.duration, dt, max_steps, option="--max-steps")
+    steps = step_budget(trajectory.duration, dt, max_steps, option="--max-steps")
     limit_factor = parse_positive(args.limit_factor, "limit-factor")
     feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
     playback = playback_options(args, live=args.play)
@@ -122,7 +122,6 @@ def run_command(args: argparse.Namespace) -> int:
     reach_note = path_beyond_reach(robot, trajectory, q0)
     if reach_note:
         print(f"note: {reach_note}", file=sys.stderr)
-    steps = round(trajectory.duration / dt)
     # A long run (100 s at 1 ms and more: a minute or more of work) says how far it is; a short one says nothing.
     bar = progress_bar(f"torqueopt run: {steps:,} steps", total=steps, unit="step", enabled=steps >= LONG_RUN_STEPS)
     try:
