@@ -226,6 +226,14 @@ def test_a_folder_that_is_not_a_tunes_is_refused(tmp_path, capsys, tuned):
         tune("planar3", "damped-null-space", out=tuned.out, **{**SMALL, "seed": 1})
 
 
+def test_its_progress_lines_name_tune_not_the_atlas_it_runs(tmp_path, capsys):
+    """A user who typed ``torqueopt tune`` reads "torqueopt tune" in every progress line, the pinv atlas's too."""
+    code = main(["tune", "--robot", "planar3", "--torque-limit", "0.01", "--values", "kinematic_weight=2", "--paths",
+                 "4", "--durations", "0.3", "--whiplash-bound", "0.5", "--workers", "0", "--out", str(tmp_path)])  # fmt: skip
+    error = capsys.readouterr().err
+    assert code == 4 and error == "torqueopt tune (the pinv atlas): 4 paths x 1 resolvers ...\n"
+
+
 def test_no_qualifying_setting_says_so_and_exits_4(tmp_path, capsys):
     """Limits pinv exceeds on every path: it handles none of the 4 the bound needs, no setting is run, the table says
     why, exit 4."""

@@ -23,13 +23,42 @@ import signal
 import sys
 import threading
 from collections.abc import Iterator
+from contextvars import ContextVar
 
-__all__ = ["SLOW", "SLOW_VARIABLE", "interrupt_deferred", "progress_bar", "said_if_slow", "slow_after"]
+__all__ = [
+    "SLOW",
+    "SLOW_VARIABLE",
+    "command_name",
+    "interrupt_deferred",
+    "progress_bar",
+    "said_if_slow",
+    "slow_after",
+    "speaking_for",
+]
 
 #: Seconds after which work in :func:`said_if_slow` says what it is doing.
 SLOW = 1.0
 #: The environment variable that sets those seconds instead (e.g. ``0``: say it always; a large number: never).
 SLOW_VARIABLE = "TORQUEOPT_SLOW_SECONDS"
+
+#: The command the user typed, when work of one command runs inside another (``tune`` runs an atlas).
+_COMMAND: ContextVar[str | None] = ContextVar("torqueopt_command", default=None)
+
+
+def command_name(default: str) -> str:
+    """The command that progress lines name: ``default`` (``"torqueopt atlas"``), or the one
+    :func:`speaking_for` set, so that ``torqueopt tune``'s user reads "torqueopt tune", not "torqueopt atlas"."""
+    return _COMMAND.get() or default
+
+
+@contextlib.contextmanager
+def speaking_for(command: str) -> Iterator[None]:
+    """Progress lines inside the block name ``command`` (see :func:`command_name`)."""
+    token = _COMMAND.set(command)
+    try:
+        yield
+    finally:
+        _COMMAND.reset(token)
 
 
 def progress_bar(description: str, total: int | None = None, unit: str = "run", enabled: bool = True, initial: int = 0):

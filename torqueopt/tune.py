@@ -287,6 +287,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         TypeError: a keyword that is no setting, or settings given twice.
     """
     from .atlas import run_atlas
+    from .progress import speaking_for
 
     settings = _settings_of(settings, resolver, keywords)
     spec, paths, dt, accel = settings.robot, settings.paths, settings.dt, settings.accel
@@ -317,11 +318,12 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         atomic_write(out / _CONFIG, lambda handle: handle.write(text))
 
     # 1. pinv on the whole population: the paths it handles.
-    baseline = run_atlas(
-        spec, paths=paths, resolvers=[BASELINE], out=out / "pinv", durations=population.durations,
-        seed=population.seed, accel=accel, path=population.path, dt=dt, workers=workers, progress=progress,
-        figures=False,
-    )  # fmt: skip
+    with speaking_for("torqueopt tune (the pinv atlas)"):
+        baseline = run_atlas(
+            spec, paths=paths, resolvers=[BASELINE], out=out / "pinv", durations=population.durations,
+            seed=population.seed, accel=accel, path=population.path, dt=dt, workers=workers, progress=progress,
+            figures=False,
+        )  # fmt: skip
     atlas_config = baseline.summary["config"]
     handled = handled_paths(baseline.table)
     labels = [setting_.label for setting_ in resolvers]
@@ -453,13 +455,14 @@ def _run_settings(spec, settings, chunks, handled, folder, config, *, dt, worker
     from .atlas.jobs import ResolverChunk
     from .atlas.sweep import chunk_path, config_digest, executor, read_chunk, remove_partial_chunks, run_chunks
     from .atlas.verdicts import Thresholds
+    from .progress import speaking_for
 
     alive = list(settings)
     frames, dropped = [], {}
     wave_size = (os.cpu_count() or 1) if workers is None else max(workers, 1)
     tune_digest = config_digest(config)
     done_paths = 0
-    with executor(None, workers) as client:
+    with speaking_for("torqueopt tune"), executor(None, workers, progress) as client:
         remove_partial_chunks(folder)
         for start in range(0, len(chunks), wave_size):
             if not alive:

@@ -67,7 +67,7 @@ from ..io import (
     writable_paths,
     written_together,
 )
-from ..progress import said_if_slow
+from ..progress import command_name, said_if_slow
 from . import explorer
 from .explorer import DEFAULT_KEEP_TRACES
 from .global_optimum import DEFAULT_GLOBAL_CHUNK_SIZE, GLOBAL_RESOLVER, add_global_ratios, check_transcription
@@ -219,7 +219,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
                     progress=execution.progress,
                     total_paths=len(movements) * (2 if frontier.global_optimum else 1),
                     done_paths=done_paths,
-                    description=f"torqueopt atlas: {len(movements):,} paths x {len(resolver_objects)} resolvers"
+                    description=f"{command_name('torqueopt atlas')}: {len(movements):,} paths x {len(resolver_objects)} resolvers"
                     + (" and the global optimum of each (a path counted twice)" if frontier.global_optimum else ""),
                     # This process loads what the report needs on the core the sweep's last chunks leave idle.
                     once_a_worker_idles=import_scipy_stats_meanwhile,
@@ -249,7 +249,9 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     if population.mode == "random":
         _check_size(population.paths * sum(steps_per_run.values()) * work.per_step, max_steps, population, work)
 
-    with said_if_slow(f"torqueopt atlas: loading robot '{settings.robot.source}'", enabled=execution.progress):
+    with said_if_slow(
+        f"{command_name('torqueopt atlas')}: loading robot '{settings.robot.source}'", enabled=execution.progress
+    ):
         loaded = settings.robot.load()
     for resolver in settings.resolvers:
         resolver.check(loaded)

@@ -85,7 +85,7 @@ import pinocchio as pin
 from ..checks import joint_vector, number_in_range, positive_number, whole_number
 from ..errors import InvalidInput
 from ..linalg import inverse_condition_number
-from ..progress import progress_bar
+from ..progress import command_name, progress_bar
 from ..robot import Robot
 from ..trajectory import Circle, MinimumJerkLine, StraightLine
 
@@ -299,7 +299,7 @@ def draw_population(robot: Robot, spec: PopulationSpec, progress: bool = False) 
     data = robot.model.createData()
     total = spec.paths * len(spec.durations)
     # Drawing a million movements takes minutes (about 4,000 a second): a large population says how far it is.
-    bar = progress_bar(f"torqueopt atlas: drawing {total:,} movements", total=total, unit="movement",
+    bar = progress_bar(f"{command_name('torqueopt atlas')}: drawing {total:,} movements", total=total, unit="movement",
                        enabled=progress and total >= DRAW_PROGRESS_FROM)  # fmt: skip
     with bar:
         for duration in spec.durations:
@@ -497,7 +497,7 @@ def _grid(robot: Robot, spec: PopulationSpec, base, reach, progress: bool = Fals
     data = robot.model.createData()
     directions = _grid_directions(spec.grid_directions, dimension)
     starts = []
-    description = f"torqueopt atlas: inverse kinematics of {len(points):,} grid points"
+    description = f"{command_name('torqueopt atlas')}: inverse kinematics of {len(points):,} grid points"
     with progress_bar(description, total=len(points), unit="point", enabled=progress) as bar:
         for point in points:
             angles = _inverse_kinematics(robot, data, point, posture)

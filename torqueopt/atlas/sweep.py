@@ -44,7 +44,7 @@ from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
 from ..io import atomic_write
 from ..optimal import run_cost
-from ..progress import interrupt_deferred, progress_bar, said_if_slow
+from ..progress import command_name, interrupt_deferred, progress_bar, said_if_slow
 from ..resolvers import Resolver, get_resolver, resolver_from_label
 from ..simulate import simulate
 from .global_optimum import run_global_chunk
@@ -265,7 +265,9 @@ def executor(scheduler: str | None, workers: int | None, progress: bool = False)
     distributed = require("distributed")
     count = workers if workers else (os.cpu_count() or 1)
     what = f"reaching the Dask scheduler at {scheduler}" if scheduler else f"starting {count} Dask workers"
-    with said_if_slow(f"torqueopt atlas: {what}", enabled=progress):  # seconds, more on a loaded machine
+    with said_if_slow(
+        f"{command_name('torqueopt atlas')}: {what}", enabled=progress
+    ):  # seconds, more on a loaded machine
         client, cluster = _client(distributed, scheduler, workers)
     try:
         yield client
