@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .result_files import csv_columns, json_number, read_result, write_result
+from .units import joint_unit
 
 __all__ = ["SimResult", "load_result"]
 
@@ -67,6 +68,8 @@ class SimResult:
         stability_margin: per row, the growth rate of the linearised closed-loop
             self-motion [1/s] (:func:`torqueopt.stability_margin`; NaN where no torque
             was applied), (N,); None unless asked for (``simulate(..., margin=True)``).
+        joint_kinds: per joint, 'revolute', 'continuous' or 'prismatic', which sets its units (rad, rad/s, N·m or
+            m, m/s, N: :mod:`torqueopt.units`); None in files written before it was recorded (read as revolute).
     """
 
     robot: str
@@ -98,6 +101,7 @@ class SimResult:
     limiting: dict[int, str] | None = None
     plant: dict | None = None
     stability_margin: np.ndarray | None = None
+    joint_kinds: list[str] | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.
@@ -106,6 +110,10 @@ class SimResult:
         self.infeasible = (
             np.zeros(rows, dtype=bool) if self.infeasible is None else np.asarray(self.infeasible, dtype=bool)
         )
+
+    def joint_unit(self, joint: int, quantity: str) -> str:
+        """The unit of ``quantity`` (``position``, ``velocity``, ``acceleration``, ``torque``) for joint ``joint``."""
+        return joint_unit(self.joint_kinds[joint] if self.joint_kinds else None, quantity)
 
     # -- joint position and velocity limits --------------------------------------
     def _joint_limit(self, key: str, fill: float) -> np.ndarray:
@@ -253,6 +261,7 @@ class SimResult:
             "stop_reason": self.stop_reason,
             "stop_time": self.stop_time,
             "joint_names": list(self.joint_names),
+            "joint_kinds": self.joint_kinds,
             "peak_torque": self.peak_torque.tolist(),
             "torque_limit": [json_number(x) for x in self.torque_upper],
             "peak_torque_ratio": self.peak_torque_ratio.tolist(),

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from .catalog import RobotSource
 from .checks import TASK_DIMENSIONS, check_task_and_frame, finite_vector, torque_limit_vector
+from .units import joint_kind, joint_unit
 
 __all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "check_task_and_frame"]
 
@@ -115,6 +116,8 @@ class Robot:
         self.full_model = full_model if full_model is not None else model
         self.locked_configuration = locked_configuration
         self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
+        #: Per joint, 'revolute', 'continuous' or 'prismatic' (:func:`torqueopt.units.joint_kind`): its units.
+        self.joint_kinds = [joint_kind(model.joints[j]) for j in range(1, model.njoints) if model.joints[j].nv > 0]
         #: True when every joint is revolute or prismatic with one coordinate, so
         #: that configurations add (``integrate(q, dq) == q + dq``); continuous
         #: joints, stored as (cos, sin), make it False.
@@ -128,6 +131,10 @@ class Robot:
         self._set_torque_limit(torque_limit)
 
     # -- sizes --------------------------------------------------------------
+    def joint_unit(self, joint: int, quantity: str) -> str:
+        """The unit of ``quantity`` (``position``, ``velocity``, ``acceleration``, ``torque``) for joint ``joint``."""
+        return joint_unit(self.joint_kinds[joint], quantity)
+
     @property
     def nq(self) -> int:
         """Size of a configuration vector (2 per continuous joint)."""

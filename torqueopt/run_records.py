@@ -130,6 +130,7 @@ def build_result(
         resolver=resolver.name,
         resolver_options=resolver.settings_for_file() if resolver_options is None else resolver_options,
         joint_names=list(robot.joint_names),
+        joint_kinds=list(robot.joint_kinds),
         dt=dt,
         t=times[:recorded].copy(),
         q=q,

@@ -391,7 +391,7 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
     if (rest > 1.0).any():
         joint = int(np.argmax(rest))
         notes.append(
-            f"holding the start against gravity needs {terms.bias_torque[joint]:.4g} N·m at joint "
+            f"holding the start against gravity needs {terms.bias_torque[joint]:.4g} {robot.joint_unit(joint, 'torque')} at joint "
             f"{robot.joint_names[joint]}, {rest[joint]:.3g} times its torque limit, before any movement"
         )
     lower, upper, _ = robot.joint_limits

@@ -36,9 +36,10 @@ def torque_stop_reason(robot: Robot, tau: np.ndarray, max_torque_ratio: float, t
         return f"torque became non-finite at t = {t:.4f} s"
     limit = robot.torque_upper
     joint = int(np.argmax(np.abs(tau) / limit))
+    unit = robot.joint_unit(joint, "torque")
     return (
-        f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} N·m, more than "
-        f"{max_torque_ratio:g} times its limit {limit[joint]:g} N·m, at t = {t:.4f} s"
+        f"torque of joint {robot.joint_names[joint]} reached {tau[joint]:.4g} {unit}, more than "
+        f"{max_torque_ratio:g} times its limit {limit[joint]:g} {unit}, at t = {t:.4f} s"
     )
 
 
@@ -47,9 +48,10 @@ def speed_stop_reason(robot: Robot, v: np.ndarray, max_joint_speed: float, t: fl
     if not np.isfinite(v).all():
         return f"state became non-finite during the step from t = {t:.4f} s"
     joint = int(np.argmax(np.abs(v)))
+    unit = robot.joint_unit(joint, "velocity")
     return (
-        f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} rad/s, beyond "
-        f"{max_joint_speed:g} rad/s, at t = {t + dt:.4f} s"
+        f"speed of joint {robot.joint_names[joint]} reached {v[joint]:.4g} {unit}, beyond "
+        f"{max_joint_speed:g} {unit}, at t = {t + dt:.4f} s"
     )
 
 
@@ -96,9 +98,10 @@ class StopRules:
         if not np.isfinite(velocity).all():
             return f"joint rates became non-finite at t = {t:.4f} s"
         joint = int(np.argmax(np.abs(velocity)))
+        unit = self.robot.joint_unit(joint, "velocity")
         return (
-            f"speed of joint {self.robot.joint_names[joint]} reached {velocity[joint]:.4g} rad/s, beyond "
-            f"{self.max_joint_speed:g} rad/s, at t = {t:.4f} s"
+            f"speed of joint {self.robot.joint_names[joint]} reached {velocity[joint]:.4g} {unit}, beyond "
+            f"{self.max_joint_speed:g} {unit}, at t = {t:.4f} s"
         )
 
     @staticmethod

@@ -243,22 +243,25 @@ def detect_whiplash(
     torque = result.tau[row, joint]
     limit = result.torque_upper[joint] if torque >= 0 else -result.torque_lower[joint]
     time = float(result.t[row])
+    unit = result.joint_unit(joint, "torque")
     if np.isfinite(limit):
         criterion = "limit"
-        size = f"{torque:.4g} N·m, {abs(torque) / limit:.3g} times its limit {limit:g} N·m (threshold {limit_factor:g})"
+        size = f"{torque:.4g} {unit}, {abs(torque) / limit:.3g} times its limit {limit:g} {unit} (threshold {limit_factor:g})"
     else:
         criterion = "growth"
         start = abs(torque) / (demand[row, joint] * growth_factor)
         size = (
-            f"{torque:.4g} N·m, {abs(torque) / start:.3g} times the {start:.4g} N·m the movement started with "
+            f"{torque:.4g} {unit}, {abs(torque) / start:.3g} times the {start:.4g} {unit} the movement started with "
             f"(threshold {growth_factor:g})"
         )
     speed = np.abs(result.v[row])
     fastest = int(np.argmax(speed))
+    moving = "sliding" if result.joint_unit(fastest, "velocity") == "m/s" else "turning"
     context = (
         "already at the first sample: the movement asks for more torque than the arm has, without any whip"
         if row == 0
-        else f"with joint {result.joint_names[fastest]} turning at {speed[fastest]:.3g} rad/s "
+        else f"with joint {result.joint_names[fastest]} {moving} at {speed[fastest]:.3g} "
+        f"{result.joint_unit(fastest, 'velocity')} "
         f"and the tip {result.tip_error[row] * 1e3:.3g} mm from its path"
     )
     lost = f"; it lost its path: {lost}" if lost_path else ""

@@ -152,6 +152,7 @@ def replay_result(robot, solved) -> SimResult:
         task=robot.task,
         resolver=GLOBAL_RESOLVER,
         joint_names=list(robot.joint_names),
+        joint_kinds=list(robot.joint_kinds),
         dt=solved.dt,
         t=solved.t[:count],
         q=q,

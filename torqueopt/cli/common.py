@@ -24,6 +24,8 @@ __all__ = [
     "parse_count",
     "parse_whole",
     "importable_from_here",
+    "in_radians",
+    "torque_table",
 ]
 
 
@@ -32,9 +34,12 @@ def add_start_options(group: argparse._ArgumentGroup) -> None:
     group.add_argument(
         "--q0",
         metavar="ANGLES",
-        help="start configuration, one value per joint [rad] (default: the robot's SRDF or neutral configuration)",
+        help="start configuration, one value per joint [rad; m for a prismatic joint] (default: the robot's SRDF or neutral "
+        "configuration)",
     )
-    group.add_argument("--degrees", action="store_true", help="read --q0 in degrees")
+    group.add_argument(
+        "--degrees", action="store_true", help="read --q0 in degrees (its revolute joints; prismatic ones stay in m)"
+    )
 
 
 def start_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray:
@@ -42,7 +47,14 @@ def start_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray:
     if args.q0 is None:
         return robot.default_configuration
     angles = parse_vector(args.q0, "q0", robot.nv)
-    return robot.configuration(np.radians(angles) if args.degrees else angles)
+    return robot.configuration(in_radians(angles, robot) if args.degrees else angles)
+
+
+def in_radians(values: np.ndarray, robot: Robot) -> np.ndarray:
+    """``--degrees``: the revolute and continuous joints' values from degrees to radians; a prismatic joint's value
+    is a length [m] (or m/s) and stays as given."""
+    rotational = np.array([kind != "prismatic" for kind in robot.joint_kinds])
+    return np.where(rotational, np.radians(values), values)
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
@@ -104,3 +116,33 @@ def importable_from_here(spec: str) -> None:
     """
     if ":" in str(spec).split("[", 1)[0] and os.getcwd() not in sys.path and "" not in sys.path:
         sys.path.insert(0, os.getcwd())
+
+
+def torque_table(names, peaks, limits, ratios, units) -> list[str]:
+    """The peak-torque table, its columns as wide as their widest cell (at least the usual 24, 18, 14, 12
+    characters) and two spaces apart, so a runaway torque of 1e9 N·m never runs into its limit. ``units``: per
+    joint, N·m or N; one unit goes in the titles, a mixed arm (a prismatic joint among revolute ones) has it in
+    every cell."""
+    shared = units[0] if len(set(units)) == 1 else None
+    suffix = [("" if shared else f" {unit}") for unit in units]
+    cells = [
+        (
+            str(name),
+            f"{peak:.3f}{unit}",
+            f"{limit:.3f}{unit}" if np.isfinite(limit) else "none",
+            f"{ratio:.3f}" if np.isfinite(limit) else "-",
+            "  OVER" if ratio > 1.0 else "",
+        )
+        for name, peak, limit, ratio, unit in zip(names, peaks, limits, ratios, suffix)
+    ]
+    brackets = f" [{shared}]" if shared else ""
+    titles = ("joint", f"peak |tau|{brackets}", f"limit{brackets}", "peak/limit")
+    widths = [max([24, *(len(row[0]) + 2 for row in cells)])]
+    for column, usual in zip((1, 2, 3), (18, 14, 12)):
+        widths.append(max([usual, *(len(row[column]) + 2 for row in cells)]))
+    lines = [f"{titles[0]:<{widths[0]}}" + "".join(f"{title:>{width}}" for title, width in zip(titles[1:], widths[1:]))]
+    for row in cells:
+        lines.append(
+            f"{row[0]:<{widths[0]}}" + "".join(f"{cell:>{width}}" for cell, width in zip(row[1:4], widths[1:])) + row[4]
+        )
+    return lines

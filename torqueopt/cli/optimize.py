@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
 from ..optimal import (
@@ -22,6 +20,7 @@ from ..optimal.whole_path import MAX_ITERATIONS, transcription_intervals
 from ..progress import interrupt_deferred, progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
+from ..units import joint_unit
 from . import EXIT_OK, EXIT_STOPPED
 from .common import (
     add_robot_options,
@@ -31,6 +30,7 @@ from .common import (
     parse_whole,
     robot_from_args,
     start_from_args,
+    torque_table,
 )
 from .paths import add_path_options, trajectory_from_args
 
@@ -244,16 +244,14 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
             f"  start {start['warm_start']}: {start['status']} ({start['solver_message']}), {start['iterations']} "
             f"iterations, grid cost {start['grid_cost']:.6g}, {start['seconds']:.2f} s"
         )
-    lines += [
-        f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
-    ]
-    for name, peak, limit, ratio in zip(
-        result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
-    ):
-        limit_text = f"{limit:14.3f}" if np.isfinite(limit) else f"{'none':>14}"
-        ratio_text = f"{ratio:12.3f}" if np.isfinite(limit) else f"{'-':>12}"
-        flag = "  OVER" if ratio > 1.0 else ""
-        lines.append(f"{name:<24}{peak:18.3f}{limit_text}{ratio_text}{flag}")
+    kinds = result.joint_kinds or [None] * len(result.joint_names)
+    lines += torque_table(
+        result.joint_names,
+        result.peak_torque,
+        result.torque_upper,
+        result.peak_torque_ratio,
+        [joint_unit(kind, "torque") for kind in kinds],
+    )
     lines.append(
         f"open-loop RK4 replay: max tip error {result.replay_tip_error * 1e3:.4g} mm "
         f"(plan between nodes: {result.plan_tip_error * 1e3:.3g} mm)"

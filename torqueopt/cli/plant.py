@@ -102,8 +102,10 @@ def plant_summary(result: SimResult) -> list[str]:
         if not events:
             lines.append("joint-limit force: none acted (no joint reached its limit in MuJoCo)")
         for event in events:
+            joint = list(result.joint_names).index(event["joint"]) if event["joint"] in result.joint_names else None
+            unit = result.joint_unit(joint, "torque") if joint is not None else "N·m"
             lines.append(
                 f"joint-limit force: MuJoCo's limit stopped joint {event['joint']} from t = {event['first_time']:.3f} s "
-                f"(peak {event['peak_force']:.4g} N·m, {event['steps']} MuJoCo steps)"
+                f"(peak {event['peak_force']:.4g} {unit}, {event['steps']} MuJoCo steps)"
             )
     return lines

@@ -27,6 +27,7 @@ from .common import (
     parse_vector,
     robot_from_args,
     start_from_args,
+    torque_table,
 )
 from .paths import add_path_options, trajectory_from_args
 from .plant import add_plant_options, plant_from_args, plant_summary
@@ -223,30 +224,13 @@ def margin_summary(result: SimResult) -> str:
 
 
 def _torque_table(result: SimResult) -> list[str]:
-    """The peak-torque table, its columns as wide as their widest cell (at least the usual 24, 18, 14, 12
-    characters) and two spaces apart, so a runaway torque of 1e9 N·m never runs into its limit."""
-    cells = [
-        (
-            str(name),
-            f"{peak:.3f}",
-            f"{limit:.3f}" if np.isfinite(limit) else "none",
-            f"{ratio:.3f}" if np.isfinite(limit) else "-",
-            "  OVER" if ratio > 1.0 else "",
-        )
-        for name, peak, limit, ratio in zip(
-            result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
-        )
-    ]
-    titles = ("joint", "peak |tau| [N·m]", "limit [N·m]", "peak/limit")
-    widths = [max([24, *(len(row[0]) + 2 for row in cells)])]
-    for column, usual in zip((1, 2, 3), (18, 14, 12)):
-        widths.append(max([usual, *(len(row[column]) + 2 for row in cells)]))
-    lines = [f"{titles[0]:<{widths[0]}}" + "".join(f"{title:>{width}}" for title, width in zip(titles[1:], widths[1:]))]
-    for row in cells:
-        lines.append(
-            f"{row[0]:<{widths[0]}}" + "".join(f"{cell:>{width}}" for cell, width in zip(row[1:4], widths[1:])) + row[4]
-        )
-    return lines
+    return torque_table(
+        result.joint_names,
+        result.peak_torque,
+        result.torque_upper,
+        result.peak_torque_ratio,
+        [result.joint_unit(joint, "torque") for joint in range(len(result.joint_names))],
+    )
 
 
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
@@ -268,14 +252,15 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         if violation is None
         else f"first limit violation: t = {violation:.3f} s at joint {result.first_limit_violation_joint}"
     )
-    for kind, violation, unit in (
-        ("position", result.first_position_violation, "rad"),
-        ("velocity", result.first_velocity_violation, "rad/s"),
+    for kind, violation in (
+        ("position", result.first_position_violation),
+        ("velocity", result.first_velocity_violation),
     ):
         if violation is None:
             lines.append(f"first joint {kind} limit exceeded: none")
         else:
             time, joint, value, limit = violation
+            unit = result.joint_unit(list(result.joint_names).index(joint), kind)
             lines.append(
                 f"first joint {kind} limit exceeded: t = {time:.3f} s at joint {joint} "
                 f"({value:.4g} {unit}, limit {limit:.4g} {unit})"

@@ -76,6 +76,8 @@ class OptimalResult:
     starts: list = field(default_factory=list)
     #: The solver's multipliers and the transcription, for checks (not written to files).
     solution: dict = field(default_factory=dict, repr=False)
+    #: Per joint, 'revolute', 'continuous' or 'prismatic' (as ``SimResult.joint_kinds``).
+    joint_kinds: list | None = None
 
     @property
     def optimal(self) -> bool:
@@ -103,6 +105,7 @@ class OptimalResult:
             task=self.task,
             resolver="optimal",
             joint_names=list(self.joint_names),
+            joint_kinds=self.joint_kinds,
             dt=self.dt,
             t=self.t,
             q=self.q,

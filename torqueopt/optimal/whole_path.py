@@ -296,6 +296,7 @@ def optimize(
         frame=robot.frame,
         task=robot.task,
         joint_names=list(robot.joint_names),
+        joint_kinds=list(robot.joint_kinds),
         dt=dt,
         t=times,
         q=plan["q"],

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..result import SimResult
+from ..units import shared_unit
 from .canvas import SYMLOG_ABOVE, new_figure, save_figure, symlog_scale
 from .panels import (
     _JOINT_COLORS,
@@ -64,7 +65,7 @@ def plot_torques(
         log_beyond = np.isfinite(limit) and peak > SYMLOG_ABOVE * limit
         if log_beyond:
             symlog_scale(ax, limit, peak)
-        ax.set_ylabel("torque [N·m]")
+        ax.set_ylabel(f"torque [{results[0].joint_unit(joint, 'torque')}]")
         panel_title = _joint_title(results[0], joint, [(r.resolver, r.peak_torque[joint]) for r in results])
         ax.set_title(
             panel_title + ("\nscale linear within ±limit, logarithmic beyond" if log_beyond else ""),
@@ -97,8 +98,8 @@ def plot_motion(
         color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
         speed_ax.plot(result.t, result.v[:, joint], color=color, lw=1.4, label=name)
         accel_ax.plot(result.t, result.acceleration[:, joint], color=color, lw=1.4, label=name)
-    speed_ax.set_ylabel("joint velocity [rad/s]")
-    accel_ax.set_ylabel("joint acceleration [rad/s²]")
+    speed_ax.set_ylabel(f"joint velocity [{shared_unit(result.joint_kinds, 'velocity')}]")
+    accel_ax.set_ylabel(f"joint acceleration [{shared_unit(result.joint_kinds, 'acceleration')}]")
     if not np.isfinite(result.acceleration).any():
         accel_ax.text(
             0.5,

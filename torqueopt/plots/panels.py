@@ -51,7 +51,7 @@ def _color(result: SimResult) -> str:
 
 def _joint_title(result: SimResult, joint: int, peak_by_run=None) -> str:
     limit = result.torque_upper[joint]
-    limit_text = f"limit ±{limit:g} N·m" if np.isfinite(limit) else "no torque limit"
+    limit_text = f"limit ±{limit:g} {result.joint_unit(joint, 'torque')}" if np.isfinite(limit) else "no torque limit"
     text = f"{result.joint_names[joint]} ({limit_text})"
     if peak_by_run:
         # One line per few runs: a title of six runs' peaks ran past the figure's right edge.

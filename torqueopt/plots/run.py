@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..result import SimResult
+from ..units import shared_unit
 from .canvas import SYMLOG_ABOVE, new_figure, save_figure, symlog_scale
 from .dexterity import draw_dexterity
 from .panels import (
@@ -50,7 +51,7 @@ def plot_run(
         peak = float(result.peak_torque[joint])
         if np.isfinite(limit) and peak > SYMLOG_ABOVE * limit:
             symlog_scale(ax, limit, peak)
-        ax.set_ylabel("[N·m]", fontsize=8)
+        ax.set_ylabel(f"[{result.joint_unit(joint, 'torque')}]", fontsize=8)
         ax.set_title(_joint_title(result, joint), fontsize=9, loc="left")
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
@@ -70,7 +71,7 @@ def plot_run(
     velocity_title = _draw_joint_limits(speed_ax, result)
     speed_ax.set_title("joint velocities" + velocity_title, fontsize=9, loc="left")
     speed_ax.set_xlabel("time [s]")
-    speed_ax.set_ylabel("[rad/s]")
+    speed_ax.set_ylabel(f"[{shared_unit(result.joint_kinds, 'velocity')}]")
     # Beside the panel, not on it: seven joints' labels covered the curves they name.
     speed_ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     speed_ax.grid(alpha=0.3)

@@ -12,6 +12,7 @@ from ..checks import whole_number
 from ..errors import InvalidInput
 from ..result import SimResult
 from ..robot import Robot
+from ..units import shared_unit
 from .canvas import few_ticks, new_figure, save_figure
 from .dexterity import _ELLIPSES, dexterity_ellipses
 from .panels import _JOINT_COLORS, _mark_events, _mark_stops, _suptitle
@@ -147,7 +148,7 @@ def plot_stick_strip(
     _mark_events(speed_ax, events)
     _mark_stops(speed_ax, [result])
     speed_ax.set_xlabel("time [s]")
-    speed_ax.set_ylabel("joint velocity [rad/s]")
+    speed_ax.set_ylabel(f"joint velocity [{shared_unit(result.joint_kinds, 'velocity')}]")
     speed_ax.grid(alpha=0.3)
     speed_ax.legend(loc="upper left", fontsize=8, ncol=2)
     _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
