@@ -134,11 +134,9 @@ class ObstacleTask(Task):
         :math:`s_i = (c - a_i)\cdot(b_i - a_i)/\|b_i - a_i\|^2` clipped to [0, 1] (0 for a segment of no
         length); the arm's is the nearest of these (the first of equals).
 
-        The few coordinates are Python floats: on 3-vectors a numpy operation costs more (about 3,500
-        instructions) than the arithmetic it does. By callgrind on planar3, the loop on numpy 3-vectors cost
-        158,000 instructions a call, the segments at once in numpy (einsums, a clip) 145,000, and floats 46,000
-        (:meth:`closest_values`: 27,000 with squared distances and one square root, 24,600 reading the chain through
-        kept views, 23,300 with the distance inside a segment by Pythagoras and the point of the nearest only).
+        The few coordinates are Python floats: on 3-vectors a numpy operation costs more than the arithmetic it
+        does, so floats beat both a loop on numpy 3-vectors and the segments at once in numpy (measured by
+        callgrind: BENCHMARKS.md, "Velocity-level methods batched, timed").
         """
         distance, segment, joint, (px, py, pz), _, _, _ = self.closest_values(kinematics)
         cx, cy, cz = self._center

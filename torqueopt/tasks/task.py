@@ -183,7 +183,7 @@ def translations_view(placements, first: int, count: int) -> np.ndarray:
 
     eigenpy returns each ``SE3.translation`` as a view into the placement's own memory, and the placements of a
     data are one contiguous vector that Pinocchio never reallocates; so one strided view reads them all, where
-    reading them one by one costs about 4,900 instructions each (boost.python and eigenpy, BENCHMARKS.md). The
+    reading them one by one crosses boost.python and eigenpy once each (BENCHMARKS.md). The
     layout is checked for every placement viewed when the view is made, not assumed.
     """
     first_translation = placements[first].translation

@@ -353,8 +353,7 @@ class StackedExtendedJacobian(VelocityStack):
     J (all six rows: :math:`\omega_j` are its angular columns) and :math:`\dot J` are the task frame's from the
     batch's forest pass (``frame_jacobian``, ``frame_rate``), the task's rows read from them. Every stack is held
     component-first, the batch axis last ((6, n, B), (n, B), ...: one copy of each input), so each product runs
-    along the batch: on (B, 3, n) stacks numpy's loops ran over runs of three (a planar3 batch of 64 movements
-    counted 154,486 instructions per trajectory-step, 1.14 million per call of :meth:`rates`; 135,750 batch-last).
+    along the batch: on (B, 3, n) stacks numpy's loops would run over runs of three.
     The sums are taken in the order of the batch-first einsums they replaced, so that on two task rows the figures
     are those bit for bit (on three, round-off apart).
 

@@ -251,8 +251,7 @@ class StackedManipulabilityGradient(StackedPseudoInverse):
     task frame's kinematic Hessian, which the single-state step reads from Pinocchio
     (``getFrameKinematicHessian``). On stacks it is not a Pinocchio call: Pinocchio 4 does not expose the forest's
     ``kinematic_hessians`` tensor, and ``getFrameKinematicHessian`` returns a fresh 6 × N × N tensor of the whole
-    forest (N its joints) per copy: 6.8 µs per row and forest pass for planar3's 48-joint forest, five passes a
-    step, more than this whole stacked step costs (about 82,000 instructions per row and step). The contraction is
+    forest (N its joints) per copy, five passes a step: more than this whole stacked step costs. The contraction is
     taken instead from the frame's Jacobian columns, all six rows of which the forest's pass gives
     (``frame_jacobian``), by the rule Pinocchio's Hessian follows
     (``computeJointKinematicHessians``): in world axes the column :math:`S_i` (a spatial motion) of a

@@ -256,9 +256,8 @@ class StackedKineticEnergyPseudoInverse(StackedPseudoInverse):
     reads_inertia = True
     reads_inertia_rate = True
     #: CRBA's and the Coriolis matrix's bindings clear, symmetrise and return the forest's whole (n, n) matrices,
-    #: a cost that grows with the square of a pass's joints: on planar3 a batch of 256 counts 91,219 instructions
-    #: per trajectory-step at 8 copies (24 joints) against 95,678 at 16, 97,838 at 4 and 116,844 at 2 (counted
-    #: before the energies hook and the batch-axis-last products, 70,528 at 8 copies; not recounted since).
+    #: a cost that grows with the square of a pass's joints; fewer copies per pass make more passes. On planar3
+    #: 8 copies (24 joints) counted fewest instructions per trajectory-step (BENCHMARKS.md).
     forest_dofs = 24
 
     def rates(self, jacobian: np.ndarray, command: np.ndarray, configuration: np.ndarray, kinematics=None):
