@@ -85,12 +85,15 @@ EVERY_OPTION = {
     "global_max_time": ("30", 30.0),
     "margin": (None, True),
     "margin_every": ("0.04", 0.04),
+    "plant": ("mujoco", "mujoco"),
+    "plant_options": ("perturb=0.1,seed=3", {"perturb": "0.1", "seed": "3"}),
 }
 FLAGS = {
     "batch": "--no-batch",
     "progress": "--no-progress",
     "figures": "--no-figures",
     "global_optimum": "--global",
+    "plant_options": "--plant-option",
     "margin": "--margin",
 }
 

@@ -367,3 +367,64 @@ def test_a_mujoco_batch_equals_mujoco_single_runs(xarm7, resolver):
     assert "joint4" in [event["joint"] for event in batch[0].plant["limit_events"]]
     assert batch[0].plant["limit_events"] != batch[1].plant["limit_events"]  # each movement's own record
     assert not batch[2].completed and len(batch[2].t) < len(batch[0].t)  # it left the batch first
+
+
+#: planar3 on MuJoCo: its thin rods need the floor; each link's mass and inertia scaled by U(0.9, 1.1).
+PERTURBED = {"inertia-floor": "1e-6", "perturb": "0.1", "seed": "2"}
+
+
+def test_an_atlas_on_the_mujoco_plant_is_a_model_error_atlas(tmp_path):
+    """``torqueopt atlas --plant mujoco --plant-option perturb=0.1``: every row is the run that ``simulate`` gives on
+    the same perturbed plant (batch and worker path against the single run), and the rows differ from the atlas on
+    the robot's own model, where the controller's model is exact."""
+    pytest.importorskip("pandas")
+    from torqueopt.atlas import run_atlas
+    from torqueopt.atlas.population import movement_trajectory
+    from torqueopt.atlas.sweep import simulate_all
+
+    common = {"paths": 2, "durations": [0.3], "resolvers": ["pinv", "null-space"], "workers": 0, "figures": False,
+              "progress": False}  # fmt: skip
+    mujoco_atlas = run_atlas("planar3", out=tmp_path / "mujoco", plant="mujoco", plant_options=PERTURBED, **common)
+    own_atlas = run_atlas("planar3", out=tmp_path / "own", **common)
+    config = json.loads((tmp_path / "mujoco" / "atlas-config.json").read_text())
+    assert config["plant"] == {"name": "mujoco", "options": PERTURBED}
+    assert "plant" not in json.loads((tmp_path / "own" / "atlas-config.json").read_text())
+    assert (
+        "the torques acting on the mujoco plant (inertia-floor=1e-6, perturb=0.1, seed=2)"
+        in (tmp_path / "mujoco" / "atlas.md").read_text()
+    )
+
+    robot = torqueopt.load_robot("planar3")
+    from torqueopt.atlas.population import PopulationSpec, draw_population
+
+    movements = draw_population(robot, PopulationSpec(paths=2, durations=(0.3,), seed=0))
+    table = mujoco_atlas.table.set_index(["path", "resolver"])
+    for name in ("pinv", "null-space"):
+        resolver = torqueopt.get_resolver(name)
+        lines = [movement_trajectory(m) for m in movements]
+        runs, _ = simulate_all(robot, resolver, lines, [m.q0 for m in movements], 1e-3, False,
+                               plant="mujoco", plant_options=PERTURBED)  # fmt: skip
+        for movement, run in zip(movements, runs):
+            row = table.loc[(int(movement.path), name)]
+            assert row["max_tip_error"] == pytest.approx(run.max_tip_error, rel=1e-9, abs=1e-12)
+    own = own_atlas.table.set_index(["path", "resolver"])
+    assert (abs(table["max_tip_error"] - own["max_tip_error"]) > 1e-4).all()  # a 10 % model error shows
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--plant-option", "perturb"], "--plant-option 'perturb' must be KEY=VALUE"),
+        (["--plant", "bullet"], "--plant: 'bullet' is not a plant; choose one of pinocchio, mujoco"),
+        (["--plant", "mujoco", "--plant-option", "inertia-floor=1e-6", "--global"], "--global judges each optimum"),
+        (["--plant", "mujoco", "--plant-option", "inertia-floor=1e-6", "--resolvers", "velocity-pinv"],
+         "resolver velocity-pinv works at the velocity level"),
+        (["--plant", "mujoco", "--plant-option", "wobble=1"], "wobble"),
+    ],
+)  # fmt: skip
+def test_an_atlas_plant_that_cannot_run_is_refused_in_one_line_before_any_work(tmp_path, capsys, arguments, message):
+    out = tmp_path / "atlas"
+    code = main(["atlas", "--paths", "2", "--durations", "0.3", "--workers", "0", "--out", str(out), *arguments])
+    error = capsys.readouterr().err
+    assert code == 2 and message in error and error.count("\n") == 1, error
+    assert not out.exists()

@@ -237,6 +237,24 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
 run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
 
 
+def _check_plant(settings: AtlasSettings, robot) -> None:
+    """Build the plant once before any work (its options checked, MuJoCo's model compiled), and refuse what a
+    plant other than the robot's own model cannot give: velocity-level resolvers, the global optimum's rows."""
+    from ..plants import make_plant
+    from ..simulate import refuse_plant_at_velocity_level
+
+    plant, options = settings.simulation.plant, dict(settings.simulation.plant_options)
+    make_plant(robot, plant, options)
+    for resolver in settings.resolvers:
+        if getattr(resolver, "level", None) == "velocity":
+            refuse_plant_at_velocity_level(resolver, plant, options)
+    if settings.frontier.global_optimum:
+        raise InvalidInput(
+            f"--global judges each optimum by replaying its torques on the robot's own model, not on --plant {plant}: "
+            "run the global optimum in an atlas without --plant"
+        )
+
+
 def _load_and_draw(settings: AtlasSettings) -> tuple:
     """(the robot, its reach [m], the population's movements), the sweep's size checked against ``max_steps``
     before anything is drawn and again once it is."""
@@ -257,6 +275,8 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
         resolver.check(loaded)
     if frontier.global_optimum:
         check_transcription(loaded, population.durations)
+    if not settings.simulation.is_default():
+        _check_plant(settings, loaded)
     if population.mode == "grid":
         # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
         _check_grid_size(grid_start_points(loaded, population), steps_per_run, max_steps, population, work, dt)
@@ -283,7 +303,7 @@ def _pending_jobs(settings: AtlasSettings, chunks, local_chunks: int, done, dige
         else:
             jobs[index] = ResolverChunk(
                 settings.robot, settings.resolvers, tuple(chunk), dt, settings.verdicts, settings.execution.batch,
-                digest, margin_every,
+                digest, margin_every, settings.simulation.plant, settings.simulation.plant_options,
             )  # fmt: skip
     return dict(sorted(jobs.items(), key=lambda item: (item[1].movements[0].path, isinstance(item[1], GlobalChunk))))
 
@@ -300,7 +320,8 @@ def _write_report(settings: AtlasSettings, out: Path, table, config: dict, robot
     traces = (
         explorer.keep_traces(
             robot, table, movements, list(settings.resolvers), dt=settings.population.dt, batch=execution.batch,
-            keep=execution.keep_traces,
+            keep=execution.keep_traces, plant=settings.simulation.plant,
+            plant_options=dict(settings.simulation.plant_options),
         )
         if execution.figures
         else {}

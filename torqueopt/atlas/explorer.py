@@ -53,8 +53,10 @@ def choose_paths(table, keep: int) -> list[int]:
     return ordered[: max(int(keep), 0)]
 
 
-def keep_traces(robot, table, movements, resolvers, *, dt: float, batch: bool, keep: int) -> dict:
-    """Simulate the chosen paths again (the sweep's settings and code path) and keep what the page draws.
+def keep_traces(
+    robot, table, movements, resolvers, *, dt: float, batch: bool, keep: int, plant="pinocchio", plant_options=None
+) -> dict:
+    """Simulate the chosen paths again (the sweep's settings, plant and code path) and keep what the page draws.
 
     Returns:
         ``{path: {resolver: {"t", "tau" (samples × joints) [s, N·m], "arm", "start_arm" (points × 2) [m]}}}``.
@@ -70,7 +72,7 @@ def keep_traces(robot, table, movements, resolvers, *, dt: float, batch: bool, k
     whip_times = table.set_index(["path", "resolver"])["whip_time"]
     kept: dict = {}
     for resolver in resolvers:
-        results, _ = simulate_all(robot, resolver, lines, q0s, dt, batch)
+        results, _ = simulate_all(robot, resolver, lines, q0s, dt, batch, plant=plant, plant_options=plant_options)
         for movement, result in zip(picked, results):
             result = applied_rows(result)[0]  # the torques the table's figures read: not the sample at t = T
             rows = _kept_rows(result)

@@ -57,6 +57,8 @@ class ResolverChunk:
         batch: simulate the movements as one batch where the resolver allows it.
         digest: the atlas's fingerprint, recorded in the chunk's file.
         margin_every: the time between the states whose stability margin is evaluated [s]; None: no margin.
+        plant: what the torques act on, a name :func:`torqueopt.plants.make_plant` takes.
+        plant_options: the plant's options, as sorted (key, value) pairs.
     """
 
     robot: RobotSpec
@@ -67,6 +69,8 @@ class ResolverChunk:
     batch: bool
     digest: str
     margin_every: float | None = None
+    plant: str = "pinocchio"
+    plant_options: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)

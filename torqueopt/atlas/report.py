@@ -70,6 +70,18 @@ def summarise(table, config: dict) -> dict:
     return summary
 
 
+def _plant_text(config: dict) -> str:
+    """What the torques acted on: the robot's own model (no ``plant`` in the config), or the plant it names."""
+    plant = config.get("plant")
+    if plant is None:
+        return (
+            "open loop: held-torque RK4 for the torque resolvers, RK4 on the joint velocities with inverse-dynamics "
+            "torques for the velocity-level ones."
+        )
+    options = ", ".join(f"{key}={value}" for key, value in plant["options"].items())
+    return f"the torques acting on the {plant['name']} plant" + (f" ({options})." if options else ".")
+
+
 def write_markdown(summary: dict) -> str:
     config = summary["config"]
     population = config["population"]
@@ -81,8 +93,7 @@ def write_markdown(summary: dict) -> str:
             f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
             f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
             f"min start condition {population['min_condition']:g}); {_path_text(population, config)}, "
-            f"dt {config['dt'] * 1e3:g} ms, open loop: held-torque RK4 for the torque resolvers, RK4 on the joint "
-            "velocities with inverse-dynamics torques for the velocity-level ones."
+            f"dt {config['dt'] * 1e3:g} ms, {_plant_text(config)}"
         ),
         (
             f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "

@@ -38,6 +38,7 @@ __all__ = [
     "AtlasSettings",
     "ExecutionSettings",
     "FrontierSettings",
+    "PlantSettings",
     "PopulationSettings",
     "atlas_config",
     "path_kind",
@@ -222,6 +223,70 @@ class FrontierSettings(Settings):
     )
 
 
+def _plant_name(value, name) -> str:
+    from ..plants import plant_names
+
+    if value not in plant_names():
+        raise InvalidInput(f"--plant: '{value}' is not a plant; choose one of {', '.join(plant_names())}")
+    return str(value)
+
+
+def _plant_options(value, name) -> tuple[tuple[str, str], ...]:
+    """The plant's options as sorted (key, text) pairs (a mapping or pairs given to the API; the command line's
+    KEY=VALUE texts are read by :func:`_parse_plant_options`); the plant checks them when it is built."""
+    pairs = value.items() if isinstance(value, dict) else value
+    options = {}
+    for key, text in pairs:
+        key = str(key).strip().replace("_", "-")
+        if not key or str(text).strip() == "":
+            raise InvalidInput(f"--plant-option '{key}={text}' must be KEY=VALUE, e.g. --plant-option perturb=0.1")
+        if key in options:
+            raise InvalidInput(f"--plant-option {key} is given twice; give it once")
+        options[key] = str(text).strip()
+    return tuple(sorted(options.items()))
+
+
+def _parse_plant_options(texts, name) -> tuple[tuple[str, str], ...]:
+    pairs = []
+    for text in texts:
+        for item in text.split(","):
+            key, separator, value = item.partition("=")
+            if not separator:
+                raise InvalidInput(f"--plant-option '{item}' must be KEY=VALUE, e.g. --plant-option perturb=0.1")
+            pairs.append((key, value))
+    return _plant_options(pairs, name)
+
+
+@dataclass(frozen=True)
+class PlantSettings(Settings):
+    """What the resolvers' torques act on (:mod:`torqueopt.plants`): the robot's own model, or MuJoCo's model of
+    the arm, perturbed if asked (a model-error atlas)."""
+
+    TITLE = "plant (what the torque acts on)"
+
+    plant: str = setting(
+        "pinocchio",
+        "pinocchio (the robot's own model, the paper's) or mujoco (MuJoCo's model of the arm; needs pip install "
+        "'torqueopt[mujoco]'); default pinocchio",
+        check=_plant_name,
+        metavar="NAME",
+    )
+    plant_options: tuple[tuple[str, str], ...] = setting(
+        (),
+        "a plant option KEY=VALUE, repeatable or comma-separated, as torqueopt run takes them (e.g. perturb=0.1, "
+        "seed=3, integrator=euler: torqueopt run --help)",
+        check=_plant_options,
+        parse=_parse_plant_options,
+        flag="--plant-option",
+        repeat=True,
+        metavar="KEY=VALUE",
+        doc="the plant's options by name ({'perturb': '0.1'}), as :func:`torqueopt.plants.make_plant` takes them",
+    )
+
+    def is_default(self) -> bool:
+        return self.plant == "pinocchio" and not self.plant_options
+
+
 def _robot(value, name) -> RobotSpec:
     return value if isinstance(value, RobotSpec) else RobotSpec(str(value))
 
@@ -286,6 +351,7 @@ class AtlasSettings(Settings):
     verdicts: Thresholds = group(Thresholds)
     execution: ExecutionSettings = group(ExecutionSettings)
     frontier: FrontierSettings = group(FrontierSettings)
+    simulation: PlantSettings = group(PlantSettings)
 
     def check_together(self) -> None:
         self.population_spec()
@@ -348,6 +414,8 @@ def atlas_config(settings: AtlasSettings, robot: Robot, reach: float, movements:
         config["global"] = global_settings(frontier.global_max_iterations, frontier.global_max_time)
     if frontier.margin:
         config["margin"] = {"every": float(frontier.margin_every)}
+    if not settings.simulation.is_default():  # only then, so that the Pinocchio plant's atlases keep their digest
+        config["plant"] = {"name": settings.simulation.plant, "options": dict(settings.simulation.plant_options)}
     return json.loads(json.dumps(config, default=_json_default))
 
 

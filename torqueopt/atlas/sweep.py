@@ -104,7 +104,9 @@ def run_chunk(job: ResolverChunk | GlobalChunk) -> list[dict]:
     rows: list[dict] = []
     pinv_peaks = None
     for resolver in job.resolvers:
-        results, energies = simulate_all(robot, resolver, lines, q0s, job.dt, job.batch)
+        results, energies = simulate_all(
+            robot, resolver, lines, q0s, job.dt, job.batch, plant=job.plant, plant_options=dict(job.plant_options)
+        )
         options_text = json.dumps(resolver.changed_settings(), sort_keys=True)
         if pinv_peaks is None:  # the first resolver is pinv, the baseline
             pinv_peaks = [peak_applied_ratio(result) for result in results]
@@ -132,19 +134,21 @@ def resolver_label(resolver: Resolver) -> str:
     return resolver.label
 
 
-def simulate_all(robot, resolver, lines, q0s, dt, batch):
-    """(results, [(kinetic energy, self-motion energy) per run]) for one resolver on a chunk's movements."""
+def simulate_all(robot, resolver, lines, q0s, dt, batch, *, plant="pinocchio", plant_options=None):
+    """(results, [(kinetic energy, self-motion energy) per run]) for one resolver on a chunk's movements, the
+    torques acting on ``plant`` (a name, with ``plant_options``, as :func:`torqueopt.plants.make_plant` takes)."""
+    on_plant = {"plant": plant, "plant_options": plant_options or None}
     if batch and batch_supports(robot, resolver):
         results, energies = [None] * len(lines), [None] * len(lines)
         for duration in sorted({line.duration for line in lines}):
             members = [i for i, line in enumerate(lines) if line.duration == duration]
             runs, extras = simulate_batch(
-                robot, resolver, [lines[i] for i in members], [q0s[i] for i in members], dt, extras=True
+                robot, resolver, [lines[i] for i in members], [q0s[i] for i in members], dt, extras=True, **on_plant
             )
             for i, run, extra in zip(members, runs, extras):
                 results[i], energies[i] = run, (extra.kinetic_energy, extra.self_motion_energy)
         return results, energies
-    results = [simulate(robot, resolver, line, q0, dt=dt) for line, q0 in zip(lines, q0s)]
+    results = [simulate(robot, resolver, line, q0, dt=dt, **on_plant) for line, q0 in zip(lines, q0s)]
     return results, [self_motion_energy(robot, result) for result in results]
 
 
