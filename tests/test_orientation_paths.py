@@ -73,6 +73,18 @@ def test_angular_velocity_and_acceleration_are_the_derivatives_of_the_interpolat
     np.testing.assert_allclose(acceleration, sample.angular_acceleration, atol=1e-5 * max(1.0, scale**2))
 
 
+def test_the_rate_of_the_rotations_log_is_pinocchios_jlog3_of_the_angular_velocity():
+    """d/dt log(R(t)) = Jlog3(R) Rᵀ ω (Pinocchio's Jacobian of log3, body axes), by central differences of log3."""
+    spline = OrientationSpline(TIMES, random_rotations(TIMES.size, seed=11, spread=0.4))
+    times = np.linspace(0.05, 1.95, 20)
+    step = 1e-6
+    sample, after, before = spline.sample(times), spline.sample(times + step), spline.sample(times - step)
+    for k in range(times.size):
+        rate = (pin.log3(after.rotation[k]) - pin.log3(before.rotation[k])) / (2.0 * step)
+        expected = pin.Jlog3(sample.rotation[k]).dot(sample.rotation[k].T.dot(sample.angular_velocity[k]))
+        np.testing.assert_allclose(rate, expected, atol=1e-8)
+
+
 def test_the_rotation_weights_are_the_position_splines_time_scaling():
     """p(t) = p₀ + Σ S_k(t)(p_k − p_{k−1}): the same weights advance the position steps and the rotation steps."""
     points = np.random.default_rng(5).normal(size=(TIMES.size, 3))
