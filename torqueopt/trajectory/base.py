@@ -14,9 +14,9 @@ A trajectory is an object with
 
 A trajectory for a ``pose`` task may also give the frame's rotation: then
 ``oriented`` is True and ``sample_orientation(t, start_rotation)`` gives the
-orientation rows of the task's reference, a :class:`Reference` of the rotation
+orientation rows of the task's reference, a :class:`~torqueopt.Reference` of the rotation
 vector about the frame's start rotation [rad], the angular velocity [rad/s] and
-acceleration [rad/s²] in world axes (:class:`~torqueopt.trajectory.WaypointPath`
+acceleration [rad/s²] in world axes (:class:`~torqueopt.WaypointPath`
 with rotations). Without it a ``pose`` task holds its start orientation.
 
 :class:`Trajectory` is the abstract base that the built-in ones derive from

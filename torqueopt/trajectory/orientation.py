@@ -10,7 +10,7 @@ by the product of their increments, each advanced by its own cumulative weight:
 
 where :math:`\phi_k` is the shortest arc from one waypoint to the next (in the frame of :math:`R_{k-1}`,
 angle at most π) and :math:`S_k(t)` is the position spline's own weight of the step
-:math:`p_k - p_{k-1}`: the quintic interpolating spline (:class:`~torqueopt.trajectory.WaypointPath`), zero
+:math:`p_k - p_{k-1}`: the quintic interpolating spline (:class:`~torqueopt.WaypointPath`), zero
 velocity and acceleration at both ends, through the values 0 at :math:`t_j < t_k` and 1 at
 :math:`t_j \ge t_k`, so that the position spline is :math:`p_0 + \sum_k S_k(t)(p_k - p_{k-1})`. Hence
 :math:`R(t_j) = R_j` at every waypoint, :math:`R` is as smooth as the position spline (C⁴) and rests at both

@@ -25,7 +25,7 @@ The rotations are interpolated on SO(3) with the position's own time-scaling
 (:class:`~torqueopt.trajectory.orientation.OrientationSpline`): between two
 rows the frame turns by the shortest arc, so the sign of a quaternion does
 not matter (q and −q are one rotation). A quaternion whose norm differs from 1
-by at most :data:`QUATERNION_NORM_TOLERANCE` (values rounded when printed) is
+by at most :data:`~torqueopt.trajectory.waypoints.QUATERNION_NORM_TOLERANCE` (values rounded when printed) is
 normalised; one farther from 1 is refused, as a sign of wrong columns.
 """
 
@@ -264,13 +264,13 @@ class WaypointPath(Trajectory):
         Args:
             start_rotation: :math:`R_s`, the frame's rotation at q0, about which the pose task measures its
                 rotation vector (:class:`~torqueopt.tasks.FrameTask`); the path's first rotation is placed
-                there unless :attr:`rotation_start` places it.
+                there unless ``rotation_start`` places it.
 
         Returns:
-            A :class:`Reference` whose ``position`` is :math:`\log(R_{ref}(t) R_s^\top)` [rad], ``velocity``
+            A :class:`~torqueopt.Reference` whose ``position`` is :math:`\log(R_{ref}(t) R_s^\top)` [rad], ``velocity``
             the angular velocity [rad/s] and ``acceleration`` the angular acceleration [rad/s²] of
             :math:`R_{ref}(t) = R(t) R_0^\top B` with :math:`B` the placement of the first rotation
-            (:attr:`rotation_start`, else :math:`R_s`): right-multiplying by a constant leaves both rates as the
+            (``rotation_start``, else :math:`R_s`): right-multiplying by a constant leaves both rates as the
             interpolant's (:class:`~torqueopt.trajectory.orientation.OrientationSpline`).
         """
         if self._orientation is None:
