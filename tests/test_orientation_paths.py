@@ -290,6 +290,33 @@ def test_panda_follows_a_turning_pose_path_within_a_micrometre_and_a_microradian
         np.testing.assert_allclose(frame_acceleration, reference.acceleration[row], atol=1e-6)
 
 
+#: What a resolver needs to run on panda's pose task: obstacle avoidance an obstacle (here far from the arm).
+RESOLVER_OPTIONS = {"obstacle-avoidance": {"obstacle": [3.0, 3.0, 3.0]}}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.slow if name == "extended-jacobian" else ())
+        for name in torqueopt.resolver_names()
+    ],
+)
+def test_every_resolver_follows_a_turning_pose_path(panda_pose, name):
+    """8° and 2.5 cm in 0.25 s: the velocity level follows it to integration accuracy, the torque level (held
+    torque, task feedback) to a few microradians; a resolver that refused a pose task would fail here."""
+    path = WaypointPath(
+        [0.0, 0.25], [np.zeros(3), 0.25 * SHIFT], rotations=[np.eye(3), pin.exp3(math.radians(8.0) * TURN_AXIS)]
+    )
+    resolver = torqueopt.get_resolver(name, **RESOLVER_OPTIONS.get(name, {}))
+    velocity_level = getattr(resolver, "level", None) == "velocity"
+    feedback = None if velocity_level else (1e5, 632.0)
+    result = torqueopt.simulate(panda_pose, resolver, path, panda_pose.default_configuration, feedback=feedback)
+    assert result.completed
+    bound = 1e-10 if velocity_level else 1e-5
+    assert result.max_tip_error < bound and result.max_orientation_error < bound
+    assert np.abs(result.x_ref[-1, 3:] - math.radians(8.0) * TURN_AXIS).max() < 1e-12
+
+
 @pytest.mark.slow
 def test_a_turn_past_half_a_turn_is_followed_through_the_wrap_of_the_rotation_vector(panda_pose):
     """200° about the hand's axis in 1 s: the task's rotation vector about the start wraps at 180°, where a feedback
