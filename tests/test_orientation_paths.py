@@ -290,6 +290,23 @@ def test_panda_follows_a_turning_pose_path_within_a_micrometre_and_a_microradian
         np.testing.assert_allclose(frame_acceleration, reference.acceleration[row], atol=1e-6)
 
 
+@pytest.mark.slow
+def test_open_loop_the_torque_level_converges_to_the_turning_path_as_the_step_shrinks(panda_pose):
+    """Without feedback only the held torque parts the frame from the path, an O(dt) error: halving dt halves it,
+    in position and orientation alike, which holds only if the reference's ω̇ is the acceleration of its rotations
+    (a wrong ω̇ leaves an error that no step removes)."""
+    q0 = panda_pose.default_configuration
+    errors = [
+        closed_form_errors(
+            panda_pose, torqueopt.simulate(panda_pose, "null-space", turning_path(), q0, dt=dt, duration=0.6)
+        )
+        for dt in (1e-3, 5e-4)
+    ]
+    assert errors[0][1] > 1e-4  # open loop, the held torque shows
+    assert errors[0][0] / errors[1][0] == pytest.approx(2.0, rel=0.05)
+    assert errors[0][1] / errors[1][1] == pytest.approx(2.0, rel=0.05)
+
+
 #: What a resolver needs to run on panda's pose task: obstacle avoidance an obstacle (here far from the arm).
 RESOLVER_OPTIONS = {"obstacle-avoidance": {"obstacle": [3.0, 3.0, 3.0]}}
 
