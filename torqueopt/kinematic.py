@@ -2,7 +2,8 @@ r"""The simulation loop of the velocity-level (kinematic) resolvers of Section 1
 
 A velocity-level resolver gives the joint rates :math:`\dot q = f(q, t)`
 from the commanded task velocity :math:`c(t, q) = \dot x_{ref}(t) + K(x_{ref}(t) - x(q))`
-(K = 0, open loop, by default). The loop integrates this first-order system
+(K = 0, open loop, by default; on a ``pose`` path with rotations the orientation rows of
+:math:`x_{ref} - x` are :math:`\log(R_{ref}R^\top)`). The loop integrates this first-order system
 by classical RK4 with the reference sampled at the stage times,
 
 .. math::

@@ -123,7 +123,9 @@ def simulate(
         v0: initial joint velocities [rad/s]; zero by default.
         dt: step [s]; the torque is held over each step.
         duration: simulated time [s]; the trajectory's duration by default.
-        feedback: task-space PD gains (kp, kd); open loop when None.
+        feedback: task-space PD gains (kp, kd); open loop when None. On a ``pose`` path with rotations
+            (:class:`~torqueopt.WaypointPath` ``rotations``) the orientation rows of x_ref − x are
+            log(R_ref Rᵀ), the world rotation vector from the frame to the reference.
         max_joint_speed: a joint speed beyond this [rad/s] ends the run as diverged.
         max_torque_ratio: a torque beyond this multiple of its limit ends the run as diverged.
         resolver_options: the resolver's declared options, when ``resolver`` is a name

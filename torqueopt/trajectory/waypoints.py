@@ -63,7 +63,7 @@ ROTATION_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class WaypointPath(Trajectory):
-    """Rest-to-rest path through timed waypoints (quintic spline, zero end velocity and acceleration).
+    r"""Rest-to-rest path through timed waypoints (quintic spline, zero end velocity and acceleration).
 
     Args:
         times: waypoint times [s], strictly increasing from 0; the last is the duration.
@@ -77,10 +77,12 @@ class WaypointPath(Trajectory):
         rotations: (K + 1, 3, 3) rotation matrices of the frame at the waypoints (world axes), for a ``pose``
             task, or None (the task holds its start orientation). Interpolated by
             :class:`~torqueopt.trajectory.orientation.OrientationSpline`, the shortest arc between two rows.
-        rotation_start: where the first rotation is placed (world axes). The rotations are turned by
-            ``rotation_start · rotations[0]ᵀ`` about the world axes, so their changes give the movement;
-            :func:`torqueopt.simulate` places it at the frame's rotation at q0 when None. To follow the
-            rotations as given, give ``rotation_start=rotations[0]`` (``from_csv(path, absolute=True)``).
+        rotation_start: where the first rotation is placed (world axes). The frame's rotation is
+            :math:`R(t) R_0^\top B`, B = ``rotation_start``: the change since the first row, :math:`R(t) R_0^\top`
+            in world axes (as the waypoints give displacements in world axes), applied to B, so the rows'
+            changes give the movement; :func:`torqueopt.simulate` takes B = the frame's rotation at q0 when
+            None. To follow the rotations as given, give ``rotation_start=rotations[0]``
+            (``from_csv(path, absolute=True)``).
     """
 
     times: np.ndarray
