@@ -228,7 +228,10 @@ class KinematicMovement:
             kinematics.update(configuration)
             velocity = self.velocity[index]
             if gain != 0.0:
-                velocity = velocity + gain * self.position_error(index, kinematics, task.value(kinematics))
+                error = self.position[index] - task.value(kinematics)
+                if self.turning:
+                    self.turn_rows(error, index, kinematics)
+                velocity = velocity + gain * error
             return rates(kinematics, velocity)
 
         self.f = f
@@ -252,23 +255,22 @@ class KinematicMovement:
         """c(t, q) at the step's sample, with the kinematics at q."""
         if self.gain == 0.0:
             return self.velocity[2 * j]
-        return self.velocity[2 * j] + self.gain * self.position_error(2 * j, kinematics, x)
-
-    def position_error(self, index: int, kinematics: Kinematics, x: np.ndarray) -> np.ndarray:
-        """x_ref − x at the reference sample ``index``; on a turning pose path its rotation rows are log(R_ref Rᵀ)."""
-        error = self.position[index] - x
+        error = self.position[2 * j] - x
         if self.turning:
-            rotation = kinematics.data.oMf[self.task.frame_id(kinematics)].rotation
-            error[3:] = rotation_error(self.position[index][3:], rotation, self.reference_rotation)
-        return error
+            self.turn_rows(error, 2 * j, kinematics)
+        return self.velocity[2 * j] + self.gain * error
 
-    def feedback_time_rate(self, index: int, kinematics: Kinematics) -> np.ndarray:
-        r""":math:`\partial/\partial t` of the feedback error at fixed q: :math:`\dot x_{ref}`; on a turning pose path
-        the rotation rows :math:`J_{\log}(E) E^\top \omega_{ref}` of :math:`E = R_{ref}R^\top` (Pinocchio's
+    def turn_rows(self, error: np.ndarray, index: int, kinematics: Kinematics) -> None:
+        """Write log(R_ref Rᵀ), the rotation from the frame to the reference sample ``index``, into the rotation
+        rows of the feedback error x_ref − x (a turning pose path)."""
+        rotation = kinematics.data.oMf[self.task.frame_id(kinematics)].rotation
+        error[3:] = rotation_error(self.position[index][3:], rotation, self.reference_rotation)
+
+    def turning_time_rate(self, index: int, kinematics: Kinematics) -> np.ndarray:
+        r""":math:`\partial/\partial t` of the feedback error at fixed q on a turning pose path: :math:`\dot x_{ref}`
+        with the rotation rows :math:`J_{\log}(E) E^\top \omega_{ref}` of :math:`E = R_{ref}R^\top` (Pinocchio's
         ``Jlog3``), since E turns on the left at the reference's world angular velocity."""
         velocity = self.velocity[index]
-        if not self.turning:
-            return velocity
         rotation = kinematics.data.oMf[self.task.frame_id(kinematics)].rotation
         turn = pin.exp3(self.position[index][3:]).dot(self.reference_rotation).dot(rotation.T)
         rate = velocity.copy()
@@ -283,7 +285,8 @@ class KinematicMovement:
             # ∂c/∂t: ẍ_ref + K ẋ_ref (open loop, K = 0: ẍ_ref itself)
             time_rate = self.acceleration[index]
             if self.gain != 0.0:
-                time_rate = time_rate + self.gain * self.feedback_time_rate(index, kinematics)
+                reference_rate = self.turning_time_rate(index, kinematics) if self.turning else self.velocity[index]
+                time_rate = time_rate + self.gain * reference_rate
             if self.closed_form is not None:
                 # ċ = ∂c/∂t − K J q̇ (the position feedback moves with q)
                 command_rate = (
