@@ -5,7 +5,7 @@ path order. The ``torqueopt`` commands of their ```bash blocks run in that order
 (later ones read the files earlier ones wrote), each as a separate process with a timeout. Left out: the
 placeholder for the reader's own URDF (``my_arm/...``), and live playback (``--play``, or ``play`` without
 ``--html``), which waits for a browser. The waypoint file the ``csv:waypoints.csv`` example reads is
-written first, in the format the page gives. A command whose page shows its output right after its block
+written first, in the format the page gives, and docs/paths.md's ``turn.csv`` from the page itself. A command whose page shows its output right after its block
 must print exactly that.
 
 The ```python blocks of one page run one after the other in one fresh interpreter (a later block may use
@@ -90,6 +90,9 @@ def test_ci_runs_the_readmes_test_command():
 def folder(tmp_path_factory):
     path = tmp_path_factory.mktemp("pages")
     (path / "waypoints.csv").write_text("t,x,y\n0,0,0\n0.5,0.05,0.02\n1.0,0.1,0.0\n")
+    # docs/paths.md's orientation path, as the page gives it
+    page = (ROOT / "docs" / "paths.md").read_text()
+    (path / "turn.csv").write_text(re.search(r"```text\n(t,x,y,z,qw,qx,qy,qz\n.*?)```", page, re.S).group(1))
     return path
 
 

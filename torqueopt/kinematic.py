@@ -2,7 +2,8 @@ r"""The simulation loop of the velocity-level (kinematic) resolvers of Section 1
 
 A velocity-level resolver gives the joint rates :math:`\dot q = f(q, t)`
 from the commanded task velocity :math:`c(t, q) = \dot x_{ref}(t) + K(x_{ref}(t) - x(q))`
-(K = 0, open loop, by default). The loop integrates this first-order system
+(K = 0, open loop, by default; on a ``pose`` path with rotations the orientation rows of
+:math:`x_{ref} - x` are :math:`\log(R_{ref}R^\top)`). The loop integrates this first-order system
 by classical RK4 with the reference sampled at the stage times,
 
 .. math::
@@ -76,6 +77,7 @@ from .run_records import REFERENCE_BLOCK, ReferenceBlocks, logged_row_bytes, run
 from .stop_rules import StopRules
 from .tasks import FrameTask, Kinematics
 from .trajectory import check_trajectory
+from .trajectory.orientation import rotation_error
 
 __all__ = ["simulate_kinematic", "joint_rates", "DIFFERENCE_STEP"]
 
@@ -155,7 +157,15 @@ def simulate_kinematic(
     # Reference at every step start and mid-step (RK4 evaluates f at t, t + h/2 and t + h), a block at a time.
     # Rows at half steps: the progress is told steps.
     told = None if progress is None else (lambda row: progress(row // 2))
-    reference = ReferenceBlocks(robot, trajectory, 0.5 * dt, 2 * steps, size=2 * REFERENCE_BLOCK, progress=told)
+    reference = ReferenceBlocks(
+        robot,
+        trajectory,
+        0.5 * dt,
+        2 * steps,
+        size=2 * REFERENCE_BLOCK,
+        progress=told,
+        start_rotation=reference_rotation,
+    )
 
     lanes = KinematicMovement(
         robot, resolver, trajectory, q, dt, steps, reference, reference_rotation,
@@ -209,13 +219,19 @@ class KinematicMovement:
         self.gain = gain = resolver.position_gain
         self.zero = np.zeros(robot.m)
         self.offset = 0
+        # A pose path that turns: the feedback's rotation rows are log(R_ref Rᵀ), not a difference of rotation vectors
+        self.turning = gain != 0.0 and task.kind == "pose" and getattr(trajectory, "oriented", False)
+        self.reference_rotation = reference_rotation
 
         def f(configuration: np.ndarray, index: int):
             """f(q, t) at the reference sample ``index`` of the block (half steps)."""
             kinematics.update(configuration)
             velocity = self.velocity[index]
             if gain != 0.0:
-                velocity = velocity + gain * (self.position[index] - task.value(kinematics))
+                error = self.position[index] - task.value(kinematics)
+                if self.turning:
+                    self.turn_rows(error, index, kinematics)
+                velocity = velocity + gain * error
             return rates(kinematics, velocity)
 
         self.f = f
@@ -239,7 +255,27 @@ class KinematicMovement:
         """c(t, q) at the step's sample, with the kinematics at q."""
         if self.gain == 0.0:
             return self.velocity[2 * j]
-        return self.velocity[2 * j] + self.gain * (self.position[2 * j] - x)
+        error = self.position[2 * j] - x
+        if self.turning:
+            self.turn_rows(error, 2 * j, kinematics)
+        return self.velocity[2 * j] + self.gain * error
+
+    def turn_rows(self, error: np.ndarray, index: int, kinematics: Kinematics) -> None:
+        """Write log(R_ref Rᵀ), the rotation from the frame to the reference sample ``index``, into the rotation
+        rows of the feedback error x_ref − x (a turning pose path)."""
+        rotation = kinematics.data.oMf[self.task.frame_id(kinematics)].rotation
+        error[3:] = rotation_error(self.position[index][3:], rotation, self.reference_rotation)
+
+    def turning_time_rate(self, index: int, kinematics: Kinematics) -> np.ndarray:
+        r""":math:`\partial/\partial t` of the feedback error at fixed q on a turning pose path: :math:`\dot x_{ref}`
+        with the rotation rows :math:`J_{\log}(E) E^\top \omega_{ref}` of :math:`E = R_{ref}R^\top` (Pinocchio's
+        ``Jlog3``), since E turns on the left at the reference's world angular velocity."""
+        velocity = self.velocity[index]
+        rotation = kinematics.data.oMf[self.task.frame_id(kinematics)].rotation
+        turn = pin.exp3(self.position[index][3:]).dot(self.reference_rotation).dot(rotation.T)
+        rate = velocity.copy()
+        rate[3:] = pin.Jlog3(turn).dot(turn.T.dot(velocity[3:]))
+        return rate
 
     def resolve(self, kinematics, command, j: int):
         rates, f, index = self.rates, self.f, 2 * j
@@ -249,7 +285,8 @@ class KinematicMovement:
             # ∂c/∂t: ẍ_ref + K ẋ_ref (open loop, K = 0: ẍ_ref itself)
             time_rate = self.acceleration[index]
             if self.gain != 0.0:
-                time_rate = time_rate + self.gain * self.velocity[index]
+                reference_rate = self.turning_time_rate(index, kinematics) if self.turning else self.velocity[index]
+                time_rate = time_rate + self.gain * reference_rate
             if self.closed_form is not None:
                 # ċ = ∂c/∂t − K J q̇ (the position feedback moves with q)
                 command_rate = (

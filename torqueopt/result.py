@@ -225,10 +225,21 @@ class SimResult:
 
     @property
     def max_orientation_error(self) -> float | None:
-        """Largest orientation error for the ``pose`` task [rad], else None."""
+        r"""Largest orientation error for the ``pose`` task [rad], else None: the angle between the frame's
+        rotation and the reference's, :math:`|\log(\exp(x_{ref}) \exp(x)^\top)|` from their rotation vectors
+        about the start rotation, which is :math:`|x - x_{ref}|` where the reference holds the start (x_ref = 0)."""
         if self.m != 6 or not len(self.t):
             return None
-        return float(np.linalg.norm(self.x[:, 3:] - self.x_ref[:, 3:], axis=1).max())
+        error = np.linalg.norm(self.x[:, 3:] - self.x_ref[:, 3:], axis=1)
+        turning = np.flatnonzero(self.x_ref[:, 3:].any(axis=1))
+        if turning.size:
+            import pinocchio as pin
+
+            error[turning] = [
+                np.linalg.norm(pin.log3(pin.exp3(self.x_ref[row, 3:]).dot(pin.exp3(self.x[row, 3:]).T)))
+                for row in turning
+            ]
+        return float(error.max())
 
     @property
     def max_task_error(self) -> float:

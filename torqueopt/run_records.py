@@ -178,9 +178,11 @@ class ReferenceBlocks:
         last: int,
         size: int = REFERENCE_BLOCK,
         progress=None,
+        start_rotation: np.ndarray | None = None,
     ):
         self.robot, self.trajectory, self.spacing, self.last, self.size = robot, trajectory, spacing, last, size
         self.progress = progress
+        self.start_rotation = start_rotation
         self._positions: list[np.ndarray] = []
 
     def block(self, start: int):
@@ -189,7 +191,7 @@ class ReferenceBlocks:
             self.progress(start)
         indices = np.arange(start, min(start + self.size, self.last + 1))
         times = self.spacing * indices
-        sample = task_reference(self.robot, self.trajectory, times)
+        sample = task_reference(self.robot, self.trajectory, times, self.start_rotation)
         self._positions.append(sample.position)
         return times, sample
 
@@ -200,11 +202,23 @@ class ReferenceBlocks:
         return np.concatenate(self._positions) if len(self._positions) > 1 else self._positions[0]
 
 
-def task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray):
-    """The trajectory's samples embedded in the task coordinates (zero orientation rows for ``pose``)."""
+def task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray, start_rotation: np.ndarray | None = None):
+    """The trajectory's samples embedded in the task coordinates.
+
+    For ``pose`` the orientation rows are the trajectory's own (``sample_orientation``) about
+    ``start_rotation``, the frame's rotation at q0 that the task measures from, when it is oriented;
+    else zero: the start orientation held.
+    """
     sample = trajectory.sample(times)
     if robot.task != "pose":
         return sample
+    if getattr(trajectory, "oriented", False):
+        turn = trajectory.sample_orientation(times, start_rotation)
+        return type(sample)(
+            position=np.hstack([sample.position, turn.position]),
+            velocity=np.hstack([sample.velocity, turn.velocity]),
+            acceleration=np.hstack([sample.acceleration, turn.acceleration]),
+        )
     pad = np.zeros((times.size, 3))
     return type(sample)(
         position=np.hstack([sample.position, pad]),

@@ -50,6 +50,7 @@ from .run_records import ReferenceBlocks, logged_row_bytes, run_result, task_ref
 from .stop_rules import StopRules
 from .terms import PinocchioTerms
 from .trajectory import Trajectory, check_trajectory
+from .trajectory.orientation import rotation_error
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
 
@@ -122,7 +123,9 @@ def simulate(
         v0: initial joint velocities [rad/s]; zero by default.
         dt: step [s]; the torque is held over each step.
         duration: simulated time [s]; the trajectory's duration by default.
-        feedback: task-space PD gains (kp, kd); open loop when None.
+        feedback: task-space PD gains (kp, kd); open loop when None. On a ``pose`` path with rotations
+            (:class:`~torqueopt.WaypointPath` ``rotations``) the orientation rows of x_ref − x are
+            log(R_ref Rᵀ), the world rotation vector from the frame to the reference.
         max_joint_speed: a joint speed beyond this [rad/s] ends the run as diverged.
         max_torque_ratio: a torque beyond this multiple of its limit ends the run as diverged.
         resolver_options: the resolver's declared options, when ``resolver`` is a name
@@ -199,7 +202,7 @@ def simulate(
         trajectory = trajectory.anchored(placement.translation[:linear_dimension])
 
     # The reference a block of steps at a time, so memory follows the steps taken, not the duration asked for.
-    reference = ReferenceBlocks(robot, trajectory, dt, steps, progress=progress)
+    reference = ReferenceBlocks(robot, trajectory, dt, steps, progress=progress, start_rotation=reference_rotation)
 
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
@@ -210,7 +213,9 @@ def simulate(
     run_movements(lanes, steps)
     result = lanes.result(duration, dexterity, plant.record())
     if margin:
-        result = with_margins(robot, resolver.solver_for_run(robot, dt), result, trajectory, feedback)
+        result = with_margins(
+            robot, resolver.solver_for_run(robot, dt), result, trajectory, feedback, reference_rotation
+        )
     return result
 
 
@@ -264,6 +269,9 @@ class OneMovement:
         #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
         self.terms = PinocchioTerms(robot, data).with_position(reference_rotation)
         self.command = self._command if feedback is not None else self._reference_command
+        if feedback is not None and robot.task == "pose" and getattr(trajectory, "oriented", False):
+            self.reference_rotation = reference_rotation
+            self.command = self._turning_command
 
     def block(self, start: int) -> list[float]:
         block_times, sample = self.reference.block(start)
@@ -283,6 +291,19 @@ class OneMovement:
             # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
             # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
             + feedback.kp * (self.reference_position[j] - x)
+        )
+
+    def _turning_command(self, j: int, terms, x):
+        feedback = self.feedback
+        reference = self.reference_position[j]
+        position_error = reference - x
+        # The orientation rows: log(R_ref Rᵀ), the world rotation vector that turns R onto R_ref (both about R0),
+        # not the difference of their rotation vectors about R0, which is it only to first order.
+        position_error[3:] = rotation_error(reference[3:], terms.placement.rotation, self.reference_rotation)
+        return (
+            self.command_rows[j]
+            + feedback.kd * (self.reference_velocity[j] - terms.task_velocity)
+            + feedback.kp * position_error
         )
 
     def resolve(self, terms, command, j: int):
@@ -352,17 +373,24 @@ class OneMovement:
         )
 
 
-def with_margins(robot: Robot, step, result: SimResult, trajectory: Trajectory, feedback: Feedback | None):
+def with_margins(
+    robot: Robot, step, result: SimResult, trajectory: Trajectory, feedback: Feedback | None, reference_rotation=None
+):
     """``result`` with its ``stability_margin`` column: σ at each row's state and task acceleration [1/s]."""
     from .stability import margins_along
 
-    sample = task_reference(robot, trajectory, result.t)
+    sample = task_reference(robot, trajectory, result.t, reference_rotation)
     commands = sample.acceleration
     if feedback is not None:
         task_velocity = np.array([robot.terms(q, v).task_velocity for q, v in zip(result.q, result.v)])
-        commands = (
-            commands + feedback.kd * (sample.velocity - task_velocity) + feedback.kp * (sample.position - result.x)
-        )
+        position_error = sample.position - result.x
+        if robot.task == "pose" and getattr(trajectory, "oriented", False):
+            # as the run's command (OneMovement._turning_command): the rotation from R to R_ref
+            position_error[:, 3:] = [
+                rotation_error(row, robot.frame_placement(q).rotation, reference_rotation)
+                for row, q in zip(sample.position[:, 3:], result.q)
+            ]
+        commands = commands + feedback.kd * (sample.velocity - task_velocity) + feedback.kp * position_error
     applied = np.isfinite(result.tau).all(axis=1)
     return replace(result, stability_margin=margins_along(robot, step, result.q, result.v, commands, applied))
 

@@ -82,9 +82,14 @@ def torque_limit_vector(robot, values) -> np.ndarray:
 
 def trajectory_dimension(robot, trajectory) -> int:
     """The number of position coordinates the robot's task moves the tip in, min(m, 3), or InvalidInput when
-    ``trajectory`` moves in another number (a planar path for a 3-D task, say); a trajectory without a
-    dimension of its own takes this one."""
+    ``trajectory`` moves in another number (a planar path for a 3-D task, say) or carries rotations for a task
+    other than ``pose``; a trajectory without a dimension of its own takes this one."""
     linear_dimension = min(robot.m, 3)
+    if getattr(trajectory, "oriented", False) and robot.task != "pose":
+        raise InvalidInput(
+            f"trajectory {type(trajectory).__name__} carries rotations but task '{robot.task}' has no orientation; "
+            "give the task pose (--task pose), or a path without orientation columns"
+        )
     if trajectory.dimension is not None and trajectory.dimension != linear_dimension:
         raise InvalidInput(
             f"trajectory {type(trajectory).__name__} moves in {trajectory.dimension} dimensions but task "

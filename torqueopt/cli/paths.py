@@ -26,6 +26,7 @@ _APPLIES = {
     "normal": ("circle",),
     "centre": ("circle",),
     "absolute": ("csv",),
+    "rpy": ("csv",),
 }
 
 
@@ -37,7 +38,8 @@ def add_path_options(group: argparse._ArgumentGroup) -> None:
         metavar="KIND",
         help="tip path: line (the paper's: constant acceleration, then deceleration), min-jerk (straight, "
         "minimum-jerk profile), circle (rest-to-rest, closes at the start), csv:FILE (spline through timed "
-        "waypoints, columns t,x,y[,z]); default line",
+        "waypoints, columns t,x,y[,z]; a pose task also takes an orientation, columns t,x,y,z,qw,qx,qy,qz or, "
+        "with --rpy, t,x,y,z,roll,pitch,yaw); default line",
     )
     group.add_argument(
         "--direction", metavar="D", help="line and min-jerk: direction in world axes, 2 values for xy, 3 otherwise"
@@ -63,7 +65,15 @@ def add_path_options(group: argparse._ArgumentGroup) -> None:
         "--absolute",
         action="store_true",
         default=None,
-        help="csv: the waypoints are world coordinates (default: a shape placed at the tip's start)",
+        help="csv: the waypoints (and rotations) are world coordinates (default: a shape placed at the tip's "
+        "start, its rotations turning the frame from its start orientation about the world axes)",
+    )
+    group.add_argument(
+        "--rpy",
+        action="store_true",
+        default=None,
+        help="csv, pose task: the orientation columns are roll,pitch,yaw, R = Rz(yaw)·Ry(pitch)·Rx(roll), in "
+        "radians (in degrees with --degrees)",
     )
 
 
@@ -98,4 +108,5 @@ def trajectory_from_args(args: argparse.Namespace) -> Trajectory:
         normal = None if args.normal is None else parse_vector(args.normal, "normal", 3)
         centre = None if args.centre is None else parse_vector(args.centre, "centre")
         return Circle(radius, duration, turns=turns, normal=normal, centre_direction=centre)
-    return WaypointPath.from_csv(file_name, absolute=bool(args.absolute))
+    degrees = bool(getattr(args, "degrees", False))
+    return WaypointPath.from_csv(file_name, absolute=bool(args.absolute), rpy=bool(args.rpy), degrees=degrees)

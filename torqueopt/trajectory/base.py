@@ -12,6 +12,13 @@ A trajectory is an object with
 * ``anchored(start)``: the same movement starting at ``start``; ``simulate``
   anchors a trajectory with no start at the tip's position at q0.
 
+A trajectory for a ``pose`` task may also give the frame's rotation: then
+``oriented`` is True and ``sample_orientation(t, start_rotation)`` gives the
+orientation rows of the task's reference, a :class:`~torqueopt.Reference` of the rotation
+vector about the frame's start rotation [rad], the angular velocity [rad/s] and
+acceleration [rad/s²] in world axes (:class:`~torqueopt.WaypointPath`
+with rotations). Without it a ``pose`` task holds its start orientation.
+
 :class:`Trajectory` is the abstract base that the built-in ones derive from
 and that gives them :meth:`~Trajectory.describe` (what a result file records)
 and :attr:`~Trajectory.end`. Any object with the five members above works
@@ -69,6 +76,11 @@ class Trajectory(ABC):
     @abstractmethod
     def parameters(self) -> dict:
         """The constructor's arguments as JSON-ready values (without the start)."""
+
+    @property
+    def oriented(self) -> bool:
+        """True when the trajectory also gives the frame's rotation (``sample_orientation``, for ``pose``)."""
+        return False
 
     @property
     def kind(self) -> str:
