@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import torqueopt
-from torqueopt import Payload
+from torqueopt import Payload, StraightLine, simulate
 from torqueopt.errors import InvalidInput
 
 from .conftest import PAPER_Q0
@@ -125,3 +125,53 @@ def test_load_robot_takes_only_a_payload_object():
         InvalidInput, match=r"^payload must be a torqueopt.Payload\(mass, position, inertia\), not float"
     ):
         torqueopt.load_robot("planar3", payload=2.0)
+
+
+#: A 1.5 kg tool 8 cm beyond the flange and off its axis, as the MuJoCo tests carry it.
+TOOL = Payload(1.5, (0.02, -0.03, 0.08), (0.004, 0.005, 0.006))
+#: The matched MuJoCo plant (see test_mujoco_plant): the URDF, no contacts, limits or damping, MuJoCo's RK4 at dt.
+MATCHED = {"integrator": "rk4", "contacts": "off", "joint-limits": "off", "damping": "zero"}
+
+
+@pytest.mark.parametrize("robot_name", ["xarm7", "panda"])  # panda's hand frame is turned 45° about z
+def test_mujocos_model_of_the_payload_has_pinocchios_mass_matrix_and_bias_forces(robot_name, rng):
+    pytest.importorskip("mujoco")
+    from torqueopt.plants.mujoco import MujocoPlant
+
+    robot = torqueopt.load_robot(robot_name, task="position", payload=TOOL)
+    bare = torqueopt.load_robot(robot_name, task="position")
+    plant = MujocoPlant(robot, damping="zero")
+    lower, upper, _ = robot.joint_limits
+    for _ in range(10):
+        q = robot.configuration(rng.uniform(np.maximum(lower, -3.0), np.minimum(upper, 3.0)))
+        v = rng.uniform(-2.0, 2.0, robot.nv)
+        inertia, bias = plant.terms(q, v)
+        terms = robot.terms(q, v)
+        assert np.abs(inertia - terms.inertia).max() <= 1e-10 * np.abs(terms.inertia).max()
+        assert np.abs(bias - terms.bias_torque).max() <= 1e-10 * np.abs(terms.bias_torque).max()
+        # The payload is there to be matched: it changes the gravity torques by far more than the tolerance.
+        assert np.abs(bare.terms(q, v).bias_torque - terms.bias_torque).max() > 0.1
+
+
+def test_a_matched_mujoco_run_with_a_payload_equals_the_pinocchio_run():
+    pytest.importorskip("mujoco")
+    robot = torqueopt.load_robot("xarm7", task="position", payload=TOOL)
+    line = StraightLine(direction=[0, 1, -1], accel=1.0, duration=0.2)
+    reference = simulate(robot, "pinv", line, robot.default_configuration)
+    run = simulate(robot, "pinv", line, robot.default_configuration, plant="mujoco", plant_options=MATCHED)
+    assert reference.completed and run.completed and len(run.t) == 201
+    assert np.abs(run.joint_angles - reference.joint_angles).max() < 1e-9
+    assert run.plant["start_inertia_difference"] < 1e-12
+
+
+def test_a_payload_with_an_mjcf_plant_is_refused_in_one_line(tmp_path):
+    pytest.importorskip("mujoco")
+    from torqueopt.plants.mujoco import MujocoPlant
+
+    mjcf = tmp_path / "arm.xml"
+    mjcf.write_text("<mujoco/>")
+    robot = torqueopt.load_robot("xarm7", task="position", payload=TOOL)
+    with pytest.raises(
+        InvalidInput, match=r"^robot 'xarm7' carries a payload, which torqueopt adds to the URDF's model;"
+    ):
+        MujocoPlant(robot, mjcf=mjcf)
