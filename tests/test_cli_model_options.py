@@ -18,6 +18,7 @@ from torqueopt.cli import main
 
 from .conftest import PAPER_Q0
 from .test_dynamics import closed_form_gravity, random_states
+from .test_units import SLIDER_ARM
 
 #: The paper's start, as the CLI takes it.
 Q0 = "--q0=" + ",".join(repr(float(angle)) for angle in PAPER_Q0)
@@ -184,3 +185,16 @@ def test_the_stick_figures_take_the_runs_payload_unless_told_otherwise(saved_run
     options = {"robot": None, "frame": None, "task": None, "torque_limit": None, "lock": None, "gravity": None}
     assert stick_robot(argparse.Namespace(**options, payload=None), result).payload == Payload(2.0, (0.2, 0.1, 0.0))
     assert stick_robot(argparse.Namespace(**options, payload="1"), result).payload == Payload(1.0)
+
+
+def test_degrees_read_v0_as_they_read_q0_revolute_joints_only(tmp_path, capsys):
+    urdf = tmp_path / "slider3.urdf"
+    urdf.write_text(SLIDER_ARM)
+    out = tmp_path / "run.csv"
+    code = main(["run", "--resolver", "pinv", "--robot", str(urdf), "--frame", "tip", "--task", "xy", "--degrees",
+                 "--q0", "30,0.2,-60", "--v0=10,0.05,-20", "--direction", "0,1", "--accel", "0.2", "--duration", "0.1",
+                 "--no-dexterity", "--out", str(out)])  # fmt: skip
+    capsys.readouterr()
+    assert code == 0
+    # The slider starts out at 0.05 m/s, not 0.05°/s.
+    np.testing.assert_allclose(torqueopt.load_result(out).v[0], [np.radians(10.0), 0.05, np.radians(-20.0)], atol=1e-9)
