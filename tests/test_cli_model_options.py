@@ -157,6 +157,8 @@ def test_the_command_lines_payload_gravity_and_start_velocity_are_the_apis(tmp_p
     assert sidecar["gravity"] == [-9.81, 0.0, 0.0] and result.payload == sidecar["payload"]
     assert "payload: 2 kg at (0.2, 0.1, 0) m in frame 'tip', moments 0.01, 0.02, 0.025 kg·m²" in printed
     assert "gravity: (-9.81, 0, 0) m/s²" in printed
+    again = torqueopt.load_result(reference.to_csv(tmp_path / "run.npz"))  # the .npz keeps them too
+    assert again.payload == sidecar["payload"] and again.gravity == [-9.81, 0.0, 0.0]
 
 
 def test_each_option_changes_the_run_and_their_defaults_leave_it_as_it_was(tmp_path, capsys):

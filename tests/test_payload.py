@@ -35,9 +35,9 @@ def load_point(q, offset):
     return point, np.column_stack(columns), angles
 
 
-def payload_terms(q, v, gravity):
+def payload_terms(payload, q, v, gravity):
     """What a load of mass M and moment I_zz adds to H and to the bias torques (Coriolis and gravity)."""
-    mass, offset, moment = LOAD.mass, LOAD.position[:2], LOAD.inertia[2]
+    mass, offset, moment = payload.mass, payload.position[:2], payload.inertia[2]
     _, jacobian, angles = load_point(q, offset)
     rates = np.cumsum(v)
     along = np.array([np.cos(angles), np.sin(angles)])
@@ -50,12 +50,13 @@ def payload_terms(q, v, gravity):
     return inertia, bias
 
 
-def test_a_payload_on_planar3s_tip_adds_the_hand_derived_dynamics_of_a_mass_at_the_tip(rng):
-    robot = torqueopt.load_robot("planar3", gravity=WALL, payload=LOAD)
-    assert robot.payload == LOAD
+@pytest.mark.parametrize("payload", [Payload(2.0), LOAD], ids=["point mass at the tip", "body beside the tip"])
+def test_a_payload_on_planar3s_tip_adds_the_hand_derived_dynamics_of_a_mass_at_the_tip(payload, rng):
+    robot = torqueopt.load_robot("planar3", gravity=WALL, payload=payload)
+    assert robot.payload == payload
     for q, v in random_states(rng, 20, 3):
         terms = robot.terms(q, v)
-        inertia, bias = payload_terms(q, v, WALL)
+        inertia, bias = payload_terms(payload, q, v, WALL)
         np.testing.assert_allclose(terms.inertia, closed_form_inertia(q) + inertia, rtol=1e-12, atol=1e-12)
         expected_bias = closed_form_coriolis(q, v) + closed_form_gravity(q, WALL) + bias
         np.testing.assert_allclose(terms.bias_torque, expected_bias, rtol=1e-10, atol=1e-10)
