@@ -134,13 +134,17 @@ TOOL = Payload(1.5, (0.02, -0.03, 0.08), (0.004, 0.005, 0.006))
 MATCHED = {"integrator": "rk4", "contacts": "off", "joint-limits": "off", "damping": "zero"}
 
 
-@pytest.mark.parametrize("robot_name", ["xarm7", "panda"])  # panda's hand frame is turned 45° about z
-def test_mujocos_model_of_the_payload_has_pinocchios_mass_matrix_and_bias_forces(robot_name, rng):
+@pytest.mark.parametrize(
+    ("robot_name", "lock"),
+    [("xarm7", []), ("panda", []), ("panda", ["panda_joint7"])],
+    ids=["xarm7", "panda (its hand frame turned 45° about z)", "panda, the hand's joint locked"],
+)
+def test_mujocos_model_of_the_payload_has_pinocchios_mass_matrix_and_bias_forces(robot_name, lock, rng):
     pytest.importorskip("mujoco")
     from torqueopt.plants.mujoco import MujocoPlant
 
-    robot = torqueopt.load_robot(robot_name, task="position", payload=TOOL)
-    bare = torqueopt.load_robot(robot_name, task="position")
+    robot = torqueopt.load_robot(robot_name, task="position", lock=lock, payload=TOOL)
+    bare = torqueopt.load_robot(robot_name, task="position", lock=lock)
     plant = MujocoPlant(robot, damping="zero")
     lower, upper, _ = robot.joint_limits
     for _ in range(10):
