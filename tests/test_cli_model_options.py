@@ -189,6 +189,7 @@ def test_the_stick_figures_take_the_runs_payload_unless_told_otherwise(saved_run
     assert stick_robot(argparse.Namespace(**options, payload="1"), result).payload == Payload(1.0)
 
 
+@pytest.mark.slow  # a user URDF: yourdfpy's validation, 2 s
 def test_degrees_read_v0_as_they_read_q0_revolute_joints_only(tmp_path, capsys):
     urdf = tmp_path / "slider3.urdf"
     urdf.write_text(SLIDER_ARM)
