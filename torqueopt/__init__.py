@@ -24,6 +24,7 @@ from .errors import (
 from .integrators import rk4_step
 from .loading import load_robot
 from .optimal import OptimalResult, optimize
+from .payload import Payload
 from .resolvers import NullSpaceResolver, Option, Resolution, Resolver, get_resolver, resolver_names
 from .result import SimResult, load_result
 from .robot import Robot, TaskTerms
@@ -35,6 +36,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "load_robot",
+    "Payload",
     "Robot",
     "TaskTerms",
     "Trajectory",

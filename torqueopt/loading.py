@@ -18,6 +18,7 @@ import pinocchio as pin
 from .catalog import RobotSource, find_robot
 from .checks import check_task_rank, finite_vector
 from .errors import FrameNotFound, InvalidInput, UrdfError
+from .payload import Payload, add_payload
 from .robot import Robot, check_task_and_frame
 from .urdf_checks import build_model, check_chain_moves_mass, checked_urdf_text
 
@@ -45,6 +46,7 @@ def load_robot(
     gravity=None,
     lock: tuple[str, ...] | list[str] = (),
     reference_configuration=None,
+    payload: Payload | None = None,
 ) -> Robot:
     """Load a robot from a URDF path, a file in ``robots/`` or an example-robot-data name.
 
@@ -62,10 +64,17 @@ def load_robot(
             the chain are always locked).
         reference_configuration: full-model configuration at which locked
             joints are held; defaults to the SRDF configuration or neutral.
+        payload: a :class:`~torqueopt.Payload` fixed to the task frame, added
+            to the inertia of the body that carries the frame (and to the
+            MuJoCo plant's model of it); none by default.
 
     Raises:
         RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput: a bad source, file, frame, task or value.
     """
+    if payload is not None and not isinstance(payload, Payload):
+        raise InvalidInput(
+            f"payload must be a torqueopt.Payload(mass, position, inertia), not {type(payload).__name__} {payload!r}"
+        )
     robot_source = find_robot(source)
     mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
     full_model = _build_model(robot_source.urdf, mimic=False)
@@ -88,6 +97,10 @@ def load_robot(
         # mimic joints elsewhere (grippers) are locked and can stay independent.
         full_model = _build_model(robot_source.urdf, mimic=True)
         chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    if payload is not None:
+        # Into the full model, before any joint is locked: a locked joint's body, payload included, then
+        # joins its parent's by Pinocchio's reduction, whichever joint of the chain the frame ends up on.
+        add_payload(full_model, full_model.getFrameId(frame), payload)
     full_reference = _full_reference_configuration(full_model, robot_source, reference_configuration)
     extra_locks = set(robot_source.locked_joints) | set(lock)
     for joint in extra_locks:
@@ -122,6 +135,7 @@ def load_robot(
         full_model=full_model,
         locked_configuration=full_reference,
         default_configuration=default_configuration,
+        payload=payload,
     )
     check_task_rank(robot)  # a task the chain can never realise is an input mistake, not a failed run
     return robot

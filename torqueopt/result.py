@@ -70,6 +70,10 @@ class SimResult:
             was applied), (N,); None unless asked for (``simulate(..., margin=True)``).
         joint_kinds: per joint, 'revolute', 'continuous' or 'prismatic', which sets its units (rad, rad/s, N·m or
             m, m/s, N: :mod:`torqueopt.units`); None in files written before it was recorded (read as revolute).
+        gravity: the gravity vector of the run's model in world axes [m/s²]; None in files
+            written before it was recorded.
+        payload: the load the task frame carried, as :meth:`torqueopt.Payload.record` gives it
+            (``mass`` [kg], ``position`` in the task frame [m], ``inertia`` [kg·m²]); None without one.
     """
 
     robot: str
@@ -102,6 +106,8 @@ class SimResult:
     plant: dict | None = None
     stability_margin: np.ndarray | None = None
     joint_kinds: list[str] | None = None
+    gravity: list[float] | None = None
+    payload: dict | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.

@@ -103,6 +103,7 @@ class Robot:
         full_model: pin.Model | None = None,
         locked_configuration: np.ndarray | None = None,
         default_configuration: np.ndarray | None = None,
+        payload=None,
     ):
         check_task_and_frame(model, frame, task, name)
         self.model = model
@@ -115,6 +116,9 @@ class Robot:
         self.locked_joints = tuple(locked_joints)
         self.full_model = full_model if full_model is not None else model
         self.locked_configuration = locked_configuration
+        #: The :class:`~torqueopt.Payload` the task frame carries, already in ``model``'s inertias
+        #: (:func:`torqueopt.load_robot` adds it); None without one.
+        self.payload = payload
         self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
         #: Per joint, 'revolute', 'continuous' or 'prismatic' (:func:`torqueopt.units.joint_kind`): its units.
         self.joint_kinds = [joint_kind(model.joints[j]) for j in range(1, model.njoints) if model.joints[j].nv > 0]
@@ -203,6 +207,7 @@ class Robot:
             full_model=self.full_model,
             locked_configuration=self.locked_configuration,
             default_configuration=self._default_configuration,
+            payload=self.payload,
         )
 
     def _set_torque_limit(self, torque_limit=None) -> None:

@@ -153,6 +153,8 @@ def build_result(
         dexterity=dexterity_along(robot, q) if dexterity else None,
         joint_limits=joint_limits_record(*robot.joint_limits) if joint_limits is None else joint_limits,
         plant=plant,
+        gravity=robot.gravity.tolist(),
+        payload=None if robot.payload is None else robot.payload.record(),
     )
 
 

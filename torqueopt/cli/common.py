@@ -9,7 +9,9 @@ import sys
 import numpy as np
 
 from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
+from ..errors import InvalidInput
 from ..loading import load_robot
+from ..payload import Payload
 from ..progress import said_if_slow
 from ..robot import TASK_DIMENSIONS, Robot
 
@@ -18,6 +20,9 @@ __all__ = [
     "add_start_options",
     "robot_from_args",
     "start_from_args",
+    "start_velocity_from_args",
+    "gravity_from_args",
+    "payload_from_args",
     "parse_vector",
     "parse_number",
     "parse_positive",
@@ -29,16 +34,28 @@ __all__ = [
 ]
 
 
-def add_start_options(group: argparse._ArgumentGroup) -> None:
-    """``--q0`` and ``--degrees``: the start configuration of a movement, the start of the movement the command runs."""
+def add_start_options(group: argparse._ArgumentGroup, velocity: bool = False) -> None:
+    """``--q0`` and ``--degrees`` (and with ``velocity``, ``--v0``): the start of the movement the command runs."""
     group.add_argument(
         "--q0",
         metavar="ANGLES",
         help="start configuration, one value per joint [rad; m for a prismatic joint] (default: the robot's SRDF or neutral "
         "configuration)",
     )
+    if velocity:
+        group.add_argument(
+            "--v0",
+            metavar="RATES",
+            help="start joint velocities, one value per joint [rad/s; m/s for a prismatic joint] (default: at rest)",
+        )
     group.add_argument(
-        "--degrees", action="store_true", help="read --q0 in degrees (its revolute joints; prismatic ones stay in m)"
+        "--degrees",
+        action="store_true",
+        help="read --q0 in degrees"
+        + (" and --v0 in degrees per second" if velocity else "")
+        + " (its revolute joints; prismatic ones stay in m"
+        + (", m/s" if velocity else "")
+        + ")",
     )
 
 
@@ -55,6 +72,14 @@ def in_radians(values: np.ndarray, robot: Robot) -> np.ndarray:
     is a length [m] (or m/s) and stays as given."""
     rotational = np.array([kind != "prismatic" for kind in robot.joint_kinds])
     return np.where(rotational, np.radians(values), values)
+
+
+def start_velocity_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray | None:
+    """The start joint velocities ``--v0`` and ``--degrees`` give (one value per joint), read as ``--q0`` is; else None (at rest)."""
+    if args.v0 is None:
+        return None
+    rates = parse_vector(args.v0, "v0", robot.nv)
+    return in_radians(rates, robot) if args.degrees else rates
 
 
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
@@ -78,9 +103,20 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) ->
     )
     group.add_argument(
         "--gravity",
-        action=argparse.BooleanOptionalAction,
+        nargs="?",
+        const=True,
         default=None,
-        help="gravity along −z at 9.81 m/s² (default: off for planar3, as in the paper; on otherwise)",
+        metavar="X,Y,Z",
+        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
+        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
+    )
+    group.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
+    group.add_argument(
+        "--payload",
+        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
+        help="a load fixed to the task frame: its mass [kg], its centre of mass in the task frame [m] (default at "
+        "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
+        "(default 0: a point mass)",
     )
     group.add_argument(
         "--lock",
@@ -101,9 +137,41 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             frame=args.frame,
             task=args.task,
             torque_limit=torque_limit,
-            gravity=args.gravity,
+            gravity=gravity_from_args(args),
             lock=lock,
+            payload=payload_from_args(args),
         )
+
+
+def gravity_from_args(args: argparse.Namespace):
+    """``--gravity`` alone (True), ``--no-gravity`` (False), ``--gravity X,Y,Z`` (the vector [m/s²]) or None (the robot's default)."""
+    if args.gravity is None or isinstance(args.gravity, bool):
+        return args.gravity
+    text = args.gravity
+    if len(text.split(",")) != 3:
+        raise InvalidInput(
+            f"--gravity {text}: give three numbers X,Y,Z [m/s²] in world axes (e.g. --gravity=0,0,-9.81), or "
+            "--gravity alone for 9.81 m/s² along −z"
+        )
+    return parse_vector(text, "gravity", 3)
+
+
+#: How many numbers ``--payload`` takes, and what they are.
+_PAYLOAD_FORMS = {1: "MASS", 4: "MASS,X,Y,Z", 7: "MASS,X,Y,Z,IXX,IYY,IZZ"}
+
+
+def payload_from_args(args: argparse.Namespace) -> Payload | None:
+    """The :class:`~torqueopt.Payload` ``--payload MASS[,X,Y,Z[,IXX,IYY,IZZ]]`` gives, else None."""
+    if args.payload is None:
+        return None
+    values = parse_vector(args.payload, "payload")
+    if len(values) not in _PAYLOAD_FORMS:
+        raise InvalidInput(
+            f"--payload {args.payload} has {len(values)} values; give {', '.join(_PAYLOAD_FORMS.values())} "
+            "(kg, m in the task frame, kg·m²)"
+        )
+    mass, position, inertia = values[0], values[1:4], values[4:7]
+    return Payload(mass, position if position.size else (0.0, 0.0, 0.0), inertia if inertia.size else (0.0, 0.0, 0.0))
 
 
 def importable_from_here(spec: str) -> None:

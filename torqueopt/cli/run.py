@@ -27,6 +27,7 @@ from .common import (
     parse_vector,
     robot_from_args,
     start_from_args,
+    start_velocity_from_args,
     torque_table,
 )
 from .paths import add_path_options, trajectory_from_args
@@ -57,7 +58,7 @@ def add_parser(subparsers) -> None:
     add_robot_options(parser)
     group = parser.add_argument_group("movement")
     add_resolver_arguments(group)
-    add_start_options(group)
+    add_start_options(group, velocity=True)
     add_path_options(group)
     group.add_argument(
         "--dt",
@@ -115,6 +116,7 @@ def run_command(args: argparse.Namespace) -> int:
     check_torque_limits(robot, resolver)
     plant = plant_from_args(args, robot)
     q0 = start_from_args(args, robot)
+    v0 = start_velocity_from_args(args, robot)
     # Every file the run will write, checked before it starts, and no two of them one file.
     writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
     if args.out and len(run_files(args.out)) == 2:
@@ -131,6 +133,7 @@ def run_command(args: argparse.Namespace) -> int:
             resolver,
             trajectory,
             q0,
+            v0,
             dt=dt,
             feedback=feedback,
             max_steps=max_steps,
@@ -233,11 +236,33 @@ def _torque_table(result: SimResult) -> list[str]:
     )
 
 
+#: The gravity vectors a run's summary need not state: off, and the usual −9.81 m/s² along z [m/s²].
+_USUAL_GRAVITY = ((0.0, 0.0, 0.0), (0.0, 0.0, -9.81))
+
+
+def _model_lines(result: SimResult) -> list[str]:
+    """What the run's model carries beyond its URDF: a payload, gravity along another vector."""
+    lines = []
+    if result.payload is not None:
+        payload = result.payload
+        inertia = (
+            "a point mass"
+            if not any(payload["inertia"])
+            else "moments " + ", ".join(f"{moment:g}" for moment in payload["inertia"]) + " kg·m²"
+        )
+        position = ", ".join(f"{coordinate:g}" for coordinate in payload["position"])
+        lines.append(f"payload: {payload['mass']:g} kg at ({position}) m in frame '{result.frame}', {inertia}")
+    if result.gravity is not None and tuple(result.gravity) not in _USUAL_GRAVITY:
+        lines.append(f"gravity: ({', '.join(f'{g:g}' for g in result.gravity)}) m/s²")
+    return lines
+
+
 def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAULT_LIMIT_FACTOR) -> str:
     """A short human-readable report of a run."""
     lines = [
         f"{result.robot}: resolver {result.resolver}, task {result.task} at frame '{result.frame}' "
         f"(n={robot.nv}, m={robot.m}), {_steps_taken(result)} steps of {result.dt * 1e3:g} ms",
+        *_model_lines(result),
         *_torque_table(result),
     ]
     if robot.joints_without_torque_limit:

@@ -9,11 +9,12 @@ import numpy as np
 
 from ..errors import InvalidInput
 from ..loading import load_robot
+from ..payload import Payload
 from ..plots import plot_stick_strip
 from ..plots.stick import SNAPSHOTS_RANGE
 from ..result import SimResult
 from ..robot import Robot
-from .common import add_robot_options, parse_vector
+from .common import add_robot_options, gravity_from_args, parse_vector, payload_from_args
 
 __all__ = ["add_stick_options", "check_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
 
@@ -80,19 +81,24 @@ def stick_figure_path(figure) -> Path:
 
 
 def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:
-    """The robot named on the command line, or else the one the run records, with the run's torque limits."""
+    """The robot named on the command line, or else the one the run records, with the run's torque limits and payload."""
     if args.torque_limit is not None:
         torque_limit = parse_vector(args.torque_limit, "torque-limit")
     else:
         torque_limit = result.torque_upper if np.isfinite(result.torque_upper).all() else None
     lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
+    # The payload changes H, so the acceleration ellipses: the run's own unless the options name another.
+    payload = payload_from_args(args)
+    if payload is None and result.payload is not None and (args.robot is None or args.robot == result.robot):
+        payload = Payload(**result.payload)
     return load_robot(
         args.robot or result.robot,
         frame=args.frame or result.frame,
         task=args.task or result.task,
         torque_limit=torque_limit,
-        gravity=args.gravity,
+        gravity=gravity_from_args(args),
         lock=lock,
+        payload=payload,
     )
 
 

@@ -21,7 +21,9 @@ arm, the fingers, ``--lock``) are welded: MuJoCo's joint is removed and its
 body fixed at the angle Pinocchio locks it at, so that both models carry the
 same inertia. Actuators, sensors and keyframes of an MJCF are removed (the
 torque enters as generalised force), as are the tendons and equality
-constraints of welded joints.
+constraints of welded joints. The robot's payload (``load_robot(...,
+payload=)``) becomes a body fixed where Pinocchio has it, on the body of the
+task frame's joint; its gravity is the robot's vector.
 
 Options (:func:`mujoco_options`; the CLI's ``--plant-option KEY=VALUE``):
 
@@ -222,7 +224,7 @@ class MujocoPlant:
         MissingDependency: mujoco is not installed.
         torqueopt.errors.PlantError: the MJCF's joints do not match the robot's, or MuJoCo
             refuses the model (a zero principal moment of inertia, a bad file).
-        InvalidInput: a bad option.
+        InvalidInput: a bad option, or a payload with an MJCF.
     """
 
     OPTION_NAMES = OPTION_NAMES
@@ -232,6 +234,11 @@ class MujocoPlant:
             options = mujoco_options(**keywords)
         elif keywords:
             raise InvalidInput("give the MuJoCo plant either options or keywords, not both")
+        if robot.payload is not None and options.mjcf is not None:
+            raise InvalidInput(
+                f"robot '{robot.name}' carries a payload, which torqueopt adds to the URDF's model; the MJCF "
+                f"'{options.mjcf}' is the plant as written: put the payload in the MJCF, or leave out the mjcf option"
+            )
         mujoco = import_mujoco()
         self._mujoco = mujoco
         self.robot = robot
@@ -239,6 +246,7 @@ class MujocoPlant:
         self.notes: list[str] = []
         spec, self.source = self._spec(mujoco)
         self._weld_unmoved_joints(mujoco, spec)
+        self._add_payload(spec)
         self._floor_inertias(spec)
         try:
             model = spec.compile()
@@ -365,6 +373,36 @@ class MujocoPlant:
         self._drop_welded_references(spec, {joint.name for joint, _ in welds})
         for joint, angle in welds:
             _weld(mujoco, spec, joint, angle)
+
+    def _add_payload(self, spec) -> None:
+        """The robot's payload as a body fixed to the body of the task frame's joint, where Pinocchio has it.
+
+        A URDF's body frame in MuJoCo is its joint's frame in Pinocchio, so the
+        payload's placement there is Pinocchio's: the task frame's placement
+        on its joint, then the payload's centre of mass in the task frame.
+
+        An MJCF is the plant as written (its bodies' frames need not be the
+        URDF's): :meth:`__init__` refuses a payload with one.
+        """
+        payload = self.robot.payload
+        if payload is None:
+            return
+        import pinocchio as pin
+
+        model = self.robot.model
+        frame = model.frames[self.robot.frame_id]
+        placement = frame.placement * pin.SE3(np.eye(3), np.array(payload.position))
+        x, y, z, w = pin.Quaternion(placement.rotation).coeffs()
+        spec.joint(model.names[frame.parentJoint]).parent.add_body(
+            name="torqueopt_payload",
+            pos=placement.translation,
+            quat=[w, x, y, z],
+            mass=payload.mass,
+            ipos=[0.0, 0.0, 0.0],  # its centre of mass is the body's origin (MuJoCo's unset ipos is not)
+            iquat=[1.0, 0.0, 0.0, 0.0],
+            inertia=list(payload.inertia),
+            explicitinertial=True,
+        )
 
     def _drop_welded_references(self, spec, welded: set[str]) -> None:
         """Remove the tendons and equality constraints that name a welded joint (they would name nothing)."""
