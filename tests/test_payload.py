@@ -180,3 +180,44 @@ def test_a_payload_with_an_mjcf_plant_is_refused_in_one_line(tmp_path):
         InvalidInput, match=r"^robot 'xarm7' carries a payload, which torqueopt adds to the URDF's model;"
     ):
         MujocoPlant(robot, mjcf=mjcf)
+
+
+@pytest.mark.filterwarnings("ignore:holding the start against gravity")  # the wall-hung arm's limits are small
+def test_an_atlas_carries_the_payload_and_gravity_it_is_given(tmp_path, capsys):
+    """``torqueopt atlas --payload ... --gravity X,Y,Z``: each row is the run of the robot loaded with them (the
+    planar arm on a wall, a load at its tip), the settings read back from atlas-config.json, and the rows differ
+    from the atlas of the bare arm."""
+    pytest.importorskip("pandas")
+    from torqueopt.atlas import run_atlas
+    from torqueopt.atlas.jobs import RobotSpec
+    from torqueopt.atlas.population import PopulationSpec, draw_population, movement_trajectory
+    from torqueopt.cli import main
+
+    out = tmp_path / "loaded"
+    arguments = ["atlas", "--payload", "2,0.2,0.1,0,0.01,0.02,0.025", "--gravity=0,-9.81,0", "--paths", "2",
+                 "--durations", "0.3", "--resolvers", "pinv", "--workers", "0", "--no-figures", "--no-progress"]  # fmt: skip
+    assert main([*arguments, "--out", str(out)]) == 0
+    capsys.readouterr()
+    import json
+
+    config = json.loads((out / "atlas-config.json").read_text())
+    spec = RobotSpec(**config["robot"])
+    assert spec.payload == LOAD and spec.gravity == (0.0, -9.81, 0.0)
+    assert (
+        "Model: a payload of 2 kg at (0.2, 0.1, 0) m in the task frame; gravity (0, -9.81, 0) m/s²."
+        in (out / "atlas.md").read_text()
+    )
+    loaded = torqueopt.load_robot("planar3", payload=LOAD, gravity=WALL)
+    movements = draw_population(loaded, PopulationSpec(paths=2, durations=(0.3,), seed=0))
+    import pandas
+
+    table = pandas.read_parquet(out / "results.parquet").set_index("path")
+    for movement in movements:
+        run = simulate(loaded, "pinv", movement_trajectory(movement), movement.q0)
+        assert table.loc[int(movement.path), "peak_torque_ratio"] == pytest.approx(
+            run.peak_torque_ratio.max(), rel=1e-9
+        )
+    bare = run_atlas("planar3", paths=2, durations=[0.3], resolvers=["pinv"], workers=0, figures=False,
+                     progress=False, out=tmp_path / "bare").table.set_index("path")  # fmt: skip
+    assert "payload" not in json.loads((tmp_path / "bare" / "atlas-config.json").read_text())["robot"]
+    assert (abs(bare["peak_torque_ratio"] - table["peak_torque_ratio"]) > 1e-3).all()

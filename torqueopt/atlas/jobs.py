@@ -11,6 +11,7 @@ import threading
 from dataclasses import dataclass
 
 from ..loading import load_robot
+from ..payload import Payload
 from ..resolvers import Resolver
 from ..robot import Robot
 from .population import Movement
@@ -28,10 +29,25 @@ class RobotSpec:
     task: str | None = None
     torque_limit: tuple[float, ...] | None = None
     gravity: bool | tuple[float, ...] | None = None
+    payload: Payload | None = None
+
+    def __post_init__(self):
+        # As atlas-config.json records them (lists, the payload's fields), read back into hashable values.
+        if isinstance(self.gravity, list):
+            object.__setattr__(self, "gravity", tuple(self.gravity))
+        if isinstance(self.torque_limit, list):
+            object.__setattr__(self, "torque_limit", tuple(self.torque_limit))
+        if isinstance(self.payload, dict):
+            object.__setattr__(self, "payload", Payload(**self.payload))
 
     def load(self) -> Robot:
         return load_robot(
-            self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity
+            self.source,
+            frame=self.frame,
+            task=self.task,
+            torque_limit=self.torque_limit,
+            gravity=self.gravity,
+            payload=self.payload,
         )
 
     def as_dict(self) -> dict:
@@ -41,6 +57,8 @@ class RobotSpec:
             "task": self.task,
             "torque_limit": None if self.torque_limit is None else list(self.torque_limit),
             "gravity": list(self.gravity) if isinstance(self.gravity, tuple) else self.gravity,
+            # Only when given, so that an atlas without one keeps its fingerprint (and resumes).
+            **({} if self.payload is None else {"payload": self.payload.record()}),
         }
 
 

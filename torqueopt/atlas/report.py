@@ -70,6 +70,18 @@ def summarise(table, config: dict) -> dict:
     return summary
 
 
+def _model_text(robot: dict) -> str:
+    """The robot's payload and gravity, when the atlas gave them (nothing for the URDF as it is)."""
+    parts = []
+    payload = robot.get("payload")
+    if payload:
+        position = ", ".join(f"{x:g}" for x in payload["position"])
+        parts.append(f"a payload of {payload['mass']:g} kg at ({position}) m in the task frame")
+    if isinstance(robot.get("gravity"), list):
+        parts.append(f"gravity ({', '.join(f'{g:g}' for g in robot['gravity'])}) m/s²")
+    return f" Model: {'; '.join(parts)}." if parts else ""
+
+
 def _plant_text(config: dict) -> str:
     """What the torques acted on: the robot's own model (no ``plant`` in the config), or the plant it names."""
     plant = config.get("plant")
@@ -93,7 +105,7 @@ def write_markdown(summary: dict) -> str:
             f"durations {', '.join(f'{d:g}' for d in summary['durations'])} s; population `{population['mode']}` "
             f"(seed {population['seed']}, reach fraction {population['reach_fraction']:g}, "
             f"min start condition {population['min_condition']:g}); {_path_text(population, config)}, "
-            f"dt {config['dt'] * 1e3:g} ms, {_plant_text(config)}"
+            f"dt {config['dt'] * 1e3:g} ms, {_plant_text(config)}{_model_text(config['robot'])}"
         ),
         (
             f"Thresholds: 2x-limit rule at {config['thresholds']['limit_factor']:g} x the limit; runaway when the torque "

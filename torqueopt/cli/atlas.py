@@ -8,7 +8,7 @@ import time
 from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
-from .common import importable_from_here, parse_vector
+from .common import gravity_from_args, importable_from_here, parse_vector, payload_from_args
 
 __all__ = ["add_parser", "add_robot_spec_options", "robot_spec"]
 
@@ -35,11 +35,28 @@ def add_parser(subparsers) -> None:
 
 
 def add_robot_spec_options(parser, robot_help: str, torque_limit_help: str, required: bool = False) -> None:
-    """``--robot``, ``--frame``, ``--task`` and ``--torque-limit``: what :func:`robot_spec` makes a RobotSpec of."""
+    """``--robot``, ``--frame``, ``--task``, ``--torque-limit``, ``--gravity`` and ``--payload``: what
+    :func:`robot_spec` makes a RobotSpec of."""
     parser.add_argument("--robot", required=required, default=None if required else "planar3", help=robot_help)
     parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
     parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
     parser.add_argument("--torque-limit", metavar="TAU", help=torque_limit_help)
+    parser.add_argument(
+        "--gravity",
+        nargs="?",
+        const=True,
+        default=None,
+        metavar="X,Y,Z",
+        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
+        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
+    )
+    parser.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
+    parser.add_argument(
+        "--payload",
+        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
+        help="a load fixed to the task frame: mass [kg], centre of mass in the task frame [m], principal moments "
+        "of inertia [kg·m²] (as torqueopt run --payload)",
+    )
 
 
 def robot_spec(args: argparse.Namespace):
@@ -49,7 +66,15 @@ def robot_spec(args: argparse.Namespace):
     torque_limit = (
         None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
     )
-    return RobotSpec(args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit)
+    gravity = gravity_from_args(args)
+    return RobotSpec(
+        args.robot,
+        frame=args.frame,
+        task=args.task,
+        torque_limit=torque_limit,
+        gravity=tuple(gravity.tolist()) if hasattr(gravity, "tolist") else gravity,
+        payload=payload_from_args(args),
+    )
 
 
 def atlas_command(args: argparse.Namespace) -> int:
