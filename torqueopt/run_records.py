@@ -22,6 +22,7 @@ import numpy as np
 from .dexterity import dexterity_along
 from .result import SimResult, joint_limits_record
 from .robot import Robot
+from .run_robot import robot_record
 from .trajectory import Trajectory, describe
 
 __all__ = [
@@ -155,6 +156,7 @@ def build_result(
         plant=plant,
         gravity=robot.gravity.tolist(),
         payload=None if robot.payload is None else robot.payload.record(),
+        robot_source=robot_record(robot),
     )
 
 
