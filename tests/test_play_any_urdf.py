@@ -38,12 +38,13 @@ def box_moments(mass, a, b, c):
     return np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 12
 
 
-def arm_urdf(visuals: bool) -> str:
-    """The arm, each link's <inertial> that of its box, turned by its rpy; meshes no file holds when ``visuals``."""
+def arm_urdf(visuals: bool, point_masses: bool = False) -> str:
+    """The arm, each link's <inertial> that of its box, turned by its rpy (zero inertia for ``point_masses``);
+    meshes no file holds when ``visuals``."""
     parts = ['<robot name="weird4">', '<link name="base"/>']
     parent = "base"
     for name, kind, axis, xyz, mass, sides, rpy in LINKS:
-        ixx, iyy, izz = box_moments(mass, *sides).tolist()
+        ixx, iyy, izz = (0.0, 0.0, 0.0) if point_masses else box_moments(mass, *sides).tolist()
         mesh = f'<mesh filename="package://weird4/meshes/{name}.stl"/>'
         visual = f'<visual><origin xyz="{sides[0] / 2} 0 0"/><geometry>{mesh}</geometry></visual>' if visuals else ""
         inertial = (
@@ -69,10 +70,12 @@ def arm_urdf(visuals: bool) -> str:
 
 @pytest.fixture(scope="module")
 def arm_urdfs(tmp_path_factory):
-    """A folder with weird4.urdf (every mesh missing) and bare4.urdf (no visuals)."""
+    """A folder with weird4.urdf (every mesh missing), bare4.urdf (no visuals) and points4.urdf (no visuals, point
+    masses)."""
     folder = tmp_path_factory.mktemp("arm")
     for stem, visuals in (("weird4", True), ("bare4", False)):
         (folder / f"{stem}.urdf").write_text(arm_urdf(visuals))
+    (folder / "points4.urdf").write_text(arm_urdf(False, point_masses=True))
     return folder
 
 
@@ -113,8 +116,8 @@ def test_a_run_of_a_urdf_with_missing_meshes_plays_with_no_robot_given(arm_files
     assert code == 0
     assert lines == [
         "torqueopt play: note: 5 meshes of 'weird4.urdf' not found (package://weird4/meshes/link1.stl, "
-        "package://weird4/meshes/link2.stl, package://weird4/meshes/link3.stl and 2 more): replaced by 5 boxes "
-        "of the links' inertia"
+        "package://weird4/meshes/link2.stl, package://weird4/meshes/link3.stl and 2 more): drawn as the boxes of "
+        "their links' inertia"
     ]
     assert sorted(boxes_drawn(commands)) == [f"{name}_inertia_box" for name, *_ in sorted(LINKS)]
 
@@ -124,7 +127,7 @@ def test_a_urdf_with_no_visuals_plays_as_the_boxes_of_its_links(arm_files, tmp_p
     code, lines, commands = play(arm_files / "bare4.csv", tmp_path, capsys)
     assert code == 0
     assert lines == ["torqueopt play: note: URDF 'bare4.urdf' has no visuals: its links are drawn as the boxes of their "
-                     "inertia"]  # fmt: skip
+                     "inertia, and base (no rotational inertia) as rods to its child joints"]  # fmt: skip
     drawn = boxes_drawn(commands)
     # Massless links (base, tip, camera) are not drawn; each other link is its box, whatever its order of sides.
     assert sorted(drawn) == [f"{name}_inertia_box" for name, *_ in sorted(LINKS)]
@@ -225,7 +228,8 @@ def test_the_playback_of_the_bare_arm_places_each_box_at_its_links_centre_of_mas
         warnings.simplefilter("always")
         model, geometry = viewer.visual_model(bare_arm)
     assert [str(w.message) for w in caught if w.category is TorqueoptWarning] == [
-        "URDF 'bare4.urdf' has no visuals: its links are drawn as the boxes of their inertia"
+        "URDF 'bare4.urdf' has no visuals: its links are drawn as the boxes of their inertia, and base (no rotational inertia) as "
+        "rods to its child joints"
     ]
     data, geometry_data = model.createData(), geometry.createData()
     pin.forwardKinematics(model, data, q)
@@ -237,6 +241,46 @@ def test_the_playback_of_the_bare_arm_places_each_box_at_its_links_centre_of_mas
         box = geometry_data.oMg[geometry.getGeometryId(f"{name}_inertia_box")]
         link = dynamic.oMf[bare_arm.model.getFrameId(name, pin.FrameType.BODY)]
         np.testing.assert_allclose(box.translation, link.act(np.array([sides[0] / 2, 0, 0])), atol=1e-12)
+
+
+def test_a_chain_of_point_masses_is_drawn_as_rods_from_joint_to_joint(arm_urdfs):
+    """Each rod runs from a link's origin to one of its child joints: its ends are where the dynamic model puts
+    the two links' frames, at a bent configuration (the prismatic joint at 0, where its link's frame is its
+    joint's origin)."""
+    robot = torqueopt.load_robot(arm_urdfs / "points4.urdf", frame="tip")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model, geometry = viewer.visual_model(robot)
+    assert [str(w.message) for w in caught if w.category is TorqueoptWarning] == [
+        "URDF 'points4.urdf' has no visuals: its links are drawn as the boxes of their inertia, and base, link1, "
+        "link2, link3, link4, tool (no rotational inertia) as rods to their child joints"
+    ]
+    q = robot.configuration(np.array([0.3, -0.7, 0.0, 1.1]))
+    data, geometry_data = model.createData(), geometry.createData()
+    pin.forwardKinematics(model, data, q)
+    pin.updateGeometryPlacements(model, data, geometry, geometry_data)
+    dynamic = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, dynamic, q)
+
+    def origin(link):
+        return dynamic.oMf[robot.model.getFrameId(link, pin.FrameType.BODY)].translation
+
+    #: (link, child link) of each joint of the arm, in the order of the URDF's joints under each link.
+    segments = [("base", "link1"), ("link1", "link2"), ("link2", "link3"), ("link2", "camera"), ("link3", "link4"),
+                ("link4", "tool"), ("tool", "tip")]  # fmt: skip
+    rods = [g for g in geometry.geometryObjects if "_rod_" in g.name]
+    assert len(rods) == len(segments)
+    for link, child in segments:
+        ends = [origin(link), origin(child)]
+        found = False
+        for rod in rods:
+            if not rod.name.startswith(f"{link}_rod_"):
+                continue
+            placement = geometry_data.oMg[geometry.getGeometryId(rod.name)]
+            half = rod.geometry.halfLength * placement.rotation[:, 2]
+            drawn = [placement.translation - half, placement.translation + half]
+            found |= all(np.allclose(a, b, atol=1e-12) for a, b in zip(drawn, ends))
+        assert found, f"no rod from {link} to {child}"
 
 
 # -- the robot of a run, through the API -----------------------------------------------------------------------

@@ -18,7 +18,7 @@ from ..catalog import mesh_file
 from ..errors import InvalidInput, TorqueoptError, TorqueoptWarning
 from ..robot import Robot
 from ..urdf_checks import checked_urdf_text, quiet_stderr
-from .stand_ins import inertia_boxes
+from .stand_ins import stand_ins
 
 __all__ = ["visual_model", "without_missing_meshes"]
 
@@ -51,19 +51,19 @@ def visual_model(robot: Robot) -> tuple[pin.Model, pin.GeometryModel]:
         if not missing:
             raise TorqueoptError(f"cannot load the visuals of '{urdf}': {error}") from None
         geometry = _visuals(full_model, text, package_dirs)
-        boxes = _add_boxes(full_model, geometry, bare_links)
+        rods = _add_stand_ins(full_model, geometry, bare_links)
         shown = ", ".join(missing[:3]) + (f" and {len(missing) - 3} more" if len(missing) > 3 else "")
         warnings.warn(
             f"{len(missing)} mesh{'es' if len(missing) != 1 else ''} of '{urdf.name}' not found ({shown}): "
-            f"replaced by {boxes} box{'es' if boxes != 1 else ''} of the links' inertia",
+            f"drawn as the boxes of their links' inertia{rods}",
             TorqueoptWarning,
             stacklevel=2,
         )
     if geometry.ngeoms == 0:
         links = [frame.name for frame in full_model.frames if frame.type == pin.FrameType.BODY]
-        _add_boxes(full_model, geometry, links)
+        rods = _add_stand_ins(full_model, geometry, links)
         warnings.warn(
-            f"URDF '{urdf.name}' has no visuals: its links are drawn as the boxes of their inertia",
+            f"URDF '{urdf.name}' has no visuals: its links are drawn as the boxes of their inertia{rods}",
             TorqueoptWarning,
             stacklevel=2,
         )
@@ -85,12 +85,16 @@ def _visuals(model: pin.Model, text: str, package_dirs: list[str]) -> pin.Geomet
         return pin.buildGeomFromUrdfString(model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs)
 
 
-def _add_boxes(model: pin.Model, geometry: pin.GeometryModel, links) -> int:
-    """Add the boxes of the links' inertia (:func:`inertia_boxes`) to ``geometry``; returns how many."""
-    boxes = inertia_boxes(model, links)
-    for box in boxes:
-        geometry.addGeometryObject(box)
-    return len(boxes)
+def _add_stand_ins(model: pin.Model, geometry: pin.GeometryModel, links) -> str:
+    """Add the shapes of :func:`~torqueopt.viewer.stand_ins.stand_ins` for ``links`` to ``geometry``; returns the
+    note's ending on the links drawn as rods (empty when none is)."""
+    shapes = stand_ins(model, links)
+    for shape in shapes:
+        geometry.addGeometryObject(shape)
+    rods = sorted({shape.name.rsplit("_rod_", 1)[0] for shape in shapes if "_rod_" in shape.name})
+    if not rods:
+        return ""
+    return f", and {', '.join(rods)} (no rotational inertia) as rods to {'its' if len(rods) == 1 else 'their'} child joints"
 
 
 def without_missing_meshes(text: str, base: Path, package_dirs) -> tuple[str, list[str], list[str]]:
