@@ -44,7 +44,7 @@ __all__ = [
     "stand_ins",
 ]
 
-#: Colour of the stand-in boxes, RGBA in [0, 1]: a grey blue, unlike any mesh's default.
+#: RGBA colour of the stand-in shapes, each in [0, 1] (a grey blue, unlike any mesh's default).
 STAND_IN_COLOR = np.array([0.55, 0.6, 0.7, 1.0])
 #: The thinnest side a stand-in box is drawn with, as a fraction of its longest side.
 THINNEST = 0.1
