@@ -182,6 +182,20 @@ def test_a_sidecar_of_before_plays_as_it_did_and_with_robot_file_keeps_its_frame
     assert code == 0 and len(boxes_drawn(commands)) == len(LINKS)
 
 
+@pytest.mark.slow
+def test_the_stick_figures_of_a_run_of_a_urdf_find_it_too(arm_files, tmp_path, capsys, saved_figures):
+    """``plot RUN --stick-figures`` said "unknown robot 'weird4'" too. The arm drawn is the run's: in each panel
+    the tip of the arm (forward kinematics of the robot found again) is where the run's x column puts it, the end
+    of the tip path so far (the frame 'camera', say, would be elsewhere)."""
+    plot = ["plot", str(arm_files / "weird4.csv"), "--out", str(tmp_path / "f.png"), "--stick-figures", "--snapshots"]
+    assert main([*plot, "2", "--ellipse", "none"]) == 0
+    panels = [ax for ax in saved_figures[-1].axes if any(line.get_label() == "tip" for line in ax.lines)]
+    assert len(panels) == 2
+    for ax in panels:
+        lines = {line.get_label(): line.get_xydata() for line in ax.lines}
+        np.testing.assert_allclose(lines["tip"][0], lines["tip path so far"][-1], atol=1e-8)
+
+
 # -- the boxes: held to the box each link's inertia was written from ----------------------------------------
 
 

@@ -73,6 +73,7 @@ def robot_of_run(
     frame: str | None = None,
     task: str | None = None,
     lock: list[str] | None = None,
+    **load_options,
 ) -> Robot:
     """The robot ``result`` was made with, loaded again; ``robot``, ``frame``, ``task`` and ``lock`` override.
 
@@ -83,6 +84,7 @@ def robot_of_run(
             task and locked joints still apply; else the robot's own defaults do.
         frame, task: override the run's.
         lock: joints to lock instead of the run's (None: the run's).
+        load_options: further keywords of :func:`torqueopt.load_robot` (``torque_limit``, ``gravity``).
 
     Raises:
         RobotNotFound: the run's URDF is gone and no ``robot`` is given.
@@ -123,6 +125,7 @@ def robot_of_run(
         task=task or (result.task if same_robot else None),
         lock=lock,
         reference_configuration=record.get("locked_configuration") if same_file else None,
+        **load_options,
     )
 
 
