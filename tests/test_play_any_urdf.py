@@ -81,10 +81,12 @@ def arm_urdfs(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def arm_files(arm_urdfs):
-    """The URDFs' folder with a run of each by ``torqueopt run --out``."""
+    """The URDFs' folder with a run of each by ``torqueopt run --out``; bare4's with its prismatic joint locked."""
     folder = arm_urdfs
-    for stem in ("weird4", "bare4"):
-        assert main(["run", "--robot", str(folder / f"{stem}.urdf"), *RUN, "--out", str(folder / f"{stem}.csv")]) == 0
+    assert main(["run", "--robot", str(folder / "weird4.urdf"), *RUN, "--out", str(folder / "weird4.csv")]) == 0
+    locked = ["--frame", "tip", "--lock", "j_link3", "--resolver", "pinv", "--q0", "0.1,0.5,-0.8",
+              "--direction", "0,0.05,0.05", "--duration", "0.05"]  # fmt: skip
+    assert main(["run", "--robot", str(folder / "bare4.urdf"), *locked, "--out", str(folder / "bare4.csv")]) == 0
     return folder
 
 
@@ -124,6 +126,9 @@ def test_a_run_of_a_urdf_with_missing_meshes_plays_with_no_robot_given(arm_files
 
 @pytest.mark.slow
 def test_a_urdf_with_no_visuals_plays_as_the_boxes_of_its_links(arm_files, tmp_path, capsys):
+    """The run locked j_link3 (--lock), which the sidecar records: play locks it again, so the robot has the run's
+    three joints."""
+    assert json.loads((arm_files / "bare4.csv.json").read_text())["joint_names"] == ["j_link1", "j_link2", "j_link4"]
     code, lines, commands = play(arm_files / "bare4.csv", tmp_path, capsys)
     assert code == 0
     assert lines == ["torqueopt play: note: URDF 'bare4.urdf' has no visuals: its links are drawn as the boxes of their "
