@@ -155,7 +155,7 @@ def test_a_changed_urdf_plays_with_a_note_and_a_gone_one_is_one_line_exit_2(arm_
     assert code == 0
     assert lines[0] == (
         f"torqueopt play: note: URDF '{urdf}' has changed since the run was made (SHA-256 {recorded[:12]}… then, "
-        f"{file_sha256(urdf)[:12]}… now): playing the file as it is now"
+        f"{file_sha256(urdf)[:12]}… now): loading the file as it is now"
     )
 
     elsewhere = tmp_path / "elsewhere"

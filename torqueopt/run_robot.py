@@ -112,7 +112,7 @@ def robot_of_run(
         if not same_file and record.get("sha256"):
             warnings.warn(
                 f"URDF '{source.urdf}' has changed since the run was made (SHA-256 {record['sha256'][:12]}… then, "
-                f"{(now or 'unreadable')[:12]}… now): playing the file as it is now",
+                f"{(now or 'unreadable')[:12]}… now): loading the file as it is now",
                 TorqueoptWarning,
                 stacklevel=2,
             )
@@ -124,7 +124,8 @@ def robot_of_run(
         frame=frame or (result.frame if same_robot else None),
         task=task or (result.task if same_robot else None),
         lock=lock,
-        reference_configuration=record.get("locked_configuration") if same_file else None,
+        # Held where the run held them; for the same file's model only (another frame may rebuild it with mimic joints).
+        reference_configuration=record.get("locked_configuration") if same_file and own_frame else None,
         **load_options,
     )
 
