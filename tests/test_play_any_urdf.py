@@ -325,3 +325,17 @@ def test_a_catalogue_robots_run_records_its_file_and_loads_by_name(planar3, tmp_
     back.robot_source = {**back.robot_source, "sha256": "0" * 64}
     with pytest.raises(RobotNotFound, match=r"the run's URDF '.*gone/planar3.urdf' does not exist any more"):
         robot_of_run(back)
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+def test_the_screenshot_of_the_page_shows_the_boxes(chromium, arm_files, tmp_path, capsys):
+    """The HTML page and its screenshot draw the same stand-ins as the player: grey-blue boxes on the grey
+    background (a page without them has no such pixels, tests/test_viewer.py's blank page)."""
+    import matplotlib.image
+
+    page = tmp_path / "bare4.html"
+    assert main(["play", str(arm_files / "bare4.csv"), "--html", str(page), "--fps", "5"]) == 0
+    image = matplotlib.image.imread(viewer.screenshot_html(page, tmp_path / "bare4.png", width=800, height=500))
+    red, blue = image[:, :, 0], image[:, :, 2]
+    assert ((blue - red > 0.08) & (blue > 0.3)).sum() > 3000, "no box drawn"
