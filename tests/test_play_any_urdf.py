@@ -313,6 +313,11 @@ def test_a_catalogue_robots_run_records_its_file_and_loads_by_name(planar3, tmp_
     assert record["urdf"] == str(planar3.source.urdf.resolve())
     assert record["sha256"] == file_sha256(planar3.source.urdf)
     assert record["locked_joints"] == [] and record["locked_configuration"] == list(planar3.locked_configuration)
+    from torqueopt.batch import simulate_batch
+
+    lines = [torqueopt.StraightLine(direction, duration=0.01) for direction in ([0.1, 0.1], [-0.1, 0.1])]
+    batch = simulate_batch(planar3, "pinv", lines, [[-0.78, 2.35, -2.35]] * 2)
+    assert [movement.robot_source for movement in batch] == [record, record]
     back = torqueopt.load_result(result.to_csv(tmp_path / "run.npz"))
     assert back.robot_source == record
     robot = robot_of_run(back)
