@@ -84,7 +84,7 @@ def robot_of_run(
             task and locked joints still apply; else the robot's own defaults do.
         frame, task: override the run's.
         lock: joints to lock instead of the run's (None: the run's).
-        load_options: further keywords of :func:`torqueopt.load_robot` (``torque_limit``, ``gravity``).
+        load_options: further keywords of :func:`torqueopt.load_robot` (``torque_limit``, ``gravity``, ``payload``).
 
     Raises:
         RobotNotFound: the run's URDF is gone and no ``robot`` is given.
