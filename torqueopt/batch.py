@@ -64,6 +64,7 @@ from .result import SimResult, joint_limits_record
 from .robot import Robot
 from .robot_copies import RobotForest
 from .run_records import REFERENCE_BLOCK, ReferenceBlocks, build_result
+from .run_robot import robot_record
 from .self_motion import self_motion_energy
 from .simulate import (
     DEFAULT_MAX_JOINT_SPEED,
@@ -425,6 +426,7 @@ class MovementStack:
         robot, dt, logs, recorded = self.robot, self.dt, self.logs, self.recorded
         joint_limits = joint_limits_record(*robot.joint_limits)
         options = self.resolver.settings_for_file()
+        source = robot_record(robot)
         times = dt * np.arange(int(recorded.max()))
         results = []
         for i in range(self.count):
@@ -452,6 +454,7 @@ class MovementStack:
                     joint_limits=joint_limits,
                     resolver_options=options,
                     plant=None if self.plant is None else self.plant.record(i),
+                    robot_source=source,
                 )
             )
         return results

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-__all__ = ["RobotSource", "find_robot", "available_robots", "example_robot_data_dir"]
+__all__ = ["RobotSource", "find_robot", "available_robots", "example_robot_data_dir", "mesh_file"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -247,3 +247,21 @@ def _package_dirs_for(urdf: Path) -> tuple[Path, ...]:
     if root is not None:
         dirs.append(root.parent.parent)
     return tuple(dirs)
+
+
+def mesh_file(uri: str, base: Path, package_dirs) -> Path | None:
+    """The file a URDF mesh filename names (``package://pkg/...``, ``file://...`` or a relative path), or None."""
+    if uri.startswith("package://"):
+        relative = uri[len("package://") :]
+        package, _, inside = relative.partition("/")
+        candidates = []
+        for folder in package_dirs:
+            folder = Path(folder)
+            candidates += [folder / relative, folder / package / inside]
+            if folder.name == package:
+                candidates.append(folder / inside)
+    elif uri.startswith("file://"):
+        candidates = [Path(uri[len("file://") :])]
+    else:
+        candidates = [base / uri]
+    return next((path.resolve() for path in candidates if path.is_file()), None)

@@ -74,6 +74,10 @@ class SimResult:
             written before it was recorded.
         payload: the load the task frame carried, as :meth:`torqueopt.Payload.record` gives it
             (``mass`` [kg], ``position`` in the task frame [m], ``inertia`` [kg·m²]); None without one.
+        robot_source: what rebuilds the robot for playback, as :func:`torqueopt.run_robot.robot_record`
+            gives it: the URDF's absolute path and SHA-256, the locked joints and the configuration
+            they are held at; None for a robot built without a URDF and in files written before it
+            was recorded.
     """
 
     robot: str
@@ -108,6 +112,7 @@ class SimResult:
     joint_kinds: list[str] | None = None
     gravity: list[float] | None = None
     payload: dict | None = None
+    robot_source: dict | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.

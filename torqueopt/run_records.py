@@ -22,6 +22,7 @@ import numpy as np
 from .dexterity import dexterity_along
 from .result import SimResult, joint_limits_record
 from .robot import Robot
+from .run_robot import robot_record
 from .trajectory import Trajectory, describe
 
 __all__ = [
@@ -112,14 +113,16 @@ def build_result(
     joint_limits: dict | None = None,
     resolver_options: dict | None = None,
     plant: dict | None = None,
+    robot_source: dict | None = None,
 ) -> SimResult:
     """The one place a run's :class:`SimResult` is made, from its recorded rows (arrays the result owns).
 
     ``q`` … ``jacobian_inverse_condition`` hold one row per recorded step;
     ``times`` and ``reference_position`` cover at least those rows (the
     result copies their first rows). ``trajectory`` is the description
-    (:func:`torqueopt.trajectory.describe`); ``joint_limits`` and
-    ``resolver_options`` may be given once for many results of one batch;
+    (:func:`torqueopt.trajectory.describe`); ``joint_limits``,
+    ``resolver_options`` and ``robot_source`` (:func:`torqueopt.run_robot.robot_record`)
+    may be given once for many results of one batch;
     ``plant`` is the plant's record (:meth:`torqueopt.plants.Plant.record`).
     """
     recorded = q.shape[0]
@@ -155,6 +158,7 @@ def build_result(
         plant=plant,
         gravity=robot.gravity.tolist(),
         payload=None if robot.payload is None else robot.payload.record(),
+        robot_source=robot_record(robot) if robot_source is None else robot_source,
     )
 
 

@@ -13,10 +13,10 @@ from pathlib import Path
 
 from ..checks import count_values
 from ..io import writable_path, writable_paths
-from ..loading import load_robot
 from ..result import SimResult, load_result
 from ..result_files import run_files
 from ..robot import TASK_DIMENSIONS, Robot
+from ..run_robot import robot_of_run
 from . import EXIT_OK
 from .common import parse_count, parse_positive
 
@@ -66,10 +66,16 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("run", metavar="RUN", help="run file: .csv (with its .csv.json sidecar) or .npz")
     group = parser.add_argument_group("robot (default: the run's)")
-    group.add_argument("--robot", help="URDF path, 'planar3' or an example-robot-data arm (default: the run's robot)")
+    group.add_argument(
+        "--robot",
+        help="URDF path, 'planar3' or an example-robot-data arm (default: the run's robot, its URDF found "
+        "where the run was made)",
+    )
     group.add_argument("--frame", help="task frame whose chain the run moved (default: the run's frame)")
     group.add_argument("--task", help=f"task: {', '.join(TASK_DIMENSIONS)} (default: the run's task)")
-    group.add_argument("--lock", metavar="JOINTS", help="comma-separated joints the run locked with --lock")
+    group.add_argument(
+        "--lock", metavar="JOINTS", help="comma-separated joints to lock (default: the joints the run locked)"
+    )
     add_playback_options(parser, play_flag=False)
     parser.set_defaults(handler=play_command)
 
@@ -146,15 +152,9 @@ def play_command(args: argparse.Namespace) -> int:
 
 
 def _robot_for_run(args: argparse.Namespace, result: SimResult) -> Robot:
-    """The robot named by the options; the run's frame and task apply only to the run's own robot."""
-    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
-    same_robot = args.robot is None or args.robot == result.robot
-    return load_robot(
-        args.robot or result.robot,
-        frame=args.frame or (result.frame if same_robot else None),
-        task=args.task or (result.task if same_robot else None),
-        lock=lock,
-    )
+    """The robot the run records (its URDF, frame, task and locked joints); the options override."""
+    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else None
+    return robot_of_run(result, args.robot, frame=args.frame, task=args.task, lock=lock)
 
 
 def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidInput
-from ..loading import load_robot
 from ..payload import Payload
 from ..plots import plot_stick_strip
 from ..plots.stick import SNAPSHOTS_RANGE
 from ..result import SimResult
 from ..robot import Robot
+from ..run_robot import robot_of_run
 from .common import add_robot_options, gravity_from_args, parse_vector, payload_from_args
 
 __all__ = ["add_stick_options", "check_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
@@ -86,18 +86,19 @@ def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:
         torque_limit = parse_vector(args.torque_limit, "torque-limit")
     else:
         torque_limit = result.torque_upper if np.isfinite(result.torque_upper).all() else None
-    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
+    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else None
     # The payload changes H, so the acceleration ellipses: the run's own unless the options name another.
     payload = payload_from_args(args)
     if payload is None and result.payload is not None and (args.robot is None or args.robot == result.robot):
         payload = Payload(**result.payload)
-    return load_robot(
-        args.robot or result.robot,
-        frame=args.frame or result.frame,
-        task=args.task or result.task,
+    return robot_of_run(
+        result,
+        args.robot,
+        frame=args.frame,
+        task=args.task,
+        lock=lock,
         torque_limit=torque_limit,
         gravity=gravity_from_args(args),
-        lock=lock,
         payload=payload,
     )
 

@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..catalog import mesh_file
 from ..checks import show_number
 from ..errors import InvalidInput, MissingDependency, PlantError
 from .base import register_plant
@@ -296,7 +297,7 @@ class MujocoPlant:
         spec.strippath = False
         dropped = {}
         for mesh in list(spec.meshes):
-            path = _mesh_file(mesh.file, urdf.parent, package_dirs)
+            path = mesh_file(mesh.file, urdf.parent, package_dirs)
             if path is not None and path.suffix.lower() in _MESH_SUFFIXES:
                 mesh.file = str(path)
                 continue
@@ -694,24 +695,6 @@ def _one_line(error: Exception) -> str:
     """MuJoCo's compiler message on one line, without its ``Error:`` prefix."""
     text = " ".join(str(error).split())
     return re.sub(r"^Error:\s*", "", text)
-
-
-def _mesh_file(uri: str, base: Path, package_dirs) -> Path | None:
-    """The file a URDF mesh filename names (``package://pkg/...``, ``file://...`` or a relative path), or None."""
-    if uri.startswith("package://"):
-        relative = uri[len("package://") :]
-        package, _, inside = relative.partition("/")
-        candidates = []
-        for folder in package_dirs:
-            folder = Path(folder)
-            candidates += [folder / relative, folder / package / inside]
-            if folder.name == package:
-                candidates.append(folder / inside)
-    elif uri.startswith("file://"):
-        candidates = [Path(uri[len("file://") :])]
-    else:
-        candidates = [base / uri]
-    return next((path.resolve() for path in candidates if path.is_file()), None)
 
 
 def _moves(spec, body) -> bool:
