@@ -344,3 +344,18 @@ def test_the_screenshot_of_the_page_shows_the_boxes(chromium, arm_files, tmp_pat
     image = matplotlib.image.imread(viewer.screenshot_html(page, tmp_path / "bare4.png", width=800, height=500))
     red, blue = image[:, :, 0], image[:, :, 2]
     assert ((blue - red > 0.08) & (blue > 0.3)).sum() > 3000, "no box drawn"
+
+
+@pytest.mark.slow
+def test_an_optimum_of_a_user_urdf_plays_with_no_robot_given(tmp_path, capsys):
+    """``optimize --out`` records the robot as ``run --out`` does: its file plays without ``--robot``."""
+    urdf = tmp_path / "my3.urdf"
+    shutil.copy(torqueopt.catalog.find_robot("planar3").urdf, urdf)
+    out = tmp_path / "opt.csv"
+    arguments = ["optimize", "--robot", str(urdf), "--frame", "tip", "--task", "xy", "--direction", "1,1",
+                 "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--duration", "0.3", "--out", str(out)]  # fmt: skip
+    assert main(arguments) == 0
+    assert json.loads(out.with_name("opt.csv.json").read_text())["robot_source"]["sha256"] == file_sha256(urdf)
+    capsys.readouterr()
+    assert main(["play", str(out), "--html", str(tmp_path / "opt.html")]) == 0
+    assert capsys.readouterr().err == ""

@@ -78,6 +78,8 @@ class OptimalResult:
     solution: dict = field(default_factory=dict, repr=False)
     #: Per joint, 'revolute', 'continuous' or 'prismatic' (as ``SimResult.joint_kinds``).
     joint_kinds: list | None = None
+    #: What rebuilds the robot for playback (:func:`torqueopt.run_robot.robot_record`).
+    robot_source: dict | None = field(default=None, repr=False)
 
     @property
     def optimal(self) -> bool:
@@ -106,6 +108,7 @@ class OptimalResult:
             resolver="optimal",
             joint_names=list(self.joint_names),
             joint_kinds=self.joint_kinds,
+            robot_source=self.robot_source,
             dt=self.dt,
             t=self.t,
             q=self.q,

@@ -41,6 +41,7 @@ from ..resolvers import Resolver, get_resolver
 from ..resolvers.null_space import torque_midpoint
 from ..result import SimResult
 from ..robot import Robot
+from ..run_robot import robot_record
 from ..simulate import simulate
 from ..trajectory import check_trajectory, describe
 from .cost import torque_cost, weight_root
@@ -297,6 +298,7 @@ def optimize(
         task=robot.task,
         joint_names=list(robot.joint_names),
         joint_kinds=list(robot.joint_kinds),
+        robot_source=robot_record(robot),
         dt=dt,
         t=times,
         q=plan["q"],
