@@ -18,7 +18,7 @@ import pinocchio as pin
 from .catalog import RobotSource, find_robot
 from .checks import check_task_rank, finite_vector
 from .errors import FrameNotFound, InvalidInput, UrdfError
-from .robot import Robot, check_task_and_frame
+from .robot import DEFAULT_JOINT_DYNAMICS, Robot, check_joint_dynamics, check_task_and_frame
 from .urdf_checks import build_model, check_chain_moves_mass, checked_urdf_text
 
 __all__ = ["load_robot"]
@@ -45,6 +45,7 @@ def load_robot(
     gravity=None,
     lock: tuple[str, ...] | list[str] = (),
     reference_configuration=None,
+    joint_dynamics: str | None = None,
 ) -> Robot:
     """Load a robot from a URDF path, a file in ``robots/`` or an example-robot-data name.
 
@@ -62,10 +63,15 @@ def load_robot(
             the chain are always locked).
         reference_configuration: full-model configuration at which locked
             joints are held; defaults to the SRDF configuration or neutral.
+        joint_dynamics: ``"urdf"`` models the URDF's joint damping and
+            friction (in the resolvers' bias torque, the Pinocchio plant and
+            the MuJoCo plant alike), ``"off"`` none of them; defaults to
+            :data:`~torqueopt.robot.DEFAULT_JOINT_DYNAMICS` (``"off"``).
 
     Raises:
         RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput: a bad source, file, frame, task or value.
     """
+    joint_dynamics = DEFAULT_JOINT_DYNAMICS if joint_dynamics is None else check_joint_dynamics(joint_dynamics)
     robot_source = find_robot(source)
     mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
     full_model = _build_model(robot_source.urdf, mimic=False)
@@ -122,6 +128,7 @@ def load_robot(
         full_model=full_model,
         locked_configuration=full_reference,
         default_configuration=default_configuration,
+        joint_dynamics=joint_dynamics,
     )
     check_task_rank(robot)  # a task the chain can never realise is an input mistake, not a failed run
     return robot

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .dexterity import dexterity_along
-from .result import SimResult, joint_limits_record
+from .result import SimResult, joint_dynamics_record, joint_limits_record
 from .robot import Robot
 from .trajectory import Trajectory, describe
 
@@ -152,6 +152,7 @@ def build_result(
         dexterity=dexterity_along(robot, q) if dexterity else None,
         joint_limits=joint_limits_record(*robot.joint_limits) if joint_limits is None else joint_limits,
         plant=plant,
+        joint_dynamics=joint_dynamics_record(robot),
     )
 
 

@@ -28,20 +28,24 @@ class RobotSpec:
     task: str | None = None
     torque_limit: tuple[float, ...] | None = None
     gravity: bool | tuple[float, ...] | None = None
+    #: ``urdf`` or ``off`` (:func:`torqueopt.load_robot`'s ``joint_dynamics``); None: the default.
+    joint_dynamics: str | None = None
 
     def load(self) -> Robot:
         return load_robot(
-            self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity
-        )
+            self.source, frame=self.frame, task=self.task, torque_limit=self.torque_limit, gravity=self.gravity,
+            joint_dynamics=self.joint_dynamics,
+        )  # fmt: skip
 
     def as_dict(self) -> dict:
+        # joint_dynamics only when given, so that the records of atlases that never set it stay as they were.
         return {
             "source": self.source,
             "frame": self.frame,
             "task": self.task,
             "torque_limit": None if self.torque_limit is None else list(self.torque_limit),
             "gravity": list(self.gravity) if isinstance(self.gravity, tuple) else self.gravity,
-        }
+        } | ({} if self.joint_dynamics is None else {"joint_dynamics": self.joint_dynamics})
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ import time
 from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
-from .common import importable_from_here, parse_vector
+from .common import add_joint_dynamics_option, importable_from_here, parse_vector
 
 __all__ = ["add_parser", "add_robot_spec_options", "robot_spec"]
 
@@ -40,6 +40,7 @@ def add_robot_spec_options(parser, robot_help: str, torque_limit_help: str, requ
     parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
     parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
     parser.add_argument("--torque-limit", metavar="TAU", help=torque_limit_help)
+    add_joint_dynamics_option(parser)
 
 
 def robot_spec(args: argparse.Namespace):
@@ -49,7 +50,9 @@ def robot_spec(args: argparse.Namespace):
     torque_limit = (
         None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
     )
-    return RobotSpec(args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit)
+    return RobotSpec(
+        args.robot, frame=args.frame, task=args.task, torque_limit=torque_limit, joint_dynamics=args.joint_dynamics
+    )
 
 
 def atlas_command(args: argparse.Namespace) -> int:

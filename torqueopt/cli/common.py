@@ -11,9 +11,10 @@ import numpy as np
 from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
 from ..loading import load_robot
 from ..progress import said_if_slow
-from ..robot import TASK_DIMENSIONS, Robot
+from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
 
 __all__ = [
+    "add_joint_dynamics_option",
     "add_robot_options",
     "add_start_options",
     "robot_from_args",
@@ -45,7 +46,19 @@ def start_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray:
     return robot.configuration(np.radians(angles) if args.degrees else angles)
 
 
-def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
+def add_joint_dynamics_option(group) -> None:
+    """``--joint-dynamics urdf|off``: model the URDF's joint damping and friction (controller and plant), or not."""
+    group.add_argument(
+        "--joint-dynamics",
+        choices=JOINT_DYNAMICS,
+        default=None,
+        help="urdf: model the URDF's joint damping and friction (<dynamics damping friction>) in the controller's "
+        "bias torque and in the plant (Pinocchio or MuJoCo); off: in neither "
+        f"(default {DEFAULT_JOINT_DYNAMICS})",
+    )
+
+
+def add_robot_options(parser: argparse.ArgumentParser, required: bool = True, joint_dynamics: bool = False) -> None:
     group = parser.add_argument_group("robot")
     group.add_argument(
         "--robot",
@@ -70,6 +83,8 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) ->
         default=None,
         help="gravity along −z at 9.81 m/s² (default: off for planar3, as in the paper; on otherwise)",
     )
+    if joint_dynamics:
+        add_joint_dynamics_option(group)
     group.add_argument(
         "--lock",
         metavar="JOINTS",
@@ -91,6 +106,7 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             torque_limit=torque_limit,
             gravity=args.gravity,
             lock=lock,
+            joint_dynamics=getattr(args, "joint_dynamics", None),
         )
 
 

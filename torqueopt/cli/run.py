@@ -53,7 +53,7 @@ def add_parser(subparsers) -> None:
             "whether the run stopped early. Angles in radians; give negative vectors as --q0=-0.78,..."
         ),
     )
-    add_robot_options(parser)
+    add_robot_options(parser, joint_dynamics=True)
     group = parser.add_argument_group("movement")
     add_resolver_arguments(group)
     add_start_options(group)
