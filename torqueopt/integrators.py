@@ -100,7 +100,7 @@ class HeldTorque:
 
     A second-order system; the step's parameter is τ [N·m]. A robot that
     models joint damping and friction gets :math:`\mathrm{ABA}(q, \dot q,
-    \tau - \tau_j(\dot q))` (:meth:`Robot.forward_dynamics`), the resistance
+    \tau - \tau_j(\dot q))` (:meth:`torqueopt.Robot.forward_dynamics`), the resistance
     read at each stage's velocity. One state's
     accelerations are Pinocchio's ``aba`` in ``data``; a (B, n) stack's one
     ``pin.abaInParallel`` call (over a ``pin.ModelPool`` of ``threads``

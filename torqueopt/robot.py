@@ -25,7 +25,7 @@ below it the friction slows the joint at the rate :math:`\kappa` =
 :data:`FRICTION_RATE` whatever its inertia, as MuJoCo's ``frictionloss``
 does (:math:`(H^{-1})_{jj}` at the default configuration); it joins the bias torque
 :math:`b` the resolvers compensate, and the forward dynamics subtract it
-(:meth:`Robot.forward_dynamics`), so the controller's model and the
+(:meth:`torqueopt.Robot.forward_dynamics`), so the controller's model and the
 Pinocchio plant stay one model, and the torque the paper's criterion
 weighs is the motor's. With ``"off"`` neither is modelled (Pinocchio's own
 algorithms never read them). Why tanh, and why this :math:`v_s`:
@@ -75,10 +75,10 @@ _WORLD = pin.Convention.WORLD
 _EUCLIDEAN_JOINTS = frozenset(
     f"JointModel{kind}" for kind in ("RX", "RY", "RZ", "RevoluteUnaligned", "PX", "PY", "PZ", "PrismaticUnaligned")
 )
-#: The joint-dynamics settings: ``urdf`` models the URDF's joint damping and friction, ``off`` neither.
+#: The joint-dynamics settings, ``urdf`` (model the URDF's joint damping and friction) and ``off`` (neither).
 JOINT_DYNAMICS = ("urdf", "off")
-#: The setting a robot gets unless told: ``off`` keeps every run of the example arms whose URDFs carry damping
-#: (panda, xarm7, baxter, tiago) as it was before joint dynamics existed (see the decision record 0009).
+#: The setting a robot gets unless told, ``off``, which keeps every run of the example arms whose URDFs carry
+#: damping (panda, xarm7, baxter, tiago) as it was before joint dynamics existed (decision record 0009).
 DEFAULT_JOINT_DYNAMICS = "off"
 #: κ [1/s] of the friction model :math:`F_j \tanh(\dot q_j / v_{s,j})`, :math:`v_{s,j} = F_j (H^{-1})_{jj} / κ`:
 #: below saturation the friction slows joint j at the rate κ whatever its inertia, as MuJoCo's ``frictionloss``
@@ -104,7 +104,7 @@ def joint_resistance(
 
     ``velocity`` is one state's (n) or a stack's (B, n) [rad/s]; ``damping``
     [N·m·s/rad], ``friction`` [N·m] and ``velocity_scale`` :math:`v_s`
-    [rad/s] one value per joint (:meth:`Robot.friction_velocity_scale`).
+    [rad/s] one value per joint (``Robot.friction_velocity_scale``).
     """
     return damping * velocity + friction * np.tanh(velocity / velocity_scale)
 

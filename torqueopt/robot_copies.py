@@ -191,7 +191,7 @@ class RobotForest:
         r"""The task terms of every row: ``(H, b, J, J̇q̇, p)`` as (S, n, n), (S, n), (S, 6, n), (S, 6), (S, 3).
 
         :math:`H` and :math:`b = C\dot q + g` of Eq. (20) (plus the joints' damping and friction when the robot
-        models them, :meth:`Robot.joint_resistance`); the task frame's
+        models them, :meth:`torqueopt.Robot.joint_resistance`); the task frame's
         Jacobian :math:`J` and classical-acceleration drift :math:`\dot J\dot q`
         (Eq. (18)) in LOCAL_WORLD_ALIGNED, linear rows first; its position p.
         """
