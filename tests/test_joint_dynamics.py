@@ -18,6 +18,7 @@ from torqueopt.batch import simulate_batch
 from torqueopt.cli import main
 from torqueopt.errors import InvalidInput
 from torqueopt.robot import FRICTION_RATE
+from torqueopt.stability import linearise
 
 DAMPING = (2.0, 1.5, 0.5)  # N·m·s/rad
 FRICTION = (3.0, 1.0, 0.4)  # N·m
@@ -88,6 +89,27 @@ def test_a_free_swing_loses_the_energy_its_damping_and_friction_take(tmp_path, f
     dissipated = dt * (np.sum(power) - 0.5 * (power[0] + power[-1]))  # trapezoid of q̇ᵀ τ_j
     assert energy[0] - energy[-1] > 0.02 * energy[0]  # the joints did take energy out
     assert abs(energy[0] - energy[-1] - dissipated) < 1e-6 * energy[0]
+
+
+@pytest.mark.parametrize("resolver", ["null-space", "damped-null-space"])
+def test_the_stability_margin_linearises_the_loop_with_its_joint_dynamics(damped_planar3, resolver, rng):
+    # The reference differences the closed loop q̈ = ABA(q, q̇, τ(q, q̇) − τ_j(q̇)) of the resolver's torque.
+    robot, n, h = damped_planar3, 3, 1e-6
+    step = torqueopt.get_resolver(resolver).solver(robot)
+
+    def acceleration(q, v, xdd):
+        return robot.forward_dynamics(q, v, step(robot.terms(q, v), xdd).torque)
+
+    for _ in range(3):
+        q, v, xdd = robot.configuration(rng.uniform(-2, 2, n)), rng.normal(scale=0.05, size=n), rng.normal(size=2)
+        columns = []
+        for i in range(2 * n):
+            e = h * np.eye(2 * n)[i]
+            columns.append(
+                (acceleration(q + e[:n], v + e[n:], xdd) - acceleration(q - e[:n], v - e[n:], xdd)) / (2 * h)
+            )
+        found = linearise(robot, resolver, q, v, xdd)
+        np.testing.assert_allclose(found.state_jacobian[n:], np.array(columns).T, atol=2e-5 * np.abs(columns).max())
 
 
 def test_off_is_the_arm_without_them_bit_for_bit(tmp_path):
