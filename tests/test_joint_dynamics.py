@@ -112,6 +112,13 @@ def test_the_stability_margin_linearises_the_loop_with_its_joint_dynamics(damped
         np.testing.assert_allclose(found.state_jacobian[n:], np.array(columns).T, atol=2e-5 * np.abs(columns).max())
 
 
+def test_the_resolver_contract_holds_on_an_arm_with_joint_dynamics(damped_planar3):
+    from torqueopt.testing import check_resolver
+
+    report = check_resolver("null-space", damped_planar3)  # raises ContractViolation on a broken contract
+    assert "task" in report.checks
+
+
 def test_off_is_the_arm_without_them_bit_for_bit(tmp_path):
     off = torqueopt.load_robot(planar3_with(tmp_path, DAMPING, FRICTION), frame="tip", task="xy")
     plain = torqueopt.load_robot("planar3")
@@ -170,10 +177,40 @@ def test_the_cli_switch_and_its_bad_values(tmp_path, capsys):
         torqueopt.load_robot("planar3", joint_dynamics="on")
 
 
+def test_the_atlas_robot_spec_carries_the_switch(tmp_path):
+    from torqueopt.atlas.jobs import RobotSpec
+
+    urdf = str(planar3_with(tmp_path, DAMPING, FRICTION))
+    spec = RobotSpec(urdf, frame="tip", task="xy", joint_dynamics="urdf")
+    assert spec.load().models_joint_dynamics and spec.as_dict()["joint_dynamics"] == "urdf"
+    assert RobotSpec(**spec.as_dict()) == spec
+    # An atlas that never set it keeps the record it had.
+    assert "joint_dynamics" not in RobotSpec("planar3").as_dict()
+    assert not RobotSpec(urdf, frame="tip", task="xy").load().models_joint_dynamics
+
+
 mujoco = pytest.importorskip("mujoco")
 #: MuJoCo's plant matched to Pinocchio's (its damping option left to follow the robot).
 MATCHED = {"contacts": "off", "joint-limits": "off", "integrator": "rk4"}
 XARM_LINE = StraightLine(direction=[0, 1, -1], accel=1.0, duration=0.5)
+
+
+def test_the_mujoco_plant_follows_the_switch_unless_told(xarm7):
+    from torqueopt.plants.mujoco import MujocoPlant
+
+    modelled = xarm7.with_joint_dynamics("urdf")
+    plants = {
+        "off": MujocoPlant(xarm7),
+        "urdf": MujocoPlant(modelled),
+        "off, damping=urdf": MujocoPlant(xarm7, damping="urdf"),
+        "urdf, damping=zero": MujocoPlant(modelled, damping="zero"),
+    }
+    for label, applied in [("off", False), ("urdf", True), ("off, damping=urdf", True), ("urdf, damping=zero", False)]:
+        plant = plants[label]
+        expected = (xarm7.urdf_joint_damping, xarm7.urdf_joint_friction) if applied else (np.zeros(7), np.zeros(7))
+        np.testing.assert_array_equal(plant.model.dof_damping, expected[0], err_msg=label)
+        np.testing.assert_array_equal(plant.model.dof_frictionloss, expected[1], err_msg=label)
+        assert plant.record()["damping"] == ("urdf" if applied else "zero")
 
 
 @pytest.mark.slow
