@@ -112,7 +112,9 @@ def _term_derivatives(robot: Robot, q: np.ndarray, v: np.ndarray):
     n, rows, frame, m = robot.nv, robot.task_rows, robot.frame_id, robot.m
     zero = np.zeros(n)
     bias_dq, bias_dv, _ = pin.computeRNEADerivatives(model, data, q, v, zero)
-    bias_ds = np.hstack([bias_dq, bias_dv + _resistance_dv(robot, v)])
+    if robot.models_joint_dynamics:
+        bias_dv = bias_dv + _resistance_dv(robot, v)
+    bias_ds = np.hstack([bias_dq, bias_dv])
     gravity_dq = pin.computeRNEADerivatives(model, data, q, zero, zero)[0].copy()
     jacobian_world = pin.computeFrameJacobian(model, data, q, frame, _LWA)
     rotation = data.oMf[frame].rotation.copy()
@@ -182,12 +184,12 @@ def _linearise(robot: Robot, step, q, v, command, difference_step) -> Linearisat
     resolution = step(terms, command)
     inertia_ds, bias_ds, jacobian_ds, drift_ds, velocity_ds = _term_derivatives(robot, q, v)
     # The plant: ∂ABA/∂q, ∂ABA/∂q̇ and ∂ABA/∂τ = H⁻¹ at the resolver's torque, less the joints' resistance.
-    aba_dq, aba_dv, inverse_inertia = (
-        np.array(part)
-        for part in pin.computeABADerivatives(model, data, q, v, resolution.torque - robot.joint_resistance(v))
-    )
+    resists = robot.models_joint_dynamics
+    applied = resolution.torque - robot.joint_resistance(v) if resists else resolution.torque
+    aba_dq, aba_dv, inverse_inertia = (np.array(part) for part in pin.computeABADerivatives(model, data, q, v, applied))
     inverse_inertia = np.triu(inverse_inertia) + np.triu(inverse_inertia, 1).T
-    aba_dv -= inverse_inertia.dot(_resistance_dv(robot, v))
+    if resists:
+        aba_dv -= inverse_inertia.dot(_resistance_dv(robot, v))
     torque_ds = np.empty((n, 2 * n))
     for i in range(2 * n):
         direction = np.zeros(2 * n)
