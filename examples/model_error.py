@@ -17,7 +17,12 @@ A resolver degrades gracefully when its exact run is stable, no perturbed run
 whips or stops, and the deviation grows no faster than the perturbation
 (deviation per percent within a factor 2 from 5 % to 20 %).
 
-Run: python examples/model_error.py [--robots xarm7,panda] [--seeds 3] [--duration 1.0]
+With ``--joint-dynamics`` it runs instead the table of the URDF's joint damping and friction: the plant is
+the unperturbed MuJoCo model with the URDF's damping and friction (as ``frictionloss``), and the controller
+either ignores them (``joint_dynamics="off"``) or models them (``"urdf"``, the Pinocchio model's
+D q̇ + F tanh(q̇/v_s) in its bias torque), open loop and with the task-space feedback.
+
+Run: python examples/model_error.py [--robots xarm7,panda] [--seeds 3] [--duration 1.0] [--joint-dynamics]
 (about three minutes for the whole table on one core; needs pip install '.[mujoco]')
 """
 
@@ -57,12 +62,19 @@ def main() -> None:
     parser.add_argument(
         "--feedback", default="400,40", help="task-space PD gains KP,KD of the second table (default 400,40)"
     )
+    parser.add_argument(
+        "--joint-dynamics", action="store_true",
+        help="run only the table of the URDF's joint damping and friction: controller ignoring them, or modelling them",
+    )  # fmt: skip
     args = parser.parse_args()
     levels = [float(level) for level in args.levels.split(",")]
     resolvers = args.resolvers.split(",")
     robots = args.robots.split(",")
     gains = tuple(float(gain) for gain in args.feedback.split(","))
     line = torqueopt.StraightLine(direction=[0.0, 1.0, 0.0], accel=0.4, duration=args.duration)
+    if args.joint_dynamics:
+        joint_dynamics_table(robots, resolvers, line, gains)
+        return
     print(
         f"straight line along +y, {line.length * 1e3:.0f} mm in {args.duration:g} s, gravity on; plant: MuJoCo with "
         f"every link's mass and inertia scaled by factors from U(1 − p, 1 + p), {args.seeds} seed{'s' if args.seeds != 1 else ''} per level"
@@ -125,6 +137,41 @@ def main() -> None:
         print(f"  {robot_name}: degrade gracefully: {', '.join(graceful) or 'none'}")
         print(f"  {robot_name}: unstable on the exact model already: {', '.join(own) or 'none'}")
         print(f"  {robot_name}: stable on the exact model, not on a perturbed one: {', '.join(broken) or 'none'}")
+
+
+def joint_dynamics_table(robots, resolvers, line, gains) -> None:
+    """Largest tip error [mm] and verdict on the MuJoCo plant with the URDF's joint damping and friction."""
+    print(
+        f"straight line along +y, {line.length * 1e3:.0f} mm in {line.duration:g} s, gravity on; plant: MuJoCo with "
+        "the URDF's joint damping and friction (frictionloss), nothing else perturbed; KP,KD = "
+        f"{gains[0]:g},{gains[1]:g} in the closed-loop columns"
+    )
+    header = (
+        f"{'robot':<8}{'resolver':<32}{'ignores: open loop':>26}{'closed loop':>20}"
+        f"{'models: open loop':>26}{'closed loop':>20}"
+    )
+    print(header)
+    print("-" * len(header))
+    started = time.perf_counter()
+    for robot_name in robots:
+        modelled = torqueopt.load_robot(robot_name, task="position", joint_dynamics="urdf")
+        ignoring = modelled.with_joint_dynamics("off")
+        plant_options = {**MATCHED, "damping": "urdf"}
+        cells = {}
+        for name in resolvers:
+            row = []
+            for robot in (ignoring, modelled):
+                for feedback in (None, gains):
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", torqueopt.TorqueoptWarning)
+                        run = torqueopt.simulate(robot, name, line, robot.default_configuration, plant="mujoco",
+                                                 plant_options=plant_options, feedback=feedback)  # fmt: skip
+                    row.append(f"{run.max_tip_error * 1e3:12.2f} {verdict(run):>7}")
+            cells[name] = row
+            print(f"{robot_name:<8}{name:<32}" + "".join(
+                f"{cell:>26}" if index % 2 == 0 else f"{cell:>20}" for index, cell in enumerate(row)
+            ))  # fmt: skip
+    print(f"\n{len(robots) * len(resolvers) * 4} runs in {time.perf_counter() - started:.0f} s")
 
 
 if __name__ == "__main__":

@@ -98,7 +98,10 @@ def stage_weights(dt: float, order: int, with_configuration: bool) -> list[np.nd
 class HeldTorque:
     r"""The forward dynamics with the torque held over the step: :math:`\ddot q = \mathrm{ABA}(q, \dot q, \tau)`.
 
-    A second-order system; the step's parameter is τ [N·m]. One state's
+    A second-order system; the step's parameter is τ [N·m]. A robot that
+    models joint damping and friction gets :math:`\mathrm{ABA}(q, \dot q,
+    \tau - \tau_j(\dot q))` (:meth:`torqueopt.Robot.forward_dynamics`), the resistance
+    read at each stage's velocity. One state's
     accelerations are Pinocchio's ``aba`` in ``data``; a (B, n) stack's one
     ``pin.abaInParallel`` call (over a ``pin.ModelPool`` of ``threads``
     models) per stage.
@@ -123,9 +126,14 @@ class HeldTorque:
         if self._pool is None:
             self._pool = pin.ModelPool(self.robot.model, self.threads)
         pool, threads = self._pool, self.threads
+        robot = self.robot
+        resists = robot.models_joint_dynamics
 
         def accelerations(configuration, velocity, tau):
             out = np.empty_like(velocity)
+            if resists:
+                # The joints' damping and friction at this stage's velocity, as Robot.forward_dynamics takes it off.
+                tau = tau - robot.joint_resistance(velocity)
             # Eigen's matrices are column-major: the transpose of a C-ordered (B, n) array is an (n, B) one, no copy.
             pin.abaInParallel(threads, pool, configuration.T, velocity.T, tau.T, out.T)
             return out
@@ -158,8 +166,14 @@ class VelocityRates:
         return self.rates
 
     def torque(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-        """The inverse-dynamics torque of the motion at (q, q̇, q̈) [N·m], Eq. (20), in RNEA's own fresh array."""
-        return pin.rnea(self.model, self.data, q, v, acceleration)  # Eq. (20) on the motion
+        r"""The inverse-dynamics torque of the motion at (q, q̇, q̈) [N·m], Eq. (20), in RNEA's own fresh array.
+
+        A robot that models joint damping and friction adds their torque :math:`\tau_j(\dot q)`: the motor's.
+        """
+        torque = pin.rnea(self.model, self.data, q, v, acceleration)  # Eq. (20) on the motion
+        if self.robot.models_joint_dynamics:
+            torque += self.robot.joint_resistance(v)
+        return torque
 
 
 class RK4:

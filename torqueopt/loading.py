@@ -19,7 +19,7 @@ from .catalog import RobotSource, find_robot
 from .checks import check_task_rank, finite_vector
 from .errors import FrameNotFound, InvalidInput, UrdfError
 from .payload import Payload, add_payload
-from .robot import Robot, check_task_and_frame
+from .robot import DEFAULT_JOINT_DYNAMICS, Robot, check_joint_dynamics, check_task_and_frame
 from .urdf_checks import build_model, check_chain_moves_mass, checked_urdf_text
 
 __all__ = ["load_robot"]
@@ -47,6 +47,7 @@ def load_robot(
     lock: tuple[str, ...] | list[str] = (),
     reference_configuration=None,
     payload: Payload | None = None,
+    joint_dynamics: str | None = None,
 ) -> Robot:
     """Load a robot from a URDF path, a file in ``robots/`` or an example-robot-data name.
 
@@ -67,6 +68,10 @@ def load_robot(
         payload: a :class:`~torqueopt.Payload` fixed to the task frame, added
             to the inertia of the body that carries the frame (and to the
             MuJoCo plant's model of it); none by default.
+        joint_dynamics: ``"urdf"`` models the URDF's joint damping and
+            friction (in the resolvers' bias torque, the Pinocchio plant and
+            the MuJoCo plant alike), ``"off"`` none of them; defaults to
+            :data:`~torqueopt.robot.DEFAULT_JOINT_DYNAMICS` (``"off"``).
 
     Raises:
         RobotNotFound, UrdfError, FrameNotFound, TaskNotFound, InvalidInput: a bad source, file, frame, task or value.
@@ -75,6 +80,7 @@ def load_robot(
         raise InvalidInput(
             f"payload must be a torqueopt.Payload(mass, position, inertia), not {type(payload).__name__} {payload!r}"
         )
+    joint_dynamics = DEFAULT_JOINT_DYNAMICS if joint_dynamics is None else check_joint_dynamics(joint_dynamics)
     robot_source = find_robot(source)
     mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
     full_model = _build_model(robot_source.urdf, mimic=False)
@@ -136,6 +142,7 @@ def load_robot(
         locked_configuration=full_reference,
         default_configuration=default_configuration,
         payload=payload,
+        joint_dynamics=joint_dynamics,
     )
     check_task_rank(robot)  # a task the chain can never realise is an input mistake, not a failed run
     return robot

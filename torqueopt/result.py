@@ -78,6 +78,12 @@ class SimResult:
             gives it: the URDF's absolute path and SHA-256, the locked joints and the configuration
             they are held at; None for a robot built without a URDF and in files written before it
             was recorded.
+        joint_dynamics: the URDF's joint damping and friction and whether the run
+            modelled them, as ``joint_dynamics_record`` keeps them (``setting``,
+            ``modelled``, ``damping`` [N·m·s/rad], ``friction`` [N·m],
+            ``friction_velocity_scale`` [rad/s] per joint); None when the URDF has neither.
+            :attr:`damping_torque` and :attr:`friction_torque` are their shares
+            of each row's torque.
     """
 
     robot: str
@@ -113,6 +119,7 @@ class SimResult:
     gravity: list[float] | None = None
     payload: dict | None = None
     robot_source: dict | None = None
+    joint_dynamics: dict | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.
@@ -173,6 +180,34 @@ class SimResult:
     def first_velocity_violation(self):
         """(time [s], joint, velocity, ±limit) when a joint first exceeds its URDF velocity limit, or None."""
         return self._first_outside(self.v, -self.velocity_limit, self.velocity_limit)
+
+    # -- joint damping and friction ----------------------------------------------
+    @property
+    def models_joint_dynamics(self) -> bool:
+        """True when the run's torques include the URDF's joint damping or friction (``--joint-dynamics urdf``)."""
+        return bool(self.joint_dynamics and self.joint_dynamics["modelled"])
+
+    def _joint_dynamics_share(self, torque: np.ndarray) -> np.ndarray:
+        # Rows without an applied torque (the final state) hold NaN, as tau does.
+        return np.where(np.isnan(self.tau), np.nan, torque)
+
+    @property
+    def damping_torque(self) -> np.ndarray | None:
+        r"""Per row and joint, the damping torque :math:`D\dot q` the run's torque includes [N·m], (N, n); None when
+        the run did not model joint dynamics."""
+        if not self.models_joint_dynamics:
+            return None
+        return self._joint_dynamics_share(np.asarray(self.joint_dynamics["damping"], float) * self.v)
+
+    @property
+    def friction_torque(self) -> np.ndarray | None:
+        r"""Per row and joint, the friction torque :math:`F\tanh(\dot q/v_s)` the run's torque includes [N·m],
+        (N, n); None when the run did not model joint dynamics."""
+        if not self.models_joint_dynamics:
+            return None
+        record = self.joint_dynamics
+        scale = np.asarray(record["friction_velocity_scale"], float)
+        return self._joint_dynamics_share(np.asarray(record["friction"], float) * np.tanh(self.v / scale))
 
     # -- summary ---------------------------------------------------------------
     @property
@@ -300,12 +335,21 @@ class SimResult:
             "first_position_violation": _violation_json(self.first_position_violation),
             "first_velocity_violation": _violation_json(self.first_velocity_violation),
             "plant": self.plant,
-        }
+        } | ({} if self.joint_dynamics is None else {"joint_dynamics": self._joint_dynamics_summary()})
+
+    def _joint_dynamics_summary(self) -> dict:
+        """The record, with the peak damping and friction torques per joint when the run modelled them."""
+        summary = dict(self.joint_dynamics)
+        if self.models_joint_dynamics:
+            summary["peak_damping_torque"] = _column_peak(np.abs(self.damping_torque), self.n).tolist()
+            summary["peak_friction_torque"] = _column_peak(np.abs(self.friction_torque), self.n).tolist()
+        return summary
 
     # -- files -----------------------------------------------------------------
     def csv_columns(self) -> list[str]:
-        """Column names: t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible."""
-        return csv_columns(self.n, self.m)
+        """Column names: t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible
+        (then damping1..dampingn, friction1..frictionn when the run modelled joint dynamics)."""
+        return csv_columns(self.n, self.m, self.models_joint_dynamics)
 
     def to_csv(self, path: str | os.PathLike) -> Path:
         """Write the run to ``path``: CSV, or NumPy ``.npz`` when the path ends so.
@@ -339,6 +383,19 @@ def _violation_json(violation) -> dict | None:
         return None
     time, joint, value, limit = violation
     return {"time": time, "joint": joint, "value": value, "limit": limit}
+
+
+def joint_dynamics_record(robot) -> dict | None:
+    """The URDF's joint damping and friction and whether ``robot`` models them, JSON-ready; None when it has neither."""
+    if not robot.urdf_has_joint_dynamics:
+        return None
+    return {
+        "setting": robot.joint_dynamics,
+        "modelled": robot.models_joint_dynamics,
+        "damping": robot.urdf_joint_damping.tolist(),
+        "friction": robot.urdf_joint_friction.tolist(),
+        "friction_velocity_scale": robot.friction_velocity_scale.tolist(),
+    }
 
 
 def joint_limits_record(lower, upper, velocity) -> dict:

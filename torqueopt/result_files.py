@@ -4,7 +4,9 @@ Two formats, chosen by the path's suffix:
 
 * CSV (any other suffix): one row per step, columns ``t``, ``q1..qn`` (one
   angle per joint), ``v1..vn``, ``tau1..taun``, ``x1..xm``, ``xref1..xrefm``,
-  ``task_error``, ``infeasible``, then one column per dexterity measure
+  ``task_error``, ``infeasible``, then ``damping1..dampingn`` and
+  ``friction1..frictionn`` (the joint damping and friction torques the
+  torque includes, when the run modelled them), one column per dexterity measure
   and ``stability_margin`` when the run recorded them; beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
   stop reason). The reader takes the columns by name, in any order, and
   refuses a header that is missing, repeats or adds a column.
@@ -47,10 +49,11 @@ _ARRAY_FIELDS = (
 )  # fmt: skip
 
 
-def csv_columns(n: int, m: int) -> list[str]:
+def csv_columns(n: int, m: int, joint_dynamics: bool = False) -> list[str]:
     """The CSV columns of a run of n joints and m task coordinates, before any dexterity measure.
 
-    ``t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible``.
+    ``t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible``, then with
+    ``joint_dynamics`` ``damping1..dampingn, friction1..frictionn``.
     """
     return (
         ["t"]
@@ -60,7 +63,13 @@ def csv_columns(n: int, m: int) -> list[str]:
         + [f"x{i}" for i in range(1, m + 1)]
         + [f"xref{i}" for i in range(1, m + 1)]
         + list(_STEP_COLUMNS)
+        + (_joint_dynamics_columns(n) if joint_dynamics else [])
     )
+
+
+def _joint_dynamics_columns(n: int) -> list[str]:
+    """The damping and friction torque columns of a run that modelled them (derived from v: read, not kept)."""
+    return [f"damping{i}" for i in range(1, n + 1)] + [f"friction{i}" for i in range(1, n + 1)]
 
 
 def run_files(path: str | os.PathLike) -> list[Path]:
@@ -96,6 +105,7 @@ def _write_result(result, path: Path) -> Path:
             result.x_ref,
             result.task_error,
             result.infeasible,
+            *((result.damping_torque, result.friction_torque) if result.models_joint_dynamics else ()),
             *dexterity.values(),
         ]
     )
@@ -230,9 +240,12 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
         **{name: [name] for name in _STEP_COLUMNS},
     }
     optional = {name: [name] for name in (*_dexterity_names(), _MARGIN) if name in where}
+    if all(name in where for name in _joint_dynamics_columns(n)):
+        # Derived from v and the sidecar's joint dynamics: accepted, not read.
+        optional["joint_dynamics"] = _joint_dynamics_columns(n)
     contract = (
         f"t, q1..q{n}, v1..v{n}, tau1..tau{n}, x1..x{m}, xref1..xref{m}, task_error, infeasible "
-        "(then dexterity, stability_margin)"
+        f"(then damping1..damping{n} and friction1..friction{n}, dexterity, stability_margin)"
     )
     missing = [name for names in groups.values() for name in names if name not in where]
     if missing:

@@ -9,6 +9,28 @@ resolvers need, all computed by Pinocchio:
 * the task Jacobian :math:`J` and drift :math:`\dot J \dot q` in the
   world-aligned frame at the task frame's origin, Eq. (18).
 
+Joint damping and friction (the URDF's ``<dynamics damping friction>``,
+Pinocchio's ``model.damping`` and ``model.friction``) are modelled or not
+as one setting says, ``joint_dynamics`` (:data:`JOINT_DYNAMICS`): with
+``"urdf"`` the joints resist motion with the torque
+
+.. math::
+
+    \tau_j(\dot q) = D \dot q + F \tanh(\dot q / v_s),\qquad
+    v_{s,j} = F_j\,(H^{-1})_{jj}(q_\mathrm{ref}) / \kappa,
+
+:math:`D` the damping [N·m·s/rad], :math:`F` the friction [N·m] and
+:math:`v_s` [rad/s] the velocity below which the friction fades, per joint:
+below it the friction slows the joint at the rate :math:`\kappa` =
+:data:`FRICTION_RATE` whatever its inertia, as MuJoCo's ``frictionloss``
+does (:math:`(H^{-1})_{jj}` at the default configuration); it joins the bias torque
+:math:`b` the resolvers compensate, and the forward dynamics subtract it
+(:meth:`torqueopt.Robot.forward_dynamics`), so the controller's model and the
+Pinocchio plant stay one model, and the torque the paper's criterion
+weighs is the motor's. With ``"off"`` neither is modelled (Pinocchio's own
+algorithms never read them). Why tanh, and why this :math:`v_s`:
+docs/decisions/0009-joint-damping-and-friction.md.
+
 Tasks:
 
 ``xy``
@@ -32,9 +54,20 @@ import pinocchio as pin
 
 from .catalog import RobotSource
 from .checks import TASK_DIMENSIONS, check_task_and_frame, finite_vector, torque_limit_vector
+from .errors import InvalidInput
 from .units import joint_kind, joint_unit
 
-__all__ = ["Robot", "TaskTerms", "TASK_DIMENSIONS", "check_task_and_frame"]
+__all__ = [
+    "DEFAULT_JOINT_DYNAMICS",
+    "FRICTION_RATE",
+    "JOINT_DYNAMICS",
+    "Robot",
+    "TaskTerms",
+    "TASK_DIMENSIONS",
+    "check_joint_dynamics",
+    "check_task_and_frame",
+    "joint_resistance",
+]
 
 _TASK_ROWS = {"xy": slice(0, 2), "position": slice(0, 3), "pose": slice(0, 6)}
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -43,6 +76,38 @@ _WORLD = pin.Convention.WORLD
 _EUCLIDEAN_JOINTS = frozenset(
     f"JointModel{kind}" for kind in ("RX", "RY", "RZ", "RevoluteUnaligned", "PX", "PY", "PZ", "PrismaticUnaligned")
 )
+#: The joint-dynamics settings, ``urdf`` (model the URDF's joint damping and friction) and ``off`` (neither).
+JOINT_DYNAMICS = ("urdf", "off")
+#: The setting a robot gets unless told, ``off``, which keeps every run of the example arms whose URDFs carry
+#: damping (panda, xarm7, baxter, tiago) as it was before joint dynamics existed (decision record 0009).
+DEFAULT_JOINT_DYNAMICS = "off"
+#: κ [1/s] of the friction model :math:`F_j \tanh(\dot q_j / v_{s,j})`, :math:`v_{s,j} = F_j (H^{-1})_{jj} / κ`:
+#: below saturation the friction slows joint j at the rate κ whatever its inertia, as MuJoCo's ``frictionloss``
+#: does at its default solref (2 / (0.95 · 0.02 s) / (1 + 0.1/0.9) ≈ 94.7 /s); decision record 0009.
+FRICTION_RATE = 100.0
+
+
+def check_joint_dynamics(value) -> str:
+    """The joint-dynamics setting ``value`` names (``urdf`` or ``off``).
+
+    Raises:
+        InvalidInput: any other value, naming it and the valid ones.
+    """
+    if isinstance(value, str) and value in JOINT_DYNAMICS:
+        return value
+    raise InvalidInput(f"joint dynamics {value!r} is not one of {', '.join(JOINT_DYNAMICS)}")
+
+
+def joint_resistance(
+    damping: np.ndarray, friction: np.ndarray, velocity_scale: np.ndarray, velocity: np.ndarray
+) -> np.ndarray:
+    r"""The torque the joints' damping and friction oppose motion with, :math:`D\dot q + F\tanh(\dot q/v_s)` [N·m].
+
+    ``velocity`` is one state's (n) or a stack's (B, n) [rad/s]; ``damping``
+    [N·m·s/rad], ``friction`` [N·m] and ``velocity_scale`` :math:`v_s`
+    [rad/s] one value per joint (``Robot.friction_velocity_scale``).
+    """
+    return damping * velocity + friction * np.tanh(velocity / velocity_scale)
 
 
 class TaskTerms(NamedTuple):
@@ -50,7 +115,8 @@ class TaskTerms(NamedTuple):
 
     Attributes:
         inertia: joint-space inertia :math:`H` (n×n) [kg·m², kg].
-        bias_torque: :math:`\dot q \cdot C \cdot \dot q + g` (n) [N·m].
+        bias_torque: :math:`\dot q \cdot C \cdot \dot q + g` (n) [N·m], plus the joints'
+            damping and friction :math:`\tau_j(\dot q)` when the robot models them.
         jacobian: task Jacobian :math:`J` (m×n), world-aligned.
         drift: :math:`\dot J \dot q` (m), the classical task acceleration at
             zero joint acceleration [m/s², rad/s²].
@@ -86,7 +152,8 @@ class Robot:
     Build one with :func:`torqueopt.load_robot`. Joints outside the chain that carries
     the task frame (the other arm, a gripper, a mobile base) are locked at
     their reference values, so ``nv`` counts only the joints that move the
-    task frame.
+    task frame. ``joint_dynamics`` says whether the URDF's joint damping and
+    friction are modelled (see the module docstring).
     """
 
     def __init__(
@@ -104,6 +171,7 @@ class Robot:
         locked_configuration: np.ndarray | None = None,
         default_configuration: np.ndarray | None = None,
         payload=None,
+        joint_dynamics: str = DEFAULT_JOINT_DYNAMICS,
     ):
         check_task_and_frame(model, frame, task, name)
         self.model = model
@@ -133,6 +201,7 @@ class Robot:
         self._set_gravity(gravity)
         self.urdf_effort_limit = np.array(model.effortLimit, dtype=float)
         self._set_torque_limit(torque_limit)
+        self._set_joint_dynamics(joint_dynamics)
 
     # -- sizes --------------------------------------------------------------
     def joint_unit(self, joint: int, quantity: str) -> str:
@@ -194,7 +263,16 @@ class Robot:
         """
         return self._copy(self.model, torque_limit, self.gravity)
 
-    def _copy(self, model: pin.Model, torque_limit, gravity) -> Robot:
+    def with_joint_dynamics(self, joint_dynamics: str) -> Robot:
+        """A copy of this robot that models the URDF's joint damping and friction (``"urdf"``) or not (``"off"``).
+
+        The copy shares this robot's Pinocchio model and torque limits; this robot is left as it is.
+        """
+        copy = self._copy(self.model, self.torque_upper.copy(), self.gravity, joint_dynamics)
+        copy.torque_lower = self.torque_lower.copy()
+        return copy
+
+    def _copy(self, model: pin.Model, torque_limit, gravity, joint_dynamics: str | None = None) -> Robot:
         return Robot(
             model,
             self.frame,
@@ -208,6 +286,42 @@ class Robot:
             locked_configuration=self.locked_configuration,
             default_configuration=self._default_configuration,
             payload=self.payload,
+            joint_dynamics=self.joint_dynamics if joint_dynamics is None else joint_dynamics,
+        )
+
+    def _set_joint_dynamics(self, joint_dynamics: str) -> None:
+        """Model the URDF's joint damping and friction, or not; only while the robot is made."""
+        self.joint_dynamics = check_joint_dynamics(joint_dynamics)
+        #: The URDF's joint damping [N·m·s/rad or N·s/m] and friction [N·m or N], one per joint, as written.
+        self.urdf_joint_damping = np.array(self.model.damping, dtype=float)
+        self.urdf_joint_friction = np.array(self.model.friction, dtype=float)
+        modelled = self.joint_dynamics == "urdf"
+        #: The damping D and friction F the robot models: the URDF's under ``urdf``, zeros under ``off``.
+        self.joint_damping = self.urdf_joint_damping.copy() if modelled else np.zeros(self.nv)
+        self.joint_friction = self.urdf_joint_friction.copy() if modelled else np.zeros(self.nv)
+        #: v_s per joint [rad/s or m/s] of the friction model (see the module docstring); 1 where F = 0.
+        self.friction_velocity_scale = np.ones(self.nv)
+        if self.urdf_joint_friction.any():
+            data = self.model.createData()
+            inverse_inertia = np.diag(pin.computeMinverse(self.model, data, self._default_configuration)).copy()
+            scale = self.urdf_joint_friction * inverse_inertia / FRICTION_RATE
+            self.friction_velocity_scale = np.where(scale > 0, scale, 1.0)
+
+    @property
+    def urdf_has_joint_dynamics(self) -> bool:
+        """True when the URDF gives some joint a nonzero damping or friction (modelled or not)."""
+        return bool(self.urdf_joint_damping.any() or self.urdf_joint_friction.any())
+
+    @property
+    def models_joint_dynamics(self) -> bool:
+        """True when the dynamics carry a joint damping or friction torque (``urdf``, and the URDF has some)."""
+        return bool(self.joint_damping.any() or self.joint_friction.any())
+
+    def joint_resistance(self, velocity: np.ndarray) -> np.ndarray:
+        r""":math:`\tau_j(\dot q) = D\dot q + F\tanh(\dot q/v_s)` [N·m] of one velocity (n) or a stack (B, n); zeros
+        when the robot does not model joint dynamics."""
+        return joint_resistance(
+            self.joint_damping, self.joint_friction, self.friction_velocity_scale, np.asarray(velocity, dtype=float)
         )
 
     def _set_torque_limit(self, torque_limit=None) -> None:
@@ -314,17 +428,30 @@ class Robot:
             drift6 = pin.getFrameClassicalAcceleration(model, data, frame_id, _LWA).vector
             return TaskTerms(inertia, bias_torque, jacobian6[rows], drift6[rows], placement, v, q)
 
-        return terms
+        if not self.models_joint_dynamics:
+            return terms
+        resistance = self.joint_resistance
+
+        def terms_with_joint_resistance(q: np.ndarray, v: np.ndarray) -> TaskTerms:
+            # The bias the resolvers compensate is the motor's: b of Eq. (20) plus the joints' own resistance.
+            found = terms(q, v)
+            return found._replace(bias_torque=found.bias_torque + resistance(v))
+
+        return terms_with_joint_resistance
 
     def forward_dynamics(
         self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: pin.Data | None = None
     ) -> np.ndarray:
-        """Joint acceleration from torque, by Pinocchio's ABA [rad/s²], computed in ``data`` (fresh when None).
+        r"""Joint acceleration from torque, by Pinocchio's ABA [rad/s²], computed in ``data`` (fresh when None).
 
         ABA runs in Pinocchio's WORLD convention: the same accelerations as
         the default LOCAL one to round-off, in fewer instructions (BENCHMARKS.md).
+        When the robot models joint dynamics the joints' resistance
+        :math:`\tau_j(\dot q)` is taken off the torque first: ABA(q, q̇, τ − τ_j(q̇)).
         """
         data = self.model.createData() if data is None else data
+        if self.models_joint_dynamics:
+            tau = tau - self.joint_resistance(v)
         return pin.aba(self.model, data, q, v, tau, _WORLD)
 
     def forward_dynamics_function(self, data: pin.Data | None = None):
@@ -332,8 +459,16 @@ class Robot:
 
         Calling it skips one Python frame per call, for inner loops.
         """
-        data = self.model.createData() if data is None else data
-        return partial(pin.aba, self.model, data, convention=_WORLD)
+        model = self.model
+        data = model.createData() if data is None else data
+        if not self.models_joint_dynamics:
+            return partial(pin.aba, model, data, convention=_WORLD)
+        resistance = self.joint_resistance
+
+        def forward_dynamics(q, v, tau):
+            return pin.aba(model, data, q, v, tau - resistance(v), _WORLD)
+
+        return forward_dynamics
 
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Configuration reached from q by the joint displacement dq."""
@@ -359,5 +494,5 @@ class Robot:
     def __repr__(self) -> str:
         return (
             f"Robot({self.name!r}, frame={self.frame!r}, task={self.task!r}, n={self.nv}, m={self.m}, "
-            f"torque_limit={self.torque_limit.tolist()})"
+            f"torque_limit={self.torque_limit.tolist()}, joint_dynamics={self.joint_dynamics!r})"
         )

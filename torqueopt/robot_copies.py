@@ -190,7 +190,8 @@ class RobotForest:
     def terms(self, q: np.ndarray, v: np.ndarray):
         r"""The task terms of every row: ``(H, b, J, J̇q̇, p)`` as (S, n, n), (S, n), (S, 6, n), (S, 6), (S, 3).
 
-        :math:`H` and :math:`b = C\dot q + g` of Eq. (20); the task frame's
+        :math:`H` and :math:`b = C\dot q + g` of Eq. (20) (plus the joints' damping and friction when the robot
+        models them, :meth:`torqueopt.Robot.joint_resistance`); the task frame's
         Jacobian :math:`J` and classical-acceleration drift :math:`\dot J\dot q`
         (Eq. (18)) in LOCAL_WORLD_ALIGNED, linear rows first; its position p.
         """
@@ -203,6 +204,8 @@ class RobotForest:
             pin.updateFramePlacements(model, data)
         used = self._passes(count)
         inertia, bias = _gathered(used, "inertia", count), _gathered(used, "bias", count)
+        if self.robot.models_joint_dynamics:
+            bias += self.robot.joint_resistance(v)  # the motor's bias, as Robot.terms gives it
         # J_O and J̇_O of every row batch-last, (12, n, rows), so that numpy's inner loops run over the rows
         world = np.empty((12, self.n, len(used) * self.copies))
         np.concatenate([forest_pass.jacobian_columns for forest_pass in used], axis=2, out=world[:6])
@@ -334,12 +337,16 @@ class RobotForest:
         return _gathered(self._passes(q.shape[0]), "inertia", q.shape[0])
 
     def inverse_dynamics(self, q: np.ndarray, v: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-        """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass."""
+        """RNEA of every row, τ = H q̈ + b (Eq. (20)), (S, n) [N·m]: one Pinocchio call per forest pass (plus the
+        joints' damping and friction when the robot models them)."""
         torques = [
             pin.rnea(self.model, forest_pass.data, q_forest, v_forest, acceleration_forest).reshape(self.copies, self.n)
             for forest_pass, q_forest, v_forest, acceleration_forest in self._each_pass(q, v, acceleration)
         ]
-        return np.concatenate(torques)[: q.shape[0]]
+        torque = np.concatenate(torques)[: q.shape[0]]
+        if self.robot.models_joint_dynamics:
+            torque += self.robot.joint_resistance(v)  # the motor's torque, as VelocityRates.torque gives it
+        return torque
 
 
 def _gathered(used: list[_Pass], name: str, count: int) -> np.ndarray:

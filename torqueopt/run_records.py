@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .dexterity import dexterity_along
-from .result import SimResult, joint_limits_record
+from .result import SimResult, joint_dynamics_record, joint_limits_record
 from .robot import Robot
 from .run_robot import robot_record
 from .trajectory import Trajectory, describe
@@ -159,6 +159,7 @@ def build_result(
         gravity=robot.gravity.tolist(),
         payload=None if robot.payload is None else robot.payload.record(),
         robot_source=robot_record(robot) if robot_source is None else robot_source,
+        joint_dynamics=joint_dynamics_record(robot),
     )
 
 

@@ -23,7 +23,8 @@ the first part Pinocchio's analytical ABA derivatives
         \frac{\partial\,\text{term}}{\partial s_i},
 
 with every term's derivative analytical from Pinocchio: :math:`\partial H/\partial q_k`
-and :math:`\partial b/\partial s` from ``computeRNEADerivatives``,
+and :math:`\partial b/\partial s` from ``computeRNEADerivatives`` (with the joints' damping and friction
+:math:`\partial\tau_j/\partial\dot q` when the robot models them, which the plant's ABA then takes off),
 :math:`\partial J/\partial q_k` from ``getFrameVelocityDerivatives`` and the
 drift :math:`\dot J\dot q` (the classical acceleration, :math:`a + \omega\times v`)
 from ``getFrameAccelerationDerivatives``. The resolver itself is any
@@ -94,6 +95,13 @@ def _rotated(rotation, local_ds, value_world, angular_jacobian):
     return result
 
 
+def _resistance_dv(robot: Robot, v: np.ndarray) -> np.ndarray:
+    r""":math:`\partial\tau_j/\partial\dot q = D + F\,\mathrm{sech}^2(\dot q/v_s)/v_s` (diagonal, n×n), zero when the
+    robot does not model joint dynamics."""
+    scale = robot.friction_velocity_scale
+    return np.diag(robot.joint_damping + robot.joint_friction * (1.0 - np.tanh(v / scale) ** 2) / scale)
+
+
 def _term_derivatives(robot: Robot, q: np.ndarray, v: np.ndarray):
     """The derivatives of H, b, J, J̇q̇ and J q̇ along each of the 2n state directions (q first, then q̇).
 
@@ -104,6 +112,8 @@ def _term_derivatives(robot: Robot, q: np.ndarray, v: np.ndarray):
     n, rows, frame, m = robot.nv, robot.task_rows, robot.frame_id, robot.m
     zero = np.zeros(n)
     bias_dq, bias_dv, _ = pin.computeRNEADerivatives(model, data, q, v, zero)
+    if robot.models_joint_dynamics:
+        bias_dv = bias_dv + _resistance_dv(robot, v)
     bias_ds = np.hstack([bias_dq, bias_dv])
     gravity_dq = pin.computeRNEADerivatives(model, data, q, zero, zero)[0].copy()
     jacobian_world = pin.computeFrameJacobian(model, data, q, frame, _LWA)
@@ -173,11 +183,13 @@ def _linearise(robot: Robot, step, q, v, command, difference_step) -> Linearisat
     terms = robot.terms(q, v)
     resolution = step(terms, command)
     inertia_ds, bias_ds, jacobian_ds, drift_ds, velocity_ds = _term_derivatives(robot, q, v)
-    # The plant: ∂ABA/∂q, ∂ABA/∂q̇ and ∂ABA/∂τ = H⁻¹ at the resolver's torque.
-    aba_dq, aba_dv, inverse_inertia = (
-        np.array(part) for part in pin.computeABADerivatives(model, data, q, v, resolution.torque)
-    )
+    # The plant: ∂ABA/∂q, ∂ABA/∂q̇ and ∂ABA/∂τ = H⁻¹ at the resolver's torque, less the joints' resistance.
+    resists = robot.models_joint_dynamics
+    applied = resolution.torque - robot.joint_resistance(v) if resists else resolution.torque
+    aba_dq, aba_dv, inverse_inertia = (np.array(part) for part in pin.computeABADerivatives(model, data, q, v, applied))
     inverse_inertia = np.triu(inverse_inertia) + np.triu(inverse_inertia, 1).T
+    if resists:
+        aba_dv -= inverse_inertia.dot(_resistance_dv(robot, v))
     torque_ds = np.empty((n, 2 * n))
     for i in range(2 * n):
         direction = np.zeros(2 * n)

@@ -263,7 +263,8 @@ def _task_failures(robot, drawn, terms, resolutions) -> list[str]:
         if torque.shape != (robot.nv,) or acceleration.shape != (robot.nv,):
             failures.append(f"task: state {index}: torque {torque.shape} and q̈ {acceleration.shape}, not ({robot.nv},)")
             continue
-        produced = pin.aba(robot.model, data, q, v, torque)  # what the torque does, from the torque alone
+        # What the torque does, from the torque alone (less the joints' damping and friction the robot models).
+        produced = robot.forward_dynamics(q, v, torque, data)
         if np.abs(produced - acceleration).max() > 1e-8 * _scale(produced):
             failures.append(
                 f"task: state {index}: the torque produces q̈ = {_vector(produced)} (ABA), not the reported "

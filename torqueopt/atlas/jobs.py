@@ -30,6 +30,8 @@ class RobotSpec:
     torque_limit: tuple[float, ...] | None = None
     gravity: bool | tuple[float, ...] | None = None
     payload: Payload | None = None
+    #: ``urdf`` or ``off`` (:func:`torqueopt.load_robot`'s ``joint_dynamics``); None: the default.
+    joint_dynamics: str | None = None
 
     def __post_init__(self):
         # As atlas-config.json records them (lists, the payload's fields), read back into hashable values.
@@ -48,17 +50,20 @@ class RobotSpec:
             torque_limit=self.torque_limit,
             gravity=self.gravity,
             payload=self.payload,
+            joint_dynamics=self.joint_dynamics,
         )
 
     def as_dict(self) -> dict:
+        # The payload and joint_dynamics only when given, so that an atlas without them keeps its fingerprint
+        # (and resumes).
         return {
             "source": self.source,
             "frame": self.frame,
             "task": self.task,
             "torque_limit": None if self.torque_limit is None else list(self.torque_limit),
             "gravity": list(self.gravity) if isinstance(self.gravity, tuple) else self.gravity,
-            # Only when given, so that an atlas without one keeps its fingerprint (and resumes).
             **({} if self.payload is None else {"payload": self.payload.record()}),
+            **({} if self.joint_dynamics is None else {"joint_dynamics": self.joint_dynamics}),
         }
 
 

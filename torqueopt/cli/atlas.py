@@ -8,7 +8,13 @@ import time
 from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
-from .common import gravity_from_args, importable_from_here, parse_vector, payload_from_args
+from .common import (
+    add_joint_dynamics_option,
+    gravity_from_args,
+    importable_from_here,
+    parse_vector,
+    payload_from_args,
+)
 
 __all__ = ["add_parser", "add_robot_spec_options", "robot_spec"]
 
@@ -57,6 +63,7 @@ def add_robot_spec_options(parser, robot_help: str, torque_limit_help: str, requ
         help="a load fixed to the task frame: mass [kg], centre of mass in the task frame [m], principal moments "
         "of inertia [kg·m²] (as torqueopt run --payload)",
     )
+    add_joint_dynamics_option(parser)
 
 
 def robot_spec(args: argparse.Namespace):
@@ -74,6 +81,7 @@ def robot_spec(args: argparse.Namespace):
         torque_limit=torque_limit,
         gravity=tuple(gravity.tolist()) if hasattr(gravity, "tolist") else gravity,
         payload=payload_from_args(args),
+        joint_dynamics=args.joint_dynamics,
     )
 
 

@@ -13,9 +13,10 @@ from ..errors import InvalidInput
 from ..loading import load_robot
 from ..payload import Payload
 from ..progress import said_if_slow
-from ..robot import TASK_DIMENSIONS, Robot
+from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
 
 __all__ = [
+    "add_joint_dynamics_option",
     "add_robot_options",
     "add_start_options",
     "robot_from_args",
@@ -82,7 +83,19 @@ def start_velocity_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarr
     return in_radians(rates, robot) if args.degrees else rates
 
 
-def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
+def add_joint_dynamics_option(group) -> None:
+    """``--joint-dynamics urdf|off``: model the URDF's joint damping and friction (controller and plant), or not."""
+    group.add_argument(
+        "--joint-dynamics",
+        choices=JOINT_DYNAMICS,
+        default=None,
+        help="urdf: model the URDF's joint damping and friction (<dynamics damping friction>) in the controller's "
+        "bias torque and in the plant (Pinocchio or MuJoCo); off: in neither "
+        f"(default {DEFAULT_JOINT_DYNAMICS})",
+    )
+
+
+def add_robot_options(parser: argparse.ArgumentParser, required: bool = True, joint_dynamics: bool = False) -> None:
     group = parser.add_argument_group("robot")
     group.add_argument(
         "--robot",
@@ -118,6 +131,8 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True) ->
         "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
         "(default 0: a point mass)",
     )
+    if joint_dynamics:
+        add_joint_dynamics_option(group)
     group.add_argument(
         "--lock",
         metavar="JOINTS",
@@ -140,6 +155,7 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             gravity=gravity_from_args(args),
             lock=lock,
             payload=payload_from_args(args),
+            joint_dynamics=getattr(args, "joint_dynamics", None),
         )
 
 

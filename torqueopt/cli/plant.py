@@ -18,7 +18,10 @@ PLANT_OPTIONS = {
     "timestep": ("dt", "MuJoCo's step [s], dividing --dt (sub-steps)"),
     "contacts": ("off", "on|off"),
     "joint-limits": ("on", "on|off, MuJoCo's joint-limit forces"),
-    "damping": ("urdf", "urdf|zero: the model's joint damping, friction loss and armature, or none"),
+    "damping": (
+        "robot",
+        "urdf|zero|robot: the model's joint damping, friction loss and armature, none, or as --joint-dynamics says",
+    ),
     "inertia-floor": ("none", "raise principal moments of inertia below this [kg·m²] to it (planar3's thin rods)"),
     "perturb": ("0", "scale each link's mass and inertia by a factor from U(1−p, 1+p)"),
     "seed": ("0", "seed of those factors"),

@@ -55,7 +55,7 @@ def add_parser(subparsers) -> None:
             "whether the run stopped early. Angles in radians; give negative vectors as --q0=-0.78,..."
         ),
     )
-    add_robot_options(parser)
+    add_robot_options(parser, joint_dynamics=True)
     group = parser.add_argument_group("movement")
     add_resolver_arguments(group)
     add_start_options(group, velocity=True)
@@ -313,6 +313,30 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
     if result.stability_margin is not None:
         lines.append(margin_summary(result))
     lines.append(f"whiplash: {detect_whiplash(result, limit_factor=limit_factor).reason}")
+    lines.extend(joint_dynamics_summary(result))
     lines.extend(plant_summary(result))
     lines.append("status: completed" if result.completed else f"status: STOPPED EARLY: {result.stop_reason}")
     return "\n".join(lines)
+
+
+def joint_dynamics_summary(result) -> list[str]:
+    """One line when the URDF has joint damping or friction: whether the run modelled them, and their peaks."""
+    record = result.joint_dynamics
+    if record is None:
+        return []
+
+    def shown(values) -> str:
+        values = [float(value) for value in values]
+        return f"{values[0]:g}" if len(set(values)) == 1 else ", ".join(f"{value:g}" for value in values)
+
+    given = f"damping {shown(record['damping'])} N·m·s/rad, friction {shown(record['friction'])} N·m"
+    if not result.models_joint_dynamics:
+        return [f"joint dynamics: the URDF's joint {given} NOT modelled (--joint-dynamics off); urdf models them"]
+    damping = np.nanmax(np.abs(result.damping_torque), axis=0, initial=0.0)
+    friction = np.nanmax(np.abs(result.friction_torque), axis=0, initial=0.0)
+    joint = int(np.argmax(damping + friction))
+    return [
+        f"joint dynamics: the URDF's joint {given} modelled (--joint-dynamics urdf); largest share at joint "
+        f"{result.joint_names[joint]}: damping {damping[joint]:.4g} N·m, friction {friction[joint]:.4g} N·m of peak "
+        f"{result.peak_torque[joint]:.4g} N·m"
+    ]

@@ -34,8 +34,8 @@ option                    meaning                                       default
 ``timestep``              MuJoCo's step [s]; must divide ``dt``          ``dt``
 ``contacts``              ``on`` / ``off``                              ``off``
 ``joint-limits``          ``on`` / ``off``: MuJoCo's joint-limit forces ``on``
-``damping``               ``urdf``: the model's joint damping, friction ``urdf``
-                          loss and armature; ``zero``: none of them
+``damping``               ``urdf``: the model's joint damping, friction the robot's
+                          loss and armature; ``zero``: none of them     joint dynamics
 ``inertia-floor``         raise principal moments of inertia below this none (refuse)
                           [kg·m²] to it (thin rods, e.g. planar3)
 ``perturb``               scale each link's mass and inertia by a       ``0``
@@ -44,10 +44,23 @@ option                    meaning                                       default
 ``mjcf``                  an MJCF file to use instead of the URDF       none
 ========================= ============================================= ==============
 
+``damping`` follows the robot's ``joint_dynamics`` unless given: ``urdf``
+when the controller models the URDF's joint damping and friction, ``zero``
+when it does not, so that controller and plant agree by default. With
+``urdf`` on the robot's own URDF, the plant's joint damping is the damping
+Pinocchio read (MuJoCo's ``dof_damping``, exactly) and its friction the
+URDF's friction as MuJoCo's ``frictionloss``, a soft constraint that holds a
+joint at rest up to F and opposes a sliding one with F; the controller's
+model is F·tanh(q̇/v_s) (:mod:`torqueopt.robot`), so the two differ only
+while a joint moves slower than a few v_s. Giving ``damping`` against the
+robot's setting is a model error on purpose (the controller ignores what the
+plant applies, or the other way round).
+
 With matched settings (the URDF, ``contacts=off``, ``joint-limits=off``,
-``damping=zero``, ``integrator=rk4``, ``timestep=dt``) MuJoCo integrates the
-same equations as the Pinocchio plant: the tests hold the two runs to 1e-9
-rad on xarm7 and panda.
+``damping`` following the robot, ``integrator=rk4``, ``timestep=dt``) MuJoCo
+integrates the same equations as the Pinocchio plant: the tests hold the two
+runs to 1e-9 rad on xarm7 and panda, with the URDF's damping modelled or
+not.
 """
 
 from __future__ import annotations
@@ -83,7 +96,7 @@ OPTION_DEFAULTS = {
     "timestep": "dt",
     "contacts": "off",
     "joint-limits": "on",
-    "damping": "urdf",
+    "damping": "robot",
     "inertia-floor": "none",
     "perturb": "0",
     "seed": "0",
@@ -119,7 +132,8 @@ class MujocoOptions:
     timestep: float | None = None
     contacts: bool = False
     joint_limits: bool = True
-    damping: str = "urdf"
+    #: ``urdf``, ``zero``, or None: follow the robot's joint dynamics.
+    damping: str | None = None
     inertia_floor: float | None = None
     perturb: float = 0.0
     seed: int = 0
@@ -175,7 +189,7 @@ def mujoco_options(
     timestep=None,
     contacts=False,
     joint_limits=True,
-    damping="urdf",
+    damping=None,
     inertia_floor=None,
     perturb=0.0,
     seed=0,
@@ -195,7 +209,9 @@ def mujoco_options(
         timestep=None if _unset(timestep) else _option_number(timestep, "timestep", "positive", "s"),
         contacts=_on_off(contacts, "contacts"),
         joint_limits=_on_off(joint_limits, "joint-limits"),
-        damping=_choice(damping, "damping", ("urdf", "zero")),
+        damping=None
+        if _unset(damping) or str(damping).strip().lower() == "robot"
+        else _choice(damping, "damping", ("urdf", "zero", "robot")),
         inertia_floor=None
         if _unset(inertia_floor)
         else _option_number(inertia_floor, "inertia-floor", "positive", "kg·m²"),
@@ -258,6 +274,7 @@ class MujocoPlant:
         self.perturbation = self._perturb(mujoco, model)
         self.data = mujoco.MjData(model)
         self._map_joints(mujoco, model)
+        self._set_joint_dynamics(model)
         self._warnings = [
             int(getattr(mujoco.mjtWarning, name)) for name in ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
         ]
@@ -473,11 +490,30 @@ class MujocoPlant:
         if not options.joint_limits:
             flags |= int(disabled.mjDSBL_LIMIT)
         model.opt.disableflags = flags
-        if options.damping == "zero":
+        if self.damping == "zero":
             model.dof_damping[:] = 0.0
             model.dof_frictionloss[:] = 0.0
             model.dof_armature[:] = 0.0
             model.jnt_stiffness[:] = 0.0
+
+    @property
+    def damping(self) -> str:
+        """``urdf`` or ``zero``: the option as given, else what the robot's joint dynamics say."""
+        if self.options.damping is not None:
+            return self.options.damping
+        return "urdf" if self.robot.joint_dynamics == "urdf" else "zero"
+
+    def _set_joint_dynamics(self, model) -> None:
+        """Under ``damping=urdf`` on the robot's URDF, the damping and friction Pinocchio read, joint by joint.
+
+        MuJoCo's URDF reader gives the same numbers; setting them from the
+        robot makes the damping the controller models and the plant's one
+        number. An MJCF keeps its own.
+        """
+        if self.damping != "urdf" or self.options.mjcf is not None:
+            return
+        model.dof_damping[self._dof] = self.robot.urdf_joint_damping
+        model.dof_frictionloss[self._dof] = self.robot.urdf_joint_friction
 
     def _perturb(self, mujoco, model) -> dict | None:
         """Scale each moving link's mass and inertia by factors from U(1 − p, 1 + p), seeded; None when p = 0."""
@@ -659,7 +695,7 @@ class MujocoPlant:
             "substeps": getattr(self, "substeps", None),
             "contacts": "on" if options.contacts else "off",
             "joint_limits": "on" if options.joint_limits else "off",
-            "damping": options.damping,
+            "damping": self.damping,
             "inertia_floor": options.inertia_floor,
             "perturbation": self.perturbation,
             "start_inertia_difference": self.start_inertia_difference,
