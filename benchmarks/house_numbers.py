@@ -395,7 +395,9 @@ def committed_resolvers(config: dict) -> list:
 def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: bool) -> tuple[pd.DataFrame, int]:
     """(rows, population size) of ``sample_size`` seeded paths of the atlas of ``config``, run as its sweep does."""
     from torqueopt.atlas.population import PopulationSpec, draw_population
+    from torqueopt.atlas.jobs import GlobalChunk, ResolverChunk
     from torqueopt.atlas.sweep import RobotSpec, run_chunk
+    from torqueopt.atlas.verdicts import Thresholds
 
     robot = config["robot"]
     spec = RobotSpec(
@@ -413,22 +415,16 @@ def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: 
         np.random.default_rng(sample_seed).choice(len(movements), min(sample_size, len(movements)), replace=False)
     )
     sample = [movements[i] for i in chosen]
-    job = {
-        "robot": spec,
-        "resolvers": committed_resolvers(config),
-        "dt": float(config["dt"]),
-        "thresholds": config["thresholds"],
-        "batch": bool(config.get("batch", True)),
-        "digest": "",
-    }
-    if "margin" in config:
-        job["margin"] = float(config["margin"]["every"])
+    resolvers = tuple(committed_resolvers(config))
+    thresholds = Thresholds(**config["thresholds"])
+    margin = float(config["margin"]["every"]) if "margin" in config else None
+    batch = bool(config.get("batch", True))
     rows = []
     for duration in sorted({m.duration for m in sample}):
-        members = [m for m in sample if m.duration == duration]
-        rows += run_chunk({**job, "movements": members})
+        members = tuple(m for m in sample if m.duration == duration)
+        rows += run_chunk(ResolverChunk(spec, resolvers, members, float(config["dt"]), thresholds, batch, "", margin))
         if with_global and "global" in config:
-            rows += run_chunk({**job, "movements": members, "global": config["global"]})
+            rows += run_chunk(GlobalChunk(spec, members, float(config["dt"]), thresholds, "", config["global"]))
     table = pd.DataFrame(rows)
     if with_global and "global" in config:
         from torqueopt.atlas.global_optimum import add_global_ratios
