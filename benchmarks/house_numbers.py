@@ -394,8 +394,8 @@ def committed_resolvers(config: dict) -> list:
 
 def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: bool) -> tuple[pd.DataFrame, int]:
     """(rows, population size) of ``sample_size`` seeded paths of the atlas of ``config``, run as its sweep does."""
-    from torqueopt.atlas.population import PopulationSpec, draw_population
     from torqueopt.atlas.jobs import GlobalChunk, ResolverChunk
+    from torqueopt.atlas.population import PopulationSpec, draw_population
     from torqueopt.atlas.sweep import RobotSpec, run_chunk
     from torqueopt.atlas.verdicts import Thresholds
 
