@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 import torqueopt
-from torqueopt.errors import InvalidInput
+from torqueopt.errors import InvalidInput, NoRedundancy
 from torqueopt.optimal import optimize, run_cost
 from torqueopt.paper import PAPER
 from torqueopt.resolvers.receding_horizon import HorizonProgram, RecedingHorizon, plan_state
@@ -219,6 +219,12 @@ def test_bad_options_and_tasks_are_one_line(paper_arm):
         torqueopt.get_resolver("receding-horizon[fallback=spline]")
     with pytest.raises(InvalidInput, match=r"replan_every=0.5 .*must be a whole number >= 1"):
         torqueopt.get_resolver("receding-horizon[replan_every=0.5]")
+    unbounded = paper_arm.with_torque_limit(np.inf)
+    with pytest.raises(
+        NoRedundancy, match="^resolver 'receding-horizon' falls back to 'bounded-torque', which refuses: "
+    ):
+        torqueopt.get_resolver("receding-horizon").check(unbounded)
+    torqueopt.get_resolver("receding-horizon[fallback=pinv]").check(unbounded)
     panda_pose = torqueopt.load_robot("panda", task="pose")
     with pytest.raises(InvalidInput, match="^resolver 'receding-horizon' supports tasks xy and position, not 'pose'$"):
         torqueopt.simulate(

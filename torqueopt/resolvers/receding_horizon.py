@@ -2,7 +2,7 @@ r"""``receding-horizon``: the whole-movement problem solved over a moving window
 
 At each replanning instant :math:`t` (every ``replan_every`` control steps)
 the resolver solves, from the measured state :math:`(q, \dot q)`, the
-program of :mod:`torqueopt.optimal.shooting` over the next ``horizon``
+program of ``torqueopt.optimal.shooting`` over the next ``horizon``
 seconds: knots :math:`t + kh` (:math:`h` = ``horizon_dt``, N knots
 intervals), held joint accelerations, the task frame on the path at every
 knot after the first, the torque :math:`\tau = \mathrm{RNEA}(q, \dot q, \ddot q)`
@@ -59,7 +59,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..checks import Refused
-from ..errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible
+from ..errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptError
 from ..linalg import inverse_condition_number
 from ..robot import Robot, TaskTerms
 from .base import Resolution, Resolver, Step
@@ -115,6 +115,7 @@ class HorizonSolve(NamedTuple):
     Attributes:
         time: the replanning instant t [s]. status: ``converged``, ``acceptable``, ``infeasible``, ... (as
             :func:`torqueopt.optimize`). message: IPOPT's return status. iterations: IPOPT's iterations.
+            seconds: the solve's wall time [s].
         q, v, a: the plan at the knots t + kh, (N+1)×n, (N+1)×n, N×n. w, lam_g, lam_x: IPOPT's solution and
             multipliers. parameters: the NLP's parameter vector. reference: the path at the knots, (N+1)×m [m].
     """
@@ -123,6 +124,7 @@ class HorizonSolve(NamedTuple):
     status: str
     message: str
     iterations: int
+    seconds: float
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray
@@ -202,7 +204,13 @@ class RecedingHorizon(Resolver):
         if robot.task not in ("xy", "position"):
             raise InvalidInput(f"resolver '{self.name}' supports tasks xy and position, not '{robot.task}'")
         if self.fallback != "none":
-            self.fallback_resolver().check(robot)
+            try:
+                self.fallback_resolver().check(robot)
+            except TorqueoptError as error:
+                raise type(error)(
+                    f"resolver '{self.name}' falls back to '{self.fallback}', which refuses: {error}; "
+                    "give another fallback (e.g. fallback=pinv)"
+                ) from None
 
     def fallback_resolver(self) -> Resolver | None:
         """The resolver of a step whose solve failed (None for ``fallback='none'``)."""
@@ -246,7 +254,7 @@ def _whole(value) -> int:
 class HorizonProgram:
     """The window's NLP for one robot, knot count and options, built once; :meth:`solve` from a state and a path.
 
-    Holds a :class:`~torqueopt.optimal.shooting.ShootingTranscription` whose start (q0, v0) and reference are
+    Holds a ``ShootingTranscription`` (``torqueopt.optimal.shooting``) whose start (q0, v0) and reference are
     set at each solve; its IPOPT solver is built at the first solve and kept (one per robot, N and options).
     """
 
@@ -288,7 +296,7 @@ class HorizonProgram:
         solved = solve_shooting(problem, w0, tolerance=TOLERANCE, max_iterations=MAX_ITERATIONS)
         plan_q, plan_v, plan_a = problem.split(solved.w)
         return HorizonSolve(
-            time, solved.status, solved.message, solved.iterations, plan_q, plan_v, plan_a,
+            time, solved.status, solved.message, solved.iterations, solved.seconds, plan_q, plan_v, plan_a,
             solved.w, solved.lam_g, solved.lam_x, problem.parameters(), reference,
         )  # fmt: skip
 
@@ -419,7 +427,7 @@ class CommandHorizonStep:
 
 
 def _transcription(robot, duration, intervals, reference, q0, root, midpoint, *, energy_bound=None, **options):
-    """The window's :class:`ShootingTranscription`, with the terminal self-motion energy row when bounded."""
+    """The window's ``ShootingTranscription``, with the terminal self-motion energy row when bounded."""
     from ..optimal.shooting import ShootingTranscription
 
     if energy_bound is None:
