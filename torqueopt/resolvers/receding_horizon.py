@@ -34,7 +34,8 @@ robot, knot count and options (CasADi, IPOPT with the exact Hessian); a
 solve costs IPOPT's iterations only.
 
 A solve that ends without an optimum (infeasible, iteration limit) hands
-that step to the ``fallback`` resolver, and the row says so in the result's
+its step, and the steps until the next replanning instant, to the
+``fallback`` resolver, and each such row says so in the result's
 ``limiting`` (``infeasible`` too when IPOPT proved the window infeasible);
 ``fallback='none'`` stops the run there instead.
 
@@ -373,25 +374,33 @@ class PathHorizonStep:
         self.fallback = _Fallback(resolver, robot, dt)
         self.data = robot.model.createData()
         self.step_index = 0
-        self.plan: HorizonSolve | None = None
+        self.plan: HorizonSolve | None = None  # the plan the steps apply (None after a failed solve)
+        self.warm: HorizonSolve | None = None  # the last plan that solved: the next solve's warm start
+        self.failed: HorizonSolve | None = None  # the last failed solve, which the fallback rows report
         #: Every solve of the run, in order (its plan, status, iterations): what the tests and benchmarks read.
         self.solves: list[HorizonSolve] = []
 
     def __call__(self, terms: TaskTerms, command) -> Resolution:
         time = self.step_index * self.dt
+        due = self.step_index % self.replan_every == 0
         self.step_index += 1
         program, plan = self.program, self.plan
-        horizon_end = None if plan is None else plan.time + program.intervals * program.h
-        if plan is None or (self.step_index - 1) % self.replan_every == 0 or time + self.dt > horizon_end + 1e-12:
+        if plan is not None and time + self.dt > plan.time + program.intervals * program.h + 1e-12:
+            due = True  # the plan ends within this step
+        if due:
             knots = time + program.h * np.arange(program.intervals + 1)
             reference = np.asarray(self.trajectory.sample(knots).position, float)
-            w0 = None if plan is None else program.shifted_start(plan, time)
+            # From the last plan that solved, shifted (kept through failures); the first from the path's IK.
+            w0 = None if self.warm is None else program.shifted_start(self.warm, time)
             solved = program.solve(time, terms.configuration, terms.joint_velocity, reference, w0)
             self.solves.append(solved)
             if solved.status not in _OPTIMAL:
-                self.plan = None
-                return self.fallback(terms, command, solved)
-            self.plan = plan = solved
+                self.plan, self.failed = None, solved
+            else:
+                self.plan = self.warm = plan = solved
+        if plan is None:
+            # No plan until the next replanning instant: the fallback's step, each row saying why.
+            return self.fallback(terms, command, self.failed)
         # The step's torque: the plan's inverse dynamics at the step's midpoint (its mean to O(Δt²)).
         q, v, a = plan_state(plan, program.h, time + 0.5 * self.dt - plan.time)
         torque = pin.rnea(self.robot.model, self.data, q, v, a).copy()
