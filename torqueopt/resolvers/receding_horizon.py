@@ -3,7 +3,7 @@ r"""``receding-horizon``: the whole-movement problem solved over a moving window
 At each replanning instant :math:`t` (every ``replan_every`` control steps)
 the resolver solves, from the measured state :math:`(q, \dot q)`, the
 program of ``torqueopt.optimal.shooting`` over the next ``horizon``
-seconds: knots :math:`t + kh` (:math:`h` = ``horizon_dt``, N knots
+seconds: knots :math:`t + kh` (:math:`h` = ``horizon_dt``, N
 intervals), held joint accelerations, the task frame on the path at every
 knot after the first, the torque :math:`\tau = \mathrm{RNEA}(q, \dot q, \ddot q)`
 within the torque limits (joints with finite limits) at each interval's
@@ -46,8 +46,13 @@ applies the plan's self-motion with the task realised exactly:
 :math:`\ddot q = J^\dagger(\ddot x - \dot J\dot q) + (I - J^\dagger J)\,a_0` (Eq. (26)),
 :math:`\tau = H\ddot q + b` (Eq. (20)). On a path the first interval's
 acceleration meets the path at the next knot, not the command at this
-instant: a one-step horizon differs from ``bounded-torque[kinematic_weight=0]``
-by O(Δt) (measured in the tests).
+instant, and its torque is charged and applied at the interval's midpoint,
+not at its start: a one-step horizon solves ``bounded-torque[kinematic_weight=0]``'s
+criterion under the same bounds, but for a task one step ahead, and the two
+torques differ by O(Δt) (9.4e-4 of the largest at Δt = 1 ms, 9.3e-5 at
+0.1 ms, on planar3; the tests). Along a path the rows report no task error:
+the plan keeps the tip on the path's positions at the knots, and what it
+misses is the result's tip error.
 """
 
 from __future__ import annotations
