@@ -12,8 +12,10 @@ On PATHS random 2 s lines of the atlas's population (torqueopt.atlas.population,
 judges every run as the atlas does (torqueopt.atlas.verdicts.run_row: whiplash, too demanding, ..., stable;
 problem-free = stable within the torque limits, torqueopt.atlas.frontier.problem_free) and writes, per method,
 the problem-free and whiplash shares, the median cost ∫‖τ − τ_mid‖² dt and its median ratio to the optimum's,
-the median peak |τ|/τ⁺ and the compute per control step, to ``--out`` (JSON; the rows per path too). Rows
-are appended as they come (a run killed and started again resumes).
+the median peak |τ|/τ⁺, the compute per control step and ``fallback_rows`` (rows with a ``limiting`` note:
+receding-horizon's fallback rows; bounded-torque's rows on its bounds without the task) to ``--out`` (JSON; the
+rows per path beside it, ``.rows.jsonl``). Rows are appended as they come (a run killed and started again with
+the same arguments resumes).
 
     nice python benchmarks/horizon_curve.py --paths 20 --out horizon_curve.json
 """
