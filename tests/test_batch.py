@@ -245,12 +245,16 @@ def test_damped_null_space_options_match_simulate(planar3, options):
 # -- every registered resolver through the batch ---------------------------------------------
 
 #: Options a resolver needs before it can run at all (the rest run with their defaults).
-_NEEDED_OPTIONS = {"obstacle-avoidance": {"obstacle": "1.2,0.3,0.0,0.1"}}
+_NEEDED_OPTIONS = {
+    "obstacle-avoidance": {"obstacle": "1.2,0.3,0.0,0.1"},
+    # an NLP per solve: a short window, replanned every 50 steps (its own tests run it along whole movements)
+    "receding-horizon": {"horizon": 0.05, "replan_every": 50},
+}
 #: Resolvers whose single steps are costly (programs per step, or several pseudoinverses and closed-form or differenced
 #: q̈ per velocity-level step): quick on planar3 only.
 _COSTLY = {
     "bounded-torque", "minmax-torque", "energy-bounded-torque", "task-priority", "extended-jacobian",
-    "kinetic-energy-pinv", "obstacle-avoidance", "gradient-projection",
+    "kinetic-energy-pinv", "obstacle-avoidance", "gradient-projection", "receding-horizon",
 }  # fmt: skip
 
 
@@ -258,7 +262,9 @@ def _registered(name):
     return torqueopt.get_resolver(name, **_NEEDED_OPTIONS.get(name, {}))
 
 
-@pytest.mark.parametrize("name", list(RESOLVERS))
+@pytest.mark.parametrize(
+    "name", [pytest.param(name, marks=pytest.mark.slow) if name == "receding-horizon" else name for name in RESOLVERS]
+)
 def test_every_registered_resolver_batched_equals_simulate_on_planar3(planar3, name):
     """B movements through simulate_batch equal B simulate runs (1e-9, same stops, same shortfalls), for
     every resolver of the registry: the vectorised steps and the single-state steps looped on stacks."""

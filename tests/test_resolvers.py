@@ -96,6 +96,8 @@ OBJECTIVES = {
 def test_every_resolver_meets_the_contract(name, robot_name, request):
     """torqueopt.testing.check_resolver, as a user runs it on theirs: the torque against Pinocchio's ABA and the
     task, the declared criterion's optimum by finite differences, stacks against single steps, options that act."""
+    if name == "receding-horizon":
+        pytest.skip("an NLP per state and option: its contract runs on a short horizon in test_receding_horizon.py")
     robot = request.getfixturevalue(robot_name)
     options = dict(CONTRACT_OPTIONS.get(name, {}))
     if name == "weighted-null-space":

@@ -308,6 +308,8 @@ class MovementStack:
         self.solve = resolver.batch_solver(robot, dt)
         self.plant = plant
         looped = isinstance(self.solve, LoopedStackStep)
+        if looped:
+            self.solve.along(reference.trajectory for reference in references)
         self.provider = PinocchioTerms(robot) if looped else terms_provider(robot, count)
         #: The terms provider's ``(q, v) -> (StackTerms, task positions)``.
         self.terms = self.provider.terms

@@ -263,7 +263,7 @@ class OneMovement:
         self.speed_ceiling = [rules.speed_ceiling] * robot.nv
         self.within = partial(map, operator.le)
         # Built once per run: the resolver's per-robot constants and workspaces.
-        self.solve = resolver.solver_for_run(robot, dt)
+        self.solve = resolver.solver_for_movement(robot, dt, trajectory)
         # The plant reports its own state; the resolver's next torque is computed from it.
         self.advance = plant.step
         #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
@@ -319,7 +319,7 @@ class OneMovement:
             log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
             return True
         tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = resolution
-        if task_error or infeasible:
+        if task_error or infeasible or limiting:  # limiting alone: a planning resolver's fallback row
             self.shortfalls.append((len(log), task_error, infeasible, limiting))
         log.append((q, v, joint_acceleration, tau, x, inverse_condition))
         if not all(self.within(map(abs, tau.tolist()), self.torque_ceiling)):

@@ -191,8 +191,10 @@ def solve_shooting(
     compiled: bool = False,
     verbose: bool = False,
     on_iteration=None,
+    ipopt_options: dict | None = None,
 ) -> SolverOutput:
-    """Solve ``problem`` from ``w0`` with IPOPT and the exact Hessian (arguments as :func:`~torqueopt.optimal.ipopt.solve_transcription`).
+    """Solve ``problem`` from ``w0`` with IPOPT and the exact Hessian (arguments as :func:`~torqueopt.optimal.ipopt.solve_transcription`;
+    ``ipopt_options``: more of IPOPT's options, ``{"ipopt.mu_init": 1e-6}``).
 
     A return of :data:`INFEASIBLE_MESSAGES` is status ``infeasible`` (a failed
     restoration only when the point it stopped at violates the constraints by
@@ -201,6 +203,7 @@ def solve_shooting(
     casadi = _casadi()
     options = {"ipopt.tol": float(tolerance), "ipopt.max_iter": int(max_iterations)}
     options["ipopt.print_level"] = 5 if verbose else 0
+    options.update(ipopt_options or {})
     if max_time is not None:
         options["ipopt.max_wall_time"] = float(max_time)
     if on_iteration is not None:

@@ -166,6 +166,8 @@ class Transcription:
         self.times = self.h * np.arange(self.intervals + 1)
         self.reference = np.asarray(reference, float)
         self.q0 = np.asarray(q0, float)
+        #: The velocity the movement starts with (at rest; the receding horizon sets the measured one).
+        self.v0 = np.zeros(robot.nv)
         self.root = np.asarray(root, float)
         self.midpoint = np.asarray(midpoint, float)
         self.end_at_rest = end_at_rest
@@ -237,7 +239,7 @@ class Transcription:
 
     # -- bounds ----------------------------------------------------------------
     def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) bounds on w: the fixed start, the end at rest, and the joint limits when asked."""
+        """(lower, upper) bounds on w: the fixed start (q0, v0), the end at rest, and the joint limits when asked."""
         lower, upper = np.full(self.size, -np.inf), np.full(self.size, np.inf)
         if self.joint_limits:
             model = self.model
@@ -250,7 +252,7 @@ class Transcription:
                 lower[self.q_index(k)], upper[self.q_index(k)] = q_low, q_high
                 lower[self.v_index(k)], upper[self.v_index(k)] = -speed, speed
         lower[self.q_index(0)] = upper[self.q_index(0)] = self.q0
-        lower[self.v_index(0)] = upper[self.v_index(0)] = 0.0
+        lower[self.v_index(0)] = upper[self.v_index(0)] = self.v0
         if self.end_at_rest:
             lower[self.v_index(self.intervals)] = upper[self.v_index(self.intervals)] = 0.0
         return lower, upper

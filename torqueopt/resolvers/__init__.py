@@ -20,6 +20,8 @@ name                                 method                                     
 ``task-priority-acceleration``       task priority at the acceleration level                              Eq. (11) differentiated
 ``energy-bounded-torque``            the torque criterion under torque bounds and a self-motion energy    Eq. (26), Eq. (29), Eq. (33)
                                      barrier (a QP)
+``receding-horizon``                 the torque criterion integrated over a moving window, under bounds   Eq. (20), Eq. (26), Eq. (29)
+                                     and joint limits (predictive control, an NLP per window)
 ==================================== ==================================================================== ================================================
 
 All of them write the joint acceleration as Eq. (26) and the torque as
@@ -44,6 +46,7 @@ from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
 from .null_space import NullSpaceTorque, WeightedNullSpaceTorque
 from .options import Option, parse_resolver_spec
 from .pseudoinverse import InertiaWeightedPseudoInverse, PseudoInverse
+from .receding_horizon import RecedingHorizon
 from .registry import ENTRY_POINT_GROUP, RESOLVERS, class_from_path, register_resolver
 from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
 
@@ -64,6 +67,7 @@ __all__ = [
     "BoundedTorque",
     "MinMaxTorque",
     "EnergyBoundedTorque",
+    "RecedingHorizon",
     "GradientProjectionAcceleration",
     "TaskPriorityAcceleration",
     "ENTRY_POINT_GROUP",
@@ -90,6 +94,7 @@ RESOLVERS.put_first(
         "bounded-torque",
         "minmax-torque",
         "energy-bounded-torque",
+        "receding-horizon",
         "velocity-pinv",
         "gradient-projection",
         "task-priority",

@@ -227,6 +227,11 @@ class Resolver(ABC):
         """The step of a run that holds each torque for ``dt`` [s]: :meth:`solver` unless the resolver looks a step ahead."""
         return self.solver(robot)
 
+    def solver_for_movement(self, robot: Robot, dt: float, trajectory) -> Step:
+        """The step of a run of ``dt`` [s] along ``trajectory`` (anchored), called once per step, in order, from
+        t = 0: :meth:`solver_for_run` unless the resolver plans along the path ahead (``receding-horizon``)."""
+        return self.solver_for_run(robot, dt)
+
     def batch_solver(self, robot: Robot, dt: float | None = None) -> StackStep:
         """The step on stacks of B states, ``(StackTerms, ẍ (B, m), movements) -> StackResolution``.
 

@@ -136,10 +136,20 @@ class LoopedStackStep:
     def __init__(self, resolver, robot: Robot, dt: float | None = None):
         self.resolver, self.robot, self.dt = resolver, robot, dt
         self._steps: dict[int, Callable] = {}
+        self.trajectories = None
 
-    def _make_step(self):
+    def along(self, trajectories) -> None:
+        """Give each movement its path (anchored), by movement index: a step that plans ahead follows it
+        (:meth:`Resolver.solver_for_movement <torqueopt.resolvers.base.Resolver.solver_for_movement>`)."""
+        self.trajectories = list(trajectories)
+
+    def _make_step(self, movement: int):
         resolver, robot = self.resolver, self.robot
-        return resolver.solver(robot) if self.dt is None else resolver.solver_for_run(robot, self.dt)
+        if self.dt is None:
+            return resolver.solver(robot)
+        if self.trajectories is not None:
+            return resolver.solver_for_movement(robot, self.dt, self.trajectories[movement])
+        return resolver.solver_for_run(robot, self.dt)
 
     def __call__(self, terms: StackTerms, task_accelerations: np.ndarray, movements: np.ndarray) -> StackResolution:
         count, n = task_accelerations.shape[0], self.robot.nv
@@ -153,7 +163,7 @@ class LoopedStackStep:
         for row, movement in enumerate(movements.tolist()):
             solve = steps.get(movement)
             if solve is None:
-                solve = steps[movement] = self._make_step()
+                solve = steps[movement] = self._make_step(movement)
             try:
                 resolution = solve(terms.row(row), task_accelerations[row])
             except STOPPING_ERRORS as error:
