@@ -71,7 +71,7 @@ from ..robot import Robot, TaskTerms
 from .base import Resolution, Resolver, Step
 from .bounded.joint_limits import JOINT_LIMITS_OPTION
 from .options import Option, number
-from .registry import register_resolver
+from .registry import RESOLVERS, register_resolver
 
 __all__ = ["RecedingHorizon", "HorizonSolve", "DEFAULT_KNOT_SPACING"]
 
@@ -106,7 +106,6 @@ def _terminal(value):
 
 def _fallback(value):
     """Converter of ``fallback``: a registered torque resolver's name, or 'none'."""
-    from . import RESOLVERS
 
     text = str(value).strip()
     if text == "none":
@@ -222,10 +221,8 @@ class RecedingHorizon(Resolver):
                 ) from None
 
     def fallback_resolver(self) -> Resolver | None:
-        """The resolver of a step whose solve failed (None for ``fallback='none'``)."""
-        from . import get_resolver
-
-        return None if self.fallback == "none" else get_resolver(self.fallback)
+        """The resolver of a step whose solve failed (None for ``fallback='none'``), with its defaults."""
+        return None if self.fallback == "none" else RESOLVERS.lookup(self.fallback)()
 
     def knot_spacing(self, dt: float | None) -> float:
         """h [s]: ``horizon_dt``, or for 'auto' the multiple of ``dt`` nearest 5 ms, at most the horizon."""
