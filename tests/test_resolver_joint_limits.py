@@ -373,12 +373,6 @@ ATLAS_PATHS = {
 }  # fmt: skip
 
 
-#: Paths of ATLAS_PATHS that pinv does not handle (it needs 1.09 times baxter's torque limits on 670): with the
-#: deceleration of issue 40 (the box's coupling where gravity takes a joint's own torque), right_e1 passes its
-#: 1.5 rad/s by 0.067 rad/s there (measured), at a step where the torque and joint limits leave no common q̈.
-NOT_HANDLED = {("baxter", 670)}
-
-
 @pytest.mark.parametrize("case", list(ATLAS_PATHS), ids=lambda case: f"{case[0]}-{case[1]}")
 def test_the_atlas_paths_that_left_a_limit_stay_inside_every_limit_at_every_sample(arms, case):
     """The batch, as the atlas runs them: inside the URDF's position and velocity limits at every sample; with
@@ -392,14 +386,6 @@ def test_the_atlas_paths_that_left_a_limit_stay_inside_every_limit_at_every_samp
     runs = simulate_batch(robot, resolver, lines, q0s, DT)
     for path, run in zip(movements, runs):
         assert run.completed, path
-        if (name, path) in NOT_HANDLED:
-            # Inside every position limit; a velocity limit gives way only at a step that had to exceed the joint
-            # limits for the torque limits, and says so.
-            assert _excess(robot, run)[0] == 0.0, path
-            time = run.first_velocity_violation[0]
-            row = int(np.flatnonzero(run.t == time)[0])
-            assert run.limiting[row - 1].startswith("joint limits exceeded least"), run.limiting[row - 1]
-            continue
         assert _excess(robot, run) == (0.0, 0.0), path
     if resolver != "bounded-torque":
         return
@@ -706,17 +692,14 @@ def _box_lp(inertia, bias, upper, lower, joint, sign):
     return -answer.fun - sign * row.dot(bias)
 
 
-def test_the_acceleration_range_is_the_box_lp_and_the_deceleration_comes_from_it_where_the_bias_takes_the_torque(
-    arms, rng
-):
+def test_the_acceleration_range_is_the_box_lp(arms, rng):
     """At random panda and baxter states (gravity on), asymmetric torque boxes that leave some joints less than their
-    bias torque, one joint unbounded: the closed form equals HiGHS's LP over the box, per joint and each way. Where
-    a joint's own torque beyond its bias is at least a tenth of its limit, ā⁺ = ā⁻ = ½(τmax − |b|)/Hᵢᵢ (as before);
-    where the bias takes all of it, ā⁺ and ā⁻ are 1/(2n) of −min q̈ᵢ and max q̈ᵢ over the box (HiGHS), which
-    gravity makes differ."""
+    bias torque, one joint unbounded: the closed form of each joint's extreme accelerations over the box equals
+    HiGHS's LP, per joint and each way (the unbounded joint: ±inf, and 0 N·m in the others' ranges). The deceleration
+    the bounds count on is ½·max(τmax − |b|, 0.1 τmax)/Hᵢᵢ, the same both ways."""
     from torqueopt.resolvers.bounded.joint_limits import acceleration_range, stopping_deceleration
 
-    checked, coupled = 0, 0
+    checked = 0
     pin.seed(5)
     for name in ("panda", "baxter"):
         robot = arms[name]
@@ -730,38 +713,34 @@ def test_the_acceleration_range_is_the_box_lp_and_the_deceleration_comes_from_it
                 upper[1], lower[1] = np.inf, -np.inf
             lowest, highest = acceleration_range(terms, upper, lower)
             before_upper, before_lower = stopping_deceleration(terms, upper, lower)
-            box_upper, box_lower = np.where(np.isfinite(upper), upper, 0.0), np.where(np.isfinite(lower), lower, 0.0)
             limit = np.minimum(upper, -lower)
+            expected = 0.5 * np.maximum(limit - bias, 0.1 * limit) / np.diagonal(terms.inertia)
+            np.testing.assert_allclose(before_upper, expected, rtol=1e-12)
+            np.testing.assert_array_equal(before_upper, before_lower)
+            box_upper, box_lower = np.where(np.isfinite(upper), upper, 0.0), np.where(np.isfinite(lower), lower, 0.0)
             for joint in range(robot.nv):
                 if case == 2 and joint == 1:
-                    assert lowest[joint] == -np.inf and highest[joint] == np.inf and before_upper[joint] == np.inf
+                    assert lowest[joint] == -np.inf and highest[joint] == np.inf
                     continue
-                # The unbounded joint counts at 0 N·m in the others' ranges.
                 expected_high = _box_lp(terms.inertia, terms.bias_torque, box_upper, box_lower, joint, 1.0)
                 expected_low = -_box_lp(terms.inertia, terms.bias_torque, box_upper, box_lower, joint, -1.0)
                 scale = highest[joint] - lowest[joint]
                 assert highest[joint] == pytest.approx(expected_high, abs=1e-9 * scale)
                 assert lowest[joint] == pytest.approx(expected_low, abs=1e-9 * scale)
-                own = limit[joint] - bias[joint]
-                if own >= 0.1 * limit[joint]:
-                    expected = 0.5 * own / terms.inertia[joint, joint]
-                    assert before_upper[joint] == before_lower[joint] == pytest.approx(expected, rel=1e-12)
-                elif own <= 0.0:
-                    share = 1.0 / (2 * robot.nv)
-                    if -expected_low > 0.05 * scale:
-                        assert before_upper[joint] == pytest.approx(-share * expected_low, abs=1e-9 * scale)
-                    if expected_high > 0.05 * scale:
-                        assert before_lower[joint] == pytest.approx(share * expected_high, abs=1e-9 * scale)
-                    coupled += abs(before_upper[joint] - before_lower[joint]) > 1e-3 * scale
                 checked += 1
-    assert checked == 2 * (3 * 7 - 1) and coupled >= 3
+    assert checked == 2 * (3 * 7 - 1)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 40 item 6 is open: no deceleration from the torque box measured so far keeps every arm's atlas",
+)
 def test_the_issue_s_state_eight_radians_from_every_limit_keeps_the_task(planar3):
     """planar3 at q = (−0.91, 2.19, 0.24) rad, q̇ = (1.31, −1.1, −1.26) rad/s (issue 40): the old ā of joint2,
     ½·0.1·24 N·m/H₂₂ = 0.045 rad/s², put the state outside its viable set, 8.5 rad from the limit, and the step gave
-    up the task ("position limit (stopping distance) (lower) of joint joint2 by 229 rad/s²"). The box gives joint2
-    up to 6.4 rad/s² (HiGHS), and the task is kept, as with joint_limits=off."""
+    up the task ("position limit (stopping distance) (lower) of joint joint2 by 229 rad/s²"), as joint3's (0.09 rad/s²)
+    did. The box gives joint2 up to 6.4 rad/s² (HiGHS): with a deceleration from it the task would be kept, as with
+    joint_limits=off."""
     terms = planar3.terms(np.array([-0.91, 2.19, 0.24]), np.array([1.31, -1.1, -1.26]))
     highest = _box_lp(terms.inertia, terms.bias_torque, planar3.torque_upper, planar3.torque_lower, 1, 1.0)
     assert 6.0 < highest < 7.0, highest

@@ -60,79 +60,40 @@ acceleration
 
 The maximum deceleration :math:`\bar a_i` is the acceleration limit where
 one is given (option ``joint_acceleration_limit``). Otherwise it is derived
-at each state from the torque limits and the mass matrix. The first part is
-half of what joint i's own torque gives it beyond what holds its bias torque
-:math:`b_i` (Coriolis, centrifugal, gravity), with the other joints at rest:
+at each state from the torque limit and the mass matrix,
 
 .. math::
 
-    o_i = \tau^{max}_i - |b_i|,\qquad \bar a_i = \tfrac12\max(o_i, 0)/H_{ii} .
+    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |b_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
 
-The half leaves torque for the task and for the other joints, which a real
-stop moves too.
+half the acceleration joint i's own torque gives it, beyond what holds the
+bias torque :math:`b_i` (Coriolis, centrifugal, gravity), with the other
+joints at rest. When the bias alone takes more than nine tenths of the
+limit, a tenth of the limit is counted. The half leaves torque for the task
+and for the other joints, which the real stop also moves. A joint without a
+torque limit and without an acceleration limit can stop at once: it has no
+viability bound. This is the same value in both directions, and it is not a
+proven bound.
 
-Where the bias takes more than nine tenths of the joint's own limit (a
-Coriolis torque on a light joint, gravity on an elbow), that part vanishes.
-The stop then has to come from the other joints' torques through the
-coupling, so the torque box itself is asked, each way. Joint i's
-acceleration :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over the box
-:math:`\tau^- \le \tau \le \tau^+` is a linear program over a box: each
-:math:`\tau_j` sits at the end of its range that the sign of
-:math:`(H^{-1})_{ij}` picks, so it needs no solver
-(:func:`acceleration_range`). With :math:`M = H^{-1}`, the box's middle
-:math:`\tau_{mid}` and half-range :math:`\rho`,
+What the torque box really gives joint i at the state, each way, is the box
+LP of :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over :math:`\tau^- \le \tau \le \tau^+`.
+Each :math:`\tau_j` sits at the end of its range that the sign of
+:math:`(H^{-1})_{ij}` picks, so the LP has the closed form
+:math:`c_i \mp \sum_j |(H^{-1})_{ij}|\rho_j`, with :math:`c = H^{-1}(\tau_{mid} - b)`
+and :math:`\rho` the half-ranges (:func:`acceleration_range`, held to HiGHS in
+the tests). It is exact for one joint alone, but several joints that must stop at
+once cannot each have their own extreme. Counting on a share of it was measured
+on the arms' atlases (issue 40, docs/guide/joint-limits.md), and no share
+tried kept every atlas as it was:
 
-.. math::
+- 1/(2n) of it for every joint: on tiago's atlas the runs with an
+  infeasible step went from 11 to 46 (``bounded-torque``), and 3 paths that
+  ``pinv`` handles left a velocity limit.
+- The same share only where the bias takes the joint's own torque: baxter's
+  atlas went from 2 to 38 runs outside a limit (``bounded-torque``) and from
+  5 to 68 (``minmax-torque``).
 
-    \min/\max\ \ddot q_i = c_i \mp r_i,\qquad c_i = [M(\tau_{mid} - b)]_i,\quad r_i = \sum_j |M_{ij}|\,\rho_j .
-
-The bias is in the centre :math:`c_i`, so gravity that helps braking one way
-and hinders it the other counts with its sign. A joint moving towards its
-upper limit brakes with the most negative acceleration, one moving towards
-its lower limit with the most positive. A share of each is added as the own
-part fades, :math:`\phi_i = 1 - \mathrm{clip}(o_i/(0.1\tau^{max}_i), 0, 1)`
-(continuous, 0 while the own torque leaves a tenth of the limit):
-
-.. math::
-
-    \bar a_i^{+} = \tfrac12\frac{\max(o_i, 0)}{H_{ii}} + \phi_i\frac{\max(r_i - c_i,\ 0.1\,r_i)}{2n},\qquad
-    \bar a_i^{-} = \tfrac12\frac{\max(o_i, 0)}{H_{ii}} + \phi_i\frac{\max(c_i + r_i,\ 0.1\,r_i)}{2n},
-
-:math:`\bar a^+` in the viability bound at the upper limit and :math:`\bar a^-`
-at the lower, with n the number of joints. None of this is a proven bound.
-Where the box is used, it is used sparingly, and measured:
-
-- :math:`c_i \mp r_i` is exact for joint i alone at this state. Several
-  joints that must stop at once cannot each have their own extreme: each
-  extreme puts every torque at an end of its range, and the other joints
-  accelerate as that corner of the box moves them. The average of the n
-  extreme torques lies in the box. It gives each joint 1/n of its own
-  extreme, plus what the others' extremes give it (either sign, so this is
-  not a proof), and the half leaves the rest for the task.
-- The box's extreme overstates what a light, strongly coupled joint can
-  count on: it is the wrist stopped by the shoulder's full torque, which the
-  task needs. 1/(2n) of the extreme used everywhere lets such joints reach
-  their limits at speeds only that torque can stop. Measured on tiago's
-  atlas (1,000 paths, docs/guide/joint-limits.md), the runs with an
-  infeasible step rose from 11 to 46 (``bounded-torque``) and 21 to 50
-  (``minmax-torque``), and 3 paths left a velocity limit. ½ and ⅛ of the
-  extreme on panda's atlas, and 1/16 on tiago's (300 paths each), were no
-  better than that. The box is therefore asked only where
-  the joint's own torque gives out, which is where the previous rule's
-  floor, a tenth of the limit whatever the bias, counted on braking torque
-  that is not there (and had no sign).
-
-Where the bias alone takes the whole box the way the joint must brake, no
-deceleration is honest, and a tenth of the reach (:data:`LEAST_STOPPING_SHARE`)
-keeps the bound defined. A joint without a torque limit (and without an
-acceleration limit) can stop at once and has no viability bound. In the
-other joints' ranges it counts at 0 N·m only. That is a part of the box, so
-it does not overstate their decelerations.
-
-What holds the run inside its limits where ā is still too much is the
-one-step position bound, which is exact and always wins over viability.
-Where torque and joint bounds leave no common q̈, the ``infeasible``
-policies exceed the joint bounds least.
+The rule above therefore stays.
 
 A run holds the torque over the step, not the acceleration: the
 acceleration drifts inside the step with the state, and the state at the
@@ -149,7 +110,7 @@ asked back inside the margin in one step: that would take
 :math:`2\cdot 10^{-4}/\delta^2` = 200 rad/s² at 1 ms, far more than the torque
 gives. Its position bound asks it to stop within the step and come back
 at :math:`\bar a` at most:
-:math:`a \le \max(2(q^+_i - q_i - \delta\dot q_i)/\delta^2,\ -\dot q_i/\delta - \bar a^+_i)`.
+:math:`a \le \max(2(q^+_i - q_i - \delta\dot q_i)/\delta^2,\ -\dot q_i/\delta - \bar a_i)`.
 A drift-size excess is still taken back in one step (1e-7 rad asks
 0.2 rad/s²). A bound that only held such a joint where it stands would not
 return it, and the drift could carry it through the margin step by step.
@@ -200,9 +161,9 @@ POSITION_MARGIN = 1e-4
 #: The viability bound's approach to a limit: within about ā·(APPROACH_STEPS·δ)²/2 of it, a joint's speed towards it
 #: is at most its distance over APPROACH_STEPS steps, so that it comes to rest on the limit without rebounding.
 APPROACH_STEPS = 10
-#: Fraction of a joint's own torque-limited deceleration (and, over n, of the box's) counted on to stop.
+#: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
 STOPPING_FRACTION = 0.5
-#: Below this share of its limit left by the bias, a joint's own torque hands over to the box's coupling.
+#: The least share of the torque limit counted as available to stop, when the bias torque takes more.
 LEAST_STOPPING_SHARE = 0.1
 
 
@@ -289,30 +250,15 @@ def acceleration_range(terms: TaskTerms, torque_upper: np.ndarray, torque_lower:
 
 def stopping_deceleration(terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray):
     r"""(:math:`\bar a^+`, :math:`\bar a^-`) [rad/s²]: the deceleration counted on before each joint's upper limit and
-    before its lower one, from the torque box [N·m] at the state of ``terms`` (module docstring).
+    before its lower one, from the torque limits [N·m] and H at the state of ``terms`` (module docstring).
 
-    With :math:`o_i = \tau^{max}_i - |b_i|` the joint's own torque beyond its bias and
-    :math:`\phi_i = 1 - \mathrm{clip}(o_i/(0.1\tau^{max}_i), 0, 1)`:
-    :math:`\bar a^\pm_i = \tfrac12\max(o_i, 0)/H_{ii} + \phi_i\max(\mp\text{extreme}_i, 0.1 r_i)/(2n)`, the extremes
-    of :math:`\ddot q_i` over the box (:func:`acceleration_range`, :math:`r_i` half the width of that range, n
-    joints); inf where the joint's torque is unbounded. One state (n values each) or a stack (B × n).
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, the same both ways; inf where the
+    torque is unbounded. One state (n values each) or a stack (B × n).
     """
     limit = np.minimum(torque_upper, -torque_lower)
-    own = limit - np.abs(terms.bias_torque)
-    # Half the joint's own torque beyond its bias, the other joints at rest (where its torque is unbounded: inf).
-    own_part = STOPPING_FRACTION * np.maximum(own, 0.0) / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
-    with np.errstate(invalid="ignore"):
-        fading = np.where(np.isfinite(limit), 1.0 - np.clip(own / (LEAST_STOPPING_SHARE * limit), 0.0, 1.0), 0.0)
-    if not fading.any():
-        return own_part, own_part
-    # Where the bias takes more than nine tenths of it: the box's coupling, 1/(2n) of its extreme each way.
-    lowest, highest = acceleration_range(terms, torque_upper, torque_lower)
-    least = LEAST_STOPPING_SHARE * 0.5 * (highest - lowest)
-    share = np.where(fading > 0.0, fading * (STOPPING_FRACTION / lowest.shape[-1]), 0.0)
-    with np.errstate(invalid="ignore"):
-        before_upper = np.where(share > 0.0, share * np.maximum(-lowest, least), 0.0)
-        before_lower = np.where(share > 0.0, share * np.maximum(highest, least), 0.0)
-    return own_part + before_upper, own_part + before_lower
+    available = np.maximum(limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * limit)
+    deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
+    return deceleration, deceleration
 
 
 def _pick(candidates, choose):
