@@ -68,10 +68,32 @@ at each state from the torque limit and the mass matrix,
 
 half the acceleration joint i's own torque gives it, beyond what holds the
 bias torque :math:`b_i` (Coriolis, centrifugal, gravity), with the other
-joints at rest (a tenth of the limit when the bias alone takes more than
-nine tenths of it). The half leaves torque for the task and for the other
-joints, which the real stop also moves. A joint without a torque limit and
-without an acceleration limit can stop at once: it has no viability bound.
+joints at rest. When the bias alone takes more than nine tenths of the
+limit, a tenth of the limit is counted. The half leaves torque for the task
+and for the other joints, which the real stop also moves. A joint without a
+torque limit and without an acceleration limit can stop at once: it has no
+viability bound. This is the same value in both directions, and it is not a
+proven bound.
+
+What the torque box really gives joint i at the state, each way, is the box
+LP of :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over :math:`\tau^- \le \tau \le \tau^+`.
+Each :math:`\tau_j` sits at the end of its range that the sign of
+:math:`(H^{-1})_{ij}` picks, so the LP has the closed form
+:math:`c_i \mp \sum_j |(H^{-1})_{ij}|\rho_j`, with :math:`c = H^{-1}(\tau_{mid} - b)`
+and :math:`\rho` the half-ranges (:func:`acceleration_range`, held to HiGHS in
+the tests). It is exact for one joint alone, but several joints that must stop at
+once cannot each have their own extreme. Counting on a share of it was measured
+on the arms' atlases (issue 40, docs/guide/joint-limits.md), and no share
+tried kept every atlas as it was:
+
+- 1/(2n) of it for every joint: on tiago's atlas the runs with an
+  infeasible step went from 11 to 46 (``bounded-torque``), and 3 paths that
+  ``pinv`` handles left a velocity limit.
+- The same share only where the bias takes the joint's own torque: baxter's
+  atlas went from 2 to 38 runs outside a limit (``bounded-torque``) and from
+  5 to 68 (``minmax-torque``).
+
+The rule above therefore stays.
 
 A run holds the torque over the step, not the acceleration: the
 acceleration drifts inside the step with the state, and the state at the
@@ -82,6 +104,19 @@ position limit, at steps that ride a bound). The bounds are therefore computed
 for limits pulled in by :data:`VELOCITY_MARGIN` of each velocity limit and
 :data:`POSITION_MARGIN` at each position limit, so that the run stays
 inside the URDF's own limits.
+
+A joint beyond a pulled-in limit, such as a start on the URDF's limit, is not
+asked back inside the margin in one step: that would take
+:math:`2\cdot 10^{-4}/\delta^2` = 200 rad/s² at 1 ms, far more than the torque
+gives. Its position bound asks it to stop within the step and come back
+at :math:`\bar a` at most:
+:math:`a \le \max(2(q^+_i - q_i - \delta\dot q_i)/\delta^2,\ -\dot q_i/\delta - \bar a_i)`.
+A drift-size excess is still taken back in one step (1e-7 rad asks
+0.2 rad/s²). A bound that only held such a joint where it stands would not
+return it, and the drift could carry it through the margin step by step.
+Measured on tiago's path 120 of its atlas, ``energy-bounded-torque``: arm_7
+crossed the 1e-4 rad margin in 40 ms and left its URDF limit by 8.3e-7 rad,
+with no infeasible step.
 
 When a joint's bounds cross (a state outside its limits, or not viable with
 :math:`\bar a_i`), the bound of the higher kind wins (position, then
@@ -110,6 +145,7 @@ __all__ = [
     "POSITION_MARGIN",
     "VELOCITY_MARGIN",
     "acceleration_bounds",
+    "acceleration_range",
     "stopping_deceleration",
 ]
 
@@ -177,13 +213,14 @@ JOINT_ACCELERATION_LIMIT_OPTION = Option(
 
 
 class AccelerationBounds(NamedTuple):
-    """Bounds on the joint accelerations of the limited joints at one state.
+    r"""Bounds on the joint accelerations of the limited joints at one state.
 
     Attributes:
         lower, upper: the bounds [rad/s²], one per limited joint.
         lower_kind, upper_kind: which bound each is, an index into :data:`BOUND_KINDS`
             (``len(BOUND_KINDS)`` for an infinite bound).
-        deceleration: the maximum deceleration :math:`\bar a_i` [rad/s²] assumed (inf when the joint can stop at once).
+        deceleration: the larger of the decelerations :math:`\bar a^\pm_i` [rad/s²] assumed before the two limits
+            (inf when the joint can stop at once), the scale of the joint's row.
     """
 
     lower: np.ndarray
@@ -193,14 +230,35 @@ class AccelerationBounds(NamedTuple):
     deceleration: np.ndarray
 
 
-def stopping_deceleration(terms: TaskTerms, torque_limit: np.ndarray) -> np.ndarray:
-    r"""The maximum deceleration :math:`\bar a_i` [rad/s²] derived from the torque limits [N·m] and H at a state.
+def acceleration_range(terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray):
+    r"""(lowest, highest) [rad/s²]: each joint's acceleration :math:`[H^{-1}(\tau - b)]_i` over the torque box.
 
-    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`; inf where the torque is unbounded.
-    One state (n values) or, from :class:`~torqueopt.resolvers.stacks.StackTerms`, one row per state (B × n).
+    The box LP in closed form (module docstring): :math:`c_i \mp \sum_j |(H^{-1})_{ij}|\rho_j`,
+    :math:`c = H^{-1}(\tau_{mid} - b)`. ``torque_upper``/``torque_lower`` [N·m]
+    are per joint. A joint without a torque limit counts at 0 N·m in the others' ranges, and its own is
+    (−inf, inf). One state (n values) or, from :class:`~torqueopt.resolvers.stacks.StackTerms`, one row per
+    state (B × n).
     """
-    available = np.maximum(torque_limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * torque_limit)
-    return STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
+    bounded = np.isfinite(torque_upper) & np.isfinite(torque_lower)
+    upper, lower = np.where(bounded, torque_upper, 0.0), np.where(bounded, torque_lower, 0.0)
+    middle, half_range = 0.5 * (upper + lower), 0.5 * (upper - lower)
+    inverse = np.linalg.inv(terms.inertia)  # H⁻¹
+    centre = np.einsum("...ij,...j->...i", inverse, middle - terms.bias_torque)
+    reach = np.where(bounded, np.abs(inverse) @ half_range, np.inf)
+    return centre - reach, centre + reach
+
+
+def stopping_deceleration(terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray):
+    r"""(:math:`\bar a^+`, :math:`\bar a^-`) [rad/s²]: the deceleration counted on before each joint's upper limit and
+    before its lower one, from the torque limits [N·m] and H at the state of ``terms`` (module docstring).
+
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, the same both ways; inf where the
+    torque is unbounded. One state (n values each) or a stack (B × n).
+    """
+    limit = np.minimum(torque_upper, -torque_lower)
+    available = np.maximum(limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * limit)
+    deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
+    return deceleration, deceleration
 
 
 def _pick(candidates, choose):
@@ -227,19 +285,23 @@ def acceleration_bounds(
     deceleration,
     acceleration_limit,
     approach: bool = True,
+    lower_deceleration=None,
 ) -> AccelerationBounds:
     r"""Del Prete's bounds on :math:`\ddot q` (module docstring) for joints at ``angle`` [rad], ``velocity`` [rad/s].
 
     All arguments are arrays of one value per joint (±inf where a joint has
     no such limit), but ``step``, δ [s]; ``angle``, ``velocity`` and
-    ``deceleration`` may be stacks of states (B × joints), the limits broadcast along them. ``deceleration`` is :math:`\bar a`
-    [rad/s²] (inf: the joint stops at once), ``acceleration_limit``
+    ``deceleration`` (and ``lower_deceleration``) may be stacks of states (B × joints), the limits broadcast along them.
+    ``deceleration`` is :math:`\bar a^+` [rad/s²], the deceleration that stops the joint before its upper limit
+    (inf: at once), ``lower_deceleration`` :math:`\bar a^-`, before its lower limit (None: ``deceleration``),
+    ``acceleration_limit``
     :math:`\ddot q^{max}` [rad/s²] (inf: none). ``approach=False`` is Del Prete's braking parabola
     without the offset (w = 0), kept for comparison: it rebounds from a limit it is pushed into.
     """
     q, v, dt = np.asarray(angle, float), np.asarray(velocity, float), float(step)
     lower, upper = np.asarray(position_lower, float), np.asarray(position_upper, float)
-    brake = np.asarray(deceleration, float)
+    upper_brake = np.asarray(deceleration, float)
+    lower_brake = upper_brake if lower_deceleration is None else np.asarray(lower_deceleration, float)
     stop_in_step = -v / dt
     with np.errstate(divide="ignore", invalid="ignore"):
         # Position: q⁺ = q + δq̇ + ½δ²a within [q⁻, q⁺], and the turning point inside the step too.
@@ -251,20 +313,32 @@ def acceleration_bounds(
         turns_down = (v < 0) & (lower_next >= stop_in_step) & (q > lower)
         upper_position = np.where(turns_up, upper_turn, upper_next)
         lower_position = np.where(turns_down, lower_turn, lower_next)
+        # Beyond the limit (a start on the URDF's, inside the margin): stop within the step, then back at ā at most.
+        upper_position = np.where(q > upper, np.maximum(upper_position, stop_in_step - upper_brake), upper_position)
+        lower_position = np.where(q < lower, np.minimum(lower_position, stop_in_step + lower_brake), lower_position)
         # Viability: (q̇⁺ + w)² <= 2ā(q⁺_max + d − q⁺), Del Prete's braking parabola offset so that it meets the
         # limit with the finite slope 1/(APPROACH_STEPS·δ) (w = ā·APPROACH_STEPS·δ, d = w²/(2ā)); w = 0 is the
         # parabola itself. The larger root of δ²a² + B a + C = 0, in the form without cancellation where B > 0.
-        offset = brake * (APPROACH_STEPS * dt) if approach else np.zeros_like(brake)
-        reach = 0.5 * offset**2 / brake
+        # upper_brake stops the joint before its upper limit (a negative acceleration), lower_brake before its lower.
+        scale = APPROACH_STEPS * dt if approach else 0.0
+        offset, lower_offset = upper_brake * scale, lower_brake * scale
+        reach, lower_reach = 0.5 * offset**2 / upper_brake, 0.5 * lower_offset**2 / lower_brake
         root_up = _larger_root(
-            dt, 2.0 * dt * (v + offset) + brake * dt**2, (v + offset) ** 2 - 2.0 * brake * (upper + reach - q - dt * v)
+            dt,
+            2.0 * dt * (v + offset) + upper_brake * dt**2,
+            (v + offset) ** 2 - 2.0 * upper_brake * (upper + reach - q - dt * v),
         )
         root_down = -_larger_root(
-            dt, 2.0 * dt * (offset - v) + brake * dt**2, (offset - v) ** 2 - 2.0 * brake * (q + dt * v - lower + reach)
+            dt,
+            2.0 * dt * (lower_offset - v) + lower_brake * dt**2,
+            (lower_offset - v) ** 2 - 2.0 * lower_brake * (q + dt * v - lower + lower_reach),
         )
-    stops_at_once = ~np.isfinite(brake)
-    upper_viability = np.where(stops_at_once, np.inf, np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step))
-    lower_viability = np.where(stops_at_once, -np.inf, np.fmin(np.nan_to_num(root_down, nan=np.inf), stop_in_step))
+    upper_viability = np.where(
+        np.isfinite(upper_brake), np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step), np.inf
+    )
+    lower_viability = np.where(
+        np.isfinite(lower_brake), np.fmin(np.nan_to_num(root_down, nan=np.inf), stop_in_step), -np.inf
+    )
     upper_viability = np.where(np.isfinite(upper), upper_viability, np.inf)
     lower_viability = np.where(np.isfinite(lower), lower_viability, -np.inf)
     # Velocity: |q̇ + δa| <= q̇_max.
@@ -280,7 +354,7 @@ def acceleration_bounds(
         lower_wins = crossed & ~upper_wins
         low = np.where(upper_wins, high, low)
         high = np.where(lower_wins, low, high)
-    return AccelerationBounds(low, high, low_kind, high_kind, brake * np.ones_like(q))
+    return AccelerationBounds(low, high, low_kind, high_kind, np.maximum(upper_brake, lower_brake) * np.ones_like(q))
 
 
 class JointLimits:
@@ -308,7 +382,6 @@ class JointLimits:
         position_margin = np.minimum(POSITION_MARGIN, 0.25 * (upper - lower))[joints]
         self._lower, self._upper = lower[joints] + position_margin, upper[joints] - position_margin
         self._velocity, self._limit = (1.0 - VELOCITY_MARGIN) * velocity[joints], limit[joints]
-        self._torque_limit = np.minimum(robot.torque_upper, -robot.torque_lower)[joints]
         self._euclidean = robot.euclidean
         self._neutral = robot.configuration(np.zeros(robot.nv))
 
@@ -327,21 +400,22 @@ class JointLimits:
         joints = self.joints
         configuration = terms.configuration
         angles = configuration - self._neutral if self._euclidean else self.robot.joint_angles(configuration)
+        angles = angles[..., joints]
         if self.derived:
-            deceleration = stopping_deceleration(terms, np.minimum(self.robot.torque_upper, -self.robot.torque_lower))[
-                ..., joints
-            ]
+            before_upper, before_lower = stopping_deceleration(terms, self.robot.torque_upper, self.robot.torque_lower)
+            before_upper, before_lower = before_upper[..., joints], before_lower[..., joints]
         else:
-            deceleration = self._limit
+            before_upper = before_lower = self._limit
         return acceleration_bounds(
-            angles[..., joints],
+            angles,
             terms.joint_velocity[..., joints],
             self.step,
             self._lower,
             self._upper,
             self._velocity,
-            deceleration,
+            before_upper,
             self._limit,
+            lower_deceleration=before_lower,
         )
 
     def scale(self, bounds: AccelerationBounds) -> np.ndarray:

@@ -1,0 +1,112 @@
+"""Re-run a seeded sample of a committed atlas with pinv and the bounded resolvers at their defaults, and compare two
+such samples (issue 40: the joint limits' deceleration, before and after).
+
+    python benchmarks/bounded_atlas_sample.py run docs/atlas/tiago 1000 /tmp/after-tiago.parquet
+    python benchmarks/bounded_atlas_sample.py compare /tmp/before-tiago.parquet /tmp/after-tiago.parquet
+
+``run`` draws the atlas's population from its recorded settings (atlas.json), picks PATHS of its movements (seed 0;
+all of them when PATHS is the population's size) and runs pinv, bounded-torque, minmax-torque and
+energy-bounded-torque on them as the atlas's sweep does (``run_chunk``, batched), with the torqueopt on PYTHONPATH:
+run it once on the code before a change (a ``git archive`` of it) and once after. ``compare`` prints, per resolver,
+the verdicts, the runs outside a position or velocity limit and those newly so, the runs with an infeasible step
+(the task given up), and the median and largest peak torque ratio, on the paths both samples hold.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+RESOLVERS = ["pinv", "bounded-torque", "minmax-torque", "energy-bounded-torque"]
+
+
+def run(folder: Path, paths: int, out: Path) -> None:
+    import torqueopt
+    from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
+    from torqueopt.atlas.population import PopulationSpec, draw_population
+    from torqueopt.atlas.sweep import run_chunk
+    from torqueopt.atlas.verdicts import Thresholds
+    from torqueopt.resolvers import get_resolver
+
+    config = json.loads((folder / "atlas.json").read_text())["config"]
+    robot = config["robot"]
+    spec = RobotSpec(
+        robot["source"], robot.get("frame"), robot.get("task"),
+        None if robot.get("torque_limit") is None else tuple(robot["torque_limit"]),
+        tuple(robot["gravity"]) if isinstance(robot.get("gravity"), list) else robot.get("gravity"),
+    )  # fmt: skip
+    fields = PopulationSpec.__dataclass_fields__
+    population = {key: value for key, value in config["population"].items() if key in fields}
+    for key in ("durations", "length_range", "grid_posture"):
+        if population.get(key) is not None:
+            population[key] = tuple(population[key])
+    movements = draw_population(spec.load(), PopulationSpec(**population))
+    chosen = np.sort(np.random.default_rng(0).choice(len(movements), min(paths, len(movements)), replace=False))
+    start = time.process_time()
+    rows = []
+    for duration in sorted({movements[i].duration for i in chosen}):
+        members = tuple(movements[i] for i in chosen if movements[i].duration == duration)
+        job = ResolverChunk(
+            spec, tuple(get_resolver(name) for name in RESOLVERS), members, float(config["dt"]),
+            Thresholds(**config["thresholds"]), bool(config.get("batch", True)), "",
+        )  # fmt: skip
+        rows += run_chunk(job)
+    pd.DataFrame(rows).to_parquet(out, index=False)
+    print(f"{torqueopt.__file__}: {folder.name}, {len(rows)} rows, {time.process_time() - start:.0f} s CPU")
+
+
+def outside(table: pd.DataFrame) -> pd.Series:
+    return table.first_position_limit_violation.notna() | table.first_velocity_limit_violation.notna()
+
+
+def compare(before_file: Path, after_file: Path) -> None:
+    before, after = pd.read_parquet(before_file), pd.read_parquet(after_file)
+    before = before[before.path.isin(after.path.unique())]
+    after = after[after.path.isin(before.path.unique())]
+    pinv = before[before.resolver == "pinv"]
+    handled = set(pinv[(pinv.verdict == "stable") & (pinv.peak_torque_ratio <= 1.0)].path)
+    print(
+        "| resolver | paths | stable | lost path | outside a limit | newly outside (pinv handles it?) "
+        "| with an infeasible step | median peak τ ratio | rows unchanged |"
+    )
+    print("|---|---:|---|---|---|---|---|---|---:|")
+    for resolver in RESOLVERS[1:]:
+        old = before[before.resolver == resolver].set_index("path").sort_index()
+        new = after[after.resolver == resolver].set_index("path").sort_index()
+        was, now = outside(old), outside(new)
+        newly = sorted(set(now[now].index) - set(was[was].index))
+        same = int(((old.max_tip_error == new.max_tip_error) & (old.peak_torque_ratio == new.peak_torque_ratio)).sum())
+        marks = ", ".join(f"{path} ({'yes' if path in handled else 'no'})" for path in newly) or "none"
+        print(
+            f"| {resolver} | {len(new)} | {(old.verdict == 'stable').sum()} → {(new.verdict == 'stable').sum()} "
+            f"| {(old.verdict == 'lost path').sum()} → {(new.verdict == 'lost path').sum()} "
+            f"| {int(was.sum())} → {int(now.sum())} | {marks} "
+            f"| {int((old.infeasible_steps > 0).sum())} → {int((new.infeasible_steps > 0).sum())} "
+            f"| {old.peak_torque_ratio.median():.3f} → {new.peak_torque_ratio.median():.3f} | {same} |"
+        )
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    run_parser = commands.add_parser("run", help="re-run a sample of a committed atlas")
+    run_parser.add_argument("atlas", type=Path)
+    run_parser.add_argument("paths", type=int)
+    run_parser.add_argument("out", type=Path)
+    compare_parser = commands.add_parser("compare", help="compare two samples")
+    compare_parser.add_argument("before", type=Path)
+    compare_parser.add_argument("after", type=Path)
+    arguments = parser.parse_args(argv)
+    if arguments.command == "run":
+        run(arguments.atlas, arguments.paths, arguments.out)
+    else:
+        compare(arguments.before, arguments.after)
+
+
+if __name__ == "__main__":
+    main()
