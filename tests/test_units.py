@@ -128,3 +128,17 @@ def test_stop_messages_and_plot_labels_name_the_prismatic_units(slider_urdf, tmp
     assert labels[:3] == ["[N·m]", "[N]", "[N·m]"] and "[rad/s or m/s]" in labels
     titles = [ax.get_title(loc="left") for ax in saved[0].axes[:3]]
     assert titles[1] == "slider (limit ±80 N)"
+
+
+def test_a_bounded_resolvers_limit_message_gives_a_sliders_excess_in_m_per_s2(slider_urdf):
+    from torqueopt.resolvers.bounded.joint_limits import AccelerationBounds, JointLimits
+
+    robot = torqueopt.load_robot(str(slider_urdf), frame="tip", task="xy")
+    limits = JointLimits(robot)
+    rows = limits.count
+    bounds = AccelerationBounds(np.full(rows, -1.0), np.full(rows, 1.0), np.zeros(rows), np.zeros(rows), np.ones(rows))
+    found = limits.exceeded(bounds, np.array([0.0, 3.0, 5.0]))
+    assert found == [
+        "position limit (upper) of joint slider by 2 m/s²",
+        "position limit (upper) of joint wrist by 4 rad/s²",
+    ]

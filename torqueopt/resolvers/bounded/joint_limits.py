@@ -438,7 +438,7 @@ class JointLimits:
         return found
 
     def exceeded(self, bounds: AccelerationBounds, acceleration: np.ndarray, tolerance: float = 1e-6) -> list[str]:
-        """The joint bounds ``acceleration`` (n) [rad/s²] exceeds, as "position limit (upper) of joint J by X rad/s²"."""
+        """The joint bounds ``acceleration`` (n) [rad/s²] exceeds, as "position limit (upper) of joint J by X rad/s²" (m/s² for a prismatic joint)."""
         found = []
         joint_acceleration = acceleration[self.joints]
         scale = self.scale(bounds)
@@ -448,8 +448,10 @@ class JointLimits:
             ("lower", bounds.lower - joint_acceleration, bounds.lower_kind),
         ):
             for row in np.flatnonzero(beyond > tolerance * scale):
+                joint = self.joints[row]
                 found.append(
-                    f"{describe_kind(kinds[row])} ({side}) of joint {names[self.joints[row]]} by {beyond[row]:.3g} rad/s²"
+                    f"{describe_kind(kinds[row])} ({side}) of joint {names[joint]} by {beyond[row]:.3g} "
+                    f"{self.robot.joint_unit(joint, 'acceleration')}"
                 )
         return found
 
