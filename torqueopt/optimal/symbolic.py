@@ -38,7 +38,7 @@ import pinocchio as pin
 
 from ..errors import InvalidInput, MissingDependency
 
-__all__ = ["SUPPORTED_JOINTS", "model_digest", "symbolic_dynamics"]
+__all__ = ["SUPPORTED_JOINTS", "configuration_expression", "model_digest", "symbolic_dynamics"]
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 #: Pinocchio joint models the generator knows: revolute, continuous ("RUB", unbounded) and prismatic.
@@ -80,6 +80,25 @@ def _rotation(casadi, axis: np.ndarray, cosine, sine):
     skew = casadi.DM([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
     outer = casadi.DM(np.outer(axis, axis))
     return cosine * casadi.DM.eye(3) + sine * skew + (1.0 - cosine) * outer
+
+
+def configuration_expression(model: pin.Model, angles):
+    """Pinocchio's ``integrate(model, neutral(model), angles)`` as a CasADi expression (nq×1).
+
+    One angle (or length) per joint, as :meth:`torqueopt.Robot.configuration`
+    takes them: a revolute or prismatic joint's configuration is its angle
+    (their neutral is 0), a continuous joint's is (cos θ, sin θ).
+    """
+    casadi = _casadi()
+    entries = [None] * model.nq
+    for joint in range(1, model.njoints):
+        kind, _ = _joint_kind(model.joints[joint])
+        iq, iv = model.joints[joint].idx_q, model.joints[joint].idx_v
+        if kind == "continuous":
+            entries[iq], entries[iq + 1] = casadi.cos(angles[iv]), casadi.sin(angles[iv])
+        else:
+            entries[iq] = angles[iv]
+    return casadi.vertcat(*entries)
 
 
 def model_digest(model: pin.Model, frame_id: int | None = None) -> str:

@@ -31,6 +31,7 @@ optimum; anything else is the last iterate, reported as such.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -47,7 +48,7 @@ from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
 from .replay import replay_torques
 from .result import OptimalResult
-from .shooting import ShootingTranscription, solve_shooting
+from .shooting import ShootingTranscription, least_excess, solve_shooting
 from .transcription import Transcription
 
 __all__ = [
@@ -235,7 +236,7 @@ def optimize(
     if transcription == "shooting":
         if hessian != "auto":
             raise InvalidInput(f"transcription 'shooting' uses the exact Hessian: give hessian 'auto', not '{hessian}'")
-        chosen, attempts, tried = _solve_from_starts(
+        chosen, attempts, tried, feasibility = _solve_from_starts(
             problem,
             robot,
             trajectory,
@@ -251,9 +252,9 @@ def optimize(
             progress,
         )
         start_run, start_name, solved = chosen
-        spent = sum(record["seconds"] for record in tried)
+        spent = sum(record["seconds"] for record in tried) + (feasibility.seconds if feasibility else 0.0)
     else:
-        tried = []
+        tried, feasibility = [], None
         start_run, start_name = _start_run(robot, trajectory, q_start, dt, warm_start)
         w0 = _warm_start(problem, start_run)
         attempts, start, spent = [], w0, 0.0
@@ -330,6 +331,7 @@ def optimize(
         warm_start_cost=start_cost,
         transcription=transcription,
         starts=tried,
+        feasibility=feasibility.record() if feasibility is not None else {},
         solution={"problem": problem, "w": solved.w, "lam_g": solved.lam_g, "lam_x": solved.lam_x},
     )
 
@@ -342,6 +344,8 @@ def _start_run(robot, trajectory, q_start, dt, warm_start) -> tuple[SimResult, s
     return simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
 
 
+#: The name of the start taken from the phase-1 problem's motion within the limits (``result.starts``).
+PHASE_ONE = "phase-1"
 #: The order of preference of a start's outcome when no start converged.
 _PREFERENCE = ("converged", "acceptable", "iteration limit", "time limit", "failed", "infeasible")
 
@@ -363,8 +367,13 @@ def _solve_from_starts(
 ):
     """Solve the shooting program from every start; the best (status, then cost) and every start's record.
 
-    Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start]).
-    The status is ``infeasible`` only when every start ended infeasible.
+    When no start ends within the limits (``converged`` or ``acceptable``), the phase-1 problem
+    (:func:`~torqueopt.optimal.shooting.least_excess`) is solved from the start that came nearest: a
+    converged positive excess makes the status ``infeasible`` (whatever IPOPT said), a motion within
+    every limit is one more start (``phase-1 from <start>``), solved like the others.
+
+    Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start],
+    the phase-1 :class:`~torqueopt.optimal.shooting.Feasibility` or None).
     """
     if starts is None:
         starts = (warm_start, *(name for name in DEFAULT_STARTS if name != warm_start))
@@ -390,27 +399,56 @@ def _solve_from_starts(
         )
         spent += solved.seconds
         outcomes.append((run, name, solved))
-        records.append(
-            {
-                "warm_start": name,
-                "status": solved.status,
-                "solver_message": solved.message,
-                "iterations": solved.iterations,
-                "grid_cost": solved.objective,
-                "constraint_violation": solved.constraint_violation,
-                "seconds": solved.seconds,
-            }
+        records.append(_start_record(name, solved))
+    feasibility = None
+    if not any(outcome[2].status in ("converged", "acceptable") for outcome in outcomes):
+        # No start reached a point within the limits: the phase-1 problem either proves there is none or gives one.
+        nearest = min(outcomes, key=lambda outcome: outcome[2].constraint_violation)
+        remaining = None if max_time is None else max(max_time - spent, 1e-3)
+        feasibility = least_excess(
+            problem, nearest[2].w, tolerance=tolerance, max_iterations=max_iterations, max_time=remaining
         )
-    infeasible = all(outcome[2].status == "infeasible" for outcome in outcomes)
+        spent += feasibility.seconds
+        if not feasibility.proves_infeasible and feasibility.status == "converged":
+            remaining = None if max_time is None else max(max_time - spent, 1e-3)
+            solved = solve_shooting(
+                problem,
+                feasibility.w,
+                tolerance=tolerance,
+                max_iterations=max_iterations,
+                max_time=remaining,
+                compiled=compiled,
+                verbose=verbose,
+                on_iteration=progress,
+            )
+            outcomes.append((nearest[0], f"{PHASE_ONE} from {nearest[1]}", solved))
+            records.append(_start_record(f"{PHASE_ONE} from {nearest[1]}", solved))
     best = min(
         outcomes,
         key=lambda outcome: (
-            _PREFERENCE.index(outcome[2].status) if not infeasible else 0,
+            _PREFERENCE.index(outcome[2].status),
             outcome[2].constraint_violation if outcome[2].status not in ("converged", "acceptable") else 0.0,
             outcome[2].objective,
         ),
     )
-    return best, [("exact", best[2])], records
+    if feasibility is not None and feasibility.proves_infeasible:
+        best = (best[0], best[1], replace(best[2], status="infeasible"))
+    elif feasibility is not None and feasibility.status == "converged" and best[2].status == "infeasible":
+        best = (best[0], best[1], replace(best[2], status="failed"))  # phase-1 met every limit: not infeasible
+    return best, [("exact", best[2])], records, feasibility
+
+
+def _start_record(name: str, solved) -> dict:
+    """What ``OptimalResult.starts`` keeps of one start's solve."""
+    return {
+        "warm_start": name,
+        "status": solved.status,
+        "solver_message": solved.message,
+        "iterations": solved.iterations,
+        "grid_cost": solved.objective,
+        "constraint_violation": solved.constraint_violation,
+        "seconds": solved.seconds,
+    }
 
 
 def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
@@ -421,7 +459,7 @@ def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
     if not len(run.t):
         raise InvalidInput("the warm-start run has no rows")
     nodes = problem.times
-    q = np.column_stack([np.interp(nodes, run.t, column) for column in run.q.T])
+    q = np.column_stack([np.interp(nodes, run.t, column) for column in problem.angles(run.q).T])
     v = np.column_stack([np.interp(nodes, run.t, column) for column in run.v.T])
     beyond = nodes > run.t[-1]
     v[beyond] = 0.0
@@ -441,10 +479,13 @@ def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
         return q_nodes[k] + s * v_nodes[k] + 0.5 * s * s * a_nodes[k], v_nodes[k] + s * a_nodes[k], a_nodes[k]
 
     rows = [state(t) for t in times]
-    q = np.array([row[0] for row in rows])
+    q = problem.configurations(np.array([row[0] for row in rows]))
     v = np.array([row[1] for row in rows])
     a = np.array([row[2] for row in rows])
     step = times[1] - times[0]
-    torques = np.array([pin.rnea(model, data, *state(t + 0.5 * step)).copy() for t in times[:-1]])
+    torques = np.empty((len(times) - 1, problem.n))
+    for row, t in enumerate(times[:-1]):
+        angles, velocity, acceleration = state(t + 0.5 * step)
+        torques[row] = pin.rnea(model, data, problem.configurations(angles), velocity, acceleration)
     tips = np.array([robot.frame_placement(row, data).translation[robot.task_rows] for row in q])
     return {"q": q, "v": v, "a": a, "tau": torques, "x": tips}
