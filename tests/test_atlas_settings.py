@@ -81,6 +81,7 @@ EVERY_OPTION = {
     "figures": (None, False),
     "keep_traces": ("5", 5),
     "global_optimum": (None, True),
+    "global_bounded": (None, True),
     "global_max_iterations": ("50", 50),
     "global_max_time": ("30", 30.0),
     "margin": (None, True),
@@ -91,6 +92,7 @@ FLAGS = {
     "progress": "--no-progress",
     "figures": "--no-figures",
     "global_optimum": "--global",
+    "global_bounded": "--global-bounded",
     "margin": "--margin",
 }
 

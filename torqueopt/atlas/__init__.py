@@ -254,7 +254,7 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     for resolver in settings.resolvers:
         resolver.check(loaded)
     if frontier.global_optimum:
-        check_transcription(loaded, population.durations)
+        check_transcription(loaded, population.durations, torque_bounds=frontier.global_bounded)
     if population.mode == "grid":
         # Counted, not built: the grid's start points bound its movements before any inverse kinematics.
         _check_grid_size(grid_start_points(loaded, population), steps_per_run, max_steps, population, work, dt)

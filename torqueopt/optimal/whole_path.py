@@ -376,7 +376,9 @@ def _solve_from_starts(
     the phase-1 :class:`~torqueopt.optimal.shooting.Feasibility` or None).
     """
     if starts is None:
-        starts = (warm_start, *(name for name in DEFAULT_STARTS if name != warm_start))
+        # a run or a resolver named like a default start is that start: it is not solved from twice
+        first = warm_start.resolver if isinstance(warm_start, SimResult) else getattr(warm_start, "name", warm_start)
+        starts = (warm_start, *(name for name in DEFAULT_STARTS if name != first))
     elif isinstance(starts, (str, Resolver, SimResult)):
         starts = (starts,)
     if not len(starts):
