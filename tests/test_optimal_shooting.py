@@ -270,6 +270,19 @@ def test_continuous_joints_give_the_optimum_of_their_revolute_twin(tmp_path):
     assert np.ptp(results[1].joint_angles[:, 3]) > 0.1 and results[1].joint_angles[:, 3].max() > np.pi  # past π
 
 
+def test_unaligned_joints_built_in_python_solve_as_the_direct_transcription_does():
+    """model.joints[i] of a model built in Python is Pinocchio's generic JointModel, whose axis is behind extract():
+    three unaligned sliders (a QP, see test_optimal) give the direct transcription's optimum."""
+    from .test_optimal import prismatic_arm
+
+    arm = prismatic_arm()
+    line = torqueopt.StraightLine([1.0, 0.5], duration=0.4).anchored([0.0, 0.0])
+    direct = optimize(arm, line, np.zeros(3), grid_step=0.05)
+    shooting = optimize(arm, line, np.zeros(3), grid_step=0.05, transcription="shooting", starts=("pinv",))
+    assert direct.optimal and shooting.optimal
+    assert shooting.cost == pytest.approx(direct.cost, rel=1e-9)
+
+
 def test_direct_transcription_refuses_continuous_joints():
     kinova = torqueopt.load_robot("kinova")
     line = torqueopt.StraightLine([0.0, 0.1, 0.0], duration=0.2)

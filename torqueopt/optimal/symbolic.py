@@ -58,6 +58,12 @@ def _casadi():
     return casadi
 
 
+def _unaligned_axis(joint) -> np.ndarray:
+    """The axis of an unaligned joint: ``model.joints[i]`` is Pinocchio's generic JointModel, whose axis only the
+    concrete model it ``extract()``s has."""
+    return np.array((joint if hasattr(joint, "axis") else joint.extract()).axis, float)
+
+
 def _joint_kind(joint) -> tuple[str, np.ndarray]:
     """('revolute' | 'continuous' | 'prismatic', unit axis in the joint frame) of a Pinocchio joint model."""
     name = joint.shortname()
@@ -66,7 +72,7 @@ def _joint_kind(joint) -> tuple[str, np.ndarray]:
             f"joint model '{name}' is not supported by the symbolic dynamics; supported: {', '.join(SUPPORTED_JOINTS)}"
         )
     if name.endswith("Unaligned"):
-        axis = np.array(joint.axis, float)
+        axis = _unaligned_axis(joint)
         kind = {"Revolute": "revolute", "RevoluteUnbounded": "continuous", "Prismatic": "prismatic"}[
             name[len("JointModel") : -len("Unaligned")]
         ]
@@ -107,7 +113,7 @@ def model_digest(model: pin.Model, frame_id: int | None = None) -> str:
     for joint in range(1, model.njoints):
         digest.update(model.joints[joint].shortname().encode())
         if model.joints[joint].shortname().endswith("Unaligned"):
-            digest.update(np.asarray(model.joints[joint].axis, float).tobytes())
+            digest.update(_unaligned_axis(model.joints[joint]).tobytes())
         digest.update(np.int64(model.parents[joint]).tobytes())
         digest.update(np.asarray(model.jointPlacements[joint].homogeneous, float).tobytes())
         inertia = model.inertias[joint]

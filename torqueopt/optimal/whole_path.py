@@ -142,8 +142,8 @@ def optimize(
     r"""The joint motion that tracks ``trajectory`` and minimises :math:`\int\|S(\tau - \tau_{mid})\|^2 dt`.
 
     Args:
-        robot: from :func:`torqueopt.load_robot`; revolute/prismatic joints,
-            task ``xy`` or ``position``.
+        robot: from :func:`torqueopt.load_robot`; revolute/prismatic joints (continuous ones too
+            with ``shooting``), task ``xy`` or ``position``.
         trajectory: the tip reference (anchored at the tip's position at q0
             when it has no start), e.g. :class:`torqueopt.StraightLine`.
         q0: start configuration (configuration vector or one angle per joint); the arm starts at rest.
@@ -165,7 +165,10 @@ def optimize(
             default ``DEFAULT_STARTS`` (``warm_start`` first). The best converged optimum is
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
-            cost are in ``result.starts``.
+            cost are in ``result.starts``. Where no start ends within the limits, the phase-1
+            problem (:func:`torqueopt.optimal.shooting.least_excess`) either proves there is no
+            motion within them (status ``infeasible``, evidence in ``result.feasibility``) or
+            gives one more start.
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
             (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
             CasADi's virtual machine evaluates them.
