@@ -32,7 +32,7 @@ is solved under the torque bounds and the URDF's joint limits, by the
 on which it finds that no motion within the limits exists (``optimizer_status``
 ``infeasible``: the phase-1 problem's least excess over the limits is positive,
 or IPOPT declared every start infeasible) has the verdict ``infeasible for
-every resolver`` (:data:`~torqueopt.atlas.verdicts.INFEASIBLE`), with the
+every resolver`` (``torqueopt.atlas.verdicts.INFEASIBLE``), with the
 solver's evidence in ``optimizer_evidence`` and the least excess in
 ``optimizer_excess`` (NaN where no phase-1 ran), and ``infeasible_path`` marks
 every row of that path. The report gives the problem-free shares over the

@@ -75,7 +75,7 @@ class OptimalResult:
     #: iterations, grid_cost, constraint_violation, seconds (empty for ``direct``).
     starts: list = field(default_factory=list)
     #: ``shooting`` only, when no start ended within the limits: the phase-1 problem's answer
-    #: (:meth:`torqueopt.optimal.shooting.Feasibility.record`: excess, status, binding limits, evidence); else empty.
+    #: (``torqueopt.optimal.shooting.Feasibility.record``: excess, status, binding limits, evidence); else empty.
     feasibility: dict = field(default_factory=dict)
     #: The solver's multipliers and the transcription, for checks (not written to files).
     solution: dict = field(default_factory=dict, repr=False)

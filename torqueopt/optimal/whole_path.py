@@ -166,7 +166,7 @@ def optimize(
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
             cost are in ``result.starts``. Where no start ends within the limits, the phase-1
-            problem (:func:`torqueopt.optimal.shooting.least_excess`) either proves there is no
+            problem (``torqueopt.optimal.shooting.least_excess``) either proves there is no
             motion within them (status ``infeasible``, evidence in ``result.feasibility``) or
             gives one more start.
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
