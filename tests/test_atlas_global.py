@@ -475,8 +475,9 @@ def test_a_path_no_motion_can_do_within_the_limits_is_infeasible_for_every_resol
     robot = planar3.with_gravity([0.0, -9.81, 0.0])
     q0 = robot.configuration(movement.q0)
     static = np.abs(pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q0))
-    bounded = {**settings(500, 120.0, bounded=True), "grid_step": 0.02}
+    bounded = settings(500, 120.0, bounded=True)
     assert bounded["torque_bounds"] and bounded["joint_limits"] and bounded["transcription"] == "shooting"
+    bounded.update(grid_step=0.02, compiled=False)  # a coarser grid and no compile, for the test's time
     with pytest.warns(torqueopt.TorqueoptWarning, match="holding the start against gravity"):
         row, _ = global_row(
             robot.with_torque_limit(0.01 * static), movement, dt=1e-3, thresholds=Thresholds(), settings=bounded
