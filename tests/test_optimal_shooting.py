@@ -164,6 +164,7 @@ def test_a_torque_bound_below_gravity_is_reported_infeasible(too_weak):
     assert evidence["excess"] > 1.0  # the limits are a tenth of what holding the start needs
     assert evidence["evidence"].startswith("every motion along the path exceeds a limit by at least")
     assert "torque of joint" in evidence["binding"][0]
+    assert evidence["from"] == "pinv" and [entry["from"] for entry in evidence["tries"]] == ["pinv"]
     assert result.summary()["feasibility"] == evidence
 
 
