@@ -268,7 +268,7 @@ class Feasibility:
             a fraction of each limit's half range, see :func:`least_excess`). 0 when a motion within every limit
             was found.
         status: how the phase-1 solve ended (one of :data:`~torqueopt.optimal.ipopt.STATUSES`); only a
-            ``converged`` positive ``excess`` is evidence that no motion within the limits exists (of a
+            ``converged`` or ``acceptable`` positive ``excess`` is evidence that no motion within the limits exists (of a
             local minimum: the problem is not convex).
         message: IPOPT's return status. binding: the limits at t* (kind, joint, time), the first few.
         w: the phase-1 point (a feasible start for the problem when ``excess`` is 0).
@@ -284,13 +284,19 @@ class Feasibility:
     seconds: float
 
     @property
+    def answered(self) -> bool:
+        """True when the phase-1 solve ended at a local minimum (``converged``, or ``acceptable``: IPOPT's looser
+        tolerances)."""
+        return self.status in ("converged", "acceptable")
+
+    @property
     def proves_infeasible(self) -> bool:
-        """True when the phase-1 solve converged to an excess above :data:`EXCESS_TOLERANCE`."""
-        return self.status == "converged" and self.excess > EXCESS_TOLERANCE
+        """True when the phase-1 solve ended at a local minimum (:attr:`answered`) above :data:`EXCESS_TOLERANCE`."""
+        return self.answered and self.excess > EXCESS_TOLERANCE
 
     def evidence(self) -> str:
         """One line: what the phase-1 solve found."""
-        if self.status != "converged":
+        if not self.answered:
             return f"phase-1 (least excess over the limits) did not converge ({self.message})"
         if not self.proves_infeasible:
             return "phase-1 found a motion within every limit"

@@ -373,8 +373,8 @@ def _solve_from_starts(
     When no start ends within the limits (``converged`` or ``acceptable``), the phase-1 problem
     (:func:`~torqueopt.optimal.shooting.least_excess`) is solved from each start's last point, nearest
     first, until one finds a motion within every limit: that motion is one more start (``phase-1 from
-    <start>``), solved like the others; else the least converged excess, when positive, makes the status
-    ``infeasible`` (whatever IPOPT said).
+    <start>``), solved like the others; else the least excess of those that ended at a local minimum
+    (``converged`` or ``acceptable``), when positive, makes the status ``infeasible`` (whatever IPOPT said).
 
     Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start],
     (the least phase-1 :class:`~torqueopt.optimal.shooting.Feasibility`, [(start, Feasibility)]) or None).
@@ -418,12 +418,12 @@ def _solve_from_starts(
             )
             spent += found.seconds
             tries.append((run, name, found))
-            if found.status == "converged" and not found.proves_infeasible:
+            if found.answered and not found.proves_infeasible:
                 break
-        answered = [entry for entry in tries if entry[2].status == "converged"]
+        answered = [entry for entry in tries if entry[2].answered]
         run, name, feasibility = min(answered, key=lambda entry: entry[2].excess) if answered else tries[0]
         feasibility = replace(feasibility, seconds=sum(entry[2].seconds for entry in tries))
-        if feasibility.status == "converged" and not feasibility.proves_infeasible:
+        if feasibility.answered and not feasibility.proves_infeasible:
             remaining = None if max_time is None else max(max_time - spent, 1e-3)
             solved = solve_shooting(
                 problem,
@@ -447,7 +447,7 @@ def _solve_from_starts(
     )
     if feasibility is not None and feasibility.proves_infeasible:
         best = (best[0], best[1], replace(best[2], status="infeasible"))
-    elif feasibility is not None and feasibility.status == "converged" and best[2].status == "infeasible":
+    elif feasibility is not None and feasibility.answered and best[2].status == "infeasible":
         best = (best[0], best[1], replace(best[2], status="failed"))  # phase-1 met every limit: not infeasible
     if feasibility is not None:
         feasibility = (feasibility, name, [(start, found) for _, start, found in tries])
