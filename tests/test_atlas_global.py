@@ -196,6 +196,7 @@ def test_the_global_work_is_bounded_up_front(tmp_path):
         (["--global", "--global-max-time", "0"], "global-max-time"),
         (["--global", "--global-max-iterations", "0"], "global-max-iterations"),
         (["--margin", "--margin-every", "0.0001"], "margin_every=0.0001 s is shorter than the step"),
+        (["--global-bounded"], "--global-bounded (global_bounded=True) says how the global optimum is solved: give"),
     ],
 )
 def test_cli_bad_global_and_margin_options_are_one_line_and_exit_2(tmp_path, capsys, arguments, message):

@@ -242,6 +242,11 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     before anything is drawn and again once it is."""
     execution, frontier, dt = settings.execution, settings.frontier, settings.population.dt
     population = settings.population_spec()
+    if frontier.global_bounded and not frontier.global_optimum:
+        raise InvalidInput(
+            "--global-bounded (global_bounded=True) says how the global optimum is solved: give --global "
+            "(global_optimum=True) too"
+        )
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     max_steps = execution.max_steps
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
