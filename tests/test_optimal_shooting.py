@@ -324,3 +324,20 @@ def test_compiled_functions_give_the_same_optimum_and_are_cached(paper_arm, tmp_
     plain = optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
     assert compiled.optimal and compiled.cost == pytest.approx(plain.cost, rel=1e-9)
     assert len(list((tmp_path / "cache").glob("shooting_*.so"))) == 1
+
+
+@pytest.mark.slow
+def test_the_command_prints_phase_ones_evidence(capsys):
+    """torqueopt optimize on a line no motion within 0.5 N·m can follow: exit 3 (not optimal), IPOPT's word on each
+    start, then phase-1's least excess and the limits it reaches."""
+    from torqueopt.cli import main
+
+    code = main(
+        ["optimize", "--robot", "planar3", "--direction", "1,1", "--duration", "0.5", "--torque-limit", "0.5",
+         "--torque-bounds", "--grid-step", "0.02", "--transcription", "shooting"]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 3
+    assert "  start pinv: infeasible (" in out
+    assert "  phase-1 (least excess over the limits): every motion along the path exceeds a limit by at least" in out
+    assert "(torque of joint" in out
