@@ -485,7 +485,9 @@ def test_a_path_no_motion_can_do_within_the_limits_is_infeasible_for_every_resol
         )
     assert row["optimizer_status"] == "infeasible", row
     assert row["verdict"] == INFEASIBLE
-    assert row["optimizer_evidence"].startswith("phase-1: every motion along the path exceeds a limit by at least")
+    assert row["optimizer_evidence"].startswith(
+        "phase-1: the least excess over the limits of a motion along the path is"
+    )
     assert row["optimizer_excess"] > 1.0  # the limits are a hundredth of what holding the start needs
     row, _ = global_row(planar3, movement, dt=1e-3, thresholds=Thresholds(), settings=bounded)
     assert row["optimizer_status"] == "converged" and row["verdict"] != INFEASIBLE

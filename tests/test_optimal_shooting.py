@@ -162,7 +162,7 @@ def test_a_torque_bound_below_gravity_is_reported_infeasible(too_weak):
     evidence = result.feasibility
     assert evidence["proves_infeasible"] and evidence["status"] == "converged"
     assert evidence["excess"] > 1.0  # the limits are a tenth of what holding the start needs
-    assert evidence["evidence"].startswith("every motion along the path exceeds a limit by at least")
+    assert evidence["evidence"].startswith("the least excess over the limits of a motion along the path is")
     assert "torque of joint" in evidence["binding"][0]
     assert evidence["from"] == "pinv" and [entry["from"] for entry in evidence["tries"]] == ["pinv"]
     assert result.summary()["feasibility"] == evidence
@@ -339,5 +339,5 @@ def test_the_command_prints_phase_ones_evidence(capsys):
     out = capsys.readouterr().out
     assert code == 3
     assert "  start pinv: infeasible (" in out
-    assert "  phase-1 (least excess over the limits): every motion along the path exceeds a limit by at least" in out
+    assert "  phase-1: the least excess over the limits of a motion along the path is" in out
     assert "(torque of joint" in out

@@ -245,7 +245,7 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
             f"iterations, grid cost {start['grid_cost']:.6g}, {start['seconds']:.2f} s"
         )
     if result.feasibility:
-        lines.append(f"  phase-1 (least excess over the limits): {result.feasibility['evidence']}")
+        lines.append(f"  phase-1: {result.feasibility['evidence']}")
     lines += [
         f"{'joint':<24}{'peak |tau| [N·m]':>18}{'limit [N·m]':>14}{'peak/limit':>12}",
     ]

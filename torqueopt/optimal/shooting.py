@@ -301,7 +301,8 @@ class Feasibility:
         if not self.proves_infeasible:
             return "phase-1 found a motion within every limit"
         where = "; ".join(self.binding) or "no binding limit"
-        return f"every motion along the path exceeds a limit by at least {self.excess:.3g} of its half range ({where})"
+        # a local minimum of a nonconvex problem: the least excess found, not a bound on every motion
+        return f"the least excess over the limits of a motion along the path is {self.excess:.3g} of a half range ({where})"
 
     def record(self) -> dict:
         """The JSON-ready record (``OptimalResult.feasibility``)."""
@@ -317,7 +318,8 @@ class Feasibility:
         }
 
 
-#: A phase-1 optimum above this (a fraction of a limit's half range) proves the limits cannot all be met.
+#: A phase-1 local minimum above this (a fraction of a limit's half range) is taken as evidence that the limits
+#: cannot all be met (``infeasible``).
 EXCESS_TOLERANCE = 1e-6
 
 
