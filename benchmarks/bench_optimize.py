@@ -13,8 +13,10 @@ Run on one core: taskset -c 0 python benchmarks/bench_optimize.py [--rounds 3] [
 
 ``--shooting PATHS``: the shooting transcription (transcription="shooting") on the atlas's population
 (torqueopt.atlas.population, seed 0) of PATHS random 2 s panda lines and PATHS random 1 s panda circles,
-torque bounds and joint limits on, both default starts, compiled (the one-time compile is timed apart):
-convergence, iterations and time per solve. ``--grid-step`` sets the transcription grid (default 0.02 s).
+torque bounds and joint limits on, both default starts (and the phase-1 problem where no start ends within
+the limits), compiled (the one-time compile is timed apart):
+convergence, iterations and time per solve. ``--grid-step`` sets the transcription grid (default 0.02 s),
+``--starts`` the warm starts (e.g. ``pinv``).
 """
 
 from __future__ import annotations
@@ -84,7 +86,7 @@ def scipy_case(method):
     return f"planar3 short, 10 ms, scipy {method}", run
 
 
-def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...]) -> None:
+def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...], starts=None) -> None:
     from torqueopt.atlas.population import PopulationSpec, draw_population, movement_trajectory
 
     robot = torqueopt.load_robot("panda", task="position")
@@ -104,25 +106,28 @@ def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...]) ->
                 torque_bounds=True,
                 joint_limits=True,
                 compiled=True,
+                starts=starts,
             )
             wall = time.perf_counter() - began
-            starts = "; ".join(
+            tried = "; ".join(
                 f"{s['warm_start']}: {s['status']} {s['iterations']} it {s['grid_cost']:.6g} ({s['seconds']:.2f} s)"
                 for s in result.starts
             )
             rows.append((kind, result, wall))
+            evidence = f" | phase-1: {result.feasibility['evidence']}" if result.feasibility else ""
             print(
                 f"{kind} {index:3d} {result.status:>16} cost {result.cost:12.6g} pinv {result.warm_start_cost:12.6g} "
-                f"wall {wall:7.2f} s | {starts}",
+                f"wall {wall:7.2f} s | {tried}{evidence}",
                 flush=True,
             )
     for kind in kinds:
         chosen = [(result, wall) for k, result, wall in rows if k == kind]
         converged = sum(result.status == "converged" for result, _ in chosen)
+        proven = sum(bool(result.feasibility.get("proves_infeasible")) for result, _ in chosen)
         seconds = [s["seconds"] for result, _ in chosen for s in result.starts]
         iterations = [s["iterations"] for result, _ in chosen for s in result.starts]
         print(
-            f"{kind}: {converged}/{len(chosen)} converged; per solve (start) median {statistics.median(seconds):.2f} s, "
+            f"{kind}: {converged}/{len(chosen)} converged, {proven} proven infeasible (phase-1); per solve (start) median {statistics.median(seconds):.2f} s, "
             f"max {max(seconds):.2f} s; iterations median {statistics.median(iterations):g}, max {max(iterations)}"
         )
 
@@ -134,9 +139,13 @@ def main() -> None:
     parser.add_argument("--shooting", type=int, default=0, metavar="PATHS")
     parser.add_argument("--grid-step", type=float, default=0.02)
     parser.add_argument("--kinds", default="line,circle", help="of --shooting: line, circle or both")
+    parser.add_argument(
+        "--starts", default=None, help="of --shooting: comma-separated warm starts (default: optimize's)"
+    )
     args = parser.parse_args()
     if args.shooting:
-        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")))
+        starts = tuple(args.starts.split(",")) if args.starts else None
+        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")), starts)
         return
     cases = [
         planar_case(0.01, "gauss-newton", False),

@@ -196,6 +196,7 @@ def test_the_global_work_is_bounded_up_front(tmp_path):
         (["--global", "--global-max-time", "0"], "global-max-time"),
         (["--global", "--global-max-iterations", "0"], "global-max-iterations"),
         (["--margin", "--margin-every", "0.0001"], "margin_every=0.0001 s is shorter than the step"),
+        (["--global-bounded"], "--global-bounded (global_bounded=True) says how the global optimum is solved: give"),
     ],
 )
 def test_cli_bad_global_and_margin_options_are_one_line_and_exit_2(tmp_path, capsys, arguments, message):
@@ -459,3 +460,77 @@ def test_the_margin_guide_quotes_the_800_path_report_whose_auc_is_the_mann_whitn
     for text in (guide, discussion):
         assert f"**AUC {margin['auc']:.3f}**" in text and f"**σ ≥ {threshold:.2f} 1/s**" in text
         assert f"{100 * margin['at_threshold']['true_positive_rate']['fraction']:.1f} %" in text
+
+
+@pytest.mark.slow
+def test_a_path_no_motion_can_do_within_the_limits_is_infeasible_for_every_resolver(planar3):
+    """--global-bounded on a path whose torque limits are a hundredth of gravity's static torque at the start: the row's
+    verdict is 'infeasible for every resolver' (not 'too demanding', not an iteration limit), with phase-1's evidence;
+    with the URDF's limits the same path is feasible and keeps a verdict of its own."""
+    import pinocchio as pin
+
+    from torqueopt.atlas.global_optimum import global_row, settings
+    from torqueopt.atlas.verdicts import INFEASIBLE
+
+    movement = _movements(planar3)[0]
+    robot = planar3.with_gravity([0.0, -9.81, 0.0])
+    q0 = robot.configuration(movement.q0)
+    static = np.abs(pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q0))
+    bounded = settings(500, 120.0, bounded=True)
+    assert bounded["torque_bounds"] and bounded["joint_limits"] and bounded["transcription"] == "shooting"
+    bounded.update(grid_step=0.02, compiled=False)  # a coarser grid and no compile, for the test's time
+    with pytest.warns(torqueopt.TorqueoptWarning, match="holding the start against gravity"):
+        row, _ = global_row(
+            robot.with_torque_limit(0.01 * static), movement, dt=1e-3, thresholds=Thresholds(), settings=bounded
+        )
+    assert row["optimizer_status"] == "infeasible", row
+    assert row["verdict"] == INFEASIBLE
+    assert row["optimizer_evidence"].startswith(
+        "phase-1: the least excess over the limits of a motion along the path is"
+    )
+    assert row["optimizer_excess"] > 1.0  # the limits are a hundredth of what holding the start needs
+    row, _ = global_row(planar3, movement, dt=1e-3, thresholds=Thresholds(), settings=bounded)
+    assert row["optimizer_status"] == "converged" and row["verdict"] != INFEASIBLE
+    assert row["optimizer_evidence"] == "" and math.isnan(row["optimizer_excess"])
+
+
+def test_problem_free_shares_over_the_feasible_paths_beside_the_raw_ones():
+    """Four paths, one local method (pinv, 'a' below): under --global-bounded path 2 is infeasible for every resolver. Raw shares count
+    it, the feasible shares do not: by hand, a is problem-free on paths 0 and 3 -> 2/4 raw, 2/3 feasible; the optimum
+    on 0, 1, 3 -> 3/4, 3/3."""
+    from torqueopt.atlas.frontier import frontier_markdown, global_summary
+    from torqueopt.atlas.global_optimum import add_global_ratios
+    from torqueopt.atlas.verdicts import INFEASIBLE
+
+    rows = []
+    for path, (a, g) in enumerate(
+        [
+            (("stable", 0.9), ("stable", 0.8)),
+            (("whiplash", 5.0), ("stable", 0.7)),
+            (("too demanding", 3.0), (INFEASIBLE, 1.2)),
+            (("stable", 0.9), ("stable", 0.9)),
+        ]
+    ):
+        for name, (verdict, peak) in (("pinv", a), (GLOBAL_RESOLVER, g)):
+            rows.append({"path": path, "resolver": name, "verdict": verdict, "peak_torque_ratio": peak, "cost": 1.0})
+    table = pandas.DataFrame(rows)
+    is_global = table["resolver"] == GLOBAL_RESOLVER
+    table["optimizer_status"] = np.where(is_global, np.where(table["path"] == 2, "infeasible", "converged"), None)
+    table["optimizer_excess"] = np.where(is_global & (table["path"] == 2), 0.2, np.nan)
+    for column in ("optimizer_iterations", "replay_tip_error", "torque_vs_pinv"):
+        table[column] = 1.0
+    table = add_global_ratios(table)
+    assert table["infeasible_path"].tolist() == [False, False, False, False, True, True, False, False]
+    summary = global_summary(table)
+    assert summary["feasible_paths"] == 3 and summary["infeasible_paths"] == 1
+    assert (summary["problem_free"]["successes"], summary["problem_free"]["trials"]) == (3, 4)
+    assert (summary["problem_free_of_feasible"]["successes"], summary["problem_free_of_feasible"]["trials"]) == (3, 3)
+    local = summary["local"]["pinv"]
+    assert (local["problem_free"]["successes"], local["problem_free"]["trials"]) == (2, 4)
+    assert local["problem_free_of_feasible"]["fraction"] == pytest.approx(2 / 3)
+    # The report: the feasible shares stand beside the raw ones.
+    markdown = "\n".join(
+        frontier_markdown({"global": summary, "config": {"robot_name": "planar3"}, "durations": [0.5]})
+    )
+    assert "Feasibility: on 1 of the 4 paths no motion within the limits exists" in markdown
+    assert "| pinv | 50.0% [15.0%, 85.0%] | 66.7% [20.8%, 93.9%] |" in markdown  # Wilson 95 % of 2/4 and of 2/3

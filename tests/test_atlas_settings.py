@@ -81,6 +81,7 @@ EVERY_OPTION = {
     "figures": (None, False),
     "keep_traces": ("5", 5),
     "global_optimum": (None, True),
+    "global_bounded": (None, True),
     "global_max_iterations": ("50", 50),
     "global_max_time": ("30", 30.0),
     "margin": (None, True),
@@ -94,6 +95,7 @@ FLAGS = {
     "figures": "--no-figures",
     "global_optimum": "--global",
     "plant_options": "--plant-option",
+    "global_bounded": "--global-bounded",
     "margin": "--margin",
 }
 

@@ -6,7 +6,7 @@ import pytest
 
 import torqueopt
 from torqueopt.errors import InvalidInput
-from torqueopt.optimal.symbolic import model_digest, symbolic_dynamics
+from torqueopt.optimal.symbolic import configuration_expression, model_digest, symbolic_dynamics
 
 casadi = pytest.importorskip("casadi")
 
@@ -86,6 +86,19 @@ def test_second_derivatives_equal_finite_differences(name):
     )
     ours = np.array(hessian(point, mu))
     np.testing.assert_allclose(ours, differences, rtol=0, atol=1e-6 * max(1.0, np.abs(ours).max()))
+
+
+@pytest.mark.parametrize("name", ("kinova", "panda"))
+def test_configuration_of_angles_equals_pinocchio_integrate(name):
+    """The shooting transcription's q are angles: their configuration is pin.integrate(neutral, θ), windings too."""
+    model = torqueopt.load_robot(name).model
+    angles = casadi.SX.sym("angles", model.nv)
+    function = casadi.Function("configuration", [angles], [configuration_expression(model, angles)])
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        theta = rng.uniform(-3 * np.pi, 3 * np.pi, model.nv)
+        expected = pin.integrate(model, pin.neutral(model), theta)
+        np.testing.assert_allclose(np.array(function(theta)).ravel(), expected, rtol=0, atol=1e-12)
 
 
 def test_digest_follows_the_model():

@@ -260,6 +260,11 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     before anything is drawn and again once it is."""
     execution, frontier, dt = settings.execution, settings.frontier, settings.population.dt
     population = settings.population_spec()
+    if frontier.global_bounded and not frontier.global_optimum:
+        raise InvalidInput(
+            "--global-bounded (global_bounded=True) says how the global optimum is solved: give --global "
+            "(global_optimum=True) too"
+        )
     # Bound the work before drawing anything: the population's size is known up front in random mode.
     max_steps = execution.max_steps
     steps_per_run = {duration: round(duration / dt) + 1 for duration in population.durations}
@@ -274,7 +279,7 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     for resolver in settings.resolvers:
         resolver.check(loaded)
     if frontier.global_optimum:
-        check_transcription(loaded, population.durations)
+        check_transcription(loaded, population.durations, torque_bounds=frontier.global_bounded)
     if not settings.simulation.is_default():
         _check_plant(settings, loaded)
     if population.mode == "grid":

@@ -10,6 +10,11 @@ each local method with the ``global-optimum`` rows of an atlas run with
 * ``cost_vs_global`` and ``peak_vs_global`` are a run's ∫‖τ‖² dt and peak
   torque ratio over the global optimum's on the same path, on the paths where
   the optimiser converged (the others are counted, not compared);
+* under ``--global-bounded``, a path on which the whole-movement solver found
+  no motion within the limits (verdict ``infeasible for every resolver``) is
+  no resolver's failure: every problem-free share is also given over the
+  **feasible** paths only (``problem_free_of_feasible``, beside the raw
+  ``problem_free``), with ``feasible_paths`` and ``infeasible_paths``;
 * the **most successful local method** is the one problem-free on the most
   paths (ties: the lower median ``cost_vs_global``); a local method is
   **completely successful** when it is problem-free on every path on which
@@ -59,6 +64,7 @@ import numpy as np
 
 from .global_optimum import GLOBAL_RESOLVER
 from .stats import proportion
+from .verdicts import INFEASIBLE
 
 __all__ = [
     "ANSWER_BEGIN",
@@ -124,6 +130,15 @@ def global_summary(table) -> dict | None:
         "median_peak_torque_ratio": _median(global_rows["peak_torque_ratio"]),
         "median_torque_vs_pinv": _median(global_rows["torque_vs_pinv"]),
     }
+    bounded = "optimizer_excess" in global_rows.columns
+    feasible_paths = set(global_rows.index[global_rows["verdict"].to_numpy() != INFEASIBLE])
+    if bounded:
+        summary["feasible_paths"] = len(feasible_paths)
+        summary["infeasible_paths"] = paths - len(feasible_paths)
+        on_feasible = global_rows.index.isin(list(feasible_paths))
+        summary["problem_free_of_feasible"] = proportion(
+            int((global_free & on_feasible).sum()), len(feasible_paths)
+        ).as_dict()
     local = {}
     for resolver in dict.fromkeys(table["resolver"]):
         if resolver == GLOBAL_RESOLVER:
@@ -145,6 +160,11 @@ def global_summary(table) -> dict | None:
             # The global optimum's cost over this method's, path by path (converged paths).
             "median_global_cost_share": _median(1.0 / rows["cost_vs_global"][on_converged].to_numpy(float)),
         }
+        if bounded:
+            on_feasible = rows.index.isin(list(feasible_paths))
+            local[resolver]["problem_free_of_feasible"] = proportion(
+                int((free & on_feasible).sum()), int(on_feasible.sum())
+            ).as_dict()
     summary["local"] = local
     if local:
         best = min(
@@ -314,12 +334,16 @@ def frontier_markdown(summary: dict) -> list[str]:
     frontier = summary["global"]
     statuses = ", ".join(f"{status} {count}" for status, count in frontier["optimizer_status"].items())
     verdicts = ", ".join(f"{verdict} {count}" for verdict, count in frontier["verdicts"].items())
+    bounded = "feasible_paths" in frontier
+    limits = (
+        "torque bounds and the URDF's joint limits imposed (shooting transcription)" if bounded else "no torque bounds"
+    )
     lines = [
         "## The global optimum against the local methods",
         "",
         (
             f"`torqueopt.optimize` on each of the {frontier['paths']:,} movements (same start, line and duration; "
-            "∫‖τ‖² dt, end free, no torque bounds, warm start pinv's run), judged from the open-loop replay of its "
+            f"∫‖τ‖² dt, end free, {limits}, warm start pinv's run), judged from the open-loop replay of its "
             f"torques. Optimiser: {statuses}; median {frontier['median_iterations']:.0f} IPOPT iterations (most "
             f"{frontier['max_iterations']:.0f}); the replay of a converged solve within "
             f"{frontier['max_replay_tip_error'] * 1e3:.3g} mm of the path"
@@ -343,21 +367,41 @@ def frontier_markdown(summary: dict) -> list[str]:
             f"(`{frontier['most_successful_local']}`); completely successful local methods (problem-free wherever the "
             f"global optimum is): {', '.join(frontier['completely_successful']) or 'none'}."
         ),
+        *(
+            [
+                "",
+                f"Feasibility: on {frontier['infeasible_paths']} of the {frontier['paths']} paths no motion within "
+                f"the limits exists (verdict `{INFEASIBLE}`, the solver's evidence in `optimizer_evidence`): no "
+                f"resolver can be problem-free there. Over the {frontier['feasible_paths']} feasible paths the global "
+                f"optimum is problem-free on {_share(frontier['problem_free_of_feasible'])} "
+                f"({frontier['problem_free_of_feasible']['successes']}/{frontier['feasible_paths']}).",
+            ]
+            if bounded
+            else []
+        ),
         "",
         "Per method, on the paths where the optimiser converged for the ratios (cost = ∫‖τ‖² dt over the movement, "
         "the same sum for every row):",
         "",
-        "| method | problem-free | whiplash | fails where the global optimum is problem-free | median cost / global "
+        "| method | problem-free | "
+        + ("problem-free, feasible paths | " if bounded else "")
+        + "whiplash | fails where the global optimum is problem-free | median cost / global "
         "| median peak torque / global | median cost / global, its problem-free runs |",
-        "|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|" + ("---|" if bounded else ""),
     ]
     for name, item in frontier["local"].items():
         lines.append(
-            f"| {name} | {_share(item['problem_free'])} | {_share(item['whiplash'])} | "
+            f"| {name} | {_share(item['problem_free'])} | "
+            + (f"{_share(item['problem_free_of_feasible'])} | " if bounded else "")
+            + f"{_share(item['whiplash'])} | "
             f"{item['fails_where_global_is_problem_free']} | {_ratio(item['median_cost_vs_global'])} | "
             f"{_ratio(item['median_peak_vs_global'])} | {_ratio(item['median_cost_vs_global_problem_free'])} |"
         )
-    lines.append(f"| {GLOBAL_RESOLVER} | {_share(frontier['problem_free'])} | - | - | 1 | 1 | 1 |")
+    lines.append(
+        f"| {GLOBAL_RESOLVER} | {_share(frontier['problem_free'])} | "
+        + (f"{_share(frontier['problem_free_of_feasible'])} | " if bounded else "")
+        + "- | - | 1 | 1 | 1 |"
+    )
     lines += ["", "Generated answer (the README's, without its link):", "", broader_answer(summary, link=False)]
     return lines
 

@@ -26,6 +26,19 @@ Settings (recorded in ``atlas-config.json``):
   the transcription's size is checked before the sweep starts
   (:func:`check_transcription`).
 
+With ``--global-bounded`` (``global_bounded=True``) the whole-movement problem
+is solved under the torque bounds and the URDF's joint limits, by the
+``shooting`` transcription from its default starts (pinv's run first),
+compiled to C once per robot and duration; a path
+on which it finds that no motion within the limits exists (``optimizer_status``
+``infeasible``: the phase-1 problem's least excess over the limits is positive,
+or IPOPT declared every start infeasible) has the verdict ``infeasible for
+every resolver`` (``torqueopt.atlas.verdicts.INFEASIBLE``), with the
+solver's evidence in ``optimizer_evidence`` and the least excess in
+``optimizer_excess`` (NaN where no phase-1 ran), and ``infeasible_path`` marks
+every row of that path. The report gives the problem-free shares over the
+feasible paths beside the raw ones (:func:`torqueopt.atlas.frontier.global_summary`).
+
 A path where the solver does not converge keeps its row: ``optimizer_status``
 says how it ended (``acceptable``, ``iteration limit``, ``time limit``,
 ``infeasible``, ``failed``), and the row is the last iterate's replay, judged
@@ -53,7 +66,7 @@ from ..stop_rules import StopRules
 from .jobs import GlobalChunk, worker_robot
 from .population import Movement, movement_trajectory
 from .rows import movement_columns, path_columns, peak_applied_ratio, start_columns
-from .verdicts import Thresholds, run_row, self_motion_energy
+from .verdicts import INFEASIBLE, Thresholds, run_row, self_motion_energy
 
 __all__ = [
     "DEFAULT_GLOBAL_CHUNK_SIZE",
@@ -64,6 +77,7 @@ __all__ = [
     "add_global_ratios",
     "check_transcription",
     "global_row",
+    "infeasibility_evidence",
     "run_global_chunk",
 ]
 
@@ -80,11 +94,13 @@ DEFAULT_GLOBAL_MAX_TIME = 600.0
 DEFAULT_GLOBAL_CHUNK_SIZE = 8
 
 
-def check_transcription(robot, durations, max_nonzeros: int = DEFAULT_MAX_NONZEROS) -> None:
+def check_transcription(
+    robot, durations, max_nonzeros: int = DEFAULT_MAX_NONZEROS, torque_bounds: bool = False
+) -> None:
     """Refuse, before anything runs, a duration whose transcription is larger than ``optimize`` accepts."""
     for duration in durations:
         intervals = transcription_intervals(duration, DEFAULT_GRID_STEP)
-        _check_size(robot, duration, DEFAULT_GRID_STEP, intervals, False, max_nonzeros)
+        _check_size(robot, duration, DEFAULT_GRID_STEP, intervals, torque_bounds, max_nonzeros)
 
 
 def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, settings: dict) -> tuple[dict, float]:
@@ -92,15 +108,19 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
     line = movement_trajectory(movement)
     pinv_run = simulate(robot, get_resolver("pinv"), line, movement.q0, dt=dt)
     pinv_peak = peak_applied_ratio(pinv_run)
+    bounded = "transcription" in settings  # --global-bounded; the settings of an atlas without it have no such key
+    limits = {"torque_bounds": settings["torque_bounds"], "joint_limits": settings["joint_limits"]}
     solved = optimize(
         robot,
         line,
         movement.q0,
         end=settings["end"],
         dt=dt,
+        grid_step=settings["grid_step"],
         warm_start=pinv_run,
         max_iterations=settings["max_iterations"],
         max_time=settings["max_time"],
+        **({**limits, "transcription": "shooting", "compiled": settings["compiled"]} if bounded else {}),
     )
     replayed = replay_result(robot, solved)
     kinetic, self_energy = self_motion_energy(robot, replayed)
@@ -114,7 +134,26 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
             "replay_tip_error": float(solved.replay_tip_error),
         }
     )
+    if bounded:
+        if solved.status == "infeasible":
+            row["verdict"] = INFEASIBLE
+        row["optimizer_evidence"] = infeasibility_evidence(solved)
+        row["optimizer_excess"] = float(solved.feasibility.get("excess", np.nan))
     return row, pinv_peak
+
+
+def infeasibility_evidence(solved) -> str:
+    """Why an ``OptimalResult`` is ``infeasible``, in one line (empty when it is not): the phase-1 problem's least
+    excess over the limits and the limits it reaches, or IPOPT's word on every start."""
+    if solved.status != "infeasible":
+        return ""
+    feasibility = solved.feasibility
+    if feasibility.get("proves_infeasible"):
+        return "phase-1: " + feasibility["evidence"]
+    said = ", ".join(f"{start['warm_start']}: {start['solver_message']}" for start in solved.starts)
+    return f"IPOPT declared every start infeasible ({said or solved.solver_message})" + (
+        f"; phase-1: {feasibility['evidence']}" if feasibility else ""
+    )
 
 
 def replay_result(robot, solved) -> SimResult:
@@ -201,8 +240,13 @@ def run_global_chunk(job: GlobalChunk) -> list[dict]:
 
 def add_global_ratios(table):
     """``table`` with ``cost_vs_global`` and ``peak_vs_global``: each row's cost and peak torque ratio over those of
-    the converged global optimum on the same path (NaN where the path's optimiser did not converge; 1 on its own row).
+    the converged global optimum on the same path (NaN where the path's optimiser did not converge; 1 on its own row);
+    under ``--global-bounded`` (an ``optimizer_excess`` column), ``infeasible_path`` on every row: its path's global row
+    has the verdict ``infeasible for every resolver``.
     """
+    if "optimizer_excess" in table.columns:
+        infeasible = table.loc[(table["resolver"] == GLOBAL_RESOLVER) & (table["verdict"] == INFEASIBLE), "path"]
+        table = table.assign(infeasible_path=table["path"].isin(set(infeasible)))
     rows = table[(table["resolver"] == GLOBAL_RESOLVER) & (table["optimizer_status"] == "converged")]
     cost = table["path"].map(rows.set_index("path")["cost"])
     peak = table["path"].map(rows.set_index("path")["peak_torque_ratio"])
@@ -213,15 +257,22 @@ def add_global_ratios(table):
         )
 
 
-def settings(max_iterations: int, max_time: float) -> dict:
-    """The global rows' settings as atlas-config.json records them."""
-    return {
+def settings(max_iterations: int, max_time: float, bounded: bool = False) -> dict:
+    """The global rows' settings as atlas-config.json records them (``bounded``: torque bounds and joint limits,
+    the shooting transcription; only then the key ``transcription``, so that an atlas without it keeps its
+    fingerprint)."""
+    recorded = {
         "end": GLOBAL_END,
         "weight": "identity",
-        "torque_bounds": False,
-        "joint_limits": False,
+        "torque_bounds": bool(bounded),
+        "joint_limits": bool(bounded),
         "grid_step": DEFAULT_GRID_STEP,
         "warm_start": "pinv",
         "max_iterations": int(max_iterations),
         "max_time": float(max_time),
     }
+    if bounded:
+        # compiled to C once per robot and duration (cached on disk; CasADi's virtual machine without a compiler):
+        # a panda solve took 2.6 s compiled against 8.1 s in the virtual machine (decision 0001)
+        recorded.update({"transcription": "shooting", "compiled": True})
+    return recorded

@@ -12,7 +12,7 @@ from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin
 from .global_optimum import GLOBAL_RESOLVER
 from .pinv_paths import pinv_paths_markdown, pinv_paths_summary
 from .stats import CRITERIA, claims, proportion, unstable_fractions
-from .verdicts import VERDICT_COLOURS, VERDICTS
+from .verdicts import INFEASIBLE, VERDICT_COLOURS, VERDICTS
 
 __all__ = ["summarise", "write_figures", "write_markdown"]
 
@@ -27,7 +27,7 @@ def summarise(table, config: dict) -> dict:
     whips = {}
     for resolver in resolvers:
         rows = table[table["resolver"] == resolver]
-        verdicts[resolver] = {verdict: int((rows["verdict"] == verdict).sum()) for verdict in VERDICTS}
+        verdicts[resolver] = {verdict: int((rows["verdict"] == verdict).sum()) for verdict in _verdicts(table)}
         whipped = rows[rows["verdict"] == "whiplash"]
         if len(whipped):
             aligned = whipped["aligned_joint"].value_counts()
@@ -94,6 +94,12 @@ def _plant_text(config: dict) -> str:
     return f"the torques acting on the {plant['name']} plant" + (f" ({options})." if options else ".")
 
 
+def _verdicts(table) -> tuple:
+    """The verdicts counted: all of them, but ``infeasible for every resolver`` only where a path has it."""
+    present = bool((table["verdict"] == INFEASIBLE).any())
+    return tuple(verdict for verdict in VERDICTS if verdict != INFEASIBLE or present)
+
+
 def write_markdown(summary: dict) -> str:
     config = summary["config"]
     population = config["population"]
@@ -144,15 +150,16 @@ def write_markdown(summary: dict) -> str:
                 f'| "{claim["paper"]}" | {claim["figure"]} | {claim["text"]} | {claim["holds"]} ({claim["rule"]}) |'
             )
         lines.append("")
+    shown = [verdict for verdict in VERDICTS if any(verdict in counts for counts in summary["verdicts"].values())]
     lines += [
         "## Verdicts per resolver",
         "",
-        "| resolver | " + " | ".join(VERDICTS) + " | median peak torque vs pinv |",
-        "|---|" + "---|" * (len(VERDICTS) + 1),
+        "| resolver | " + " | ".join(shown) + " | median peak torque vs pinv |",
+        "|---|" + "---|" * (len(shown) + 1),
     ]
     for resolver, counts in summary["verdicts"].items():
         median = summary["torque"][resolver]["median_torque_vs_pinv"]
-        lines.append(f"| {resolver} | " + " | ".join(str(counts[v]) for v in VERDICTS) + f" | {median:.3g} |")
+        lines.append(f"| {resolver} | " + " | ".join(str(counts.get(v, 0)) for v in shown) + f" | {median:.3g} |")
     if summary.get("pinv_paths"):
         lines += ["", *pinv_paths_markdown(summary["pinv_paths"])]
     if summary["whips"]:

@@ -193,6 +193,13 @@ class FrontierSettings(Settings):
         switch="on",
         flag="--global",
     )
+    global_bounded: bool = setting(
+        False,
+        "with --global: solve under the torque bounds and the URDF's joint limits (shooting transcription); a path "
+        "on which no motion within them exists gets the verdict 'infeasible for every resolver'",
+        switch="on",
+        flag="--global-bounded",
+    )
     global_max_iterations: int = setting(
         DEFAULT_GLOBAL_MAX_ITERATIONS,
         f"IPOPT iterations per Hessian tried, per path (default {DEFAULT_GLOBAL_MAX_ITERATIONS})",
@@ -411,7 +418,9 @@ def atlas_config(settings: AtlasSettings, robot: Robot, reach: float, movements:
     }
     # Only when asked, so that an atlas without them keeps its fingerprint (and resumes).
     if frontier.global_optimum:
-        config["global"] = global_settings(frontier.global_max_iterations, frontier.global_max_time)
+        config["global"] = global_settings(
+            frontier.global_max_iterations, frontier.global_max_time, frontier.global_bounded
+        )
     if frontier.margin:
         config["margin"] = {"every": float(frontier.margin_every)}
     if not settings.simulation.is_default():  # only then, so that the Pinocchio plant's atlases keep their digest

@@ -58,7 +58,14 @@ The verdict (column ``verdict``)
     * ``"stopped early"``: none of the above, but the run stopped before its end
       (it diverged);
     * ``"stable"``: otherwise (the runaway figures are still in the row): a run that
-      left its path or stopped short is never stable.
+      left its path or stopped short is never stable;
+    * ``"infeasible for every resolver"``: a ``global-optimum`` row only, under
+      ``--global-bounded`` (:mod:`torqueopt.atlas.global_optimum`): the
+      whole-movement solver found that no motion along the path stays within the
+      torque and joint limits (its evidence in ``optimizer_evidence``). Unlike
+      ``too demanding``, which says what one run needed, this says what any run
+      would: the atlas reports the problem-free shares over the feasible paths
+      beside the raw ones.
 
 The thresholds 2 and 10 were read off a first look at 60 random paths of the
 paper's arm (0.5 to 2 s) and the paper's three movements before the atlas
@@ -112,11 +119,13 @@ VERDICT_COLOURS = {
     "singular": "#7f7f7f",
     "lost path": "#8c564b",
     "stopped early": "black",
+    "infeasible for every resolver": "#17becf",
 }
 
 __all__ = [
     "DEFAULT_ENERGY_FACTOR",
     "DEFAULT_PINV_FACTOR",
+    "INFEASIBLE",
     "VERDICTS",
     "Thresholds",
     "run_row",
@@ -127,7 +136,9 @@ __all__ = [
 DEFAULT_PINV_FACTOR = 2.0
 #: runaway when the self-motion's peak kinetic energy exceeds this multiple of the task's.
 DEFAULT_ENERGY_FACTOR = 10.0
-VERDICTS = ("stable", "whiplash", "too demanding", "joint limits", "singular", "lost path", "stopped early")
+#: The verdict of a path on which no motion within the limits exists (a ``global-optimum`` row's, see above).
+INFEASIBLE = "infeasible for every resolver"
+VERDICTS = ("stable", "whiplash", "too demanding", "joint limits", "singular", "lost path", "stopped early", INFEASIBLE)
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _PER_JOINT_FIELDS = ("torque_upper", "torque_lower")
 

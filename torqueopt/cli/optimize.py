@@ -244,6 +244,8 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
             f"  start {start['warm_start']}: {start['status']} ({start['solver_message']}), {start['iterations']} "
             f"iterations, grid cost {start['grid_cost']:.6g}, {start['seconds']:.2f} s"
         )
+    if result.feasibility:
+        lines.append(f"  phase-1: {result.feasibility['evidence']}")
     kinds = result.joint_kinds or [None] * len(result.joint_names)
     lines += torque_table(
         result.joint_names,

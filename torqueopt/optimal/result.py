@@ -74,6 +74,9 @@ class OptimalResult:
     #: Every start the ``shooting`` transcription solved from: warm_start, status, solver_message,
     #: iterations, grid_cost, constraint_violation, seconds (empty for ``direct``).
     starts: list = field(default_factory=list)
+    #: ``shooting`` only, when no start ended within the limits: the phase-1 problem's answer
+    #: (``torqueopt.optimal.shooting.Feasibility.record``: excess, status, binding limits, evidence); else empty.
+    feasibility: dict = field(default_factory=dict)
     #: The solver's multipliers and the transcription, for checks (not written to files).
     solution: dict = field(default_factory=dict, repr=False)
     #: Per joint, 'revolute', 'continuous' or 'prismatic' (as ``SimResult.joint_kinds``).
@@ -160,6 +163,7 @@ class OptimalResult:
             "warm_start_cost": self.warm_start_cost,
             "transcription": self.transcription,
             "starts": [dict(record) for record in self.starts],
+            "feasibility": dict(self.feasibility),
         }
 
     def to_csv(self, path):

@@ -41,15 +41,24 @@ import os
 import shutil
 import subprocess
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .ipopt import _STATUS, SolverOutput, _iteration_callback
-from .symbolic import _casadi, model_digest, symbolic_dynamics
+from .symbolic import _casadi, configuration_expression, model_digest, symbolic_dynamics
 from .transcription import Transcription
 
-__all__ = ["INFEASIBLE_MESSAGES", "ShootingTranscription", "cache_directory", "solve_shooting"]
+__all__ = [
+    "EXCESS_TOLERANCE",
+    "INFEASIBLE_MESSAGES",
+    "Feasibility",
+    "ShootingTranscription",
+    "cache_directory",
+    "least_excess",
+    "solve_shooting",
+]
 
 #: IPOPT returns that mean the constraints could not be met (the problem is reported ``infeasible``).
 #: A failed restoration phase counts when the point it stopped at still violates the constraints.
@@ -69,9 +78,13 @@ def cache_directory() -> Path:
 class ShootingTranscription(Transcription):
     """:class:`Transcription`'s program, with its functions as CasADi expressions (see the module docstring).
 
-    Same arguments as :class:`Transcription`; ``robot.model`` must hold only
-    revolute and prismatic joints (checked there).
+    Same arguments as :class:`Transcription`; ``robot.model`` may hold
+    revolute, prismatic and continuous joints (:data:`~torqueopt.optimal.symbolic.SUPPORTED_JOINTS`):
+    q_k holds one angle per joint (:attr:`Transcription.ANGLES`), a continuous
+    joint's configuration is (cos θ, sin θ) of it in the expressions.
     """
+
+    ANGLES = True
 
     @property
     def key(self) -> str:
@@ -100,9 +113,15 @@ class ShootingTranscription(Transcription):
         q, v, a = casadi.SX.sym("q", n), casadi.SX.sym("v", n), casadi.SX.sym("a", n)
         h, root, midpoint = casadi.SX.sym("h"), casadi.SX.sym("S", n, n), casadi.SX.sym("tau_mid", n)
         rows = list(range(3))[self.robot.task_rows]
+        # Continuous joints: the configuration of the angles; revolute and prismatic joints: the angles themselves.
+        configuration = (
+            (lambda angles: angles)
+            if self.robot.euclidean
+            else (lambda angles: configuration_expression(model, angles))
+        )
 
         def torque_at(s):
-            return symbolic_dynamics(model, frame, q + s * v + 0.5 * s * s * a, v + s * a, a)[0]
+            return symbolic_dynamics(model, frame, configuration(q + s * v + 0.5 * s * s * a), v + s * a, a)[0]
 
         torque_mid = torque_at(0.5 * h)  # the interval's mean torque to O(h²), as in the transcription
         residual = root @ (torque_mid - midpoint)
@@ -113,7 +132,7 @@ class ShootingTranscription(Transcription):
             [q, v, a, h, root, midpoint],
             [h * casadi.sumsqr(residual), casadi.vertcat(*bound_rows) if bound_rows else casadi.SX(0, 1)],
         )
-        position = symbolic_dynamics(model, frame, q, v, a)[2]
+        position = symbolic_dynamics(model, frame, configuration(q), v, a)[2]
         task = casadi.Function("task", [q], [position[rows]])
 
         w = casadi.MX.sym("w", self.size)
@@ -241,3 +260,246 @@ def solve_shooting(
         objective=float(answer["f"]),
         constraint_violation=violation,
     )
+
+
+@dataclass
+class Feasibility:
+    """The phase-1 problem's answer (:func:`least_excess`).
+
+    Attributes:
+        excess: the least excess t* over the limits of any motion that follows the path (the phase-1 optimum;
+            a fraction of each limit's half range, see :func:`least_excess`). 0 when a motion within every limit
+            was found.
+        status: how the phase-1 solve ended (one of :data:`~torqueopt.optimal.ipopt.STATUSES`); only a
+            ``converged`` or ``acceptable`` positive ``excess`` is evidence that no motion within the limits exists (of a
+            local minimum: the problem is not convex).
+        message: IPOPT's return status. binding: the limits at t* (kind, joint, time), the first few.
+        w: the phase-1 point (a feasible start for the problem when ``excess`` is 0).
+        iterations, seconds: the phase-1 solve's.
+    """
+
+    excess: float
+    status: str
+    message: str
+    binding: list
+    w: np.ndarray
+    iterations: int
+    seconds: float
+
+    @property
+    def answered(self) -> bool:
+        """True when the phase-1 solve ended at a local minimum (``converged``, or ``acceptable``: IPOPT's looser
+        tolerances)."""
+        return self.status in ("converged", "acceptable")
+
+    @property
+    def proves_infeasible(self) -> bool:
+        """True when the phase-1 solve ended at a local minimum (:attr:`answered`) above :data:`EXCESS_TOLERANCE`."""
+        return self.answered and self.excess > EXCESS_TOLERANCE
+
+    def evidence(self) -> str:
+        """One line: what the phase-1 solve found."""
+        if not self.answered:
+            return f"phase-1 (least excess over the limits) did not converge ({self.message})"
+        if not self.proves_infeasible:
+            return "phase-1 found a motion within every limit"
+        where = "; ".join(self.binding) or "no binding limit"
+        # a local minimum of a nonconvex problem: the least excess found, not a bound on every motion
+        return f"the least excess over the limits of a motion along the path is {self.excess:.3g} of a half range ({where})"
+
+    def record(self) -> dict:
+        """The JSON-ready record (``OptimalResult.feasibility``)."""
+        return {
+            "excess": self.excess,
+            "status": self.status,
+            "solver_message": self.message,
+            "binding": list(self.binding),
+            "iterations": self.iterations,
+            "seconds": self.seconds,
+            "proves_infeasible": self.proves_infeasible,
+            "evidence": self.evidence(),
+        }
+
+
+#: A phase-1 local minimum above this (a fraction of a limit's half range) is taken as evidence that the limits
+#: cannot all be met (``infeasible``).
+EXCESS_TOLERANCE = 1e-6
+
+
+def _limit_scales(problem: ShootingTranscription) -> dict:
+    """Per kind of limit, (centre, half range) per bounded quantity: torque rows, joint positions, joint speeds."""
+    robot = problem.robot
+    joints = problem.bounded_joints
+    low, high = robot.torque_lower[joints], robot.torque_upper[joints]
+    q_low, q_high, speed = robot.joint_limits
+    limited = np.isfinite(q_low) & np.isfinite(q_high)
+    if not problem.joint_limits:
+        limited[:] = False
+    fast = np.isfinite(speed) & problem.joint_limits
+    return {
+        "torque": (0.5 * (high + low), 0.5 * (high - low)),
+        "position": (
+            np.where(limited, 0.5 * (q_high + q_low), 0.0),
+            np.where(limited, 0.5 * (q_high - q_low), 1.0),
+            limited,
+        ),
+        "speed": (np.where(fast, speed, 1.0), fast),
+    }
+
+
+def _phase_one_solver(problem: ShootingTranscription, options: dict):
+    """IPOPT on the phase-1 program of :func:`least_excess` (built once per :attr:`ShootingTranscription.key`
+    and options)."""
+    key = ("phase-1", problem.key, repr(sorted(options.items())))
+    if key in _SOLVERS:
+        return _SOLVERS[key]
+    casadi = _casadi()
+    nlp = problem.nlp()
+    program = casadi.Function("program", [nlp["x"], nlp["p"]], [nlp["g"]])
+    n, N = problem.n, problem.intervals
+    equalities = (2 * n + problem.m) * N
+    w, t = casadi.MX.sym("w", problem.size), casadi.MX.sym("t")
+    bounded = len(problem.bounded_joints) * len(problem.fractions) * N
+    # parameters: the program's, then per torque row (centre, half range), per joint (centre, half range, speed)
+    p = casadi.MX.sym("p", nlp["p"].numel() + 2 * bounded + 3 * n)
+    base = nlp["p"].numel()
+    g = program(w, p[:base])
+    centre, half = p[base : base + bounded], p[base + bounded : base + 2 * bounded]
+    q_centre, q_half = (
+        p[base + 2 * bounded : base + 2 * bounded + n],
+        p[base + 2 * bounded + n : base + 2 * bounded + 2 * n],
+    )
+    speed = p[base + 2 * bounded + 2 * n :]
+    blocks = casadi.reshape(w[: 3 * n * N], 3 * n, N)
+    q_all = casadi.horzcat(blocks[:n, :], w[3 * n * N : 3 * n * N + n])
+    v_all = casadi.horzcat(blocks[n : 2 * n, :], w[3 * n * N + n :])
+    # Each limit, scaled to its half range: |(x − centre)/half| ≤ 1 + t.
+    torque = (g[equalities:] - centre) / half if bounded else casadi.MX(0, 1)
+    position = casadi.reshape((q_all - casadi.repmat(q_centre, 1, N + 1)) / casadi.repmat(q_half, 1, N + 1), -1, 1)
+    velocity = casadi.reshape(v_all / casadi.repmat(speed, 1, N + 1), -1, 1)
+    scaled = casadi.vertcat(torque, position, velocity)
+    constraints = casadi.vertcat(g[:equalities], scaled - t, scaled + t)
+    base_options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "calc_lam_p": False, "expand": True}
+    solver = casadi.nlpsol(
+        "phase_one",
+        "ipopt",
+        {"x": casadi.vertcat(w, t), "p": p, "f": t, "g": constraints},
+        {**base_options, **options},
+    )
+    _SOLVERS[key] = solver
+    return solver
+
+
+def least_excess(
+    problem: ShootingTranscription,
+    w0: np.ndarray,
+    *,
+    tolerance: float = 1e-8,
+    max_iterations: int = 500,
+    max_time: float | None = None,
+) -> Feasibility:
+    r"""The phase-1 problem: the least excess over the limits of any motion that follows the path.
+
+    .. math::
+
+        \min_{w, t \ge 0} t \quad\text{s.t.}\quad \text{the integration and task rows of } g(w) = 0,\quad
+        \left|\frac{x_i(w) - c_i}{r_i}\right| \le 1 + t
+
+    for every limited quantity :math:`x_i` (each bounded joint's torque at every bound point, under torque
+    bounds; each joint's position and speed at every knot, under joint limits) with centre :math:`c_i` and
+    half range :math:`r_i` (the speed limit for speeds). The path, the start at rest and the end at rest
+    stay hard: t* is how far beyond its limits, as a fraction of each one's half range, the best motion
+    along the path must go. t* > 0 at a converged solve means no motion within the limits exists near
+    ``w0``'s (the program is nonconvex: evidence, not a certificate); t* = 0 gives a motion within every
+    limit, a feasible start for the problem itself.
+    """
+    options = {"ipopt.tol": float(tolerance), "ipopt.max_iter": int(max_iterations)}
+    if max_time is not None:
+        options["ipopt.max_wall_time"] = float(max_time)
+    solver = _phase_one_solver(problem, options)
+    scales = _limit_scales(problem)
+    torque_centre, torque_half = scales["torque"]
+    repeats = problem.intervals * len(problem.fractions)
+    q_centre, q_half, limited = scales["position"]
+    speed, fast = scales["speed"]
+    parameters = np.concatenate(
+        [
+            problem.parameters(),
+            np.tile(torque_centre, repeats),
+            np.tile(torque_half, repeats),
+            q_centre,
+            q_half,
+            speed,
+        ]
+    )
+    lower_x, upper_x = problem.variable_bounds(joint_limits=False)
+    equalities = (2 * problem.n + problem.m) * problem.intervals
+    free_rows = np.concatenate(
+        [
+            np.zeros(len(torque_centre) * repeats, bool),
+            np.tile(~limited, problem.intervals + 1),
+            np.tile(~fast, problem.intervals + 1),
+        ]
+    )
+    upper_scaled = np.where(free_rows, np.inf, 1.0)
+    lower_g = np.concatenate(
+        [np.zeros(equalities), np.full(len(free_rows), -np.inf), np.where(free_rows, -np.inf, -1.0)]
+    )
+    upper_g = np.concatenate([np.zeros(equalities), upper_scaled, np.full(len(free_rows), np.inf)])
+    start = np.clip(np.asarray(w0, float), lower_x, upper_x)
+    g0 = np.asarray(solver.get_function("nlp_g")(np.append(start, 0.0), parameters)).reshape(-1)[equalities:]
+    excess0 = float(np.max(np.abs(g0[: len(free_rows)]) - 1.0, initial=0.0, where=~free_rows))
+    began = time.perf_counter()
+    answer = solver(
+        x0=np.append(start, max(excess0, 0.0)),
+        p=parameters,
+        lbx=np.append(lower_x, 0.0),
+        ubx=np.append(upper_x, np.inf),
+        lbg=lower_g,
+        ubg=upper_g,
+    )
+    stats = solver.stats()
+    x = np.asarray(answer["x"]).reshape(-1)
+    seconds = time.perf_counter() - began
+    message = str(stats.get("return_status", "unknown"))
+    g = np.asarray(answer["g"]).reshape(-1)[equalities:]
+    excess = float(x[-1])
+    scaled = g[: len(free_rows)] + excess  # the first block is scaled − t
+    binding = (
+        _binding(problem, np.where(free_rows, 0.0, np.abs(scaled)), excess, scales) if excess > EXCESS_TOLERANCE else []
+    )
+    return Feasibility(
+        excess=excess,
+        status=_STATUS.get(message, "failed"),
+        message=message,
+        binding=binding,
+        w=x[:-1],
+        iterations=int(stats.get("iter_count", 0)),
+        seconds=seconds,
+    )
+
+
+def _binding(problem: ShootingTranscription, scaled: np.ndarray, excess: float, scales: dict, most: int = 3) -> list:
+    """The limits reached at the phase-1 optimum (scaled value ≥ 1 + t* − 1e-6), largest first, as text."""
+    n, N, h = problem.n, problem.intervals, problem.h
+    names = problem.robot.joint_names
+    torque_rows = len(scales["torque"][0]) * N * len(problem.fractions)
+    bounded = len(problem.bounded_joints)
+    texts = []
+    for row in np.argsort(-scaled)[:most]:
+        if scaled[row] < 1.0 + excess - 1e-6:
+            break
+        if row < torque_rows:
+            interval, rest = divmod(int(row), bounded * len(problem.fractions))
+            fraction, joint = divmod(rest, bounded)
+            joint = int(problem.bounded_joints[joint])
+            texts.append(f"torque of {names[joint]} at t = {(interval + problem.fractions[fraction]) * h:.3g} s")
+        else:
+            kind, index = (
+                ("position", row - torque_rows)
+                if row < torque_rows + n * (N + 1)
+                else ("speed", row - torque_rows - n * (N + 1))
+            )
+            knot, joint = divmod(int(index), n)
+            texts.append(f"{kind} of {names[joint]} at t = {knot * h:.3g} s")
+    return texts

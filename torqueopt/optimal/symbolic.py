@@ -38,7 +38,7 @@ import pinocchio as pin
 
 from ..errors import InvalidInput, MissingDependency
 
-__all__ = ["SUPPORTED_JOINTS", "model_digest", "symbolic_dynamics"]
+__all__ = ["SUPPORTED_JOINTS", "configuration_expression", "model_digest", "symbolic_dynamics"]
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 #: Pinocchio joint models the generator knows: revolute, continuous ("RUB", unbounded) and prismatic.
@@ -58,6 +58,12 @@ def _casadi():
     return casadi
 
 
+def _unaligned_axis(joint) -> np.ndarray:
+    """The axis of an unaligned joint: ``model.joints[i]`` is Pinocchio's generic JointModel, whose axis only the
+    concrete model it ``extract()``s has."""
+    return np.array((joint if hasattr(joint, "axis") else joint.extract()).axis, float)
+
+
 def _joint_kind(joint) -> tuple[str, np.ndarray]:
     """('revolute' | 'continuous' | 'prismatic', unit axis in the joint frame) of a Pinocchio joint model."""
     name = joint.shortname()
@@ -66,7 +72,7 @@ def _joint_kind(joint) -> tuple[str, np.ndarray]:
             f"joint model '{name}' is not supported by the symbolic dynamics; supported: {', '.join(SUPPORTED_JOINTS)}"
         )
     if name.endswith("Unaligned"):
-        axis = np.array(joint.axis, float)
+        axis = _unaligned_axis(joint)
         kind = {"Revolute": "revolute", "RevoluteUnbounded": "continuous", "Prismatic": "prismatic"}[
             name[len("JointModel") : -len("Unaligned")]
         ]
@@ -82,13 +88,32 @@ def _rotation(casadi, axis: np.ndarray, cosine, sine):
     return cosine * casadi.DM.eye(3) + sine * skew + (1.0 - cosine) * outer
 
 
+def configuration_expression(model: pin.Model, angles):
+    """Pinocchio's ``integrate(model, neutral(model), angles)`` as a CasADi expression (nq×1).
+
+    One angle (or length) per joint, as :meth:`torqueopt.Robot.configuration`
+    takes them: a revolute or prismatic joint's configuration is its angle
+    (their neutral is 0), a continuous joint's is (cos θ, sin θ).
+    """
+    casadi = _casadi()
+    entries = [None] * model.nq
+    for joint in range(1, model.njoints):
+        kind, _ = _joint_kind(model.joints[joint])
+        iq, iv = model.joints[joint].idx_q, model.joints[joint].idx_v
+        if kind == "continuous":
+            entries[iq], entries[iq + 1] = casadi.cos(angles[iv]), casadi.sin(angles[iv])
+        else:
+            entries[iq] = angles[iv]
+    return casadi.vertcat(*entries)
+
+
 def model_digest(model: pin.Model, frame_id: int | None = None) -> str:
     """A hex digest of every number the expressions are made of (for a cache of compiled code)."""
     digest = hashlib.sha256()
     for joint in range(1, model.njoints):
         digest.update(model.joints[joint].shortname().encode())
         if model.joints[joint].shortname().endswith("Unaligned"):
-            digest.update(np.asarray(model.joints[joint].axis, float).tobytes())
+            digest.update(_unaligned_axis(model.joints[joint]).tobytes())
         digest.update(np.int64(model.parents[joint]).tobytes())
         digest.update(np.asarray(model.jointPlacements[joint].homogeneous, float).tobytes())
         inertia = model.inertias[joint]

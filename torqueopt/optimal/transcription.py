@@ -68,9 +68,13 @@ from a clamped start its spline recurrence has a growing mode (eigenvalue
 −2 − √3), and IPOPT found far worse, rippling solutions (panda: cost 2.6e6
 against 246).
 
-Only revolute and prismatic joints (``robot.euclidean``), whose
-configurations add, are supported: a continuous joint's (cos, sin) would
-need manifold variables.
+Here :math:`q_k` is Pinocchio's configuration itself, so only revolute and
+prismatic joints (``robot.euclidean``), whose configurations add, are
+supported. A transcription that sets :attr:`Transcription.ANGLES` (the
+shooting one) holds one angle per joint instead: a continuous joint's
+(cos θ, sin θ) is :meth:`Transcription.configurations` of its angle θ
+(Pinocchio's ``integrate`` from the neutral configuration), so the
+integration rows stay linear and the angle may wind past ±π.
 """
 
 from __future__ import annotations
@@ -151,10 +155,10 @@ class Transcription:
         torque_bounds: bool = False,
         joint_limits: bool = False,
     ):
-        if not robot.euclidean:
+        if not robot.euclidean and not self.ANGLES:
             raise InvalidInput(
-                f"optimize needs revolute or prismatic joints only; robot '{robot.name}' has continuous or "
-                "multi-coordinate joints: lock them (--lock) or use a URDF with limits on them"
+                f"the direct transcription needs revolute or prismatic joints only; robot '{robot.name}' has "
+                "continuous or multi-coordinate joints: use transcription 'shooting', or lock them (--lock)"
             )
         if robot.task not in ("xy", "position"):
             raise InvalidInput(f"optimize supports tasks xy and position, not '{robot.task}'")
@@ -165,7 +169,7 @@ class Transcription:
         self.h = float(duration) / self.intervals
         self.times = self.h * np.arange(self.intervals + 1)
         self.reference = np.asarray(reference, float)
-        self.q0 = np.asarray(q0, float)
+        self.q0 = self.angles(np.asarray(q0, float))
         #: The velocity the movement starts with (at rest; the receding horizon sets the measured one).
         self.v0 = np.zeros(robot.nv)
         self.root = np.asarray(root, float)
@@ -185,6 +189,31 @@ class Transcription:
         self._last_w = None
         self._last = None
         self._build_patterns()
+
+    #: Whether q_k holds one angle per joint (continuous joints allowed) rather than the configuration (nq
+    #: numbers), as :meth:`evaluate` needs: it hands q_k to Pinocchio.
+    ANGLES = False
+
+    def angles(self, configurations: np.ndarray) -> np.ndarray:
+        """The program's q of a configuration or of rows of them (in time order): the configuration itself for
+        revolute and prismatic joints; else one angle per joint, a continuous joint's unwrapped along the rows."""
+        if self.robot.euclidean:
+            return configurations
+        angles = self.robot.joint_angles(configurations)
+        if angles.ndim == 2:
+            model = self.model
+            continuous = [model.joints[j].idx_v for j in range(1, model.njoints) if model.joints[j].nq == 2]
+            angles[:, continuous] = np.unwrap(angles[:, continuous], axis=0)
+        return angles
+
+    def configurations(self, angles: np.ndarray) -> np.ndarray:
+        """Pinocchio's configuration of the program's q (one row or rows): ``integrate(neutral, q)``."""
+        if self.robot.euclidean:
+            return angles
+        angles = np.asarray(angles, float)
+        if angles.ndim == 1:
+            return self.robot.configuration(angles)
+        return np.array([self.robot.configuration(row) for row in angles])
 
     @staticmethod
     def count(robot: Robot, intervals: int, *, torque_bounds: bool = False) -> TranscriptionSize:
@@ -238,16 +267,13 @@ class Transcription:
         return (2 * self.n + self.m + len(self.bounded_joints) * len(self.fractions)) * self.intervals
 
     # -- bounds ----------------------------------------------------------------
-    def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) bounds on w: the fixed start (q0, v0), the end at rest, and the joint limits when asked."""
+    def variable_bounds(self, joint_limits: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) bounds on w: the fixed start (q0, v0), the end at rest, and the joint limits when asked
+        (``joint_limits``: this transcription's choice when None; the phase-1 problem of
+        :func:`torqueopt.optimal.shooting.least_excess` relaxes them and asks for none)."""
         lower, upper = np.full(self.size, -np.inf), np.full(self.size, np.inf)
-        if self.joint_limits:
-            model = self.model
-            q_low, q_high = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
-            speed = np.array(model.velocityLimit)
-            q_low[~np.isfinite(q_low)] = -np.inf
-            q_high[~np.isfinite(q_high)] = np.inf
-            speed = np.where(np.isfinite(speed) & (speed > 0), speed, np.inf)
+        if self.joint_limits if joint_limits is None else joint_limits:
+            q_low, q_high, speed = self.robot.joint_limits  # one per joint: none on a continuous joint's angle
             for k in range(self.intervals + 1):
                 lower[self.q_index(k)], upper[self.q_index(k)] = q_low, q_high
                 lower[self.v_index(k)], upper[self.v_index(k)] = -speed, speed

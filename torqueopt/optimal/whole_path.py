@@ -31,6 +31,7 @@ optimum; anything else is the last iterate, reported as such.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -48,7 +49,7 @@ from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
 from .replay import replay_torques
 from .result import OptimalResult
-from .shooting import ShootingTranscription, solve_shooting
+from .shooting import ShootingTranscription, least_excess, solve_shooting
 from .transcription import Transcription
 
 __all__ = [
@@ -142,8 +143,8 @@ def optimize(
     r"""The joint motion that tracks ``trajectory`` and minimises :math:`\int\|S(\tau - \tau_{mid})\|^2 dt`.
 
     Args:
-        robot: from :func:`torqueopt.load_robot`; revolute/prismatic joints,
-            task ``xy`` or ``position``.
+        robot: from :func:`torqueopt.load_robot`; revolute/prismatic joints (continuous ones too
+            with ``shooting``), task ``xy`` or ``position``.
         trajectory: the tip reference (anchored at the tip's position at q0
             when it has no start), e.g. :class:`torqueopt.StraightLine`.
         q0: start configuration (configuration vector or one angle per joint); the arm starts at rest.
@@ -165,7 +166,10 @@ def optimize(
             default ``DEFAULT_STARTS`` (``warm_start`` first). The best converged optimum is
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
-            cost are in ``result.starts``.
+            cost are in ``result.starts``. Where no start ends within the limits, the phase-1
+            problem (``torqueopt.optimal.shooting.least_excess``) either proves there is no
+            motion within them (status ``infeasible``, evidence in ``result.feasibility``) or
+            gives one more start.
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
             (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
             CasADi's virtual machine evaluates them.
@@ -236,7 +240,7 @@ def optimize(
     if transcription == "shooting":
         if hessian != "auto":
             raise InvalidInput(f"transcription 'shooting' uses the exact Hessian: give hessian 'auto', not '{hessian}'")
-        chosen, attempts, tried = _solve_from_starts(
+        chosen, attempts, tried, feasibility = _solve_from_starts(
             problem,
             robot,
             trajectory,
@@ -252,9 +256,9 @@ def optimize(
             progress,
         )
         start_run, start_name, solved = chosen
-        spent = sum(record["seconds"] for record in tried)
+        spent = sum(record["seconds"] for record in tried) + (feasibility[0].seconds if feasibility else 0.0)
     else:
-        tried = []
+        tried, feasibility = [], None
         start_run, start_name = _start_run(robot, trajectory, q_start, dt, warm_start)
         w0 = _warm_start(problem, start_run)
         attempts, start, spent = [], w0, 0.0
@@ -333,6 +337,7 @@ def optimize(
         warm_start_cost=start_cost,
         transcription=transcription,
         starts=tried,
+        feasibility=_feasibility_record(*feasibility) if feasibility is not None else {},
         solution={"problem": problem, "w": solved.w, "lam_g": solved.lam_g, "lam_x": solved.lam_x},
     )
 
@@ -345,6 +350,8 @@ def _start_run(robot, trajectory, q_start, dt, warm_start) -> tuple[SimResult, s
     return simulate(robot, resolver, trajectory, q_start, dt=dt), resolver.name
 
 
+#: The name of the start taken from the phase-1 problem's motion within the limits (``result.starts``).
+PHASE_ONE = "phase-1"
 #: The order of preference of a start's outcome when no start converged.
 _PREFERENCE = ("converged", "acceptable", "iteration limit", "time limit", "failed", "infeasible")
 
@@ -366,11 +373,19 @@ def _solve_from_starts(
 ):
     """Solve the shooting program from every start; the best (status, then cost) and every start's record.
 
-    Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start]).
-    The status is ``infeasible`` only when every start ended infeasible.
+    When no start ends within the limits (``converged`` or ``acceptable``), the phase-1 problem
+    (:func:`~torqueopt.optimal.shooting.least_excess`) is solved from each start's last point, nearest
+    first, until one finds a motion within every limit: that motion is one more start (``phase-1 from
+    <start>``), solved like the others; else the least excess of those that ended at a local minimum
+    (``converged`` or ``acceptable``), when positive, makes the status ``infeasible`` (whatever IPOPT said).
+
+    Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start],
+    (the least phase-1 :class:`~torqueopt.optimal.shooting.Feasibility`, [(start, Feasibility)]) or None).
     """
     if starts is None:
-        starts = (warm_start, *(name for name in DEFAULT_STARTS if name != warm_start))
+        # a run or a resolver named like a default start is that start: it is not solved from twice
+        first = warm_start.resolver if isinstance(warm_start, SimResult) else getattr(warm_start, "name", warm_start)
+        starts = (warm_start, *(name for name in DEFAULT_STARTS if name != first))
     elif isinstance(starts, (str, Resolver, SimResult)):
         starts = (starts,)
     if not len(starts):
@@ -393,27 +408,77 @@ def _solve_from_starts(
         )
         spent += solved.seconds
         outcomes.append((run, name, solved))
-        records.append(
-            {
-                "warm_start": name,
-                "status": solved.status,
-                "solver_message": solved.message,
-                "iterations": solved.iterations,
-                "grid_cost": solved.objective,
-                "constraint_violation": solved.constraint_violation,
-                "seconds": solved.seconds,
-            }
-        )
-    infeasible = all(outcome[2].status == "infeasible" for outcome in outcomes)
+        records.append(_start_record(name, solved))
+    feasibility, tries = None, []
+    if not any(outcome[2].status in ("converged", "acceptable") for outcome in outcomes):
+        # No start reached a point within the limits: phase-1 from each start's last point, nearest first, until one
+        # finds a motion within the limits; the least excess found is the evidence (different starts reach
+        # different local minima: panda line 13 of the population, 0.21 from pinv's and 0.02 from a damped run's).
+        for run, name, solved in sorted(outcomes, key=lambda outcome: outcome[2].constraint_violation):
+            remaining = None if max_time is None else max(max_time - spent, 1e-3)
+            found = least_excess(
+                problem, solved.w, tolerance=tolerance, max_iterations=max_iterations, max_time=remaining
+            )
+            spent += found.seconds
+            tries.append((run, name, found))
+            if found.answered and not found.proves_infeasible:
+                break
+        answered = [entry for entry in tries if entry[2].answered]
+        run, name, feasibility = min(answered, key=lambda entry: entry[2].excess) if answered else tries[0]
+        feasibility = replace(feasibility, seconds=sum(entry[2].seconds for entry in tries))
+        if feasibility.answered and not feasibility.proves_infeasible:
+            remaining = None if max_time is None else max(max_time - spent, 1e-3)
+            solved = solve_shooting(
+                problem,
+                feasibility.w,
+                tolerance=tolerance,
+                max_iterations=max_iterations,
+                max_time=remaining,
+                compiled=compiled,
+                verbose=verbose,
+                on_iteration=progress,
+            )
+            outcomes.append((run, f"{PHASE_ONE} from {name}", solved))
+            records.append(_start_record(f"{PHASE_ONE} from {name}", solved))
     best = min(
         outcomes,
         key=lambda outcome: (
-            _PREFERENCE.index(outcome[2].status) if not infeasible else 0,
+            _PREFERENCE.index(outcome[2].status),
             outcome[2].constraint_violation if outcome[2].status not in ("converged", "acceptable") else 0.0,
             outcome[2].objective,
         ),
     )
-    return best, [("exact", best[2])], records
+    if feasibility is not None and feasibility.proves_infeasible:
+        best = (best[0], best[1], replace(best[2], status="infeasible"))
+    elif feasibility is not None and feasibility.answered and best[2].status == "infeasible":
+        best = (best[0], best[1], replace(best[2], status="failed"))  # phase-1 met every limit: not infeasible
+    if feasibility is not None:
+        feasibility = (feasibility, name, [(start, found) for _, start, found in tries])
+    return best, [("exact", best[2])], records, feasibility
+
+
+def _feasibility_record(feasibility, name: str, tries) -> dict:
+    """``OptimalResult.feasibility``: the least excess found (its record, from the start ``name``) and each phase-1
+    solve's, by start."""
+    record = {**feasibility.record(), "from": name}
+    record["tries"] = [
+        {"from": name, "status": found.status, "excess": found.excess, "iterations": found.iterations}
+        for name, found in tries
+    ]
+    return record
+
+
+def _start_record(name: str, solved) -> dict:
+    """What ``OptimalResult.starts`` keeps of one start's solve."""
+    return {
+        "warm_start": name,
+        "status": solved.status,
+        "solver_message": solved.message,
+        "iterations": solved.iterations,
+        "grid_cost": solved.objective,
+        "constraint_violation": solved.constraint_violation,
+        "seconds": solved.seconds,
+    }
 
 
 def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
@@ -424,7 +489,7 @@ def _warm_start(problem: Transcription, run: SimResult) -> np.ndarray:
     if not len(run.t):
         raise InvalidInput("the warm-start run has no rows")
     nodes = problem.times
-    q = np.column_stack([np.interp(nodes, run.t, column) for column in run.q.T])
+    q = np.column_stack([np.interp(nodes, run.t, column) for column in problem.angles(run.q).T])
     v = np.column_stack([np.interp(nodes, run.t, column) for column in run.v.T])
     beyond = nodes > run.t[-1]
     v[beyond] = 0.0
@@ -444,10 +509,13 @@ def _on_grid(problem: Transcription, w: np.ndarray, times: np.ndarray) -> dict:
         return q_nodes[k] + s * v_nodes[k] + 0.5 * s * s * a_nodes[k], v_nodes[k] + s * a_nodes[k], a_nodes[k]
 
     rows = [state(t) for t in times]
-    q = np.array([row[0] for row in rows])
+    q = problem.configurations(np.array([row[0] for row in rows]))
     v = np.array([row[1] for row in rows])
     a = np.array([row[2] for row in rows])
     step = times[1] - times[0]
-    torques = np.array([pin.rnea(model, data, *state(t + 0.5 * step)).copy() for t in times[:-1]])
+    torques = np.empty((len(times) - 1, problem.n))
+    for row, t in enumerate(times[:-1]):
+        angles, velocity, acceleration = state(t + 0.5 * step)
+        torques[row] = pin.rnea(model, data, problem.configurations(angles), velocity, acceleration)
     tips = np.array([robot.frame_placement(row, data).translation[robot.task_rows] for row in q])
     return {"q": q, "v": v, "a": a, "tau": torques, "x": tips}

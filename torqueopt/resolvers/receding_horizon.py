@@ -295,7 +295,7 @@ class HorizonProgram:
         from ..optimal.shooting import solve_shooting
 
         problem = self.problem
-        problem.q0, problem.v0 = np.asarray(q, float).copy(), np.asarray(v, float).copy()
+        problem.q0, problem.v0 = problem.angles(np.array(q, float)), np.asarray(v, float).copy()
         problem.reference = reference
         warm = w0 is not None
         if not warm:
