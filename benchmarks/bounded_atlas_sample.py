@@ -1,5 +1,5 @@
 """Re-run a seeded sample of a committed atlas with pinv and the bounded resolvers at their defaults, and compare two
-such samples (issue 40: the joint limits' deceleration, before and after).
+such samples (the joint limits' deceleration, before and after).
 
     python benchmarks/bounded_atlas_sample.py run docs/atlas/tiago 1000 /tmp/after-tiago.parquet
     python benchmarks/bounded_atlas_sample.py compare /tmp/before-tiago.parquet /tmp/after-tiago.parquet
@@ -92,7 +92,7 @@ def compare(before_file: Path, after_file: Path) -> None:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     commands = parser.add_subparsers(dest="command", required=True)
     run_parser = commands.add_parser("run", help="re-run a sample of a committed atlas")
     run_parser.add_argument("atlas", type=Path)

@@ -18,6 +18,10 @@ import argparse
 import torqueopt
 from torqueopt.whiplash import detect_whiplash
 
+#: Resolvers that solve a program over a window at every step: minutes per run on these arms
+#: (``benchmarks/horizon_curve.py`` measures them), not the local methods this table compares.
+PLANS_AHEAD = {"receding-horizon"}
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
@@ -37,6 +41,8 @@ def main() -> None:
     for robot_name in args.robots.split(","):
         robot = torqueopt.load_robot(robot_name, task="position")
         for name in torqueopt.resolver_names("torque"):
+            if name in PLANS_AHEAD:
+                continue
             result = torqueopt.simulate(robot, name, line, robot.default_configuration)
             whiplash = detect_whiplash(result)
             # "ok" only for a run that is stable by torque, completed and kept its tip on the path.

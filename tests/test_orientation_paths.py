@@ -309,6 +309,8 @@ def test_open_loop_the_torque_level_converges_to_the_turning_path_as_the_step_sh
 
 #: What a resolver needs to run on panda's pose task: obstacle avoidance an obstacle (here far from the arm).
 RESOLVER_OPTIONS = {"obstacle-avoidance": {"obstacle": [3.0, 3.0, 3.0]}}
+#: Resolvers that take the xy and position tasks only (they refuse a pose task in one line, tested below).
+POSITION_ONLY = {"receding-horizon"}
 
 
 @pytest.mark.parametrize(
@@ -316,6 +318,7 @@ RESOLVER_OPTIONS = {"obstacle-avoidance": {"obstacle": [3.0, 3.0, 3.0]}}
     [
         pytest.param(name, marks=pytest.mark.slow if name == "extended-jacobian" else ())
         for name in torqueopt.resolver_names()
+        if name not in POSITION_ONLY
     ],
 )
 def test_every_resolver_follows_a_turning_pose_path(panda_pose, name):
@@ -332,6 +335,13 @@ def test_every_resolver_follows_a_turning_pose_path(panda_pose, name):
     bound = 1e-10 if velocity_level else 1e-5
     assert result.max_tip_error < bound and result.max_orientation_error < bound
     assert np.abs(result.x_ref[-1, 3:] - math.radians(8.0) * TURN_AXIS).max() < 1e-12
+
+
+@pytest.mark.parametrize("name", sorted(POSITION_ONLY))
+def test_a_resolver_of_position_tasks_refuses_a_pose_path_in_one_line(panda_pose, name):
+    with pytest.raises(InvalidInput, match=f"resolver '{name}' supports tasks xy and position, not 'pose'"):
+        torqueopt.simulate(panda_pose, name, WaypointPath([0.0, 0.25], [np.zeros(3), 0.25 * SHIFT]),
+                           panda_pose.default_configuration)  # fmt: skip
 
 
 @pytest.mark.slow

@@ -607,7 +607,7 @@ def test_highs_answers_daqps_qp_form_with_daqps_multipliers():
     assert compared >= 10  # with bounds active, not only unconstrained minima
 
 
-# -- a start on a position limit (issue 40, item 5) -----------------------------------------------
+# -- a start on a position limit -----------------------------------------------------------------
 
 BOUNDED = ["bounded-torque", "minmax-torque", "energy-bounded-torque"]
 
@@ -678,7 +678,7 @@ def test_a_joint_beyond_its_pulled_in_limit_is_sent_back_at_its_deceleration_not
     assert drift.lower[0] == pytest.approx(2 * 2e-8 / DT**2, rel=1e-6)
 
 
-# -- the deceleration the torque box gives (issue 40, item 6) --------------------------------------
+# -- the deceleration the torque box gives --------------------------------------------------------
 
 
 def _box_lp(inertia, bias, upper, lower, joint, sign):
@@ -733,10 +733,10 @@ def test_the_acceleration_range_is_the_box_lp(arms, rng):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 40 item 6 is open: no deceleration from the torque box measured so far keeps every arm's atlas",
+    reason="open: no deceleration from the torque box measured so far keeps every arm's atlas",
 )
 def test_the_issue_s_state_eight_radians_from_every_limit_keeps_the_task(planar3):
-    """planar3 at q = (−0.91, 2.19, 0.24) rad, q̇ = (1.31, −1.1, −1.26) rad/s (issue 40): the old ā of joint2,
+    """planar3 at q = (−0.91, 2.19, 0.24) rad, q̇ = (1.31, −1.1, −1.26) rad/s: the old ā of joint2,
     ½·0.1·24 N·m/H₂₂ = 0.045 rad/s², put the state outside its viable set, 8.5 rad from the limit, and the step gave
     up the task ("position limit (stopping distance) (lower) of joint joint2 by 229 rad/s²"), as joint3's (0.09 rad/s²)
     did. The box gives joint2 up to 6.4 rad/s² (HiGHS): with a deceleration from it the task would be kept, as with

@@ -83,7 +83,7 @@ Each :math:`\tau_j` sits at the end of its range that the sign of
 and :math:`\rho` the half-ranges (:func:`acceleration_range`, held to HiGHS in
 the tests). It is exact for one joint alone, but several joints that must stop at
 once cannot each have their own extreme. Counting on a share of it was measured
-on the arms' atlases (issue 40, docs/guide/joint-limits.md), and no share
+on the arms' atlases (docs/guide/joint-limits.md), and no share
 tried kept every atlas as it was:
 
 - 1/(2n) of it for every joint: on tiago's atlas the runs with an
