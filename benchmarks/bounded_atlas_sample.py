@@ -26,26 +26,16 @@ RESOLVERS = ["pinv", "bounded-torque", "minmax-torque", "energy-bounded-torque"]
 
 
 def run(folder: Path, paths: int, out: Path) -> None:
+    from house_numbers import population_of
+
     import torqueopt
-    from torqueopt.atlas.jobs import ResolverChunk, RobotSpec
-    from torqueopt.atlas.population import PopulationSpec, draw_population
+    from torqueopt.atlas.jobs import ResolverChunk
     from torqueopt.atlas.sweep import run_chunk
     from torqueopt.atlas.verdicts import Thresholds
     from torqueopt.resolvers import get_resolver
 
     config = json.loads((folder / "atlas.json").read_text())["config"]
-    robot = config["robot"]
-    spec = RobotSpec(
-        robot["source"], robot.get("frame"), robot.get("task"),
-        None if robot.get("torque_limit") is None else tuple(robot["torque_limit"]),
-        tuple(robot["gravity"]) if isinstance(robot.get("gravity"), list) else robot.get("gravity"),
-    )  # fmt: skip
-    fields = PopulationSpec.__dataclass_fields__
-    population = {key: value for key, value in config["population"].items() if key in fields}
-    for key in ("durations", "length_range", "grid_posture"):
-        if population.get(key) is not None:
-            population[key] = tuple(population[key])
-    movements = draw_population(spec.load(), PopulationSpec(**population))
+    spec, movements = population_of(config)
     chosen = np.sort(np.random.default_rng(0).choice(len(movements), min(paths, len(movements)), replace=False))
     start = time.process_time()
     rows = []

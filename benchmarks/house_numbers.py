@@ -392,25 +392,27 @@ def committed_resolvers(config: dict) -> list:
     return resolvers
 
 
-def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: bool) -> tuple[pd.DataFrame, int]:
-    """(rows, population size) of ``sample_size`` seeded paths of the atlas of ``config``, run as its sweep does."""
-    from torqueopt.atlas.jobs import GlobalChunk, ResolverChunk
+def population_of(config: dict) -> tuple:
+    """(the RobotSpec, the movements) of the atlas whose settings are ``config`` (atlas-config.json's)."""
+    from torqueopt.atlas.jobs import RobotSpec
     from torqueopt.atlas.population import PopulationSpec, draw_population
-    from torqueopt.atlas.sweep import RobotSpec, run_chunk
-    from torqueopt.atlas.verdicts import Thresholds
 
-    robot = config["robot"]
-    spec = RobotSpec(
-        robot["source"], robot.get("frame"), robot.get("task"),
-        None if robot.get("torque_limit") is None else tuple(robot["torque_limit"]),
-        tuple(robot["gravity"]) if isinstance(robot.get("gravity"), list) else robot.get("gravity"),
-    )  # fmt: skip
+    spec = RobotSpec(**config["robot"])
     fields = PopulationSpec.__dataclass_fields__
     population = {key: value for key, value in config["population"].items() if key in fields}
     for key in ("durations", "length_range", "grid_posture"):
         if population.get(key) is not None:
             population[key] = tuple(population[key])
-    movements = draw_population(spec.load(), PopulationSpec(**population))
+    return spec, draw_population(spec.load(), PopulationSpec(**population))
+
+
+def rerun_sample(config: dict, sample_size: int, sample_seed: int, with_global: bool) -> tuple[pd.DataFrame, int]:
+    """(rows, population size) of ``sample_size`` seeded paths of the atlas of ``config``, run as its sweep does."""
+    from torqueopt.atlas.jobs import GlobalChunk, ResolverChunk
+    from torqueopt.atlas.sweep import run_chunk
+    from torqueopt.atlas.verdicts import Thresholds
+
+    spec, movements = population_of(config)
     chosen = np.sort(
         np.random.default_rng(sample_seed).choice(len(movements), min(sample_size, len(movements)), replace=False)
     )

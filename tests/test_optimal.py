@@ -157,8 +157,9 @@ def test_without_redundancy_the_optimum_is_the_inverse_dynamics_of_the_path():
     assert result.cost == pytest.approx(expected_cost, rel=1e-4)
 
 
-def prismatic_arm() -> torqueopt.Robot:
-    """Three prismatic joints (x, y and along (1, 1)/√2) carrying point-like masses: H constant, no Coriolis."""
+def prismatic_arm(limits: bool = False) -> torqueopt.Robot:
+    """Three prismatic joints (x, y and along (1, 1)/√2) carrying point-like masses: H constant, no Coriolis.
+    With ``limits``, slider1 within [0, 1] m, the others within [−1, 1] m, every speed within 2 m/s."""
     model = pin.Model()
     parent = 0
     axes = [np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)]
@@ -168,6 +169,10 @@ def prismatic_arm() -> torqueopt.Robot:
         model.appendBodyToJoint(parent, pin.Inertia(mass, np.zeros(3), 0.01 * np.eye(3)), pin.SE3.Identity())
     model.addFrame(pin.Frame("tip", parent, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
     model.effortLimit = np.full(3, 100.0)
+    if limits:
+        model.lowerPositionLimit = np.array([0.0, -1.0, -1.0])
+        model.upperPositionLimit = np.ones(3)
+        model.velocityLimit = np.full(3, 2.0)
     return torqueopt.Robot(model, "tip", "xy", name="sliders", gravity=False)
 
 

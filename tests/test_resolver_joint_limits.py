@@ -613,20 +613,10 @@ BOUNDED = ["bounded-torque", "minmax-torque", "energy-bounded-torque"]
 
 
 def _sliders():
-    """Three prismatic joints (x, y and along (1, 1)/√2, point-like masses, no gravity), slider1 within [0, 1] m."""
-    model = pin.Model()
-    parent = 0
-    axes = [np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)]
-    for index, (axis, mass) in enumerate(zip(axes, (3.0, 2.0, 1.0))):
-        joint = pin.JointModelPrismaticUnaligned(axis)
-        parent = model.addJoint(parent, joint, pin.SE3.Identity(), f"slider{index + 1}")
-        model.appendBodyToJoint(parent, pin.Inertia(mass, np.zeros(3), 0.01 * np.eye(3)), pin.SE3.Identity())
-    model.addFrame(pin.Frame("tip", parent, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
-    model.effortLimit = np.full(3, 100.0)
-    model.lowerPositionLimit = np.array([0.0, -1.0, -1.0])
-    model.upperPositionLimit = np.ones(3)
-    model.velocityLimit = np.full(3, 2.0)
-    return torqueopt.Robot(model, "tip", "xy", name="sliders", gravity=False)
+    """Three prismatic joints (point-like masses, no gravity), slider1 within [0, 1] m."""
+    from .test_optimal import prismatic_arm
+
+    return prismatic_arm(limits=True)
 
 
 @pytest.mark.parametrize("resolver", BOUNDED)

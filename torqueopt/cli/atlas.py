@@ -9,6 +9,7 @@ from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
 from . import EXIT_OK
 from .common import (
+    add_gravity_and_payload_options,
     add_joint_dynamics_option,
     gravity_from_args,
     importable_from_here,
@@ -47,22 +48,7 @@ def add_robot_spec_options(parser, robot_help: str, torque_limit_help: str, requ
     parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
     parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
     parser.add_argument("--torque-limit", metavar="TAU", help=torque_limit_help)
-    parser.add_argument(
-        "--gravity",
-        nargs="?",
-        const=True,
-        default=None,
-        metavar="X,Y,Z",
-        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
-        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
-    )
-    parser.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
-    parser.add_argument(
-        "--payload",
-        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
-        help="a load fixed to the task frame: mass [kg], centre of mass in the task frame [m], principal moments "
-        "of inertia [kg·m²] (as torqueopt run --payload)",
-    )
+    add_gravity_and_payload_options(parser)
     add_joint_dynamics_option(parser)
 
 

@@ -16,6 +16,7 @@ from ..progress import said_if_slow
 from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
 
 __all__ = [
+    "add_gravity_and_payload_options",
     "add_joint_dynamics_option",
     "add_robot_options",
     "add_start_options",
@@ -95,6 +96,28 @@ def add_joint_dynamics_option(group) -> None:
     )
 
 
+def add_gravity_and_payload_options(group) -> None:
+    """``--gravity [X,Y,Z]``, ``--no-gravity`` and ``--payload``: what :func:`gravity_from_args` and
+    :func:`payload_from_args` read."""
+    group.add_argument(
+        "--gravity",
+        nargs="?",
+        const=True,
+        default=None,
+        metavar="X,Y,Z",
+        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
+        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
+    )
+    group.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
+    group.add_argument(
+        "--payload",
+        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
+        help="a load fixed to the task frame: its mass [kg], its centre of mass in the task frame [m] (default at "
+        "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
+        "(default 0: a point mass)",
+    )
+
+
 def add_robot_options(parser: argparse.ArgumentParser, required: bool = True, joint_dynamics: bool = False) -> None:
     group = parser.add_argument_group("robot")
     group.add_argument(
@@ -114,23 +137,7 @@ def add_robot_options(parser: argparse.ArgumentParser, required: bool = True, jo
         help="symmetric torque limits [N·m], one value for all joints or one per joint, inf for unbounded "
         "(default: URDF effort limits)",
     )
-    group.add_argument(
-        "--gravity",
-        nargs="?",
-        const=True,
-        default=None,
-        metavar="X,Y,Z",
-        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
-        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
-    )
-    group.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
-    group.add_argument(
-        "--payload",
-        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
-        help="a load fixed to the task frame: its mass [kg], its centre of mass in the task frame [m] (default at "
-        "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
-        "(default 0: a point mass)",
-    )
+    add_gravity_and_payload_options(group)
     if joint_dynamics:
         add_joint_dynamics_option(group)
     group.add_argument(
