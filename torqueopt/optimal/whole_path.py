@@ -30,6 +30,7 @@ optimum; anything else is the last iterate, reported as such.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
@@ -391,21 +392,21 @@ def _solve_from_starts(
     if not len(starts):
         raise InvalidInput("starts is empty: give at least one resolver name, e.g. ('pinv',)")
     outcomes, records, spent = [], [], 0.0
+    solve = functools.partial(
+        solve_shooting,
+        problem,
+        tolerance=tolerance,
+        max_iterations=max_iterations,
+        compiled=compiled,
+        verbose=verbose,
+        on_iteration=progress,
+    )
     for start in starts:
         remaining = None if max_time is None else max_time - spent
         if remaining is not None and remaining <= 0.0:
             break
         run, name = _start_run(robot, trajectory, q_start, dt, start)
-        solved = solve_shooting(
-            problem,
-            _warm_start(problem, run),
-            tolerance=tolerance,
-            max_iterations=max_iterations,
-            max_time=remaining,
-            compiled=compiled,
-            verbose=verbose,
-            on_iteration=progress,
-        )
+        solved = solve(_warm_start(problem, run), max_time=remaining)
         spent += solved.seconds
         outcomes.append((run, name, solved))
         records.append(_start_record(name, solved))
@@ -428,16 +429,7 @@ def _solve_from_starts(
         feasibility = replace(feasibility, seconds=sum(entry[2].seconds for entry in tries))
         if feasibility.answered and not feasibility.proves_infeasible:
             remaining = None if max_time is None else max(max_time - spent, 1e-3)
-            solved = solve_shooting(
-                problem,
-                feasibility.w,
-                tolerance=tolerance,
-                max_iterations=max_iterations,
-                max_time=remaining,
-                compiled=compiled,
-                verbose=verbose,
-                on_iteration=progress,
-            )
+            solved = solve(feasibility.w, max_time=remaining)
             outcomes.append((run, f"{PHASE_ONE} from {name}", solved))
             records.append(_start_record(f"{PHASE_ONE} from {name}", solved))
     best = min(
