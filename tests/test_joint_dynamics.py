@@ -164,8 +164,15 @@ def test_the_cli_switch_and_its_bad_values(tmp_path, capsys):
     urdf = planar3_with(tmp_path, DAMPING, FRICTION)
     base = ["run", "--robot", str(urdf), "--frame", "tip", "--task", "xy", "--resolver", "pinv",
             "--q0=-0.7853981634,2.3561944902,-2.3561944902", "--direction", "1,1", "--duration", "0.3", "--no-dexterity"]  # fmt: skip
-    assert main([*base, "--joint-dynamics", "urdf"]) == 0
-    assert "friction 3, 1, 0.4 N·m modelled (--joint-dynamics urdf)" in capsys.readouterr().out
+    out = tmp_path / "damped.csv"
+    assert main([*base, "--joint-dynamics", "urdf", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "friction 3, 1, 0.4 N·m modelled (--joint-dynamics urdf)" in printed
+    # The line's damping peak is D|q̇| at its largest over the run's own velocities, at the joint it names.
+    run = torqueopt.load_result(out)
+    named = re.search(r"largest at joint (\w+): damping up to ([\d.]+) N·m", printed)
+    joint = run.joint_names.index(named.group(1))
+    assert float(named.group(2)) == pytest.approx(DAMPING[joint] * np.abs(run.v[:, joint]).max(), rel=1e-3)
     assert main(base) == 0
     assert "NOT modelled (--joint-dynamics off)" in capsys.readouterr().out
     with pytest.raises(SystemExit) as stopped:

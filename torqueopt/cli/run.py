@@ -335,8 +335,10 @@ def joint_dynamics_summary(result) -> list[str]:
     damping = np.nanmax(np.abs(result.damping_torque), axis=0, initial=0.0)
     friction = np.nanmax(np.abs(result.friction_torque), axis=0, initial=0.0)
     joint = int(np.argmax(damping + friction))
+    unit = result.joint_unit(joint, "torque")
+    # Each a peak of its own over the run: they may exceed the motor's peak, where they oppose gravity or inertia.
     return [
-        f"joint dynamics: the URDF's joint {given} modelled (--joint-dynamics urdf); largest share at joint "
-        f"{result.joint_names[joint]}: damping {damping[joint]:.4g} N·m, friction {friction[joint]:.4g} N·m of peak "
-        f"{result.peak_torque[joint]:.4g} N·m"
+        f"joint dynamics: the URDF's joint {given} modelled (--joint-dynamics urdf); largest at joint "
+        f"{result.joint_names[joint]}: damping up to {damping[joint]:.4g} {unit} and friction up to "
+        f"{friction[joint]:.4g} {unit}, beside a peak motor torque of {result.peak_torque[joint]:.4g} {unit}"
     ]
