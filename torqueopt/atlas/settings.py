@@ -254,14 +254,9 @@ def _plant_options(value, name) -> tuple[tuple[str, str], ...]:
 
 
 def _parse_plant_options(texts, name) -> tuple[tuple[str, str], ...]:
-    pairs = []
-    for text in texts:
-        for item in text.split(","):
-            key, separator, value = item.partition("=")
-            if not separator:
-                raise InvalidInput(f"--plant-option '{item}' must be KEY=VALUE, e.g. --plant-option perturb=0.1")
-            pairs.append((key, value))
-    return _plant_options(pairs, name)
+    from ..plants import plant_option_texts
+
+    return _plant_options(plant_option_texts(texts), name)
 
 
 @dataclass(frozen=True)

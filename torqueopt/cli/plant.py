@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InvalidInput
-from ..plants import Plant, make_plant, plant_names
+from ..plants import Plant, make_plant, plant_names, plant_option_texts
 from ..result import SimResult
 
 __all__ = ["add_plant_options", "plant_from_args", "plant_summary"]
@@ -54,18 +54,10 @@ def add_plant_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _plant_option_values(texts: list[str]) -> dict[str, str]:
-    options = {}
-    for text in texts:
-        for item in text.split(","):
-            key, separator, value = item.partition("=")
-            key = key.strip()
-            if not separator or not key or not value.strip():
-                raise InvalidInput(f"--plant-option '{item}' must be KEY=VALUE, e.g. --plant-option integrator=euler")
-            if key not in PLANT_OPTIONS:
-                raise InvalidInput(f"unknown --plant-option '{key}'; the options are {', '.join(PLANT_OPTIONS)}")
-            if key in options:
-                raise InvalidInput(f"--plant-option {key} is given twice; give it once")
-            options[key] = value.strip()
+    options = plant_option_texts(texts)
+    unknown = [key for key in options if key not in PLANT_OPTIONS]
+    if unknown:
+        raise InvalidInput(f"unknown --plant-option '{unknown[0]}'; the options are {', '.join(PLANT_OPTIONS)}")
     return options
 
 

@@ -23,7 +23,7 @@ it by name, for :func:`torqueopt.simulate`, ``simulate_batch`` and the CLI's
 
 from __future__ import annotations
 
-from .base import ENTRY_POINT_GROUP, Plant, make_plant, plant_names, register_plant
+from .base import ENTRY_POINT_GROUP, Plant, make_plant, plant_names, plant_option_texts, register_plant
 
 # isort: off
 # Importing a plant's module registers it, in the order --plant lists them: the paper's first.
@@ -31,4 +31,12 @@ from .pinocchio import PinocchioPlant
 from . import mujoco  # noqa: F401  (mujoco itself is imported only when a MuJoCo plant is built)
 # isort: on
 
-__all__ = ["ENTRY_POINT_GROUP", "Plant", "PinocchioPlant", "make_plant", "plant_names", "register_plant"]
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "Plant",
+    "PinocchioPlant",
+    "make_plant",
+    "plant_names",
+    "plant_option_texts",
+    "register_plant",
+]

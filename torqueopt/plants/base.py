@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 
-__all__ = ["ENTRY_POINT_GROUP", "Plant", "make_plant", "plant_names", "register_plant"]
+__all__ = ["ENTRY_POINT_GROUP", "Plant", "make_plant", "plant_names", "plant_option_texts", "register_plant"]
 
 #: The registered plants by name: name -> class (``cls(robot, **options)``).
 _PLANTS: dict[str, type] = {}
@@ -115,3 +115,22 @@ def make_plant(robot, plant="pinocchio", options: dict | None = None) -> Plant:
             + ", ".join(name.replace("_", "-") for name in accepted)
         )
     return cls(robot, **keywords)
+
+
+def plant_option_texts(texts) -> dict[str, str]:
+    """``--plant-option`` texts, each repeatable and comma-separated ``KEY=VALUE``, as ``{key: value}``.
+
+    Raises:
+        InvalidInput: an item that is not KEY=VALUE, or a key given twice.
+    """
+    options = {}
+    for text in texts:
+        for item in text.split(","):
+            key, separator, value = item.partition("=")
+            key = key.strip()
+            if not separator or not key or not value.strip():
+                raise InvalidInput(f"--plant-option '{item}' must be KEY=VALUE, e.g. --plant-option integrator=euler")
+            if key in options:
+                raise InvalidInput(f"--plant-option {key} is given twice; give it once")
+            options[key] = value.strip()
+    return options
