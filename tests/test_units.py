@@ -142,3 +142,24 @@ def test_a_bounded_resolvers_limit_message_gives_a_sliders_excess_in_m_per_s2(sl
         "position limit (upper) of joint slider by 2 m/s²",
         "position limit (upper) of joint wrist by 4 rad/s²",
     ]
+
+
+def test_an_atlas_of_a_slider_arm_labels_its_torques_and_whip_speeds_by_kind():
+    from torqueopt.atlas.explorer import path_figures
+    from torqueopt.atlas.report import _speed_unit
+
+    names = ["shoulder", "slider", "wrist"]
+    kinds = ["revolute", "prismatic", "revolute"]
+    run = {"t": np.zeros(2), "tau": np.zeros((2, 3)), "arm": np.zeros((2, 2)), "start_arm": np.zeros((2, 2)),
+           "arm_time": 0.0}  # fmt: skip
+    robot = {"joint_names": names, "torque_limit": [1.0, 1.0, 1.0], "joint_kinds": kinds}
+    assert "[N·m or N]" in path_figures(0, {"pinv": run}, robot)["torque"]["layout"]["title"]["text"]
+    assert (
+        "[N·m]" in path_figures(0, {"pinv": run}, {**robot, "joint_kinds": None})["torque"]["layout"]["title"]["text"]
+    )
+
+    config = {"joint_names": names, "joint_kinds": kinds}
+    assert _speed_unit(["slider", "slider"], config) == "m/s"
+    assert _speed_unit(["wrist"], config) == "rad/s"
+    assert _speed_unit(["wrist", "slider"], config) == "rad/s or m/s"
+    assert _speed_unit(["slider"], {"joint_names": names}) == "rad/s"  # an atlas of a revolute arm: no kinds kept

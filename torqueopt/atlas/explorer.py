@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
+from ..units import shared_unit
 from .population import movement_trajectory
 from .sweep import require, simulate_all
 from .verdicts import VERDICT_COLOURS, applied_rows
@@ -196,7 +197,10 @@ def path_figures(path: int, runs: dict, robot_summary: dict, layouts: tuple[dict
     })  # fmt: skip
     torque_layout = {
         **torque_layout,
-        "title": {"text": f"path {path}: torque of every resolver [N·m], limits ±τ⁺ dashed"},
+        "title": {
+            "text": f"path {path}: torque of every resolver "
+            f"[{shared_unit(robot_summary.get('joint_kinds'), 'torque')}], limits ±τ⁺ dashed"
+        },
     }
     arm_layout = {
         **arm_layout,
@@ -290,7 +294,11 @@ def explorer_html(table, summary: dict, traces: dict, keep: int) -> str:
     plotly_io = require("plotly.io")
     offline = require("plotly.offline")
     config = summary["config"]
-    robot_summary = {"joint_names": config["joint_names"], "torque_limit": config["torque_limit"]}
+    robot_summary = {
+        "joint_names": config["joint_names"],
+        "torque_limit": config["torque_limit"],
+        "joint_kinds": config.get("joint_kinds"),
+    }
     figure = map_figure(table, summary)
     layouts = path_layouts(robot_summary) if traces else None
     kept_note = f"the traces of at most {keep} paths, those where a resolver whips first ({len(traces)} kept here)"

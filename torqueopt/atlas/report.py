@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
+from ..units import shared_unit
 from .frontier import draw_margin_roc, frontier_markdown, global_summary, margin_markdown, margin_summary
 from .global_optimum import GLOBAL_RESOLVER
 from .pinv_paths import pinv_paths_markdown, pinv_paths_summary
@@ -38,6 +39,8 @@ def summarise(table, config: dict) -> dict:
                 "median_whip_speed": float(whipped["whip_speed"].median()),
                 "median_instability_time_fraction": float((whipped["instability_time"] / whipped["duration"]).median()),
             }
+            if config.get("joint_kinds"):  # an arm with a slider; else rad/s, and atlas.json as it was
+                whips[resolver]["whip_speed_unit"] = _speed_unit(whipped["whip_speed_joint"], config)
     torque = {}
     for resolver in resolvers:
         rows = table[table["resolver"] == resolver]
@@ -68,6 +71,12 @@ def summarise(table, config: dict) -> dict:
     if margins is not None:
         summary["margin"] = margins
     return summary
+
+
+def _speed_unit(joints, config: dict) -> str:
+    """The unit of the whipped joints' speeds: rad/s, m/s on a slider, both when the whips were on both kinds."""
+    kinds = dict(zip(config["joint_names"], config.get("joint_kinds") or [None] * len(config["joint_names"])))
+    return shared_unit([kinds.get(joint) for joint in dict.fromkeys(joints)], "velocity")
 
 
 def _model_text(robot: dict) -> str:
@@ -168,7 +177,7 @@ def write_markdown(summary: dict) -> str:
             joints = ", ".join(f"{joint} {count}" for joint, count in whip["aligned_joint"].items())
             lines.append(
                 f"- {resolver}: {whip['count']} whips; joint nearest aligned at the instability: {joints}; median "
-                f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} rad/s, "
+                f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} {whip.get('whip_speed_unit', 'rad/s')}, "
                 f"median instability at {whip['median_instability_time_fraction']:.0%} of the movement"
             )
     if "global" in summary:

@@ -411,6 +411,9 @@ def atlas_config(settings: AtlasSettings, robot: Robot, reach: float, movements:
         "batch": bool(settings.execution.batch),
         "movements": int(movements),
     }
+    # Only on an arm with a slider, so that the atlases of revolute arms keep their fingerprint (and resume).
+    if "prismatic" in robot.joint_kinds:
+        config["joint_kinds"] = list(robot.joint_kinds)
     # Only when asked, so that an atlas without them keeps its fingerprint (and resumes).
     if frontier.global_optimum:
         config["global"] = global_settings(
