@@ -91,6 +91,17 @@ def test_every_command_with_robot_options_refuses_a_bad_gravity_or_payload(optio
     assert not (tmp_path / "figure.png").exists()
 
 
+def test_a_bare_gravity_before_the_run_file_leaves_the_file_to_plot(saved_run, tmp_path, capsys):
+    # --gravity takes an optional vector: without the reordering, argparse reads the run file as the vector.
+    figure = tmp_path / "figure.png"
+    assert main(["plot", "--gravity", str(saved_run), "--stick-figures", "--out", str(figure)]) == 0
+    assert figure.stat().st_size > 0
+    code = main(
+        ["plot", "--gravity", "abc", str(saved_run), "--stick-figures", "--out", str(figure)]
+    )  # not a file, not X,Y,Z: still refused as a vector
+    one_line_refusal(capsys, code, "plot", "--gravity abc: give three numbers")
+
+
 def test_the_help_of_every_command_with_robot_options_names_the_new_options(capsys):
     for command in ("run", "optimize", "plot"):
         with pytest.raises(SystemExit):

@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("torqueopt: interrupted", file=sys.stderr)
         return 130
-    args, unknown = parser.parse_known_args(argv)
+    args, unknown = parser.parse_known_args(_bare_gravity_last(sys.argv[1:] if argv is None else list(argv)))
     if unknown:
         # Name the subcommand's own help, where its options are listed.
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
@@ -122,6 +122,19 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = show_warning
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+def _bare_gravity_last(argv: list[str]) -> list[str]:
+    """``--gravity`` takes an optional vector, so argparse would read the word after a bare ``--gravity`` as one:
+    ``plot --gravity RUN.csv`` would lose its RUN. A bare ``--gravity`` before a word that is not X,Y,Z (three
+    comma-separated parts) but names a file moves to the end, where it takes no value."""
+    if "--" in argv:  # past a "--" every word is positional: leave the line as written
+        return argv
+    for index, word in enumerate(argv[:-1]):
+        following = argv[index + 1]
+        if word == "--gravity" and following.count(",") != 2 and os.path.exists(following):
+            return [*_bare_gravity_last([*argv[:index], *argv[index + 1 :]]), "--gravity"]
+    return argv
 
 
 def _replace_what_the_terminal_cannot_show() -> None:
