@@ -196,6 +196,18 @@ def test_the_atlas_robot_spec_carries_the_switch(tmp_path):
     assert not RobotSpec(urdf, frame="tip", task="xy").load().models_joint_dynamics
 
 
+def test_the_whole_movement_optimum_refuses_an_arm_whose_joint_dynamics_it_does_not_model(damped_planar3, tmp_path):
+    from torqueopt.optimal import optimize
+
+    with pytest.raises(InvalidInput, match="models its URDF's joint damping and friction"):
+        optimize(damped_planar3, LINE, Q0)
+    urdf = str(planar3_with(tmp_path, DAMPING, FRICTION))
+    out = tmp_path / "atlas"
+    arguments = ["atlas", "--robot", urdf, "--frame", "tip", "--task", "xy", "--paths", "1", "--durations", "0.3"]
+    assert main([*arguments, "--global", "--joint-dynamics", "urdf", "--out", str(out)]) == 2
+    assert not out.exists()  # refused before any work
+
+
 mujoco = pytest.importorskip("mujoco")
 #: MuJoCo's plant matched to Pinocchio's (its damping option left to follow the robot).
 MATCHED = {"contacts": "off", "joint-limits": "off", "integrator": "rk4"}

@@ -58,7 +58,13 @@ import json
 import numpy as np
 
 from ..optimal import optimize, run_cost
-from ..optimal.whole_path import DEFAULT_GRID_STEP, DEFAULT_MAX_NONZEROS, _check_size, transcription_intervals
+from ..optimal.whole_path import (
+    DEFAULT_GRID_STEP,
+    DEFAULT_MAX_NONZEROS,
+    _check_size,
+    check_rigid_joints,
+    transcription_intervals,
+)
 from ..resolvers import get_resolver
 from ..result import SimResult, joint_limits_record
 from ..simulate import DEFAULT_MAX_JOINT_SPEED, DEFAULT_MAX_TORQUE_RATIO, simulate
@@ -97,7 +103,9 @@ DEFAULT_GLOBAL_CHUNK_SIZE = 8
 def check_transcription(
     robot, durations, max_nonzeros: int = DEFAULT_MAX_NONZEROS, torque_bounds: bool = False
 ) -> None:
-    """Refuse, before anything runs, a duration whose transcription is larger than ``optimize`` accepts."""
+    """Refuse, before anything runs, a duration whose transcription is larger than ``optimize`` accepts, and a
+    robot whose joint damping and friction the optimum's dynamics do not model."""
+    check_rigid_joints(robot)
     for duration in durations:
         intervals = transcription_intervals(duration, DEFAULT_GRID_STEP)
         _check_size(robot, duration, DEFAULT_GRID_STEP, intervals, torque_bounds, max_nonzeros)

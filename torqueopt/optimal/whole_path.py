@@ -97,6 +97,17 @@ def transcription_intervals(duration: float, grid_step: float) -> int:
     return 2 * max(1, math.ceil(ratio - 1e-9))  # a step longer than T/2 still leaves two intervals
 
 
+def check_rigid_joints(robot: Robot) -> None:
+    """Refuse a robot that models its URDF's joint damping and friction: the whole-movement problem's dynamics
+    (τ by RNEA) have neither, so its optimum would not be the motion the robot makes."""
+    if robot.models_joint_dynamics:
+        raise InvalidInput(
+            f"robot '{robot.name}' models its URDF's joint damping and friction (joint_dynamics='urdf', "
+            "--joint-dynamics urdf); the whole-movement optimum's dynamics have neither: load it with "
+            "joint_dynamics='off' (--joint-dynamics off)"
+        )
+
+
 def _check_size(robot: Robot, duration, grid_step, intervals: int, torque_bounds: bool, max_nonzeros: int) -> None:
     """Refuse, before any array is made, a transcription of more than ``max_nonzeros`` nonzeros."""
     size = Transcription.count(robot, intervals, torque_bounds=torque_bounds)
@@ -209,6 +220,7 @@ def optimize(
         raise InvalidInput(
             f"task '{robot.task}' has m={robot.m} coordinates but robot '{robot.name}' has n={robot.nv} joints"
         )
+    check_rigid_joints(robot)
     check_trajectory(trajectory)
     duration = positive_number(trajectory.duration, "duration", "s")
     if dt > duration or grid_step > duration:
