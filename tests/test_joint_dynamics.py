@@ -7,6 +7,7 @@ the Pinocchio plant over a whole run.
 """
 
 import re
+import warnings
 
 import numpy as np
 import pinocchio as pin
@@ -206,6 +207,28 @@ def test_the_whole_movement_optimum_refuses_an_arm_whose_joint_dynamics_it_does_
     arguments = ["atlas", "--robot", urdf, "--frame", "tip", "--task", "xy", "--paths", "1", "--durations", "0.3"]
     assert main([*arguments, "--global", "--joint-dynamics", "urdf", "--out", str(out)]) == 2
     assert not out.exists()  # refused before any work
+
+
+def test_a_run_says_when_the_joint_damping_is_too_stiff_for_rk4s_step():
+    from torqueopt.simulate import RK4_REAL_STABILITY, joint_dynamics_rate
+
+    # RK4's amplification on y' = −λy is the Taylor polynomial of e^(−hλ): |R| = 1 at the stability bound.
+    x = -RK4_REAL_STABILITY
+    assert abs(abs(1 + x + x**2 / 2 + x**3 / 6 + x**4 / 24) - 1) < 2e-3
+    robot = torqueopt.load_robot("xarm7", joint_dynamics="urdf")
+    q = robot.default_configuration
+    inertia = pin.crba(robot.model, robot.model.createData(), q)
+    inertia = np.triu(inertia) + np.triu(inertia, 1).T
+    slope = robot.urdf_joint_damping + robot.joint_friction / robot.friction_velocity_scale
+    rate = np.linalg.eigvals(np.linalg.solve(inertia, np.diag(slope))).real.max()
+    assert joint_dynamics_rate(robot, inertia) == pytest.approx(rate, rel=1e-12) and rate * 1e-3 > RK4_REAL_STABILITY
+    line = StraightLine([0, 0, 1], duration=0.01)
+    with pytest.warns(torqueopt.TorqueoptWarning, match="stiff for dt=0.001 s"):
+        simulate(robot, "pinv", line, q, dt=1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        simulate(robot, "pinv", line, q, dt=line.duration / np.ceil(line.duration * rate / RK4_REAL_STABILITY))
+        simulate(torqueopt.load_robot("xarm7"), "pinv", line, q, dt=1e-3)  # off: nothing to be stiff
 
 
 mujoco = pytest.importorskip("mujoco")

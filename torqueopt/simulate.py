@@ -193,7 +193,7 @@ def simulate(
     v = np.zeros(robot.nv) if v0 is None else velocity_vector(robot, v0)
     plant = make_plant(robot, plant, plant_options)
     plant.reset(dt)
-    for note in start_notes(robot, q):
+    for note in start_notes(robot, q, dt if isinstance(plant, PinocchioPlant) else None):
         warnings.warn(note, TorqueoptWarning, stacklevel=2)
     placement = robot.frame_placement(q)
     reference_rotation = placement.rotation.copy()
@@ -399,13 +399,14 @@ def with_margins(
 NEAR_SINGULAR = 0.05
 
 
-def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
+def start_notes(robot: Robot, q: np.ndarray, dt: float | None = None) -> list[str]:
     """What is wrong with starting at configuration ``q`` at rest, one sentence each (empty when nothing).
 
     A start is questioned when its task Jacobian is near-singular
     (σmin/σmax below :data:`NEAR_SINGULAR`), when holding it against
     gravity alone needs more than a joint's torque limit, or when a joint is
-    outside its URDF position limits.
+    outside its URDF position limits; given the step ``dt`` [s] of the Pinocchio plant's RK4, when the joint
+    damping and friction the robot models are too stiff for it.
     """
     notes = []
     terms = robot.terms(q, np.zeros(robot.nv))
@@ -431,4 +432,24 @@ def start_notes(robot: Robot, q: np.ndarray) -> list[str]:
             f"the start has joint {robot.joint_names[joint]} at {angles[joint]:.4g}, outside its URDF limits "
             f"[{lower[joint]:.4g}, {upper[joint]:.4g}]"
         )
+    if dt is not None and robot.models_joint_dynamics:
+        rate = joint_dynamics_rate(robot, terms.inertia)
+        if rate * dt > RK4_REAL_STABILITY:
+            notes.append(
+                f"the joint damping and friction are stiff for dt={dt:g} s: they damp the arm at up to {rate:.4g} /s "
+                f"at the start, and dt times that is {rate * dt:.3g}, beyond the {RK4_REAL_STABILITY} where the RK4 "
+                f"step stays stable; the integration error grows (a dt below {RK4_REAL_STABILITY / rate:.2g} s "
+                "keeps it stable)"
+            )
     return notes
+
+
+#: The largest h·λ for which classical RK4 damps y' = −λy: the root of |1 − x + x²/2 − x³/6 + x⁴/24| = 1.
+RK4_REAL_STABILITY = 2.785
+
+
+def joint_dynamics_rate(robot: Robot, inertia: np.ndarray) -> float:
+    """The fastest decay rate [1/s] the joint damping and friction give the arm of joint-space inertia H: the
+    largest eigenvalue of H⁻¹(D + F/v_s), the friction F·tanh(q̇/v_s) taken at its slope at rest."""
+    slope = robot.joint_damping + robot.joint_friction / robot.friction_velocity_scale
+    return float(np.linalg.eigvals(np.linalg.solve(inertia, np.diag(slope))).real.max())
