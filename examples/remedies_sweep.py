@@ -6,7 +6,8 @@ torque limits with both torque weights while keeping most of the short
 (0.5 s) movement's torque cut. For each (μ, K_D) it prints the share of the
 short movement's cut kept (against pinv, in the chosen weight: null-space's
 cut for ``unit``, weighted-null-space's for ``range``) and the long
-movement's peak |τ|/limit (U: unstable), then the generated answer.
+movement's peak |τ|/limit (U: unstable), then the numbers of the answer
+(docs/discussion/remedies.md says what they answer).
 
 Run: python examples/remedies_sweep.py [--torque-weight range] [--kinematic-weights 0,0.1,...] [--dampings 2,5,...]
 """
@@ -15,6 +16,8 @@ import argparse
 
 from torqueopt.paper import run_paper
 from torqueopt.studies.remedies import run_remedies
+from torqueopt.studies.remedies.discussion_answers import kinematic_term_answer
+from torqueopt.studies.remedies.report import answer_lines
 
 #: The grid used to choose the defaults.
 KINEMATIC_WEIGHTS = "0,0.1,0.15,0.2,0.3,0.5,0.7"
@@ -54,7 +57,7 @@ def main() -> None:
             )
         print(f"{mu:<8g}" + "".join(f"{cell:>{width}}" for cell in cells))
     print()
-    print(" ".join(study.kinematic_term_answer()["sentences"]))
+    print("\n".join(answer_lines({"kinematic_term": kinematic_term_answer(study)})))
 
 
 if __name__ == "__main__":

@@ -82,7 +82,12 @@ def test_remedies_sweep_prints_its_grid_and_the_answer():
                           "--dampings", "10")  # fmt: skip
     rows = {line.split()[0]: line.split()[1] for line in printed.splitlines() if line[:1].isdigit()}
     assert rows["0"].startswith("100%/") and rows["0"].endswith("U")  # weighted-null-space: unstable
-    assert "Without a kinematic term (μ = 0, weighted-null-space)" in printed
+    # Regression pin: with the range weight the defaults do not whip but leave the long path by 1.23 mm (> 1 mm).
+    assert (
+        "- kinematic term, sweep settings with μ > 0: 1; long movement stable: 0; also within its limits: 0\n"
+        in printed
+    )
+    assert "- μ with no stable K_D: 0.5; unstable at every K_D: -\n" in printed
 
 
 def test_model_error_study_tells_the_exact_model_from_the_perturbed_plant():

@@ -1,9 +1,9 @@
-"""The remedies study: its runs, its sweep, and the sentences it writes, held to the runs they describe.
+"""The remedies study: its runs, its sweep, and the numbers of its answers, held to the runs they describe.
 
-The sentences are generated from the numbers; these tests recompute the
-numbers from the SimResults (torque cost, whiplash verdicts) and check that
-each sentence says what they say, and that a remedy missing from the
-registry is skipped and reported rather than failing the study.
+These tests recompute the answers' numbers from the SimResults (torque cost,
+whiplash verdicts, a fresh run of the best setting) and check that a remedy
+missing from the registry is skipped and reported rather than failing the study.
+docs/discussion/remedies.md says the answers in words, from these numbers.
 """
 
 import json
@@ -14,9 +14,11 @@ import pytest
 
 import torqueopt
 from torqueopt.cli import main
+from torqueopt.paper import PAPER
 from torqueopt.resolvers import RESOLVERS
 from torqueopt.studies import remedies as study_module
 from torqueopt.studies.remedies import REMEDIES, run_remedies, torque_cost
+from torqueopt.studies.remedies.discussion_answers import kinematic_term_answer, linear_programming_answer
 
 
 @pytest.fixture(scope="module")
@@ -53,24 +55,75 @@ def test_the_sweep_at_zero_weight_is_null_space_and_large_weight_approaches_self
     assert points[5.0, 10.0].short_kept < 0.1 and points[5.0, 10.0].long_stable
 
 
-def test_the_kinematic_term_answer_says_what_the_sweep_shows(study):
-    answer = study.kinematic_term_answer()
-    text = " ".join(answer["sentences"])
+def test_the_kinematic_term_answer_counts_and_picks_what_the_sweep_shows(study, paper):
+    answer = kinematic_term_answer(study)
     swept = [p for p in study.sweep if p.kinematic_weight > 0]
-    within = [p for p in swept if p.long_stable and p.long_peak_ratio <= 1 + 1e-6]
+    stable = [p for p in swept if p.long_stable]
+    within = [p for p in stable if p.long_peak_ratio <= 1 + 1e-6]
+    assert answer["reference"] == "null-space" and paper.whiplash["long", "null-space"].time == pytest.approx(1.389)
     assert answer["settings"] == len(swept) == 4
-    assert answer["stable_settings"] == sum(p.long_stable for p in swept)
-    assert answer["within_limit_settings"] == len(within)
-    assert text.startswith(
-        "Without a kinematic term (μ = 0, null-space) the long movement is unstable from t = 1.389 s"
-    )
-    if within:
-        best = max(within, key=lambda p: p.short_kept)
-        assert answer["best"]["kinematic_weight"] == best.kinematic_weight
-        assert f"Yes on this arm: with μ = {best.kinematic_weight:g} and K_D = {best.damping:g} 1/s" in text
-        assert f"keeps {round(100 * best.short_kept)}% of the cut" in text
-    else:
-        assert "Yes" not in text
+    assert answer["stable_settings"] == len(stable) and answer["within_limit_settings"] == len(within)
+    assert answer["stable_short_kept"] == [min(p.short_kept for p in stable), max(p.short_kept for p in stable)]
+    for mu in (0.5, 5.0):
+        at = [p for p in swept if p.kinematic_weight == mu]
+        assert (mu in answer["never_stable_weights"]) == (not any(p.long_stable for p in at))
+        assert (mu in answer["always_unstable_weights"]) == all(p.long_instability_time is not None for p in at)
+    rows = [[p.short_kept for p in sorted(swept, key=lambda p: p.kinematic_weight) if p.damping == d] for d in (2, 10)]
+    assert answer["short_kept_falls_with_weight"] == all(row[1] <= row[0] + 1e-9 for row in rows)  # μ = 0.5, then 5
+    best = answer["best"]
+    assert best["within_limits"] == bool(within)
+    assert best["short_kept"] == max(p.short_kept for p in within or stable)
+    # The best setting run afresh: its short movement's cut kept and its long movement's peak.
+    options = {"kinematic_weight": best["kinematic_weight"], "damping": best["damping"]}
+    runs = {
+        m: torqueopt.simulate(paper.robot, "damped-null-space", PAPER.line(m), PAPER.q0, dt=PAPER.dt,
+                              resolver_options=options)
+        for m in ("short", "long")
+    }  # fmt: skip
+    pinv, null, run = (paper.runs["short", "pinv"], paper.runs["short", "null-space"], runs["short"])
+    cost = {name: sum(float(np.dot(row, row)) for row in r.tau[:-1]) * r.dt for name, r in
+            (("pinv", pinv), ("null-space", null), ("best", run))}  # fmt: skip
+    kept = (cost["pinv"] - cost["best"]) / (cost["pinv"] - cost["null-space"])
+    assert best["short_kept"] == pytest.approx(kept, rel=1e-9)
+    peak = np.nanmax(np.abs(runs["long"].tau) / np.asarray(PAPER.torque_limit))
+    assert best["long_peak_ratio"] == pytest.approx(peak, rel=1e-12)
+
+
+def test_the_kinematic_term_answer_on_a_sweep_written_by_hand():
+    """Four settings whose facts are known: one whips, one loses its path, one is stable over a limit, one within."""
+    from types import SimpleNamespace
+
+    from torqueopt.studies.remedies import SweepPoint
+
+    def point(mu, damping, kept, peak, stable, whip=None):
+        return SweepPoint(mu, damping, 1.0, kept, 0.5, peak, stable, whip)
+
+    sweep = [
+        point(0.0, 2.0, 1.0, 13.8, False, 1.389),
+        point(0.1, 2.0, 0.99, 5.0, False, 1.0),
+        point(0.1, 10.0, 0.98, 1.1, False),
+        point(0.5, 2.0, 0.9, 1.05, True),
+        point(0.5, 10.0, 0.8, 0.95, True),
+    ]
+    study = SimpleNamespace(sweep=sweep, dampings=(2.0, 10.0), sweep_reference="null-space", sweep_torque_weight="unit")
+    answer = kinematic_term_answer(study)
+    assert (answer["settings"], answer["stable_settings"], answer["within_limit_settings"]) == (4, 2, 1)
+    assert (answer["best"]["kinematic_weight"], answer["best"]["damping"], answer["best"]["within_limits"]) == (
+        0.5, 10.0, True)  # fmt: skip
+    assert answer["never_stable_weights"] == [0.1] and answer["always_unstable_weights"] == []  # 0.1, 10 lost its path
+    assert answer["stable_short_kept"] == [0.8, 0.9] and answer["short_kept_falls_with_weight"] is True
+    sweep[-1] = point(0.5, 10.0, 0.995, 1.2, True)  # now none within the limits, and the share rises at K_D = 10
+    answer = kinematic_term_answer(study)
+    assert answer["best"]["damping"] == 10.0 and answer["best"]["within_limits"] is False
+    assert answer["short_kept_falls_with_weight"] is False
+    sweep[2] = point(0.1, 10.0, 0.98, 3.0, False, 1.2)  # μ = 0.1 now whips at every K_D
+    assert kinematic_term_answer(study)["always_unstable_weights"] == [0.1]
+
+
+def test_without_a_sweep_the_kinematic_term_answer_has_no_settings(paper):
+    answer = kinematic_term_answer(run_remedies(paper, sweep=False))
+    assert answer["settings"] == 0 and answer["best"] is None and answer["stable_short_kept"] is None
+    assert answer["short_kept_falls_with_weight"] is None and answer["never_stable_weights"] == []
 
 
 def test_the_default_blend_row_matches_its_run(study, paper):
@@ -89,27 +142,25 @@ def test_the_default_blend_row_matches_its_run(study, paper):
     assert math.isclose(long_row["peak_torque_ratio"], study.runs["long", "damped-null-space"].peak_torque_ratio.max())
 
 
-def test_the_lp_answer_is_honest_about_what_was_run(study):
-    answer = study.linear_programming_answer()
+def test_the_lp_answer_judges_each_movement_by_its_run(study):
+    answer = linear_programming_answer(study)
     if "minmax-torque" not in study.remedies:
-        assert answer == {
-            "answered": False,
-            "sentences": ["Not answered in this build: the LP resolver minmax-torque is not registered."],
-        }
+        assert answer == {"answered": False}
         return
     assert answer["answered"]
-    lp = answer["minmax-torque"]
-    for movement, peak in lp["peak_torque_ratio"].items():
-        assert peak == pytest.approx(study.runs[movement, "minmax-torque"].peak_torque_ratio.max())
-    assert (
-        f"keeps every torque within its limits on {len(lp['within_limits'])} of 3 movements" in answer["sentences"][0]
-    )
-    for movement in ("short", "medium", "long"):
-        run = study.runs[movement, "minmax-torque"]
-        done = movement in lp["done_within_bounds"]
-        assert done == (movement in lp["within_limits"] and run.infeasible_steps == 0)
-        assert lp["infeasible_steps"][movement] == int(run.infeasible.sum())
-    assert f"the LP does {len(lp['done_within_bounds'])} of 3 movements" in " ".join(answer["sentences"])
+    done = {}
+    for name, entry in answer["resolvers"].items():
+        for movement in ("short", "medium", "long"):
+            run, report = study.run(movement, name), study.report(movement, name)
+            peak = float(np.nanmax(np.abs(run.tau) / np.asarray(PAPER.torque_limit)))
+            assert entry["peak_torque_ratio"][movement] == pytest.approx(peak, rel=1e-12)
+            assert entry["infeasible_steps"][movement] == int(run.infeasible.sum())
+            within = peak <= 1 + 1e-6 and run.completed and not report.unstable
+            assert (movement in entry["within_limits"]) == within
+            assert (movement in entry["done_within_bounds"]) == (within and not run.infeasible.any() and report.stable)
+        done[name] = len(entry["done_within_bounds"])
+    assert answer["lp_lead"] == {name: done["minmax-torque"] - n for name, n in done.items() if name != "minmax-torque"}
+    assert answer["resolvers"]["minmax-torque"]["infeasible_steps"]["long"] > 0  # it gives the path up
 
 
 @pytest.mark.slow
@@ -150,7 +201,7 @@ def test_the_figures_draw_each_remedy_s_torque_ratios_and_the_sweep(study, paper
 @pytest.mark.slow
 def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper):
     registered = dict(RESOLVERS)
-    del RESOLVERS["damped-null-space"]
+    del RESOLVERS["damped-null-space"], RESOLVERS["minmax-torque"]
     try:
         missing = run_remedies(paper, sweep=False)
     finally:  # the registry as it was, in its order (monkeypatch.delitem put the name back last: resolver_names
@@ -161,6 +212,8 @@ def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper):
     markdown = missing.markdown([])
     assert "Not registered in this build, so not run: damped-null-space" in markdown
     assert "### Sweep of damped-null-space (torque_weight=unit)\n\nNot run.\n" in markdown
+    assert linear_programming_answer(missing) == {"answered": False}
+    assert "| not run: the LP is not registered |" in markdown
 
 
 def test_bad_sweep_grids_are_refused(paper):
@@ -184,7 +237,8 @@ def test_paper_command_writes_the_remedies_section_and_figures(tmp_path, capsys)
     assert "remedies_long.png" in summary["figures"]
     markdown = (tmp_path / "summary.md").read_text()
     assert "## Remedies\n" in markdown and "| short | damped-null-space | " in markdown
-    assert "kinematic term: Without a kinematic term" in printed and "linear programming: " in printed
+    assert "- kinematic term, sweep settings with μ > 0: 0;" in printed and "\n| minmax-torque | " in printed
+    assert "### The answers' numbers (`remedies.answers`)" in markdown
     assert study_module.SWEPT_RESOLVER == "damped-null-space"
 
 
@@ -199,8 +253,8 @@ def test_a_range_weighted_sweep_is_measured_against_weighted_null_space(paper):
     root = 1.0 / (paper.robot.torque_upper - paper.robot.torque_lower)
     run = paper.runs["short", "weighted-null-space"]
     assert torque_cost(run, "range") == pytest.approx(float(np.sum((run.tau[:-1] * root) ** 2)) * run.dt, rel=1e-12)
-    text = " ".join(study.kinematic_term_answer()["sentences"])
-    assert text.startswith("Without a kinematic term (μ = 0, weighted-null-space) the long movement is unstable")
+    assert kinematic_term_answer(study)["reference"] == "weighted-null-space"
+    assert paper.whiplash["long", "weighted-null-space"].unstable
     assert study.summary()["sweep"]["torque_weight"] == "range"
     with pytest.raises(torqueopt.InvalidInput, match="sweep torque weight 'diagonal' must be one of unit, range"):
         run_remedies(paper, torque_weight="diagonal")

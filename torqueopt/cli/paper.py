@@ -14,7 +14,7 @@ from ..paper.runner import check_scenario
 from ..plots import FIGURE_FORMATS
 from ..progress import progress_bar
 from ..studies.remedies import RemediesStudy, planned_runs, run_remedies
-from ..studies.remedies.discussion_answers import kept_text
+from ..studies.remedies.report import answer_lines, kept_text
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
 from .common import parse_positive, parse_vector
@@ -127,7 +127,7 @@ def paper_command(args: argparse.Namespace) -> int:
 
 
 def print_remedies(study: RemediesStudy) -> None:
-    """The remedies' runs, one line each, and the answers to the Discussion's questions."""
+    """The remedies' runs, one line each, and the numbers of the answers to the Discussion's questions."""
     print(
         f"remedies ({', '.join(study.remedies)}"
         + (f"; not registered: {', '.join(study.skipped)})" if study.skipped else ")")
@@ -143,8 +143,8 @@ def print_remedies(study: RemediesStudy) -> None:
             + (" (it costs more than pinv)" if row["null_space_cut_kept"] < 0 else "")
         )
         print(f"{row['movement']:<9}{row['resolver']:<32}{row['peak_torque_ratio']:8.2f}  {when}{kept}")
-    for key, answer in study.summary()["answers"].items():
-        print(f"{key.replace('_', ' ')}: " + " ".join(answer["sentences"]))
+    for line in answer_lines(study.summary()["answers"]):
+        print(line)
 
 
 def _shouted(verdict: str) -> str:

@@ -26,13 +26,11 @@ The study's modules, one job each:
 * :mod:`~torqueopt.studies.remedies.measures`: what it runs and how it measures a run;
 * :mod:`~torqueopt.studies.remedies.runner`: running it (:func:`run_remedies`);
 * :mod:`~torqueopt.studies.remedies.study`: its record and numbers (:class:`RemediesStudy`, :class:`SweepPoint`);
-* :mod:`~torqueopt.studies.remedies.discussion_answers`: the numbers of the answers, and the sentences
-  ``summary.json`` has always carried beside them;
+* :mod:`~torqueopt.studies.remedies.discussion_answers`: the numbers of its answers to the Discussion;
 * :mod:`~torqueopt.studies.remedies.report`: its tables in ``summary.md``;
 * :mod:`~torqueopt.studies.remedies.figures`: its figures.
 """
 
-from .discussion_answers import percent
 from .figures import plot_long_torques, plot_tradeoff
 from .measures import (
     BASELINES,
@@ -48,6 +46,7 @@ from .measures import (
     registered_remedies,
     torque_cost,
 )
+from .report import percent
 from .runner import planned_runs, run_remedies
 from .study import RemediesStudy, SweepPoint
 

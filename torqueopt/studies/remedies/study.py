@@ -106,12 +106,6 @@ class RemediesStudy:
         """The paper's method the swept blend equals at μ = 0."""
         return SWEEP_REFERENCES[self.sweep_torque_weight]
 
-    def sweep_cost_text(self) -> str:
-        """The sweep's torque cost as a formula."""
-        if self.sweep_torque_weight == "unit":
-            return "∫‖τ‖²dt"
-        return "∫‖Sτ‖²dt (S = 1/(τ⁺ − τ⁻), Eq. (33))"
-
     # -- numbers ---------------------------------------------------------------
     def entries(self) -> list[dict]:
         """One JSON-ready row per (movement, resolver): the baselines and every remedy."""
@@ -143,17 +137,6 @@ class RemediesStudy:
                 )
         return rows
 
-    def kinematic_term_answer(self) -> dict:
-        """The Discussion's first question, answered in sentences generated from the runs and the sweep."""
-        return kinematic_term_answer(self)
-
-    def linear_programming_answer(self) -> dict:
-        """The Discussion's second question: does the LP (minmax-torque) stay within bounds better than least squares?
-
-        See :func:`torqueopt.studies.remedies.discussion_answers.linear_programming_answer`.
-        """
-        return linear_programming_answer(self)
-
     def verdict(self, movement: str, name: str) -> str:
         """How a run ended, in words: stopped early (and why), unstable from when, lost its path, or stable."""
         result, report = self.run(movement, name), self.report(movement, name)
@@ -180,8 +163,8 @@ class RemediesStudy:
                 "points": [{**asdict(p), "within_limits": p.within_limits} for p in self.sweep],
             },
             "answers": {
-                "kinematic_term": self.kinematic_term_answer(),
-                "linear_programming": self.linear_programming_answer(),
+                "kinematic_term": kinematic_term_answer(self),
+                "linear_programming": linear_programming_answer(self),
             },
         }
 
