@@ -96,6 +96,9 @@ def test_claim_1_short_null_space_cuts_joint_1_and_pulls_joint_3_from_its_limit(
     assert null[0] < 0.06 * pinv[0]  # a twentieth
     assert pinv[2] / 6.0 > 0.93 and null[2] / 6.0 < 0.71  # 94 % of the limit down to 71 %
     assert paper.claims[0].holds
+    evidence = paper.claims[0].evidence
+    assert evidence["joint_1_fraction_of_pinv"] == pytest.approx(null[0] / pinv[0], rel=1e-12)
+    assert evidence["joint_3_pulled_away"] == pytest.approx((pinv[2] - null[2]) / 6.0, rel=1e-12)
 
 
 def test_claim_2_medium_null_space_still_lower_at_joints_1_and_3_within_limits(paper):
@@ -104,7 +107,7 @@ def test_claim_2_medium_null_space_still_lower_at_joints_1_and_3_within_limits(p
     assert null[1] > pinv[1]  # joint 2 is larger ...
     assert paper.runs["medium", "null-space"].first_limit_violation is None  # ... but within its 24 N·m
     assert not paper.whiplash["medium", "null-space"].unstable
-    assert paper.claims[1].holds
+    assert paper.claims[1].holds and paper.claims[1].evidence == {"null_space_first_limit_violation": None}
 
 
 def test_claim_3_long_pinv_within_limits_null_space_unstable_late_through_alignment(paper):
@@ -123,6 +126,9 @@ def test_claim_3_long_pinv_within_limits_null_space_unstable_late_through_alignm
     # and every joint peaks later still, after the alignment.
     assert (null.t[np.argmax(np.abs(null.v), axis=0)] > aligned).all()
     assert paper.claims[2].holds
+    evidence = paper.claims[2].evidence
+    assert evidence["alignment_times"] == [aligned] and evidence["pinv_fastest_joint_speed"] == pinv_fastest
+    assert evidence["fastest_joint_speed_at"] == [np.abs(null.v[row]).max()]
 
 
 def test_claim_4_short_weighted_shrinks_joint_3_at_the_expense_of_joints_1_and_2(paper):
@@ -131,6 +137,7 @@ def test_claim_4_short_weighted_shrinks_joint_3_at_the_expense_of_joints_1_and_2
     assert weighted[0] > 20 * null[0] and weighted[1] > 2 * null[1]
     assert (weighted / np.array([54.0, 24.0, 6.0])).max() < 0.45  # well within the limits
     assert paper.claims[3].holds
+    assert paper.claims[3].evidence["joint_3_fraction_of_null_space"] == pytest.approx(weighted[2] / null[2], rel=1e-12)
 
 
 def test_claim_5_weighted_and_inertia_pinv_unstable_too_inertia_pinv_in_between(paper):
@@ -141,7 +148,7 @@ def test_claim_5_weighted_and_inertia_pinv_unstable_too_inertia_pinv_in_between(
     between = [min(p, z) < i < max(p, z) for i, p, z in zip(inertia, pinv, null)]
     # Joints 1 and 3 lie between; joint 2 (1.16 N·m) is below both (3.54 and 3.20): "most joints" is 2 of 3.
     assert between == [True, False, True]
-    assert paper.claims[4].holds
+    assert paper.claims[4].holds and paper.claims[4].evidence == {"joints_between": [1, 3]}
 
 
 def test_claim_6_the_free_swing_whips_as_links_2_and_3_straighten(paper):
@@ -160,6 +167,9 @@ def test_claim_6_the_free_swing_whips_as_links_2_and_3_straighten(paper):
     (aligned,) = alignment_times(swing)
     assert abs(swing.t[peak_row] - aligned) < 0.05
     assert paper.claims[5].holds
+    evidence = paper.claims[5].evidence
+    assert (evidence["fastest_joint"], evidence["peak_time"]) == (swing.joint_names[2], swing.t[peak_row])
+    assert evidence["peak_speed"] == speed[peak_row, 2]
 
 
 def test_the_free_swing_conserves_energy(paper):

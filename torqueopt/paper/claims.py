@@ -37,13 +37,15 @@ class Claim:
         number: 1 to 6, in the order of Section 3 (short, medium and long movements, weighting, free swing).
         statement: the claim in words.
         holds: whether the numbers bear it out.
-        evidence: the numbers, in one or two sentences.
+        evidence: the numbers the verdict was made of beside the runs' own, by name, with the thresholds used:
+            times [s], speeds [rad/s], gravity [m/s²]; fractions and ratios to a limit dimensionless.
+            docs/paper.md says them in words.
     """
 
     number: int
     statement: str
     holds: bool
-    evidence: str
+    evidence: dict
 
 
 #: What the words of the claims are taken to mean, in numbers.
@@ -77,9 +79,6 @@ def _check_claims(results: PaperResults) -> list[Claim]:
     def within(movement, name):
         return runs[movement, name].first_limit_violation is None and runs[movement, name].completed
 
-    def fmt(values):
-        return "[" + ", ".join(f"{v:.3g}" for v in values) + "]"
-
     claims = []
     pinv, null = peak("short", "pinv"), peak("short", "null-space")
     fraction = null[0] / pinv[0]
@@ -90,9 +89,12 @@ def _check_claims(results: PaperResults) -> list[Claim]:
             "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
             "away from its 6 N·m limit",
             bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
-            f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m: joint 1 at {fraction:.1%} of pinv's "
-            f"(small: <= {SMALL_FRACTION:.0%}); joint 3 at {pinv[2] / limit[2]:.0%} of its limit with pinv, "
-            f"{null[2] / limit[2]:.0%} with null-space (pulled away: by >= {PULLED_AWAY:.0%} of the limit)",
+            {
+                "joint_1_fraction_of_pinv": fraction,
+                "small_fraction": SMALL_FRACTION,
+                "joint_3_pulled_away": pulled,
+                "pulled_away": PULLED_AWAY,
+            },
         )
     )
 
@@ -103,8 +105,7 @@ def _check_claims(results: PaperResults) -> list[Claim]:
             "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
             "limits, though joint 2 is larger",
             bool(null[0] < pinv[0] and null[2] < pinv[2] and within("medium", "null-space") and null[1] > pinv[1]),
-            f"peak |τ| pinv {fmt(pinv)}, null-space {fmt(null)} N·m, limits {fmt(limit)}; null-space first limit "
-            f"violation: {_when(runs['medium', 'null-space'].first_limit_violation)}",
+            {"null_space_first_limit_violation": runs["medium", "null-space"].first_limit_violation},
         )
     )
 
@@ -121,10 +122,13 @@ def _check_claims(results: PaperResults) -> list[Claim]:
             "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
             "passing through alignment at high joint speeds",
             bool(within("long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
-            f"pinv peak |τ| {fmt(long_pinv.peak_torque)} N·m, fastest joint {pinv_speed:.3g} rad/s; null-space "
-            f"{verdict_text(verdict)} of {long_null.duration:g} s, peak |τ| {fmt(long_null.peak_torque)} N·m; "
-            f"links 2 and 3 in line at t = {fmt(aligned)} s with the fastest joint at {fmt(speed_at)} rad/s "
-            f"(high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+            {
+                "pinv_fastest_joint_speed": pinv_speed,
+                "alignment_times": aligned,
+                "fastest_joint_speed_at": speed_at,
+                "high_speed": HIGH_SPEED,
+                "near_alignment": NEAR_ALIGNMENT,
+            },
         )
     )
 
@@ -141,8 +145,7 @@ def _check_claims(results: PaperResults) -> list[Claim]:
                 and weighted[1] > null[1]
                 and within("short", "weighted-null-space")
             ),
-            f"peak |τ| weighted {fmt(weighted)}, null-space {fmt(null)} N·m: joint 3 at {ratio:.0%} of null-space's "
-            f"(much smaller: <= {MUCH_SMALLER:.0%}); weighted peak/limit {fmt(weighted / limit)}",
+            {"joint_3_fraction_of_null_space": ratio, "much_smaller": MUCH_SMALLER},
         )
     )
 
@@ -155,9 +158,7 @@ def _check_claims(results: PaperResults) -> list[Claim]:
             "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
             "movement lie between those of pinv and null-space for most joints",
             bool(all(v.unstable for v in unstable_long.values()) and sum(between) > len(between) / 2),
-            "; ".join(f"{name} {verdict_text(v)}" for name, v in unstable_long.items())
-            + f"; short peak |τ| inertia-pinv {fmt(inertia)}, pinv {fmt(pinv)}, null-space {fmt(null)} N·m: between "
-            f"for joints {[i + 1 for i, b in enumerate(between) if b]} of {len(between)}",
+            {"joints_between": [i + 1 for i, b in enumerate(between) if b]},
         )
     )
 
@@ -165,7 +166,6 @@ def _check_claims(results: PaperResults) -> list[Claim]:
     speed = np.abs(swing.v).max(axis=1, initial=0.0)
     peak_row = int(np.argmax(speed))
     peak_time, peak_speed = float(swing.t[peak_row]), float(speed[peak_row])
-    peak_joint = swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))]
     swing_aligned = alignment_times(swing)
     nearest = min(swing_aligned, key=lambda t: abs(t - peak_time)) if swing_aligned else None
     claims.append(
@@ -178,9 +178,14 @@ def _check_claims(results: PaperResults) -> list[Claim]:
                 and pinv_speed > 0
                 and peak_speed >= HIGH_SPEED * pinv_speed
             ),
-            f"zero torque, gravity {fmt(results.free_swing_gravity)} m/s²: fastest joint {peak_joint} at "
-            f"{peak_speed:.3g} rad/s at t = {peak_time:.3f} s; links 2 and 3 in line at t = {fmt(swing_aligned)} s "
-            f"(near: within {NEAR_ALIGNMENT:g} s; high: >= {HIGH_SPEED:g} x pinv's {pinv_speed:.3g} rad/s)",
+            {
+                "fastest_joint": swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))],
+                "peak_speed": peak_speed,
+                "peak_time": peak_time,
+                "pinv_fastest_joint_speed": pinv_speed,
+                "high_speed": HIGH_SPEED,
+                "near_alignment": NEAR_ALIGNMENT,
+            },
         )
     )
     return claims
@@ -189,10 +194,6 @@ def _check_claims(results: PaperResults) -> list[Claim]:
 def _speed_at(result: SimResult, time: float) -> float:
     row = int(np.clip(np.searchsorted(result.t, time), 0, len(result.t) - 1))
     return float(np.abs(result.v[row]).max())
-
-
-def _when(time: float | None) -> str:
-    return "none" if time is None else f"t = {time:.3f} s"
 
 
 def verdict_text(report: WhiplashReport) -> str:
