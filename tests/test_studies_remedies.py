@@ -120,12 +120,6 @@ def test_the_kinematic_term_answer_on_a_sweep_written_by_hand():
     assert kinematic_term_answer(study)["always_unstable_weights"] == [0.1]
 
 
-def test_without_a_sweep_the_kinematic_term_answer_has_no_settings(paper):
-    answer = kinematic_term_answer(run_remedies(paper, sweep=False))
-    assert answer["settings"] == 0 and answer["best"] is None and answer["stable_short_kept"] is None
-    assert answer["short_kept_falls_with_weight"] is None and answer["never_stable_weights"] == []
-
-
 def test_the_default_blend_row_matches_its_run(study, paper):
     row = next(r for r in study.entries() if r["movement"] == "short" and r["resolver"] == "damped-null-space")
     run = study.runs["short", "damped-null-space"]
@@ -213,6 +207,9 @@ def test_a_remedy_missing_from_the_registry_is_skipped_and_said(paper):
     assert "Not registered in this build, so not run: damped-null-space" in markdown
     assert "### Sweep of damped-null-space (torque_weight=unit)\n\nNot run.\n" in markdown
     assert linear_programming_answer(missing) == {"answered": False}
+    term = kinematic_term_answer(missing)  # no sweep: no settings, nothing picked
+    assert term["settings"] == 0 and term["best"] is None and term["stable_short_kept"] is None
+    assert term["short_kept_falls_with_weight"] is None and term["never_stable_weights"] == []
     assert "| not run: the LP is not registered |" in markdown
 
 
