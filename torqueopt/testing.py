@@ -31,7 +31,7 @@ the resolver does not compute itself:
     (``scipy.optimize.nnls``), up to a Newton step of zero.
 ``program``
     where the resolver's :meth:`~torqueopt.Resolver.program_solver` returns the program each step solved
-    (:class:`~torqueopt.resolvers.base.Program`, a QP or LP), with the torques of its :meth:`~torqueopt.Resolver.solver`
+    (:class:`~torqueopt.resolvers.Program`, a QP or LP), with the torques of its :meth:`~torqueopt.Resolver.solver`
     bit for bit: the torque is that of the program's solution, the program's variables move the torque over
     the whole null space (:math:`J H^{-1} T = 0`, rank n − m), and the solution meets the program's KKT
     conditions (:func:`program_residuals`): stationarity, primal feasibility, dual feasibility and complementary
@@ -98,8 +98,8 @@ class ContractReport(NamedTuple):
 
     Attributes:
         resolver: the resolver's label.
-        checks: the names of the checks that ran (``declaration``, ``task``, ``objective``, ``batch``,
-            ``options``).
+        checks: the names of the checks that ran, in this order (``declaration``, ``task``, ``program``,
+            ``objective``, ``batch``, ``options``).
         states: how many states each step check used.
         options: the options shown to change the result, as ``name=value``.
         unchecked: what was not checked and why, one line each.
@@ -113,7 +113,7 @@ class ContractReport(NamedTuple):
 
 
 class ProgramResiduals(NamedTuple):
-    r"""The KKT conditions of a :class:`~torqueopt.resolvers.base.Program` at its solution (:func:`program_residuals`).
+    r"""The KKT conditions of a :class:`~torqueopt.resolvers.Program` at its solution (:func:`program_residuals`).
 
     Each is a residual relative to the size of the terms its condition compares, so that the same program with
     its objective or a row multiplied by any factor gives the same numbers; a condition holds when its residual
@@ -141,7 +141,7 @@ class ProgramResiduals(NamedTuple):
 
 def program_residuals(program: Program, multipliers: np.ndarray | None = None) -> ProgramResiduals:
     r"""The KKT residuals of ``program`` at its solution, with ``multipliers`` (λ, DAQP's signs as
-    :class:`~torqueopt.resolvers.base.Program` says), or, when None, with the non-negative multipliers of its active
+    :class:`~torqueopt.resolvers.Program` says), or, when None, with the non-negative multipliers of its active
     sides that best balance the objective's gradient (non-negative least squares: the check owes nothing to the
     solver's multipliers).
 

@@ -75,13 +75,15 @@ class Program(NamedTuple):
         hessian: P (v × v), zeros for a linear program.
         cost: q (v).
         rows: A (k × v), every constraint (simple bounds on variables as unit rows).
-        lower, upper: l and u (k); −inf or +inf where a row has no such side (l = u: an equality).
+        lower: l (k), −inf where a row has no lower side.
+        upper: u (k), +inf where a row has no upper side (l = u: an equality).
         solution: x (v), the answer the resolver used.
         multipliers: the solver's λ (k), or None when it gives none, in DAQP's convention:
             :math:`Px + q + A^\top\lambda = 0`, :math:`\lambda_i > 0` on an active upper side, :math:`< 0` on an
             active lower side, 0 on an inactive row.
-        torque_offset, torque_rows: :math:`\tau_0` (n) and T (n × v), the torque [N·m] of a point x, so that the
-            resolution's torque is :math:`\tau_0 + T x`.
+        torque_offset: :math:`\tau_0` (n) [N·m] of the torque :math:`\tau_0 + T x` of a point x (the
+            resolution's torque at the solution).
+        torque_rows: T (n × v), the torque change of a unit change of each variable.
         variables: what x is, in words.
     """
 
@@ -111,9 +113,9 @@ class Resolution(NamedTuple):
             realises the task, so ``task_error`` is the least violation it found.
         limiting: on an infeasible step, the bounds its answer lies on, in one line
             ("torque limit (upper) of joint J; velocity limit (lower) of joint K"); empty otherwise.
-        program: the :class:`Program` whose solution gives the torque, from a step that solves one and was asked
-            for it (:meth:`Resolver.program_solver`); None otherwise (closed-form resolvers, and every step of
-            :meth:`Resolver.solver`, which keep no record).
+        program: the :class:`~torqueopt.resolvers.Program` whose solution gives the torque, from a step that
+            solves one and was asked for it (:meth:`Resolver.program_solver`); None otherwise (closed-form
+            resolvers, and every step of :meth:`Resolver.solver`, which keep no record).
     """
 
     torque: np.ndarray

@@ -136,7 +136,7 @@ class _BoundedResolver(Resolver):
     def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int, record: bool = False):
         """``(terms, Z, HZ, τ̃, p, joint_rows) -> (y, τ, program)`` of this resolver's criterion with τ within bounds
         and q̈ = p + Z y within the rows on q̈ (``joint_rows(offset, rows)``, None: none), or None when none is;
-        ``program`` the :class:`~torqueopt.resolvers.base.Program` it solved when ``record``, else None."""
+        ``program`` the :class:`~torqueopt.resolvers.Program` it solved when ``record``, else None."""
         raise NotImplementedError
 
     def _stack_acceleration_constraints(self, robot: Robot):

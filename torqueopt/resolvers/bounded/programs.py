@@ -227,7 +227,7 @@ class _Program:
         return x, flag, multipliers
 
     def solved(self, solution, torque_offset, torque_rows, variables: str) -> Program:
-        r"""The program of the last :meth:`solve` with its ``solution`` x, as a :class:`~torqueopt.resolvers.base.Program`
+        r"""The program of the last :meth:`solve` with its ``solution`` x, as a :class:`~torqueopt.resolvers.Program`
         (copies: the workspace's numbers change at the next step), its simple bounds written as unit rows.
 
         ``torque_offset`` :math:`\tau_0` and ``torque_rows`` T give the torque :math:`\tau_0 + T x` of a point x.
