@@ -109,6 +109,20 @@ def test_every_program_resolver_meets_the_kkt_check_on_planar3(name, joint_limit
     assert active > 0  # the check saw multipliers at work, not only interior optima
 
 
+@pytest.mark.parametrize("policy", ["least-error", "exceed"])
+def test_the_programs_of_infeasible_steps_meet_the_kkt_check(policy, planar3):
+    """Some of planar3's random states have no torque within its limits: the program recorded there is the
+    optimum at the task acceleration achieved (least-error) or the min-max LP (exceed), and meets the check."""
+    resolver = torqueopt.get_resolver("bounded-torque", infeasible=policy)
+    assert "program" in check_resolver(resolver, planar3, options=CONTRACT_OPTIONS["bounded-torque"]).checks
+    step = resolver.program_solver(planar3)
+    resolutions = [step(planar3.terms(q, v), xdd) for q, v, xdd in torqueopt.testing.contract_states(planar3)]
+    infeasible = [resolution.program for resolution in resolutions if resolution.infeasible]
+    assert infeasible and all(program is not None for program in infeasible)
+    variables = {program.variables.split(":")[0] for program in infeasible}
+    assert variables == ({"(z, t)"} if policy == "exceed" else {"y"})
+
+
 @pytest.mark.parametrize("joint_limits", ["on", "off"])
 @pytest.mark.parametrize("name", PROGRAM_RESOLVERS)
 def test_every_program_resolver_meets_the_kkt_check_on_panda(name, joint_limits, panda):
