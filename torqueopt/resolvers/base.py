@@ -270,7 +270,8 @@ class Resolver(ABC):
         r"""The criterion this resolver minimises over the torques that realise the task, or None (it declares none).
 
         A function ``(terms, torque) -> cost`` (a float) on ``robot``: the resolver's torque is its least value over
-        :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)). Nothing steps with it;
+        :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)), or, on a step that solved a program
+        (:meth:`program_solver`), every y its constraints admit. Nothing steps with it;
         :func:`torqueopt.testing.check_resolver` holds each answer to it by finite differences.
         """
         return None
