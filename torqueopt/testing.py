@@ -84,8 +84,9 @@ OBJECTIVE_TOLERANCE = 1e-6
 BATCH_TOLERANCE = 1e-9
 #: Largest admitted KKT residual of a recorded program, each relative to the size of the terms its condition
 #: compares (:func:`program_residuals`). The solvers answer far inside it (DAQP accepts a row beyond its bound by
-#: 1e-9 of the row, its LP iterations stop within 3e-8 of the vertex; stationarity holds to 1e-13), and a
-#: solution moved by 1e-5 of its size, or a multiplier on the wrong side, leaves it.
+#: 1e-9 of the row, its LP iterations stop within 3e-8 of the vertex; the residuals measured on the bounded
+#: resolvers are below 1e-13), and a solution moved by 1e-5 of its size leaves it (about 5e-6 at a QP's interior
+#: optimum; an LP's vertex moved breaks a row), as does a multiplier on the wrong side.
 PROGRAM_TOLERANCE = 1e-6
 
 
