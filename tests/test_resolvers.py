@@ -87,8 +87,10 @@ CONTRACT_OPTIONS = {
 #: The resolvers that declare the criterion they minimise (Resolver.objective_function).
 OBJECTIVES = {
     "pinv", "inertia-pinv", "null-space", "weighted-null-space", "damped-null-space", "self-motion-damping",
-    "inverse-inertia-torque", "inverse-inertia-squared-torque",
+    "inverse-inertia-torque", "inverse-inertia-squared-torque", "bounded-torque", "energy-bounded-torque",
 }  # fmt: skip
+#: The resolvers whose steps return the program they solved (Resolver.program_solver), checked by its KKT conditions.
+PROGRAMS = {"bounded-torque", "minmax-torque", "energy-bounded-torque"}
 
 
 @pytest.mark.parametrize("robot_name", ROBOTS)
@@ -103,8 +105,11 @@ def test_every_resolver_meets_the_contract(name, robot_name, request):
     if name == "weighted-null-space":
         options["weight"] = np.linspace(1.0, 3.0, robot.nv)
     report = check_resolver(name, robot, options=options)
-    declares = name in OBJECTIVES
-    assert report.checks == ("declaration", "task", *(("objective",) if declares else ()), "batch", "options")
+    declares, programs = name in OBJECTIVES, name in PROGRAMS
+    assert report.checks == (
+        "declaration", "task", *(("program",) if programs else ()), *(("objective",) if declares else ()), "batch",
+        "options",
+    )  # fmt: skip
     assert len(report.options) == len(torqueopt.resolvers.RESOLVERS[name].options) - sum(
         value is None for value in options.values()
     )

@@ -318,7 +318,7 @@ class OneMovement:
             self.stop_reason, self.stop_time = self.rules.unresolved(resolution, t), t
             log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
             return True
-        tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting = resolution
+        tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting, _ = resolution
         if task_error or infeasible or limiting:  # limiting alone: a planning resolver's fallback row
             self.shortfalls.append((len(log), task_error, infeasible, limiting))
         log.append((q, v, joint_acceleration, tau, x, inverse_condition))

@@ -25,7 +25,18 @@ the resolver does not compute itself:
     :math:`\tau + H Z y`: the first-order (KKT) condition by central finite differences of the criterion in
     y, the Newton step to the minimum (from finite differences of the gradient too) is zero, and the
     curvature is positive (a minimum, not a saddle). Z is an orthonormal basis of the null space of J from
-    numpy's SVD, not the resolver's.
+    numpy's SVD, not the resolver's. Where the step solved a program (``program`` below), the same under that
+    program's constraints: the criterion's gradient in the program's variables, by finite differences through
+    the torque :math:`\tau_0 + T x`, is balanced by non-negative multipliers of the active constraints
+    (``scipy.optimize.nnls``), up to a Newton step of zero.
+``program``
+    where the resolver's :meth:`~torqueopt.Resolver.program_solver` returns the program each step solved
+    (:class:`~torqueopt.resolvers.Program`, a QP or LP), with the torques of its :meth:`~torqueopt.Resolver.solver`
+    bit for bit: the torque is that of the program's solution, the program's variables move the torque over
+    the whole null space (:math:`J H^{-1} T = 0`, rank n − m), and the solution meets the program's KKT
+    conditions (:func:`program_residuals`): stationarity, primal feasibility, dual feasibility and complementary
+    slackness with the solver's multipliers, and stationarity again with multipliers fitted by non-negative
+    least squares on the active constraints, which do not come from the solver.
 ``batch``
     its step on stacks (:meth:`~torqueopt.Resolver.batch_solver`) gives, row by row, what its single-state
     step gives (1e-9).
@@ -51,12 +62,19 @@ import pinocchio as pin
 
 from .errors import InvalidInput
 from .resolvers import Resolver, get_resolver
-from .resolvers.base import SINGULAR_TOLERANCE_OPTION
+from .resolvers.base import SINGULAR_TOLERANCE_OPTION, Program, _defining_class
 from .resolvers.options import format_value
 from .resolvers.stacks import StackTerms
 from .robot import Robot
 
-__all__ = ["ContractViolation", "ContractReport", "check_resolver", "contract_states"]
+__all__ = [
+    "ContractViolation",
+    "ContractReport",
+    "ProgramResiduals",
+    "check_resolver",
+    "contract_states",
+    "program_residuals",
+]
 
 #: The least σ_min of the task Jacobian at a contract state: the checks need a well-posed task.
 _LEAST_SINGULAR_VALUE = 1e-3
@@ -64,6 +82,12 @@ _LEAST_SINGULAR_VALUE = 1e-3
 OBJECTIVE_TOLERANCE = 1e-6
 #: Batch rows against single steps, relative to 1 + the largest entry.
 BATCH_TOLERANCE = 1e-9
+#: Largest admitted KKT residual of a recorded program, each relative to the size of the terms its condition
+#: compares (:func:`program_residuals`). The solvers answer far inside it (DAQP accepts a row beyond its bound by
+#: 1e-9 of the row, its LP iterations stop within 3e-8 of the vertex; the residuals measured on the bounded
+#: resolvers are below 1e-13), and a solution moved by 1e-5 of its size leaves it (about 5e-6 at a QP's interior
+#: optimum; an LP's vertex moved breaks a row), as does a multiplier on the wrong side.
+PROGRAM_TOLERANCE = 1e-6
 
 
 class ContractViolation(AssertionError):
@@ -75,8 +99,8 @@ class ContractReport(NamedTuple):
 
     Attributes:
         resolver: the resolver's label.
-        checks: the names of the checks that ran (``declaration``, ``task``, ``objective``, ``batch``,
-            ``options``).
+        checks: the names of the checks that ran, in this order (``declaration``, ``task``, ``program``,
+            ``objective``, ``batch``, ``options``).
         states: how many states each step check used.
         options: the options shown to change the result, as ``name=value``.
         unchecked: what was not checked and why, one line each.
@@ -87,6 +111,91 @@ class ContractReport(NamedTuple):
     states: int
     options: tuple[str, ...]
     unchecked: tuple[str, ...]
+
+
+class ProgramResiduals(NamedTuple):
+    r"""The KKT conditions of a :class:`~torqueopt.resolvers.Program` at its solution (:func:`program_residuals`).
+
+    Each is a residual relative to the size of the terms its condition compares, so that the same program with
+    its objective or a row multiplied by any factor gives the same numbers; a condition holds when its residual
+    is at most :data:`PROGRAM_TOLERANCE`.
+
+    Attributes:
+        stationarity: :math:`\|Px + q + A^\top\lambda\|_\infty` over the largest of
+            :math:`|P||x| + |q| + |A|^\top|\lambda|` (the terms that cancel).
+        primal: the largest excess of a row beyond a bound, over that row's :math:`|a_i||x|` plus its bound.
+        dual: the largest multiplier on a side the row does not have (:math:`\lambda_i > 0` with
+            :math:`u_i = +\infty`, :math:`< 0` with :math:`l_i = -\infty`), its term :math:`|\lambda_i|\|a_i\|_\infty`
+            relative as in ``stationarity``.
+        complementarity: the largest, over the sides with a multiplier, of the smaller of that multiplier's
+            relative term and the side's relative slack: a multiplier is negligible or its side active.
+        multipliers: the λ (k) checked: the solver's, or those fitted by non-negative least squares on the
+            active sides (``scipy.optimize.nnls``: dual feasible and complementary by construction).
+    """
+
+    stationarity: float
+    primal: float
+    dual: float
+    complementarity: float
+    multipliers: np.ndarray
+
+
+def program_residuals(program: Program, multipliers: np.ndarray | None = None) -> ProgramResiduals:
+    r"""The KKT residuals of ``program`` at its solution, with ``multipliers`` (λ, DAQP's signs as
+    :class:`~torqueopt.resolvers.Program` says), or, when None, with the non-negative multipliers of its active
+    sides that best balance the objective's gradient (non-negative least squares: the check owes nothing to the
+    solver's multipliers).
+
+    A side is active when its relative slack is at most :data:`PROGRAM_TOLERANCE`.
+    """
+    rows, x = np.asarray(program.rows, dtype=float), np.asarray(program.solution, dtype=float)
+    lower, upper = np.asarray(program.lower, dtype=float), np.asarray(program.upper, dtype=float)
+    gradient = program.hessian @ x + program.cost
+    values = rows @ x
+    has_upper, has_lower = np.isfinite(upper), np.isfinite(lower)
+    # A row's size: its terms |a_i||x| and its finite bounds; rounding and the solver's feasibility tolerance
+    # are relative to it.
+    bound_size = np.maximum(np.where(has_upper, np.abs(upper), 0.0), np.where(has_lower, np.abs(lower), 0.0))
+    row_size = np.abs(rows) @ np.abs(x) + bound_size
+    upper_slack = np.where(has_upper, upper - values, np.inf) / _positive(row_size)
+    lower_slack = np.where(has_lower, values - lower, np.inf) / _positive(row_size)
+    primal = float(max(0.0, -upper_slack.min(initial=np.inf), -lower_slack.min(initial=np.inf)))
+    if multipliers is None:
+        multipliers = _fitted_multipliers(
+            rows, gradient, upper_slack <= PROGRAM_TOLERANCE, lower_slack <= PROGRAM_TOLERANCE
+        )
+    multipliers = np.asarray(multipliers, dtype=float)
+    stationarity_terms = (
+        np.abs(program.hessian) @ np.abs(x) + np.abs(program.cost) + np.abs(rows).T @ np.abs(multipliers)
+    )
+    size = _positive(np.array(stationarity_terms.max(initial=0.0)))
+    stationarity = float(np.abs(gradient + rows.T @ multipliers).max(initial=0.0) / size)
+    weight = np.abs(multipliers) * np.abs(rows).max(axis=1, initial=0.0) / size  # each multiplier's share
+    on_upper, on_lower = multipliers > 0, multipliers < 0
+    dual = float(max(weight[on_upper & ~has_upper].max(initial=0.0), weight[on_lower & ~has_lower].max(initial=0.0)))
+    slack = np.where(on_upper, upper_slack, np.where(on_lower, lower_slack, 0.0))
+    sides = (on_upper & has_upper) | (on_lower & has_lower)  # (those without a bound are dual's)
+    complementarity = float(np.minimum(weight, np.maximum(slack, 0.0))[sides].max(initial=0.0))
+    return ProgramResiduals(stationarity, primal, dual, complementarity, multipliers)
+
+
+def _positive(size: np.ndarray) -> np.ndarray:
+    """``size`` with its zeros replaced by 1 (a row, or a gradient, that is zero everywhere: nothing to be relative to)."""
+    return np.where(size > 0.0, size, 1.0)
+
+
+def _fitted_multipliers(rows, gradient, upper_active, lower_active) -> np.ndarray:
+    """λ with λ_i ≥ 0 on active upper sides, ≤ 0 on active lower ones, 0 elsewhere, least ‖gradient + Aᵀλ‖."""
+    from scipy.optimize import nnls
+
+    sides = np.vstack([rows[upper_active], -rows[lower_active]])  # G x <= h, one row per active side
+    multipliers = np.zeros(rows.shape[0])
+    if sides.shape[0]:
+        fitted, _ = nnls(sides.T, -gradient)
+        count = int(upper_active.sum())
+        multipliers[upper_active] += fitted[:count]
+        multipliers[lower_active] -= fitted[count:]
+    return multipliers
 
 
 def contract_states(robot: Robot, count: int = 6, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -165,6 +274,14 @@ def check_resolver(
                 resolutions.append(None)
         checks.append("task")
         failures += _task_failures(robot, drawn, terms, resolutions)
+        programs = [None] * len(drawn)
+        if _defining_class(type(resolver), "program_solver") is not Resolver:
+            program_failures, programs = _program_failures(resolver, robot, drawn, terms, resolutions)
+            if any(program is not None for program in programs) or program_failures:
+                checks.append("program")
+                failures += program_failures
+            else:
+                unchecked.append("program: its program_solver's steps return none (Resolution.program)")
         try:
             objective = resolver.objective_function(robot)
         except Exception as error:
@@ -174,7 +291,7 @@ def check_resolver(
             pass
         elif objective is not None and robot.redundancy > 0:
             checks.append("objective")
-            failures += _objective_failures(resolver, objective, drawn, terms, resolutions)
+            failures += _objective_failures(resolver, objective, drawn, terms, resolutions, programs)
         elif objective is None:
             unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
         else:
@@ -282,10 +399,13 @@ def _task_failures(robot, drawn, terms, resolutions) -> list[str]:
     return failures
 
 
-def _objective_failures(resolver, objective, drawn, terms, resolutions) -> list[str]:
+def _objective_failures(resolver, objective, drawn, terms, resolutions, programs) -> list[str]:
     failures = []
-    for index, (state, resolution) in enumerate(zip(terms, resolutions)):
+    for index, (state, resolution, program) in enumerate(zip(terms, resolutions, programs)):
         if resolution is None or resolution.infeasible:
+            continue
+        if program is not None:
+            failures += _constrained_objective_failures(index, objective, state, resolution, program)
             continue
         null_space_basis = np.linalg.svd(state.jacobian)[2][state.jacobian.shape[0] :].T
         directions = state.inertia @ null_space_basis  # the torque change of a unit null-space acceleration
@@ -312,6 +432,107 @@ def _objective_failures(resolver, objective, drawn, terms, resolutions) -> list[
                 f"{OBJECTIVE_TOLERANCE:g} x (1 + ‖q̈‖))"
             )
     return failures
+
+
+def _constrained_objective_failures(index, objective, state, resolution, program) -> list[str]:
+    """The declared criterion's KKT conditions at the step's torque under its program's constraints: its gradient in
+    the program's variables x (central differences through τ + T δx) balanced by non-negative multipliers of the
+    active sides (nnls), up to a Newton step that moves q̈ by nothing."""
+    directions = program.torque_rows  # the torque change of a unit change of each variable
+    torque = np.asarray(resolution.torque)
+    scale = 1.0 + float(np.linalg.norm(resolution.joint_acceleration))
+    step = 1e-3 * (1.0 + float(np.abs(program.solution).max(initial=0.0)))  # exact on a quadratic criterion
+
+    def cost(change):
+        return objective(state, torque + directions @ change)
+
+    gradient, curvature = _differences(cost, directions.shape[1], step)
+    eigenvalues = np.linalg.eigvalsh(curvature)
+    if eigenvalues.min() < -1e-9 * max(eigenvalues.max(), 0.0):
+        return [
+            f"objective: state {index}: the criterion's curvature in its program's variables has eigenvalue "
+            f"{eigenvalues.min():.3g}: its torque is no minimum"
+        ]
+    at_optimum = program._replace(hessian=np.zeros_like(program.hessian), cost=gradient)
+    residual = gradient + program.rows.T @ program_residuals(at_optimum).multipliers
+    newton = np.linalg.lstsq(curvature, -residual, rcond=None)[0]  # the step left to the criterion's minimum
+    distance = float(np.linalg.norm(np.linalg.solve(state.inertia, directions @ newton)))  # in q̈ [rad/s²]
+    if distance > OBJECTIVE_TOLERANCE * scale:
+        return [
+            f"objective: state {index}: the minimum of its criterion under its program's constraints lies "
+            f"{distance:.3g} rad/s² away (gradient {_vector(gradient)} in {program.variables or 'its variables'} by "
+            f"finite differences, tolerance {OBJECTIVE_TOLERANCE:g} x (1 + ‖q̈‖))"
+        ]
+    return []
+
+
+def _program_failures(resolver, robot, drawn, terms, resolutions) -> tuple[list[str], list]:
+    """The ``program`` check: the recording step's torques are the plain step's, each program's solution gives the
+    torque, its variables span the null space, and it meets its KKT conditions (the solver's multipliers, then
+    multipliers fitted by nnls). Returns the failures and each state's program (None where there is none)."""
+    failures, programs = [], []
+    for index, ((_, _, task_acceleration), state, plain) in enumerate(zip(drawn, terms, resolutions)):
+        programs.append(None)
+        if plain is None:
+            continue
+        try:
+            # A step of its own per state, as the plain resolutions were made: no warm start carried over.
+            recorded = resolver.program_solver(robot)(state, task_acceleration)
+        except Exception as error:
+            failures.append(f"program: state {index}: the recording step raised {type(error).__name__}: {error}")
+            continue
+        if not np.array_equal(np.asarray(recorded.torque), np.asarray(plain.torque)):
+            failures.append(
+                f"program: state {index}: the recording step gives torque {_vector(recorded.torque)}, its solver "
+                f"{_vector(plain.torque)}: recording must change nothing"
+            )
+            continue
+        program = recorded.program
+        if program is None:
+            continue
+        programs[index] = program
+        failures += _program_state_failures(index, state, recorded, program)
+    return failures, programs
+
+
+def _program_state_failures(index, state, resolution, program) -> list[str]:
+    torque = np.asarray(resolution.torque)
+    solution, directions = np.asarray(program.solution), np.asarray(program.torque_rows)
+    failures = []
+    own = program.torque_offset + directions @ solution
+    if np.abs(own - torque).max() > BATCH_TOLERANCE * _scale(torque):
+        failures.append(
+            f"program: state {index}: its solution gives torque {_vector(own)}, the step returns {_vector(torque)}"
+        )
+    accelerations = np.linalg.solve(state.inertia, directions)  # q̈ per unit of each variable
+    singular_values = np.linalg.svd(accelerations, compute_uv=False)
+    rank = int((singular_values > 1e-9 * singular_values.max(initial=0.0)).sum())
+    off_task = np.abs(state.jacobian @ accelerations).max(initial=0.0)
+    redundancy = state.jacobian.shape[1] - state.jacobian.shape[0]
+    if rank != redundancy or off_task > 1e-9 * np.abs(state.jacobian).max() * _scale(accelerations):
+        failures.append(
+            f"program: state {index}: its variables move q̈ by H⁻¹T of rank {rank} with ‖J H⁻¹ T‖ = {off_task:.3g}, "
+            f"not over the null space of J (rank {redundancy}, J H⁻¹ T = 0)"
+        )
+    checked = [("its solver's multipliers", program.multipliers)] if program.multipliers is not None else []
+    for source, multipliers in [*checked, ("multipliers fitted by nnls", None)]:
+        residuals = program_residuals(program, multipliers)
+        for condition in ("stationarity", "primal", "dual", "complementarity"):
+            value = getattr(residuals, condition)
+            if value > PROGRAM_TOLERANCE:
+                failures.append(
+                    f"program: state {index}: KKT {_CONDITIONS[condition]} residual {value:.3g} with {source} "
+                    f"(tolerance {PROGRAM_TOLERANCE:g}, relative)"
+                )
+    return failures
+
+
+_CONDITIONS = {
+    "stationarity": "stationarity",
+    "primal": "primal feasibility",
+    "dual": "dual feasibility",
+    "complementarity": "complementary slackness",
+}
 
 
 def _differences(cost, size: int, step: float) -> tuple[np.ndarray, np.ndarray]:

@@ -39,7 +39,7 @@ lists the same numbers as its row.
 from __future__ import annotations
 
 from ..errors import InvalidInput
-from .base import NullSpaceResolver, Resolution, Resolver, Step
+from .base import NullSpaceResolver, Program, Resolution, Resolver, Step
 from .bounded import BoundedTorque, EnergyBoundedTorque, MinMaxTorque
 from .damping import DampedNullSpaceTorque, SelfMotionDamping
 from .inverse_inertia import InverseInertiaSquaredTorque, InverseInertiaTorque
@@ -51,6 +51,7 @@ from .registry import ENTRY_POINT_GROUP, RESOLVERS, class_from_path, register_re
 from .second_order import GradientProjectionAcceleration, TaskPriorityAcceleration
 
 __all__ = [
+    "Program",
     "Resolution",
     "Resolver",
     "NullSpaceResolver",

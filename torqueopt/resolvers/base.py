@@ -53,12 +53,50 @@ __all__ = [
     "NullSpaceFunction",
     "NullSpaceResolver",
     "Objective",
+    "Program",
     "Resolution",
     "Resolver",
     "SINGULAR_TOLERANCE_OPTION",
     "StackStep",
     "Step",
 ]
+
+
+class Program(NamedTuple):
+    r"""A quadratic or linear program a resolver solved at one state, with its answer (qpsolvers' ``Problem`` and
+    ``Solution`` in one record).
+
+    .. math::
+
+        \min_x\ \tfrac12 x^\top P x + q^\top x \quad\text{s.t.}\quad l \le A x \le u,
+        \qquad \tau = \tau_0 + T x .
+
+    Attributes:
+        hessian: P (v × v), zeros for a linear program.
+        cost: q (v).
+        rows: A (k × v), every constraint (simple bounds on variables as unit rows).
+        lower: l (k), −inf where a row has no lower side.
+        upper: u (k), +inf where a row has no upper side (l = u: an equality).
+        solution: x (v), the answer the resolver used.
+        multipliers: the solver's λ (k), or None when it gives none, in DAQP's convention:
+            :math:`Px + q + A^\top\lambda = 0`, :math:`\lambda_i > 0` on an active upper side, :math:`< 0` on an
+            active lower side, 0 on an inactive row.
+        torque_offset: :math:`\tau_0` (n) [N·m] of the torque :math:`\tau_0 + T x` of a point x (the
+            resolution's torque at the solution).
+        torque_rows: T (n × v), the torque change of a unit change of each variable.
+        variables: what x is, in words.
+    """
+
+    hessian: np.ndarray
+    cost: np.ndarray
+    rows: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    solution: np.ndarray
+    multipliers: np.ndarray | None
+    torque_offset: np.ndarray
+    torque_rows: np.ndarray
+    variables: str = ""
 
 
 class Resolution(NamedTuple):
@@ -75,6 +113,9 @@ class Resolution(NamedTuple):
             realises the task, so ``task_error`` is the least violation it found.
         limiting: on an infeasible step, the bounds its answer lies on, in one line
             ("torque limit (upper) of joint J; velocity limit (lower) of joint K"); empty otherwise.
+        program: the :class:`~torqueopt.resolvers.Program` whose solution gives the torque, from a step that
+            solves one and was asked for it (:meth:`Resolver.program_solver`); None otherwise (closed-form
+            resolvers, and every step of :meth:`Resolver.solver`, which keep no record).
     """
 
     torque: np.ndarray
@@ -83,6 +124,7 @@ class Resolution(NamedTuple):
     task_error: float = 0.0
     infeasible: bool = False
     limiting: str = ""
+    program: Program | None = None
 
 
 #: A robot-bound step: ``(terms, task_acceleration) -> Resolution``.
@@ -214,11 +256,22 @@ class Resolver(ABC):
         over from one run to the next.
         """
 
+    def program_solver(self, robot: Robot) -> Step:
+        """The step of :meth:`solver` whose resolutions also carry the program each solved (``Resolution.program``).
+
+        Its torques are those of :meth:`solver`, bit for bit; only the record is added, which costs copies a run
+        does not need, so runs use :meth:`solver` and :func:`torqueopt.testing.check_resolver` uses this one to
+        check each program's optimality (KKT) conditions. :meth:`solver` itself by default: a resolver that solves
+        no program (or keeps no record of it) returns ``program`` None.
+        """
+        return self.solver(robot)
+
     def objective_function(self, robot: Robot) -> Objective | None:
         r"""The criterion this resolver minimises over the torques that realise the task, or None (it declares none).
 
         A function ``(terms, torque) -> cost`` (a float) on ``robot``: the resolver's torque is its least value over
-        :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)). Nothing steps with it;
+        :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)), or, on a step that solved a program
+        (:meth:`program_solver`), every y its constraints admit. Nothing steps with it;
         :func:`torqueopt.testing.check_resolver` holds each answer to it by finite differences.
         """
         return None

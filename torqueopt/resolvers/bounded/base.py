@@ -123,15 +123,20 @@ class _BoundedResolver(Resolver):
         """
         return BoundedStep(self, robot, dt)
 
+    def program_solver(self, robot: Robot) -> Step:
+        """:meth:`solver`'s step whose resolutions carry the program each solved (``BoundedStep`` with ``record``)."""
+        return BoundedStep(self, robot, None, record=True)
+
     def _acceleration_constraints(self, robot: Robot):
         """``(k, function, names)``: this resolver's own k constraints G q̈ <= h on the joint acceleration, beside
         the torque bounds and the joint limits, as a function ``(terms, Z) -> (G (k × n), h (k))`` with unit rows,
         and a name for each; ``(0, None, ())`` when it has none."""
         return 0, None, ()
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
-        """``(terms, Z, HZ, τ̃, p, joint_rows) -> (y, τ)`` of this resolver's criterion with τ within bounds and
-        q̈ = p + Z y within the rows on q̈ (``joint_rows(offset, rows)``, None: none), or None when none is."""
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int, record: bool = False):
+        """``(terms, Z, HZ, τ̃, p, joint_rows) -> (y, τ, program)`` of this resolver's criterion with τ within bounds
+        and q̈ = p + Z y within the rows on q̈ (``joint_rows(offset, rows)``, None: none), or None when none is;
+        ``program`` the :class:`~torqueopt.resolvers.Program` it solved when ``record``, else None."""
         raise NotImplementedError
 
     def _stack_acceleration_constraints(self, robot: Robot):

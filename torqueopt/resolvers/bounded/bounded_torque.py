@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot, TaskTerms
+from ..base import joint_acceleration_of, null_space_projector
 from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
+from ..null_space import torque_midpoint
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
 from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver, _solver_bounds
@@ -16,6 +18,8 @@ __all__ = ["TORQUE_WEIGHTS", "BoundedTorque"]
 
 #: ``torque_weight`` names: the identity, or the torque-range weight of Eq. (33).
 TORQUE_WEIGHTS = ("unit", "range")
+#: The variables of the QP a step records (``Resolution.program``).
+_VARIABLES = "y: null-space coordinates of Eq. (26), q̈ = p + Z y"
 
 
 @register_resolver
@@ -91,7 +95,7 @@ class BoundedTorque(_BoundedResolver):
         super().check(robot)
         self.weight_root(robot)
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int, record: bool = False):
         r = robot.redundancy
         nb = spread.size
         rows_count = nb + joint_rows_count
@@ -130,9 +134,29 @@ class BoundedTorque(_BoundedResolver):
             )
             if flag == _EXIT_INFEASIBLE:
                 return None
-            return y, tilde_torque + inertia_basis.dot(y)
+            torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
+            return y, torque, program.solved(y, tilde_torque, inertia_basis, _VARIABLES) if record else None
 
         return optimum
+
+    def objective_function(self, robot: Robot):
+        r"""The criterion of the class docstring on the torques that realise the task,
+        :math:`\|S(\tau - \tau_{mid})\|^2 + \bar\mu^2\|(I - J^+J)(\ddot q + K_D\dot q)\|^2`, that of
+        ``damped-null-space`` (:math:`Z y = (I - J^+J)\ddot q` whatever the basis Z), minimised here under the
+        bounds: :func:`torqueopt.testing.check_resolver` holds each answer to its KKT conditions under the
+        program's constraints."""
+        midpoint = torque_midpoint(robot)
+        root = self.weight_root(robot)
+        relative_weight, damping = self.kinematic_weight, self.damping
+
+        def criterion(terms: TaskTerms, torque):
+            projector = null_space_projector(terms)
+            weight = relative_weight * np.linalg.norm(root[:, None] * (terms.inertia @ projector))  # μ̄ = μ‖S H Z‖_F
+            rest = projector @ (joint_acceleration_of(terms, torque) + damping * terms.joint_velocity)
+            torque_term = root * (torque - midpoint)  # S(τ − τ_mid), Eq. (29), Eq. (32)
+            return float(torque_term @ torque_term + weight**2 * (rest @ rest))
+
+        return criterion
 
     def _stack_optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int) -> StackOptimum:
         """:meth:`_optimum`'s QP for every row of a stack at once (the same numbers, row for row), solved row by row."""

@@ -246,10 +246,13 @@ class BoundedStep:
     """A bounded resolver's step ``(terms, ẍ) -> Resolution`` on ``robot``, with its DAQP programs set up once.
 
     ``dt`` [s] is the step over which the run holds the torque: the joint-limit bounds keep the state after it
-    within the limits (``joint_limits.DEFAULT_STEP``, 1 ms, when None).
+    within the limits (``joint_limits.DEFAULT_STEP``, 1 ms, when None). With ``record`` each resolution carries
+    the program whose solution gives its torque (``Resolution.program``: the resolver's own optimum, at the task
+    acceleration achieved on an infeasible step, or the min-max LP of ``exceed``; None where a policy's first
+    stage gives the answer), copied at each step, which a run does not need.
     """
 
-    def __init__(self, resolver, robot: Robot, dt: float | None = None):
+    def __init__(self, resolver, robot: Robot, dt: float | None = None, record: bool = False):
         resolver.check(robot)
         self.name, self.policy, self.robot = resolver.name, resolver.infeasible, robot
         n, self.m = robot.nv, robot.m
@@ -263,7 +266,8 @@ class BoundedStep:
         own_count, self.constraints_at, self.constraint_names = resolver._acceleration_constraints(robot)
         nj = 0 if limits is None else limits.count
         self.nl = nl = nj + own_count
-        self.optimum = resolver._optimum(robot, bounded, self.spread, midpoint, nl)
+        self.optimum = resolver._optimum(robot, bounded, self.spread, midpoint, nl, record)
+        self.record = record
         self.nb = nb = self.spread.size
         self.box_upper, self.box_lower = torque_box(robot)
         self.scaling = scaling_program(nb + nl, r)
@@ -306,8 +310,9 @@ class BoundedStep:
             terms, state.basis, state.inertia_basis, state.tilde_torque, state.particular, joint_rows
         )  # fmt: skip
         if found is not None:
-            y, torque = found
-            return Resolution(torque, state.particular + state.basis.dot(y), state.inverse_condition, 0.0, False)
+            y, torque, program = found
+            acceleration = state.particular + state.basis.dot(y)  # Eq. (26)
+            return Resolution(torque, acceleration, state.inverse_condition, 0.0, False, "", program)
         if self.policy == "stop":
             raise self.stop_error(state)
         range_rows = self.range_basis(state.inertia_basis)  # U, orthonormal, spans the range of HZ
@@ -342,7 +347,8 @@ class BoundedStep:
         torque = state.tilde_torque + state.inertia_basis.dot(y)  # Eq. (27)
         acceleration = state.particular + state.basis.dot(y)
         limiting = self.limiting_bounds(state, torque, acceleration)
-        return Resolution(torque, acceleration, state.inverse_condition, 0.0, True, limiting)
+        program = self.minmax.solved(z, utilisation, state.tilde_torque, range_rows) if self.record else None
+        return Resolution(torque, acceleration, state.inverse_condition, 0.0, True, limiting, program)
 
     def task_rows(self, state: StepState, range_rows, joint_rows) -> TaskRows:
         """The torque bounds on x = (a, z), and q̈ = (p − J⁺ẍ) + J⁺ a + H⁻¹U z when there are rows on q̈."""
@@ -462,8 +468,8 @@ class BoundedStep:
         )  # fmt: skip
         if found is None:
             y = self.range_basis.coordinates(task.range_rows.dot(z))
-            found = y, shifted_tilde + state.inertia_basis.dot(y)
-        y, torque = found
+            found = y, shifted_tilde + state.inertia_basis.dot(y), None
+        y, torque, program = found
         error = float(np.linalg.norm(achieved - command))
         acceleration = shifted_particular + state.basis.dot(y)
         limiting = self.limiting_bounds(state, torque, acceleration)
@@ -476,7 +482,7 @@ class BoundedStep:
             limiting = (
                 "joint limits given up for the torque limits" + (f" ({exceeded})" if exceeded else "") + "; "
             ) + limiting
-        return Resolution(torque, acceleration, state.inverse_condition, error, True, limiting)
+        return Resolution(torque, acceleration, state.inverse_condition, error, True, limiting, program)
 
     def torque_bounds_active(self, torque) -> list[str]:
         """The torque bounds ``torque`` lies on (within 1e-6 of the range), as texts."""

@@ -45,7 +45,7 @@ class MinMaxTorque(_BoundedResolver):
     equations = (26, 28)
     options = (INFEASIBLE_OPTION, JOINT_LIMITS_OPTION, JOINT_ACCELERATION_LIMIT_OPTION)
 
-    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int):
+    def _optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int, record: bool = False):
         minmax = _MinMax(bounded, spread, midpoint, robot.redundancy, joint_rows_count)
         ceiling = 0.5 - BOUND_MARGIN  # the LP's t may exceed its true value by DAQP's tolerance
         range_basis = _RangeBasis(robot.nv, robot.redundancy)
@@ -58,7 +58,8 @@ class MinMaxTorque(_BoundedResolver):
             if utilisation is None or utilisation > ceiling:
                 return None
             y = range_basis.coordinates(range_rows.dot(z))
-            return y, tilde_torque + inertia_basis.dot(y)
+            torque = tilde_torque + inertia_basis.dot(y)  # Eq. (27)
+            return y, torque, minmax.solved(z, utilisation, tilde_torque, range_rows) if record else None
 
         return optimum
 

@@ -15,6 +15,7 @@ import eigenpy
 import numpy as np
 
 from ...errors import MissingDependency, SolverFailure
+from ..base import Program
 
 __all__ = [
     "BOUND_MARGIN",
@@ -28,6 +29,8 @@ __all__ = [
 
 #: Feasibility tolerance of every bound row, as a fraction of the joint's torque range.
 FEASIBILITY_TOLERANCE = 1e-9
+#: The variables of the min-max LP a step records (``Resolution.program``).
+MINMAX_VARIABLES = "(z, t): τ = τ̃ + U z with U an orthonormal basis of the range of HZ; t the largest normalised torque"
 #: How far inside each torque range [fraction of τ⁺ − τ⁻] the bounds given to DAQP lie.
 BOUND_MARGIN = 10 * FEASIBILITY_TOLERANCE
 
@@ -220,7 +223,24 @@ class _Program:
                     f"DAQP's LP answer fails its optimality certificate (stationarity residual {residual:.2g})"
                 )
             x = self._vertex(x, multipliers)
+        self._multipliers = multipliers
         return x, flag, multipliers
+
+    def solved(self, solution, torque_offset, torque_rows, variables: str) -> Program:
+        r"""The program of the last :meth:`solve` with its ``solution`` x, as a :class:`~torqueopt.resolvers.Program`
+        (copies: the workspace's numbers change at the next step), its simple bounds written as unit rows.
+
+        ``torque_offset`` :math:`\tau_0` and ``torque_rows`` T give the torque :math:`\tau_0 + T x` of a point x.
+        """
+        bounds, rows = self._bounds, np.array(self._rows, dtype=float)
+        if bounds:
+            rows = np.vstack([np.eye(bounds, rows.shape[1]), rows])
+        hessian = np.array(self._hessian, dtype=float)
+        return Program(
+            hessian, self._cost.copy(), rows, self._lower.copy(), self._upper.copy(), np.array(solution, dtype=float),
+            np.array(self._multipliers, dtype=float), np.array(torque_offset, dtype=float),
+            np.array(torque_rows, dtype=float), variables,
+        )  # fmt: skip
 
     def _cold_solve(self):
         """(x, exit flag, info) of the current program in a new DAQP workspace, no active set carried over."""
@@ -411,3 +431,8 @@ class _MinMax:
                 return x[: self._r], None
             raise SolverFailure("the min-max torque LP failed")  # pragma: no cover - t large enough is always feasible
         return x[: self._r], x[self._r]
+
+    def solved(self, z, utilisation, tilde_torque, range_basis) -> Program:
+        """The LP of the last call with its answer (z, t): τ = τ̃ + U z (t moves no torque)."""
+        torque_rows = np.hstack([range_basis, np.zeros((range_basis.shape[0], 1))])
+        return self.program.solved(np.r_[z, utilisation], tilde_torque, torque_rows, MINMAX_VARIABLES)
