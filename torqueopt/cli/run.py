@@ -141,6 +141,7 @@ def run_command(args: argparse.Namespace) -> int:
         )
     finally:
         bar.close()
+    result.settings = settings.record()
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
     lines = []
