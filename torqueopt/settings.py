@@ -22,18 +22,8 @@ from typing import Any, ClassVar
 
 from .checks import parse_number, parse_positive, parse_vector, parse_whole, positive_number, whole_number
 
-__all__ = [
-    "Settings",
-    "group",
-    "number",
-    "numbers",
-    "positive",
-    "positive_in",
-    "setting",
-    "time_step",
-    "whole",
-    "whole_at_least",
-]
+__all__ = ["Settings", "group", "number", "numbers", "positive", "positive_in", "setting", "time_step", "whole",
+           "whole_at_least"]  # fmt: skip
 
 
 def setting(
