@@ -200,17 +200,15 @@ class StartSettings(Settings):
 
     def configuration(self, robot: Robot) -> np.ndarray:
         """The start configuration (one value per joint), else the robot's default."""
-        if self.q0 is None:
-            return robot.default_configuration
-        angles = sized(self.q0, "q0", robot.nv)
-        return robot.configuration(in_radians(angles, robot) if self.degrees else angles)
+        return robot.default_configuration if self.q0 is None else robot.configuration(self._per_joint("q0", robot))
 
     def velocity(self, robot: Robot) -> np.ndarray | None:
         """The start joint velocities (one value per joint), else None (at rest)."""
-        if self.v0 is None:
-            return None
-        rates = sized(self.v0, "v0", robot.nv)
-        return in_radians(rates, robot) if self.degrees else rates
+        return None if self.v0 is None else self._per_joint("v0", robot)
+
+    def _per_joint(self, name: str, robot: Robot) -> np.ndarray:
+        values = sized(getattr(self, name), name, robot.nv)
+        return in_radians(values, robot) if self.degrees else values
 
 
 @dataclass(frozen=True)

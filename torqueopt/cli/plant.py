@@ -37,11 +37,6 @@ def _plant_option_values(texts, name) -> dict[str, str]:
     return options
 
 
-def _plant_options_help() -> str:
-    defaults = "; ".join(f"{key}= {text} (default {default})" for key, (default, text) in PLANT_OPTIONS.items())
-    return f"a MuJoCo plant option, repeatable or comma-separated: {defaults}"
-
-
 @dataclass(frozen=True)
 class RunPlantSettings(Settings):
     """``--plant``, ``--mjcf`` and ``--plant-option``: the plant of one run (:meth:`plant`)."""
@@ -63,7 +58,10 @@ class RunPlantSettings(Settings):
     )
     plant_options: dict[str, str] = setting(
         (),
-        _plant_options_help,
+        lambda: (
+            "a MuJoCo plant option, repeatable or comma-separated: "
+            + "; ".join(f"{key}= {text} (default {default})" for key, (default, text) in PLANT_OPTIONS.items())
+        ),
         check=lambda value, name: dict(value),
         flag="--plant-option",
         repeat=True,

@@ -7,7 +7,7 @@ import re
 import time
 from dataclasses import dataclass
 
-from ..settings import numbers, setting
+from ..settings import setting
 from . import EXIT_NONE_QUALIFIES, EXIT_OK
 from .atlas import AtlasRobotSettings, robot_spec
 from .common import importable_from_here
@@ -20,9 +20,6 @@ class TuneRobotSettings(AtlasRobotSettings):
     """The arm a tune is for (``--robot`` required)."""
 
     robot: str | None = setting(None, "robot name or URDF (panda, xarm7, tiago, baxter, ...)", cli_required=True)
-    torque_limit: tuple[float, ...] | None = setting(
-        None, "symmetric torque limits [N·m], one or one per joint", metavar="TAU", parse=numbers()
-    )
 
 
 def add_parser(subparsers) -> None:
