@@ -84,6 +84,9 @@ class SimResult:
             ``friction_velocity_scale`` [rad/s] per joint); None when the URDF has neither.
             :attr:`damping_torque` and :attr:`friction_torque` are their shares
             of each row's torque.
+        settings: the settings of the command that made the run, by name, as its settings dataclass records
+            them (``torqueopt run``'s ``RunSettings``); None for a run made through the
+            API (and not written to its files then).
     """
 
     robot: str
@@ -120,6 +123,7 @@ class SimResult:
     payload: dict | None = None
     robot_source: dict | None = None
     joint_dynamics: dict | None = None
+    settings: dict | None = None
 
     def __post_init__(self):
         # A result built by hand without them realised its task at every row.

@@ -120,9 +120,12 @@ def _write_result(result, path: Path) -> Path:
 
 
 def _metadata(result) -> dict:
-    return {
+    metadata = {
         f.name: getattr(result, f.name) for f in fields(result) if f.name not in (*_ARRAY_FIELDS, "dexterity", _MARGIN)
     }
+    if metadata["settings"] is None:  # a run of the API: its files stay as they were before settings were recorded
+        del metadata["settings"]
+    return metadata
 
 
 def read_result(path: str | os.PathLike, result_type, robot=None):

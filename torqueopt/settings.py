@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
+import os
 from collections.abc import Callable
 from typing import Any, ClassVar
 
 from .checks import parse_number, parse_positive, parse_vector, parse_whole, positive_number, whole_number
 
-__all__ = ["Settings", "group", "number", "numbers", "positive", "positive_in", "setting", "whole", "whole_at_least"]
+__all__ = ["Settings", "group", "number", "numbers", "positive", "positive_in", "setting", "time_step", "whole",
+           "whole_at_least"]  # fmt: skip
 
 
 def setting(
@@ -34,6 +37,9 @@ def setting(
     metavar: str | None = None,
     choices: tuple | None = None,
     switch: str | None = None,
+    const: Any = None,
+    negation: tuple[str, str] | None = None,
+    section: str | None = None,
     repeat: bool = False,
     cli: bool = True,
     cli_required: bool = False,
@@ -51,7 +57,11 @@ def setting(
         flag: the option (default ``--`` and the name with dashes).
         metavar, choices: as argparse's.
         switch: ``"on"`` for a flag that turns the setting on (``--global``), ``"off"`` for one that turns it
-            off (``--no-figures``); the setting is then a bool (any value given is made one).
+            off (``--no-figures``), ``"both"`` for a pair (``--dexterity``/``--no-dexterity``); the setting is then
+            a bool (any value given is made one).
+        const: the value of the option given alone, without its text (``--gravity`` is ``True``).
+        negation: ``(flag, help)`` of a second option that sets the setting False (``--no-gravity``).
+        section: the ``--help`` section of the option, when not its class's ``TITLE``.
         repeat: the option may be given several times; ``parse`` reads the list of their texts.
         cli: False for a setting of the API only.
         cli_required: the command line requires the option although the API has a default.
@@ -59,7 +69,7 @@ def setting(
     """
     metadata = {
         "help": help, "unit": unit, "check": check, "parse": parse, "flag": flag, "metavar": metavar,
-        "choices": choices, "switch": switch, "repeat": repeat, "cli": cli, "cli_required": cli_required, "doc": doc,
+        "choices": choices, "switch": switch, "const": const, "negation": negation, "section": section, "repeat": repeat, "cli": cli, "cli_required": cli_required, "doc": doc,
     }  # fmt: skip
     return dataclasses.field(default=default, metadata=metadata)
 
@@ -89,9 +99,14 @@ def number(text: str, name: str) -> float:
     return parse_number(text, name)
 
 
-def numbers(size: int | None = None) -> Callable[[str, str], tuple[float, ...]]:
+def numbers(size: int | None = None, allow_infinite: bool = False) -> Callable[[str, str], tuple[float, ...]]:
     """The command line's reading of comma-separated numbers (``size`` of them when given)."""
-    return lambda text, name: tuple(parse_vector(text, name, size).tolist())
+    return lambda text, name: tuple(parse_vector(text, name, size, allow_infinite).tolist())
+
+
+def time_step(help: str = "integration step [s] (default 0.001)", **options) -> Any:
+    """The integration step ``dt`` [s] of every command that simulates (1 ms by default, positive)."""
+    return setting(1e-3, help, unit="s", check=positive_in("s"), parse=positive, **options)
 
 
 def group(settings: type[Settings]) -> Any:
@@ -115,6 +130,26 @@ def _flag(field: dataclasses.Field) -> str:
     return field.metadata.get("flag") or "--" + field.name.replace("_", "-")
 
 
+def _section(parser: argparse.ArgumentParser, title: str | None):
+    """The ``--help`` section titled ``title`` (the parser's own options for None), made once and shared."""
+    if title is None:
+        return parser
+    existing = [section for section in parser._action_groups if section.title == title]
+    return existing[0] if existing else parser.add_argument_group(title)
+
+
+def _json(value):
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, (tuple, list)):
+        return [_json(item) for item in value]
+    if isinstance(value, dict):
+        return {str(key): _json(item) for key, item in value.items()}
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value.record() if hasattr(value, "record") else value  # a Payload: its fields
+
+
 class Settings:
     """The base of a frozen settings dataclass (see the module docstring).
 
@@ -122,7 +157,7 @@ class Settings:
     :meth:`check_together` (rules that join several fields).
     """
 
-    #: The title of the group in ``--help`` (None: the parser's own options).
+    #: The ``--help`` section of the fields (None: the parser's own options); sections of one title are one.
     TITLE: ClassVar[str | None] = None
 
     def __post_init__(self):
@@ -171,33 +206,46 @@ class Settings:
             values.update(value.as_keywords() if _is_group(field) else {field.name: value})
         return values
 
+    def record(self) -> dict:
+        """Every setting by its flat keyword as a JSON value (tuples as lists, inf as None): what a command's
+        files record of the settings that made them."""
+        return {name: _json(value) for name, value in self.as_keywords().items()}
+
     def replace(self, **values):
         """These settings with some changed, by flat keyword."""
         return type(self).from_keywords(**{**self.as_keywords(), **values})
 
     @classmethod
-    def add_arguments(cls, parser: argparse.ArgumentParser, section=None) -> None:
-        """The command line's options, in the order of the fields, each group under its ``TITLE``."""
-        target = section if section is not None else parser
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        """The command line's options, in the order of the fields, each under its class's ``TITLE`` (or its own
+        ``section``)."""
         for field in dataclasses.fields(cls):
             if _is_group(field):
-                _group(field).add_arguments(parser, parser.add_argument_group(_group(field).TITLE))
+                _group(field).add_arguments(parser)
                 continue
             meta = field.metadata
             if not meta.get("cli", True):
                 continue
             text = meta["help"]
             options = {"dest": field.name, "help": text() if callable(text) else text}
-            if meta.get("switch"):
+            if meta.get("switch") == "both":
+                options.update(action=argparse.BooleanOptionalAction, default=None)
+            elif meta.get("switch"):
                 options.update(action="store_true", default=None)
             elif meta.get("repeat"):
                 options.update(action="append", default=None, metavar=meta.get("metavar"))
             else:
                 options.update(default=None, required=meta.get("cli_required", False))
+                if meta.get("const") is not None:
+                    options.update(nargs="?", const=meta["const"])
                 for key in ("metavar", "choices"):
                     if meta.get(key) is not None:
                         options[key] = meta[key]
-            target.add_argument(_flag(field), **options)
+            where = _section(parser, meta.get("section") or cls.TITLE)
+            where.add_argument(_flag(field), **options)
+            if meta.get("negation"):
+                flag, text = meta["negation"]
+                where.add_argument(flag, dest=field.name, action="store_const", const=False, help=text)
 
     @classmethod
     def from_arguments(cls, args: argparse.Namespace, **extra):
@@ -216,8 +264,10 @@ class Settings:
             if text is None or not field.metadata.get("cli", True):
                 continue
             switch, parse = field.metadata.get("switch"), field.metadata.get("parse")
-            if switch:
+            if switch in ("on", "off"):
                 values[field.name] = switch == "on"
+            elif isinstance(text, bool):  # a pair of switches, an option given alone (const) or its negation
+                values[field.name] = text
             else:
                 values[field.name] = parse(text, _flag(field)[2:]) if parse else text
         return values

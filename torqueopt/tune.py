@@ -60,7 +60,7 @@ from .errors import InvalidInput, OutputError
 from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
 from .resolvers import Resolver, get_resolver
 from .resolvers.options import label_value
-from .settings import Settings, number, numbers, positive, setting, whole, whole_at_least
+from .settings import Settings, number, numbers, positive, setting, time_step, whole, whole_at_least
 
 __all__ = [
     "DEFAULT_GRIDS",
@@ -216,7 +216,7 @@ class TuneSettings(Settings):
         None, "acceleration [m/s²] (default: sized to the arm, √2 x reach / 3 m)", unit="m/s²", metavar="A",
         parse=positive,
     )  # fmt: skip
-    dt: float = setting(1e-3, "integration step [s] (default 0.001)", unit="s", parse=positive)
+    dt: float = time_step()
     workers: int | None = setting(
         None, "local Dask worker processes (default: the machine's cores; 0: no Dask)", parse=whole(), metavar="N"
     )

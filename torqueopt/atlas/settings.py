@@ -21,7 +21,18 @@ from ..errors import InvalidInput
 from ..resolvers import Resolver, resolver_names
 from ..resolvers.options import split_resolver_list
 from ..robot import Robot
-from ..settings import Settings, group, number, numbers, positive, positive_in, setting, whole, whole_at_least
+from ..settings import (
+    Settings,
+    group,
+    number,
+    numbers,
+    positive,
+    positive_in,
+    setting,
+    time_step,
+    whole,
+    whole_at_least,
+)
 from .explorer import DEFAULT_KEEP_TRACES
 from .global_optimum import DEFAULT_GLOBAL_MAX_ITERATIONS, DEFAULT_GLOBAL_MAX_TIME
 from .global_optimum import settings as global_settings
@@ -104,13 +115,7 @@ class PopulationSettings(Settings):
         metavar="A",
         parse=positive,
     )
-    dt: float = setting(
-        1e-3,
-        "integration step [s] (default 0.001)",
-        unit="s",
-        check=positive_in("s"),
-        parse=positive,
-    )
+    dt: float = time_step()
 
 
 @dataclass(frozen=True)

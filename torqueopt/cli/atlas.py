@@ -4,20 +4,15 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import dataclass
 
 from ..errors import InvalidInput
 from ..resolvers.options import split_resolver_list
+from ..settings import numbers, setting
 from . import EXIT_OK
-from .common import (
-    add_gravity_and_payload_options,
-    add_joint_dynamics_option,
-    gravity_from_args,
-    importable_from_here,
-    parse_vector,
-    payload_from_args,
-)
+from .common import RobotModelSettings, importable_from_here
 
-__all__ = ["add_parser", "add_robot_spec_options", "robot_spec"]
+__all__ = ["AtlasRobotSettings", "add_parser", "robot_spec"]
 
 
 def add_parser(subparsers) -> None:
@@ -34,41 +29,25 @@ def add_parser(subparsers) -> None:
             "--scheduler ADDRESS. Killed and started again with the same command, it resumes where it stopped."
         ),
     )
-    add_robot_spec_options(
-        parser, "robot name or URDF (default planar3)", "symmetric torque limits [N·m], one value or one per joint"
-    )
+    AtlasRobotSettings.add_arguments(parser)
     AtlasSettings.add_arguments(parser)
     parser.set_defaults(handler=atlas_command)
 
 
-def add_robot_spec_options(parser, robot_help: str, torque_limit_help: str, required: bool = False) -> None:
-    """``--robot``, ``--frame``, ``--task``, ``--torque-limit``, ``--gravity`` and ``--payload``: what
-    :func:`robot_spec` makes a RobotSpec of."""
-    parser.add_argument("--robot", required=required, default=None if required else "planar3", help=robot_help)
-    parser.add_argument("--frame", help="task frame (default: the robot's end effector)")
-    parser.add_argument("--task", help="task: xy or position (default xy for planar3, position otherwise)")
-    parser.add_argument("--torque-limit", metavar="TAU", help=torque_limit_help)
-    add_gravity_and_payload_options(parser)
-    add_joint_dynamics_option(parser)
+@dataclass(frozen=True)
+class AtlasRobotSettings(RobotModelSettings):
+    """The atlas's arm (its :meth:`~RobotModelSettings.spec` is the atlas's ``robot`` setting)."""
+
+    robot: str | None = setting("planar3", "robot name or URDF (default planar3)")
+    task: str | None = setting(None, "task: xy or position (default xy for planar3, position otherwise)")
+    torque_limit: tuple[float, ...] | None = setting(
+        None, "symmetric torque limits [N·m], one value or one per joint", metavar="TAU", parse=numbers()
+    )
 
 
 def robot_spec(args: argparse.Namespace):
-    """The :class:`~torqueopt.atlas.jobs.RobotSpec` of the options :func:`add_robot_spec_options` adds."""
-    from ..atlas.jobs import RobotSpec
-
-    torque_limit = (
-        None if args.torque_limit is None else tuple(parse_vector(args.torque_limit, "torque-limit").tolist())
-    )
-    gravity = gravity_from_args(args)
-    return RobotSpec(
-        args.robot,
-        frame=args.frame,
-        task=args.task,
-        torque_limit=torque_limit,
-        gravity=tuple(gravity.tolist()) if hasattr(gravity, "tolist") else gravity,
-        payload=payload_from_args(args),
-        joint_dynamics=args.joint_dynamics,
-    )
+    """The :class:`~torqueopt.atlas.jobs.RobotSpec` of the options :class:`AtlasRobotSettings` adds."""
+    return AtlasRobotSettings.from_arguments(args).spec()
 
 
 def atlas_command(args: argparse.Namespace) -> int:

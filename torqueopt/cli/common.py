@@ -1,72 +1,222 @@
-"""Options shared by the subcommands; the parsers of option text are those of :mod:`torqueopt.checks`."""
+"""Settings shared by the subcommands (the arm, the start), declared once as :class:`~torqueopt.settings.Settings`
+groups; the parsers of option text are those of :mod:`torqueopt.checks`."""
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import parse_count, parse_number, parse_positive, parse_vector, parse_whole
+from ..checks import parse_vector
+from ..checks.numbers import count_values
 from ..errors import InvalidInput
 from ..loading import load_robot
 from ..payload import Payload
 from ..progress import said_if_slow
 from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
+from ..settings import Settings, numbers, setting
 
 __all__ = [
-    "add_gravity_and_payload_options",
-    "add_joint_dynamics_option",
-    "add_robot_options",
-    "add_start_options",
-    "robot_from_args",
-    "start_from_args",
-    "start_velocity_from_args",
-    "gravity_from_args",
-    "payload_from_args",
-    "parse_vector",
-    "parse_number",
-    "parse_positive",
-    "parse_count",
-    "parse_whole",
+    "RobotModelSettings",
+    "RobotSettings",
+    "OptionalRobotSettings",
+    "StartSettings",
+    "RestStartSettings",
+    "parse_gravity",
+    "parse_payload",
+    "sized",
     "importable_from_here",
     "in_radians",
     "torque_table",
 ]
 
 
-def add_start_options(group: argparse._ArgumentGroup, velocity: bool = False) -> None:
-    """``--q0`` and ``--degrees`` (and with ``velocity``, ``--v0``): the start of the movement the command runs."""
-    group.add_argument(
-        "--q0",
-        metavar="ANGLES",
-        help="start configuration, one value per joint [rad; m for a prismatic joint] (default: the robot's SRDF or neutral "
-        "configuration)",
-    )
-    if velocity:
-        group.add_argument(
-            "--v0",
-            metavar="RATES",
-            help="start joint velocities, one value per joint [rad/s; m/s for a prismatic joint] (default: at rest)",
+def parse_gravity(text: str, name: str = "gravity") -> tuple[float, float, float]:
+    """``--gravity X,Y,Z``: the vector [m/s²] in world axes."""
+    if len(text.split(",")) != 3:
+        raise InvalidInput(
+            f"--gravity {text}: give three numbers X,Y,Z [m/s²] in world axes (e.g. --gravity=0,0,-9.81), or "
+            "--gravity alone for 9.81 m/s² along −z"
         )
-    group.add_argument(
-        "--degrees",
-        action="store_true",
-        help="read --q0 in degrees"
-        + (" and --v0 in degrees per second" if velocity else "")
-        + " (its revolute joints; prismatic ones stay in m"
-        + (", m/s" if velocity else "")
-        + ")",
+    return tuple(parse_vector(text, name, 3).tolist())
+
+
+#: How many numbers ``--payload`` takes, and what they are.
+_PAYLOAD_FORMS = {1: "MASS", 4: "MASS,X,Y,Z", 7: "MASS,X,Y,Z,IXX,IYY,IZZ"}
+
+
+def parse_payload(text: str, name: str = "payload") -> Payload:
+    """``--payload MASS[,X,Y,Z[,IXX,IYY,IZZ]]``: the load (its centre and moments 0 when not given)."""
+    values = parse_vector(text, name)
+    if len(values) not in _PAYLOAD_FORMS:
+        raise InvalidInput(
+            f"--payload {text} has {len(values)} values; give {', '.join(_PAYLOAD_FORMS.values())} "
+            "(kg, m in the task frame, kg·m²)"
+        )
+    mass, position, inertia = values[0], values[1:4], values[4:7]
+    return Payload(mass, position if position.size else (0.0, 0.0, 0.0), inertia if inertia.size else (0.0, 0.0, 0.0))
+
+
+def _joint_names(text: str, name: str) -> tuple[str, ...]:
+    return tuple(joint.strip() for joint in text.split(",") if joint.strip())
+
+
+_ROBOT_HELP = "URDF path, 'planar3' (the paper's arm) or an example-robot-data arm: panda, xarm7, baxter, tiago, ..."
+
+
+@dataclass(frozen=True)
+class RobotModelSettings(Settings):
+    """The arm and its model, as :func:`torqueopt.load_robot` and the atlas's
+    :class:`~torqueopt.atlas.jobs.RobotSpec` take them (:meth:`load`, :meth:`spec`)."""
+
+    robot: str | None = setting(None, _ROBOT_HELP, cli_required=True)
+    frame: str | None = setting(None, "task frame (default: the robot's end effector, 'tip' for planar3)")
+    task: str | None = setting(
+        None,
+        lambda: (
+            f"task: {', '.join(f'{k} (m={v})' for k, v in TASK_DIMENSIONS.items())}; "
+            "default xy for planar3, position otherwise"
+        ),
+    )
+    torque_limit: tuple[float, ...] | None = setting(
+        None,
+        "symmetric torque limits [N·m], one value for all joints or one per joint, inf for unbounded "
+        "(default: URDF effort limits)",
+        unit="N·m",
+        metavar="TAU",
+        parse=numbers(allow_infinite=True),
+    )
+    gravity: bool | tuple[float, float, float] | None = setting(
+        None,
+        "gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
+        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
+        unit="m/s²",
+        metavar="X,Y,Z",
+        parse=parse_gravity,
+        const=True,
+        negation=("--no-gravity", "no gravity"),
+    )
+    payload: Payload | None = setting(
+        None,
+        "a load fixed to the task frame: its mass [kg], its centre of mass in the task frame [m] (default at "
+        "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
+        "(default 0: a point mass)",
+        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
+        parse=parse_payload,
+    )
+    joint_dynamics: str | None = setting(
+        None,
+        "urdf: model the URDF's joint damping and friction (<dynamics damping friction>) in the controller's "
+        "bias torque and in the plant (Pinocchio or MuJoCo); off: in neither "
+        f"(default {DEFAULT_JOINT_DYNAMICS})",
+        choices=JOINT_DYNAMICS,
     )
 
+    def spec(self):
+        """The :class:`~torqueopt.atlas.jobs.RobotSpec` of these settings (the atlas's and tune's robot)."""
+        from ..atlas.jobs import RobotSpec
 
-def start_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray:
-    """The start configuration ``--q0`` and ``--degrees`` give (one value per joint), else the robot's default."""
-    if args.q0 is None:
-        return robot.default_configuration
-    angles = parse_vector(args.q0, "q0", robot.nv)
-    return robot.configuration(in_radians(angles, robot) if args.degrees else angles)
+        return RobotSpec(
+            self.robot,
+            frame=self.frame,
+            task=self.task,
+            torque_limit=self.torque_limit,
+            gravity=self.gravity,
+            payload=self.payload,
+            joint_dynamics=self.joint_dynamics,
+        )
+
+
+@dataclass(frozen=True)
+class RobotSettings(RobotModelSettings):
+    """The arm of one movement: :class:`RobotModelSettings` and the joints to lock."""
+
+    TITLE = "robot"
+
+    lock: tuple[str, ...] = setting(
+        (),
+        "comma-separated joints of the task chain to lock at their reference value "
+        "(joints outside the chain are always locked)",
+        metavar="JOINTS",
+        parse=_joint_names,
+    )
+
+    def load(self, command: str) -> Robot:
+        """The robot, loaded (a slow load says so, as ``torqueopt COMMAND: loading robot ...``)."""
+        with said_if_slow(f"torqueopt {command}: loading robot '{self.robot}'"):
+            return load_robot(
+                self.robot,
+                frame=self.frame,
+                task=self.task,
+                torque_limit=self.torque_limit,
+                gravity=self.gravity,
+                lock=list(self.lock),
+                payload=self.payload,
+                joint_dynamics=self.joint_dynamics,
+            )
+
+
+@dataclass(frozen=True)
+class OptionalRobotSettings(RobotSettings):
+    """:class:`RobotSettings` for a command that may run without ``--robot`` and has no ``--joint-dynamics``."""
+
+    robot: str | None = setting(None, _ROBOT_HELP)
+    joint_dynamics: str | None = setting(None, cli=False)
+
+
+def sized(values, name: str, size: int) -> np.ndarray:
+    """``values`` of option ``--name`` as an array, refused unless there are ``size`` of them (one per joint)."""
+    if len(values) != size:
+        raise InvalidInput(f"--{name} has {count_values(len(values))} but needs {size}")
+    return np.array(values, dtype=float)
+
+
+@dataclass(frozen=True)
+class StartSettings(Settings):
+    """The state the movement starts from: ``--q0``, ``--v0`` and ``--degrees``."""
+
+    TITLE = "movement"
+
+    q0: tuple[float, ...] | None = setting(
+        None,
+        "start configuration, one value per joint [rad; m for a prismatic joint] (default: the robot's SRDF or "
+        "neutral configuration)",
+        metavar="ANGLES",
+        parse=numbers(),
+    )
+    v0: tuple[float, ...] | None = setting(
+        None,
+        "start joint velocities, one value per joint [rad/s; m/s for a prismatic joint] (default: at rest)",
+        metavar="RATES",
+        parse=numbers(),
+    )
+    degrees: bool = setting(
+        False,
+        "read --q0 in degrees and --v0 in degrees per second (its revolute joints; prismatic ones stay in m, m/s)",
+        switch="on",
+    )
+
+    def configuration(self, robot: Robot) -> np.ndarray:
+        """The start configuration (one value per joint), else the robot's default."""
+        return robot.default_configuration if self.q0 is None else robot.configuration(self._per_joint("q0", robot))
+
+    def velocity(self, robot: Robot) -> np.ndarray | None:
+        """The start joint velocities (one value per joint), else None (at rest)."""
+        return None if self.v0 is None else self._per_joint("v0", robot)
+
+    def _per_joint(self, name: str, robot: Robot) -> np.ndarray:
+        values = sized(getattr(self, name), name, robot.nv)
+        return in_radians(values, robot) if self.degrees else values
+
+
+@dataclass(frozen=True)
+class RestStartSettings(StartSettings):
+    """:class:`StartSettings` of a movement that starts at rest (no ``--v0``)."""
+
+    v0: tuple[float, ...] | None = setting(None, cli=False)
+    degrees: bool = setting(False, "read --q0 in degrees (its revolute joints; prismatic ones stay in m)", switch="on")
 
 
 def in_radians(values: np.ndarray, robot: Robot) -> np.ndarray:
@@ -74,127 +224,6 @@ def in_radians(values: np.ndarray, robot: Robot) -> np.ndarray:
     is a length [m] (or m/s) and stays as given."""
     rotational = np.array([kind != "prismatic" for kind in robot.joint_kinds])
     return np.where(rotational, np.radians(values), values)
-
-
-def start_velocity_from_args(args: argparse.Namespace, robot: Robot) -> np.ndarray | None:
-    """The start joint velocities ``--v0`` and ``--degrees`` give (one value per joint), read as ``--q0`` is; else None (at rest)."""
-    if args.v0 is None:
-        return None
-    rates = parse_vector(args.v0, "v0", robot.nv)
-    return in_radians(rates, robot) if args.degrees else rates
-
-
-def add_joint_dynamics_option(group) -> None:
-    """``--joint-dynamics urdf|off``: model the URDF's joint damping and friction (controller and plant), or not."""
-    group.add_argument(
-        "--joint-dynamics",
-        choices=JOINT_DYNAMICS,
-        default=None,
-        help="urdf: model the URDF's joint damping and friction (<dynamics damping friction>) in the controller's "
-        "bias torque and in the plant (Pinocchio or MuJoCo); off: in neither "
-        f"(default {DEFAULT_JOINT_DYNAMICS})",
-    )
-
-
-def add_gravity_and_payload_options(group) -> None:
-    """``--gravity [X,Y,Z]``, ``--no-gravity`` and ``--payload``: what :func:`gravity_from_args` and
-    :func:`payload_from_args` read."""
-    group.add_argument(
-        "--gravity",
-        nargs="?",
-        const=True,
-        default=None,
-        metavar="X,Y,Z",
-        help="gravity: alone, along −z at 9.81 m/s²; with a vector, that vector in world axes [m/s²], e.g. "
-        "--gravity=-9.81,0,0 for an arm on a wall (default: off for planar3, as in the paper; on otherwise)",
-    )
-    group.add_argument("--no-gravity", dest="gravity", action="store_const", const=False, help="no gravity")
-    group.add_argument(
-        "--payload",
-        metavar="MASS[,X,Y,Z[,IXX,IYY,IZZ]]",
-        help="a load fixed to the task frame: its mass [kg], its centre of mass in the task frame [m] (default at "
-        "the frame's origin) and its principal moments of inertia about it along the frame's axes [kg·m²] "
-        "(default 0: a point mass)",
-    )
-
-
-def add_robot_options(parser: argparse.ArgumentParser, required: bool = True, joint_dynamics: bool = False) -> None:
-    group = parser.add_argument_group("robot")
-    group.add_argument(
-        "--robot",
-        required=required,
-        help="URDF path, 'planar3' (the paper's arm) or an example-robot-data arm: panda, xarm7, baxter, tiago, ...",
-    )
-    group.add_argument("--frame", help="task frame (default: the robot's end effector, 'tip' for planar3)")
-    group.add_argument(
-        "--task",
-        help=f"task: {', '.join(f'{k} (m={v})' for k, v in TASK_DIMENSIONS.items())}; "
-        "default xy for planar3, position otherwise",
-    )
-    group.add_argument(
-        "--torque-limit",
-        metavar="TAU",
-        help="symmetric torque limits [N·m], one value for all joints or one per joint, inf for unbounded "
-        "(default: URDF effort limits)",
-    )
-    add_gravity_and_payload_options(group)
-    if joint_dynamics:
-        add_joint_dynamics_option(group)
-    group.add_argument(
-        "--lock",
-        metavar="JOINTS",
-        help="comma-separated joints of the task chain to lock at their reference value "
-        "(joints outside the chain are always locked)",
-    )
-
-
-def robot_from_args(args: argparse.Namespace) -> Robot:
-    torque_limit = (
-        None if args.torque_limit is None else parse_vector(args.torque_limit, "torque-limit", allow_infinite=True)
-    )
-    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else []
-    with said_if_slow(f"torqueopt {args.command}: loading robot '{args.robot}'"):
-        return load_robot(
-            args.robot,
-            frame=args.frame,
-            task=args.task,
-            torque_limit=torque_limit,
-            gravity=gravity_from_args(args),
-            lock=lock,
-            payload=payload_from_args(args),
-            joint_dynamics=getattr(args, "joint_dynamics", None),
-        )
-
-
-def gravity_from_args(args: argparse.Namespace):
-    """``--gravity`` alone (True), ``--no-gravity`` (False), ``--gravity X,Y,Z`` (the vector [m/s²]) or None (the robot's default)."""
-    if args.gravity is None or isinstance(args.gravity, bool):
-        return args.gravity
-    text = args.gravity
-    if len(text.split(",")) != 3:
-        raise InvalidInput(
-            f"--gravity {text}: give three numbers X,Y,Z [m/s²] in world axes (e.g. --gravity=0,0,-9.81), or "
-            "--gravity alone for 9.81 m/s² along −z"
-        )
-    return parse_vector(text, "gravity", 3)
-
-
-#: How many numbers ``--payload`` takes, and what they are.
-_PAYLOAD_FORMS = {1: "MASS", 4: "MASS,X,Y,Z", 7: "MASS,X,Y,Z,IXX,IYY,IZZ"}
-
-
-def payload_from_args(args: argparse.Namespace) -> Payload | None:
-    """The :class:`~torqueopt.Payload` ``--payload MASS[,X,Y,Z[,IXX,IYY,IZZ]]`` gives, else None."""
-    if args.payload is None:
-        return None
-    values = parse_vector(args.payload, "payload")
-    if len(values) not in _PAYLOAD_FORMS:
-        raise InvalidInput(
-            f"--payload {args.payload} has {len(values)} values; give {', '.join(_PAYLOAD_FORMS.values())} "
-            "(kg, m in the task frame, kg·m²)"
-        )
-    mass, position, inertia = values[0], values[1:4], values[4:7]
-    return Payload(mass, position if position.size else (0.0, 0.0, 0.0), inertia if inertia.size else (0.0, 0.0, 0.0))
 
 
 def importable_from_here(spec: str) -> None:

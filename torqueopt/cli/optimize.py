@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 from ..errors import InvalidInput
 from ..io import writable_path, writable_paths
@@ -20,21 +21,111 @@ from ..optimal.whole_path import MAX_ITERATIONS, transcription_intervals
 from ..progress import interrupt_deferred, progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
+from ..settings import Settings, group, numbers, positive, positive_in, setting, time_step, whole, whole_at_least
 from ..units import joint_unit
 from . import EXIT_OK, EXIT_STOPPED
-from .common import (
-    add_robot_options,
-    add_start_options,
-    parse_positive,
-    parse_vector,
-    parse_whole,
-    robot_from_args,
-    start_from_args,
-    torque_table,
-)
-from .paths import add_path_options, trajectory_from_args
+from .common import OptionalRobotSettings, RestStartSettings, sized, torque_table
+from .paths import PathSettings
 
-__all__ = ["add_parser", "format_optimal_summary"]
+__all__ = ["OptimizeSettings", "add_parser", "format_optimal_summary"]
+
+
+def _weight(text: str, name: str) -> str | tuple[float, ...]:
+    return text if text in WEIGHTS else numbers()(text, name)
+
+
+@dataclass(frozen=True)
+class SolverSettings(Settings):
+    """The keywords of :func:`torqueopt.optimize` the command line gives, at the same defaults (a test holds
+    them to its signature); ``weight`` a name or the diagonal's numbers, checked against the arm when it loads."""
+
+    TITLE = "optimisation"
+
+    dt: float = time_step(
+        "simulation grid of the result, its cost and the replay [s]; must divide the duration (default 0.001)",
+        section="movement",
+    )
+    weight: str | tuple[float, ...] = setting(
+        "identity",
+        f"torque weight: {', '.join(WEIGHTS)} (S = diag(2/(τ⁺−τ⁻)), Eq. (33)) or the diagonal of W, one value "
+        "per joint (default identity)",
+        metavar="W",
+        parse=_weight,
+    )
+    end: str = setting("rest", "end at rest (v(T) = 0) or free (default rest)", choices=ENDS)
+    torque_bounds: bool = setting(False, "impose τ⁻ ≤ τ ≤ τ⁺ as hard constraints", switch="on")
+    joint_limits: bool = setting(False, "impose the URDF's joint position and velocity limits", switch="on")
+    grid_step: float = setting(
+        DEFAULT_GRID_STEP,
+        f"longest transcription interval [s] (default {DEFAULT_GRID_STEP})",
+        unit="s",
+        check=positive_in("s"),
+        parse=positive,
+        metavar="H",
+    )
+    warm_start: str = setting(
+        "pinv", lambda: f"resolver whose run starts the solve: {', '.join(resolver_names())}", metavar="RESOLVER"
+    )
+    transcription: str = setting(
+        "direct",
+        "direct (Pinocchio's first derivatives, --hessian) or shooting (the same program with CasADi's exact "
+        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default direct)",
+        choices=TRANSCRIPTIONS,
+    )
+    compiled: bool = setting(
+        False,
+        "with --transcription shooting: compile the problem's functions to C once (kept in ~/.cache/torqueopt)",
+        switch="on",
+    )
+    hessian: str = setting(
+        "auto",
+        "Hessian of the Lagrangian: gauss-newton, limited-memory (L-BFGS), or auto: Gauss-Newton, then "
+        "L-BFGS from where it stopped if it did not converge (default auto)",
+        choices=HESSIANS,
+    )
+    tolerance: float = setting(1e-8, "IPOPT tolerance (default 1e-8)", check=positive_in(), parse=positive)
+    max_iterations: int = setting(
+        500,
+        "IPOPT iteration limit of each run (default 500)",
+        check=whole_at_least(1, MAX_ITERATIONS),
+        parse=whole(1, MAX_ITERATIONS),
+        metavar="N",
+    )
+    max_nonzeros: int = setting(
+        DEFAULT_MAX_NONZEROS,
+        "refuse a transcription of more than N nonzeros (constraint Jacobian and Hessian, about 280 bytes "
+        f"each), counted before it is built (default {DEFAULT_MAX_NONZEROS:.0e})",
+        check=whole_at_least(1),
+        parse=whole(1),
+        metavar="N",
+    )
+    max_time: float | None = setting(
+        None, "wall-time limit of the solve [s] (default none)", unit="s", parse=positive, metavar="SECONDS"
+    )
+    verbose: bool = setting(False, "print IPOPT's iteration log", switch="on")
+
+
+@dataclass(frozen=True)
+class OptimizeSettings(Settings):
+    """Every setting of ``torqueopt optimize``."""
+
+    TITLE = "optimisation"
+
+    model: OptionalRobotSettings = group(OptionalRobotSettings)
+    start: RestStartSettings = group(RestStartSettings)
+    tip_path: PathSettings = group(PathSettings)
+    solver: SolverSettings = group(SolverSettings)
+    out: str | None = setting(
+        None,
+        "write the run: .csv (with .csv.json and .csv.optimal.json) or .npz; with --paper, the study's folder",
+        metavar="PATH",
+    )
+    paper: bool = setting(
+        False,
+        "run the local-against-global study on the paper's arm and movements instead; needs --out DIR "
+        "(writes global.md, global.json and figures)",
+        switch="on",
+    )
 
 
 def add_parser(subparsers) -> None:
@@ -53,104 +144,26 @@ def add_parser(subparsers) -> None:
             "written and labelled as such."
         ),
     )
-    add_robot_options(parser, required=False)  # --paper needs none
-    group = parser.add_argument_group("movement")
-    add_start_options(group)
-    add_path_options(group)
-    group.add_argument(
-        "--dt",
-        default="0.001",
-        help="simulation grid of the result, its cost and the replay [s]; must divide the duration (default 0.001)",
-    )
-    group = parser.add_argument_group("optimisation")
-    group.add_argument(
-        "--weight",
-        default="identity",
-        metavar="W",
-        help=f"torque weight: {', '.join(WEIGHTS)} (S = diag(2/(τ⁺−τ⁻)), Eq. (33)) or the diagonal of W, one value "
-        "per joint (default identity)",
-    )
-    group.add_argument("--end", default="rest", choices=ENDS, help="end at rest (v(T) = 0) or free (default rest)")
-    group.add_argument("--torque-bounds", action="store_true", help="impose τ⁻ ≤ τ ≤ τ⁺ as hard constraints")
-    group.add_argument(
-        "--joint-limits", action="store_true", help="impose the URDF's joint position and velocity limits"
-    )
-    group.add_argument(
-        "--grid-step",
-        default=repr(DEFAULT_GRID_STEP),
-        metavar="H",
-        help=f"longest transcription interval [s] (default {DEFAULT_GRID_STEP})",
-    )
-    group.add_argument(
-        "--warm-start",
-        default="pinv",
-        metavar="RESOLVER",
-        help=f"resolver whose run starts the solve: {', '.join(resolver_names())}",
-    )
-    group.add_argument(
-        "--transcription",
-        default="direct",
-        choices=TRANSCRIPTIONS,
-        help="direct (Pinocchio's first derivatives, --hessian) or shooting (the same program with CasADi's exact "
-        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default direct)",
-    )
-    group.add_argument(
-        "--compiled",
-        action="store_true",
-        help="with --transcription shooting: compile the problem's functions to C once (kept in ~/.cache/torqueopt)",
-    )
-    group.add_argument(
-        "--hessian",
-        default="auto",
-        choices=HESSIANS,
-        help="Hessian of the Lagrangian: gauss-newton, limited-memory (L-BFGS), or auto: Gauss-Newton, then "
-        "L-BFGS from where it stopped if it did not converge (default auto)",
-    )
-    group.add_argument("--tolerance", default="1e-8", help="IPOPT tolerance (default 1e-8)")
-    group.add_argument(
-        "--max-iterations", default="500", metavar="N", help="IPOPT iteration limit of each run (default 500)"
-    )
-    group.add_argument(
-        "--max-nonzeros",
-        default=f"{DEFAULT_MAX_NONZEROS:.0e}",
-        metavar="N",
-        help="refuse a transcription of more than N nonzeros (constraint Jacobian and Hessian, about 280 bytes "
-        f"each), counted before it is built (default {DEFAULT_MAX_NONZEROS:.0e})",
-    )
-    group.add_argument("--max-time", metavar="SECONDS", help="wall-time limit of the solve [s] (default none)")
-    group.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
-    group.add_argument(
-        "--out",
-        metavar="PATH",
-        help="write the run: .csv (with .csv.json and .csv.optimal.json) or .npz; with --paper, the study's folder",
-    )
-    group.add_argument(
-        "--paper",
-        action="store_true",
-        help="run the local-against-global study on the paper's arm and movements instead; needs --out DIR "
-        "(writes global.md, global.json and figures)",
-    )
+    OptimizeSettings.add_arguments(parser)
     parser.set_defaults(handler=optimize_command)
 
 
 def optimize_command(args: argparse.Namespace) -> int:
-    if args.paper:
-        return _paper_study(args)
-    if args.robot is None:
+    settings = OptimizeSettings.from_arguments(args)
+    if settings.paper:
+        return _paper_study(settings.out)
+    if settings.model.robot is None:
         raise InvalidInput("give --robot (or --paper --out DIR for the local-against-global study)")
-    trajectory = trajectory_from_args(args)
-    dt = parse_positive(args.dt, "dt")
-    grid_step = parse_positive(args.grid_step, "grid-step")
-    tolerance = parse_positive(args.tolerance, "tolerance")
-    max_iterations = parse_whole(args.max_iterations, "max-iterations", minimum=1, maximum=MAX_ITERATIONS)
-    max_time = None if args.max_time is None else parse_positive(args.max_time, "max-time")
-    max_nonzeros = parse_whole(args.max_nonzeros, "max-nonzeros", minimum=1)
-    robot = robot_from_args(args)
-    weight = args.weight if args.weight in WEIGHTS else parse_vector(args.weight, "weight", robot.nv)
-    q0 = start_from_args(args, robot)
-    if args.out:
-        writable_paths(OptimalResult.files(args.out))
-    intervals = transcription_intervals(trajectory.duration, grid_step)
+    trajectory = settings.tip_path.trajectory(settings.start.degrees)
+    robot = settings.model.load("optimize")
+    solver = settings.solver.as_keywords()
+    if solver["weight"] not in WEIGHTS:
+        solver["weight"] = sized(solver["weight"], "weight", robot.nv)
+    q0 = settings.start.configuration(robot)
+    if settings.out:
+        writable_paths(OptimalResult.files(settings.out))
+    intervals = transcription_intervals(trajectory.duration, solver["grid_step"])
+    max_iterations = solver["max_iterations"]
     description = (
         f"torqueopt optimize: IPOPT on {intervals:,} intervals of {trajectory.duration / intervals * 1e3:.4g} ms "
         f"(up to {max_iterations} iterations per run)"
@@ -161,7 +174,9 @@ def optimize_command(args: argparse.Namespace) -> int:
     def iteration(number: int) -> bool:
         # The bar (or its one line) starts with IPOPT's first iteration, after every check has passed.
         if not bars:
-            bars.append(progress_bar(description, total=max_iterations, unit="iteration", enabled=not args.verbose))
+            bars.append(
+                progress_bar(description, total=max_iterations, unit="iteration", enabled=not solver["verbose"])
+            )
         bars[0].n = number  # each IPOPT run counts from 0
         bars[0].refresh()
         return bool(interrupted)  # a Ctrl-C stops IPOPT at its next iteration (and any run after it at its first)
@@ -174,21 +189,7 @@ def optimize_command(args: argparse.Namespace) -> int:
                 robot,
                 trajectory,
                 q0,
-                weight=weight,
-                end=args.end,
-                torque_bounds=args.torque_bounds,
-                joint_limits=args.joint_limits,
-                dt=dt,
-                grid_step=grid_step,
-                warm_start=args.warm_start,
-                transcription=args.transcription,
-                compiled=args.compiled,
-                hessian=args.hessian,
-                tolerance=tolerance,
-                max_iterations=max_iterations,
-                max_time=max_time,
-                max_nonzeros=max_nonzeros,
-                verbose=args.verbose,
+                **solver,
                 progress=iteration,
             )
     finally:
@@ -196,9 +197,9 @@ def optimize_command(args: argparse.Namespace) -> int:
             bar.close()
     # Files first, then the summary, so that a closed stdout cannot cost a result.
     lines = []
-    if args.out:
-        result.to_csv(args.out)
-        *files, optimal = OptimalResult.files(args.out)
+    if settings.out:
+        result.to_csv(settings.out)
+        *files, optimal = OptimalResult.files(settings.out)
         lines.append(f"wrote {', '.join(map(str, files))} and {optimal}")
     print(format_optimal_summary(robot, result))
     for line in lines:
@@ -206,12 +207,12 @@ def optimize_command(args: argparse.Namespace) -> int:
     return EXIT_OK if result.optimal else EXIT_STOPPED
 
 
-def _paper_study(args: argparse.Namespace) -> int:
+def _paper_study(folder: str | None) -> int:
     from ..studies import local_global
 
-    if not args.out:
+    if not folder:
         raise InvalidInput("--paper needs --out DIR, the folder for global.md, global.json and the figures")
-    out = writable_path(args.out, directory=True)
+    out = writable_path(folder, directory=True)
     if out.exists() and not out.is_dir():
         raise InvalidInput(f"--out '{out}' exists and is not a folder")
     writable_paths(local_global.local_global_files(out))

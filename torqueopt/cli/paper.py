@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import parse_positive, parse_vector
 from ..io import json_file_with, refuse_foreign, writable_path, writable_paths
 from ..paper import MOVEMENTS, PAPER, PAPER_RUNS, PaperScenario, paper_files, run_paper, write_paper
 from ..paper.runner import check_scenario
@@ -17,7 +18,6 @@ from ..studies.remedies import RemediesStudy, planned_runs, run_remedies
 from ..studies.remedies.report import answer_lines, kept_text
 from ..whiplash import DEFAULT_GROWTH_FACTOR, DEFAULT_LIMIT_FACTOR
 from . import EXIT_OK, EXIT_STOPPED
-from .common import parse_positive, parse_vector
 
 __all__ = ["add_parser", "scenario_from_args"]
 

@@ -1,15 +1,17 @@
-"""``--path`` and its options: the trajectory a command follows (``torqueopt run``)."""
+"""``--path`` and its options: the trajectory a command follows (``torqueopt run``, ``torqueopt optimize``)."""
 
 from __future__ import annotations
 
-import argparse
 import math
+from dataclasses import dataclass
+
+import numpy as np
 
 from ..errors import InvalidInput
+from ..settings import Settings, numbers, positive, setting, whole
 from ..trajectory import Circle, MinimumJerkLine, StraightLine, Trajectory, WaypointPath
-from .common import parse_positive, parse_vector, parse_whole
 
-__all__ = ["PATHS", "add_path_options", "trajectory_from_args"]
+__all__ = ["PATHS", "PathSettings"]
 
 PATHS = ("line", "min-jerk", "circle", "csv:FILE")
 DEFAULT_DURATION = 2.0
@@ -30,56 +32,7 @@ _APPLIES = {
 }
 
 
-def add_path_options(group: argparse._ArgumentGroup) -> None:
-    """Add ``--path`` and the options of each kind of path to ``group``."""
-    group.add_argument(
-        "--path",
-        default="line",
-        metavar="KIND",
-        help="tip path: line (the paper's: constant acceleration, then deceleration), min-jerk (straight, "
-        "minimum-jerk profile), circle (rest-to-rest, closes at the start), csv:FILE (spline through timed "
-        "waypoints, columns t,x,y[,z]; a pose task also takes an orientation, columns t,x,y,z,qw,qx,qy,qz or, "
-        "with --rpy, t,x,y,z,roll,pitch,yaw); default line",
-    )
-    group.add_argument(
-        "--direction", metavar="D", help="line and min-jerk: direction in world axes, 2 values for xy, 3 otherwise"
-    )
-    group.add_argument(
-        "--duration",
-        metavar="T",
-        help=f"line, min-jerk and circle: movement duration [s] (default {DEFAULT_DURATION}); a csv path lasts until its last time",
-    )
-    group.add_argument(
-        "--accel", metavar="A", help="line: tangential acceleration [m/s²] (default √2); min-jerk: length a·T²/4"
-    )
-    group.add_argument("--length", metavar="L", help="min-jerk: path length [m] (default that of the line, a·T²/4)")
-    group.add_argument("--radius", metavar="R", help=f"circle: radius [m] (default {DEFAULT_RADIUS})")
-    group.add_argument("--turns", metavar="N", help="circle: whole turns (default 1)")
-    group.add_argument("--normal", metavar="N", help="circle, 3-D tasks: plane normal, 3 values (default 0,0,1)")
-    group.add_argument(
-        "--centre",
-        metavar="D",
-        help="circle: direction from the start to the centre (default: towards the world z axis)",
-    )
-    group.add_argument(
-        "--absolute",
-        action="store_true",
-        default=None,
-        help="csv: the waypoints (and rotations) are world coordinates (default: a shape placed at the tip's "
-        "start, its rotations turning the frame from its start orientation about the world axes)",
-    )
-    group.add_argument(
-        "--rpy",
-        action="store_true",
-        default=None,
-        help="csv, pose task: the orientation columns are roll,pitch,yaw, R = Rz(yaw)·Ry(pitch)·Rx(roll), in "
-        "radians (in degrees with --degrees)",
-    )
-
-
-def trajectory_from_args(args: argparse.Namespace) -> Trajectory:
-    """The trajectory ``--path`` and its options describe; InvalidInput names a bad or misplaced option."""
-    text = str(args.path)
+def _path_kind(text: str, name: str) -> str:
     kind, colon, file_name = text.partition(":")
     if (
         kind not in ("line", "min-jerk", "circle", "csv")
@@ -87,26 +40,94 @@ def trajectory_from_args(args: argparse.Namespace) -> Trajectory:
         or (kind != "csv" and colon)
     ):
         raise InvalidInput(f"--path: '{text}' is not a path; choose one of {', '.join(PATHS)}")
-    for option, kinds in _APPLIES.items():
-        if getattr(args, option, None) is not None and kind not in kinds:
-            raise InvalidInput(f"--{option} applies to --path {' or '.join(kinds)}, not to --path {kind}")
-    duration = DEFAULT_DURATION if args.duration is None else parse_positive(args.duration, "duration")
-    if kind in ("line", "min-jerk"):
-        if args.direction is None:
-            raise InvalidInput(f"--path {kind} needs --direction (e.g. --direction 1,1)")
-        direction = parse_vector(args.direction, "direction")
-        accel = math.sqrt(2.0) if args.accel is None else parse_positive(args.accel, "accel")
-        if kind == "line":
-            return StraightLine(direction, accel=accel, duration=duration)
-        if args.length is not None and args.accel is not None:
-            raise InvalidInput("--length and --accel both set the min-jerk line's length; give one")
-        length = accel * duration**2 / 4.0 if args.length is None else parse_positive(args.length, "length")
-        return MinimumJerkLine(direction, length=length, duration=duration)
-    if kind == "circle":
-        radius = DEFAULT_RADIUS if args.radius is None else parse_positive(args.radius, "radius")
-        turns = 1 if args.turns is None else parse_whole(args.turns, "turns", minimum=1)
-        normal = None if args.normal is None else parse_vector(args.normal, "normal", 3)
-        centre = None if args.centre is None else parse_vector(args.centre, "centre")
-        return Circle(radius, duration, turns=turns, normal=normal, centre_direction=centre)
-    degrees = bool(getattr(args, "degrees", False))
-    return WaypointPath.from_csv(file_name, absolute=bool(args.absolute), rpy=bool(args.rpy), degrees=degrees)
+    return text
+
+
+@dataclass(frozen=True)
+class PathSettings(Settings):
+    """``--path`` and the options of each kind of path: the trajectory the tip follows (:meth:`trajectory`)."""
+
+    TITLE = "movement"
+
+    path: str = setting(
+        "line",
+        "tip path: line (the paper's: constant acceleration, then deceleration), min-jerk (straight, "
+        "minimum-jerk profile), circle (rest-to-rest, closes at the start), csv:FILE (spline through timed "
+        "waypoints, columns t,x,y[,z]; a pose task also takes an orientation, columns t,x,y,z,qw,qx,qy,qz or, "
+        "with --rpy, t,x,y,z,roll,pitch,yaw); default line",
+        metavar="KIND",
+        parse=_path_kind,
+    )
+    direction: tuple[float, ...] | None = setting(
+        None, "line and min-jerk: direction in world axes, 2 values for xy, 3 otherwise", metavar="D", parse=numbers()
+    )
+    duration: float | None = setting(
+        None,
+        f"line, min-jerk and circle: movement duration [s] (default {DEFAULT_DURATION}); a csv path lasts until its "
+        "last time",
+        unit="s",
+        metavar="T",
+        parse=positive,
+    )
+    accel: float | None = setting(
+        None,
+        "line: tangential acceleration [m/s²] (default √2); min-jerk: length a·T²/4",
+        unit="m/s²",
+        metavar="A",
+        parse=positive,
+    )
+    length: float | None = setting(
+        None, "min-jerk: path length [m] (default that of the line, a·T²/4)", unit="m", metavar="L", parse=positive
+    )
+    radius: float | None = setting(
+        None, f"circle: radius [m] (default {DEFAULT_RADIUS})", unit="m", metavar="R", parse=positive
+    )
+    turns: int | None = setting(None, "circle: whole turns (default 1)", metavar="N", parse=whole(1))
+    normal: tuple[float, float, float] | None = setting(
+        None, "circle, 3-D tasks: plane normal, 3 values (default 0,0,1)", metavar="N", parse=numbers(3)
+    )
+    centre: tuple[float, ...] | None = setting(
+        None,
+        "circle: direction from the start to the centre (default: towards the world z axis)",
+        metavar="D",
+        parse=numbers(),
+    )
+    absolute: bool = setting(
+        False,
+        "csv: the waypoints (and rotations) are world coordinates (default: a shape placed at the tip's "
+        "start, its rotations turning the frame from its start orientation about the world axes)",
+        switch="on",
+    )
+    rpy: bool = setting(
+        False,
+        "csv, pose task: the orientation columns are roll,pitch,yaw, R = Rz(yaw)·Ry(pitch)·Rx(roll), in "
+        "radians (in degrees with --degrees)",
+        switch="on",
+    )
+
+    def trajectory(self, degrees: bool = False) -> Trajectory:
+        """The trajectory these settings describe (``degrees``: a csv path's roll, pitch, yaw in degrees);
+        InvalidInput names a misplaced option."""
+        kind, _, file_name = self.path.partition(":")
+        for option, kinds in _APPLIES.items():
+            if getattr(self, option) not in (None, False) and kind not in kinds:
+                raise InvalidInput(f"--{option} applies to --path {' or '.join(kinds)}, not to --path {kind}")
+        duration = DEFAULT_DURATION if self.duration is None else self.duration
+        if kind in ("line", "min-jerk"):
+            if self.direction is None:
+                raise InvalidInput(f"--path {kind} needs --direction (e.g. --direction 1,1)")
+            direction = np.array(self.direction)
+            accel = math.sqrt(2.0) if self.accel is None else self.accel
+            if kind == "line":
+                return StraightLine(direction, accel=accel, duration=duration)
+            if self.length is not None and self.accel is not None:
+                raise InvalidInput("--length and --accel both set the min-jerk line's length; give one")
+            length = accel * duration**2 / 4.0 if self.length is None else self.length
+            return MinimumJerkLine(direction, length=length, duration=duration)
+        if kind == "circle":
+            radius = DEFAULT_RADIUS if self.radius is None else self.radius
+            turns = 1 if self.turns is None else self.turns
+            normal = None if self.normal is None else np.array(self.normal)
+            centre = None if self.centre is None else np.array(self.centre)
+            return Circle(radius, duration, turns=turns, normal=normal, centre_direction=centre)
+        return WaypointPath.from_csv(file_name, absolute=self.absolute, rpy=self.rpy, degrees=degrees)

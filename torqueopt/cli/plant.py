@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-import argparse
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InvalidInput
 from ..plants import Plant, make_plant, plant_names, plant_option_texts
 from ..result import SimResult
+from ..settings import Settings, setting
 
-__all__ = ["add_plant_options", "plant_from_args", "plant_summary"]
+__all__ = ["RunPlantSettings", "plant_summary"]
 
 #: The plant options ``--plant-option`` takes, with the defaults ``--help`` states
 #: (the same as :data:`torqueopt.plants.mujoco.OPTION_DEFAULTS`, which a test holds them to).
@@ -28,32 +29,7 @@ PLANT_OPTIONS = {
 }
 
 
-def add_plant_options(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("plant (what the torque acts on)")
-    group.add_argument(
-        "--plant",
-        choices=plant_names(),
-        help="pinocchio: the robot's own model, RK4 with the torque held (the paper's); mujoco: a MuJoCo model of "
-        "the arm (its URDF compiled by MuJoCo, or --mjcf) advanced by MuJoCo, the torque computed from its state "
-        "(needs pip install 'torqueopt[mujoco]'); default pinocchio, mujoco with --mjcf",
-    )
-    group.add_argument(
-        "--mjcf",
-        metavar="FILE",
-        help="a MuJoCo MJCF model as the plant (implies --plant mujoco), its joint names matching the URDF's; "
-        "the controller still uses the URDF",
-    )
-    defaults = "; ".join(f"{key}= {text} (default {default})" for key, (default, text) in PLANT_OPTIONS.items())
-    group.add_argument(
-        "--plant-option",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help=f"a MuJoCo plant option, repeatable or comma-separated: {defaults}",
-    )
-
-
-def _plant_option_values(texts: list[str]) -> dict[str, str]:
+def _plant_option_values(texts, name) -> dict[str, str]:
     options = plant_option_texts(texts)
     unknown = [key for key in options if key not in PLANT_OPTIONS]
     if unknown:
@@ -61,16 +37,48 @@ def _plant_option_values(texts: list[str]) -> dict[str, str]:
     return options
 
 
-def plant_from_args(args: argparse.Namespace, robot) -> Plant:
-    """The plant that ``--plant``, ``--mjcf`` and ``--plant-option`` name, built (and checked) before any run."""
-    options = _plant_option_values(args.plant_option)
-    name = args.plant or ("mujoco" if args.mjcf else "pinocchio")
-    if name != "mujoco" and (args.mjcf or options):
-        given = "--mjcf" if args.mjcf else "--plant-option"
-        raise InvalidInput(f"{given} applies to --plant mujoco, not --plant {name}")
-    if args.mjcf:
-        options["mjcf"] = args.mjcf
-    return make_plant(robot, name, options)
+@dataclass(frozen=True)
+class RunPlantSettings(Settings):
+    """``--plant``, ``--mjcf`` and ``--plant-option``: the plant of one run (:meth:`plant`)."""
+
+    TITLE = "plant (what the torque acts on)"
+
+    plant: str | None = setting(
+        None,
+        "pinocchio: the robot's own model, RK4 with the torque held (the paper's); mujoco: a MuJoCo model of "
+        "the arm (its URDF compiled by MuJoCo, or --mjcf) advanced by MuJoCo, the torque computed from its state "
+        "(needs pip install 'torqueopt[mujoco]'); default pinocchio, mujoco with --mjcf",
+        choices=tuple(plant_names()),
+    )
+    mjcf: str | None = setting(
+        None,
+        "a MuJoCo MJCF model as the plant (implies --plant mujoco), its joint names matching the URDF's; "
+        "the controller still uses the URDF",
+        metavar="FILE",
+    )
+    plant_options: dict[str, str] = setting(
+        (),
+        lambda: (
+            "a MuJoCo plant option, repeatable or comma-separated: "
+            + "; ".join(f"{key}= {text} (default {default})" for key, (default, text) in PLANT_OPTIONS.items())
+        ),
+        check=lambda value, name: dict(value),
+        flag="--plant-option",
+        repeat=True,
+        metavar="KEY=VALUE",
+        parse=_plant_option_values,
+    )
+
+    def build(self, robot) -> Plant:
+        """The plant these settings name, built (and checked) before any run."""
+        options = dict(self.plant_options)
+        name = self.plant or ("mujoco" if self.mjcf else "pinocchio")
+        if name != "mujoco" and (self.mjcf or options):
+            given = "--mjcf" if self.mjcf else "--plant-option"
+            raise InvalidInput(f"{given} applies to --plant mujoco, not --plant {name}")
+        if self.mjcf:
+            options["mjcf"] = self.mjcf
+        return make_plant(robot, name, options)
 
 
 def plant_summary(result: SimResult) -> list[str]:

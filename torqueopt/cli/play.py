@@ -1,7 +1,7 @@
 """``torqueopt play``: animate a saved run in meshcat, live in a browser or as an offline HTML file.
 
 ``torqueopt run`` takes the same playback options (plus ``--play``) through
-:func:`add_playback_options`, :func:`playback_options` and :func:`show_playback`.
+:class:`PlaybackSettings` and :func:`prepare_playback`.
 """
 
 from __future__ import annotations
@@ -17,40 +17,17 @@ from ..result import SimResult, load_result
 from ..result_files import run_files
 from ..robot import TASK_DIMENSIONS, Robot
 from ..run_robot import robot_of_run
+from ..settings import Settings, positive, setting, whole
+from ..viewer.frames import DEFAULT_FPS, DEFAULT_MAX_FRAMES
 from . import EXIT_OK
-from .common import parse_count, parse_positive
 
 __all__ = [
-    "PlaybackOptions",
+    "PlaybackSettings",
+    "ReplaySettings",
     "add_parser",
-    "add_playback_options",
-    "playback_options",
     "prepare_playback",
     "show_playback",
 ]
-
-
-@dataclass(frozen=True)
-class PlaybackOptions:
-    """What the user asked to see: live playback, an HTML file, or both.
-
-    Attributes:
-        live: play in a meshcat server on 127.0.0.1.
-        html: path of the HTML file to write, or None.
-        speed: simulated seconds per second of playback.
-        fps: display frames per second of playback.
-        max_frames: the most display frames a playback may have.
-    """
-
-    live: bool
-    html: Path | None
-    speed: float
-    fps: float
-    max_frames: int
-
-    @property
-    def wanted(self) -> bool:
-        return self.live or self.html is not None
 
 
 def add_parser(subparsers) -> None:
@@ -76,62 +53,68 @@ def add_parser(subparsers) -> None:
     group.add_argument(
         "--lock", metavar="JOINTS", help="comma-separated joints to lock (default: the joints the run locked)"
     )
-    add_playback_options(parser, play_flag=False)
+    ReplaySettings.add_arguments(parser)
     parser.set_defaults(handler=play_command)
 
 
-def add_playback_options(parser: argparse.ArgumentParser, play_flag: bool = True) -> None:
-    """Options --speed, --fps, --html, and --play when ``play_flag`` (for ``torqueopt run``)."""
-    from ..viewer import DEFAULT_FPS
-    from ..viewer.frames import DEFAULT_MAX_FRAMES
+def _writable(value, name) -> Path | None:
+    return None if value is None else writable_path(value)
 
-    group = parser.add_argument_group("playback in meshcat")
-    if play_flag:
-        group.add_argument(
-            "--play",
-            action="store_true",
-            help="animate the run live in meshcat (server on 127.0.0.1; its URL is printed)",
-        )
-    group.add_argument(
-        "--html", metavar="FILE", help="write a self-contained HTML file with the animation, which plays offline"
+
+@dataclass(frozen=True)
+class PlaybackSettings(Settings):
+    """What the user asked to see: live playback in meshcat (``play``, on 127.0.0.1), an HTML file, or both."""
+
+    TITLE = "playback in meshcat"
+
+    play: bool = setting(
+        False, "animate the run live in meshcat (server on 127.0.0.1; its URL is printed)", switch="on"
     )
-    group.add_argument(
-        "--speed",
-        default="1.0",
+    html: Path | None = setting(
+        None,
+        "write a self-contained HTML file with the animation, which plays offline",
+        check=_writable,
+        metavar="FILE",
+    )
+    speed: float = setting(
+        1.0,
+        "simulated seconds per second of playback: 1 real time, 0.25 four times slower (default 1)",
         metavar="S",
-        help="simulated seconds per second of playback: 1 real time, 0.25 four times slower (default 1)",
+        parse=positive,
     )
-    group.add_argument(
-        "--fps",
-        default=f"{DEFAULT_FPS:g}",
+    fps: float = setting(
+        DEFAULT_FPS,
+        f"frames per second of playback; fewer frames make smaller HTML files (default {DEFAULT_FPS:g})",
+        unit="1/s",
         metavar="N",
-        help=f"frames per second of playback; fewer frames make smaller HTML files (default {DEFAULT_FPS:g})",
+        parse=positive,
     )
-    group.add_argument(
-        "--max-frames",
-        default=str(DEFAULT_MAX_FRAMES),
+    max_frames: int = setting(
+        DEFAULT_MAX_FRAMES,
+        f"refuse a playback of more than N display frames (duration / speed × fps; default {DEFAULT_MAX_FRAMES})",
         metavar="N",
-        help=f"refuse a playback of more than N display frames (duration / speed × fps; default {DEFAULT_MAX_FRAMES})",
+        parse=whole(1),
     )
 
+    def check_together(self) -> None:
+        if self.wanted:
+            from ..viewer import require_meshcat
 
-def playback_options(args: argparse.Namespace, live: bool) -> PlaybackOptions:
-    """Validated playback options; checks meshcat is installed when playback is wanted."""
-    options = PlaybackOptions(
-        live=live,
-        html=None if args.html is None else writable_path(args.html),
-        speed=parse_positive(args.speed, "speed"),
-        fps=parse_positive(args.fps, "fps"),
-        max_frames=parse_count(args.max_frames, "max-frames"),
-    )
-    if options.wanted:
-        from ..viewer import require_meshcat
+            require_meshcat()
 
-        require_meshcat()
-    return options
+    @property
+    def wanted(self) -> bool:
+        return self.play or self.html is not None
 
 
-def check_frames(options: PlaybackOptions, simulated_time: float) -> None:
+@dataclass(frozen=True)
+class ReplaySettings(PlaybackSettings):
+    """The playback of ``torqueopt play``: live unless ``--html`` is given."""
+
+    play: bool = setting(False, cli=False)
+
+
+def check_frames(options: PlaybackSettings, simulated_time: float) -> None:
     """Refuse, before any work, a playback of ``simulated_time`` [s] with more frames than ``--max-frames``."""
     from ..viewer.frames import frame_count
 
@@ -140,7 +123,7 @@ def check_frames(options: PlaybackOptions, simulated_time: float) -> None:
 
 
 def play_command(args: argparse.Namespace) -> int:
-    options = playback_options(args, live=args.html is None)
+    options = ReplaySettings.from_arguments(args, play=args.html is None)
     if options.html is not None:
         writable_paths([options.html], reading=run_files(args.run))  # the page never replaces the run it shows
     result = load_result(args.run)
@@ -157,7 +140,7 @@ def _robot_for_run(args: argparse.Namespace, result: SimResult) -> Robot:
     return robot_of_run(result, args.robot, frame=args.frame, task=args.task, lock=lock)
 
 
-def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):
+def prepare_playback(options: PlaybackSettings, robot: Robot, result: SimResult):
     """Build the playback and write its HTML file when asked; returns the playback and the lines to print.
 
     Nothing is printed here, so a command can write every file before it
@@ -181,12 +164,12 @@ def prepare_playback(options: PlaybackOptions, robot: Robot, result: SimResult):
     return playback, lines
 
 
-def show_playback(options: PlaybackOptions, robot: Robot, result: SimResult) -> None:
+def show_playback(options: PlaybackSettings, robot: Robot, result: SimResult) -> None:
     """Write the HTML file and/or play live, as ``options`` say."""
     playback, lines = prepare_playback(options, robot, result)
     for line in lines:
         print(line())
-    if options.live:
+    if options.play:
         play_live(playback)
 
 

@@ -8,14 +8,16 @@ resolver's declaration, so no resolver is named here.
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 from ..errors import InvalidInput
 from ..resolvers import RESOLVERS, Resolver, get_resolver
 from ..resolvers.options import parse_resolver_spec
+from ..settings import Settings, setting
 from . import EXIT_OK
 from .common import importable_from_here
 
-__all__ = ["add_parser", "add_resolver_arguments", "resolver_from_args", "describe_resolvers", "options_help"]
+__all__ = ["add_parser", "ResolverSettings", "describe_resolvers", "options_help"]
 
 
 def add_parser(subparsers) -> None:
@@ -72,61 +74,70 @@ def options_help() -> str:
     )
 
 
-def add_resolver_arguments(group) -> None:
-    """``--resolver``, ``--option NAME=VALUE`` (repeatable) and ``--weight`` (alias of ``--option weight=``)."""
-    group.add_argument(
-        "--resolver",
-        required=True,
+@dataclass(frozen=True)
+class ResolverSettings(Settings):
+    """``--resolver`` with its options (``--option NAME=VALUE``, the ``--weight`` alias, ``--options-from``):
+    the resolver a command runs (:meth:`resolver`)."""
+
+    TITLE = "movement"
+
+    resolver: str | None = setting(
+        None,
+        lambda: (
+            f"resolver: {', '.join(RESOLVERS)}; or a class of yours, module:Class (importable from here); "
+            "either may carry its options as NAME[OPTION=VALUE,...], quoted for the shell"
+        ),
         metavar="RESOLVER",
-        help=f"resolver: {', '.join(RESOLVERS)}; or a class of yours, module:Class (importable from here); "
-        "either may carry its options as NAME[OPTION=VALUE,...], quoted for the shell",
+        cli_required=True,
     )
-    group.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", help=options_help())
-    group.add_argument(
-        "--weight",
+    options: tuple[str, ...] = setting(
+        (), options_help, flag="--option", repeat=True, metavar="NAME=VALUE", parse=lambda texts, name: tuple(texts)
+    )
+    weight: str | None = setting(
+        None,
+        "alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; default 1/(τ⁺−τ⁻)²)",
         metavar="W",
-        help="alias of --option weight=W (weighted-null-space: diagonal of W, one value per joint; default 1/(τ⁺−τ⁻)²)",
     )
-    group.add_argument(
-        "--options-from",
-        metavar="TUNE_JSON",
-        help="the options of the setting a torqueopt tune chose (its tune.json), for the same --resolver; "
+    options_from: str | None = setting(
+        None,
+        "the options of the setting a torqueopt tune chose (its tune.json), for the same --resolver; "
         "an --option given too is refused",
+        metavar="TUNE_JSON",
     )
 
+    def build(self, robot: str | None = None) -> Resolver:
+        """The resolver ``--resolver`` names (a name or module:Class, with or without [OPTION=VALUE,...]) with its
+        options, checked against its declaration; ``robot`` (the ``--robot`` text) picks a tune.json's arm."""
+        importable_from_here(self.resolver)
+        name, options = parse_resolver_spec(self.resolver)
+        for text in self.options:
+            option, separator, value = text.partition("=")
+            option = option.strip()
+            if not separator or not option or not value.strip():
+                raise InvalidInput(f"--option '{text}' must be NAME=VALUE, e.g. --option damping=2")
+            if option in options:
+                raise InvalidInput(
+                    f"--option {option} is given twice (in --resolver's brackets or --option); give it once"
+                )
+            options[option] = value.strip()
+        if self.weight is not None:
+            if "weight" in options:
+                raise InvalidInput("--weight and --option weight= are the same option; give one")
+            options["weight"] = self.weight
+        if self.options_from:
+            from ..catalog import find_robot
+            from ..tune import tuned_options
 
-def resolver_from_args(args: argparse.Namespace) -> Resolver:
-    """The resolver ``--resolver`` names (a name or module:Class, with or without [OPTION=VALUE,...]) with its
-    ``--option`` values, checked against its declaration."""
-    importable_from_here(args.resolver)
-    name, options = parse_resolver_spec(args.resolver)
-    for text in args.option:
-        option, separator, value = text.partition("=")
-        option = option.strip()
-        if not separator or not option or not value.strip():
-            raise InvalidInput(f"--option '{text}' must be NAME=VALUE, e.g. --option damping=2")
-        if option in options:
-            raise InvalidInput(f"--option {option} is given twice (in --resolver's brackets or --option); give it once")
-        options[option] = value.strip()
-    if args.weight is not None:
-        if "weight" in options:
-            raise InvalidInput("--weight and --option weight= are the same option; give one")
-        options["weight"] = args.weight
-    if getattr(args, "options_from", None):
-        from ..catalog import find_robot
-        from ..tune import tuned_options
-
-        robot = getattr(args, "robot", None)
-        tuned, chosen = tuned_options(args.options_from, None if robot is None else find_robot(robot).name)
-        if get_resolver(name).name != tuned:
-            raise InvalidInput(
-                f"--options-from {args.options_from} holds options of {tuned}, not of --resolver {args.resolver}; "
-                f"give --resolver {tuned}"
-            )
-        both = sorted(set(options) & set(chosen))
-        if both:
-            raise InvalidInput(
-                f"--option {', '.join(both)} is also in --options-from {args.options_from}; give it once"
-            )
-        options.update(chosen)
-    return get_resolver(name, **options)
+            tuned, chosen = tuned_options(self.options_from, None if robot is None else find_robot(robot).name)
+            if get_resolver(name).name != tuned:
+                raise InvalidInput(
+                    f"--options-from {self.options_from} holds options of {tuned}, not of --resolver {self.resolver}; "
+                    f"give --resolver {tuned}"
+                )
+            both = sorted(set(options) & set(chosen))
+            if both:
+                raise InvalidInput(
+                    f"--option {', '.join(both)} is also in --options-from {self.options_from}; give it once"
+                )
+            options.update(chosen)
+        return get_resolver(name, **options)

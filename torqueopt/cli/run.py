@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,32 +17,71 @@ from ..resolvers import Resolver
 from ..result import SimResult
 from ..result_files import run_files
 from ..robot import Robot
+from ..settings import Settings, group, numbers, positive, positive_in, setting, time_step, whole, whole_at_least
 from ..simulate import DEFAULT_MAX_STEPS, Feedback, simulate, step_budget
 from ..whiplash import DEFAULT_LIMIT_FACTOR, detect_whiplash
 from . import EXIT_OK, EXIT_STOPPED
-from .common import (
-    add_robot_options,
-    add_start_options,
-    parse_count,
-    parse_positive,
-    parse_vector,
-    robot_from_args,
-    start_from_args,
-    start_velocity_from_args,
-    torque_table,
-)
-from .paths import add_path_options, trajectory_from_args
-from .plant import add_plant_options, plant_from_args, plant_summary
-from .play import add_playback_options, check_frames, play_live, playback_options, prepare_playback
-from .resolvers import add_resolver_arguments, resolver_from_args
+from .common import RobotSettings, StartSettings, torque_table
+from .paths import PathSettings
+from .plant import RunPlantSettings, plant_summary
+from .play import PlaybackSettings, check_frames, play_live, prepare_playback
+from .resolvers import ResolverSettings
 
-__all__ = ["add_parser", "format_summary"]
+__all__ = ["RunSettings", "add_parser", "format_summary"]
 
 #: Steps from which ``torqueopt run`` shows its progress (100 s at the default 1 ms).
 LONG_RUN_STEPS = 100_000
 
 #: Keys every run sidecar has: a .csv.json with them is one torqueopt wrote, and may be replaced.
 SIDECAR_KEYS = ("robot", "frame", "task", "resolver", "joint_names", "dt")
+
+
+@dataclass(frozen=True)
+class RunSettings(Settings):
+    """Every setting of ``torqueopt run``: its options, and the record of them its sidecar keeps (``settings``)."""
+
+    TITLE = "movement"
+
+    model: RobotSettings = group(RobotSettings)
+    resolving: ResolverSettings = group(ResolverSettings)
+    start: StartSettings = group(StartSettings)
+    tip_path: PathSettings = group(PathSettings)
+    dt: float = time_step("integration step [s]; torque held over each; must divide the duration (default 0.001)")
+    max_steps: int = setting(
+        DEFAULT_MAX_STEPS,
+        f"refuse a run of more than N steps (duration / dt), checked before it starts (default {DEFAULT_MAX_STEPS})",
+        check=whole_at_least(1),
+        parse=whole(1),
+        metavar="N",
+    )
+    feedback: tuple[float, float] | None = setting(
+        None,
+        "task-space PD feedback: xdd = xdd_ref + KD(xd_ref − xd) + KP(x_ref − x); default open loop, as the paper",
+        parse=numbers(2),
+        metavar="KP,KD",
+    )
+    limit_factor: float = setting(
+        DEFAULT_LIMIT_FACTOR,
+        "whiplash detector: unstable once a joint needs more than K times its torque limit (default 2)",
+        check=positive_in(),
+        parse=positive,
+        metavar="K",
+    )
+    dexterity: bool = setting(
+        True,
+        "record the dexterity measures of every step (manipulability, Eq. (25), ...) in the summary and "
+        "the run file (default: on)",
+        switch="both",
+    )
+    margin: bool = setting(
+        False,
+        "record the stability margin of every step (growth rate of the linearised closed-loop self-motion "
+        "[1/s], computed after the run) in the summary and the run file, column stability_margin",
+        switch="on",
+    )
+    out: str | None = setting(None, "write the run: .csv (with a .csv.json sidecar) or .npz", metavar="FILE")
+    simulation: RunPlantSettings = group(RunPlantSettings)
+    playback: PlaybackSettings = group(PlaybackSettings)
 
 
 def add_parser(subparsers) -> None:
@@ -55,72 +95,29 @@ def add_parser(subparsers) -> None:
             "whether the run stopped early. Angles in radians; give negative vectors as --q0=-0.78,..."
         ),
     )
-    add_robot_options(parser, joint_dynamics=True)
-    group = parser.add_argument_group("movement")
-    add_resolver_arguments(group)
-    add_start_options(group, velocity=True)
-    add_path_options(group)
-    group.add_argument(
-        "--dt",
-        default="0.001",
-        help="integration step [s]; torque held over each; must divide the duration (default 0.001)",
-    )
-    group.add_argument(
-        "--max-steps",
-        default=str(DEFAULT_MAX_STEPS),
-        metavar="N",
-        help=f"refuse a run of more than N steps (duration / dt), checked before it starts (default {DEFAULT_MAX_STEPS})",
-    )
-    group.add_argument(
-        "--feedback",
-        metavar="KP,KD",
-        help="task-space PD feedback: xdd = xdd_ref + KD(xd_ref − xd) + KP(x_ref − x); default open loop, as the paper",
-    )
-    group.add_argument(
-        "--limit-factor",
-        default=repr(DEFAULT_LIMIT_FACTOR),
-        metavar="K",
-        help="whiplash detector: unstable once a joint needs more than K times its torque limit (default 2)",
-    )
-    group.add_argument(
-        "--dexterity",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="record the dexterity measures of every step (manipulability, Eq. (25), ...) in the summary and "
-        "the run file (default: on)",
-    )
-    group.add_argument(
-        "--margin",
-        action="store_true",
-        help="record the stability margin of every step (growth rate of the linearised closed-loop self-motion "
-        "[1/s], computed after the run) in the summary and the run file, column stability_margin",
-    )
-    group.add_argument("--out", metavar="FILE", help="write the run: .csv (with a .csv.json sidecar) or .npz")
-    add_plant_options(parser)
-    add_playback_options(parser)
+    RunSettings.add_arguments(parser)
     parser.set_defaults(handler=run_command)
 
 
 def run_command(args: argparse.Namespace) -> int:
-    trajectory = trajectory_from_args(args)
-    dt = parse_positive(args.dt, "dt")
-    max_steps = parse_count(args.max_steps, "max-steps")
-    steps = step_budget(trajectory.duration, dt, max_steps, option="--max-steps")
-    limit_factor = parse_positive(args.limit_factor, "limit-factor")
-    feedback = None if args.feedback is None else Feedback(*parse_vector(args.feedback, "feedback", 2))
-    playback = playback_options(args, live=args.play)
+    settings = RunSettings.from_arguments(args)
+    trajectory = settings.tip_path.trajectory(settings.start.degrees)
+    steps = step_budget(trajectory.duration, settings.dt, settings.max_steps, option="--max-steps")
+    feedback = None if settings.feedback is None else Feedback(*settings.feedback)
+    playback = settings.playback
     check_frames(playback, trajectory.duration)
-    resolver = resolver_from_args(args)
-    robot = robot_from_args(args)
+    resolver = settings.resolving.build(settings.model.robot)
+    robot = settings.model.load("run")
     resolver.check(robot)
     check_torque_limits(robot, resolver)
-    plant = plant_from_args(args, robot)
-    q0 = start_from_args(args, robot)
-    v0 = start_velocity_from_args(args, robot)
+    plant = settings.simulation.build(robot)
+    q0 = settings.start.configuration(robot)
+    v0 = settings.start.velocity(robot)
+    out = settings.out
     # Every file the run will write, checked before it starts, and no two of them one file.
-    writable_paths([*(run_files(args.out) if args.out else []), *([playback.html] if playback.html else [])])
-    if args.out and len(run_files(args.out)) == 2:
-        sidecar = run_files(args.out)[1]
+    writable_paths([*(run_files(out) if out else []), *([playback.html] if playback.html else [])])
+    if out and len(run_files(out)) == 2:
+        sidecar = run_files(out)[1]
         refuse_foreign([sidecar], json_file_with(sidecar, SIDECAR_KEYS), "a run's sidecar", "give --out another name")
     reach_note = path_beyond_reach(robot, trajectory, q0)
     if reach_note:
@@ -134,31 +131,32 @@ def run_command(args: argparse.Namespace) -> int:
             trajectory,
             q0,
             v0,
-            dt=dt,
+            dt=settings.dt,
             feedback=feedback,
-            max_steps=max_steps,
-            dexterity=args.dexterity,
+            max_steps=settings.max_steps,
+            dexterity=settings.dexterity,
             plant=plant,
-            margin=args.margin,
+            margin=settings.margin,
             progress=lambda done: bar.update(done - bar.n),
         )
     finally:
         bar.close()
+    result.settings = settings.record()
     # Every file is written before anything is printed, so a closed stdout
     # (``torqueopt run ... | head -1``) cannot cost a result.
     lines = []
     with written_together():
-        if args.out:
-            result.to_csv(args.out)
-            lines.append(f"wrote {' and '.join(map(str, run_files(args.out)))}")
+        if out:
+            result.to_csv(out)
+            lines.append(f"wrote {' and '.join(map(str, run_files(out)))}")
         if playback.wanted:
             viewer, playback_lines = prepare_playback(playback, robot, result)
     if playback.wanted:
         lines += [line() for line in playback_lines]
-    print(format_summary(robot, result, limit_factor))
+    print(format_summary(robot, result, settings.limit_factor))
     for line in lines:
         print(line)
-    if playback.live:
+    if playback.play:
         play_live(viewer)
     return EXIT_OK if result.completed else EXIT_STOPPED
 

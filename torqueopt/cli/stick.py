@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import parse_vector
 from ..errors import InvalidInput
 from ..payload import Payload
 from ..plots import plot_stick_strip
@@ -14,7 +15,7 @@ from ..plots.stick import SNAPSHOTS_RANGE
 from ..result import SimResult
 from ..robot import Robot
 from ..run_robot import robot_of_run
-from .common import add_robot_options, gravity_from_args, parse_vector, payload_from_args
+from .common import OptionalRobotSettings
 
 __all__ = ["add_stick_options", "check_stick_options", "stick_figure_path", "stick_robot", "write_stick_figures"]
 
@@ -45,7 +46,7 @@ def add_stick_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help=f"with --stick-figures: how many ({SNAPSHOTS_RANGE[0]} to {SNAPSHOTS_RANGE[1]}, default 8)",
     )
-    add_robot_options(parser, required=False)
+    OptionalRobotSettings.add_arguments(parser)
     # The run records its robot: --robot and the options beside it only override.
     for action in parser._actions:
         if action.dest == "robot":
@@ -86,9 +87,9 @@ def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:
         torque_limit = parse_vector(args.torque_limit, "torque-limit")
     else:
         torque_limit = result.torque_upper if np.isfinite(result.torque_upper).all() else None
-    lock = [name.strip() for name in args.lock.split(",") if name.strip()] if args.lock else None
+    model = OptionalRobotSettings.from_arguments(args)
     # The payload changes H, so the acceleration ellipses: the run's own unless the options name another.
-    payload = payload_from_args(args)
+    payload = model.payload
     if payload is None and result.payload is not None and (args.robot is None or args.robot == result.robot):
         payload = Payload(**result.payload)
     return robot_of_run(
@@ -96,9 +97,9 @@ def stick_robot(args: argparse.Namespace, result: SimResult) -> Robot:
         args.robot,
         frame=args.frame,
         task=args.task,
-        lock=lock,
+        lock=list(model.lock) or None,
         torque_limit=torque_limit,
-        gravity=gravity_from_args(args),
+        gravity=model.gravity,
         payload=payload,
     )
 

@@ -5,12 +5,21 @@ from __future__ import annotations
 import argparse
 import re
 import time
+from dataclasses import dataclass
 
+from ..settings import setting
 from . import EXIT_NONE_QUALIFIES, EXIT_OK
-from .atlas import add_robot_spec_options, robot_spec
+from .atlas import AtlasRobotSettings, robot_spec
 from .common import importable_from_here
 
 __all__ = ["add_parser"]
+
+
+@dataclass(frozen=True)
+class TuneRobotSettings(AtlasRobotSettings):
+    """The arm a tune is for (``--robot`` required)."""
+
+    robot: str | None = setting(None, "robot name or URDF (panda, xarm7, tiago, baxter, ...)", cli_required=True)
 
 
 def add_parser(subparsers) -> None:
@@ -29,12 +38,7 @@ def add_parser(subparsers) -> None:
             f"qualifies. Default grids: {default_grids_text()}."
         ),
     )
-    add_robot_spec_options(
-        parser,
-        "robot name or URDF (panda, xarm7, tiago, baxter, ...)",
-        "symmetric torque limits [N·m], one or one per joint",
-        required=True,
-    )
+    TuneRobotSettings.add_arguments(parser)
     TuneSettings.add_arguments(parser)
     parser.set_defaults(handler=tune_command)
 
