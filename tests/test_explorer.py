@@ -178,7 +178,7 @@ def test_the_paths_ruled_out_by_some_chunks_are_never_chosen_and_all_chunks_give
         assert {path for path in range(count) if kept.may_keep(path)} == chosen
 
 
-def test_the_chunk_keeps_the_chosen_paths_traces_as_a_new_simulation_gives_them(atlas, monkeypatch):
+def test_the_chunk_keeps_the_chosen_paths_traces_as_a_new_simulation_gives_them(atlas, monkeypatch, tmp_path):
     """The page's traces come from the chunk, no path is simulated after the sweep, and they are those of the
     chosen paths simulated again here by the sweep's code: the samples the explorer keeps (of the applied rows,
     300 evenly spaced and each joint's row of peak |τ|/τ⁺), the arm at the row of the table's whip_time and at
@@ -195,6 +195,9 @@ def test_the_chunk_keeps_the_chosen_paths_traces_as_a_new_simulation_gives_them(
     stored, why = Traces.read(traces_path(atlas.out, 0), digest, 0)
     assert why is None and sorted(set(stored.path.tolist())) == sorted(chosen)  # one chunk: it rules out the rest
     assert Traces.read(traces_path(atlas.out, 0), "0" * 16, 0) == (None, "another atlas's or chunk's")
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(traces_path(atlas.out, 0).read_bytes()[:-100])
+    assert Traces.read(truncated, digest, 0) == (None, "unreadable (truncated or corrupt)")
 
     settings = AtlasSettings.from_keywords(robot="planar3", out=atlas.out, keep_traces=KEEP, **TINY)
     robot, _, movements = _load_and_draw(settings)

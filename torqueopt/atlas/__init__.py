@@ -53,6 +53,7 @@ torques for the velocity-level methods.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import warnings
 from dataclasses import dataclass
@@ -235,17 +236,8 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
     if frontier.global_optimum:
         table = add_global_ratios(table)
-
-    def stored_traces(paths):
-        """The kept traces of the resolver chunks that hold ``paths``, read one chunk at a time."""
-        wanted = set(paths)
-        for index, chunk in enumerate(chunks[:local_chunks]):
-            if any(m.path in wanted for m in chunk):
-                yield Traces.read(traces_path(out, index), digest, index)[0]
-
-    summary = _write_report(
-        settings, out, table, config, loaded, movements, resumed_chunks=len(done), stored_traces=stored_traces
-    )
+    stored_traces = functools.partial(_stored_traces, out, chunks[:local_chunks], digest)
+    summary = _write_report(settings, out, table, config, loaded, movements, len(done), stored_traces)
     return AtlasResult(table=table, summary=summary, out=out)
 
 
@@ -306,6 +298,15 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     total_steps = sum(steps_per_run[m.duration] for m in movements) * work.per_step
     _check_size(total_steps, max_steps, population, work)
     return loaded, reach, movements
+
+
+def _stored_traces(out: Path, chunks, digest: str, paths):
+    """The kept traces of the resolver ``chunks`` that hold ``paths`` (None for a chunk without them), read one
+    chunk at a time."""
+    wanted = set(paths)
+    for index, chunk in enumerate(chunks):
+        if any(movement.path in wanted for movement in chunk):
+            yield Traces.read(traces_path(out, index), digest, index)[0]
 
 
 def _kept_traces(settings: AtlasSettings) -> int:

@@ -202,7 +202,7 @@ class Traces:
                 arrays = {name: stored[name] for name in stored.files}
             proof = json.loads(str(arrays.pop("proof")))
             traces = cls(resolvers=tuple(str(r) for r in arrays.pop("resolvers")), **arrays)
-        except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile):
+        except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile):
             return None, "unreadable (truncated or corrupt)"
         if proof.get("format") != _FORMAT or proof.get("atlas") != digest or proof.get("chunk") != index:
             return None, "another atlas's or chunk's"
