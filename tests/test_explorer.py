@@ -178,6 +178,7 @@ def test_the_paths_ruled_out_by_some_chunks_are_never_chosen_and_all_chunks_give
         assert {path for path in range(count) if kept.may_keep(path)} == chosen
 
 
+@pytest.mark.slow
 def test_the_chunk_keeps_the_chosen_paths_traces_as_a_new_simulation_gives_them(atlas, monkeypatch, tmp_path):
     """The page's traces come from the chunk, no path is simulated after the sweep, and they are those of the
     chosen paths simulated again here by the sweep's code: the samples the explorer keeps (of the applied rows,
