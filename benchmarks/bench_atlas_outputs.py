@@ -15,9 +15,15 @@ then ``simulate`` again. Trajectory-steps (RK4 steps of one movement) are counte
 atlas's rate over the median of the round's ``simulate`` timings is its ratio, the issue's measure. The load
 average is printed with each round: on a shared machine, read the ratios, not the rates.
 
+``--trace-cost ATLAS`` instead measures (ATLAS: random lines, as the command above writes them), in this process and in CPU seconds (which a loaded machine moves
+less than wall time), what the report of the atlas folder ``ATLAS`` (written with figures) spends on the
+explorer's traces: read from its chunks, against simulating the chosen paths again as the report did before
+the chunks kept them; and checks that the two give the same numbers.
+
 Run::
 
     python benchmarks/bench_atlas_outputs.py [--robot planar3] [--paths 1000] [--rounds 2] [--before DIR]
+    python benchmarks/bench_atlas_outputs.py --trace-cost ATLAS
 """
 
 from __future__ import annotations
@@ -102,13 +108,57 @@ def atlas_rate(robot: str, paths: int, out: Path, figures: bool, source: Path | 
     return steps / wall, wall, usage.ru_utime + usage.ru_stime
 
 
+def trace_cost(folder: Path, repeats: int = 2) -> None:
+    """CPU seconds of the explorer's traces of the atlas in ``folder``: from its chunks, and simulated again."""
+    import functools
+    import json
+
+    import numpy as np
+    import pandas
+
+    from torqueopt.atlas import AtlasSettings, _chunks, _load_and_draw, _stored_traces, explorer
+    from torqueopt.atlas.sweep import config_digest
+
+    config = json.loads((folder / "atlas-config.json").read_text())
+    population = config["population"]  # an atlas of random lines, as this benchmark's command writes
+    settings = AtlasSettings.from_keywords(
+        robot=config["robot"]["source"], paths=population["paths"], durations=tuple(population["durations"]),
+        seed=population["seed"], resolvers=tuple(r.get("label", r["name"]) for r in config["resolvers"]),
+        dt=config["dt"], chunk_size=config["chunk_size"], batch=config["batch"], out=folder, progress=False,
+    )  # fmt: skip
+    robot, _, movements = _load_and_draw(settings)
+    table = pandas.read_parquet(folder / "results.parquet")
+    stored = functools.partial(_stored_traces, folder, _chunks(movements, config["chunk_size"]), config_digest(config))
+    common = {"dt": config["dt"], "batch": config["batch"], "keep": explorer.DEFAULT_KEEP_TRACES}
+    resolvers = list(settings.resolvers)
+    for _ in range(repeats):
+        started = time.process_time()
+        kept = explorer.page_traces(robot, table, movements, resolvers, stored, **common)
+        from_chunks = time.process_time() - started
+        started = time.process_time()
+        again = explorer.keep_traces(robot, table, movements, resolvers, **common)
+        simulated = time.process_time() - started
+        same = kept.keys() == again.keys() and all(
+            np.array_equal(kept[p][r][key], again[p][r][key])
+            for p in kept for r in kept[p] for key in ("t", "tau", "arm", "start_arm")
+        )  # fmt: skip
+        print(
+            f"{config['robot_name']}: {len(kept)} kept paths' traces from the chunks {from_chunks:.3f} s CPU, "
+            f"simulated again {simulated:.2f} s CPU; the same numbers: {same}"
+        )
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--robot", default="planar3")
     parser.add_argument("--paths", type=int, default=1000)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--before", type=Path, help="a torqueopt source tree to time the atlas with figures of too")
+    parser.add_argument("--trace-cost", type=Path, metavar="ATLAS", help="the explorer traces' CPU of an atlas folder")
     args = parser.parse_args(argv)
+    if args.trace_cost is not None:
+        trace_cost(args.trace_cost)
+        return
     cases = [("atlas", True, None), ("atlas --no-figures", False, None)]
     if args.before is not None:
         cases.append((f"atlas of {args.before}", True, args.before.resolve()))
