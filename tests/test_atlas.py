@@ -103,7 +103,7 @@ def test_the_report_imports_start_once_a_worker_has_no_chunk_left(tmp_path, monk
 
     from torqueopt.atlas import sweep
 
-    monkeypatch.setattr(sweep, "run_chunk", lambda job: [{"path": job.movements[0]}])
+    monkeypatch.setattr(sweep, "chunk_output", lambda job: sweep.ChunkOutput([{"path": job.movements[0]}], None))
     jobs = {
         index: ResolverChunk(RobotSpec("planar3"), (), (index,), 1e-3, Thresholds(), True, "0" * 16)
         for index in range(chunks)

@@ -147,6 +147,103 @@ def test_no_figures_writes_no_explorer_and_keep_traces_zero_keeps_none(tmp_path)
     assert page_data(tmp_path / "b" / "explorer.html")["paths"] == {}
 
 
+@pytest.mark.parametrize("parts", [1, 2], ids=["resolver chunks", "and global chunks"])
+def test_the_paths_ruled_out_by_some_chunks_are_never_chosen_and_all_chunks_give_the_choice(parts):
+    """KeptPaths, told the rows chunk by chunk in any order (each path in ``parts`` chunks, a whip in any one of
+    them makes it whipped), never rules out a path choose_paths keeps from the whole table, and told every chunk
+    it keeps exactly those."""
+    from torqueopt.atlas.traces import KeptPaths
+
+    rng = np.random.default_rng(7 + parts)
+    for _ in range(300):
+        count = int(rng.integers(1, 25))
+        keep = int(rng.integers(0, count + 3))
+        whip_share = rng.uniform(0.0, 0.8)
+        chunks = []
+        for _part in range(parts):
+            rows = [
+                {"path": path, "verdict": "whiplash" if rng.uniform() < whip_share / parts else "stable"}
+                for path in range(count)
+                for _resolver in range(int(rng.integers(1, 3)))
+            ]
+            cuts = sorted(rng.choice(np.arange(1, count), size=min(int(rng.integers(0, 4)), count - 1), replace=False))
+            bounds = [0, *cuts, count]
+            chunks += [[row for row in rows if low <= row["path"] < high] for low, high in zip(bounds, bounds[1:])]
+        chosen = set(choose_paths(pandas.DataFrame([row for chunk in chunks for row in chunk]), keep))
+        kept, told = KeptPaths(keep, parts), set()
+        for index in rng.permutation(len(chunks)):
+            kept.tell_rows(chunks[index])
+            told |= {row["path"] for row in chunks[index]}
+            assert chosen & told <= {path for path in told if kept.may_keep(path)}
+        assert {path for path in range(count) if kept.may_keep(path)} == chosen
+
+
+@pytest.mark.slow
+def test_the_chunk_keeps_the_chosen_paths_traces_as_a_new_simulation_gives_them(atlas, monkeypatch, tmp_path):
+    """The page's traces come from the chunk, no path is simulated after the sweep, and they are those of the
+    chosen paths simulated again here by the sweep's code: the samples the explorer keeps (of the applied rows,
+    300 evenly spaced and each joint's row of peak |τ|/τ⁺), the arm at the row of the table's whip_time and at
+    the start, bit for bit."""
+    from torqueopt.atlas import AtlasSettings, _load_and_draw, explorer
+    from torqueopt.atlas.population import movement_trajectory
+    from torqueopt.atlas.sweep import config_digest, simulate_all, traces_path
+    from torqueopt.atlas.traces import Traces
+    from torqueopt.plots.stick import arm_points
+
+    table = atlas.table
+    chosen = choose_paths(table, KEEP)
+    digest = config_digest(json.loads((atlas.out / "atlas-config.json").read_text()))
+    stored, why = Traces.read(traces_path(atlas.out, 0), digest, 0)
+    assert why is None and sorted(set(stored.path.tolist())) == sorted(chosen)  # one chunk: it rules out the rest
+    assert Traces.read(traces_path(atlas.out, 0), "0" * 16, 0) == (None, "another atlas's or chunk's")
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(traces_path(atlas.out, 0).read_bytes()[:-100])
+    assert Traces.read(truncated, digest, 0) == (None, "unreadable (truncated or corrupt)")
+
+    settings = AtlasSettings.from_keywords(robot="planar3", out=atlas.out, keep_traces=KEEP, **TINY)
+    robot, _, movements = _load_and_draw(settings)
+    monkeypatch.setattr(explorer, "simulate_all", None)  # the page's traces must need no simulation
+    traces = explorer.page_traces(
+        robot, table, movements, list(settings.resolvers), lambda paths: [stored], keep=KEEP, dt=1e-3, batch=True
+    )
+    picked = [m for m in movements if m.path in chosen]
+    lines, q0s = [movement_trajectory(m) for m in picked], [m.q0 for m in picked]
+    whip_times = table.set_index(["path", "resolver"])["whip_time"]
+    lengths = set()
+    for resolver in settings.resolvers:
+        for movement, run in zip(picked, simulate_all(robot, resolver, lines, q0s, 1e-3, True)[0]):
+            # A run to the end holds a sample at t = T, whose torque is never applied; a whip stops a run early.
+            applied = len(run.t) - int(run.t[-1] > 1.8 - 0.5e-3)
+            lengths.add(applied)
+            ratio = np.abs(run.tau[:applied]) / np.array(atlas.summary["config"]["torque_limit"], dtype=float)
+            rows = sorted({*np.linspace(0, applied - 1, 300).round().astype(int), *np.argmax(ratio, axis=0)})
+            whip_time = whip_times[(movement.path, resolver.label)]
+            whip_row = int(np.argmin(np.abs(run.t[:applied] - whip_time))) if math.isfinite(whip_time) else applied - 1
+            kept = traces[movement.path][resolver.label]
+            np.testing.assert_array_equal(kept["t"], run.t[rows])
+            np.testing.assert_array_equal(kept["tau"], run.tau[rows])
+            np.testing.assert_array_equal(kept["arm"], arm_points(robot, run.joint_angles[whip_row])[:, :2])
+            np.testing.assert_array_equal(kept["start_arm"], arm_points(robot, movement.q0)[:, :2])
+            assert kept["arm_time"] == run.t[whip_row]
+    assert sorted(traces) == sorted(chosen) and all(list(runs) == list(TINY["resolvers"]) for runs in traces.values())
+    assert 1800 in lengths and min(lengths) < 1800  # runs to the end and runs stopped by a whip
+
+
+@pytest.mark.slow
+def test_a_resumed_atlas_whose_chunks_kept_no_traces_simulates_those_paths_and_says_so(atlas, tmp_path, capsys):
+    """An atlas of an older torqueopt, resumed: its chunk has no traces file; the report simulates the chosen
+    paths again, says so, and the page holds the same traces."""
+    import shutil
+
+    out = tmp_path / "older"
+    shutil.copytree(atlas.out, out)
+    for path in (out / "chunks").glob("*.traces.npz"):
+        path.unlink()
+    run_atlas("planar3", out=out, progress=True, keep_traces=KEEP, **TINY)
+    assert f"simulating {KEEP} paths again for explorer.html" in capsys.readouterr().err
+    assert page_data(out / "explorer.html") == page_data(atlas.out / "explorer.html")
+
+
 # -- in a real browser ------------------------------------------------------------------------
 
 

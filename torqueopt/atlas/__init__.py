@@ -30,12 +30,13 @@ Files in the output folder:
     one self-contained page (Plotly, inlined): the workspace map by verdict,
     and for a bounded sample of paths (``keep_traces``, whips first) the
     torque of every resolver and the arm at the instability
-    (``torqueopt.atlas.explorer``). Written with the figures: not with
-    ``figures=False``.
+    (``torqueopt.atlas.explorer``), as the sweep's chunks kept them. Written
+    with the figures: not with ``figures=False``.
 ``atlas-config.json``, ``chunks/``
     the settings the sweep was started with, and each finished chunk (with
-    the atlas's fingerprint and its own checksum, :mod:`torqueopt.atlas.sweep`):
-    what lets a killed sweep resume.
+    the atlas's fingerprint and its own checksum, :mod:`torqueopt.atlas.sweep`;
+    beside it, with the figures, the traces it kept for the explorer,
+    :mod:`torqueopt.atlas.traces`): what lets a killed sweep resume.
 
 Nothing is written before every check has passed (the settings, the size
 of the sweep, the folder, the files, the scheduler), and only into a folder
@@ -52,6 +53,7 @@ torques for the velocity-level methods.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import warnings
 from dataclasses import dataclass
@@ -93,7 +95,9 @@ from .sweep import (
     require,
     run_chunks,
     start_fork_server,
+    traces_path,
 )
+from .traces import KeptPaths, Traces
 from .verdicts import VERDICTS, Thresholds
 
 __all__ = [
@@ -193,6 +197,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     done = set(frames)
     jobs = _pending_jobs(settings, chunks, local_chunks, done, digest, config)
     done_paths = sum(len(chunks[index]) for index in done)
+    kept_paths = _kept_paths(settings, frames) if jobs else None
     if rejected:
         warnings.warn(
             f"recomputing {len(rejected)} of {len(chunks)} chunks, which do not match this atlas: {', '.join(rejected)}",
@@ -223,6 +228,7 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
                     + (" and the global optimum of each (a path counted twice)" if frontier.global_optimum else ""),
                     # This process loads what the report needs on the core the sweep's last chunks leave idle.
                     once_a_worker_idles=import_scipy_stats_meanwhile,
+                    kept_paths=kept_paths,
                 )
             )
 
@@ -230,7 +236,8 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
     if frontier.global_optimum:
         table = add_global_ratios(table)
-    summary = _write_report(settings, out, table, config, loaded, movements, resumed_chunks=len(done))
+    stored_traces = functools.partial(_stored_traces, out, chunks[:local_chunks], digest)
+    summary = _write_report(settings, out, table, config, loaded, movements, len(done), stored_traces)
     return AtlasResult(table=table, summary=summary, out=out)
 
 
@@ -293,6 +300,30 @@ def _load_and_draw(settings: AtlasSettings) -> tuple:
     return loaded, reach, movements
 
 
+def _stored_traces(out: Path, chunks, digest: str, paths):
+    """The kept traces of the resolver ``chunks`` that hold ``paths`` (None for a chunk without them), read one
+    chunk at a time."""
+    wanted = set(paths)
+    for index, chunk in enumerate(chunks):
+        if any(movement.path in wanted for movement in chunk):
+            yield Traces.read(traces_path(out, index), digest, index)[0]
+
+
+def _kept_traces(settings: AtlasSettings) -> int:
+    """How many paths' traces the explorer keeps: none without the figures."""
+    return settings.execution.keep_traces if settings.execution.figures else 0
+
+
+def _kept_paths(settings: AtlasSettings, frames: dict) -> KeptPaths | None:
+    """The paths whose traces the chunks still to run may need to write, told the rows of those done."""
+    if not _kept_traces(settings):
+        return None
+    kept = KeptPaths(_kept_traces(settings), 2 if settings.frontier.global_optimum else 1)
+    for frame in frames.values():
+        kept.tell_rows(frame)
+    return kept
+
+
 def _pending_jobs(settings: AtlasSettings, chunks, local_chunks: int, done, digest: str, config: dict) -> dict:
     """``{chunk index: job}`` of the chunks not done yet, sent in the order of their first path, each resolver
     chunk before the global chunks of its paths: the paths finish in order, both halves of a path together, so a
@@ -309,13 +340,16 @@ def _pending_jobs(settings: AtlasSettings, chunks, local_chunks: int, done, dige
             jobs[index] = ResolverChunk(
                 settings.robot, settings.resolvers, tuple(chunk), dt, settings.verdicts, settings.execution.batch,
                 digest, margin_every, settings.simulation.plant, settings.simulation.plant_options,
+                _kept_traces(settings), 2 if frontier.global_optimum else 1,
             )  # fmt: skip
     return dict(sorted(jobs.items(), key=lambda item: (item[1].movements[0].path, isinstance(item[1], GlobalChunk))))
 
 
-def _write_report(settings: AtlasSettings, out: Path, table, config: dict, robot, movements, resumed_chunks: int):
+def _write_report(
+    settings: AtlasSettings, out: Path, table, config: dict, robot, movements, resumed_chunks: int, stored_traces
+):
     """Write the table, the summaries and (unless ``figures`` is off) the figures and the explorer, together;
-    returns the summary."""
+    returns the summary. ``stored_traces`` is :func:`~torqueopt.atlas.explorer.page_traces`'s ``stored``."""
     # Imported here, not with the package: `python -m torqueopt.atlas.frontier` runs a module the report imports.
     from .report import summarise, write_figures, write_markdown
 
@@ -323,10 +357,10 @@ def _write_report(settings: AtlasSettings, out: Path, table, config: dict, robot
     summary = summarise(table, config)
     summary["resumed_chunks"] = resumed_chunks
     traces = (
-        explorer.keep_traces(
-            robot, table, movements, list(settings.resolvers), dt=settings.population.dt, batch=execution.batch,
-            keep=execution.keep_traces, plant=settings.simulation.plant,
-            plant_options=dict(settings.simulation.plant_options),
+        explorer.page_traces(
+            robot, table, movements, list(settings.resolvers), stored_traces, dt=settings.population.dt,
+            batch=execution.batch, keep=execution.keep_traces, plant=settings.simulation.plant,
+            plant_options=dict(settings.simulation.plant_options), progress=execution.progress,
         )
         if execution.figures
         else {}

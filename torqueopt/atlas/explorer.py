@@ -17,54 +17,83 @@ inlined, so the page opens without a network):
 
 Traces are kept for a bounded sample of paths (``keep``, the atlas's
 ``--keep-traces``): every path on which some resolver whips first, then the
-others, in path order. They are made after the sweep by simulating those
-paths again with the sweep's own settings (:func:`keep_traces`), and live
-only in the page: at most :data:`MAX_SAMPLES` samples per run, evenly
-spaced, plus each joint's sample of peak :math:`|\\tau|/\\tau^+`.
+others, in path order (:func:`~torqueopt.atlas.traces.choose_paths`). The
+sweep's chunks keep them as they run (:mod:`torqueopt.atlas.traces`); a path
+whose chunk did not (a chunk of an older atlas, resumed) is simulated again
+with the sweep's own settings (:func:`keep_traces`). They live in the page: at
+most :data:`MAX_SAMPLES` samples per run, evenly spaced, plus each joint's
+sample of peak :math:`|\\tau|/\\tau^+`.
 """
 
 from __future__ import annotations
 
 import html
 import math
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
 
 from ..io import atomic_write
+from ..progress import command_name, progress_bar
 from ..units import shared_unit
 from .population import movement_trajectory
 from .sweep import require, simulate_all
-from .verdicts import VERDICT_COLOURS, applied_rows
+from .traces import MAX_SAMPLES, Traces, choose_paths, run_trace
+from .verdicts import VERDICT_COLOURS
 
-__all__ = ["DEFAULT_KEEP_TRACES", "MAX_SAMPLES", "choose_paths", "explorer_html", "keep_traces", "write_explorer"]
+__all__ = [
+    "DEFAULT_KEEP_TRACES",
+    "MAX_SAMPLES",
+    "choose_paths",
+    "explorer_html",
+    "keep_traces",
+    "page_traces",
+    "write_explorer",
+]
 
 #: Paths whose traces the atlas keeps for the explorer by default (``--keep-traces``).
 DEFAULT_KEEP_TRACES = 200
-#: Samples kept per run and joint (evenly spaced, plus each joint's peak).
-MAX_SAMPLES = 300
 _RESOLVER_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 
 
-def choose_paths(table, keep: int) -> list[int]:
-    """The paths whose traces are kept: those where any resolver whips first, then the others; at most ``keep``."""
-    paths = sorted(int(p) for p in table["path"].unique())
-    whipped = {int(p) for p in table.loc[table["verdict"] == "whiplash", "path"]}
-    ordered = [p for p in paths if p in whipped] + [p for p in paths if p not in whipped]
-    return ordered[: max(int(keep), 0)]
+def page_traces(
+    robot, table, movements, resolvers, stored: Callable[[list[int]], Iterable[Traces | None]], *, keep: int,
+    dt: float, batch: bool, plant="pinocchio", plant_options=None, progress: bool = False,
+) -> dict:  # fmt: skip
+    """The traces of the paths the page keeps (:func:`choose_paths`), as :func:`keep_traces` returns them.
+
+    ``stored(paths)`` gives the kept traces of the chunks that hold ``paths`` (None for a chunk that has
+    none), read one at a time: only the chosen paths' are held. A chosen path that no chunk kept is
+    simulated again (:func:`keep_traces`), with a line on stderr that says so when ``progress``.
+    """
+    chosen = choose_paths(table, keep)
+    kept: dict = {}
+    for traces in stored(chosen) if chosen else ():
+        if traces is not None:
+            kept.update(traces.only(chosen).by_path())
+    missing = [path for path in chosen if path not in kept]
+    if missing:
+        kept.update(
+            keep_traces(
+                robot, table, movements, resolvers, dt=dt, batch=batch, keep=keep, plant=plant,
+                plant_options=plant_options, paths=missing, progress=progress,
+            )
+        )  # fmt: skip
+    return kept
 
 
 def keep_traces(
-    robot, table, movements, resolvers, *, dt: float, batch: bool, keep: int, plant="pinocchio", plant_options=None
-) -> dict:
-    """Simulate the chosen paths again (the sweep's settings, plant and code path) and keep what the page draws.
+    robot, table, movements, resolvers, *, dt: float, batch: bool, keep: int, plant="pinocchio", plant_options=None,
+    paths=None, progress: bool = False,
+) -> dict:  # fmt: skip
+    """Simulate the chosen paths (``paths``, else :func:`choose_paths`) again, with the sweep's settings, plant and
+    code path, and keep what the page draws (:func:`~torqueopt.atlas.traces.run_trace`).
 
     Returns:
         ``{path: {resolver: {"t", "tau" (samples × joints) [s, N·m], "arm", "start_arm" (points × 2) [m]}}}``.
     """
-    from ..plots.stick import arm_points
-
-    chosen = set(choose_paths(table, keep))
+    chosen = set(choose_paths(table, keep) if paths is None else (int(path) for path in paths))
     picked = [m for m in movements if int(m.path) in chosen]
     if not picked:
         return {}
@@ -72,30 +101,19 @@ def keep_traces(
     q0s = [m.q0 for m in picked]
     whip_times = table.set_index(["path", "resolver"])["whip_time"]
     kept: dict = {}
-    for resolver in resolvers:
-        results, _ = simulate_all(robot, resolver, lines, q0s, dt, batch, plant=plant, plant_options=plant_options)
-        for movement, result in zip(picked, results):
-            result = applied_rows(result)[0]  # the torques the table's figures read: not the sample at t = T
-            rows = _kept_rows(result)
-            whip_time = float(whip_times.get((int(movement.path), resolver.label), math.nan))
-            whip_row = int(np.argmin(np.abs(result.t - whip_time))) if math.isfinite(whip_time) else len(result.t) - 1
-            kept.setdefault(int(movement.path), {})[resolver.label] = {
-                "t": result.t[rows],
-                "tau": result.tau[rows],
-                "arm": arm_points(robot, result.joint_angles[whip_row])[:, :2],
-                "start_arm": arm_points(robot, result.joint_angles[0])[:, :2],
-                "arm_time": float(result.t[whip_row]),
-            }
+    bar = progress_bar(
+        f"{command_name('torqueopt atlas')}: simulating {len(picked)} paths again for explorer.html (their chunks "
+        "kept no traces: an older atlas's, or run with --no-figures or a smaller --keep-traces)",
+        total=len(picked) * len(resolvers), unit="run", enabled=progress,
+    )  # fmt: skip
+    with bar:
+        for resolver in resolvers:
+            results, _ = simulate_all(robot, resolver, lines, q0s, dt, batch, plant=plant, plant_options=plant_options)
+            for movement, result in zip(picked, results):
+                whip_time = float(whip_times.get((int(movement.path), resolver.label), math.nan))
+                kept.setdefault(int(movement.path), {})[resolver.label] = run_trace(robot, result, whip_time)
+            bar.update(len(picked))
     return kept
-
-
-def _kept_rows(result) -> np.ndarray:
-    """At most MAX_SAMPLES evenly spaced rows, with each joint's row of peak |τ|/τ⁺ (a whip's spike is kept)."""
-    count = len(result.t)
-    rows = set(np.linspace(0, count - 1, min(count, MAX_SAMPLES)).round().astype(int).tolist())
-    ratio = np.nan_to_num(np.abs(result.torque_ratio), nan=-1.0)
-    rows.update(int(r) for r in np.argmax(ratio, axis=0))
-    return np.array(sorted(rows))
 
 
 def _number(value):
@@ -319,8 +337,8 @@ def explorer_html(table, summary: dict, traces: dict, keep: int) -> str:
 <h1 style="font-size: 1.3em">{html.escape(title)}</h1>
 <p>{summary["paths"]} movements x {len(summary["resolvers"])} resolvers. Each point is one run at its start point,
 coloured by verdict; hover for its numbers, click for the torque of every resolver on its path and the arm at the
-instability. Pick the resolver and the duration with the menus. Traces: {html.escape(kept_note)}, simulated again
-after the sweep, at most {MAX_SAMPLES} samples per run plus each joint's peak.</p>
+instability. Pick the resolver and the duration with the menus. Traces: {html.escape(kept_note)}, kept from the
+sweep's runs, at most {MAX_SAMPLES} samples per run plus each joint's peak.</p>
 <div id="map"></div>
 <p id="selection">click a point (or open the page with #select=PATH)</p>
 <div id="torque"></div>

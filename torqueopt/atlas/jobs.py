@@ -82,6 +82,10 @@ class ResolverChunk:
         margin_every: the time between the states whose stability margin is evaluated [s]; None: no margin.
         plant: what the torques act on, a name :func:`torqueopt.plants.make_plant` takes.
         plant_options: the plant's options, as sorted (key, value) pairs.
+        keep_traces: the explorer's ``keep``: hand back the traces of the runs of the paths it may keep
+            (:func:`torqueopt.atlas.sweep.chunk_output`); 0: none.
+        parts_per_path: the chunks each path's rows come in (2 with the global optimum's chunks): until its
+            other part is known, a path whose resolvers are all calm may still whip.
     """
 
     robot: RobotSpec
@@ -94,6 +98,8 @@ class ResolverChunk:
     margin_every: float | None = None
     plant: str = "pinocchio"
     plant_options: tuple[tuple[str, str], ...] = ()
+    keep_traces: int = 0
+    parts_per_path: int = 1
 
 
 @dataclass(frozen=True)

@@ -177,8 +177,8 @@ class ExecutionSettings(Settings):
     keep_traces: int = setting(
         DEFAULT_KEEP_TRACES,
         f"explorer.html keeps the runs of N paths (default {DEFAULT_KEEP_TRACES}): every resolver's torque, the "
-        "arm at the instability; paths where a resolver whips first, then the others, simulated again after "
-        "the sweep; 0: the map only",
+        "arm at the instability; paths where a resolver whips first, then the others, kept from the sweep's "
+        "runs; 0: the map only",
         check=whole_at_least(0),
         parse=whole(),
         metavar="N",

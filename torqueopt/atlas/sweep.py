@@ -18,6 +18,10 @@ the chunks' rows sorted by path and resolver, and every chunk's rows are a
 deterministic function of the settings (Dask may run a chunk twice: the
 second gives the same file).
 
+With the explorer on (``keep_traces``), a chunk also hands back what the page draws of the runs of the
+paths it may keep (:mod:`torqueopt.atlas.traces`), and the client writes those that the chunks landed so far
+still allow beside the rows, first: ``chunk-NNNNNN.traces.npz``.
+
 A chunk is trusted only when it proves it is this atlas's: its Parquet
 schema metadata (key ``torqueopt.atlas``) records the atlas fingerprint
 (:func:`config_digest` of the settings), its index, its row count and a
@@ -39,6 +43,7 @@ import signal
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import NamedTuple
 
 from ..batch import batch_supports, simulate_batch
 from ..errors import InvalidInput, MissingDependency
@@ -52,11 +57,14 @@ from .jobs import GlobalChunk, ResolverChunk, RobotSpec, worker_robot
 from .margins import margin_columns
 from .population import movement_trajectory
 from .rows import movement_columns, path_columns, peak_applied_ratio, start_columns
+from .traces import KeptPaths, Traces, run_trace
 from .verdicts import run_row, self_motion_energy
 
 __all__ = [
     "CHUNK_FOLDER",
+    "ChunkOutput",
     "RobotSpec",
+    "chunk_output",
     "chunk_path",
     "collect",
     "executor",
@@ -65,6 +73,7 @@ __all__ = [
     "run_chunks",
     "simulate_all",
     "start_fork_server",
+    "traces_path",
 ]
 
 CHUNK_FOLDER = "chunks"
@@ -92,16 +101,37 @@ def chunk_path(out: Path, index: int) -> Path:
     return out / CHUNK_FOLDER / f"chunk-{index:06d}.parquet"
 
 
+def traces_path(out: Path, index: int) -> Path:
+    """Where chunk ``index``'s kept traces lie, beside its rows."""
+    return out / CHUNK_FOLDER / f"chunk-{index:06d}.traces.npz"
+
+
+class ChunkOutput(NamedTuple):
+    """What a worker hands back for a chunk: its rows, and the traces of the paths the explorer may keep
+    (None when the job keeps none, and for the global optimum's chunks)."""
+
+    rows: list[dict]
+    traces: Traces | None
+
+
 def run_chunk(job: ResolverChunk | GlobalChunk) -> list[dict]:
     """The rows of one chunk (plain dicts): every resolver on every movement, pinv's first, or the global
     optimum of each movement (a :class:`~torqueopt.atlas.jobs.GlobalChunk`). The same job gives the same rows."""
+    return chunk_output(job).rows
+
+
+def chunk_output(job: ResolverChunk | GlobalChunk) -> ChunkOutput:
+    """The rows of one chunk (:func:`run_chunk`) and, when the job keeps traces (``keep_traces``), each run's
+    :func:`~torqueopt.atlas.traces.run_trace` on the paths the chunk's own rows leave among those the explorer may
+    keep. Memory: the traces of the chunk's runs, each at most MAX_SAMPLES samples plus a peak per joint."""
     if isinstance(job, GlobalChunk):
-        return run_global_chunk(job)
+        return ChunkOutput(run_global_chunk(job), None)
     robot = worker_robot(job.robot)
     movements = list(job.movements)
     lines = [movement_trajectory(m) for m in movements]
     q0s = [m.q0 for m in movements]
     rows: list[dict] = []
+    runs: list[tuple[int, str, dict]] = []
     pinv_peaks = None
     for resolver in job.resolvers:
         results, energies = simulate_all(
@@ -124,7 +154,15 @@ def run_chunk(job: ResolverChunk | GlobalChunk) -> list[dict]:
             row["pinv_peak_torque_ratio"] = pinv_peak
             row["batched"] = bool(job.batch and batch_supports(robot, resolver))
             rows.append(row)
-    return rows
+            if job.keep_traces:
+                runs.append((movement.path, row["resolver"], run_trace(robot, result, row["whip_time"])))
+    if not job.keep_traces:
+        return ChunkOutput(rows, None)
+    kept = KeptPaths(job.keep_traces, job.parts_per_path)
+    kept.tell_rows(rows)
+    runs = [run for run in runs if kept.may_keep(run[0])]
+    labels = [resolver_label(resolver) for resolver in job.resolvers]
+    return ChunkOutput(rows, Traces.pack(labels, runs, robot.nv, robot.model.njoints))  # arm_points' count
 
 
 def resolver_label(resolver: Resolver) -> str:
@@ -292,26 +330,40 @@ def run_chunks(
     done_paths,
     description,
     once_a_worker_idles: Callable[[], None] | None = None,
+    kept_paths: KeptPaths | None = None,
 ) -> dict:
     """Run the pending chunks on ``client`` (an :func:`executor`), writing each as it finishes; returns their rows.
 
     With ``progress``, a bar of paths done on stderr (``torqueopt.progress.progress_bar``: on a terminal;
     one line ``description ...`` otherwise). ``once_a_worker_idles`` is called once, as soon as fewer chunks are
     left than the cluster has worker threads: what it starts (the report's imports) then takes a core that the
-    sweep leaves idle, not one a worker computes on.
+    sweep leaves idle, not one a worker computes on. ``kept_paths``, told the rows of the chunks done before,
+    is told each chunk's rows as it lands, and a chunk's traces are written (:func:`traces_path`, before its
+    rows) for the paths it may still keep.
     """
     bar = progress_bar(description, total=total_paths, unit="path", enabled=progress, initial=done_paths)
     frames = {}
+
+    def land(index: int, output: ChunkOutput) -> None:
+        rows, traces = output
+        digest = jobs[index].digest
+        if kept_paths is not None:
+            kept_paths.tell_rows(rows)
+        if kept_paths is not None and traces is not None:
+            traces = traces.only(path for path in set(traces.path.tolist()) if kept_paths.may_keep(path))
+            atomic_write(traces_path(out, index), lambda handle: traces.write(handle, digest, index))
+        frames[index] = write_chunk(out, index, rows, digest)
+        bar.update(len(jobs[index].movements))
+
     try:
         if client is None:
             for index, job in jobs.items():
-                frames[index] = write_chunk(out, index, run_chunk(job), job.digest)
-                bar.update(len(job.movements))
+                land(index, chunk_output(job))
             return frames
         distributed = require("distributed")
         futures = {}
         for index, job in jobs.items():
-            futures[client.submit(run_chunk, job, pure=False, key=f"atlas-chunk-{job.digest}-{index}")] = index
+            futures[client.submit(chunk_output, job, pure=False, key=f"atlas-chunk-{job.digest}-{index}")] = index
         threads, left = sum(client.nthreads().values()), len(futures)
 
         def when_a_worker_idles():
@@ -333,9 +385,7 @@ def run_chunks(
                 for future in batch:
                     left -= 1
                     when_a_worker_idles()
-                    index = futures[future]
-                    frames[index] = write_chunk(out, index, future.result(), jobs[index].digest)
-                    bar.update(len(jobs[index].movements))
+                    land(futures[future], future.result())
                     future.release()
             if interrupted:
                 client.cancel(list(futures))
