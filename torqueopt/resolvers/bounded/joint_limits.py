@@ -92,11 +92,9 @@ also moves. The velocity terms of the bias torque :math:`b = C(q, \dot q)\dot q 
 (Coriolis, centrifugal, the joints' damping and friction) are not counted:
 they fall with the speeds as the joints slow, and counting their value at
 the state as if it lasted the whole stop made states far from any limit
-look unable to stop. On planar3 (no gravity, torque limits of a few N·m)
-joint2's Coriolis torque at q = (−0.91, 2.19, 0.24) rad,
-q̇ = (1.31, −1.1, −1.26) rad/s, 25.3 N·m, exceeds its 24 N·m limit: counting
-it gave :math:`\bar a` = 0.045 rad/s², and the step gave up the task 8.5 rad
-from the limit, where the torque box gives the joint 6.4 rad/s². A joint
+look unable to stop (on planar3, whose Coriolis torque can exceed a joint's
+whole limit, the step gave up the task 8.5 rad from any limit:
+docs/guide/joint-limits.md). A joint
 without a torque limit and without an acceleration limit can stop at once:
 it has no viability bound. :math:`\bar a_i` is the same in both directions,
 and it is not a proven bound.
