@@ -3,13 +3,17 @@ such samples (the joint limits' deceleration, before and after).
 
     python benchmarks/bounded_atlas_sample.py run docs/atlas/tiago 1000 /tmp/after-tiago.parquet
     python benchmarks/bounded_atlas_sample.py compare /tmp/before-tiago.parquet /tmp/after-tiago.parquet
+    python benchmarks/bounded_atlas_sample.py planar3 300
 
 ``run`` draws the atlas's population from its recorded settings (atlas.json), picks PATHS of its movements (seed 0;
 all of them when PATHS is the population's size) and runs pinv, bounded-torque, minmax-torque and
 energy-bounded-torque on them as the atlas's sweep does (``run_chunk``, batched), with the torqueopt on PYTHONPATH:
 run it once on the code before a change (a ``git archive`` of it) and once after. ``compare`` prints, per resolver,
 the verdicts, the runs outside a position or velocity limit and those newly so, the runs with an infeasible step
-(the task given up), and the median and largest peak torque ratio, on the paths both samples hold.
+(the task given up), and the median and largest peak torque ratio, on the paths both samples hold. ``planar3``
+counts, per bounded resolver, the random planar3 states (seed 0: q uniform in [−π, π]³ rad, q̇ in [−1.5, 1.5]³ rad/s,
+ẍ = √2 m/s² in a random direction) at which the step with joint_limits=on gives up task acceleration and the step
+with joint_limits=off does not: states far from planar3's ±2π limits, where the joint limits should cost nothing.
 """
 
 from __future__ import annotations
@@ -81,6 +85,25 @@ def compare(before_file: Path, after_file: Path) -> None:
         )
 
 
+def planar3(count: int) -> None:
+    import torqueopt
+    from torqueopt.resolvers import get_resolver
+
+    robot = torqueopt.load_robot("planar3")
+    rng = np.random.default_rng(0)
+    states = [(rng.uniform(-np.pi, np.pi, 3), rng.uniform(-1.5, 1.5, 3), rng.normal(size=2)) for _ in range(count)]
+    for name in RESOLVERS[1:]:
+        on = get_resolver(name).solver(robot, 1e-3)
+        off = get_resolver(name, joint_limits="off").solver(robot, 1e-3)
+        given_up = []
+        for index, (q, v, direction) in enumerate(states):
+            terms = robot.terms(robot.configuration(q), v)
+            command = np.sqrt(2.0) * direction / np.linalg.norm(direction)
+            if on(terms, command).task_error > 1e-9 and off(terms, command).task_error <= 1e-9:
+                given_up.append(index)
+        print(f"{name}: {len(given_up)} of {count} states give up the task for the joint limits {given_up}")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -91,11 +114,15 @@ def main(argv=None) -> None:
     compare_parser = commands.add_parser("compare", help="compare two samples")
     compare_parser.add_argument("before", type=Path)
     compare_parser.add_argument("after", type=Path)
+    states_parser = commands.add_parser("planar3", help="count random planar3 states the joint limits give up")
+    states_parser.add_argument("count", type=int)
     arguments = parser.parse_args(argv)
     if arguments.command == "run":
         run(arguments.atlas, arguments.paths, arguments.out)
-    else:
+    elif arguments.command == "compare":
         compare(arguments.before, arguments.after)
+    else:
+        planar3(arguments.count)
 
 
 if __name__ == "__main__":

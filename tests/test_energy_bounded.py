@@ -336,7 +336,7 @@ def test_when_the_joint_limits_are_given_up_for_the_torque_limits_the_barrier_st
         for row, text in (run.limiting or {}).items()
         if text.startswith(("joint limits given up", "joint limits exceeded least"))
     ]
-    assert len(given_up) >= 10, len(given_up)
+    assert len(given_up) >= 3, len(given_up)  # 3 since the joint limits' ā counts gravity only (19 before)
     resolver = get_resolver("energy-bounded-torque")
     limit, rate_factor = resolver.energy_limit, resolver.energy_rate
     panda = baxter  # the checks below are the arm's own

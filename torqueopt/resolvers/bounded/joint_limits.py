@@ -52,6 +52,23 @@ viability
     (Del Prete's root, written without cancellation; w = 0 gives his bound
     exactly), and never below :math:`-\dot q_i/\delta` (stopping within the
     step is always allowed); mirrored at :math:`q^-_i`.
+
+    A state above the curve of :math:`\bar a_i` (:math:`\bar a_i` is derived at
+    each state, and falls when the gravity torque grows) is not asked back under
+    it within one step: that asks more braking than :math:`\bar a_i`, up to
+    hundreds of rad/s², which no torque gives. The curve of the deceleration
+    that passes through the state,
+
+    .. math::
+
+        \bar a^*_i = \frac{\dot q_i^2}{2(d - N\delta\dot q_i)}\quad(d > N\delta\dot q_i),
+
+    takes the place of :math:`\bar a_i` in the bound: the joint brakes at
+    about :math:`\bar a^*_i`, what still brings it to rest on the limit, and
+    the step asks for more only where that is more than the torque gives.
+    Next to the limit (:math:`d \le N\delta\dot q_i`) no curve passes through
+    the state, and the bound asks it back under the curve of :math:`\bar a_i`
+    (every curve there is :math:`\dot q \approx k d`).
 velocity
     :math:`|\dot q_i^+| \le \dot q^{max}_i`:
     :math:`(-\dot q^{max}_i - \dot q_i)/\delta \le a \le (\dot q^{max}_i - \dot q_i)/\delta`.
@@ -60,20 +77,27 @@ acceleration
 
 The maximum deceleration :math:`\bar a_i` is the acceleration limit where
 one is given (option ``joint_acceleration_limit``). Otherwise it is derived
-at each state from the torque limit and the mass matrix,
+at each state from the torque limit, the mass matrix and the gravity torque
+:math:`g(q)` (Pinocchio's ``computeGeneralizedGravity``),
 
 .. math::
 
-    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |b_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
+    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |g_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
 
-half the acceleration joint i's own torque gives it, beyond what holds the
-bias torque :math:`b_i` (Coriolis, centrifugal, gravity), with the other
-joints at rest. When the bias alone takes more than nine tenths of the
-limit, a tenth of the limit is counted. The half leaves torque for the task
-and for the other joints, which the real stop also moves. A joint without a
-torque limit and without an acceleration limit can stop at once: it has no
-viability bound. This is the same value in both directions, and it is not a
-proven bound.
+half the acceleration joint i's own torque gives it beyond what holds it
+against gravity, with the other joints at rest. When gravity alone takes more
+than nine tenths of the limit, a tenth of the limit is counted. The half
+leaves torque for the task and for the other joints, which the real stop
+also moves. The velocity terms of the bias torque :math:`b = C(q, \dot q)\dot q + g(q)`
+(Coriolis, centrifugal, the joints' damping and friction) are not counted:
+they fall with the speeds as the joints slow, and counting their value at
+the state as if it lasted the whole stop made states far from any limit
+look unable to stop (on planar3, whose Coriolis torque can exceed a joint's
+whole limit, the step gave up the task 8.5 rad from any limit:
+docs/guide/joint-limits.md). A joint
+without a torque limit and without an acceleration limit can stop at once:
+it has no viability bound. :math:`\bar a_i` is the same in both directions,
+and it is not a proven bound.
 
 What the torque box really gives joint i at the state, each way, is the box
 LP of :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over :math:`\tau^- \le \tau \le \tau^+`.
@@ -82,18 +106,8 @@ Each :math:`\tau_j` sits at the end of its range that the sign of
 :math:`c_i \mp \sum_j |(H^{-1})_{ij}|\rho_j`, with :math:`c = H^{-1}(\tau_{mid} - b)`
 and :math:`\rho` the half-ranges (:func:`acceleration_range`, held to HiGHS in
 the tests). It is exact for one joint alone, but several joints that must stop at
-once cannot each have their own extreme. Counting on a share of it was measured
-on the arms' atlases (docs/guide/joint-limits.md), and no share
-tried kept every atlas as it was:
-
-- 1/(2n) of it for every joint: on tiago's atlas the runs with an
-  infeasible step went from 11 to 46 (``bounded-torque``), and 3 paths that
-  ``pinv`` handles left a velocity limit.
-- The same share only where the bias takes the joint's own torque: baxter's
-  atlas went from 2 to 38 runs outside a limit (``bounded-torque``) and from
-  5 to 68 (``minmax-torque``).
-
-The rule above therefore stays.
+once cannot each have their own extreme, and no share of it measured on the
+arms' atlases kept them as they were (docs/guide/joint-limits.md).
 
 A run holds the torque over the step, not the acceleration: the
 acceleration drifts inside the step with the state, and the state at the
@@ -129,6 +143,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import pinocchio as pin
 
 from ...checks import Refused, finite_array
 from ...robot import Robot, TaskTerms
@@ -248,17 +263,33 @@ def acceleration_range(terms: TaskTerms, torque_upper: np.ndarray, torque_lower:
     return centre - reach, centre + reach
 
 
-def stopping_deceleration(terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray):
+def stopping_deceleration(
+    terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray, gravity_torque: np.ndarray
+):
     r"""(:math:`\bar a^+`, :math:`\bar a^-`) [rad/s²]: the deceleration counted on before each joint's upper limit and
-    before its lower one, from the torque limits [N·m] and H at the state of ``terms`` (module docstring).
+    before its lower one, from the torque limits [N·m], H at the state of ``terms`` and the gravity torque
+    :math:`g(q)` [N·m] there (module docstring).
 
-    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, the same both ways; inf where the
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}`, the same both ways; inf where the
     torque is unbounded. One state (n values each) or a stack (B × n).
     """
     limit = np.minimum(torque_upper, -torque_lower)
-    available = np.maximum(limit - np.abs(terms.bias_torque), LEAST_STOPPING_SHARE * limit)
+    available = np.maximum(limit - np.abs(gravity_torque), LEAST_STOPPING_SHARE * limit)
     deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
     return deceleration, deceleration
+
+
+def _through(distance, speed, scale, deceleration):
+    r"""The larger of ``deceleration`` and the one whose approach curve passes through the state.
+
+    Towards a limit at ``distance`` d [rad] with ``speed`` q̇ > 0 [rad/s], the approach curve of the deceleration a
+    (scale Nδ [s], module docstring) passes through the state where q̇² = 2a(d − Nδq̇): a = q̇²/(2(d − Nδq̇)). Where
+    no curve does (d <= Nδq̇, next to the limit) or the state is under the curve of ``deceleration``, that one.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = distance - scale * speed
+        through = speed**2 / (2.0 * room)
+    return np.where((speed > 0.0) & (room > 0.0) & (through > deceleration), through, deceleration)
 
 
 def _pick(candidates, choose):
@@ -321,17 +352,20 @@ def acceleration_bounds(
         # parabola itself. The larger root of δ²a² + B a + C = 0, in the form without cancellation where B > 0.
         # upper_brake stops the joint before its upper limit (a negative acceleration), lower_brake before its lower.
         scale = APPROACH_STEPS * dt if approach else 0.0
-        offset, lower_offset = upper_brake * scale, lower_brake * scale
-        reach, lower_reach = 0.5 * offset**2 / upper_brake, 0.5 * lower_offset**2 / lower_brake
+        # A state above ā's curve rides the curve through it, not asked back under ā's within one step (more than ā).
+        upper_ride = _through(upper - q, v, scale, upper_brake)
+        lower_ride = _through(q - lower, -v, scale, lower_brake)
+        offset, lower_offset = upper_ride * scale, lower_ride * scale
+        reach, lower_reach = 0.5 * offset**2 / upper_ride, 0.5 * lower_offset**2 / lower_ride
         root_up = _larger_root(
             dt,
-            2.0 * dt * (v + offset) + upper_brake * dt**2,
-            (v + offset) ** 2 - 2.0 * upper_brake * (upper + reach - q - dt * v),
+            2.0 * dt * (v + offset) + upper_ride * dt**2,
+            (v + offset) ** 2 - 2.0 * upper_ride * (upper + reach - q - dt * v),
         )
         root_down = -_larger_root(
             dt,
-            2.0 * dt * (lower_offset - v) + lower_brake * dt**2,
-            (lower_offset - v) ** 2 - 2.0 * lower_brake * (q + dt * v - lower + lower_reach),
+            2.0 * dt * (lower_offset - v) + lower_ride * dt**2,
+            (lower_offset - v) ** 2 - 2.0 * lower_ride * (q + dt * v - lower + lower_reach),
         )
     upper_viability = np.where(
         np.isfinite(upper_brake), np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step), np.inf
@@ -384,6 +418,7 @@ class JointLimits:
         self._velocity, self._limit = (1.0 - VELOCITY_MARGIN) * velocity[joints], limit[joints]
         self._euclidean = robot.euclidean
         self._neutral = robot.configuration(np.zeros(robot.nv))
+        self._data = robot.model.createData()
 
     @property
     def count(self) -> int:
@@ -402,7 +437,10 @@ class JointLimits:
         angles = configuration - self._neutral if self._euclidean else self.robot.joint_angles(configuration)
         angles = angles[..., joints]
         if self.derived:
-            before_upper, before_lower = stopping_deceleration(terms, self.robot.torque_upper, self.robot.torque_lower)
+            gravity = self.gravity_torque(configuration)
+            before_upper, before_lower = stopping_deceleration(
+                terms, self.robot.torque_upper, self.robot.torque_lower, gravity
+            )
             before_upper, before_lower = before_upper[..., joints], before_lower[..., joints]
         else:
             before_upper = before_lower = self._limit
@@ -417,6 +455,13 @@ class JointLimits:
             self._limit,
             lower_deceleration=before_lower,
         )
+
+    def gravity_torque(self, configuration: np.ndarray) -> np.ndarray:
+        """g(q) [N·m] by Pinocchio at one configuration (nq) or a stack (B × nq): n values or B × n."""
+        model, data = self.robot.model, self._data
+        if configuration.ndim == 1:
+            return pin.computeGeneralizedGravity(model, data, configuration).copy()
+        return np.array([pin.computeGeneralizedGravity(model, data, row).copy() for row in configuration])
 
     def scale(self, bounds: AccelerationBounds) -> np.ndarray:
         """Per row, the acceleration [rad/s²] it is divided by, so that the solver's tolerance is relative."""
