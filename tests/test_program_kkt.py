@@ -213,12 +213,19 @@ class WrongSignMultipliers(MinMaxTorque):
 
 
 class IgnoredKinematicWeight(BoundedTorque):
-    """bounded-torque whose QP always takes μ = 0.5, whatever its kinematic_weight option says."""
+    """bounded-torque whose programs always take μ = 0.5, whatever its kinematic_weight option says (its feasible
+    QP and the infeasible steps' programs alike: the contract's states include steps on the joint bounds)."""
 
-    def _optimum(self, robot, *arguments, **keywords):
+    def _fixed(self):
         fixed = copy.copy(self)
         fixed.kinematic_weight = 0.5
-        return BoundedTorque._optimum(fixed, robot, *arguments, **keywords)
+        return fixed
+
+    def solver(self, robot):
+        return BoundedTorque.solver(self._fixed(), robot)
+
+    def program_solver(self, robot):
+        return BoundedTorque.program_solver(self._fixed(), robot)
 
 
 def failed_checks(resolver, robot) -> list[str]:
