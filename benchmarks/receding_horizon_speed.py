@@ -12,17 +12,28 @@ Cases, interleaved round by round so a noisy neighbour hits both alike:
 * ``line``: planar3's whole 2 s long movement with a 0.5 s window replanned every 1, 5 and 20 steps: the CPU per
   control step of the whole run (solves, the steps between them and the simulation), ``vm`` and ``compiled``.
 
+* ``count``: the instructions of one warm solve under valgrind's callgrind, repeatable where CPU time is not:
+  planar3's long movement with a ``--window`` window replanned every 20 steps, run for 0.1 s and for 0.3 s
+  (5 and 15 solves) in two processes; the difference of the totals over the 10 solves (and their 200 steps)
+  is one solve's count, imports, builds and compiles cancelled out (the compile itself runs outside valgrind).
+
 CPU time (``time.process_time``) rather than wall time: the machine is shared. The one-time builds and compiles
 happen in a round 0 that is not counted.
 
     taskset -c 0 python benchmarks/receding_horizon_speed.py solves [--rounds 1]
     taskset -c 0 python benchmarks/receding_horizon_speed.py line
+    python benchmarks/receding_horizon_speed.py count --window 0.5
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -128,16 +139,62 @@ def line(arguments) -> None:
         print(f"| {every} | {mode} | {entries[0][2]} | {1e3 * per_step:.2f} | {1e3 * in_solves:.2f} |")
 
 
+COUNT_RUN = """
+import gc, sys
+sys.path.insert(0, {folder!r})
+import torqueopt
+from torqueopt.paper import PAPER
+from receding_horizon_speed import Timed
+mode, window, duration = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
+robot = PAPER.load_robot()
+torqueopt.simulate(robot, Timed(mode, horizon=window, replan_every=20), PAPER.line("long"), PAPER.q0, dt=1e-3, duration=0.04)
+gc.collect()
+gc.freeze()
+run = torqueopt.simulate(robot, Timed(mode, horizon=window, replan_every=20), PAPER.line("long"), PAPER.q0, dt=1e-3,
+                         duration=duration)
+assert run.completed
+"""
+
+
+def count(arguments) -> None:
+    folder = os.path.dirname(os.path.abspath(__file__))
+    totals = {}
+    for mode in MODES:
+        for duration in (0.1, 0.3):
+            # warm the builds and the on-disk compile outside valgrind: the counted process loads them
+            subprocess.run([sys.executable, "-c", COUNT_RUN.format(folder=folder), mode, str(arguments.window), "0.05"],
+                           check=True, capture_output=True)  # fmt: skip
+            with tempfile.TemporaryDirectory() as scratch:
+                script = os.path.join(scratch, "run.py")
+                with open(script, "w") as handle:
+                    handle.write(COUNT_RUN.format(folder=folder))
+                completed = subprocess.run(
+                    ["valgrind", "--tool=callgrind", f"--callgrind-out-file={scratch}/out", sys.executable, script,
+                     mode, str(arguments.window), str(duration)],
+                    capture_output=True, text=True, check=False,
+                    env={**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
+                )  # fmt: skip
+            match = re.search(r"Collected\s*:\s*(\d+)", completed.stderr)
+            if completed.returncode != 0 or match is None:
+                sys.exit(f"valgrind run failed ({mode}, {duration} s):\n{completed.stderr[-2000:]}")
+            totals[mode, duration] = int(match.group(1))
+    print(f"| functions | instructions per warm solve, planar3, window {arguments.window:g} s |")
+    print("|---|---:|")
+    for mode in MODES:
+        print(f"| {mode} | {(totals[mode, 0.3] - totals[mode, 0.1]) / 10:,.0f} |")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
-    parser.add_argument("what", choices=("solves", "line"))
+    parser.add_argument("what", choices=("solves", "line", "count"))
+    parser.add_argument("--window", type=float, default=0.5, help="count: the window [s]")
     parser.add_argument("--rounds", type=int, default=1)
     parser.add_argument("--robots", nargs="+", default=["planar3", "panda"], choices=("planar3", "panda"))
     parser.add_argument("--windows", nargs="+", type=float, default=[0.1, 0.5, 1.0])
     parser.add_argument("--planar-duration", type=float, default=0.5, help="seconds of planar3's movement run [s]")
     parser.add_argument("--panda-duration", type=float, default=0.1, help="seconds of panda's line run [s]")
     arguments = parser.parse_args(argv)
-    (solves if arguments.what == "solves" else line)(arguments)
+    {"solves": solves, "line": line, "count": count}[arguments.what](arguments)
 
 
 if __name__ == "__main__":
