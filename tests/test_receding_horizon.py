@@ -152,6 +152,24 @@ def test_a_window_computes_its_start_and_bounds_as_the_plain_functions(paper_arm
             np.testing.assert_array_equal(cached, plain)
 
 
+def test_a_window_without_a_writable_cache_runs_uncompiled(paper_arm, tmp_path, monkeypatch):
+    """A compiled window whose cache directory cannot be made (here: under a file) falls back to CasADi's virtual
+    machine: the solve is the uncompiled one's, bit for bit."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "file" / "cache"))
+    monkeypatch.setattr(receding_horizon, "COMPILE_FROM", 0)
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
+    reference = line.sample(0.01 * np.arange(3)).position
+    compiled = HorizonProgram(RecedingHorizon(horizon=0.02), paper_arm, 0.01)
+    assert compiled.compiled
+    plain = HorizonProgram(RecedingHorizon(horizon=0.02), paper_arm, 0.01)
+    plain.compiled = False
+    solved = compiled.solve(0.0, q, np.zeros(3), reference, None)
+    assert solved.status == "converged"
+    np.testing.assert_array_equal(solved.w, plain.solve(0.0, q, np.zeros(3), reference, None).w)
+
+
 @pytest.mark.filterwarnings("ignore:holding the start against gravity")
 def test_a_failed_solve_falls_back_and_says_so(paper_arm):
     """Gravity in the arm's plane, limits at a tenth of its static torque: no window is feasible; each step is
