@@ -9,8 +9,10 @@ import pytest
 import torqueopt
 from torqueopt.errors import InvalidInput, NoRedundancy
 from torqueopt.optimal import optimize, run_cost
+from torqueopt.optimal.transcription import Transcription
 from torqueopt.paper import PAPER
-from torqueopt.resolvers.receding_horizon import HorizonProgram, RecedingHorizon, plan_state
+from torqueopt.resolvers import receding_horizon
+from torqueopt.resolvers.receding_horizon import HorizonProgram, RecedingHorizon, plan_state, plan_states
 from torqueopt.self_motion import self_motion_energy
 from torqueopt.testing import check_resolver
 
@@ -39,9 +41,11 @@ class Capturing(RecedingHorizon):
 
 
 @pytest.mark.slow
-def test_a_horizon_of_the_whole_movement_planned_once_is_the_whole_movement_optimum(paper_arm):
+def test_a_horizon_of_the_whole_movement_planned_once_is_the_whole_movement_optimum(paper_arm, tmp_path, monkeypatch):
     """Same program (knots 10 ms, torque bounds and joint limits of the URDF, end free), solved once from the
-    start: the run's torques are the optimum's on the 1 ms grid, so are their costs (1e-6; measured 3e-12)."""
+    start: the run's torques are the optimum's on the 1 ms grid, so are their costs (1e-6; measured 3e-12). The
+    window (N = 50) evaluates compiled C, the optimum CasADi's virtual machine."""
+    monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "cache"))
     line = PAPER.line("short")
     optimum = optimize(
         paper_arm, line, PAPER.q0, transcription="shooting", end="free", torque_bounds=True, joint_limits=True,
@@ -89,15 +93,19 @@ def test_a_one_step_horizon_tends_to_bounded_torque_at_first_order(paper_arm):
     assert 5.0 < differences[0] / differences[1] < 20.0
 
 
-def test_kkt_conditions_hold_at_every_solve(paper_arm):
-    """At each window's solve, from the state measured there, with IPOPT's multipliers: ∇f + ∂gᵀλ_g + λ_x = 0 with f, g and their derivatives from
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, tmp_path, monkeypatch):
+    """At each window's solve (its functions in CasADi's virtual machine, or compiled to C), from the state measured there, with IPOPT's multipliers: ∇f + ∂gᵀλ_g + λ_x = 0 with f, g and their derivatives from
     Pinocchio (the direct transcription's, not CasADi's), g within its bounds, and a multiplier only on an active
     bound, of the right sign; the torque bounds act at some solves."""
+    monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(receding_horizon, "COMPILE_FROM", 0 if compiled else receding_horizon.COMPILE_FROM)
     robot = paper_arm.with_torque_limit(TIGHT_LIMIT)
     resolver = Capturing(horizon=0.04, horizon_dt=0.01, replan_every=10)
     run = torqueopt.simulate(robot, resolver, PAPER.line("short"), PAPER.q0, dt=2e-3, duration=0.3)
     assert run.completed
     (step,) = resolver.steps
+    assert step.program.compiled == compiled
     problem = step.program.problem
     assert len(step.solves) == 15
     lower, upper = problem.constraint_bounds()
@@ -122,6 +130,44 @@ def test_kkt_conditions_hold_at_every_solve(paper_arm):
         active += int((np.abs(multipliers) > 1e-3).any())
     assert active >= 2
     assert np.all(np.abs(run.tau[:-1]) <= TIGHT_LIMIT * (1 + 1e-3))
+
+
+def test_a_window_computes_its_start_and_bounds_as_the_plain_functions(paper_arm):
+    """The window's shift evaluates every knot at once, its bounds are kept between solves: the same numbers as
+    plan_state knot by knot and as Transcription's bounds for each new start (exactly)."""
+    robot = paper_arm
+    q = robot.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(robot.task_position(q)[:2])
+    program = HorizonProgram(RecedingHorizon(horizon=0.05), robot, 0.01)
+    plan = program.solve(0.0, q, np.zeros(3), line.sample(0.01 * np.arange(6)).position, None)
+    times = np.array([-0.003, 0.0, 0.0137, 0.02, 0.0499, 0.05, 0.07])
+    states = plan_states(plan, 0.01, times)
+    for index, s in enumerate(times):
+        for part, expected in zip(states, plan_state(plan, 0.01, s)):
+            np.testing.assert_array_equal(part[index], expected)
+    problem = program.problem
+    for start, speed in ((q + 0.1, np.full(3, 0.2)), (q - 0.3, np.full(3, -1.0))):
+        problem.q0, problem.v0 = start, speed
+        for cached, plain in zip(problem.variable_bounds(), Transcription.variable_bounds(problem)):
+            np.testing.assert_array_equal(cached, plain)
+
+
+def test_a_window_without_a_writable_cache_runs_uncompiled(paper_arm, tmp_path, monkeypatch):
+    """A compiled window whose cache directory cannot be made (here: under a file) falls back to CasADi's virtual
+    machine: the solve is the uncompiled one's, bit for bit."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "file" / "cache"))
+    monkeypatch.setattr(receding_horizon, "COMPILE_FROM", 0)
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
+    reference = line.sample(0.01 * np.arange(3)).position
+    compiled = HorizonProgram(RecedingHorizon(horizon=0.02), paper_arm, 0.01)
+    assert compiled.compiled
+    plain = HorizonProgram(RecedingHorizon(horizon=0.02), paper_arm, 0.01)
+    plain.compiled = False
+    solved = compiled.solve(0.0, q, np.zeros(3), reference, None)
+    assert solved.status == "converged"
+    np.testing.assert_array_equal(solved.w, plain.solve(0.0, q, np.zeros(3), reference, None).w)
 
 
 @pytest.mark.filterwarnings("ignore:holding the start against gravity")

@@ -177,7 +177,8 @@ class ShootingTranscription(Transcription):
 
 
 def _compiled_library(problem: ShootingTranscription, casadi) -> Path | None:
-    """The shared library of the NLP's functions, from the cache or compiled now; None without a C compiler."""
+    """The shared library of the NLP's functions, from the cache or compiled now; None without a C compiler or a
+    writable cache (and working) directory."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     directory = cache_directory()
     library = directory / f"shooting_{problem.key}.so"
@@ -185,18 +186,21 @@ def _compiled_library(problem: ShootingTranscription, casadi) -> Path | None:
         return library
     if compiler is None:
         return None
-    directory.mkdir(parents=True, exist_ok=True)
     source = directory / f"shooting_{problem.key}.c"
-    generator = casadi.nlpsol("shooting", "ipopt", problem.nlp(), {"print_time": False})
-    # generate_dependencies writes to the working directory: write there, then move the file into the cache.
-    written = generator.generate_dependencies(source.name, {})
-    Path(written).replace(source)
-    partial = library.with_suffix(f".{os.getpid()}.so")
-    command = [compiler, "-O1", "-fPIC", "-shared", str(source), "-o", str(partial), "-lm"]
-    result = subprocess.run(command, capture_output=True, text=True)
-    if result.returncode != 0:
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        generator = casadi.nlpsol("shooting", "ipopt", problem.nlp(), {"print_time": False})
+        # generate_dependencies writes to the working directory: write there, then move the file into the cache.
+        written = generator.generate_dependencies(source.name, {})
+        Path(written).replace(source)
+        partial = library.with_suffix(f".{os.getpid()}.so")
+        command = [compiler, "-O1", "-fPIC", "-shared", str(source), "-o", str(partial), "-lm"]
+        result = subprocess.run(command, capture_output=True, text=True)
+        if result.returncode != 0:
+            return None
+        partial.replace(library)  # atomic: a concurrent process sees no half-written library
+    except OSError:  # a cache or working directory that cannot be written: the virtual machine instead
         return None
-    partial.replace(library)  # atomic: a concurrent process sees no half-written library
     return library
 
 

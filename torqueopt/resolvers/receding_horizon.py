@@ -30,8 +30,9 @@ when :math:`h = \Delta t`; over several steps, the plan's as
 horizon of the whole movement planned once is the whole-movement optimum.
 Each solve is warm-started from the previous plan shifted to the new knots
 (the first from the path's inverse kinematics). The NLP is built once per
-robot, knot count and options (CasADi, IPOPT with the exact Hessian); a
-solve costs IPOPT's iterations only.
+robot, knot count and options (CasADi, IPOPT with the exact Hessian), its
+functions compiled to C for all but the smallest windows (:data:`COMPILE_FROM`);
+a solve costs IPOPT's iterations only.
 
 A solve that ends without an optimum (infeasible, iteration limit) hands
 its step, and the steps until the next replanning instant, to the
@@ -83,6 +84,12 @@ MAX_ITERATIONS = 200
 #: IPOPT's start from a near-optimal point: a small barrier parameter, the point kept where it is (measured on
 #: planar3's long line, 0.5 s windows every 20 ms: median 5 iterations instead of 12, the same run to 4e-10).
 WARM_OPTIONS = {"ipopt.mu_init": 1e-6, "ipopt.warm_start_init_point": "yes"}
+#: Windows of at least this many decision variables evaluate their NLP's functions as compiled C
+#: (:func:`torqueopt.optimal.shooting.solve_shooting`'s ``compiled``: once per robot, knot count and options, kept
+#: on disk; CasADi's virtual machine where no C compiler exists). It pays from about 20 knots on planar3 (186
+#: variables) and on panda at any size (benchmarks/receding_horizon_speed.py); a compile takes about 10 s on planar3,
+#: minutes on panda, which the smallest windows (one control step, a few knots) would not earn back.
+COMPILE_FROM = 150
 #: The terminal conditions by name (a number is a bound on the self-motion energy [J]).
 TERMINALS = ("free", "rest")
 
@@ -288,6 +295,8 @@ class HorizonProgram:
             energy_bound=None if isinstance(terminal, str) else float(terminal),
         )
         self.data = robot.model.createData()
+        #: Whether the NLP's functions run as compiled C (:data:`COMPILE_FROM`).
+        self.compiled = self.problem.size >= COMPILE_FROM
 
     def solve(self, time: float, q, v, reference: np.ndarray, w0: np.ndarray | None) -> HorizonSolve:
         """Plan from (q, v) with the task on ``reference`` (the path at the knots 0..N, (N+1)×m); ``w0`` the warm
@@ -300,7 +309,7 @@ class HorizonProgram:
         warm = w0 is not None
         if not warm:
             w0 = self.kinematic_start(q, v, reference)
-        settings = {"tolerance": TOLERANCE, "max_iterations": MAX_ITERATIONS}
+        settings = {"tolerance": TOLERANCE, "max_iterations": MAX_ITERATIONS, "compiled": self.compiled}
         solved = spent = solve_shooting(problem, w0, **settings, ipopt_options=WARM_OPTIONS if warm else None)
         if warm and solved.status not in _OPTIMAL:
             # The small barrier parameter fails near the edge of feasibility where IPOPT's default start succeeds
@@ -335,10 +344,8 @@ class HorizonProgram:
 
     def shifted_start(self, plan: HorizonSolve, time: float) -> np.ndarray:
         """The previous plan at the new knots t + kh (its last knot held beyond its end): the warm start."""
-        states = [plan_state(plan, self.h, time + k * self.h - plan.time) for k in range(self.intervals + 1)]
-        q = np.array([state[0] for state in states])
-        v = np.array([state[1] for state in states])
-        return self.problem.join(q, v, np.array([state[2] for state in states[:-1]]))
+        q, v, a = plan_states(plan, self.h, time + self.h * np.arange(self.intervals + 1) - plan.time)
+        return self.problem.join(q, v, a[:-1])
 
 
 def plan_state(plan: HorizonSolve, h: float, s: float):
@@ -349,6 +356,19 @@ def plan_state(plan: HorizonSolve, h: float, s: float):
     k = min(max(int(s // h), 0), last)
     r = s - k * h
     return plan.q[k] + r * plan.v[k] + 0.5 * r * r * plan.a[k], plan.v[k] + r * plan.a[k], plan.a[k]
+
+
+def plan_states(plan: HorizonSolve, h: float, s: np.ndarray):
+    """:func:`plan_state` at each of the times ``s`` [s] (the same numbers): (q, q̇, q̈), each len(s)×n."""
+    last = len(plan.a) - 1
+    k = np.minimum(np.maximum((s // h).astype(int), 0), last)
+    r = (s - k * h)[:, None]
+    q = plan.q[k] + r * plan.v[k] + 0.5 * r * r * plan.a[k]
+    v = plan.v[k] + r * plan.a[k]
+    a = plan.a[k].copy()
+    beyond = s >= (last + 1) * h
+    q[beyond], v[beyond], a[beyond] = plan.q[-1], plan.v[-1], 0.0
+    return q, v, a
 
 
 class _Fallback:
@@ -450,13 +470,39 @@ class CommandHorizonStep:
 
 def _transcription(robot, duration, intervals, reference, q0, root, midpoint, *, energy_bound=None, **options):
     """The window's ``ShootingTranscription``, with the terminal self-motion energy row when bounded."""
-    from ..optimal.shooting import ShootingTranscription
-
     if energy_bound is None:
-        return ShootingTranscription(robot, duration, intervals, reference, q0, root, midpoint, **options)
-    return _EnergyBoundedTranscription(
+        return _window_class(False)(robot, duration, intervals, reference, q0, root, midpoint, **options)
+    return _window_class(True)(
         robot, duration, intervals, reference, q0, root, midpoint, energy_bound=energy_bound, **options
     )
+
+
+@functools.cache
+def _window_class(energy_bounded: bool):
+    """The window's transcription class: its solver key and variable bounds computed once, since a window program
+    keeps its model, N and options and changes only its start (q0, v0) and reference between solves."""
+    from ..optimal.shooting import ShootingTranscription
+
+    base = _energy_bounded_class() if energy_bounded else ShootingTranscription
+
+    class WindowTranscription(base):
+        @functools.cached_property
+        def key(self) -> str:
+            return base.key.fget(self)
+
+        def variable_bounds(self, joint_limits: bool | None = None):
+            """:class:`Transcription`'s bounds, the joint limits' part computed at the first call."""
+            if joint_limits is not None:
+                return super().variable_bounds(joint_limits)
+            if "_bounds" not in self.__dict__:
+                self._bounds = super().variable_bounds()
+            lower, upper = (bounds.copy() for bounds in self._bounds)
+            start, speed = self.q_index(0), self.v_index(0)
+            lower[start] = upper[start] = self.q0
+            lower[speed] = upper[speed] = self.v0
+            return lower, upper
+
+    return WindowTranscription
 
 
 @functools.cache
@@ -501,7 +547,3 @@ def _energy_bounded_class():
             return {**nlp, "g": casadi.vertcat(nlp["g"], row)}
 
     return EnergyBoundedTranscription
-
-
-def _EnergyBoundedTranscription(*arguments, **options):
-    return _energy_bounded_class()(*arguments, **options)
