@@ -202,6 +202,8 @@ def test_the_whole_movement_optimum_refuses_an_arm_whose_joint_dynamics_it_does_
 
     with pytest.raises(InvalidInput, match="models its URDF's joint damping and friction"):
         optimize(damped_planar3, LINE, Q0)
+    with pytest.raises(InvalidInput, match="models its URDF's joint damping and friction"):
+        simulate(damped_planar3, "receding-horizon", LINE, Q0)  # its windows are the same problem
     urdf = str(planar3_with(tmp_path, DAMPING, FRICTION))
     out = tmp_path / "atlas"
     arguments = ["atlas", "--robot", urdf, "--frame", "tip", "--task", "xy", "--paths", "1", "--durations", "0.3"]

@@ -57,12 +57,12 @@ import json
 
 import numpy as np
 
+from ..checks import check_rigid_joints
 from ..optimal import optimize, run_cost
 from ..optimal.whole_path import (
     DEFAULT_GRID_STEP,
     DEFAULT_MAX_NONZEROS,
     _check_size,
-    check_rigid_joints,
     transcription_intervals,
 )
 from ..resolvers import get_resolver

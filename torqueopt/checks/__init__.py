@@ -41,6 +41,7 @@ from .robot import (
     RANK_SAMPLES,
     TASK_DIMENSIONS,
     check_frame,
+    check_rigid_joints,
     check_task,
     check_task_and_frame,
     check_task_rank,
@@ -90,4 +91,5 @@ __all__ = [
     "check_task_rank",
     "RANK_SAMPLES",
     "TASK_DIMENSIONS",
+    "check_rigid_joints",
 ]

@@ -209,3 +209,14 @@ def check_frame(model, frame: str, robot_name: str) -> None:
     names = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
     shown = ("..., " if len(names) > 12 else "") + ", ".join(names[-12:])
     raise FrameNotFound(f"robot '{robot_name}' has no frame '{frame}': choose one of {shown}")
+
+
+def check_rigid_joints(robot) -> None:
+    """Refuse a robot that models its URDF's joint damping and friction: the whole-movement problem's dynamics
+    (τ by RNEA) have neither, so its optimum would not be the motion the robot makes."""
+    if robot.models_joint_dynamics:
+        raise InvalidInput(
+            f"robot '{robot.name}' models its URDF's joint damping and friction (joint_dynamics='urdf', "
+            "--joint-dynamics urdf); the whole-movement optimum's dynamics have neither: load it with "
+            "joint_dynamics='off' (--joint-dynamics off)"
+        )

@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..progress import command_name, said_if_slow
 from .ipopt import _STATUS, SolverOutput, _iteration_callback
 from .symbolic import _casadi, configuration_expression, model_digest, symbolic_dynamics
 from .transcription import Transcription
@@ -187,15 +188,21 @@ def _compiled_library(problem: ShootingTranscription, casadi) -> Path | None:
     if compiler is None:
         return None
     source = directory / f"shooting_{problem.key}.c"
+    # Seconds on planar3, minutes on a seven-joint arm's long window: say so when it takes long.
+    compiling = said_if_slow(
+        f"{command_name('torqueopt')}: compiling the program's functions for robot '{problem.robot.name}' "
+        f"({problem.intervals} intervals), once: kept in {directory}"
+    )
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        generator = casadi.nlpsol("shooting", "ipopt", problem.nlp(), {"print_time": False})
-        # generate_dependencies writes to the working directory: write there, then move the file into the cache.
-        written = generator.generate_dependencies(source.name, {})
-        Path(written).replace(source)
-        partial = library.with_suffix(f".{os.getpid()}.so")
-        command = [compiler, "-O1", "-fPIC", "-shared", str(source), "-o", str(partial), "-lm"]
-        result = subprocess.run(command, capture_output=True, text=True)
+        with compiling:
+            generator = casadi.nlpsol("shooting", "ipopt", problem.nlp(), {"print_time": False})
+            # generate_dependencies writes to the working directory: write there, then move the file into the cache.
+            written = generator.generate_dependencies(source.name, {})
+            Path(written).replace(source)
+            partial = library.with_suffix(f".{os.getpid()}.so")
+            command = [compiler, "-O1", "-fPIC", "-shared", str(source), "-o", str(partial), "-lm"]
+            result = subprocess.run(command, capture_output=True, text=True)
         if result.returncode != 0:
             return None
         partial.replace(library)  # atomic: a concurrent process sees no half-written library

@@ -37,7 +37,14 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 
-from ..checks import configuration_vector, positive_number, step_count, trajectory_dimension, whole_number
+from ..checks import (
+    check_rigid_joints,
+    configuration_vector,
+    positive_number,
+    step_count,
+    trajectory_dimension,
+    whole_number,
+)
 from ..errors import InvalidInput
 from ..resolvers import Resolver, get_resolver
 from ..resolvers.null_space import torque_midpoint
@@ -95,17 +102,6 @@ def transcription_intervals(duration: float, grid_step: float) -> int:
             f"grid_step={grid_step!r} s is too small: the duration {duration:g} s has no finite count of its intervals"
         )
     return 2 * max(1, math.ceil(ratio - 1e-9))  # a step longer than T/2 still leaves two intervals
-
-
-def check_rigid_joints(robot: Robot) -> None:
-    """Refuse a robot that models its URDF's joint damping and friction: the whole-movement problem's dynamics
-    (τ by RNEA) have neither, so its optimum would not be the motion the robot makes."""
-    if robot.models_joint_dynamics:
-        raise InvalidInput(
-            f"robot '{robot.name}' models its URDF's joint damping and friction (joint_dynamics='urdf', "
-            "--joint-dynamics urdf); the whole-movement optimum's dynamics have neither: load it with "
-            "joint_dynamics='off' (--joint-dynamics off)"
-        )
 
 
 def _check_size(robot: Robot, duration, grid_step, intervals: int, torque_bounds: bool, max_nonzeros: int) -> None:

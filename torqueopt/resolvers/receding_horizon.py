@@ -65,7 +65,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..checks import Refused
+from ..checks import Refused, check_rigid_joints
 from ..errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptError
 from ..linalg import inverse_condition_number
 from ..robot import Robot, TaskTerms
@@ -218,6 +218,7 @@ class RecedingHorizon(Resolver):
             )
         if robot.task not in ("xy", "position"):
             raise InvalidInput(f"resolver '{self.name}' supports tasks xy and position, not '{robot.task}'")
+        check_rigid_joints(robot)  # the window is the whole-movement problem's, without joint dynamics
         if self.fallback != "none":
             try:
                 self.fallback_resolver().check(robot)
