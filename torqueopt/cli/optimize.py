@@ -89,10 +89,10 @@ def add_parser(subparsers) -> None:
     )
     group.add_argument(
         "--transcription",
-        default="direct",
+        default="shooting",
         choices=TRANSCRIPTIONS,
         help="direct (Pinocchio's first derivatives, --hessian) or shooting (the same program with CasADi's exact "
-        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default direct)",
+        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default shooting)",
     )
     group.add_argument(
         "--compiled",
