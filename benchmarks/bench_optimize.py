@@ -37,7 +37,15 @@ def planar_case(grid_step, hessian, bounds):
     robot = PAPER.load_robot()
 
     def run():
-        return optimize(robot, PAPER.line("long"), PAPER.q0, grid_step=grid_step, hessian=hessian, torque_bounds=bounds)
+        return optimize(
+            robot,
+            PAPER.line("long"),
+            PAPER.q0,
+            grid_step=grid_step,
+            transcription="direct",
+            hessian=hessian,
+            torque_bounds=bounds,
+        )
 
     return f"planar3 long, {grid_step * 1e3:g} ms, {hessian}{', bounds' if bounds else ''}", run
 
@@ -47,7 +55,9 @@ def panda_case(hessian, limits):
     line = torqueopt.StraightLine([0.0, 1.0, 0.0], duration=0.5)
 
     def run():
-        return optimize(robot, line, robot.default_configuration, hessian=hessian, joint_limits=limits)
+        return optimize(
+            robot, line, robot.default_configuration, transcription="direct", hessian=hessian, joint_limits=limits
+        )
 
     return f"panda 0.5 s, 10 ms, {hessian}{', joint limits' if limits else ', no joint limits'}", run
 
@@ -173,7 +183,7 @@ def main() -> None:
             f"{result.iterations:7d}{result.cost:12.4f}"
         )
     if args.scipy:
-        optimum = optimize(PAPER.load_robot(), PAPER.line("short"), PAPER.q0, grid_step=0.01)
+        optimum = optimize(PAPER.load_robot(), PAPER.line("short"), PAPER.q0, grid_step=0.01, transcription="direct")
         print(
             f"\nIPOPT on the same short-movement transcription: {optimum.solve_seconds:.2f} s, grid cost {optimum.grid_cost:.4f}"
         )

@@ -78,7 +78,7 @@ def test_global_rows_equal_optimize_run_directly(global_atlas, planar3):
     rows = table[table["resolver"] == GLOBAL_RESOLVER].set_index("path")
     assert sorted(rows.index) == [0, 1, 2]
     for movement in _movements(planar3):
-        solved = torqueopt.optimize(planar3, _line(movement), movement.q0, end="free")
+        solved = torqueopt.optimize(planar3, _line(movement), movement.q0, end="free", transcription="direct")
         row = rows.loc[movement.path]
         assert row["optimizer_status"] == solved.status == "converged"
         assert row["optimizer_iterations"] == solved.iterations

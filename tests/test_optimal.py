@@ -3,6 +3,8 @@ finite differences of the transcription's analytical derivatives, the KKT condit
 answer, a QP solved here by a plain KKT solve, the inverse dynamics of an arm without redundancy,
 every feasible local run on the same movement, and mesh refinement."""
 
+import re
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -83,9 +85,15 @@ def test_analytical_derivatives_match_finite_differences(name, rng, paper_arm):
 # -- optimality ------------------------------------------------------------------------
 
 
-def test_kkt_conditions_hold_at_the_solution(paper_arm):
-    result = optimize(paper_arm, PAPER.line("short"), PAPER.q0, grid_step=0.05, weight="range", torque_bounds=True)
-    assert result.status == "converged" and result.optimal
+@pytest.mark.parametrize("transcription", ["shooting", "direct"])
+def test_kkt_conditions_hold_at_the_solution(paper_arm, transcription):
+    """At IPOPT's answer, with its multipliers, by the direct transcription's numpy derivatives of the same program
+    (for the shooting answer: derivatives other than the ones it was solved with)."""
+    result = optimize(
+        paper_arm, PAPER.line("short"), PAPER.q0, grid_step=0.05, weight="range", torque_bounds=True,
+        transcription=transcription,
+    )  # fmt: skip
+    assert result.status == "converged" and result.optimal and result.transcription == transcription
     problem, w = result.solution["problem"], result.solution["w"]
     lam_g, lam_x = result.solution["lam_g"], result.solution["lam_x"]
     lower_g, upper_g = problem.constraint_bounds()
@@ -304,11 +312,44 @@ def test_unconverged_solve_says_so(paper_arm):
         ({"max_iterations": 0}, "max_iterations=0 must be a whole number from 1 to 100,000"),
         ({"max_iterations": 2147483648}, "max_iterations=2147483648 must be a whole number from 1 to 100,000"),
         ({"dt": 0.0007}, "does not divide the duration"),
+        (
+            {"hessian": "gauss-newton"},
+            "transcription 'shooting' uses the exact Hessian: give hessian 'auto', or transcription 'direct' for "
+            "hessian 'gauss-newton' (shooting is the default)",
+        ),
     ],
 )
 def test_bad_options_are_refused(paper_arm, options, message):
-    with pytest.raises(InvalidInput, match=message.replace("(", r"\(")):
+    with pytest.raises(InvalidInput, match=re.escape(message)):
         optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
+
+
+def test_both_transcriptions_reach_the_same_optimum(paper_arm):
+    """The default (shooting: CasADi's exact derivatives, two starts) and direct (Pinocchio's derivatives, Gauss-Newton)
+    solve one program: from pinv's run they reach the same optimum on the medium movement (measured 2e-10)."""
+    shooting = optimize(paper_arm, PAPER.line("medium"), PAPER.q0, end="free", grid_step=0.02)
+    direct = optimize(paper_arm, PAPER.line("medium"), PAPER.q0, end="free", grid_step=0.02, transcription="direct")
+    assert shooting.transcription == "shooting" and [start["warm_start"] for start in shooting.starts] == [
+        "pinv",
+        "damped-null-space",
+    ]
+    assert shooting.optimal and direct.optimal
+    assert shooting.cost == pytest.approx(direct.cost, rel=1e-6)
+    np.testing.assert_allclose(shooting.tau[:-1], direct.tau[:-1], atol=1e-4 * np.abs(direct.tau[:-1]).max())
+
+
+def test_a_stop_asked_by_progress_ends_the_shooting_solve_at_its_first_start(paper_arm):
+    """Ctrl-C in ``torqueopt optimize`` is the progress callback's True: no second start, no phase-1 after it."""
+    calls = []
+
+    def stop_at_two(number):
+        calls.append(number)
+        return number >= 2
+
+    result = optimize(paper_arm, PAPER.line("short"), PAPER.q0, progress=stop_at_two)
+    assert calls == [0, 1, 2] and [start["warm_start"] for start in result.starts] == ["pinv"]
+    assert result.starts[0]["solver_message"] == "User_Requested_Stop" and result.feasibility == {}
+    assert not result.optimal
 
 
 def test_pose_task_is_refused():
@@ -561,13 +602,14 @@ def test_the_docs_say_how_near_the_long_optimum_comes_to_the_alignment_as_the_ru
 
 @pytest.mark.slow
 def test_the_docs_give_panda_s_joint_limited_optimum_as_the_run_does():
-    """The page said "converges in 80 iterations" where the run takes 90: its numbers are compared with the run."""
+    """The page said "converges in 80 iterations" where the run takes 90: its numbers are compared with the run
+    (of the direct transcription, which the page's sentence is about)."""
     import re
     from pathlib import Path
 
     panda = torqueopt.load_robot("panda")
     line = torqueopt.StraightLine((0.0, 1.0, 0.0), duration=0.5)
-    result = optimize(panda, line, panda.default_configuration, joint_limits=True)
+    result = optimize(panda, line, panda.default_configuration, joint_limits=True, transcription="direct")
     page = " ".join(
         (Path(__file__).resolve().parent.parent / "docs" / "discussion" / "local-global.md").read_text().split()
     )
@@ -602,8 +644,9 @@ def test_ctrl_c_stops_ipopt_exits_130_and_writes_nothing(tmp_path):
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
+    # a 20 ms grid: the default transcription's iteration on panda's 2 s line at 5 ms took 15 s at a load of 10
     command = [sys.executable, "-m", "torqueopt", "optimize", "--robot", "panda", "--direction", "0,1,0",
-               "--duration", "2", "--out", str(tmp_path / "run.csv")]  # fmt: skip
+               "--duration", "2", "--grid-step", "0.02", "--out", str(tmp_path / "run.csv")]  # fmt: skip
     process = subprocess.Popen(command, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(root)},
                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)  # fmt: skip
     lines: list[str] = []

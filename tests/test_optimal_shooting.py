@@ -288,7 +288,7 @@ def test_direct_transcription_refuses_continuous_joints():
     kinova = torqueopt.load_robot("kinova")
     line = torqueopt.StraightLine([0.0, 0.1, 0.0], duration=0.2)
     with pytest.raises(InvalidInput) as error:
-        optimize(kinova, line, kinova.default_configuration, grid_step=0.1)
+        optimize(kinova, line, kinova.default_configuration, grid_step=0.1, transcription="direct")
     assert str(error.value) == (
         "the direct transcription needs revolute or prismatic joints only; robot 'kinova' has continuous or "
         "multi-coordinate joints: use transcription 'shooting', or lock them (--lock)"

@@ -67,7 +67,13 @@ def test_optimize_counts_ipopt_iterations_as_they_happen(capsys):
     robot = torqueopt.load_robot("planar3")
     calls = []
     result = torqueopt.optimize(
-        robot, PAPER.line("short"), PAPER.q0, hessian="gauss-newton", max_iterations=4, progress=calls.append
+        robot,
+        PAPER.line("short"),
+        PAPER.q0,
+        transcription="direct",
+        hessian="gauss-newton",
+        max_iterations=4,
+        progress=calls.append,
     )
     assert result.iterations == 4 and calls == [0, 1, 2, 3, 4]  # IPOPT reports its start as iteration 0
 

@@ -20,6 +20,9 @@ Settings (recorded in ``atlas-config.json``):
   tracks the line is a candidate of the same problem, and the optimum's cost
   is a lower bound of theirs (when the solver finds the global optimum: it is
   a local optimum of a nonconvex problem, found from pinv's motion);
+* the ``direct`` transcription (``optimize``'s default when the committed
+  1,000-path atlas was made; ``shooting`` is now, decision 0010), kept so
+  that an atlas resumes and reproduces;
 * the work is bounded per path: ``max_iterations`` IPOPT iterations per
   Hessian tried and ``max_time`` seconds of solve in all (the default
   ``hessian="auto"``: Gauss-Newton, then L-BFGS from its last iterate), and
@@ -128,7 +131,13 @@ def global_row(robot, movement: Movement, *, dt: float, thresholds: Thresholds, 
         warm_start=pinv_run,
         max_iterations=settings["max_iterations"],
         max_time=settings["max_time"],
-        **({**limits, "transcription": "shooting", "compiled": settings["compiled"]} if bounded else {}),
+        # Without --global-bounded the rows are the direct transcription's, optimize's default when the committed
+        # atlas was made (its config records no transcription): kept, so that it resumes and reproduces.
+        **(
+            {**limits, "transcription": "shooting", "compiled": settings["compiled"]}
+            if bounded
+            else {"transcription": "direct"}
+        ),
     )
     replayed = replay_result(robot, solved)
     kinetic, self_energy = self_motion_energy(robot, replayed)

@@ -67,9 +67,9 @@ class SolverSettings(Settings):
         "pinv", lambda: f"resolver whose run starts the solve: {', '.join(resolver_names())}", metavar="RESOLVER"
     )
     transcription: str = setting(
-        "direct",
+        "shooting",
         "direct (Pinocchio's first derivatives, --hessian) or shooting (the same program with CasADi's exact "
-        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default direct)",
+        "derivatives, solved from the warm start and a damped null-space run, the best kept) (default shooting)",
         choices=TRANSCRIPTIONS,
     )
     compiled: bool = setting(
@@ -131,12 +131,12 @@ class OptimizeSettings(Settings):
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "optimize",
-        help="whole-movement torque optimisation (direct transcription, IPOPT)",
+        help="whole-movement torque optimisation (multiple shooting, IPOPT)",
         description=(
             "Find the joint motion that keeps the task frame on a tip path (the paper's straight line by "
             "default; --path as for run) and minimises "
             "the integral of |S(tau - tau_mid)|^2 over the whole movement, starting at rest at q0 "
-            "(direct transcription, Pinocchio's analytical derivatives, IPOPT from casadi). The torques are "
+            "(multiple shooting with CasADi's exact derivatives, or --transcription direct, IPOPT). The torques are "
             "replayed open loop through the simulation's RK4 and the cost is evaluated on the simulation "
             "grid. With --paper, run the local-against-global study on the paper's arm instead and write "
             "global.md, global.json and figures into --out DIR. Exit 0 when IPOPT converged, 3 when it "

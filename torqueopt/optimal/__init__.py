@@ -12,7 +12,7 @@ analytical derivatives), :mod:`~torqueopt.optimal.ipopt` (the solver),
 grid, validation), :mod:`~torqueopt.optimal.result` (:class:`OptimalResult`,
 its summary and files), :mod:`~torqueopt.optimal.cost` (the cost of any run),
 :mod:`~torqueopt.optimal.replay` (open-loop replay), :mod:`~torqueopt.optimal.shooting` (the same
-program with CasADi's exact derivatives, from several starts) and
+program with CasADi's exact derivatives, from several starts: ``optimize``'s default) and
 :mod:`~torqueopt.optimal.symbolic` (RNEA and the task frame as CasADi expressions).
 """
 
@@ -26,6 +26,7 @@ from .whole_path import (
     DEFAULT_GRID_STEP,
     DEFAULT_MAX_NONZEROS,
     DEFAULT_STARTS,
+    DEFAULT_TRANSCRIPTION,
     ENDS,
     HESSIANS,
     TRANSCRIPTIONS,
@@ -38,6 +39,7 @@ __all__ = [
     "TranscriptionSize",
     "DEFAULT_GRID_STEP",
     "DEFAULT_STARTS",
+    "DEFAULT_TRANSCRIPTION",
     "ShootingTranscription",
     "TRANSCRIPTIONS",
     "solve_shooting",
