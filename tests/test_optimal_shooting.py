@@ -78,7 +78,7 @@ def test_lagrangian_hessian_equals_finite_differences(paper_arm):
 def test_optimum_equals_the_direct_transcription_where_both_converge(paper_arm):
     """Same program, other derivatives and Hessian: the same optimum (the short paper movement, no bounds)."""
     options = {"grid_step": 0.02, "tolerance": 1e-10}
-    direct = optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
+    direct = optimize(paper_arm, PAPER.line("short"), PAPER.q0, transcription="direct", **options)
     shooting = optimize(paper_arm, PAPER.line("short"), PAPER.q0, transcription="shooting", **options)
     assert direct.optimal and shooting.optimal
     assert shooting.cost == pytest.approx(direct.cost, rel=1e-6)
@@ -278,7 +278,7 @@ def test_unaligned_joints_built_in_python_solve_as_the_direct_transcription_does
 
     arm = prismatic_arm()
     line = torqueopt.StraightLine([1.0, 0.5], duration=0.4).anchored([0.0, 0.0])
-    direct = optimize(arm, line, np.zeros(3), grid_step=0.05)
+    direct = optimize(arm, line, np.zeros(3), grid_step=0.05, transcription="direct")
     shooting = optimize(arm, line, np.zeros(3), grid_step=0.05, transcription="shooting", starts=("pinv",))
     assert direct.optimal and shooting.optimal
     assert shooting.cost == pytest.approx(direct.cost, rel=1e-9)
@@ -312,6 +312,22 @@ def test_without_a_compiler_the_virtual_machine_solves(paper_arm, tmp_path, monk
     plain = optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
     assert compiled.optimal and compiled.cost == plain.cost
     assert not (tmp_path / "cache").exists()
+
+
+def test_a_time_limit_builds_no_solver_per_run(paper_arm):
+    """IPOPT's time limit is an option of the built solver: runs given what is left of a budget would each build
+    and keep one (2 GB over a 1,000-path atlas); every run gets the whole budget, and the kept solvers are bounded."""
+    from torqueopt.optimal import shooting
+
+    options = {"transcription": "shooting", "grid_step": 0.05, "max_time": 600.0}
+    optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
+    kept = len(shooting._SOLVERS)
+    for line in ("medium", "short"):
+        optimize(paper_arm, PAPER.line(line), PAPER.q0, **options)
+    assert len(shooting._SOLVERS) == kept + 1  # the medium movement's program; nothing for a run's time left
+    for key in range(3 * shooting.MAX_KEPT_SOLVERS):
+        shooting._SOLVERS[("test", key)] = None
+    assert len(shooting._SOLVERS) == shooting.MAX_KEPT_SOLVERS and ("test", 0) not in shooting._SOLVERS
 
 
 @pytest.mark.slow

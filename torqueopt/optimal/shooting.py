@@ -41,6 +41,7 @@ import os
 import shutil
 import subprocess
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,7 +66,26 @@ __all__ = [
 #: A failed restoration phase counts when the point it stopped at still violates the constraints.
 INFEASIBLE_MESSAGES = ("Infeasible_Problem_Detected", "Local_Infeasibility", "Restoration_Failed")
 
-_SOLVERS: dict = {}  # built nlpsol objects, by the key of ShootingTranscription.key
+#: The most solvers kept at once (each holds its NLP's expression graph or library: megabytes on a seven-joint
+#: arm); the least recently used goes first.
+MAX_KEPT_SOLVERS = 16
+
+
+class _KeptSolvers(OrderedDict):
+    """Built nlpsol objects by key, at most :data:`MAX_KEPT_SOLVERS`, the least recently used dropped first."""
+
+    def __getitem__(self, key):
+        self.move_to_end(key)
+        return super().__getitem__(key)
+
+    def __setitem__(self, key, value):
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > MAX_KEPT_SOLVERS:
+            self.popitem(last=False)
+
+
+_SOLVERS = _KeptSolvers()  # by the key of ShootingTranscription.key and the solver's options
 
 
 def cache_directory() -> Path:

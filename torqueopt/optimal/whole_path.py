@@ -198,7 +198,8 @@ def optimize(
             Gauss-Newton stops at "acceptable" with active torque bounds on the planar arm.
         tolerance: IPOPT's tolerance on the scaled KKT error.
         max_iterations, max_time: bounds on the work (iterations of each IPOPT run; wall time [s]
-            of all of them).
+            of all of them with ``direct``; with ``shooting``, of each run, and no start begins once
+            max_time is spent: a limit that shrank from run to run would build a solver per run).
         max_nonzeros: refuse a transcription with more nonzeros than this in its
             constraint Jacobian and Hessian together (counted before anything is
             built, ``Transcription.count``; about 280 bytes each).
@@ -427,12 +428,13 @@ def _solve_from_starts(
         verbose=verbose,
         on_iteration=progress,
     )
+    # Each IPOPT run gets the whole max_time, and none starts once it is spent: IPOPT's time limit is an option of
+    # the built solver, and a limit that shrank from run to run would build (and keep) a solver per run.
     for start in starts:
-        remaining = None if max_time is None else max_time - spent
-        if remaining is not None and remaining <= 0.0:
+        if max_time is not None and spent >= max_time:
             break
         run, name = _start_run(robot, trajectory, q_start, dt, start)
-        solved = solve(_warm_start(problem, run), max_time=remaining)
+        solved = solve(_warm_start(problem, run), max_time=max_time)
         spent += solved.seconds
         outcomes.append((run, name, solved))
         records.append(_start_record(name, solved))
@@ -445,9 +447,10 @@ def _solve_from_starts(
         # finds a motion within the limits; the least excess found is the evidence (different starts reach
         # different local minima: panda line 13 of the population, 0.21 from pinv's and 0.02 from a damped run's).
         for run, name, solved in sorted(outcomes, key=lambda outcome: outcome[2].constraint_violation):
-            remaining = None if max_time is None else max(max_time - spent, 1e-3)
+            if tries and max_time is not None and spent >= max_time:
+                break
             found = least_excess(
-                problem, solved.w, tolerance=tolerance, max_iterations=max_iterations, max_time=remaining
+                problem, solved.w, tolerance=tolerance, max_iterations=max_iterations, max_time=max_time
             )
             spent += found.seconds
             tries.append((run, name, found))
@@ -457,8 +460,7 @@ def _solve_from_starts(
         run, name, feasibility = min(answered, key=lambda entry: entry[2].excess) if answered else tries[0]
         feasibility = replace(feasibility, seconds=sum(entry[2].seconds for entry in tries))
         if feasibility.answered and not feasibility.proves_infeasible:
-            remaining = None if max_time is None else max(max_time - spent, 1e-3)
-            solved = solve(feasibility.w, max_time=remaining)
+            solved = solve(feasibility.w, max_time=max_time)
             outcomes.append((run, f"{PHASE_ONE} from {name}", solved))
             records.append(_start_record(f"{PHASE_ONE} from {name}", solved))
     best = min(
