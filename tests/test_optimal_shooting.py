@@ -314,11 +314,12 @@ def test_without_a_compiler_the_virtual_machine_solves(paper_arm, tmp_path, monk
     assert not (tmp_path / "cache").exists()
 
 
-def test_a_time_limit_builds_no_solver_per_run(paper_arm):
+def test_a_time_limit_builds_no_solver_per_run(paper_arm, monkeypatch):
     """IPOPT's time limit is an option of the built solver: runs given what is left of a budget would each build
     and keep one (2 GB over a 1,000-path atlas); every run gets the whole budget, and the kept solvers are bounded."""
     from torqueopt.optimal import shooting
 
+    monkeypatch.setattr(shooting, "_SOLVERS", shooting._KeptSolvers())  # what other tests kept is not counted
     options = {"transcription": "shooting", "grid_step": 0.05, "max_time": 600.0}
     optimize(paper_arm, PAPER.line("short"), PAPER.q0, **options)
     kept = len(shooting._SOLVERS)

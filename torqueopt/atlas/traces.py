@@ -95,9 +95,9 @@ class KeptPaths:
 
 
 def run_trace(robot, result, whip_time: float) -> dict:
-    """What the page draws of one run: ``t`` [s] and ``tau`` (samples × joints) [N·m] at :func:`kept_rows`, the
+    """What the page draws of one run: ``t`` [s] and ``tau`` (samples × joints) [N·m] at ``kept_rows``, the
     arm's points (x, y) [m] at the sample nearest ``whip_time`` (the last applied one when it is NaN) and at the
-    start, and ``arm_time`` [s]. The torques are those applied (:func:`~torqueopt.atlas.verdicts.applied_rows`),
+    start, and ``arm_time`` [s]. The torques are those applied (``torqueopt.atlas.verdicts.applied_rows``),
     as the table's figures read them."""
     from ..plots.stick import arm_points
 

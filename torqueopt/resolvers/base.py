@@ -271,7 +271,7 @@ class Resolver(ABC):
 
         A function ``(terms, torque) -> cost`` (a float) on ``robot``: the resolver's torque is its least value over
         :math:`\tau = \tilde\tau + H Z y`, every y (Eq. (26), Eq. (27)), or, on a step that solved a program
-        (:meth:`program_solver`), every y its constraints admit. Nothing steps with it;
+        (``program_solver``), every y its constraints admit. Nothing steps with it;
         :func:`torqueopt.testing.check_resolver` holds each answer to it by finite differences.
         """
         return None

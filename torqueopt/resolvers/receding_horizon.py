@@ -85,7 +85,7 @@ MAX_ITERATIONS = 200
 #: planar3's long line, 0.5 s windows every 20 ms: median 5 iterations instead of 12, the same run to 4e-10).
 WARM_OPTIONS = {"ipopt.mu_init": 1e-6, "ipopt.warm_start_init_point": "yes"}
 #: Windows of at least this many decision variables evaluate their NLP's functions as compiled C
-#: (:func:`torqueopt.optimal.shooting.solve_shooting`'s ``compiled``: once per robot, knot count and options, kept
+#: (``torqueopt.optimal.shooting.solve_shooting``'s ``compiled``: once per robot, knot count and options, kept
 #: on disk; CasADi's virtual machine where no C compiler exists). It pays from about 20 knots on planar3 (186
 #: variables) and on panda at any size (benchmarks/receding_horizon_speed.py); a compile takes about 10 s on planar3,
 #: minutes on panda, which the smallest windows (one control step, a few knots) would not earn back.
