@@ -172,6 +172,15 @@ def method_key(label: str, duration: float) -> str:
     return label.split("[", 1)[0]
 
 
+def _method_name(label: str, seconds: float, duration: float) -> str:
+    """How the pages name a method: its label, ``window of 20 ms``, ``whole-movement optimum``."""
+    if label == OPTIMUM:
+        return "whole-movement optimum"
+    if label.startswith("receding-horizon"):
+        return f"window of {horizon_text(seconds, duration)}"
+    return label
+
+
 def summarise_table(table, timing=None) -> dict:
     """Per method (in the table's order): shares, costs, peaks and CPU time (module docstring).
 
@@ -194,6 +203,7 @@ def summarise_table(table, timing=None) -> dict:
         item = {
             "key": method_key(label, duration),
             "label": label,
+            "name": _method_name(label, seconds, duration),
             "kind": "optimum" if label == OPTIMUM else "window" if label.startswith("receding-horizon") else "local",
             "horizon": seconds,
             "horizon_text": horizon_text(seconds, duration),
@@ -241,6 +251,7 @@ def answer_of(methods: list[dict]) -> dict:
         if windows
         else None,
         "first_window_matching_optimum": matching["key"] if matching else None,
+        "first_window_matching_optimum_text": matching["horizon_text"] if matching else None,
     }
 
 
@@ -272,7 +283,7 @@ def horizon_answer(summary: dict) -> str:
     if matching is not None:
         window = methods[matching]
         ratio = window["median_cost_vs_optimum"]
-        text += f" From a window of {window['horizon_text']} on it is as often problem-free as the optimum" + (
+        text += f" The shortest window as often problem-free as the optimum is {window['horizon_text']}" + (
             f", at {ratio:.2f} times its ∫‖τ‖² dt in the median." if ratio is not None else "."
         )
     else:

@@ -1,6 +1,8 @@
-"""benchmarks/horizon_curve.py: its shares and intervals against a hand computation."""
+"""benchmarks/horizon_curve.py: its shares and intervals against a hand computation, and the README's answer and
+the figure against the committed docs/data/horizon_curve.json (the page's numbers: tests/test_docs.py)."""
 
 import importlib.util
+import json
 import math
 import sys
 from pathlib import Path
@@ -97,4 +99,30 @@ def test_the_summary_of_a_table_counts_as_by_hand():
         "best_local": "pinv",
         "best_window": "h500ms",
         "first_window_matching_optimum": "h500ms",
+        "first_window_matching_optimum_text": "500 ms",
     }
+
+
+def test_the_readme_answer_is_written_from_the_committed_curve():
+    """The README's block is what horizon_answer writes from docs/data/horizon_curve.json (a regression pin of a
+    run: `benchmarks/horizon_curve.py summary ... --readme README.md` writes both)."""
+    summary = json.loads((ROOT / "docs" / "data" / "horizon_curve.json").read_text())
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split(horizon_curve.ANSWER_BEGIN + "\n", 1)[1].split("\n" + horizon_curve.ANSWER_END, 1)[0]
+    assert block == horizon_curve.horizon_answer(summary)
+    assert horizon_curve.readme_with_answer(readme, summary) == readme
+    curve = summary["curves"][0]
+    assert f"the first {curve['paths']:,} of {curve['planned_paths']:,}" in block
+
+
+def test_the_figure_draws_the_shares_of_the_json(tmp_path):
+    summary = json.loads((ROOT / "docs" / "data" / "horizon_curve.json").read_text())
+    figure = horizon_curve.draw_figure(summary, tmp_path / "curve.png")
+    share_axes = figure.axes[0]
+    windows = sorted((m for m in summary["curves"][0]["methods"] if m["kind"] == "window"), key=lambda m: m["horizon"])
+    drawn = {line.get_label(): list(line.get_ydata()) for line in share_axes.get_lines()}
+    problem_free = next(line for line in share_axes.get_lines() if line.get_gid() == "problem-free")
+    assert list(problem_free.get_ydata()) == pytest.approx([100 * m["problem_free"]["fraction"] for m in windows])
+    assert drawn["of the feasible paths"] == pytest.approx(
+        [100 * m["problem_free_of_feasible"]["fraction"] for m in windows]
+    )
