@@ -172,6 +172,13 @@ def method_key(label: str, duration: float) -> str:
     return label.split("[", 1)[0]
 
 
+def _normalised(label: str) -> str:
+    """A method's label as the atlas writes it (options at their defaults left out)."""
+    from torqueopt.resolvers import resolver_from_label
+
+    return label if label == OPTIMUM else resolver_from_label(label).label
+
+
 def _method_name(label: str, seconds: float, duration: float) -> str:
     """How the pages name a method: its label, ``window of 20 ms``, ``whole-movement optimum``."""
     if label == OPTIMUM:
@@ -220,7 +227,7 @@ def summarise_table(table, timing=None) -> dict:
             "timed_paths": 0,
         }
         if timing:
-            mine = [row for row in timing if row["method"] == label]
+            mine = [row for row in timing if _normalised(row["method"]) == label]
             if mine:
                 item["cpu_ms_per_step"] = 1e3 * sum(r["cpu_seconds"] for r in mine) / sum(r["steps"] for r in mine)
                 item["timed_paths"] = len(mine)
@@ -247,6 +254,7 @@ def answer_of(methods: list[dict]) -> dict:
     )
     return {
         "best_local": best_local["key"] if best_local else None,
+        "best_local_problem_free": best_local["problem_free"]["text"] if best_local else None,
         "best_window": max(windows, key=lambda m: (m["problem_free"]["successes"], -m["horizon"]))["key"]
         if windows
         else None,
@@ -333,6 +341,11 @@ def _positions(curve: dict) -> dict:
 _LOCAL_MARKERS = ("s", "v", "D", "^", "P")
 
 
+def _leading(value: float) -> int:
+    """The leading digit of a positive number."""
+    return round(float(value / 10 ** np.floor(np.log10(value))))
+
+
 def _tick(seconds: float) -> str:
     return "1 step" if seconds <= 1e-3 + 1e-12 else f"{1e3 * seconds:g}"
 
@@ -387,9 +400,9 @@ def _draw_curve(share_ax, cost_ax, curve: dict) -> None:
     )  # fmt: skip
     share_ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncol=3, frameon=False)
     cost_ax.set_yscale("log")
-    plain = FuncFormatter(lambda value, _: f"{value:g}")
-    cost_ax.yaxis.set_major_formatter(plain)
-    cost_ax.yaxis.set_minor_formatter(plain)
+    cost_ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    # of the minor ticks only 2 and 5 times a power of ten are labelled, so that a scale of many decades stays legible
+    cost_ax.yaxis.set_minor_formatter(FuncFormatter(lambda value, _: f"{value:g}" if _leading(value) in (2, 5) else ""))
     cost_ax.axhline(1.0, color="black", lw=0.8)
     cost_ax.set_ylabel("median ∫‖τ‖² dt / the optimum's")
     cost_ax.set_xlabel("window [ms] (local methods: shaded)")

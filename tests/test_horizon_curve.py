@@ -97,6 +97,7 @@ def test_the_summary_of_a_table_counts_as_by_hand():
     assert optimum["problem_free"]["successes"] == 2 and optimum["problem_free_of_feasible"]["trials"] == 3
     assert summary["answer"] == {
         "best_local": "pinv",
+        "best_local_problem_free": "50 % [15, 85]",
         "best_window": "h500ms",
         "first_window_matching_optimum": "h500ms",
         "first_window_matching_optimum_text": "500 ms",
