@@ -1,157 +1,597 @@
-"""The horizon curve at a small scale: how much look-ahead torque optimisation needs, on random planar3 lines.
+r"""The horizon curve: how much look-ahead torque optimisation needs, from one control step to the whole movement.
 
-On PATHS random 2 s lines of the atlas's population (torqueopt.atlas.population, planar3, seed 0) it runs
+Each curve is an atlas (``torqueopt atlas --global --global-bounded``) of one arm and one kind of path, with the
+local methods at the left edge, ``receding-horizon`` over windows of growing length, and the whole-movement optimum
+under the same torque bounds and joint limits at the right edge:
 
-* the local methods at the left edge: ``pinv``, ``null-space`` (the paper's torque optimum, unbounded) and
-  ``bounded-torque[kinematic_weight=0]`` (the same criterion under the torque bounds and joint limits);
-* ``receding-horizon`` with windows of one control step, 0.05, 0.1, 0.2, 0.5, 1 and 2 s (knots 5 ms, or the
-  step for the one-step window), replanned every ``--replan-every`` steps (every step for the one-step window);
-* the whole-movement optimum at the right edge (``optimize(transcription="shooting")`` from ``pinv``'s run,
-  torque bounds and joint limits on, end free, grid ``--grid-step``);
+* local: ``pinv``, ``null-space`` (the paper's torque optimum, unbounded), ``damped-null-space`` (the kinematic
+  remedy) and ``bounded-torque[kinematic_weight=0]`` (the paper's criterion under the torque bounds and joint
+  limits: the one-step problem of the windows);
+* windows: ``receding-horizon[horizon=H,replan_every=R]`` (knots 5 ms, ``horizon_dt='auto'``; the one-step window
+  replans every step), :data:`REPLAN_EVERY` control steps between solves (see :func:`window_label`);
+* the optimum: the atlas's ``global-optimum`` rows with ``--global-bounded`` (the ``shooting`` transcription under
+  the torque bounds and joint limits, its default starts), which also say on which paths no motion within the
+  limits exists (``infeasible for every resolver``).
 
-judges every run as the atlas does (torqueopt.atlas.verdicts.run_row: whiplash, too demanding, ..., stable;
-problem-free = stable within the torque limits, torqueopt.atlas.frontier.problem_free) and writes, per method,
-the problem-free and whiplash shares, the median cost ∫‖τ − τ_mid‖² dt and its median ratio to the optimum's,
-the median peak |τ|/τ⁺, the compute per control step and ``fallback_rows`` (rows with a ``limiting`` note:
-receding-horizon's fallback rows; bounded-torque's rows on its bounds without the task) to ``--out`` (JSON; the
-rows per path beside it, ``.rows.jsonl``). Rows are appended as they come (a run killed and started again with
-the same arguments resumes).
+Three commands, one process at a time:
 
-    nice python benchmarks/horizon_curve.py --paths 20 --out horizon_curve.json
+``run CURVE --out FOLDER``
+    the atlas of ``CURVE`` (:data:`CURVES`) in ``FOLDER``, one path per chunk, in this process (no Dask workers):
+    stopped at any moment (Ctrl-C, a kill), the same command resumes it, and the paths finish in order, so a
+    stopped sweep leaves a whole prefix of paths (:mod:`torqueopt.atlas.prefix`).
+``time CURVE --atlas FOLDER --paths I,J --out ROWS.jsonl``
+    the CPU time [s] of every method's run on the paths I, J of that atlas, one JSON line per run (resumed
+    from the lines already written): the atlas's rows carry no time, so that a chunk is a deterministic function
+    of its settings.
+``summary --atlas CURVE=FOLDER ... --timing CURVE=ROWS.jsonl ... --json OUT.json --figure OUT.png``
+    reads each atlas's finished prefix of paths and the timing rows, and writes per method: the problem-free
+    share over all paths and over the feasible ones, the whiplash share (each with its Wilson 95 % interval),
+    the median cost ∫‖τ − τ_mid‖² dt, its median ratio to the optimum's on the same path, the median peak
+    torque ratio, the CPU time per control step; and the figure.
+
+A run is *problem-free* when its verdict is ``stable`` and its peak torque within the limits
+(:func:`torqueopt.atlas.frontier.problem_free`); the optimum's row is judged the same way, from the open-loop
+replay of its torques.
+
+    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3
+    nice python benchmarks/horizon_curve.py time planar3 --atlas runs/planar3 --paths 1 --out runs/planar3-time.jsonl
+    python benchmarks/horizon_curve.py summary --atlas planar3=runs/planar3 --timing planar3=runs/planar3-time.jsonl \
+        --json docs/data/horizon_curve.json --figure docs/horizon_curve.png
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
+import textwrap
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-import torqueopt
-from torqueopt.atlas.frontier import problem_free
-from torqueopt.atlas.population import PopulationSpec, arm_reach, draw_population, movement_trajectory
-from torqueopt.atlas.verdicts import Thresholds, run_row, self_motion_energy
-from torqueopt.optimal import optimize, run_cost
-
-HORIZONS = ("step", 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
-LOCAL = ("pinv", "null-space", "bounded-torque[kinematic_weight=0]")
-OPTIMUM = "whole-movement optimum"
-
-
-def methods(replan_every: int) -> list[str]:
-    """The resolver labels of the curve, left to right (the optimum is added apart)."""
-    windows = [
-        "receding-horizon[horizon=0.001]"
-        if horizon == "step"
-        else f"receding-horizon[horizon={horizon:g},replan_every={replan_every}]"
-        for horizon in HORIZONS
-    ]
-    return [*LOCAL, *windows]
+#: Control steps between solves of every window longer than one step (20 ms at dt = 1 ms; see the docs page).
+REPLAN_EVERY = 20
+#: The local methods at the curve's left edge, by their atlas labels.
+LOCAL = ("pinv", "null-space", "damped-null-space", "bounded-torque[kinematic_weight=0]")
+#: The window of one control step (dt = 1 ms): one knot interval, replanned every step.
+ONE_STEP = "receding-horizon[horizon=0.001]"
+#: The ``resolver`` column of the optimum's rows (torqueopt.atlas.global_optimum.GLOBAL_RESOLVER).
+OPTIMUM = "global-optimum"
+#: Where the README's answer sits (what :func:`readme_with_answer` replaces).
+ANSWER_BEGIN = "<!-- horizon-answer: generated by benchmarks/horizon_curve.py (horizon_answer) -->"
+ANSWER_END = "<!-- /horizon-answer -->"
+#: The docs page the README's answer links to.
+PAGE = "docs/discussion/horizon.md"
 
 
-def judged(robot, run, pinv_peak: float) -> dict:
-    kinetic, self_energy = self_motion_energy(robot, run)
-    row = run_row(run, kinetic, self_energy, pinv_peak, Thresholds())
+@dataclass(frozen=True)
+class Curve:
+    """One curve: an arm, a kind of path, its duration [s], the population the issue asks for, the windows [s]."""
+
+    name: str
+    robot: str
+    path: str
+    duration: float
+    planned_paths: int
+    horizons: tuple[float, ...]
+    one_step: bool = False
+    seed: int = 2026
+
+    def resolvers(self) -> list[str]:
+        """The atlas's resolver labels, left to right (the optimum comes from ``--global``)."""
+        return [*LOCAL, *([ONE_STEP] if self.one_step else []), *(window_label(h) for h in self.horizons)]
+
+    def arguments(self, out) -> list[str]:
+        """The ``torqueopt atlas`` arguments of this curve's sweep into ``out``."""
+        return [
+            "--robot", self.robot, "--path", self.path, "--paths", str(self.planned_paths),
+            "--durations", f"{self.duration:g}", "--seed", str(self.seed), "--resolvers", ",".join(self.resolvers()),
+            "--global", "--global-bounded", "--workers", "0", "--chunk-size", "1", "--no-figures", "--no-progress",
+            "--out", str(out),
+        ]  # fmt: skip
+
+
+def window_label(horizon: float) -> str:
+    """The atlas label of a window of ``horizon`` seconds, replanned every :data:`REPLAN_EVERY` steps."""
+    return f"receding-horizon[horizon={horizon:g},replan_every={REPLAN_EVERY}]"
+
+
+#: The curves of issue 38: planar3's 2 s lines (1,000 planned); panda's 2 s lines and 1 s circles (200 each).
+CURVES = {
+    curve.name: curve
+    for curve in (
+        Curve("planar3", "planar3", "line", 2.0, 1000, (0.02, 0.05, 0.1, 0.2, 0.5, 1.0), one_step=True),
+        Curve("panda-lines", "panda", "line", 2.0, 200, (0.05, 0.1, 0.2, 0.5, 1.0)),
+        Curve("panda-circles", "panda", "circle", 1.0, 200, (0.05, 0.1, 0.2, 0.5, 1.0)),
+    )
+}
+
+
+# -- the arithmetic of the summary ----------------------------------------------------------------------------------
+def _pct(item: dict) -> str:
+    """A share as the pages write it: ``40 % [17, 69]`` (Wilson 95 %)."""
+    if not item["trials"]:
+        return "-"
+    return f"{item['fraction']:.0%} [{100 * item['low']:.0f}, {100 * item['high']:.0f}]".replace("%", " %")
+
+
+def share(flags) -> dict:
+    """k of n (``flags`` True or False per path), the fraction and its Wilson 95 % interval."""
+    from torqueopt.atlas.stats import proportion
+
+    flags = np.asarray(flags, bool)
+    item = proportion(int(flags.sum()), int(flags.size)).as_dict()
+    return {**item, "text": _pct(item)}
+
+
+def feasible_share(flags, feasible) -> dict:
+    """:func:`share` over the paths on which a motion within the limits exists (``feasible``), the others left out."""
+    flags, feasible = np.asarray(flags, bool), np.asarray(feasible, bool)
+    return share(flags[feasible])
+
+
+def median(values) -> float | None:
+    """The median of the finite values (None when there is none: the JSON's null, the page's "-")."""
+    values = np.asarray(values, float)
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else None
+
+
+def horizon_of(label: str, duration: float) -> float:
+    """The look-ahead of a method [s]: 0 for a local method, the window for receding-horizon, the movement for the
+    optimum."""
+    if label == OPTIMUM:
+        return duration
+    if label.startswith("receding-horizon"):
+        from torqueopt.resolvers import resolver_from_label
+
+        return float(resolver_from_label(label).horizon)  # the label leaves out a default horizon
+    return 0.0
+
+
+def horizon_text(seconds: float, duration: float) -> str:
+    """``local``, ``one step``, ``20 ms``, ``1 s``, ``whole movement``."""
+    if seconds == 0.0:
+        return "local"
+    if seconds >= duration:
+        return "whole movement"
+    if seconds <= 1e-3 + 1e-12:
+        return "one step"
+    return f"{1e3 * seconds:g} ms" if seconds < 1.0 else f"{seconds:g} s"
+
+
+def method_key(label: str, duration: float) -> str:
+    """A short key of a method for the page's markers (no comma, no bracket): ``pinv``, ``bounded-torque``,
+    ``h1ms``, ``h20ms``, ``h1s``, ``optimum``."""
+    if label == OPTIMUM:
+        return "optimum"
+    if label.startswith("receding-horizon"):
+        seconds = horizon_of(label, duration)
+        return f"h{1e3 * seconds:g}ms" if seconds < 1.0 else f"h{seconds:g}s"
+    return label.split("[", 1)[0]
+
+
+def _normalised(label: str) -> str:
+    """A method's label as the atlas writes it (options at their defaults left out)."""
+    from torqueopt.resolvers import resolver_from_label
+
+    return label if label == OPTIMUM else resolver_from_label(label).label
+
+
+def _method_name(label: str, seconds: float, duration: float) -> str:
+    """How the pages name a method: its label, ``window of 20 ms``, ``whole-movement optimum``."""
+    if label == OPTIMUM:
+        return "whole-movement optimum"
+    if label.startswith("receding-horizon"):
+        return f"window of {horizon_text(seconds, duration)}"
+    return label
+
+
+def summarise_table(table, timing=None) -> dict:
+    """Per method (in the table's order): shares, costs, peaks and CPU time (module docstring).
+
+    ``table``: the atlas rows (``results.parquet``'s columns, the global ratios added) of whole paths;
+    ``timing``: rows ``{"path", "method", "cpu_seconds", "steps"}`` or None.
+    """
+    from torqueopt.atlas.frontier import problem_free
+    from torqueopt.atlas.verdicts import INFEASIBLE
+
+    duration = float(table["duration"].iloc[0])
+    optimum = table[table["resolver"] == OPTIMUM].set_index("path").sort_index()
+    paths = optimum.index.to_numpy()
+    feasible = optimum["verdict"].to_numpy() != INFEASIBLE
+    converged = optimum["optimizer_status"].to_numpy() == "converged"
+    methods = []
+    for label in dict.fromkeys(table["resolver"]):
+        rows = table[table["resolver"] == label].set_index("path").reindex(paths)
+        free = problem_free(rows)
+        seconds = horizon_of(label, duration)
+        item = {
+            "key": method_key(label, duration),
+            "label": label,
+            "name": _method_name(label, seconds, duration),
+            "kind": "optimum" if label == OPTIMUM else "window" if label.startswith("receding-horizon") else "local",
+            "horizon": seconds,
+            "horizon_text": horizon_text(seconds, duration),
+            "runs": len(rows),
+            "problem_free": share(free),
+            "problem_free_of_feasible": feasible_share(free, feasible),
+            "whiplash": share(rows["verdict"].to_numpy() == "whiplash"),
+            "lost_path": int((rows["verdict"] == "lost path").sum()),
+            "median_cost": median(rows["cost"]),
+            "median_cost_vs_optimum": median(rows["cost_vs_global"].to_numpy(float)[converged]),
+            "median_peak_torque_ratio": median(rows["peak_torque_ratio"]),
+            "median_peak_vs_optimum": median(rows["peak_vs_global"].to_numpy(float)[converged]),
+            "cpu_ms_per_step": None,
+            "timed_paths": 0,
+        }
+        if timing:
+            mine = [row for row in timing if _normalised(row["method"]) == label]
+            if mine:
+                item["cpu_ms_per_step"] = 1e3 * sum(r["cpu_seconds"] for r in mine) / sum(r["steps"] for r in mine)
+                item["timed_paths"] = len(mine)
+        methods.append(item)
     return {
-        "verdict": row["verdict"],
-        "peak_torque_ratio": row["peak_torque_ratio"],
-        "cost": run_cost(run, robot) if run.completed else math.nan,
-        "completed": bool(run.completed),
-        "fallback_rows": len(run.limiting or {}),
+        "paths": len(paths),
+        "feasible_paths": int(feasible.sum()),
+        "infeasible_paths": int((~feasible).sum()),
+        "optimum_converged": int(converged.sum()),
+        "optimum_status": {str(k): int(v) for k, v in optimum["optimizer_status"].value_counts().items()},
+        "methods": methods,
+        "answer": answer_of(methods),
     }
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
-    parser.add_argument("--paths", type=int, default=20)
-    parser.add_argument("--replan-every", type=int, default=10)
-    parser.add_argument("--grid-step", type=float, default=0.01)
-    parser.add_argument("--out", type=Path, default=Path("horizon_curve.json"))
-    arguments = parser.parse_args(argv)
-    robot = torqueopt.load_robot("planar3")
-    spec = PopulationSpec(paths=arguments.paths, durations=(2.0,), seed=0)
-    movements = draw_population(robot, spec.sized(arm_reach(robot)[1]))
-    rows_path = arguments.out.with_suffix(".rows.jsonl")
+def answer_of(methods: list[dict]) -> dict:
+    """Which window first matches the optimum's problem-free count, the best local method, and their shares."""
+    optimum = next(m for m in methods if m["kind"] == "optimum")
+    local = [m for m in methods if m["kind"] == "local"]
+    windows = sorted((m for m in methods if m["kind"] == "window"), key=lambda m: m["horizon"])
+    best_local = max(local, key=lambda m: m["problem_free"]["successes"]) if local else None
+    matching = next(
+        (m for m in windows if m["problem_free"]["successes"] >= optimum["problem_free"]["successes"]), None
+    )
+    return {
+        "best_local": best_local["key"] if best_local else None,
+        "best_local_problem_free": best_local["problem_free"]["text"] if best_local else None,
+        "best_window": max(windows, key=lambda m: (m["problem_free"]["successes"], -m["horizon"]))["key"]
+        if windows
+        else None,
+        "first_window_matching_optimum": matching["key"] if matching else None,
+        "first_window_matching_optimum_text": matching["horizon_text"] if matching else None,
+    }
+
+
+# -- the README's answer ----------------------------------------------------------------------------------------
+
+
+def horizon_answer(summary: dict) -> str:
+    """The README's answer to "how much look-ahead does torque optimisation need?", written from the curve's JSON
+    (its first curve, planar3's), whichever way the numbers come out, with the sample size it rests on."""
+    curve = summary["curves"][0]
+    methods = {m["key"]: m for m in curve["methods"]}
+    answer = curve["answer"]
+    optimum, best_local = methods["optimum"], methods[answer["best_local"]]
+    windows = sorted((m for m in curve["methods"] if m["kind"] == "window"), key=lambda m: m["horizon"])
+    shortest, longest = windows[0], windows[-1]
+    where = (
+        f"the first {curve['paths']:,} of {curve['planned_paths']:,} random {curve['duration']:g} s lines of "
+        f"{curve['robot']}"
+    )
+    text = (
+        f"- **How much look-ahead does it take?** On {where} (a small sample: the 95 % intervals are wide), "
+        f"`receding-horizon` under the torque bounds and joint limits is problem-free on {_pct(shortest['problem_free'])}"
+        f" of the paths with a window of {shortest['horizon_text']}, {_pct(longest['problem_free'])} with "
+        f"{longest['horizon_text']}, the whole-movement optimum under the same limits on "
+        f"{_pct(optimum['problem_free'])} and the best local method (`{best_local['label']}`) on "
+        f"{_pct(best_local['problem_free'])}."
+    )
+    matching = answer["first_window_matching_optimum"]
+    if matching is not None:
+        window = methods[matching]
+        ratio = window["median_cost_vs_optimum"]
+        text += f" The shortest window as often problem-free as the optimum is {window['horizon_text']}" + (
+            f", at {ratio:.2f} times its ∫‖τ‖² dt in the median." if ratio is not None else "."
+        )
+    else:
+        text += f" No window up to {longest['horizon_text']} is as often problem-free as the optimum."
+    text += f" ([The horizon curve]({PAGE}))"
+    return textwrap.fill(text, width=78, subsequent_indent="  ", break_long_words=False, break_on_hyphens=False)
+
+
+def readme_with_answer(text: str, summary: dict) -> str:
+    """``text`` (the README) with its block between :data:`ANSWER_BEGIN` and :data:`ANSWER_END` written again."""
+    if ANSWER_BEGIN not in text or ANSWER_END not in text:
+        raise ValueError(f"the text has no '{ANSWER_BEGIN}' ... '{ANSWER_END}' block")
+    before, rest = text.split(ANSWER_BEGIN, 1)
+    return f"{before}{ANSWER_BEGIN}\n{horizon_answer(summary)}\n{ANSWER_END}{rest.split(ANSWER_END, 1)[1]}"
+
+
+# -- the figure -------------------------------------------------------------------------------------------------
+def draw_figure(summary: dict, path: Path):
+    """Problem-free share (Wilson 95 % bars; open marks: of the feasible paths) and median cost over the optimum's
+    against the look-ahead, one column per curve: the local methods at the left edge, the optimum at the right."""
+    from torqueopt.plots.canvas import new_figure, save_figure
+
+    curves = summary["curves"]
+    fig = new_figure(4.6 * len(curves) + 0.6, 7.0)
+    axes = np.array(fig.subplots(2, len(curves), squeeze=False))
+    for column, curve in enumerate(curves):
+        share_ax, cost_ax = axes[:, column]
+        _draw_curve(share_ax, cost_ax, curve)
+    fig.suptitle("How much look-ahead torque optimisation needs", fontsize=11)
+    save_figure(fig, path, dpi=200)
+    return fig
+
+
+def _positions(curve: dict) -> dict:
+    """The x position of each method: the windows at their length [s] (log scale), the local methods spread at the
+    left edge, the optimum at the right."""
+    windows = sorted((m for m in curve["methods"] if m["kind"] == "window"), key=lambda m: m["horizon"])
+    low, high = windows[0]["horizon"], windows[-1]["horizon"]
+    local = [m for m in curve["methods"] if m["kind"] == "local"]
+    positions = {m["key"]: m["horizon"] for m in windows}
+    for index, m in enumerate(local):
+        positions[m["key"]] = low / 2.2 ** (len(local) - index)
+    positions["optimum"] = high * 3.5
+    return positions
+
+
+_LOCAL_MARKERS = ("s", "v", "D", "^", "P")
+
+
+def _leading(value: float) -> int:
+    """The leading digit of a positive number."""
+    return round(float(value / 10 ** np.floor(np.log10(value))))
+
+
+def _tick(seconds: float) -> str:
+    return "1 step" if seconds <= 1e-3 + 1e-12 else f"{1e3 * seconds:g}"
+
+
+def _draw_curve(share_ax, cost_ax, curve: dict) -> None:
+    from matplotlib.ticker import FuncFormatter
+
+    positions = _positions(curve)
+    methods = curve["methods"]
+    windows = sorted((m for m in methods if m["kind"] == "window"), key=lambda m: m["horizon"])
+    local = [m for m in methods if m["kind"] == "local"]
+    optimum = next(m for m in methods if m["kind"] == "optimum")
+    x = [positions[m["key"]] for m in windows]
+
+    def bars(items, key):
+        values = np.array([m[key]["fraction"] for m in items])
+        low = values - np.array([m[key]["low"] for m in items])
+        high = np.array([m[key]["high"] for m in items]) - values
+        return 100 * values, 100 * np.vstack([low, high])
+
+    values, errors = bars(windows, "problem_free")
+    drawn = share_ax.errorbar(x, values, yerr=errors, color="tab:blue", marker="o", capsize=3, label="problem-free")
+    drawn.lines[0].set_gid("problem-free")  # the figure's test finds the line by it
+    feasible, _ = bars(windows, "problem_free_of_feasible")
+    share_ax.plot(x, feasible, color="tab:blue", ls="--", marker="o", mfc="none", label="of the feasible paths")
+    whips, whip_errors = bars(windows, "whiplash")
+    share_ax.errorbar(x, whips, yerr=whip_errors, color="tab:red", marker="x", capsize=2, lw=1, elinewidth=0.6,
+                      alpha=0.8, label="whiplash")  # fmt: skip
+    cost_ax.plot(x, [m["median_cost_vs_optimum"] or np.nan for m in windows], color="tab:blue", marker="o")
+    for marker, m in zip(_LOCAL_MARKERS, local):
+        value, error = bars([m], "problem_free")
+        share_ax.errorbar([positions[m["key"]]], value, yerr=error, color="0.3", marker=marker, capsize=3,
+                          ls="none", label=m["label"].replace("[kinematic_weight=0]", ""))  # fmt: skip
+        cost_ax.plot([positions[m["key"]]], [m["median_cost_vs_optimum"] or np.nan], color="0.3", marker=marker,
+                     ls="none")  # fmt: skip
+    value, error = bars([optimum], "problem_free")
+    share_ax.errorbar([positions["optimum"]], value, yerr=error, color="black", marker="*", ms=10, capsize=3,
+                      ls="none", label="whole-movement optimum")  # fmt: skip
+    cost_ax.plot([positions["optimum"]], [1.0], color="black", marker="*", ms=10, ls="none")
+    for ax in (share_ax, cost_ax):
+        ax.set_xscale("log")
+        ticks = [positions[m["key"]] for m in windows] + [positions["optimum"]]
+        ax.set_xticks(ticks, [_tick(m["horizon"]) for m in windows] + ["whole"], fontsize=8)
+        ax.minorticks_off()
+        ax.axvspan(ax.get_xlim()[0], windows[0]["horizon"] / 1.45, color="0.93", zorder=0)
+        ax.grid(alpha=0.3)
+    share_ax.set_ylim(-2, 102)
+    share_ax.set_ylabel("share of the paths [%]")
+    share_ax.set_title(
+        f"{curve['robot']}, {curve['duration']:g} s {curve['path']}s: {curve['paths']:,} of "
+        f"{curve['planned_paths']:,} paths", fontsize=9,
+    )  # fmt: skip
+    share_ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncol=3, frameon=False)
+    cost_ax.set_yscale("log")
+    cost_ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    # of the minor ticks only 2 and 5 times a power of ten are labelled, so that a scale of many decades stays legible
+    cost_ax.yaxis.set_minor_formatter(FuncFormatter(lambda value, _: f"{value:g}" if _leading(value) in (2, 5) else ""))
+    cost_ax.axhline(1.0, color="black", lw=0.8)
+    cost_ax.set_ylabel("median ∫‖τ‖² dt / the optimum's")
+    cost_ax.set_xlabel("window [ms] (local methods: shaded)")
+
+
+# -- the commands -----------------------------------------------------------------------------------------------
+def run(curve: Curve, out: Path) -> int:
+    """The curve's atlas, in this process, resumed when ``out`` holds it already."""
+    from torqueopt.cli import main as torqueopt_main
+
+    return torqueopt_main(["atlas", *curve.arguments(out)])
+
+
+def movements_of(curve: Curve, atlas_folder: Path, paths: list[int]) -> tuple:
+    """(the robot, the movements ``paths`` of the curve's population), checked against the atlas's rows (start q0)."""
+    import torqueopt
+    from torqueopt.atlas.population import PopulationSpec, arm_reach, draw_population
+
+    robot = torqueopt.load_robot(curve.robot)
+    spec = PopulationSpec(paths=curve.planned_paths, durations=(curve.duration,), seed=curve.seed, path=curve.path)
+    population = draw_population(robot, spec.sized(arm_reach(robot)[1]))
+    movements = [population[index] for index in paths]
+    table = atlas_rows(atlas_folder)
+    for movement in movements:
+        row = table[(table["path"] == movement.path) & (table["resolver"] == "pinv")]
+        atlas_q0 = row[[f"q0_{i}" for i in range(1, robot.nv + 1)]].to_numpy(float)
+        if len(row) != 1 or not np.array_equal(atlas_q0[0], np.asarray(movement.q0, float)):
+            raise SystemExit(f"path {movement.path} of {atlas_folder} is not this curve's: run the atlas first")
+    return robot, movements
+
+
+def time_methods(curve: Curve, atlas_folder: Path, paths: list[int], out: Path) -> None:
+    """CPU seconds of each method's run (the optimum: the atlas's global row, pinv's warm start and the replay
+    included) on the movements ``paths``, one JSON line per run, resumed from ``out``."""
+    import torqueopt
+    from torqueopt.atlas.global_optimum import DEFAULT_GLOBAL_MAX_ITERATIONS, DEFAULT_GLOBAL_MAX_TIME, global_row
+    from torqueopt.atlas.global_optimum import settings as global_settings
+    from torqueopt.atlas.population import movement_trajectory
+    from torqueopt.atlas.verdicts import Thresholds
+
+    robot, movements = movements_of(curve, atlas_folder, paths)
     done = set()
-    if rows_path.exists():
-        done = {(row["path"], row["method"]) for row in map(json.loads, rows_path.read_text().splitlines())}
-    labels = methods(arguments.replan_every)
-    with rows_path.open("a") as rows_file:
+    if out.exists():
+        done = {(row["path"], row["method"]) for row in map(json.loads, out.read_text().splitlines())}
+    optimum_settings = global_settings(DEFAULT_GLOBAL_MAX_ITERATIONS, DEFAULT_GLOBAL_MAX_TIME, bounded=True)
+    with out.open("a") as rows_file:
         for movement in movements:
-            trajectory, q0 = movement_trajectory(movement), movement.q0
-            pinv = torqueopt.simulate(robot, "pinv", trajectory, q0)
-            pinv_peak = float(np.nanmax(pinv.torque_ratio[:-1]))
-            for label in [*labels, OPTIMUM]:
+            trajectory = movement_trajectory(movement)
+            for label in [*curve.resolvers(), OPTIMUM]:
                 if (movement.path, label) in done:
                     continue
                 began = time.process_time()
                 if label == OPTIMUM:
-                    result = optimize(
-                        robot, trajectory, q0, transcription="shooting", starts=("pinv",), torque_bounds=True,
-                        joint_limits=True, end="free", grid_step=arguments.grid_step,
-                    )  # fmt: skip
-                    seconds = time.process_time() - began
-                    row = {
-                        "verdict": result.status,
-                        "peak_torque_ratio": float(np.nanmax(np.abs(result.tau[:-1]) / robot.torque_upper)),
-                        "cost": result.cost if result.optimal else math.nan,
-                        "completed": bool(result.optimal),
-                        "fallback_rows": 0,
-                    }
+                    global_row(robot, movement, dt=1e-3, thresholds=Thresholds(), settings=optimum_settings)
                 else:
-                    run = torqueopt.simulate(robot, label, trajectory, q0)
-                    seconds = time.process_time() - began
-                    row = judged(robot, run, pinv_peak)
-                row.update(
-                    path=movement.path, method=label, cpu_seconds=seconds, steps=round(trajectory.duration / 1e-3)
-                )
+                    torqueopt.simulate(robot, label, trajectory, movement.q0)
+                seconds = time.process_time() - began
+                row = {"path": int(movement.path), "method": label, "cpu_seconds": seconds,
+                       "steps": round(trajectory.duration / 1e-3)}  # fmt: skip
                 rows_file.write(json.dumps(row) + "\n")
                 rows_file.flush()
-                print(f"path {movement.path:3d} {label:55s} {row['verdict']:15s} cost {row['cost']:10.4g} "
-                      f"peak {row['peak_torque_ratio']:.3f} cpu {seconds:7.1f} s", flush=True)  # fmt: skip
-    write_summary(rows_path, arguments.out, labels)
+                print(f"path {movement.path:4d} {label:50s} cpu {seconds:8.2f} s", flush=True)
 
 
-def write_summary(rows_path: Path, out: Path, labels: list[str]) -> None:
-    """Per method: shares, median cost and its ratio to the optimum's, median peak, CPU per control step."""
-    import pandas
+def atlas_rows(folder: Path):
+    """The rows of the whole paths 0 .. P-1 of an atlas folder (finished or stopped), with the global ratios."""
+    from torqueopt.atlas.global_optimum import add_global_ratios
+    from torqueopt.atlas.sweep import CHUNK_FOLDER, config_digest, read_chunk, require
 
-    rows = pandas.DataFrame(map(json.loads, rows_path.read_text().splitlines()))
-    optimum = rows[rows["method"] == OPTIMUM].set_index("path")["cost"]
-    summary = []
-    for label in [*labels, OPTIMUM]:
-        part = rows[rows["method"] == label]
-        if not len(part):
-            continue
-        ratio = part["cost"].to_numpy(float) / optimum.reindex(part["path"]).to_numpy(float)
-        free = problem_free(part) if label != OPTIMUM else (
-            part["completed"].to_numpy() & (part["peak_torque_ratio"].to_numpy(float) <= 1.0 + 1e-3)
-        )  # fmt: skip
-        summary.append(
-            {
-                "method": label,
-                "paths": len(part),
-                "problem_free_share": float(np.mean(free)),
-                "whiplash_share": float(np.mean(part["verdict"].to_numpy() == "whiplash")),
-                "median_cost": float(np.nanmedian(part["cost"])),
-                "median_cost_vs_optimum": float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else math.nan,
-                "median_peak_torque_ratio": float(np.nanmedian(part["peak_torque_ratio"])),
-                "cpu_ms_per_control_step": float(1e3 * part["cpu_seconds"].sum() / part["steps"].sum()),
-                "verdicts": part["verdict"].value_counts().to_dict(),
-                "fallback_rows": int(part["fallback_rows"].sum()),
-            }
-        )
-    out.write_text(json.dumps({"robot": "planar3", "duration": 2.0, "methods": summary}, indent=1))
-    for entry in summary:
-        print(
-            f"{entry['method']:55s} free {entry['problem_free_share']:5.0%} whip {entry['whiplash_share']:5.0%} "
-            f"cost {entry['median_cost']:9.4g} (x{entry['median_cost_vs_optimum']:.3f}) "
-            f"peak {entry['median_peak_torque_ratio']:.3f} cpu {entry['cpu_ms_per_control_step']:.2f} ms/step"
-        )
+    pandas = require("pandas")
+    config = json.loads((folder / "atlas-config.json").read_text())
+    digest = config_digest(config)
+    frames = []
+    for path in sorted((folder / CHUNK_FOLDER).glob("chunk-*.parquet")):
+        frame, _ = read_chunk(path, digest, int(path.stem.split("-")[1]))
+        if frame is not None:
+            frames.append(frame)
+    table = pandas.concat(frames, ignore_index=True)
+    methods = [item.get("label", item["name"]) for item in config["resolvers"]] + [OPTIMUM]
+    complete = table.groupby("path")["resolver"].agg(lambda names: set(methods) <= set(names))
+    missing = complete.index[~complete.to_numpy()]
+    first_missing = int(missing.min()) if len(missing) else int(complete.index.max()) + 1
+    gaps = sorted(set(range(first_missing)) - set(complete.index))
+    prefix = min([first_missing, *gaps])
+    table = table[table["path"] < prefix]
+    rank = {name: i for i, name in enumerate(methods)}
+    table = table.assign(_rank=table["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")
+    return add_global_ratios(table.drop(columns="_rank").reset_index(drop=True))
+
+
+def replan_check(table, other_table) -> dict:
+    """The methods of two atlases of the same curve that replan at different rates, on the paths both finished."""
+    paths = min(int(table["path"].max()), int(other_table["path"].max())) + 1
+    return {
+        "paths": paths,
+        "this": summarise_table(table[table["path"] < paths])["methods"],
+        "other": summarise_table(other_table[other_table["path"] < paths])["methods"],
+    }
+
+
+def summary(atlases: dict, timings: dict, records: dict, others: dict | None = None) -> dict:
+    """The JSON of the curves (``atlases``: curve name -> atlas folder; ``timings``: curve name -> timing rows file;
+    ``records``: curve name -> how it ran, in words; ``others``: curve name -> (replan_every, the folder of the same
+    curve replanned at that rate), compared on the paths both finished)."""
+    curves = []
+    for name, folder in atlases.items():
+        curve = CURVES[name]
+        timing_file = timings.get(name)
+        timing = [json.loads(line) for line in Path(timing_file).read_text().splitlines()] if timing_file else None
+        table = atlas_rows(Path(folder))
+        item = {
+            "name": name, "robot": curve.robot, "path": curve.path, "duration": curve.duration, "seed": curve.seed,
+            "planned_paths": curve.planned_paths, "replan_every": REPLAN_EVERY,
+            "command": "python benchmarks/horizon_curve.py run " + name + " --out FOLDER",
+            "atlas_command": "torqueopt atlas " + " ".join(
+                f"'{a}'" if "[" in a else a for a in curve.arguments("FOLDER")
+            ),
+            "ran": records.get(name, ""),
+        }  # fmt: skip
+        item.update(summarise_table(table, timing))
+        if name in (others or {}):
+            every, folder = others[name]
+            item["replan_check"] = {"replan_every": every, **replan_check(table, atlas_rows(Path(folder)))}
+        curves.append(item)
+    return {"question": "how much look-ahead does torque optimisation need?", "curves": curves}
+
+
+def _pairs(texts) -> dict:
+    pairs = {}
+    for text in texts or []:
+        name, _, value = text.partition("=")
+        if name not in CURVES or not value:
+            raise SystemExit(f"'{text}' is not CURVE=VALUE with CURVE one of {', '.join(CURVES)}")
+        pairs[name] = value
+    return pairs
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    commands = parser.add_subparsers(dest="command", required=True)
+    running = commands.add_parser("run", allow_abbrev=False, help="the curve's atlas (resumed)")
+    running.add_argument("curve", choices=list(CURVES))
+    running.add_argument("--out", type=Path, required=True)
+    timing = commands.add_parser("time", allow_abbrev=False, help="CPU time per run on the first paths")
+    timing.add_argument("curve", choices=list(CURVES))
+    timing.add_argument("--atlas", type=Path, required=True)
+    timing.add_argument("--paths", type=lambda text: [int(p) for p in text.split(",")], default=[0],
+                        metavar="I,J,...", help="the paths (indices) to time (default 0)")  # fmt: skip
+    timing.add_argument("--out", type=Path, required=True)
+    summarising = commands.add_parser("summary", allow_abbrev=False, help="the JSON, the figure, the README")
+    summarising.add_argument("--atlas", action="append", required=True, metavar="CURVE=FOLDER")
+    summarising.add_argument("--timing", action="append", metavar="CURVE=ROWS.jsonl")
+    summarising.add_argument("--ran", action="append", metavar="CURVE=TEXT", help="how the sweep ran, in words")
+    summarising.add_argument(
+        "--replan-check",
+        action="append",
+        metavar="CURVE=EVERY:FOLDER",
+        help="the same curve's atlas replanned every EVERY steps, compared on its paths",
+    )
+    summarising.add_argument("--json", type=Path, required=True)
+    summarising.add_argument("--figure", type=Path)
+    summarising.add_argument("--readme", type=Path, help="write the README's answer block")
+    arguments = parser.parse_args(argv)
+    if arguments.command == "run":
+        return run(CURVES[arguments.curve], arguments.out)
+    if arguments.command == "time":
+        time_methods(CURVES[arguments.curve], arguments.atlas, arguments.paths, arguments.out)
+        return 0
+    others = {name: (int(text.split(":", 1)[0]), text.split(":", 1)[1]) for name, text in
+              _pairs(arguments.replan_check).items()}  # fmt: skip
+    result = summary(_pairs(arguments.atlas), _pairs(arguments.timing), _pairs(arguments.ran), others)
+    arguments.json.write_text(json.dumps(result, indent=1, ensure_ascii=False) + "\n")
+    print(f"wrote {arguments.json}")
+    if arguments.figure:
+        draw_figure(result, arguments.figure)
+        print(f"wrote {arguments.figure}")
+    if arguments.readme:
+        arguments.readme.write_text(readme_with_answer(arguments.readme.read_text(), result))
+        print(f"wrote {arguments.readme}")
+    for curve in result["curves"]:
+        print(f"{curve['name']}: {curve['paths']} paths, {curve['feasible_paths']} feasible")
+        for m in curve["methods"]:
+            cpu = "-" if m["cpu_ms_per_step"] is None else f"{m['cpu_ms_per_step']:.3g}"
+            ratio = "-" if m["median_cost_vs_optimum"] is None else f"{m['median_cost_vs_optimum']:.3g}"
+            print(f"  {m['label']:50s} free {_pct(m['problem_free']):16s} of feasible "
+                  f"{_pct(m['problem_free_of_feasible']):16s} whip {_pct(m['whiplash']):14s} cost/opt {ratio:6s} "
+                  f"cpu {cpu} ms/step")  # fmt: skip
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
