@@ -5,9 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...robot import Robot, TaskTerms
-from ..base import joint_acceleration_of, null_space_projector
-from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, torque_weight_root
-from ..null_space import torque_midpoint
+from ..damping import DEFAULT_DAMPING, DEFAULT_KINEMATIC_WEIGHT, DampedNullSpaceTorque, torque_weight_root
 from ..options import LARGEST_WEIGHT, Option, choice_or_vector, number
 from ..registry import register_resolver
 from .base import INFEASIBLE_OPTION, StackOptimum, _BoundedResolver, _solver_bounds
@@ -145,18 +143,7 @@ class BoundedTorque(_BoundedResolver):
         ``damped-null-space`` (:math:`Z y = (I - J^+J)\ddot q` whatever the basis Z), minimised here under the
         bounds: :func:`torqueopt.testing.check_resolver` holds each answer to its KKT conditions under the
         program's constraints."""
-        midpoint = torque_midpoint(robot)
-        root = self.weight_root(robot)
-        relative_weight, damping = self.kinematic_weight, self.damping
-
-        def criterion(terms: TaskTerms, torque):
-            projector = null_space_projector(terms)
-            weight = relative_weight * np.linalg.norm(root[:, None] * (terms.inertia @ projector))  # μ̄ = μ‖S H Z‖_F
-            rest = projector @ (joint_acceleration_of(terms, torque) + damping * terms.joint_velocity)
-            torque_term = root * (torque - midpoint)  # S(τ − τ_mid), Eq. (29), Eq. (32)
-            return float(torque_term @ torque_term + weight**2 * (rest @ rest))
-
-        return criterion
+        return DampedNullSpaceTorque.objective_function(self, robot)
 
     def _stack_optimum(self, robot: Robot, bounded, spread, midpoint, joint_rows_count: int) -> StackOptimum:
         """:meth:`_optimum`'s QP for every row of a stack at once (the same numbers, row for row), solved row by row."""
