@@ -145,6 +145,7 @@ def test_a_bounded_resolvers_limit_message_gives_a_sliders_excess_in_m_per_s2(sl
 
 
 def test_an_atlas_of_a_slider_arm_labels_its_torques_and_whip_speeds_by_kind():
+    pytest.importorskip("plotly")  # the explorer's figures; the core install has no atlas extra
     from torqueopt.atlas.explorer import path_figures
     from torqueopt.atlas.report import _speed_unit
 
