@@ -389,6 +389,11 @@ def _draw_curve(share_ax, cost_ax, curve: dict) -> None:
         ax.set_xscale("log")
         ticks = [positions[m["key"]] for m in windows] + [positions["optimum"]]
         ax.set_xticks(ticks, [_tick(m["horizon"]) for m in windows] + ["whole"], fontsize=8)
+        # the windows' labels sit close on the log axis (100 and 200, 500 and 1000 ms ran together): slanted
+        for label in ax.get_xticklabels():
+            label.set_rotation(40)
+            label.set_horizontalalignment("right")
+            label.set_rotation_mode("anchor")
         ax.minorticks_off()
         ax.axvspan(ax.get_xlim()[0], windows[0]["horizon"] / 1.45, color="0.93", zorder=0)
         ax.grid(alpha=0.3)
