@@ -42,13 +42,15 @@ class RobotSpec:
         if isinstance(self.payload, dict):
             object.__setattr__(self, "payload", Payload(**self.payload))
 
-    def load(self) -> Robot:
+    def load(self, lock: tuple[str, ...] = ()) -> Robot:
+        """The robot, with the joints of ``lock`` locked as well (``torqueopt run``'s ``--lock``)."""
         return load_robot(
             self.source,
             frame=self.frame,
             task=self.task,
             torque_limit=self.torque_limit,
             gravity=self.gravity,
+            lock=lock,
             payload=self.payload,
             joint_dynamics=self.joint_dynamics,
         )

@@ -12,7 +12,6 @@ import numpy as np
 from ..checks import parse_vector
 from ..checks.numbers import count_values
 from ..errors import InvalidInput
-from ..loading import load_robot
 from ..payload import Payload
 from ..progress import said_if_slow
 from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
@@ -146,16 +145,7 @@ class RobotSettings(RobotModelSettings):
     def load(self, command: str) -> Robot:
         """The robot, loaded (a slow load says so, as ``torqueopt COMMAND: loading robot ...``)."""
         with said_if_slow(f"torqueopt {command}: loading robot '{self.robot}'"):
-            return load_robot(
-                self.robot,
-                frame=self.frame,
-                task=self.task,
-                torque_limit=self.torque_limit,
-                gravity=self.gravity,
-                lock=list(self.lock),
-                payload=self.payload,
-                joint_dynamics=self.joint_dynamics,
-            )
+            return self.spec().load(lock=self.lock)
 
 
 @dataclass(frozen=True)
