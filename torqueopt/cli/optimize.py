@@ -100,7 +100,12 @@ class SolverSettings(Settings):
         metavar="N",
     )
     max_time: float | None = setting(
-        None, "wall-time limit of the solve [s] (default none)", unit="s", parse=positive, metavar="SECONDS"
+        None,
+        "wall-time limit [s]: of each IPOPT run, and no start begins once it is spent (shooting); of the whole "
+        "solve (direct) (default none)",
+        unit="s",
+        parse=positive,
+        metavar="SECONDS",
     )
     verbose: bool = setting(False, "print IPOPT's iteration log", switch="on")
 
