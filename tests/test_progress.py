@@ -105,7 +105,7 @@ def test_loading_a_slow_robot_says_so_within_a_second_and_a_quick_one_stays_sile
     slow, on a terminal and in a pipe or a log alike (it was a terminal's only: a log waited in silence)."""
     import threading
 
-    import torqueopt.cli.common as common
+    import torqueopt.atlas.jobs as jobs  # where every command's robot is loaded (RobotSpec.load)
     from torqueopt.progress import SLOW, SLOW_VARIABLE, slow_after
 
     monkeypatch.delenv(SLOW_VARIABLE)
@@ -116,7 +116,7 @@ def test_loading_a_slow_robot_says_so_within_a_second_and_a_quick_one_stays_sile
     error = _Terminal() if stream == "terminal" else io.StringIO()
     monkeypatch.setattr("sys.stderr", error)
     monkeypatch.setenv(SLOW_VARIABLE, "0")
-    real_load = common.load_robot
+    real_load = jobs.load_robot
 
     def slow_load(*args, **kwargs):
         waited = threading.Event()
@@ -126,13 +126,13 @@ def test_loading_a_slow_robot_says_so_within_a_second_and_a_quick_one_stays_sile
             waited.wait(0.01)
         return real_load(*args, **kwargs)
 
-    monkeypatch.setattr(common, "load_robot", slow_load)
+    monkeypatch.setattr(jobs, "load_robot", slow_load)
     arguments = ["run", "--robot", "planar3", PAPER_Q0, "--direction", "1,1", "--resolver", "pinv", "--duration", "0.1"]
     assert main(arguments) == 0
     assert error.getvalue() == "torqueopt run: loading robot 'planar3' ...\n"
     quick = _Terminal() if stream == "terminal" else io.StringIO()
     monkeypatch.setattr("sys.stderr", quick)
-    monkeypatch.setattr(common, "load_robot", real_load)
+    monkeypatch.setattr(jobs, "load_robot", real_load)
     monkeypatch.setenv(SLOW_VARIABLE, "30")
     assert main(arguments) == 0
     assert quick.getvalue() == ""
