@@ -21,75 +21,11 @@ numbers) written once:
   :func:`check_task_rank`).
 """
 
-from .numbers import (
-    Refused,
-    count_values,
-    finite_array,
-    finite_numbers,
-    finite_values,
-    finite_vector,
-    non_negative_number,
-    number_at_least,
-    number_in_interval,
-    number_in_range,
-    positive_number,
-    show_number,
-    whole_number,
-)
-from .request_size import DEFAULT_MAX_STEPS, bounded_count, step_budget, step_count
-from .robot import (
-    RANK_SAMPLES,
-    TASK_DIMENSIONS,
-    check_frame,
-    check_rigid_joints,
-    check_task,
-    check_task_and_frame,
-    check_task_rank,
-    configuration_vector,
-    joint_vector,
-    task_ranks,
-    torque_limit_vector,
-    trajectory_dimension,
-    velocity_vector,
-    weight_matrix_root,
-)
-from .text import parse_count, parse_number, parse_positive, parse_vector, parse_whole
+# The package's names are its modules' names, each listed once in its module's ``__all__``.
+from . import numbers, request_size, robot, text
+from .numbers import *  # noqa: F403
+from .request_size import *  # noqa: F403
+from .robot import *  # noqa: F403
+from .text import *  # noqa: F403
 
-__all__ = [
-    "Refused",
-    "positive_number",
-    "non_negative_number",
-    "number_at_least",
-    "number_in_range",
-    "number_in_interval",
-    "whole_number",
-    "finite_values",
-    "finite_vector",
-    "finite_numbers",
-    "finite_array",
-    "show_number",
-    "count_values",
-    "parse_vector",
-    "parse_number",
-    "parse_positive",
-    "parse_whole",
-    "parse_count",
-    "bounded_count",
-    "step_count",
-    "step_budget",
-    "DEFAULT_MAX_STEPS",
-    "configuration_vector",
-    "joint_vector",
-    "velocity_vector",
-    "torque_limit_vector",
-    "weight_matrix_root",
-    "trajectory_dimension",
-    "check_task_and_frame",
-    "check_task",
-    "check_frame",
-    "task_ranks",
-    "check_task_rank",
-    "RANK_SAMPLES",
-    "TASK_DIMENSIONS",
-    "check_rigid_joints",
-]
+__all__ = numbers.__all__ + request_size.__all__ + robot.__all__ + text.__all__

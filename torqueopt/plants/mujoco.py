@@ -68,7 +68,7 @@ from __future__ import annotations
 import copy
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +82,7 @@ __all__ = [
     "MujocoPlant",
     "MujocoOptions",
     "mujoco_options",
+    "OPTIONS",
     "OPTION_DEFAULTS",
     "OPTION_NAMES",
     "INTEGRATORS",
@@ -90,21 +91,22 @@ __all__ = [
 
 #: The integrators ``integrator=`` takes, by name: MuJoCo's ``mjtIntegrator`` members.
 INTEGRATORS = {"rk4": "mjINT_RK4", "implicitfast": "mjINT_IMPLICITFAST", "euler": "mjINT_EULER"}
-#: The defaults of the plant options, as ``--help`` states them.
-OPTION_DEFAULTS = {
-    "integrator": "rk4",
-    "timestep": "dt",
-    "contacts": "off",
-    "joint-limits": "on",
-    "damping": "robot",
-    "inertia-floor": "none",
-    "perturb": "0",
-    "seed": "0",
+#: The options ``--plant-option`` takes: (the default as ``--help`` states it, the help text).
+OPTIONS = {
+    "integrator": ("rk4", "rk4|implicitfast|euler, MuJoCo's integrator"),
+    "timestep": ("dt", "MuJoCo's step [s], dividing --dt (sub-steps)"),
+    "contacts": ("off", "on|off"),
+    "joint-limits": ("on", "on|off, MuJoCo's joint-limit forces"),
+    "damping": (
+        "robot",
+        "urdf|zero|robot: the model's joint damping, friction loss and armature, none, or as --joint-dynamics says",
+    ),
+    "inertia-floor": ("none", "raise principal moments of inertia below this [kg·m²] to it (planar3's thin rods)"),
+    "perturb": ("0", "scale each link's mass and inertia by a factor from U(1−p, 1+p)"),
+    "seed": ("0", "seed of those factors"),
 }
-#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
-OPTION_NAMES = (
-    "mjcf", "integrator", "timestep", "contacts", "joint_limits", "damping", "inertia_floor", "perturb", "seed",
-)  # fmt: skip
+#: The defaults of the plant options, as ``--help`` states them.
+OPTION_DEFAULTS = {name: default for name, (default, _) in OPTIONS.items()}
 #: Mesh files MuJoCo reads; any other (COLLADA .dae, ...) is dropped with its geom.
 _MESH_SUFFIXES = (".stl", ".obj", ".msh")
 #: A principal moment of inertia at or below this [kg·m²] is refused by MuJoCo (its mjMINVAL).
@@ -139,6 +141,10 @@ class MujocoOptions:
     seed: int = 0
 
 
+#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
+OPTION_NAMES = tuple(field.name for field in fields(MujocoOptions))
+
+
 def _on_off(value, name: str) -> bool:
     if isinstance(value, bool):
         return value
@@ -155,27 +161,24 @@ def _choice(value, name: str, choices) -> str:
     return key
 
 
+#: The rules of a plant option's number: (its reading, the test, the wording of its message).
+_NUMBER_RULES = {
+    "positive": (float, lambda x: math.isfinite(x) and x > 0, "a positive finite number"),
+    "fraction": (float, lambda x: 0 <= x < 1, "a number in [0, 1)"),
+    "seed": (int, lambda x: x >= 0, "a whole number >= 0"),
+}
+
+
 def _option_number(value, name: str, rule: str, unit: str = ""):
     """A plant option's number from a value or its text; ``rule`` is ``positive``, ``fraction`` or ``seed``."""
     text = value.strip() if isinstance(value, str) else show_number(value)
-    suffix = f" [{unit}]" if unit else ""
-    whole = rule == "seed"
+    read, valid, wording = _NUMBER_RULES[rule]
     try:
-        number = int(text) if whole else float(text)
+        number = read(text)
     except ValueError:
         number = None
-    valid = {
-        "positive": lambda x: math.isfinite(x) and x > 0,
-        "fraction": lambda x: 0 <= x < 1,
-        "seed": lambda x: x >= 0,
-    }[rule]
     if number is None or not valid(number):
-        wording = {
-            "positive": "a positive finite number",
-            "fraction": "a number in [0, 1)",
-            "seed": "a whole number >= 0",
-        }
-        raise InvalidInput(f"plant option {name}={text} must be {wording[rule]}{suffix}")
+        raise InvalidInput(f"plant option {name}={text} must be {wording}{f' [{unit}]' if unit else ''}")
     return number
 
 
@@ -668,12 +671,7 @@ class MujocoPlant:
     def limit_events(self) -> list[dict]:
         """The joints whose limit force acted since :meth:`reset`: name, first time [s], peak [N·m], MuJoCo steps."""
         return [
-            {
-                "joint": name,
-                "first_time": first,
-                "peak_force": float(peak),
-                "steps": int(steps),
-            }
+            {"joint": name, "first_time": first, "peak_force": float(peak), "steps": int(steps)}
             for name, first, peak, steps in zip(
                 self.robot.joint_names, self._limit_first, self._limit_force_peak, self._limit_steps
             )
@@ -750,12 +748,8 @@ def _mujoco_joint_kind(robot, name: str) -> str:
 
 
 def _joint_kind_name(mujoco, kind) -> str:
-    return {
-        mujoco.mjtJoint.mjJNT_HINGE: "hinge",
-        mujoco.mjtJoint.mjJNT_SLIDE: "slide",
-        mujoco.mjtJoint.mjJNT_BALL: "ball",
-        mujoco.mjtJoint.mjJNT_FREE: "free",
-    }[kind]
+    """``hinge``, ``slide``, ``ball`` or ``free``: MuJoCo's ``mjtJoint`` member without its prefix."""
+    return mujoco.mjtJoint(kind).name.removeprefix("mjJNT_").lower()
 
 
 def _locked_angles(robot) -> dict[str, float]:
