@@ -84,8 +84,6 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
     """
     where = f"URDF '{path}'"
     notes: list[str] = []
-    masses = {}
-    inertia_traces = {}
     for kind in ("link", "joint"):
         seen = set()
         for element in root.findall(kind):
@@ -95,22 +93,18 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
                     f"{where} has two <{kind}> elements named '{name}'; every {kind} needs a name of its own"
                 )
             seen.add(name)
+    masses = {}
     for link in root.findall("link"):
         name = link.get("name")
-        mass, trace = _check_inertial(link, f"{where}: link '{name}'", notes)
-        masses[name], inertia_traces[name] = mass, trace
+        masses[name] = _check_inertial(link, f"{where}: link '{name}'", notes)
         for origin in link.iter("origin"):
             _finite_triple(origin, "xyz", f"{where}: an <origin> of link '{name}'")
             _finite_triple(origin, "rpy", f"{where}: an <origin> of link '{name}'")
-
     rewritten = False
-    parent_of = {}
-    children = {}
-    moving = []
+    parent_of, children, moving = {}, {}, []
     for joint in root.findall("joint"):
-        name = joint.get("name")
+        name, kind = joint.get("name"), joint.get("type")
         label = f"{where}: joint '{name}'"
-        kind = joint.get("type")
         if kind not in _JOINT_TYPES:
             raise UrdfError(f"{label} has type '{kind}'; choose one of {', '.join(_JOINT_TYPES)}")
         parent, child = joint.find("parent").get("link"), joint.find("child").get("link")
@@ -122,32 +116,48 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
             )
         parent_of[child] = (name, parent)
         children.setdefault(parent, []).append(child)
-        origin = joint.find("origin")
-        if origin is not None:
-            _finite_triple(origin, "xyz", f"{label}: <origin>")
-            _finite_triple(origin, "rpy", f"{label}: <origin>")
+        rewritten |= _check_joint(joint, kind, label)
         if kind in _MOVING:
             moving.append((name, child))
-            axis = joint.find("axis")
-            if axis is not None:
-                values = _finite_triple(axis, "xyz", f"{label}: <axis>")
-                if values is not None and not np.any(values):
-                    raise UrdfError(f'{label} has <axis xyz="0 0 0">; a {kind} joint needs a non-zero axis')
-        limit = joint.find("limit")
-        if limit is not None:
-            rewritten |= _check_limit(limit, kind, label)
-        mimic = joint.find("mimic")
-        if mimic is not None:
-            for attribute in ("multiplier", "offset"):
-                _finite_number(mimic, attribute, f"{label}: <mimic>")
-        dynamics = joint.find("dynamics")
-        if dynamics is not None:
-            for attribute in ("damping", "friction"):
-                value = _finite_number(dynamics, attribute, f"{label}: <dynamics>")
-                if value is not None and value < 0:
-                    raise UrdfError(f"{label} has {attribute} {value:g}; give a finite number >= 0")
+    _check_tree(where, [link.get("name") for link in root.findall("link")], parent_of, children)
+    massless = {}
+    for name, child in moving:
+        if not any(value > 0.0 for link in _descendants(child, children) for value in masses.get(link, ())):
+            massless[name] = (
+                f"{where}: joint '{name}' moves no mass: link '{child}' and every link below it have zero mass and "
+                "inertia, so its joint-space inertia is zero; give them an <inertial> or make the joint fixed"
+            )
+    return UrdfCheck(rewritten, massless, tuple(notes))
 
-    links = [link.get("name") for link in root.findall("link")]
+
+def _check_joint(joint: ElementTree.Element, kind: str, label: str) -> bool:
+    """Check a joint's origin, axis, limit, mimic and dynamics; True when an ``inf`` limit was rewritten."""
+    origin = joint.find("origin")
+    if origin is not None:
+        _finite_triple(origin, "xyz", f"{label}: <origin>")
+        _finite_triple(origin, "rpy", f"{label}: <origin>")
+    axis = joint.find("axis")
+    if kind in _MOVING and axis is not None:
+        values = _finite_triple(axis, "xyz", f"{label}: <axis>")
+        if values is not None and not np.any(values):
+            raise UrdfError(f'{label} has <axis xyz="0 0 0">; a {kind} joint needs a non-zero axis')
+    limit = joint.find("limit")
+    rewritten = limit is not None and _check_limit(limit, kind, label)
+    mimic = joint.find("mimic")
+    if mimic is not None:
+        for attribute in ("multiplier", "offset"):
+            _finite_number(mimic, attribute, f"{label}: <mimic>")
+    dynamics = joint.find("dynamics")
+    if dynamics is not None:
+        for attribute in ("damping", "friction"):
+            value = _finite_number(dynamics, attribute, f"{label}: <dynamics>")
+            if value is not None and value < 0:
+                raise UrdfError(f"{label} has {attribute} {value:g}; give a finite number >= 0")
+    return rewritten
+
+
+def _check_tree(where: str, links: list[str], parent_of: dict, children: dict) -> None:
+    """Refuse links that do not form one tree: none, no root, several roots, or a loop apart from the root."""
     if not links:
         raise UrdfError(f"{where} has no <link>: there is no robot to model")
     roots = [link for link in links if link not in parent_of]
@@ -168,15 +178,6 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
             f"{where}: links {', '.join(repr(link) for link in loop)} hang from each other in a closed loop, apart "
             "from the root; a URDF describes a tree, and loop closures cannot be modelled"
         )
-    massless = {}
-    for name, child in moving:
-        below = _descendants(child, children)
-        if not any(masses.get(link, 0.0) > 0.0 or inertia_traces.get(link, 0.0) > 0.0 for link in below):
-            massless[name] = (
-                f"{where}: joint '{name}' moves no mass: link '{child}' and every link below it have zero mass and "
-                "inertia, so its joint-space inertia is zero; give them an <inertial> or make the joint fixed"
-            )
-    return UrdfCheck(rewritten, massless, tuple(notes))
 
 
 class UrdfCheck(NamedTuple):

@@ -94,6 +94,7 @@ def plot_stick_strip(
         return fig.add_axes((x / width, y / height, w / width, h / height))
 
     ticks = few_ticks()
+    names = _axis_names(robot)
     for index, row in enumerate(rows):
         line, column = divmod(index, columns)
         top = height - header - line * (panel_height + row_gap)
@@ -104,44 +105,44 @@ def plot_stick_strip(
         ax.plot(arm[index, -1, 0], arm[index, -1, 1], "s", color="tab:red", ms=4, label="tip")
         if ellipse is not None and outlines[index] is not None:
             ax.fill(*outlines[index].T, color="tab:cyan", alpha=0.25, lw=1.0, ec="tab:blue", label=ellipse_label)
-        ax.set_xlim(center[0] - span[0] / 2, center[0] + span[0] / 2)
-        ax.set_ylim(center[1] - span[1] / 2, center[1] + span[1] / 2)
-        ax.set_aspect("equal")
-        ax.xaxis.set_major_locator(ticks())
-        ax.yaxis.set_major_locator(ticks())
-        ax.text(
-            0.03,
-            0.95,
-            f"t = {result.t[row]:.3f} s",
-            transform=ax.transAxes,
-            va="top",
-            fontsize=9,
-            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5},
-        )
-        ax.tick_params(labelsize=7)
-        if column == 0:
-            ax.set_ylabel(_axis_names(robot)[1] + " [m]", fontsize=8)
-        else:
-            ax.set_yticklabels([])
+        _frame_snapshot(ax, center, span, ticks, f"t = {result.t[row]:.3f} s", names, column == 0)
         if index == 0:
+            handles = ax.get_legend_handles_labels()
             fig.legend(
-                *ax.get_legend_handles_labels(),
+                *handles,
                 loc="upper center",
                 ncol=5,
                 fontsize=8,
                 frameon=False,
                 bbox_to_anchor=(0.5, 1.0 - 0.62 / height),
             )
-        ax.set_xlabel(_axis_names(robot)[0] + " [m]", fontsize=8, labelpad=1)
-    speed_ax = place(left, bottom, width - left - right, speed_height - 0.35)
+    _draw_speeds(place(left, bottom, width - left - right, speed_height - 0.35), result, rows, events)
+    _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
+    return save_figure(fig, path)
+
+
+def _frame_snapshot(ax, center, span, ticks, time_label: str, names: tuple[str, str], first_column: bool) -> None:
+    """One snapshot's limits, equal scales, ticks, time label and axis labels (y only in the first column)."""
+    ax.set_xlim(center[0] - span[0] / 2, center[0] + span[0] / 2)
+    ax.set_ylim(center[1] - span[1] / 2, center[1] + span[1] / 2)
+    ax.set_aspect("equal")
+    ax.xaxis.set_major_locator(ticks())
+    ax.yaxis.set_major_locator(ticks())
+    box = {"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5}
+    ax.text(0.03, 0.95, time_label, transform=ax.transAxes, va="top", fontsize=9, bbox=box)
+    ax.tick_params(labelsize=7)
+    if first_column:
+        ax.set_ylabel(names[1] + " [m]", fontsize=8)
+    else:
+        ax.set_yticklabels([])
+    ax.set_xlabel(names[0] + " [m]", fontsize=8, labelpad=1)
+
+
+def _draw_speeds(speed_ax, result: SimResult, rows: list[int], events) -> None:
+    """The joint speeds under the strip, with the snapshot times, the events and where the run stopped."""
     for joint, name in enumerate(result.joint_names):
-        speed_ax.plot(
-            result.t,
-            result.v[:, joint],
-            color=_JOINT_COLORS[joint % len(_JOINT_COLORS)],
-            lw=1.3,
-            label=f"{name} velocity",
-        )
+        color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
+        speed_ax.plot(result.t, result.v[:, joint], color=color, lw=1.3, label=f"{name} velocity")
     for row in rows:
         speed_ax.axvline(result.t[row], color="0.75", lw=0.8)
     speed_ax.plot([], [], color="0.75", lw=0.8, label="snapshot times")
@@ -151,8 +152,6 @@ def plot_stick_strip(
     speed_ax.set_ylabel(f"joint velocity [{shared_unit(result.joint_kinds, 'velocity')}]")
     speed_ax.grid(alpha=0.3)
     speed_ax.legend(loc="upper left", fontsize=8, ncol=2)
-    _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
-    return save_figure(fig, path)
 
 
 def arm_points(robot: Robot, joint_angles) -> np.ndarray:
