@@ -15,7 +15,7 @@ from ..robot import Robot
 from ..units import shared_unit
 from .canvas import few_ticks, new_figure, save_figure
 from .dexterity import _ELLIPSES, dexterity_ellipses
-from .panels import _JOINT_COLORS, _mark_events, _mark_stops, _suptitle
+from .panels import _joint_lines, _mark_events, _mark_stops, _suptitle
 
 __all__ = ["arm_points", "plot_stick_strip", "SNAPSHOTS_RANGE"]
 
@@ -140,9 +140,7 @@ def _frame_snapshot(ax, center, span, ticks, time_label: str, names: tuple[str, 
 
 def _draw_speeds(speed_ax, result: SimResult, rows: list[int], events) -> None:
     """The joint speeds under the strip, with the snapshot times, the events and where the run stopped."""
-    for joint, name in enumerate(result.joint_names):
-        color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
-        speed_ax.plot(result.t, result.v[:, joint], color=color, lw=1.3, label=f"{name} velocity")
+    _joint_lines(speed_ax, result, result.v, 1.3, "{name} velocity")
     for row in rows:
         speed_ax.axvline(result.t[row], color="0.75", lw=0.8)
     speed_ax.plot([], [], color="0.75", lw=0.8, label="snapshot times")
