@@ -1,24 +1,8 @@
-"""The run files: a :class:`~torqueopt.result.SimResult` written to and read from disk.
+"""The run files: a :class:`~torqueopt.result.SimResult` written to and read from disk (the formats: docs/files.md).
 
-Two formats, chosen by the path's suffix:
-
-* CSV (any other suffix): one row per step, columns ``t``, ``q1..qn`` (one
-  angle per joint), ``v1..vn``, ``tau1..taun``, ``x1..xm``, ``xref1..xrefm``,
-  ``task_error``, ``infeasible``, then ``damping1..dampingn`` and
-  ``friction1..frictionn`` (the joint damping and friction torques the
-  torque includes, when the run modelled them), one column per dexterity measure
-  and ``stability_margin`` when the run recorded them; beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
-  stop reason). The reader takes the columns by name, in any order, and
-  refuses a header that is missing, repeats or adds a column.
-* NumPy ``.npz``: every array of the run, the dexterity measures as
-  ``dexterity_<name>``, ``stability_margin`` when recorded, and the same
-  metadata as a JSON string.
-
-Every file is written through :func:`torqueopt.io.atomic_write`, so it is
-never left half-written, and a run's files land together or not at all
-(:func:`torqueopt.io.written_together`); :func:`run_files` names them, for a
-command to check before it simulates. The sidecar goes beside the file the
-data went to (the target of a symbolic link).
+A CSV (one row per step, its columns read by name) with a ``<path>.json`` sidecar for what the columns cannot
+hold, or a NumPy ``.npz`` with every array and the same metadata; written through
+:func:`torqueopt.io.atomic_write` inside :func:`torqueopt.io.written_together`, so a run's files land together.
 """
 
 from __future__ import annotations

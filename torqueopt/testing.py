@@ -1,53 +1,13 @@
-r"""The resolver contract as a function a user's test suite calls: :func:`check_resolver`.
+r"""The resolver contract as a function a user's test suite calls: :func:`check_resolver` (docs/resolvers/contract.md).
 
-The registry's own tests run it on every registered resolver (``tests/test_resolvers.py``); a resolver of
-your own meets the same contract when ::
-
-    from torqueopt.testing import check_resolver
-
-    def test_my_resolver(planar3):
-        check_resolver(MyResolver(), torqueopt.load_robot("planar3"))
-
-passes. At seeded random states (q, q̇, ẍ), away from singular Jacobians, it checks, each against something
-the resolver does not compute itself:
-
-``declaration``
-    the options are declared completely (a kind, a unit, a meaning, a default the option's own converter
-    accepts; ``singular_tolerance`` last), the constructor sets each as an attribute, and the resolver's
-    :attr:`~torqueopt.Resolver.spec` makes it again (what the atlas's Dask workers receive).
-``task``
-    the torque produces the joint acceleration the resolution reports (Pinocchio's ABA from the torque alone),
-    :math:`J\ddot q + \dot J\dot q = \ddot x` up to the ``task_error`` it reports as given up (exactly,
-    unless it says ``infeasible``).
-``objective``
-    where the resolver declares the criterion it minimises (:meth:`~torqueopt.Resolver.objective_function`), its
-    torque is that criterion's least value over the torques that realise the task,
-    :math:`\tau + H Z y`: the first-order (KKT) condition by central finite differences of the criterion in
-    y, the Newton step to the minimum (from finite differences of the gradient too) is zero, and the
-    curvature is positive (a minimum, not a saddle). Z is an orthonormal basis of the null space of J from
-    numpy's SVD, not the resolver's. Where the step solved a program (``program`` below), the same under that
-    program's constraints: the criterion's gradient in the program's variables, by finite differences through
-    the torque :math:`\tau_0 + T x`, is balanced by non-negative multipliers of the active constraints
-    (``scipy.optimize.nnls``), up to a Newton step of zero.
-``program``
-    where the resolver's :meth:`~torqueopt.Resolver.program_solver` returns the program each step solved
-    (:class:`~torqueopt.resolvers.Program`, a QP or LP), with the torques of its :meth:`~torqueopt.Resolver.solver`
-    bit for bit: the torque is that of the program's solution, the program's variables move the torque over
-    the whole null space (:math:`J H^{-1} T = 0`, rank n − m), and the solution meets the program's KKT
-    conditions (:func:`program_residuals`): stationarity, primal feasibility, dual feasibility and complementary
-    slackness with the solver's multipliers, and stationarity again with multipliers fitted by non-negative
-    least squares on the active constraints, which do not come from the solver.
-``batch``
-    its step on stacks (:meth:`~torqueopt.Resolver.batch_solver`) gives, row by row, what its single-state
-    step gives (1e-9).
-``options``
-    each of its own options, set to another value, changes the torque at some state (an option the
-    resolver ignores is a broken promise).
-
-Velocity-level resolvers (``level = "velocity"``) have no torque step: on them the ``task`` check is ``rates``
-(``torqueopt.kinematic.joint_rates`` gives q̇ with :math:`J\dot q = \dot x`, affine in :math:`\dot x` as
-the loop's time derivative assumes) and the ``options`` check compares joint rates (``position_gain``, which
-acts only in closed loop, is left out).
+The registry's own tests run it on every registered resolver; at seeded random states (q, q̇, ẍ) away from
+singular Jacobians it checks each promise against something the resolver does not compute itself: its options'
+``declaration`` (complete, set as attributes, made again from its ``spec``), the ``task`` (Pinocchio's ABA from
+the torque alone, J q̈ + J̇q̇ = ẍ up to the error it reports), the ``objective`` it declares (KKT by finite
+differences over the null space, or under its ``program``'s constraints), the ``program`` it solved (its
+solution gives the torque, spans the null space, meets its KKT conditions with the solver's and with nnls
+multipliers), ``batch`` rows against single steps, and each of its ``options`` changing the step. A
+velocity-level resolver has ``rates`` (J q̇ = ẋ, affine in ẋ) in place of ``task``, and no objective or batch check.
 """
 
 from __future__ import annotations

@@ -1,44 +1,15 @@
-r"""Physical checks of a URDF before Pinocchio reads it, and a quiet Pinocchio parse.
+r"""Physical checks of a URDF before Pinocchio reads it, and a quiet Pinocchio parse (the list: docs/robots.md).
 
-urdfdom (the C++ parser inside Pinocchio) turns a mass of ``nan`` into 0
-with a warning on stderr, accepts negative masses and inertias that no body
-can have, and refuses ``effort="inf"``. Every such file either fails much
-later, as a "diverged" run, or prints several lines of C++ messages. This
-module checks every physical quantity first and names the link or joint in
-one line:
-
-* ``<mass value>``: a finite number >= 0 [kg];
-* ``<inertia>``: six finite numbers whose tensor (about the centre of mass)
-  is positive semi-definite; its principal moments :math:`I_1, I_2, I_3`
-  should satisfy the triangle inequality :math:`I_i \le I_j + I_k` (a
-  body's moments are sums :math:`\int (r_j^2 + r_k^2)\,dm`). Zero moments are allowed: a thin rod
-  (the paper's arm) or a point mass is a physical limit. Both tests allow a
-  relative 1e-9 of the largest moment, and at least 1e-7 kg·m² (a gram at a
-  centimetre), for rounding in the file;
-* every ``<origin xyz rpy>`` and ``<axis xyz>`` finite, and a moving
-  joint's axis not zero;
-* every number as urdfdom reads it (blanks before it, none after; no ``_``
-  separators or Unicode digits), since urdfdom drops the element of a number it
-  cannot read (a link's whole ``<inertial>``: the link would weigh nothing);
-* ``<dynamics damping friction>``: finite numbers >= 0;
-* ``<limit>``: ``effort`` and ``velocity`` finite numbers >= 0 or ``inf``
-  (0 and ``inf`` both mean unbounded, as docs/robots.md says; urdfdom cannot read
-  ``inf``, so Pinocchio is given 0 for it); ``lower <= upper``, both finite
-  (a joint without position limits is ``type="continuous"``);
-* the joints form a tree: every link is the child of at most one joint and
-  exactly one link is the child of none (a closed loop is refused as such:
-  neither Pinocchio's URDF parser nor torqueopt models loop closures);
-* every joint a task moves moves some mass or inertia (otherwise the
-  joint-space inertia is singular and every run would fail).
-
-An inertia that breaks the triangle inequality is impossible for a body but
-harmless to the dynamics (the joint-space inertia stays positive definite),
-and shipped files have them (pr2, romeo, allegro in example-robot-data): it
-is reported as a :class:`~torqueopt.errors.TorqueoptWarning`, not refused.
-
-:func:`build_model` then parses the checked text with Pinocchio while the
-process's stderr (file descriptor 2, where urdfdom writes) is captured, so
-that nothing but our one-line message reaches the user.
+urdfdom (the C++ parser inside Pinocchio) turns a mass of ``nan`` into 0 with a warning on stderr, accepts
+negative masses and inertias no body can have, drops the element of a number it cannot read (``1_0``, Unicode
+digits: a link's whole ``<inertial>``) and refuses ``effort="inf"``. :func:`check_urdf` checks every physical
+quantity first and names the link or joint in one line: masses, inertia tensors (positive semi-definite about
+the centre of mass, within a relative 1e-9 of the largest moment and at least 1e-7 kg·m², for rounding in the
+file), origins and axes, limits (``inf`` is given to Pinocchio as 0: both mean unbounded), damping and friction,
+a tree of links, and every joint a task moves moving some mass. An inertia that breaks the triangle inequality
+:math:`I_i \le I_j + I_k` is impossible for a body but harmless to the dynamics, and shipped files have them
+(pr2, romeo, allegro): a :class:`~torqueopt.errors.TorqueoptWarning`, not a refusal. :func:`build_model` then
+parses the checked text with the process's stderr captured, so that only the one-line message reaches the user.
 """
 
 from __future__ import annotations
@@ -70,7 +41,7 @@ _INERTIA_FLOOR = 1e-7
 
 
 def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
-    """Check every physical quantity of the URDF tree ``root`` (read from ``path``); see the module docstring.
+    """Check every physical quantity of the URDF tree ``root`` (read from ``path``), as the module docstring lists.
 
     Returns:
         what the checks found: whether some value had to be rewritten for
