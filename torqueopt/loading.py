@@ -32,11 +32,6 @@ __all__ = ["load_robot"]
 MAX_DOFS = 250
 
 
-def _data_bytes(dofs: int) -> float:
-    """About how much memory one Pinocchio ``Data`` of a model with ``dofs`` degrees of freedom takes [bytes]."""
-    return 64.0 * dofs**3
-
-
 def load_robot(
     source: str | Path,
     frame: str | None = None,
@@ -83,13 +78,13 @@ def load_robot(
     joint_dynamics = DEFAULT_JOINT_DYNAMICS if joint_dynamics is None else check_joint_dynamics(joint_dynamics)
     robot_source = find_robot(source)
     mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
-    full_model = _build_model(robot_source.urdf, mimic=False)
+    full_model = build_model(robot_source.urdf, mimic=False)
     if full_model.nv == 0:
         raise UrdfError(f"URDF '{robot_source.urdf}' has no movable joint")
     if full_model.nv > MAX_DOFS:
         raise UrdfError(
             f"URDF '{robot_source.urdf}' has {full_model.nv:,} degrees of freedom, more than the {MAX_DOFS} torqueopt "
-            f"takes: Pinocchio's data for it would need about {_data_bytes(full_model.nv) / 1e9:.3g} GB "
+            f"takes: Pinocchio's data for it would need about {64.0 * full_model.nv**3 / 1e9:.3g} GB "
             "(its second-order derivative tensors grow with the cube of the joints)"
         )
 
@@ -101,7 +96,7 @@ def load_robot(
     if any(full_model.names[j] in mimic_joints for j in chain):
         # A mimic joint that moves the task frame must follow its leader;
         # mimic joints elsewhere (grippers) are locked and can stay independent.
-        full_model = _build_model(robot_source.urdf, mimic=True)
+        full_model = build_model(robot_source.urdf, mimic=True)
         chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
     if payload is not None:
         # Into the full model, before any joint is locked: a locked joint's body, payload included, then
@@ -163,11 +158,6 @@ def _refuse_free_joints(model: pin.Model, robot_name: str) -> None:
                 f"that no actuator drives): torqueopt resolves fixed-base arms, every joint driven; make it a fixed "
                 f"joint in the URDF, or lock it with --lock {name}"
             )
-
-
-def _build_model(urdf: Path, mimic: bool) -> pin.Model:
-    # From the physically checked text, with urdfdom's stderr captured (see urdf_checks).
-    return build_model(urdf, mimic=mimic)
 
 
 # Attributes that must hold numbers, by tag: checked before yourdfpy, whose

@@ -76,6 +76,7 @@ import numpy as np
 from ..catalog import mesh_file
 from ..checks import show_number
 from ..errors import InvalidInput, MissingDependency, PlantError
+from ..units import joint_kind
 from .base import register_plant
 
 __all__ = [
@@ -743,8 +744,7 @@ def _moves(spec, body) -> bool:
 def _mujoco_joint_kind(robot, name: str) -> str:
     """The MuJoCo joint kind (hinge or slide) of the robot's joint ``name``."""
     model = robot.model
-    kind = model.joints[model.getJointId(name)].shortname()
-    return "slide" if kind.startswith("JointModelP") else "hinge"
+    return "slide" if joint_kind(model.joints[model.getJointId(name)]) == "prismatic" else "hinge"
 
 
 def _joint_kind_name(mujoco, kind) -> str:
