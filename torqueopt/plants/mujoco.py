@@ -76,6 +76,7 @@ import numpy as np
 from ..catalog import mesh_file
 from ..checks import show_number
 from ..errors import InvalidInput, MissingDependency, PlantError
+from ..settings import Settings, setting
 from ..units import joint_kind
 from .base import register_plant
 
@@ -126,26 +127,6 @@ def import_mujoco():
     return mujoco
 
 
-@dataclass(frozen=True)
-class MujocoOptions:
-    """The MuJoCo plant's settings; :func:`mujoco_options` builds them from text or values."""
-
-    mjcf: Path | None = None
-    integrator: str = "rk4"
-    timestep: float | None = None
-    contacts: bool = False
-    joint_limits: bool = True
-    #: ``urdf``, ``zero``, or None: follow the robot's joint dynamics.
-    damping: str | None = None
-    inertia_floor: float | None = None
-    perturb: float = 0.0
-    seed: int = 0
-
-
-#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
-OPTION_NAMES = tuple(field.name for field in fields(MujocoOptions))
-
-
 def _on_off(value, name: str) -> bool:
     if isinstance(value, bool):
         return value
@@ -187,41 +168,51 @@ def _unset(value) -> bool:
     return value is None or (isinstance(value, str) and value.strip().lower() in ("none", "dt", ""))
 
 
-def mujoco_options(
-    mjcf=None,
-    integrator="rk4",
-    timestep=None,
-    contacts=False,
-    joint_limits=True,
-    damping=None,
-    inertia_floor=None,
-    perturb=0.0,
-    seed=0,
-) -> MujocoOptions:
-    """Checked :class:`MujocoOptions` from values or their text (``"on"``, ``"0.0005"``, ``"dt"``).
+def _mjcf_file(value, name: str) -> Path | None:
+    if value is None:
+        return None
+    if not Path(value).is_file():
+        raise InvalidInput(f"MJCF file '{Path(value)}' does not exist")
+    return Path(value)
 
-    Raises:
-        InvalidInput: naming the option, the bad value and what would be valid.
-    """
-    if mjcf is not None:
-        mjcf = Path(mjcf)
-        if not mjcf.is_file():
-            raise InvalidInput(f"MJCF file '{mjcf}' does not exist")
-    return MujocoOptions(
-        mjcf=mjcf,
-        integrator=_choice(integrator, "integrator", INTEGRATORS),
-        timestep=None if _unset(timestep) else _option_number(timestep, "timestep", "positive", "s"),
-        contacts=_on_off(contacts, "contacts"),
-        joint_limits=_on_off(joint_limits, "joint-limits"),
-        damping=None
-        if _unset(damping) or str(damping).strip().lower() == "robot"
-        else _choice(damping, "damping", ("urdf", "zero", "robot")),
-        inertia_floor=None
-        if _unset(inertia_floor)
-        else _option_number(inertia_floor, "inertia-floor", "positive", "kg·m²"),
-        perturb=_option_number(perturb, "perturb", "fraction"),
-        seed=_option_number(seed, "seed", "seed"),
+
+def _damping(value, name: str) -> str | None:
+    if _unset(value) or str(value).strip().lower() == "robot":
+        return None
+    return _choice(value, "damping", ("urdf", "zero", "robot"))
+
+
+@dataclass(frozen=True)
+class MujocoOptions(Settings):
+    """The MuJoCo plant's settings, each checked and read from its value or its text (``"on"``, ``"0.0005"``,
+    ``"dt"``); an InvalidInput names the option, the bad value and what would be valid."""
+
+    mjcf: Path | None = setting(None, check=_mjcf_file)
+    integrator: str = setting("rk4", check=lambda value, name: _choice(value, "integrator", INTEGRATORS))
+    timestep: float | None = setting(
+        None, check=lambda value, name: None if _unset(value) else _option_number(value, "timestep", "positive", "s")
     )
+    contacts: bool = setting(False, check=lambda value, name: _on_off(value, "contacts"))
+    joint_limits: bool = setting(True, check=lambda value, name: _on_off(value, "joint-limits"))
+    #: ``urdf``, ``zero``, or None: follow the robot's joint dynamics.
+    damping: str | None = setting(None, check=_damping)
+    inertia_floor: float | None = setting(
+        None,
+        check=lambda value, name: (
+            None if _unset(value) else _option_number(value, "inertia-floor", "positive", "kg·m²")
+        ),
+    )
+    perturb: float = setting(0.0, check=lambda value, name: _option_number(value, "perturb", "fraction"))
+    seed: int = setting(0, check=lambda value, name: _option_number(value, "seed", "seed"))
+
+
+#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
+OPTION_NAMES = tuple(field.name for field in fields(MujocoOptions))
+
+
+def mujoco_options(**values) -> MujocoOptions:
+    """Checked :class:`MujocoOptions` from values or their text, by keyword (``integrator="euler"``)."""
+    return MujocoOptions(**values)
 
 
 @register_plant("mujoco")
