@@ -1,66 +1,21 @@
-r"""MuJoCo as the plant: the resolver's torque applied to a MuJoCo model of the arm.
+r"""MuJoCo as the plant: the resolver's torque applied to a MuJoCo model of the arm (docs/guide/mujoco.md).
 
-The controller (the resolver, with torqueopt's Pinocchio model) computes the
-torque from the state the plant reports; the plant applies it, held over the
-control step ``dt``, as a generalised force (``qfrc_applied``) and lets
-MuJoCo advance with its own integrator (``model.opt.integrator``) and
-timestep, ``dt / timestep`` calls of ``mj_step`` per control step.
+The controller (the resolver, with torqueopt's Pinocchio model) computes the torque from the state the plant
+reports; the plant applies it, held over the control step ``dt``, as a generalised force (``qfrc_applied``) and
+lets MuJoCo advance with its own integrator and timestep, ``dt / timestep`` calls of ``mj_step`` per step.
 
-Which model:
-
-* by default the robot's own URDF, compiled by MuJoCo (``MjSpec.from_string``),
-  with its meshes resolved from the robot's package folders; a mesh MuJoCo
-  cannot read (a ``.dae``, a missing file) is dropped with its geom, and a
-  note says so. Inertias are the URDF's (``inertiafromgeom`` off), never
-  MuJoCo's estimate from the geometry;
-* or a user's MJCF (``mjcf=FILE``) whose joint names match the URDF's: the
-  controller still runs on the URDF's model, the plant is the MJCF.
-
-Joints the controller does not move (Pinocchio's locked joints: the other
-arm, the fingers, ``--lock``) are welded: MuJoCo's joint is removed and its
-body fixed at the angle Pinocchio locks it at, so that both models carry the
-same inertia. Actuators, sensors and keyframes of an MJCF are removed (the
-torque enters as generalised force), as are the tendons and equality
-constraints of welded joints. The robot's payload (``load_robot(...,
-payload=)``) becomes a body fixed where Pinocchio has it, on the body of the
-task frame's joint; its gravity is the robot's vector.
-
-Options (:func:`mujoco_options`; the CLI's ``--plant-option KEY=VALUE``):
-
-========================= ============================================= ==============
-option                    meaning                                       default
-========================= ============================================= ==============
-``integrator``            ``rk4``, ``implicitfast`` or ``euler``        ``rk4``
-``timestep``              MuJoCo's step [s]; must divide ``dt``          ``dt``
-``contacts``              ``on`` / ``off``                              ``off``
-``joint-limits``          ``on`` / ``off``: MuJoCo's joint-limit forces ``on``
-``damping``               ``urdf``: the model's joint damping, friction the robot's
-                          loss and armature; ``zero``: none of them     joint dynamics
-``inertia-floor``         raise principal moments of inertia below this none (refuse)
-                          [kg·m²] to it (thin rods, e.g. planar3)
-``perturb``               scale each link's mass and inertia by a       ``0``
-                          factor drawn from U(1 − p, 1 + p)
-``seed``                  the seed of those factors                     ``0``
-``mjcf``                  an MJCF file to use instead of the URDF       none
-========================= ============================================= ==============
-
-``damping`` follows the robot's ``joint_dynamics`` unless given: ``urdf``
-when the controller models the URDF's joint damping and friction, ``zero``
-when it does not, so that controller and plant agree by default. With
-``urdf`` on the robot's own URDF, the plant's joint damping is the damping
-Pinocchio read (MuJoCo's ``dof_damping``, exactly) and its friction the
-URDF's friction as MuJoCo's ``frictionloss``, a soft constraint that holds a
-joint at rest up to F and opposes a sliding one with F; the controller's
-model is F·tanh(q̇/v_s) (:mod:`torqueopt.robot`), so the two differ only
-while a joint moves slower than a few v_s. Giving ``damping`` against the
-robot's setting is a model error on purpose (the controller ignores what the
-plant applies, or the other way round).
-
-With matched settings (the URDF, ``contacts=off``, ``joint-limits=off``,
-``damping`` following the robot, ``integrator=rk4``, ``timestep=dt``) MuJoCo
-integrates the same equations as the Pinocchio plant: the tests hold the two
-runs to 1e-9 rad on xarm7 and panda, with the URDF's damping modelled or
-not.
+The model is the robot's URDF compiled by MuJoCo (the URDF's inertias, never MuJoCo's estimate from the
+geometry; a mesh MuJoCo cannot read is dropped with its geom, with a note), or a user's MJCF whose joint names
+match the URDF's. Joints the controller does not move are welded at the angle Pinocchio locks them at, so both
+models carry the same inertia; an MJCF's actuators, sensors and keyframes are removed (the torque enters as
+generalised force), as are the tendons and equality constraints of welded joints. The robot's payload becomes
+a body fixed where Pinocchio has it. The options (:data:`OPTIONS`, :class:`MujocoOptions`; the CLI's
+``--plant-option KEY=VALUE``) choose the integrator, timestep, contacts, joint-limit forces, joint damping
+(``damping`` follows the robot's ``joint_dynamics`` unless given, so controller and plant agree by default), an
+inertia floor and a seeded perturbation of the links' masses and inertias. With matched settings (the URDF,
+``contacts=off``, ``joint-limits=off``, ``damping`` following the robot, ``integrator=rk4``, ``timestep=dt``)
+MuJoCo integrates the same equations as the Pinocchio plant: the tests hold the two runs to 1e-9 rad on xarm7
+and panda.
 """
 
 from __future__ import annotations
