@@ -357,7 +357,7 @@ class SimResult:
 
     def to_csv(self, path: str | os.PathLike) -> Path:
         """Write the run to ``path``: CSV with its ``<path>.json`` sidecar, or NumPy ``.npz`` when the path ends so
-        (the formats: :mod:`torqueopt.result_files`); the files land together or not at all."""
+        (the formats: docs/files.md); the files land together or not at all."""
         return write_result(self, path)
 
     def __repr__(self) -> str:
