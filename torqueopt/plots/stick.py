@@ -43,8 +43,6 @@ def plot_stick_strip(
     the joints move fast: a whip shows as a run of strongly changing poses.
 
     Args:
-        robot: the robot the run was simulated with.
-        result: the run.
         snapshots: number of stick figures (2 to 24).
         events: labelled instants to mark on the speed plot [s].
         ellipse: draw a dexterity ellipse at the tip of every snapshot:
@@ -57,10 +55,7 @@ def plot_stick_strip(
         raise InvalidInput(f"ellipse={ellipse!r} is not one of {', '.join(_ELLIPSES)} (or None)")
     snapshots = whole_number(snapshots, "snapshots", *SNAPSHOTS_RANGE)
     if not len(result.t):
-        fig = new_figure(8.0, 2.0)
-        fig.text(0.5, 0.4, "no samples to draw: the run stopped before its first step", ha="center", va="center")
-        _suptitle(fig, title, [result])
-        return save_figure(fig, path)
+        return _empty_strip(result, path, title)
     rows = _snapshot_rows(result, snapshots)
     points = np.array([arm_points(robot, result.joint_angles[row]) for row in rows])
     basis, origin = _plot_plane(robot, points)
@@ -73,17 +68,12 @@ def plot_stick_strip(
     if ellipse is not None:
         outlines, ellipse_label = dexterity_ellipses(robot, result, rows, ellipse, basis, arm[:, -1], drawn)
         drawn = np.vstack([drawn, *[outline for outline in outlines if outline is not None]])
-    low, high = drawn.min(axis=0), drawn.max(axis=0)
-    center, span = 0.5 * (low + high), 1.12 * (high - low) + 1e-3
-    aspect = float(np.clip(span[1] / span[0], 0.35, 2.0))
-    # Equal scales on both axes: widen the narrower range to the panel's shape.
-    span = np.maximum(span, span[::-1] * np.array([1.0 / aspect, aspect]))
+    center, span, aspect = _view(drawn)
 
     # Axes placed by hand, in inches: constrained layout is slower per strip (BENCHMARKS.md, "Stick strips").
     columns = min(len(rows), 5)
     panel_rows = -(-len(rows) // columns)
-    panel_width = 3.0
-    panel_height = panel_width * aspect
+    panel_width, panel_height = 3.0, 3.0 * aspect
     header, row_gap, gap, left, right = 0.95, 0.75, 0.15, 0.8, 0.2
     speed_height, bottom = 2.3, 0.55
     width = left + right + columns * panel_width + (columns - 1) * gap
@@ -107,18 +97,28 @@ def plot_stick_strip(
             ax.fill(*outlines[index].T, color="tab:cyan", alpha=0.25, lw=1.0, ec="tab:blue", label=ellipse_label)
         _frame_snapshot(ax, center, span, ticks, f"t = {result.t[row]:.3f} s", names, column == 0)
         if index == 0:
-            handles = ax.get_legend_handles_labels()
-            fig.legend(
-                *handles,
-                loc="upper center",
-                ncol=5,
-                fontsize=8,
-                frameon=False,
-                bbox_to_anchor=(0.5, 1.0 - 0.62 / height),
-            )
+            legend = {"loc": "upper center", "ncol": 5, "fontsize": 8, "frameon": False}
+            fig.legend(*ax.get_legend_handles_labels(), **legend, bbox_to_anchor=(0.5, 1.0 - 0.62 / height))
     _draw_speeds(place(left, bottom, width - left - right, speed_height - 0.35), result, rows, events)
     _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
     return save_figure(fig, path)
+
+
+def _empty_strip(result: SimResult, path, title: str) -> Path:
+    """The strip of a run with no rows: a line that says so."""
+    fig = new_figure(8.0, 2.0)
+    fig.text(0.5, 0.4, "no samples to draw: the run stopped before its first step", ha="center", va="center")
+    _suptitle(fig, title, [result])
+    return save_figure(fig, path)
+
+
+def _view(drawn: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Centre, span [m] and aspect (height over width, within [0.35, 2]) of the panels around the ``drawn`` points,
+    at equal scales on both axes: the narrower range is widened to the panel's shape."""
+    low, high = drawn.min(axis=0), drawn.max(axis=0)
+    center, span = 0.5 * (low + high), 1.12 * (high - low) + 1e-3
+    aspect = float(np.clip(span[1] / span[0], 0.35, 2.0))
+    return center, np.maximum(span, span[::-1] * np.array([1.0 / aspect, aspect])), aspect
 
 
 def _frame_snapshot(ax, center, span, ticks, time_label: str, names: tuple[str, str], first_column: bool) -> None:
