@@ -216,70 +216,68 @@ def check_resolver(
         NoRedundancy, InvalidInput: the resolver refuses the robot (its own ``check``).
     """
     resolver = get_resolver(resolver)
-    failures: list[str] = []
-    unchecked: list[str] = []
-    checks = ["declaration"]
-    failures += _declaration_failures(resolver)
-    changed: list[str] = []
+    checks, failures, unchecked = ["declaration"], _declaration_failures(resolver), []
+    resolver.check(robot)
+    drawn = contract_states(robot, states, seed)
     if getattr(resolver, "level", "torque") == "torque":
-        resolver.check(robot)
-        drawn = contract_states(robot, states, seed)
-        terms = [robot.terms(q, v) for q, v, _ in drawn]
-        resolutions = []
-        for index, ((_, _, task_acceleration), state_terms) in enumerate(zip(drawn, terms)):
-            try:
-                resolutions.append(resolver.solver(robot)(state_terms, task_acceleration))
-            except Exception as error:
-                failures.append(f"task: state {index}: the step raised {type(error).__name__}: {error}")
-                resolutions.append(None)
-        checks.append("task")
-        failures += _task_failures(robot, drawn, terms, resolutions)
-        programs = [None] * len(drawn)
-        if _defining_class(type(resolver), "program_solver") is not Resolver:
-            program_failures, programs = _program_failures(resolver, robot, drawn, terms, resolutions)
-            if any(program is not None for program in programs) or program_failures:
-                checks.append("program")
-                failures += program_failures
-            else:
-                unchecked.append("program: its program_solver's steps return none (Resolution.program)")
-        try:
-            objective = resolver.objective_function(robot)
-        except Exception as error:
-            failures.append(f"objective: objective_function raised {type(error).__name__}: {error}")
-            objective = False
-        if objective is False:
-            pass
-        elif objective is not None and robot.redundancy > 0:
-            checks.append("objective")
-            failures += _objective_failures(resolver, objective, drawn, terms, resolutions, programs)
-        elif objective is None:
-            unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
-        else:
-            unchecked.append(f"objective: robot '{robot.name}' leaves task '{robot.task}' no null space")
-        checks.append("batch")
-        failures += _batch_failures(resolver, robot, drawn, terms, resolutions)
-        checks.append("options")
-        option_failures, changed, skipped = _option_failures(resolver, robot, drawn, terms, resolutions, options or {})
-        failures += option_failures
-        unchecked += skipped
+        changed = _torque_contract(resolver, robot, drawn, options or {}, checks, failures, unchecked)
     else:
-        resolver.check(robot)
-        drawn = contract_states(robot, states, seed)
         checks += ["rates", "options"]
         rate_failures, rates = _rate_failures(resolver, robot, drawn)
-        failures += rate_failures
         option_failures, changed, skipped = _option_failures(
             resolver, robot, drawn, None, rates, {"position_gain": None, **(options or {})}
         )
-        failures += option_failures
-        unchecked += skipped
-        unchecked.append("objective, batch: not checked on velocity-level resolvers")
+        failures += rate_failures + option_failures
+        unchecked += [*skipped, "objective, batch: not checked on velocity-level resolvers"]
     if failures:
         raise ContractViolation(
             f"resolver '{resolver.label}' on robot '{robot.name}' (task {robot.task}) breaks its contract:\n"
             + "\n".join(failures)
         )
     return ContractReport(resolver.label, tuple(checks), states, tuple(changed), tuple(unchecked))
+
+
+def _torque_contract(resolver, robot, drawn, options, checks, failures, unchecked) -> list[str]:
+    """The checks of a torque-level resolver (task, program, objective, batch, options), each appending to
+    ``checks``, ``failures`` and ``unchecked``; returns the options shown to change the step."""
+    terms = [robot.terms(q, v) for q, v, _ in drawn]
+    resolutions = []
+    for index, ((_, _, task_acceleration), state_terms) in enumerate(zip(drawn, terms)):
+        try:
+            resolutions.append(resolver.solver(robot)(state_terms, task_acceleration))
+        except Exception as error:
+            failures.append(f"task: state {index}: the step raised {type(error).__name__}: {error}")
+            resolutions.append(None)
+    checks.append("task")
+    failures += _task_failures(robot, drawn, terms, resolutions)
+    programs = [None] * len(drawn)
+    if _defining_class(type(resolver), "program_solver") is not Resolver:
+        program_failures, programs = _program_failures(resolver, robot, drawn, terms, resolutions)
+        if any(program is not None for program in programs) or program_failures:
+            checks.append("program")
+            failures += program_failures
+        else:
+            unchecked.append("program: its program_solver's steps return none (Resolution.program)")
+    try:
+        objective = resolver.objective_function(robot)
+    except Exception as error:
+        failures.append(f"objective: objective_function raised {type(error).__name__}: {error}")
+        objective = False
+    if objective is False:
+        pass
+    elif objective is not None and robot.redundancy > 0:
+        checks.append("objective")
+        failures += _objective_failures(resolver, objective, drawn, terms, resolutions, programs)
+    elif objective is None:
+        unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
+    else:
+        unchecked.append(f"objective: robot '{robot.name}' leaves task '{robot.task}' no null space")
+    checks += ["batch", "options"]
+    failures += _batch_failures(resolver, robot, drawn, terms, resolutions)
+    option_failures, changed, skipped = _option_failures(resolver, robot, drawn, terms, resolutions, options)
+    failures += option_failures
+    unchecked += skipped
+    return changed
 
 
 def _declaration_failures(resolver: Resolver) -> list[str]:
