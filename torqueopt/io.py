@@ -1,43 +1,11 @@
-"""Writing files: the one place every writer of torqueopt goes through.
+"""Writing files: the one place every writer of torqueopt goes through (the rules: docs/files.md).
 
-:func:`writable_path` checks, before any work, that a file can be written
-where the user asked; :func:`atomic_write` writes it to a temporary name
-beside the target and renames it into place, so a file is never left
-half-written.
-
-The rule for what is already at the path (as a careful Unix tool does it):
-
-* nothing, or a regular file: written atomically; a file that is replaced
-  keeps its permission bits (and, when run as root, its owner);
-* a symbolic link: written through to the regular file it points to, which
-  is replaced atomically as above, so the link stays a link; a link whose
-  target does not exist (or a loop of links) is refused;
-* a regular file with more than one hard link: refused, since an atomic
-  rename would split the names (the others would keep the old content) and
-  writing in place could leave every name half-written; write to a new
-  name, or remove the other links first;
-* a read-only file (no write bit, even for root): refused, since the user
-  marked it as not to be changed;
-* anything else (a folder, a FIFO, a socket, a device): refused, since
-  renaming over it would replace what is not ours by a regular file.
-* a file the command reads, or that another of its outputs is (through a
-  link too): refused by :func:`writable_paths`, since only one of the two
-  would be left.
-
-Every refusal is an :class:`~torqueopt.errors.OutputError` (exit 2 from the
-CLI) that names the path and what it is.
-
-The files of one command are one unit: the command checks every one of them
-with :func:`writable_paths` before it starts its work, and writes them inside
-:func:`written_together`, where each :func:`atomic_write` leaves its
-temporary file beside its target and the renames wait for the end of the
-block. When the block fails, the temporaries are removed and every old file
-is left as it was; when a rename at the end fails, the files already renamed
-get their old content back. Either all of the files land or none does.
-
-A run's sidecars go beside the file its data went to (:func:`sidecar_path`):
-beside the target of a symbolic link, not beside the link, so the target can
-be read on its own.
+:func:`writable_paths` checks, before any work, every file a command will write (distinct, not one it reads,
+writable); :func:`atomic_write` writes one to a temporary name beside its target and renames it into place, so
+a file is never left half-written: through a symbolic link to its target, keeping a replaced file's mode,
+refusing hard-linked, read-only and special files (:class:`~torqueopt.errors.OutputError`, naming the path and
+what it is). Inside :func:`written_together` the renames wait for the end of the block: all of a command's
+files land, or none does.
 """
 
 from __future__ import annotations
@@ -318,7 +286,7 @@ def _replaceable(path: Path) -> Path:
 
     Raises:
         OutputError: ``path`` holds something that must not be replaced (see
-            the module docstring); the message says what it is.
+            docs/files.md); the message says what it is.
     """
     try:
         status = os.lstat(path)
@@ -356,7 +324,7 @@ def _replaceable(path: Path) -> Path:
 def atomic_write(path: Path, write) -> None:
     """Call ``write(binary_handle)`` on a temporary file beside ``path``, then rename it into place.
 
-    What is already at ``path`` is treated as the module docstring says: a
+    What is already at ``path`` is treated as docs/files.md says: a
     symbolic link is written through to its target, a replaced file keeps
     its mode, and special, hard-linked and read-only files are refused.
     Inside :func:`written_together`, the rename waits for the end of the block.

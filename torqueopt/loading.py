@@ -32,11 +32,6 @@ __all__ = ["load_robot"]
 MAX_DOFS = 250
 
 
-def _data_bytes(dofs: int) -> float:
-    """About how much memory one Pinocchio ``Data`` of a model with ``dofs`` degrees of freedom takes [bytes]."""
-    return 64.0 * dofs**3
-
-
 def load_robot(
     source: str | Path,
     frame: str | None = None,
@@ -82,47 +77,14 @@ def load_robot(
         )
     joint_dynamics = DEFAULT_JOINT_DYNAMICS if joint_dynamics is None else check_joint_dynamics(joint_dynamics)
     robot_source = find_robot(source)
-    mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
-    full_model = _build_model(robot_source.urdf, mimic=False)
-    if full_model.nv == 0:
-        raise UrdfError(f"URDF '{robot_source.urdf}' has no movable joint")
-    if full_model.nv > MAX_DOFS:
-        raise UrdfError(
-            f"URDF '{robot_source.urdf}' has {full_model.nv:,} degrees of freedom, more than the {MAX_DOFS} torqueopt "
-            f"takes: Pinocchio's data for it would need about {_data_bytes(full_model.nv) / 1e9:.3g} GB "
-            "(its second-order derivative tensors grow with the cube of the joints)"
-        )
-
-    frame = frame or robot_source.frame or _single_leaf_frame(full_model, robot_source.urdf)
-    task = task or robot_source.task or "position"
-    check_task_and_frame(full_model, frame, task, robot_source.name)
-
-    chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
-    if any(full_model.names[j] in mimic_joints for j in chain):
-        # A mimic joint that moves the task frame must follow its leader;
-        # mimic joints elsewhere (grippers) are locked and can stay independent.
-        full_model = _build_model(robot_source.urdf, mimic=True)
-        chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    full_model, frame, task, chain = _full_model(robot_source, frame, task)
     if payload is not None:
         # Into the full model, before any joint is locked: a locked joint's body, payload included, then
         # joins its parent's by Pinocchio's reduction, whichever joint of the chain the frame ends up on.
         add_payload(full_model, full_model.getFrameId(frame), payload)
     full_reference = _full_reference_configuration(full_model, robot_source, reference_configuration)
     extra_locks = set(robot_source.locked_joints) | set(lock)
-    for joint in extra_locks:
-        if not full_model.existJointName(joint):
-            raise InvalidInput(
-                f"cannot lock joint '{joint}': robot '{robot_source.name}' has joints {', '.join(list(full_model.names)[1:])}"
-            )
-    locked_ids = [
-        j
-        for j in range(1, full_model.njoints)
-        if full_model.joints[j].nv > 0 and (j not in chain or full_model.names[j] in extra_locks)
-    ]
-    if locked_ids:
-        model = pin.buildReducedModel(full_model, locked_ids, full_reference)
-    else:
-        model = full_model.copy()
+    model, locked_ids = _locked_model(full_model, chain, extra_locks, full_reference, robot_source.name)
     if model.nv == 0:
         raise InvalidInput(f"frame '{frame}' of robot '{robot_source.name}' is not moved by any joint")
     _refuse_free_joints(model, robot_source.name)
@@ -148,6 +110,50 @@ def load_robot(
     return robot
 
 
+def _full_model(robot_source: RobotSource, frame: str | None, task: str | None):
+    """The URDF's checked full model (with its mimic joints where they move the task frame), the task frame and
+    task (the catalogue's or the URDF's defaults when None), and the ids of the joints that move the frame."""
+    mimic_joints = _validate_urdf(robot_source.urdf, with_yourdfpy=not robot_source.vetted)
+    full_model = build_model(robot_source.urdf, mimic=False)
+    if full_model.nv == 0:
+        raise UrdfError(f"URDF '{robot_source.urdf}' has no movable joint")
+    if full_model.nv > MAX_DOFS:
+        raise UrdfError(
+            f"URDF '{robot_source.urdf}' has {full_model.nv:,} degrees of freedom, more than the {MAX_DOFS} torqueopt "
+            f"takes: Pinocchio's data for it would need about {64.0 * full_model.nv**3 / 1e9:.3g} GB "
+            "(its second-order derivative tensors grow with the cube of the joints)"
+        )
+
+    frame = frame or robot_source.frame or _single_leaf_frame(full_model, robot_source.urdf)
+    task = task or robot_source.task or "position"
+    check_task_and_frame(full_model, frame, task, robot_source.name)
+
+    chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    if any(full_model.names[j] in mimic_joints for j in chain):
+        # A mimic joint that moves the task frame must follow its leader;
+        # mimic joints elsewhere (grippers) are locked and can stay independent.
+        full_model = build_model(robot_source.urdf, mimic=True)
+        chain = set(full_model.supports[full_model.frames[full_model.getFrameId(frame)].parentJoint])
+    return full_model, frame, task, chain
+
+
+def _locked_model(full_model: pin.Model, chain: set[int], extra_locks: set[str], reference, robot_name: str):
+    """The model with every joint outside the task ``chain`` and every joint of ``extra_locks`` locked at
+    ``reference`` (Pinocchio's reduction), and the ids of the joints locked."""
+    for joint in extra_locks:
+        if not full_model.existJointName(joint):
+            raise InvalidInput(
+                f"cannot lock joint '{joint}': robot '{robot_name}' has joints {', '.join(list(full_model.names)[1:])}"
+            )
+    locked_ids = [
+        j
+        for j in range(1, full_model.njoints)
+        if full_model.joints[j].nv > 0 and (j not in chain or full_model.names[j] in extra_locks)
+    ]
+    model = pin.buildReducedModel(full_model, locked_ids, reference) if locked_ids else full_model.copy()
+    return model, locked_ids
+
+
 #: Joints whose degrees of freedom no actuator drives: a floating base, a planar base.
 _FREE_JOINTS = {"JointModelFreeFlyer": "floating", "JointModelPlanar": "planar"}
 
@@ -163,11 +169,6 @@ def _refuse_free_joints(model: pin.Model, robot_name: str) -> None:
                 f"that no actuator drives): torqueopt resolves fixed-base arms, every joint driven; make it a fixed "
                 f"joint in the URDF, or lock it with --lock {name}"
             )
-
-
-def _build_model(urdf: Path, mimic: bool) -> pin.Model:
-    # From the physically checked text, with urdfdom's stderr captured (see urdf_checks).
-    return build_model(urdf, mimic=mimic)
 
 
 # Attributes that must hold numbers, by tag: checked before yourdfpy, whose

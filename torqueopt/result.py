@@ -356,18 +356,8 @@ class SimResult:
         return csv_columns(self.n, self.m, self.models_joint_dynamics)
 
     def to_csv(self, path: str | os.PathLike) -> Path:
-        """Write the run to ``path``: CSV, or NumPy ``.npz`` when the path ends so.
-
-        The CSV's q columns hold one angle per joint (see
-        :meth:`Robot.joint_angles`). Beside a CSV, ``<path>.json`` keeps what
-        the columns cannot (robot, limits, stop reason) so that
-        :func:`load_result` can read the run back (through a symbolic link,
-        beside the file the link points to). A run with dexterity
-        measures has one more column per measure, named after it, after
-        the xref columns (arrays ``dexterity_<name>`` in the ``.npz``). Files are written to a
-        temporary name and renamed, so they are never left half-written, and
-        the CSV and its sidecar land together or not at all.
-        """
+        """Write the run to ``path``: CSV with its ``<path>.json`` sidecar, or NumPy ``.npz`` when the path ends so
+        (the formats: docs/files.md); the files land together or not at all."""
         return write_result(self, path)
 
     def __repr__(self) -> str:

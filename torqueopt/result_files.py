@@ -1,24 +1,8 @@
-"""The run files: a :class:`~torqueopt.result.SimResult` written to and read from disk.
+"""The run files: a :class:`~torqueopt.result.SimResult` written to and read from disk (the formats: docs/files.md).
 
-Two formats, chosen by the path's suffix:
-
-* CSV (any other suffix): one row per step, columns ``t``, ``q1..qn`` (one
-  angle per joint), ``v1..vn``, ``tau1..taun``, ``x1..xm``, ``xref1..xrefm``,
-  ``task_error``, ``infeasible``, then ``damping1..dampingn`` and
-  ``friction1..frictionn`` (the joint damping and friction torques the
-  torque includes, when the run modelled them), one column per dexterity measure
-  and ``stability_margin`` when the run recorded them; beside it ``<path>.json`` keeps what the columns cannot (robot, limits,
-  stop reason). The reader takes the columns by name, in any order, and
-  refuses a header that is missing, repeats or adds a column.
-* NumPy ``.npz``: every array of the run, the dexterity measures as
-  ``dexterity_<name>``, ``stability_margin`` when recorded, and the same
-  metadata as a JSON string.
-
-Every file is written through :func:`torqueopt.io.atomic_write`, so it is
-never left half-written, and a run's files land together or not at all
-(:func:`torqueopt.io.written_together`); :func:`run_files` names them, for a
-command to check before it simulates. The sidecar goes beside the file the
-data went to (the target of a symbolic link).
+A CSV (one row per step, its columns read by name) with a ``<path>.json`` sidecar for what the columns cannot
+hold, or a NumPy ``.npz`` with every array and the same metadata; written through
+:func:`torqueopt.io.atomic_write` inside :func:`torqueopt.io.written_together`, so a run's files land together.
 """
 
 from __future__ import annotations
@@ -49,22 +33,19 @@ _ARRAY_FIELDS = (
 )  # fmt: skip
 
 
-def csv_columns(n: int, m: int, joint_dynamics: bool = False) -> list[str]:
-    """The CSV columns of a run of n joints and m task coordinates, before any dexterity measure.
+def _column_groups(n: int, m: int) -> dict[str, list[str]]:
+    """The run CSV's required columns by group: ``t``, ``q1..qn``, ``v1..vn``, ``tau1..taun``, ``x1..xm``,
+    ``xref1..xrefm``, ``task_error``, ``infeasible``."""
+    indexed = {"q": n, "v": n, "tau": n, "x": m, "xref": m}
+    groups = {"t": ["t"], **{name: [f"{name}{i}" for i in range(1, size + 1)] for name, size in indexed.items()}}
+    return {**groups, **{name: [name] for name in _STEP_COLUMNS}}
 
-    ``t, q1..qn, v1..vn, tau1..taun, x1..xm, xref1..xrefm, task_error, infeasible``, then with
-    ``joint_dynamics`` ``damping1..dampingn, friction1..frictionn``.
-    """
-    return (
-        ["t"]
-        + [f"q{i}" for i in range(1, n + 1)]
-        + [f"v{i}" for i in range(1, n + 1)]
-        + [f"tau{i}" for i in range(1, n + 1)]
-        + [f"x{i}" for i in range(1, m + 1)]
-        + [f"xref{i}" for i in range(1, m + 1)]
-        + list(_STEP_COLUMNS)
-        + (_joint_dynamics_columns(n) if joint_dynamics else [])
-    )
+
+def csv_columns(n: int, m: int, joint_dynamics: bool = False) -> list[str]:
+    """The CSV columns of a run of n joints and m task coordinates, before any dexterity measure: those of
+    :func:`_column_groups`, then with ``joint_dynamics`` ``damping1..dampingn, friction1..frictionn``."""
+    columns = [name for names in _column_groups(n, m).values() for name in names]
+    return columns + (_joint_dynamics_columns(n) if joint_dynamics else [])
 
 
 def _joint_dynamics_columns(n: int) -> list[str]:
@@ -129,15 +110,8 @@ def _metadata(result) -> dict:
 
 
 def read_result(path: str | os.PathLike, result_type, robot=None):
-    """Read a run written by :meth:`torqueopt.SimResult.to_csv` (CSV with its JSON sidecar, or .npz) as a ``result_type``
-    (:class:`~torqueopt.result.SimResult`, which :func:`torqueopt.load_result` passes: this module writes and
-    reads its fields, and needs no import of it).
-
-    A CSV holds one angle per joint, not configuration vectors: with ``robot``
-    given, ``q`` is rebuilt from them (needed for continuous joints, whose
-    configuration is (cos, sin)); without it ``q`` holds the angles. A CSV
-    has no joint accelerations or Jacobian condition: those arrays are NaN.
-    """
+    """:func:`torqueopt.load_result` as a ``result_type`` (:class:`~torqueopt.result.SimResult`, which it passes:
+    this module writes and reads its fields, and needs no import of it)."""
     path = Path(path)
     if not path.is_file():
         raise InvalidInput(f"run file '{path}' does not exist")
@@ -233,15 +207,7 @@ def _csv_columns_by_name(header: list[str], n: int, task: str) -> dict[str, list
         if name in where:
             raise ValueError(f"its header names column '{name}' twice")
         where[name] = index
-    groups = {
-        "t": ["t"],
-        "q": [f"q{i}" for i in range(1, n + 1)],
-        "v": [f"v{i}" for i in range(1, n + 1)],
-        "tau": [f"tau{i}" for i in range(1, n + 1)],
-        "x": [f"x{i}" for i in range(1, m + 1)],
-        "xref": [f"xref{i}" for i in range(1, m + 1)],
-        **{name: [name] for name in _STEP_COLUMNS},
-    }
+    groups = _column_groups(n, m)
     optional = {name: [name] for name in (*_dexterity_names(), _MARGIN) if name in where}
     if all(name in where for name in _joint_dynamics_columns(n)):
         # Derived from v and the sidecar's joint dynamics: accepted, not read.

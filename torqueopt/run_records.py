@@ -221,17 +221,11 @@ def task_reference(robot: Robot, trajectory: Trajectory, times: np.ndarray, star
         return sample
     if getattr(trajectory, "oriented", False):
         turn = trajectory.sample_orientation(times, start_rotation)
-        return type(sample)(
-            position=np.hstack([sample.position, turn.position]),
-            velocity=np.hstack([sample.velocity, turn.velocity]),
-            acceleration=np.hstack([sample.acceleration, turn.acceleration]),
-        )
-    pad = np.zeros((times.size, 3))
-    return type(sample)(
-        position=np.hstack([sample.position, pad]),
-        velocity=np.hstack([sample.velocity, pad]),
-        acceleration=np.hstack([sample.acceleration, pad]),
-    )
+        turning = (turn.position, turn.velocity, turn.acceleration)
+    else:
+        turning = (np.zeros((times.size, 3)),) * 3
+    own = (sample.position, sample.velocity, sample.acceleration)
+    return type(sample)(*(np.hstack(pair) for pair in zip(own, turning)))
 
 
 def logged_row_bytes(robot: Robot) -> int:

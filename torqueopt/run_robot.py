@@ -1,15 +1,8 @@
 """The robot a run was made with: what the run's files record of it, and that robot rebuilt for playback.
 
-A run's files name its robot (``robot``, ``frame``, ``task``); a URDF of the
-user's own is not in the catalogue, so its name alone cannot find it again.
-:func:`robot_record` adds what rebuilds the same robot: the URDF's absolute
-path and SHA-256, the joints locked and the full-model configuration they are
-held at. :func:`robot_of_run` loads that robot back (``torqueopt play``): from
-the catalogue when the run's robot is a catalogue robot, else from the
-recorded file; a file changed since the run is loaded anyway, with a
-:class:`~torqueopt.errors.TorqueoptWarning`; a file that is gone, with no
-robot given instead, is a :class:`~torqueopt.errors.RobotNotFound`.
-Runs recorded before these fields existed load by name, as they always did.
+A URDF of the user's own is not in the catalogue, so a run's robot name alone cannot find it again:
+:func:`robot_record` adds the URDF's absolute path and SHA-256, the joints locked and the configuration they are
+held at, and :func:`robot_of_run` loads that robot back (``torqueopt play``; the rules: docs/playback.md).
 """
 
 from __future__ import annotations

@@ -1,53 +1,13 @@
-r"""The resolver contract as a function a user's test suite calls: :func:`check_resolver`.
+r"""The resolver contract as a function a user's test suite calls: :func:`check_resolver` (docs/resolvers/contract.md).
 
-The registry's own tests run it on every registered resolver (``tests/test_resolvers.py``); a resolver of
-your own meets the same contract when ::
-
-    from torqueopt.testing import check_resolver
-
-    def test_my_resolver(planar3):
-        check_resolver(MyResolver(), torqueopt.load_robot("planar3"))
-
-passes. At seeded random states (q, q̇, ẍ), away from singular Jacobians, it checks, each against something
-the resolver does not compute itself:
-
-``declaration``
-    the options are declared completely (a kind, a unit, a meaning, a default the option's own converter
-    accepts; ``singular_tolerance`` last), the constructor sets each as an attribute, and the resolver's
-    :attr:`~torqueopt.Resolver.spec` makes it again (what the atlas's Dask workers receive).
-``task``
-    the torque produces the joint acceleration the resolution reports (Pinocchio's ABA from the torque alone),
-    :math:`J\ddot q + \dot J\dot q = \ddot x` up to the ``task_error`` it reports as given up (exactly,
-    unless it says ``infeasible``).
-``objective``
-    where the resolver declares the criterion it minimises (:meth:`~torqueopt.Resolver.objective_function`), its
-    torque is that criterion's least value over the torques that realise the task,
-    :math:`\tau + H Z y`: the first-order (KKT) condition by central finite differences of the criterion in
-    y, the Newton step to the minimum (from finite differences of the gradient too) is zero, and the
-    curvature is positive (a minimum, not a saddle). Z is an orthonormal basis of the null space of J from
-    numpy's SVD, not the resolver's. Where the step solved a program (``program`` below), the same under that
-    program's constraints: the criterion's gradient in the program's variables, by finite differences through
-    the torque :math:`\tau_0 + T x`, is balanced by non-negative multipliers of the active constraints
-    (``scipy.optimize.nnls``), up to a Newton step of zero.
-``program``
-    where the resolver's :meth:`~torqueopt.Resolver.program_solver` returns the program each step solved
-    (:class:`~torqueopt.resolvers.Program`, a QP or LP), with the torques of its :meth:`~torqueopt.Resolver.solver`
-    bit for bit: the torque is that of the program's solution, the program's variables move the torque over
-    the whole null space (:math:`J H^{-1} T = 0`, rank n − m), and the solution meets the program's KKT
-    conditions (:func:`program_residuals`): stationarity, primal feasibility, dual feasibility and complementary
-    slackness with the solver's multipliers, and stationarity again with multipliers fitted by non-negative
-    least squares on the active constraints, which do not come from the solver.
-``batch``
-    its step on stacks (:meth:`~torqueopt.Resolver.batch_solver`) gives, row by row, what its single-state
-    step gives (1e-9).
-``options``
-    each of its own options, set to another value, changes the torque at some state (an option the
-    resolver ignores is a broken promise).
-
-Velocity-level resolvers (``level = "velocity"``) have no torque step: on them the ``task`` check is ``rates``
-(``torqueopt.kinematic.joint_rates`` gives q̇ with :math:`J\dot q = \dot x`, affine in :math:`\dot x` as
-the loop's time derivative assumes) and the ``options`` check compares joint rates (``position_gain``, which
-acts only in closed loop, is left out).
+The registry's own tests run it on every registered resolver; at seeded random states (q, q̇, ẍ) away from
+singular Jacobians it checks each promise against something the resolver does not compute itself: its options'
+``declaration`` (complete, set as attributes, made again from its ``spec``), the ``task`` (Pinocchio's ABA from
+the torque alone, J q̈ + J̇q̇ = ẍ up to the error it reports), the ``objective`` it declares (KKT by finite
+differences over the null space, or under its ``program``'s constraints), the ``program`` it solved (its
+solution gives the torque, spans the null space, meets its KKT conditions with the solver's and with nnls
+multipliers), ``batch`` rows against single steps, and each of its ``options`` changing the step. A
+velocity-level resolver has ``rates`` (J q̇ = ẋ, affine in ẋ) in place of ``task``, and no objective or batch check.
 """
 
 from __future__ import annotations
@@ -256,70 +216,68 @@ def check_resolver(
         NoRedundancy, InvalidInput: the resolver refuses the robot (its own ``check``).
     """
     resolver = get_resolver(resolver)
-    failures: list[str] = []
-    unchecked: list[str] = []
-    checks = ["declaration"]
-    failures += _declaration_failures(resolver)
-    changed: list[str] = []
+    checks, failures, unchecked = ["declaration"], _declaration_failures(resolver), []
+    resolver.check(robot)
+    drawn = contract_states(robot, states, seed)
     if getattr(resolver, "level", "torque") == "torque":
-        resolver.check(robot)
-        drawn = contract_states(robot, states, seed)
-        terms = [robot.terms(q, v) for q, v, _ in drawn]
-        resolutions = []
-        for index, ((_, _, task_acceleration), state_terms) in enumerate(zip(drawn, terms)):
-            try:
-                resolutions.append(resolver.solver(robot)(state_terms, task_acceleration))
-            except Exception as error:
-                failures.append(f"task: state {index}: the step raised {type(error).__name__}: {error}")
-                resolutions.append(None)
-        checks.append("task")
-        failures += _task_failures(robot, drawn, terms, resolutions)
-        programs = [None] * len(drawn)
-        if _defining_class(type(resolver), "program_solver") is not Resolver:
-            program_failures, programs = _program_failures(resolver, robot, drawn, terms, resolutions)
-            if any(program is not None for program in programs) or program_failures:
-                checks.append("program")
-                failures += program_failures
-            else:
-                unchecked.append("program: its program_solver's steps return none (Resolution.program)")
-        try:
-            objective = resolver.objective_function(robot)
-        except Exception as error:
-            failures.append(f"objective: objective_function raised {type(error).__name__}: {error}")
-            objective = False
-        if objective is False:
-            pass
-        elif objective is not None and robot.redundancy > 0:
-            checks.append("objective")
-            failures += _objective_failures(resolver, objective, drawn, terms, resolutions, programs)
-        elif objective is None:
-            unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
-        else:
-            unchecked.append(f"objective: robot '{robot.name}' leaves task '{robot.task}' no null space")
-        checks.append("batch")
-        failures += _batch_failures(resolver, robot, drawn, terms, resolutions)
-        checks.append("options")
-        option_failures, changed, skipped = _option_failures(resolver, robot, drawn, terms, resolutions, options or {})
-        failures += option_failures
-        unchecked += skipped
+        changed = _torque_contract(resolver, robot, drawn, options or {}, checks, failures, unchecked)
     else:
-        resolver.check(robot)
-        drawn = contract_states(robot, states, seed)
         checks += ["rates", "options"]
         rate_failures, rates = _rate_failures(resolver, robot, drawn)
-        failures += rate_failures
         option_failures, changed, skipped = _option_failures(
             resolver, robot, drawn, None, rates, {"position_gain": None, **(options or {})}
         )
-        failures += option_failures
-        unchecked += skipped
-        unchecked.append("objective, batch: not checked on velocity-level resolvers")
+        failures += rate_failures + option_failures
+        unchecked += [*skipped, "objective, batch: not checked on velocity-level resolvers"]
     if failures:
         raise ContractViolation(
             f"resolver '{resolver.label}' on robot '{robot.name}' (task {robot.task}) breaks its contract:\n"
             + "\n".join(failures)
         )
     return ContractReport(resolver.label, tuple(checks), states, tuple(changed), tuple(unchecked))
+
+
+def _torque_contract(resolver, robot, drawn, options, checks, failures, unchecked) -> list[str]:
+    """The checks of a torque-level resolver (task, program, objective, batch, options), each appending to
+    ``checks``, ``failures`` and ``unchecked``; returns the options shown to change the step."""
+    terms = [robot.terms(q, v) for q, v, _ in drawn]
+    resolutions = []
+    for index, ((_, _, task_acceleration), state_terms) in enumerate(zip(drawn, terms)):
+        try:
+            resolutions.append(resolver.solver(robot)(state_terms, task_acceleration))
+        except Exception as error:
+            failures.append(f"task: state {index}: the step raised {type(error).__name__}: {error}")
+            resolutions.append(None)
+    checks.append("task")
+    failures += _task_failures(robot, drawn, terms, resolutions)
+    programs = [None] * len(drawn)
+    if _defining_class(type(resolver), "program_solver") is not Resolver:
+        program_failures, programs = _program_failures(resolver, robot, drawn, terms, resolutions)
+        if any(program is not None for program in programs) or program_failures:
+            checks.append("program")
+            failures += program_failures
+        else:
+            unchecked.append("program: its program_solver's steps return none (Resolution.program)")
+    try:
+        objective = resolver.objective_function(robot)
+    except Exception as error:
+        failures.append(f"objective: objective_function raised {type(error).__name__}: {error}")
+        objective = False
+    if objective is False:
+        pass
+    elif objective is not None and robot.redundancy > 0:
+        checks.append("objective")
+        failures += _objective_failures(resolver, objective, drawn, terms, resolutions, programs)
+    elif objective is None:
+        unchecked.append("objective: the resolver declares none (Resolver.objective_function)")
+    else:
+        unchecked.append(f"objective: robot '{robot.name}' leaves task '{robot.task}' no null space")
+    checks += ["batch", "options"]
+    failures += _batch_failures(resolver, robot, drawn, terms, resolutions)
+    option_failures, changed, skipped = _option_failures(resolver, robot, drawn, terms, resolutions, options)
+    failures += option_failures
+    unchecked += skipped
+    return changed
 
 
 def _declaration_failures(resolver: Resolver) -> list[str]:

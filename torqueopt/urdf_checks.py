@@ -1,44 +1,15 @@
-r"""Physical checks of a URDF before Pinocchio reads it, and a quiet Pinocchio parse.
+r"""Physical checks of a URDF before Pinocchio reads it, and a quiet Pinocchio parse (the list: docs/robots.md).
 
-urdfdom (the C++ parser inside Pinocchio) turns a mass of ``nan`` into 0
-with a warning on stderr, accepts negative masses and inertias that no body
-can have, and refuses ``effort="inf"``. Every such file either fails much
-later, as a "diverged" run, or prints several lines of C++ messages. This
-module checks every physical quantity first and names the link or joint in
-one line:
-
-* ``<mass value>``: a finite number >= 0 [kg];
-* ``<inertia>``: six finite numbers whose tensor (about the centre of mass)
-  is positive semi-definite; its principal moments :math:`I_1, I_2, I_3`
-  should satisfy the triangle inequality :math:`I_i \le I_j + I_k` (a
-  body's moments are sums :math:`\int (r_j^2 + r_k^2)\,dm`). Zero moments are allowed: a thin rod
-  (the paper's arm) or a point mass is a physical limit. Both tests allow a
-  relative 1e-9 of the largest moment, and at least 1e-7 kg·m² (a gram at a
-  centimetre), for rounding in the file;
-* every ``<origin xyz rpy>`` and ``<axis xyz>`` finite, and a moving
-  joint's axis not zero;
-* every number as urdfdom reads it (blanks before it, none after; no ``_``
-  separators or Unicode digits), since urdfdom drops the element of a number it
-  cannot read (a link's whole ``<inertial>``: the link would weigh nothing);
-* ``<dynamics damping friction>``: finite numbers >= 0;
-* ``<limit>``: ``effort`` and ``velocity`` finite numbers >= 0 or ``inf``
-  (0 and ``inf`` both mean unbounded, as docs/robots.md says; urdfdom cannot read
-  ``inf``, so Pinocchio is given 0 for it); ``lower <= upper``, both finite
-  (a joint without position limits is ``type="continuous"``);
-* the joints form a tree: every link is the child of at most one joint and
-  exactly one link is the child of none (a closed loop is refused as such:
-  neither Pinocchio's URDF parser nor torqueopt models loop closures);
-* every joint a task moves moves some mass or inertia (otherwise the
-  joint-space inertia is singular and every run would fail).
-
-An inertia that breaks the triangle inequality is impossible for a body but
-harmless to the dynamics (the joint-space inertia stays positive definite),
-and shipped files have them (pr2, romeo, allegro in example-robot-data): it
-is reported as a :class:`~torqueopt.errors.TorqueoptWarning`, not refused.
-
-:func:`build_model` then parses the checked text with Pinocchio while the
-process's stderr (file descriptor 2, where urdfdom writes) is captured, so
-that nothing but our one-line message reaches the user.
+urdfdom (the C++ parser inside Pinocchio) turns a mass of ``nan`` into 0 with a warning on stderr, accepts
+negative masses and inertias no body can have, drops the element of a number it cannot read (``1_0``, Unicode
+digits: a link's whole ``<inertial>``) and refuses ``effort="inf"``. :func:`check_urdf` checks every physical
+quantity first and names the link or joint in one line: masses, inertia tensors (positive semi-definite about
+the centre of mass, within a relative 1e-9 of the largest moment and at least 1e-7 kg·m², for rounding in the
+file), origins and axes, limits (``inf`` is given to Pinocchio as 0: both mean unbounded), damping and friction,
+a tree of links, and every joint a task moves moving some mass. An inertia that breaks the triangle inequality
+:math:`I_i \le I_j + I_k` is impossible for a body but harmless to the dynamics, and shipped files have them
+(pr2, romeo, allegro): a :class:`~torqueopt.errors.TorqueoptWarning`, not a refusal. :func:`build_model` then
+parses the checked text with the process's stderr captured, so that only the one-line message reaches the user.
 """
 
 from __future__ import annotations
@@ -70,7 +41,7 @@ _INERTIA_FLOOR = 1e-7
 
 
 def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
-    """Check every physical quantity of the URDF tree ``root`` (read from ``path``); see the module docstring.
+    """Check every physical quantity of the URDF tree ``root`` (read from ``path``), as the module docstring lists.
 
     Returns:
         what the checks found: whether some value had to be rewritten for
@@ -84,8 +55,6 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
     """
     where = f"URDF '{path}'"
     notes: list[str] = []
-    masses = {}
-    inertia_traces = {}
     for kind in ("link", "joint"):
         seen = set()
         for element in root.findall(kind):
@@ -95,22 +64,18 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
                     f"{where} has two <{kind}> elements named '{name}'; every {kind} needs a name of its own"
                 )
             seen.add(name)
+    masses = {}
     for link in root.findall("link"):
         name = link.get("name")
-        mass, trace = _check_inertial(link, f"{where}: link '{name}'", notes)
-        masses[name], inertia_traces[name] = mass, trace
+        masses[name] = _check_inertial(link, f"{where}: link '{name}'", notes)
         for origin in link.iter("origin"):
             _finite_triple(origin, "xyz", f"{where}: an <origin> of link '{name}'")
             _finite_triple(origin, "rpy", f"{where}: an <origin> of link '{name}'")
-
     rewritten = False
-    parent_of = {}
-    children = {}
-    moving = []
+    parent_of, children, moving = {}, {}, []
     for joint in root.findall("joint"):
-        name = joint.get("name")
+        name, kind = joint.get("name"), joint.get("type")
         label = f"{where}: joint '{name}'"
-        kind = joint.get("type")
         if kind not in _JOINT_TYPES:
             raise UrdfError(f"{label} has type '{kind}'; choose one of {', '.join(_JOINT_TYPES)}")
         parent, child = joint.find("parent").get("link"), joint.find("child").get("link")
@@ -122,32 +87,48 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
             )
         parent_of[child] = (name, parent)
         children.setdefault(parent, []).append(child)
-        origin = joint.find("origin")
-        if origin is not None:
-            _finite_triple(origin, "xyz", f"{label}: <origin>")
-            _finite_triple(origin, "rpy", f"{label}: <origin>")
+        rewritten |= _check_joint(joint, kind, label)
         if kind in _MOVING:
             moving.append((name, child))
-            axis = joint.find("axis")
-            if axis is not None:
-                values = _finite_triple(axis, "xyz", f"{label}: <axis>")
-                if values is not None and not np.any(values):
-                    raise UrdfError(f'{label} has <axis xyz="0 0 0">; a {kind} joint needs a non-zero axis')
-        limit = joint.find("limit")
-        if limit is not None:
-            rewritten |= _check_limit(limit, kind, label)
-        mimic = joint.find("mimic")
-        if mimic is not None:
-            for attribute in ("multiplier", "offset"):
-                _finite_number(mimic, attribute, f"{label}: <mimic>")
-        dynamics = joint.find("dynamics")
-        if dynamics is not None:
-            for attribute in ("damping", "friction"):
-                value = _finite_number(dynamics, attribute, f"{label}: <dynamics>")
-                if value is not None and value < 0:
-                    raise UrdfError(f"{label} has {attribute} {value:g}; give a finite number >= 0")
+    _check_tree(where, [link.get("name") for link in root.findall("link")], parent_of, children)
+    massless = {}
+    for name, child in moving:
+        if not any(value > 0.0 for link in _descendants(child, children) for value in masses.get(link, ())):
+            massless[name] = (
+                f"{where}: joint '{name}' moves no mass: link '{child}' and every link below it have zero mass and "
+                "inertia, so its joint-space inertia is zero; give them an <inertial> or make the joint fixed"
+            )
+    return UrdfCheck(rewritten, massless, tuple(notes))
 
-    links = [link.get("name") for link in root.findall("link")]
+
+def _check_joint(joint: ElementTree.Element, kind: str, label: str) -> bool:
+    """Check a joint's origin, axis, limit, mimic and dynamics; True when an ``inf`` limit was rewritten."""
+    origin = joint.find("origin")
+    if origin is not None:
+        _finite_triple(origin, "xyz", f"{label}: <origin>")
+        _finite_triple(origin, "rpy", f"{label}: <origin>")
+    axis = joint.find("axis")
+    if kind in _MOVING and axis is not None:
+        values = _finite_triple(axis, "xyz", f"{label}: <axis>")
+        if values is not None and not np.any(values):
+            raise UrdfError(f'{label} has <axis xyz="0 0 0">; a {kind} joint needs a non-zero axis')
+    limit = joint.find("limit")
+    rewritten = limit is not None and _check_limit(limit, kind, label)
+    mimic = joint.find("mimic")
+    if mimic is not None:
+        for attribute in ("multiplier", "offset"):
+            _finite_number(mimic, attribute, f"{label}: <mimic>")
+    dynamics = joint.find("dynamics")
+    if dynamics is not None:
+        for attribute in ("damping", "friction"):
+            value = _finite_number(dynamics, attribute, f"{label}: <dynamics>")
+            if value is not None and value < 0:
+                raise UrdfError(f"{label} has {attribute} {value:g}; give a finite number >= 0")
+    return rewritten
+
+
+def _check_tree(where: str, links: list[str], parent_of: dict, children: dict) -> None:
+    """Refuse links that do not form one tree: none, no root, several roots, or a loop apart from the root."""
     if not links:
         raise UrdfError(f"{where} has no <link>: there is no robot to model")
     roots = [link for link in links if link not in parent_of]
@@ -168,15 +149,6 @@ def check_urdf(root: ElementTree.Element, path) -> UrdfCheck:
             f"{where}: links {', '.join(repr(link) for link in loop)} hang from each other in a closed loop, apart "
             "from the root; a URDF describes a tree, and loop closures cannot be modelled"
         )
-    massless = {}
-    for name, child in moving:
-        below = _descendants(child, children)
-        if not any(masses.get(link, 0.0) > 0.0 or inertia_traces.get(link, 0.0) > 0.0 for link in below):
-            massless[name] = (
-                f"{where}: joint '{name}' moves no mass: link '{child}' and every link below it have zero mass and "
-                "inertia, so its joint-space inertia is zero; give them an <inertial> or make the joint fixed"
-            )
-    return UrdfCheck(rewritten, massless, tuple(notes))
 
 
 class UrdfCheck(NamedTuple):

@@ -151,20 +151,25 @@ def whole_number(value, name: str, minimum: int = 0, maximum: int | None = None)
     return int(value)
 
 
-def number_at_least(value, minimum: float = 0.0, strict: bool = False, unit: str = "") -> float:
-    """A converter's rule: a finite real number >= ``minimum`` (> when ``strict``), or its text; else :class:`Refused`."""
-    relation = ">" if strict else ">="
-    unit_text = f" [{unit}]" if unit else ""
+def _real(value, wanted: str) -> float:
+    """A converter's reading of a real number or its text as a float, else :class:`Refused` saying to give ``wanted``."""
     if isinstance(value, str):
         try:
-            value = decimal(value)
+            return decimal(value)
         except ValueError:
-            raise Refused(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}") from None
+            raise Refused(f"is not a number; give {wanted}") from None
     if isinstance(value, bool) or not isinstance(value, Real):
-        raise Refused(f"is not a number; give a finite number {relation} {minimum:g}{unit_text}")
-    if not _at_least(float(value), minimum, strict):
-        raise Refused(f"must be a finite number {relation} {minimum:g}{unit_text}")
+        raise Refused(f"is not a number; give {wanted}")
     return float(value)
+
+
+def number_at_least(value, minimum: float = 0.0, strict: bool = False, unit: str = "") -> float:
+    """A converter's rule: a finite real number >= ``minimum`` (> when ``strict``), or its text; else :class:`Refused`."""
+    wanted = f"a finite number {'>' if strict else '>='} {minimum:g}" + (f" [{unit}]" if unit else "")
+    number = _real(value, wanted)
+    if not _at_least(number, minimum, strict):
+        raise Refused(f"must be {wanted}")
+    return number
 
 
 def number_in_interval(
@@ -175,19 +180,12 @@ def number_in_interval(
     The message writes the interval as mathematics does, open ends in round brackets: ``[0, 1)``.
     """
     interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
-    unit_text = f" [{unit}]" if unit else ""
-    if isinstance(value, str):
-        try:
-            value = decimal(value)
-        except ValueError:
-            raise Refused(f"is not a number; give a number in {interval}{unit_text}") from None
-    if isinstance(value, bool) or not isinstance(value, Real):
-        raise Refused(f"is not a number; give a number in {interval}{unit_text}")
-    number = float(value)
+    wanted = f"a number in {interval}" + (f" [{unit}]" if unit else "")
+    number = _real(value, wanted)
     above = number > low if low_open else number >= low
     below = number < high if high_open else number <= high
     if not (math.isfinite(number) and above and below):
-        raise Refused(f"must be a number in {interval}{unit_text}")
+        raise Refused(f"must be {wanted}")
     return number
 
 

@@ -29,6 +29,7 @@ __all__ = [
     "task_ranks",
     "check_task_rank",
     "RANK_SAMPLES",
+    "check_rigid_joints",
 ]
 
 #: The task kinds and their dimension m: planar tip position, 3-D position, position and orientation.

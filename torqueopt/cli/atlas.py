@@ -68,19 +68,16 @@ def atlas_command(args: argparse.Namespace) -> int:
         + "".join(f"{f'T={d:g} s':>12}" for d in summary["durations"])
         + "   (unstable by the 2x-limit rule / whiplash verdict)"
     )
+    fraction = {
+        (criterion, item["resolver"], item["duration"]): f"{item['fraction']:.0%}"
+        for criterion in ("unstable", "whiplash")
+        for item in summary["unstable_fraction"][criterion]
+    }
     for resolver in summary["resolvers"]:
-        cells = []
-        for duration in summary["durations"]:
-            parts = []
-            for criterion in ("unstable", "whiplash"):
-                item = next(
-                    i
-                    for i in summary["unstable_fraction"][criterion]
-                    if i["resolver"] == resolver and i["duration"] == duration
-                )
-                parts.append(f"{item['fraction']:.0%}")
-            cells.append(f"{'/'.join(parts):>12}")
-        print(f"{resolver:<{width}}" + "".join(cells))
+        cells = [
+            f"{fraction['unstable', resolver, d]}/{fraction['whiplash', resolver, d]}" for d in summary["durations"]
+        ]
+        print(f"{resolver:<{width}}" + "".join(f"{cell:>12}" for cell in cells))
     for claim in summary["claims"]["whiplash"]:
         # These are the whiplash verdict's figures (the 2x-limit rule's are in atlas.md): the line says so.
         figure = claim["figure"].replace(" unstable", " whips")

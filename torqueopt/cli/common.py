@@ -16,6 +16,7 @@ from ..payload import Payload
 from ..progress import said_if_slow
 from ..robot import DEFAULT_JOINT_DYNAMICS, JOINT_DYNAMICS, TASK_DIMENSIONS, Robot
 from ..settings import Settings, numbers, setting
+from ..units import joint_unit
 
 __all__ = [
     "RobotModelSettings",
@@ -228,11 +229,13 @@ def importable_from_here(spec: str) -> None:
         sys.path.insert(0, os.getcwd())
 
 
-def torque_table(names, peaks, limits, ratios, units) -> list[str]:
-    """The peak-torque table, its columns as wide as their widest cell (at least the usual 24, 18, 14, 12
-    characters) and two spaces apart, so a runaway torque of 1e9 N·m never runs into its limit. ``units``: per
-    joint, N·m or N; one unit goes in the titles, a mixed arm (a prismatic joint among revolute ones) has it in
-    every cell."""
+def torque_table(result) -> list[str]:
+    """The peak-torque table of a run or an optimisation (its ``joint_names``, ``peak_torque``, ``torque_upper``,
+    ``peak_torque_ratio`` and ``joint_kinds``), its columns as wide as their widest cell (at least the usual 24,
+    18, 14, 12 characters) and two spaces apart, so a runaway torque of 1e9 N·m never runs into its limit. One
+    unit (N·m or N) goes in the titles; a mixed arm (a prismatic joint among revolute ones) has it in every cell."""
+    names, peaks, limits, ratios = result.joint_names, result.peak_torque, result.torque_upper, result.peak_torque_ratio
+    units = [joint_unit(kind, "torque") for kind in (result.joint_kinds or [None] * len(names))]
     shared = units[0] if len(set(units)) == 1 else None
     suffix = [("" if shared else f" {unit}") for unit in units]
     cells = [
@@ -247,9 +250,7 @@ def torque_table(names, peaks, limits, ratios, units) -> list[str]:
     ]
     brackets = f" [{shared}]" if shared else ""
     titles = ("joint", f"peak |tau|{brackets}", f"limit{brackets}", "peak/limit")
-    widths = [max([24, *(len(row[0]) + 2 for row in cells)])]
-    for column, usual in zip((1, 2, 3), (18, 14, 12)):
-        widths.append(max([usual, *(len(row[column]) + 2 for row in cells)]))
+    widths = [max([usual, *(len(row[column]) + 2 for row in cells)]) for column, usual in enumerate((24, 18, 14, 12))]
     lines = [f"{titles[0]:<{widths[0]}}" + "".join(f"{title:>{width}}" for title, width in zip(titles[1:], widths[1:]))]
     for row in cells:
         lines.append(

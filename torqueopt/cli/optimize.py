@@ -22,7 +22,6 @@ from ..progress import interrupt_deferred, progress_bar
 from ..resolvers import resolver_names
 from ..robot import Robot
 from ..settings import Settings, group, numbers, positive, positive_in, setting, time_step, whole, whole_at_least
-from ..units import joint_unit
 from . import EXIT_OK, EXIT_STOPPED
 from .common import OptionalRobotSettings, RestStartSettings, sized, torque_table
 from .paths import PathSettings
@@ -252,14 +251,7 @@ def format_optimal_summary(robot: Robot, result: OptimalResult) -> str:
         )
     if result.feasibility:
         lines.append(f"  phase-1: {result.feasibility['evidence']}")
-    kinds = result.joint_kinds or [None] * len(result.joint_names)
-    lines += torque_table(
-        result.joint_names,
-        result.peak_torque,
-        result.torque_upper,
-        result.peak_torque_ratio,
-        [joint_unit(kind, "torque") for kind in kinds],
-    )
+    lines += torque_table(result)
     lines.append(
         f"open-loop RK4 replay: max tip error {result.replay_tip_error * 1e3:.4g} mm "
         f"(plan between nodes: {result.plan_tip_error * 1e3:.3g} mm)"

@@ -7,26 +7,14 @@ from pathlib import Path
 
 from ..errors import InvalidInput
 from ..plants import Plant, make_plant, plant_names, plant_option_texts
+from ..plants.mujoco import OPTIONS as MUJOCO_OPTIONS
 from ..result import SimResult
 from ..settings import Settings, setting
 
 __all__ = ["RunPlantSettings", "plant_summary"]
 
-#: The plant options ``--plant-option`` takes, with the defaults ``--help`` states
-#: (the same as :data:`torqueopt.plants.mujoco.OPTION_DEFAULTS`, which a test holds them to).
-PLANT_OPTIONS = {
-    "integrator": ("rk4", "rk4|implicitfast|euler, MuJoCo's integrator"),
-    "timestep": ("dt", "MuJoCo's step [s], dividing --dt (sub-steps)"),
-    "contacts": ("off", "on|off"),
-    "joint-limits": ("on", "on|off, MuJoCo's joint-limit forces"),
-    "damping": (
-        "robot",
-        "urdf|zero|robot: the model's joint damping, friction loss and armature, none, or as --joint-dynamics says",
-    ),
-    "inertia-floor": ("none", "raise principal moments of inertia below this [kg·m²] to it (planar3's thin rods)"),
-    "perturb": ("0", "scale each link's mass and inertia by a factor from U(1−p, 1+p)"),
-    "seed": ("0", "seed of those factors"),
-}
+#: The plant options ``--plant-option`` takes, with the defaults ``--help`` states: the MuJoCo plant's.
+PLANT_OPTIONS = MUJOCO_OPTIONS
 
 
 def _plant_option_values(texts, name) -> dict[str, str]:

@@ -224,16 +224,6 @@ def margin_summary(result: SimResult) -> str:
     return f"stability margin: largest {margin[peak]:.4g} 1/s at t = {result.t[peak]:.3f} s, {first}"
 
 
-def _torque_table(result: SimResult) -> list[str]:
-    return torque_table(
-        result.joint_names,
-        result.peak_torque,
-        result.torque_upper,
-        result.peak_torque_ratio,
-        [result.joint_unit(joint, "torque") for joint in range(len(result.joint_names))],
-    )
-
-
 #: The gravity vectors a run's summary need not state: off, and the usual −9.81 m/s² along z [m/s²].
 _USUAL_GRAVITY = ((0.0, 0.0, 0.0), (0.0, 0.0, -9.81))
 
@@ -261,7 +251,7 @@ def format_summary(robot: Robot, result: SimResult, limit_factor: float = DEFAUL
         f"{result.robot}: resolver {result.resolver}, task {result.task} at frame '{result.frame}' "
         f"(n={robot.nv}, m={robot.m}), {_steps_taken(result)} steps of {result.dt * 1e3:g} ms",
         *_model_lines(result),
-        *_torque_table(result),
+        *torque_table(result),
     ]
     if robot.joints_without_torque_limit:
         lines.append(

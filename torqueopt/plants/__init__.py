@@ -23,20 +23,14 @@ it by name, for :func:`torqueopt.simulate`, ``simulate_batch`` and the CLI's
 
 from __future__ import annotations
 
-from .base import ENTRY_POINT_GROUP, Plant, make_plant, plant_names, plant_option_texts, register_plant
+from . import base
+from .base import *  # noqa: F403
 
 # isort: off
 # Importing a plant's module registers it, in the order --plant lists them: the paper's first.
-from .pinocchio import PinocchioPlant
+from . import pinocchio
+from .pinocchio import *  # noqa: F403
 from . import mujoco  # noqa: F401  (mujoco itself is imported only when a MuJoCo plant is built)
 # isort: on
 
-__all__ = [
-    "ENTRY_POINT_GROUP",
-    "Plant",
-    "PinocchioPlant",
-    "make_plant",
-    "plant_names",
-    "plant_option_texts",
-    "register_plant",
-]
+__all__ = base.__all__ + pinocchio.__all__

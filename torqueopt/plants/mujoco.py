@@ -1,66 +1,21 @@
-r"""MuJoCo as the plant: the resolver's torque applied to a MuJoCo model of the arm.
+r"""MuJoCo as the plant: the resolver's torque applied to a MuJoCo model of the arm (docs/guide/mujoco.md).
 
-The controller (the resolver, with torqueopt's Pinocchio model) computes the
-torque from the state the plant reports; the plant applies it, held over the
-control step ``dt``, as a generalised force (``qfrc_applied``) and lets
-MuJoCo advance with its own integrator (``model.opt.integrator``) and
-timestep, ``dt / timestep`` calls of ``mj_step`` per control step.
+The controller (the resolver, with torqueopt's Pinocchio model) computes the torque from the state the plant
+reports; the plant applies it, held over the control step ``dt``, as a generalised force (``qfrc_applied``) and
+lets MuJoCo advance with its own integrator and timestep, ``dt / timestep`` calls of ``mj_step`` per step.
 
-Which model:
-
-* by default the robot's own URDF, compiled by MuJoCo (``MjSpec.from_string``),
-  with its meshes resolved from the robot's package folders; a mesh MuJoCo
-  cannot read (a ``.dae``, a missing file) is dropped with its geom, and a
-  note says so. Inertias are the URDF's (``inertiafromgeom`` off), never
-  MuJoCo's estimate from the geometry;
-* or a user's MJCF (``mjcf=FILE``) whose joint names match the URDF's: the
-  controller still runs on the URDF's model, the plant is the MJCF.
-
-Joints the controller does not move (Pinocchio's locked joints: the other
-arm, the fingers, ``--lock``) are welded: MuJoCo's joint is removed and its
-body fixed at the angle Pinocchio locks it at, so that both models carry the
-same inertia. Actuators, sensors and keyframes of an MJCF are removed (the
-torque enters as generalised force), as are the tendons and equality
-constraints of welded joints. The robot's payload (``load_robot(...,
-payload=)``) becomes a body fixed where Pinocchio has it, on the body of the
-task frame's joint; its gravity is the robot's vector.
-
-Options (:func:`mujoco_options`; the CLI's ``--plant-option KEY=VALUE``):
-
-========================= ============================================= ==============
-option                    meaning                                       default
-========================= ============================================= ==============
-``integrator``            ``rk4``, ``implicitfast`` or ``euler``        ``rk4``
-``timestep``              MuJoCo's step [s]; must divide ``dt``          ``dt``
-``contacts``              ``on`` / ``off``                              ``off``
-``joint-limits``          ``on`` / ``off``: MuJoCo's joint-limit forces ``on``
-``damping``               ``urdf``: the model's joint damping, friction the robot's
-                          loss and armature; ``zero``: none of them     joint dynamics
-``inertia-floor``         raise principal moments of inertia below this none (refuse)
-                          [kg·m²] to it (thin rods, e.g. planar3)
-``perturb``               scale each link's mass and inertia by a       ``0``
-                          factor drawn from U(1 − p, 1 + p)
-``seed``                  the seed of those factors                     ``0``
-``mjcf``                  an MJCF file to use instead of the URDF       none
-========================= ============================================= ==============
-
-``damping`` follows the robot's ``joint_dynamics`` unless given: ``urdf``
-when the controller models the URDF's joint damping and friction, ``zero``
-when it does not, so that controller and plant agree by default. With
-``urdf`` on the robot's own URDF, the plant's joint damping is the damping
-Pinocchio read (MuJoCo's ``dof_damping``, exactly) and its friction the
-URDF's friction as MuJoCo's ``frictionloss``, a soft constraint that holds a
-joint at rest up to F and opposes a sliding one with F; the controller's
-model is F·tanh(q̇/v_s) (:mod:`torqueopt.robot`), so the two differ only
-while a joint moves slower than a few v_s. Giving ``damping`` against the
-robot's setting is a model error on purpose (the controller ignores what the
-plant applies, or the other way round).
-
-With matched settings (the URDF, ``contacts=off``, ``joint-limits=off``,
-``damping`` following the robot, ``integrator=rk4``, ``timestep=dt``) MuJoCo
-integrates the same equations as the Pinocchio plant: the tests hold the two
-runs to 1e-9 rad on xarm7 and panda, with the URDF's damping modelled or
-not.
+The model is the robot's URDF compiled by MuJoCo (the URDF's inertias, never MuJoCo's estimate from the
+geometry; a mesh MuJoCo cannot read is dropped with its geom, with a note), or a user's MJCF whose joint names
+match the URDF's. Joints the controller does not move are welded at the angle Pinocchio locks them at, so both
+models carry the same inertia; an MJCF's actuators, sensors and keyframes are removed (the torque enters as
+generalised force), as are the tendons and equality constraints of welded joints. The robot's payload becomes
+a body fixed where Pinocchio has it. The options (:data:`OPTIONS`, :class:`MujocoOptions`; the CLI's
+``--plant-option KEY=VALUE``) choose the integrator, timestep, contacts, joint-limit forces, joint damping
+(``damping`` follows the robot's ``joint_dynamics`` unless given, so controller and plant agree by default), an
+inertia floor and a seeded perturbation of the links' masses and inertias. With matched settings (the URDF,
+``contacts=off``, ``joint-limits=off``, ``damping`` following the robot, ``integrator=rk4``, ``timestep=dt``)
+MuJoCo integrates the same equations as the Pinocchio plant: the tests hold the two runs to 1e-9 rad on xarm7
+and panda.
 """
 
 from __future__ import annotations
@@ -68,7 +23,7 @@ from __future__ import annotations
 import copy
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -76,12 +31,15 @@ import numpy as np
 from ..catalog import mesh_file
 from ..checks import show_number
 from ..errors import InvalidInput, MissingDependency, PlantError
+from ..settings import Settings, setting
+from ..units import joint_kind
 from .base import register_plant
 
 __all__ = [
     "MujocoPlant",
     "MujocoOptions",
     "mujoco_options",
+    "OPTIONS",
     "OPTION_DEFAULTS",
     "OPTION_NAMES",
     "INTEGRATORS",
@@ -90,21 +48,22 @@ __all__ = [
 
 #: The integrators ``integrator=`` takes, by name: MuJoCo's ``mjtIntegrator`` members.
 INTEGRATORS = {"rk4": "mjINT_RK4", "implicitfast": "mjINT_IMPLICITFAST", "euler": "mjINT_EULER"}
-#: The defaults of the plant options, as ``--help`` states them.
-OPTION_DEFAULTS = {
-    "integrator": "rk4",
-    "timestep": "dt",
-    "contacts": "off",
-    "joint-limits": "on",
-    "damping": "robot",
-    "inertia-floor": "none",
-    "perturb": "0",
-    "seed": "0",
+#: The options ``--plant-option`` takes: (the default as ``--help`` states it, the help text).
+OPTIONS = {
+    "integrator": ("rk4", "rk4|implicitfast|euler, MuJoCo's integrator"),
+    "timestep": ("dt", "MuJoCo's step [s], dividing --dt (sub-steps)"),
+    "contacts": ("off", "on|off"),
+    "joint-limits": ("on", "on|off, MuJoCo's joint-limit forces"),
+    "damping": (
+        "robot",
+        "urdf|zero|robot: the model's joint damping, friction loss and armature, none, or as --joint-dynamics says",
+    ),
+    "inertia-floor": ("none", "raise principal moments of inertia below this [kg·m²] to it (planar3's thin rods)"),
+    "perturb": ("0", "scale each link's mass and inertia by a factor from U(1−p, 1+p)"),
+    "seed": ("0", "seed of those factors"),
 }
-#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
-OPTION_NAMES = (
-    "mjcf", "integrator", "timestep", "contacts", "joint_limits", "damping", "inertia_floor", "perturb", "seed",
-)  # fmt: skip
+#: The defaults of the plant options, as ``--help`` states them.
+OPTION_DEFAULTS = {name: default for name, (default, _) in OPTIONS.items()}
 #: Mesh files MuJoCo reads; any other (COLLADA .dae, ...) is dropped with its geom.
 _MESH_SUFFIXES = (".stl", ".obj", ".msh")
 #: A principal moment of inertia at or below this [kg·m²] is refused by MuJoCo (its mjMINVAL).
@@ -123,22 +82,6 @@ def import_mujoco():
     return mujoco
 
 
-@dataclass(frozen=True)
-class MujocoOptions:
-    """The MuJoCo plant's settings; :func:`mujoco_options` builds them from text or values."""
-
-    mjcf: Path | None = None
-    integrator: str = "rk4"
-    timestep: float | None = None
-    contacts: bool = False
-    joint_limits: bool = True
-    #: ``urdf``, ``zero``, or None: follow the robot's joint dynamics.
-    damping: str | None = None
-    inertia_floor: float | None = None
-    perturb: float = 0.0
-    seed: int = 0
-
-
 def _on_off(value, name: str) -> bool:
     if isinstance(value, bool):
         return value
@@ -155,27 +98,24 @@ def _choice(value, name: str, choices) -> str:
     return key
 
 
+#: The rules of a plant option's number: (its reading, the test, the wording of its message).
+_NUMBER_RULES = {
+    "positive": (float, lambda x: math.isfinite(x) and x > 0, "a positive finite number"),
+    "fraction": (float, lambda x: 0 <= x < 1, "a number in [0, 1)"),
+    "seed": (int, lambda x: x >= 0, "a whole number >= 0"),
+}
+
+
 def _option_number(value, name: str, rule: str, unit: str = ""):
     """A plant option's number from a value or its text; ``rule`` is ``positive``, ``fraction`` or ``seed``."""
     text = value.strip() if isinstance(value, str) else show_number(value)
-    suffix = f" [{unit}]" if unit else ""
-    whole = rule == "seed"
+    read, valid, wording = _NUMBER_RULES[rule]
     try:
-        number = int(text) if whole else float(text)
+        number = read(text)
     except ValueError:
         number = None
-    valid = {
-        "positive": lambda x: math.isfinite(x) and x > 0,
-        "fraction": lambda x: 0 <= x < 1,
-        "seed": lambda x: x >= 0,
-    }[rule]
     if number is None or not valid(number):
-        wording = {
-            "positive": "a positive finite number",
-            "fraction": "a number in [0, 1)",
-            "seed": "a whole number >= 0",
-        }
-        raise InvalidInput(f"plant option {name}={text} must be {wording[rule]}{suffix}")
+        raise InvalidInput(f"plant option {name}={text} must be {wording}{f' [{unit}]' if unit else ''}")
     return number
 
 
@@ -183,41 +123,51 @@ def _unset(value) -> bool:
     return value is None or (isinstance(value, str) and value.strip().lower() in ("none", "dt", ""))
 
 
-def mujoco_options(
-    mjcf=None,
-    integrator="rk4",
-    timestep=None,
-    contacts=False,
-    joint_limits=True,
-    damping=None,
-    inertia_floor=None,
-    perturb=0.0,
-    seed=0,
-) -> MujocoOptions:
-    """Checked :class:`MujocoOptions` from values or their text (``"on"``, ``"0.0005"``, ``"dt"``).
+def _mjcf_file(value, name: str) -> Path | None:
+    if value is None:
+        return None
+    if not Path(value).is_file():
+        raise InvalidInput(f"MJCF file '{Path(value)}' does not exist")
+    return Path(value)
 
-    Raises:
-        InvalidInput: naming the option, the bad value and what would be valid.
-    """
-    if mjcf is not None:
-        mjcf = Path(mjcf)
-        if not mjcf.is_file():
-            raise InvalidInput(f"MJCF file '{mjcf}' does not exist")
-    return MujocoOptions(
-        mjcf=mjcf,
-        integrator=_choice(integrator, "integrator", INTEGRATORS),
-        timestep=None if _unset(timestep) else _option_number(timestep, "timestep", "positive", "s"),
-        contacts=_on_off(contacts, "contacts"),
-        joint_limits=_on_off(joint_limits, "joint-limits"),
-        damping=None
-        if _unset(damping) or str(damping).strip().lower() == "robot"
-        else _choice(damping, "damping", ("urdf", "zero", "robot")),
-        inertia_floor=None
-        if _unset(inertia_floor)
-        else _option_number(inertia_floor, "inertia-floor", "positive", "kg·m²"),
-        perturb=_option_number(perturb, "perturb", "fraction"),
-        seed=_option_number(seed, "seed", "seed"),
+
+def _damping(value, name: str) -> str | None:
+    if _unset(value) or str(value).strip().lower() == "robot":
+        return None
+    return _choice(value, "damping", ("urdf", "zero", "robot"))
+
+
+@dataclass(frozen=True)
+class MujocoOptions(Settings):
+    """The MuJoCo plant's settings, each checked and read from its value or its text (``"on"``, ``"0.0005"``,
+    ``"dt"``); an InvalidInput names the option, the bad value and what would be valid."""
+
+    mjcf: Path | None = setting(None, check=_mjcf_file)
+    integrator: str = setting("rk4", check=lambda value, name: _choice(value, "integrator", INTEGRATORS))
+    timestep: float | None = setting(
+        None, check=lambda value, name: None if _unset(value) else _option_number(value, "timestep", "positive", "s")
     )
+    contacts: bool = setting(False, check=lambda value, name: _on_off(value, "contacts"))
+    joint_limits: bool = setting(True, check=lambda value, name: _on_off(value, "joint-limits"))
+    #: ``urdf``, ``zero``, or None: follow the robot's joint dynamics.
+    damping: str | None = setting(None, check=_damping)
+    inertia_floor: float | None = setting(
+        None,
+        check=lambda value, name: (
+            None if _unset(value) else _option_number(value, "inertia-floor", "positive", "kg·m²")
+        ),
+    )
+    perturb: float = setting(0.0, check=lambda value, name: _option_number(value, "perturb", "fraction"))
+    seed: int = setting(0, check=lambda value, name: _option_number(value, "seed", "seed"))
+
+
+#: The keyword names of the options (the CLI writes joint_limits as joint-limits, inertia_floor as inertia-floor).
+OPTION_NAMES = tuple(field.name for field in fields(MujocoOptions))
+
+
+def mujoco_options(**values) -> MujocoOptions:
+    """Checked :class:`MujocoOptions` from values or their text, by keyword (``integrator="euler"``)."""
+    return MujocoOptions(**values)
 
 
 @register_plant("mujoco")
@@ -668,12 +618,7 @@ class MujocoPlant:
     def limit_events(self) -> list[dict]:
         """The joints whose limit force acted since :meth:`reset`: name, first time [s], peak [N·m], MuJoCo steps."""
         return [
-            {
-                "joint": name,
-                "first_time": first,
-                "peak_force": float(peak),
-                "steps": int(steps),
-            }
+            {"joint": name, "first_time": first, "peak_force": float(peak), "steps": int(steps)}
             for name, first, peak, steps in zip(
                 self.robot.joint_names, self._limit_first, self._limit_force_peak, self._limit_steps
             )
@@ -745,17 +690,12 @@ def _moves(spec, body) -> bool:
 def _mujoco_joint_kind(robot, name: str) -> str:
     """The MuJoCo joint kind (hinge or slide) of the robot's joint ``name``."""
     model = robot.model
-    kind = model.joints[model.getJointId(name)].shortname()
-    return "slide" if kind.startswith("JointModelP") else "hinge"
+    return "slide" if joint_kind(model.joints[model.getJointId(name)]) == "prismatic" else "hinge"
 
 
 def _joint_kind_name(mujoco, kind) -> str:
-    return {
-        mujoco.mjtJoint.mjJNT_HINGE: "hinge",
-        mujoco.mjtJoint.mjJNT_SLIDE: "slide",
-        mujoco.mjtJoint.mjJNT_BALL: "ball",
-        mujoco.mjtJoint.mjJNT_FREE: "free",
-    }[kind]
+    """``hinge``, ``slide``, ``ball`` or ``free``: MuJoCo's ``mjtJoint`` member without its prefix."""
+    return mujoco.mjtJoint(kind).name.removeprefix("mjJNT_").lower()
 
 
 def _locked_angles(robot) -> dict[str, float]:

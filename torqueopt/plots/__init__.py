@@ -23,27 +23,13 @@ The paper's figures are drawn in :mod:`torqueopt.paper.figures`, each
 study's in its own package (:mod:`torqueopt.studies`).
 """
 
-from .canvas import DEFAULT_DPI, FIGURE_FORMATS, MAX_DPI, check_title, figure_format, parse_dpi
-from .comparison import plot_motion, plot_tip_path, plot_torques
-from .dexterity import dexterity_ellipses, draw_dexterity
-from .panels import RESOLVER_COLORS
-from .run import plot_run
-from .stick import arm_points, plot_stick_strip
+# The package's names are its modules' names, each listed once in its module's ``__all__``.
+from . import canvas, comparison, dexterity, panels, run, stick
+from .canvas import *  # noqa: F403
+from .comparison import *  # noqa: F403
+from .dexterity import *  # noqa: F403
+from .panels import *  # noqa: F403
+from .run import *  # noqa: F403
+from .stick import *  # noqa: F403
 
-__all__ = [
-    "DEFAULT_DPI",
-    "MAX_DPI",
-    "check_title",
-    "parse_dpi",
-    "FIGURE_FORMATS",
-    "RESOLVER_COLORS",
-    "figure_format",
-    "plot_torques",
-    "plot_motion",
-    "plot_tip_path",
-    "plot_stick_strip",
-    "plot_run",
-    "arm_points",
-    "draw_dexterity",
-    "dexterity_ellipses",
-]
+__all__ = canvas.__all__ + comparison.__all__ + dexterity.__all__ + panels.__all__ + run.__all__ + stick.__all__

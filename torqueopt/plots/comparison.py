@@ -15,10 +15,10 @@ from ..result import SimResult
 from ..units import shared_unit
 from .canvas import SYMLOG_ABOVE, new_figure, save_figure, symlog_scale
 from .panels import (
-    _JOINT_COLORS,
     _color,
     _draw_limits,
     _draw_tip_path,
+    _joint_lines,
     _joint_title,
     _legend_once,
     _mark_events,
@@ -94,10 +94,8 @@ def plot_motion(
     """
     fig = new_figure(9.0, 7.0)
     speed_ax, accel_ax = fig.subplots(2, 1, sharex=True)
-    for joint, name in enumerate(result.joint_names):
-        color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
-        speed_ax.plot(result.t, result.v[:, joint], color=color, lw=1.4, label=name)
-        accel_ax.plot(result.t, result.acceleration[:, joint], color=color, lw=1.4, label=name)
+    _joint_lines(speed_ax, result, result.v, 1.4)
+    _joint_lines(accel_ax, result, result.acceleration, 1.4)
     speed_ax.set_ylabel(f"joint velocity [{shared_unit(result.joint_kinds, 'velocity')}]")
     accel_ax.set_ylabel(f"joint acceleration [{shared_unit(result.joint_kinds, 'acceleration')}]")
     if not np.isfinite(result.acceleration).any():

@@ -166,12 +166,7 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
                 across = offset @ normal
             else:
                 across = np.linalg.norm(offset - np.outer(along, direction), axis=1)
-            color = "tab:red" if single else _color(result)
-            label = "tip" if single else f"{result.resolver} tip"
-            ax.plot(along, across * 1e3, color=color, lw=1.2, label=label)
-            if len(result.t):
-                ax.plot(along[0], across[0] * 1e3, "o", color="k", ms=4)
-                ax.plot(along[-1], across[-1] * 1e3, "x", color=color, ms=7)
+            _draw_track(ax, along, across * 1e3, result, single)
         ax.set_xlabel("distance along the reference line [m]")
         ax.set_ylabel("deviation across it [mm]" if normal is not None else "distance from it [mm]")
         ax.set_title(
@@ -187,11 +182,7 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
         ax.plot(projected[:, 0], projected[:, 1], color="0.5", ls="--", lw=1.5, label="reference path")
         for result in results:
             tip = (result.x[:, :linear] - origin) @ basis.T
-            color = "tab:red" if single else _color(result)
-            ax.plot(tip[:, 0], tip[:, 1], color=color, lw=1.2, label="tip" if single else f"{result.resolver} tip")
-            if len(result.t):
-                ax.plot(*tip[0], "o", color="k", ms=4)
-                ax.plot(*tip[-1], "x", color=color, ms=7)
+            _draw_track(ax, tip[:, 0], tip[:, 1], result, single)
         ax.set_aspect("equal", adjustable="datalim")
         unit = "[m]" if linear == 2 else "direction of the movement's plane [m]"
         ax.set_xlabel(f"tip {names[0]} {unit}".replace("tip first", "tip, first"))
@@ -200,3 +191,19 @@ def _draw_tip_path(ax, results: Sequence[SimResult], single: bool = False) -> No
     ax.plot([], [], "o", color="k", ms=4, label="start")
     ax.plot([], [], "x", color="0.3", ms=7, label="end of run")
     ax.grid(alpha=0.3)
+
+
+def _draw_track(ax, horizontal, vertical, result: SimResult, single: bool) -> None:
+    """One run's tip track, its start (a black dot) and its end (a cross in the run's colour)."""
+    color = "tab:red" if single else _color(result)
+    ax.plot(horizontal, vertical, color=color, lw=1.2, label="tip" if single else f"{result.resolver} tip")
+    if len(result.t):
+        ax.plot(horizontal[0], vertical[0], "o", color="k", ms=4)
+        ax.plot(horizontal[-1], vertical[-1], "x", color=color, ms=7)
+
+
+def _joint_lines(ax, result: SimResult, values, lw: float, label: str = "{name}") -> None:
+    """One line per joint of ``values`` (rows × joints) against the run's time, in the joint's colour."""
+    for joint, name in enumerate(result.joint_names):
+        color = _JOINT_COLORS[joint % len(_JOINT_COLORS)]
+        ax.plot(result.t, values[:, joint], color=color, lw=lw, label=label.format(name=name))

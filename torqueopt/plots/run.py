@@ -17,6 +17,7 @@ from .panels import (
     _draw_joint_limits,
     _draw_limits,
     _draw_tip_path,
+    _joint_lines,
     _joint_title,
     _mark_events,
     _mark_stops,
@@ -64,8 +65,7 @@ def plot_run(
     panels = (1.0, 1.3, 0.8, 0.9) if result.dexterity else (1.0, 1.3, 0.8)
     right = grid[:, 1].subgridspec(len(panels), 1, height_ratios=panels)
     speed_ax = fig.add_subplot(right[0])
-    for joint, name in enumerate(result.joint_names):
-        speed_ax.plot(result.t, result.v[:, joint], color=_JOINT_COLORS[joint % len(_JOINT_COLORS)], lw=1.2, label=name)
+    _joint_lines(speed_ax, result, result.v, 1.2)
     _mark_stops(speed_ax, [result])
     _mark_events(speed_ax, events)
     velocity_title = _draw_joint_limits(speed_ax, result)

@@ -15,7 +15,7 @@ from ..robot import Robot
 from ..units import shared_unit
 from .canvas import few_ticks, new_figure, save_figure
 from .dexterity import _ELLIPSES, dexterity_ellipses
-from .panels import _JOINT_COLORS, _mark_events, _mark_stops, _suptitle
+from .panels import _joint_lines, _mark_events, _mark_stops, _suptitle
 
 __all__ = ["arm_points", "plot_stick_strip", "SNAPSHOTS_RANGE"]
 
@@ -43,8 +43,6 @@ def plot_stick_strip(
     the joints move fast: a whip shows as a run of strongly changing poses.
 
     Args:
-        robot: the robot the run was simulated with.
-        result: the run.
         snapshots: number of stick figures (2 to 24).
         events: labelled instants to mark on the speed plot [s].
         ellipse: draw a dexterity ellipse at the tip of every snapshot:
@@ -57,10 +55,7 @@ def plot_stick_strip(
         raise InvalidInput(f"ellipse={ellipse!r} is not one of {', '.join(_ELLIPSES)} (or None)")
     snapshots = whole_number(snapshots, "snapshots", *SNAPSHOTS_RANGE)
     if not len(result.t):
-        fig = new_figure(8.0, 2.0)
-        fig.text(0.5, 0.4, "no samples to draw: the run stopped before its first step", ha="center", va="center")
-        _suptitle(fig, title, [result])
-        return save_figure(fig, path)
+        return _empty_strip(result, path, title)
     rows = _snapshot_rows(result, snapshots)
     points = np.array([arm_points(robot, result.joint_angles[row]) for row in rows])
     basis, origin = _plot_plane(robot, points)
@@ -73,17 +68,12 @@ def plot_stick_strip(
     if ellipse is not None:
         outlines, ellipse_label = dexterity_ellipses(robot, result, rows, ellipse, basis, arm[:, -1], drawn)
         drawn = np.vstack([drawn, *[outline for outline in outlines if outline is not None]])
-    low, high = drawn.min(axis=0), drawn.max(axis=0)
-    center, span = 0.5 * (low + high), 1.12 * (high - low) + 1e-3
-    aspect = float(np.clip(span[1] / span[0], 0.35, 2.0))
-    # Equal scales on both axes: widen the narrower range to the panel's shape.
-    span = np.maximum(span, span[::-1] * np.array([1.0 / aspect, aspect]))
+    center, span, aspect = _view(drawn)
 
     # Axes placed by hand, in inches: constrained layout is slower per strip (BENCHMARKS.md, "Stick strips").
     columns = min(len(rows), 5)
     panel_rows = -(-len(rows) // columns)
-    panel_width = 3.0
-    panel_height = panel_width * aspect
+    panel_width, panel_height = 3.0, 3.0 * aspect
     header, row_gap, gap, left, right = 0.95, 0.75, 0.15, 0.8, 0.2
     speed_height, bottom = 2.3, 0.55
     width = left + right + columns * panel_width + (columns - 1) * gap
@@ -94,6 +84,7 @@ def plot_stick_strip(
         return fig.add_axes((x / width, y / height, w / width, h / height))
 
     ticks = few_ticks()
+    names = _axis_names(robot)
     for index, row in enumerate(rows):
         line, column = divmod(index, columns)
         top = height - header - line * (panel_height + row_gap)
@@ -104,44 +95,52 @@ def plot_stick_strip(
         ax.plot(arm[index, -1, 0], arm[index, -1, 1], "s", color="tab:red", ms=4, label="tip")
         if ellipse is not None and outlines[index] is not None:
             ax.fill(*outlines[index].T, color="tab:cyan", alpha=0.25, lw=1.0, ec="tab:blue", label=ellipse_label)
-        ax.set_xlim(center[0] - span[0] / 2, center[0] + span[0] / 2)
-        ax.set_ylim(center[1] - span[1] / 2, center[1] + span[1] / 2)
-        ax.set_aspect("equal")
-        ax.xaxis.set_major_locator(ticks())
-        ax.yaxis.set_major_locator(ticks())
-        ax.text(
-            0.03,
-            0.95,
-            f"t = {result.t[row]:.3f} s",
-            transform=ax.transAxes,
-            va="top",
-            fontsize=9,
-            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5},
-        )
-        ax.tick_params(labelsize=7)
-        if column == 0:
-            ax.set_ylabel(_axis_names(robot)[1] + " [m]", fontsize=8)
-        else:
-            ax.set_yticklabels([])
+        _frame_snapshot(ax, center, span, ticks, f"t = {result.t[row]:.3f} s", names, column == 0)
         if index == 0:
-            fig.legend(
-                *ax.get_legend_handles_labels(),
-                loc="upper center",
-                ncol=5,
-                fontsize=8,
-                frameon=False,
-                bbox_to_anchor=(0.5, 1.0 - 0.62 / height),
-            )
-        ax.set_xlabel(_axis_names(robot)[0] + " [m]", fontsize=8, labelpad=1)
-    speed_ax = place(left, bottom, width - left - right, speed_height - 0.35)
-    for joint, name in enumerate(result.joint_names):
-        speed_ax.plot(
-            result.t,
-            result.v[:, joint],
-            color=_JOINT_COLORS[joint % len(_JOINT_COLORS)],
-            lw=1.3,
-            label=f"{name} velocity",
-        )
+            legend = {"loc": "upper center", "ncol": 5, "fontsize": 8, "frameon": False}
+            fig.legend(*ax.get_legend_handles_labels(), **legend, bbox_to_anchor=(0.5, 1.0 - 0.62 / height))
+    _draw_speeds(place(left, bottom, width - left - right, speed_height - 0.35), result, rows, events)
+    _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
+    return save_figure(fig, path)
+
+
+def _empty_strip(result: SimResult, path, title: str) -> Path:
+    """The strip of a run with no rows: a line that says so."""
+    fig = new_figure(8.0, 2.0)
+    fig.text(0.5, 0.4, "no samples to draw: the run stopped before its first step", ha="center", va="center")
+    _suptitle(fig, title, [result])
+    return save_figure(fig, path)
+
+
+def _view(drawn: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Centre, span [m] and aspect (height over width, within [0.35, 2]) of the panels around the ``drawn`` points,
+    at equal scales on both axes: the narrower range is widened to the panel's shape."""
+    low, high = drawn.min(axis=0), drawn.max(axis=0)
+    center, span = 0.5 * (low + high), 1.12 * (high - low) + 1e-3
+    aspect = float(np.clip(span[1] / span[0], 0.35, 2.0))
+    return center, np.maximum(span, span[::-1] * np.array([1.0 / aspect, aspect])), aspect
+
+
+def _frame_snapshot(ax, center, span, ticks, time_label: str, names: tuple[str, str], first_column: bool) -> None:
+    """One snapshot's limits, equal scales, ticks, time label and axis labels (y only in the first column)."""
+    ax.set_xlim(center[0] - span[0] / 2, center[0] + span[0] / 2)
+    ax.set_ylim(center[1] - span[1] / 2, center[1] + span[1] / 2)
+    ax.set_aspect("equal")
+    ax.xaxis.set_major_locator(ticks())
+    ax.yaxis.set_major_locator(ticks())
+    box = {"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.5}
+    ax.text(0.03, 0.95, time_label, transform=ax.transAxes, va="top", fontsize=9, bbox=box)
+    ax.tick_params(labelsize=7)
+    if first_column:
+        ax.set_ylabel(names[1] + " [m]", fontsize=8)
+    else:
+        ax.set_yticklabels([])
+    ax.set_xlabel(names[0] + " [m]", fontsize=8, labelpad=1)
+
+
+def _draw_speeds(speed_ax, result: SimResult, rows: list[int], events) -> None:
+    """The joint speeds under the strip, with the snapshot times, the events and where the run stopped."""
+    _joint_lines(speed_ax, result, result.v, 1.3, "{name} velocity")
     for row in rows:
         speed_ax.axvline(result.t[row], color="0.75", lw=0.8)
     speed_ax.plot([], [], color="0.75", lw=0.8, label="snapshot times")
@@ -151,8 +150,6 @@ def plot_stick_strip(
     speed_ax.set_ylabel(f"joint velocity [{shared_unit(result.joint_kinds, 'velocity')}]")
     speed_ax.grid(alpha=0.3)
     speed_ax.legend(loc="upper left", fontsize=8, ncol=2)
-    _suptitle(fig, title, [result], y=1.0 - 0.08 / height)
-    return save_figure(fig, path)
 
 
 def arm_points(robot: Robot, joint_angles) -> np.ndarray:

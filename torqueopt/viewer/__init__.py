@@ -14,17 +14,9 @@ One job per module:
 ``dependency``      :func:`require_meshcat`
 ==================  ==============================================================
 
-Live playback (:class:`LiveViewer`) runs meshcat's server in a subprocess
-bound to 127.0.0.1 only: meshcat 0.3's own server binds its web port on every
-interface. The static export (:func:`export_html`) needs no server: the scene
-commands are recorded in-process and written into one HTML file with
-meshcat's viewer script, with the run as a meshcat animation that plays when
-the file opens. :func:`screenshot_html` renders such a file in headless
-Chromium.
-
-meshcat is a core dependency but imported only when a playback is drawn; a
-browser for screenshots is looked for only then. Their absence raises
-:class:`~torqueopt.errors.MissingDependency` naming what to install.
+Live playback binds every socket to 127.0.0.1 (meshcat 0.3's own server binds every interface); the static
+export needs no server. meshcat is imported, and a browser for screenshots looked for, only when needed; their
+absence raises :class:`~torqueopt.errors.MissingDependency` naming what to install (docs/playback.md).
 """
 
 from .dependency import require_meshcat

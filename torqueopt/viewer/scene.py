@@ -1,15 +1,6 @@
-r"""The meshcat scene of a run: the arm, the reference path, the tip's trace and the torque-limit markers.
-
-A :class:`Playback` pairs a :class:`~torqueopt.result.SimResult` with the
-robot that made it and draws, in a meshcat scene,
-
-* the arm with its URDF visuals (meshes, or the cylinders of ``planar3``),
-  loaded on the full model and reduced as the dynamic model is, the joints
-  outside the task chain locked at the robot's reference configuration;
-* the reference path of the tip (a translucent green tube) and the tip's
-  trace (an orange tube inside it), which grows as the arm moves;
-* a red sphere at every joint whose torque is over its limit,
-  :math:`|\tau_i| > \tau_i^+` (or below :math:`\tau_i^-`), shown while it is.
+r"""The meshcat scene of a run: the arm (its URDF visuals, reduced as the dynamic model is), the reference path
+(a translucent green tube), the tip's growing trace (orange) and a red sphere at each joint while its torque is
+over its limit, :math:`|\tau_i| > \tau_i^+` (or below :math:`\tau_i^-`).
 """
 
 from __future__ import annotations
