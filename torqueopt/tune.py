@@ -27,7 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .atlas.jobs import RobotSpec
 from .atlas.pinv_paths import BASELINE, counts_on, handled_paths
+from .atlas.settings import path_kind
 from .atlas.stats import wilson_interval
 from .checks import number_in_range
 from .errors import InvalidInput, OutputError
@@ -98,16 +100,8 @@ def _grid_values(texts: list[str], name: str) -> dict | None:
     return grid
 
 
-def _robot(value, name):
-    from .atlas.jobs import RobotSpec
-
+def _robot(value, name) -> RobotSpec:
     return value if isinstance(value, RobotSpec) else RobotSpec(str(value))
-
-
-def _path_kind(text: str, name: str) -> str:
-    from .atlas.settings import path_kind
-
-    return path_kind(text, name)
 
 
 def default_grids_text() -> str:
@@ -184,7 +178,7 @@ class TuneSettings(Settings):
         metavar="P",
         doc="the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate",
     )
-    path: str = setting("line", "line, min-jerk or circle (default line)", metavar="KIND", parse=_path_kind)
+    path: str = setting("line", "line, min-jerk or circle (default line)", metavar="KIND", parse=path_kind)
     accel: float | None = setting(
         None, "acceleration [m/s²] (default: sized to the arm, √2 x reach / 3 m)", unit="m/s²", metavar="A",
         parse=positive,
@@ -285,7 +279,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     for setting_ in resolvers:
         setting_.check(loaded)
     config = _tune_config(settings, name, resolvers, fixed, grid_options, population)
-    resume = _check_folder(out, config)
+    resume = resumable_folder(out, _CONFIG, config, "tune")  # True: this tune is there to resume
     if not resume:
         text = json.dumps(config, indent=2, sort_keys=True).encode()
         atomic_write(out / _CONFIG, lambda handle: handle.write(text))
@@ -299,9 +293,8 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         )  # fmt: skip
     atlas_config = baseline.summary["config"]
     handled = handled_paths(baseline.table)
-    labels = [setting_.label for setting_ in resolvers]
     if len(handled) < needed:
-        rows_by_label = {label: _not_run(label, len(handled), needed) for label in labels}
+        rows_by_label = {setting_.label: _not_run(setting_.label, len(handled), needed) for setting_ in resolvers}
     else:
         # 2. The settings on those paths, longest movements first, chunk by chunk, each setting dropped as
         # soon as it is certain to fail (the module docstring).
@@ -310,12 +303,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
             spec, resolvers, chunks, handled, out / "settings", config, dt=dt, workers=workers,
             progress=progress, whiplash_bound=whiplash_bound, eliminate=settings.eliminate,
         )  # fmt: skip
-    rows = []
-    for setting_ in resolvers:
-        row = rows_by_label[setting_.label]
-        row["options"] = {key: _json_value(value) for key, value in options_of(setting_, grid_options, fixed).items()}
-        row["flags"] = option_flags(name, row["options"])
-        rows.append(row)
+    rows = [_with_options(rows_by_label[setting_.label], setting_, name, grid_options, fixed) for setting_ in resolvers]
     chosen = choose(rows)
     summary = {
         "format": _FORMAT,
@@ -334,6 +322,13 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
     return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def _with_options(row: dict, setting: Resolver, name: str, grid_options, fixed: dict) -> dict:
+    """A setting's evidence row with its options spelled out and the flags that reproduce it."""
+    row["options"] = {key: _json_value(value) for key, value in options_of(setting, grid_options, fixed).items()}
+    row["flags"] = option_flags(name, row["options"])
+    return row
 
 
 def _settings_of(settings, resolver, keywords: dict) -> TuneSettings:
@@ -693,11 +688,6 @@ def _json_value(value):
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     return value
-
-
-def _check_folder(out: Path, config: dict) -> bool:
-    """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing."""
-    return resumable_folder(out, _CONFIG, config, "tune")
 
 
 tune.__doc__ = tune.__doc__.replace("        {arguments}", TuneSettings.arguments_doc("        "))
