@@ -296,6 +296,7 @@ def test_verdicts_on_the_papers_three_movements():
         assert 0.5 < row["instability_time"] < 2.0
         assert row["torque_vs_pinv"] > 2.0
         assert row["aligned_joint"] == "joint3"
+        assert row["whip_time"] == row["instability_time"]  # the whip is located at the instability's sample
     assert rows[2, "null-space"]["instability_time"] > 1.0  # "near the movement end"
 
 
