@@ -172,13 +172,20 @@ def write_markdown(summary: dict) -> str:
     if summary.get("pinv_paths"):
         lines += ["", *pinv_paths_markdown(summary["pinv_paths"])]
     if summary["whips"]:
-        lines += ["", "## Where the whips happened", ""]
+        lines += [
+            "",
+            "## Where the whips happened",
+            "",
+            "| resolver | whips | joint nearest aligned at the instability (whips) | its median \\|angle\\| "
+            "| median top joint speed | median instability time / duration |",
+            "|---|---|---|---|---|---|",
+        ]
         for resolver, whip in summary["whips"].items():
             joints = ", ".join(f"{joint} {count}" for joint, count in whip["aligned_joint"].items())
             lines.append(
-                f"- {resolver}: {whip['count']} whips; joint nearest aligned at the instability: {joints}; median "
-                f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} {whip.get('whip_speed_unit', 'rad/s')}, "
-                f"median instability at {whip['median_instability_time_fraction']:.0%} of the movement"
+                f"| {resolver} | {whip['count']} | {joints} | {whip['median_aligned_angle_deg']:.1f}° | "
+                f"{whip['median_whip_speed']:.3g} {whip.get('whip_speed_unit', 'rad/s')} | "
+                f"{whip['median_instability_time_fraction']:.0%} |"
             )
     if "global" in summary:
         lines += ["", *frontier_markdown(summary)]
