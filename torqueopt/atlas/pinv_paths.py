@@ -82,8 +82,8 @@ def pinv_paths_summary(table) -> dict:
     """Each resolver's figures on the paths pinv handles (see the module docstring).
 
     Returns:
-        ``{"paths": movements, "pinv_handles": |P|, "resolvers": {label: {...}}}``; per label: ``paths`` (|P| it
-        ran), :func:`counts_on`'s counts, ``stable``; ``over_rate``, ``over_low``, ``over_high``,
+        ``{"paths": movements, "pinv_handles": |P|, "resolvers": {label: {...}}}``; per label: ``paths`` (how
+        many of P it ran), :func:`counts_on`'s counts, ``stable``; ``over_rate``, ``over_low``, ``over_high``,
         ``within_limits``; ``median_torque_vs_pinv``, ``median_low``, ``median_high``, ``saves_torque``; and
         ``meets_bar`` (all three).
     """
