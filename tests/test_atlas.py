@@ -296,6 +296,7 @@ def test_verdicts_on_the_papers_three_movements():
         assert 0.5 < row["instability_time"] < 2.0
         assert row["torque_vs_pinv"] > 2.0
         assert row["aligned_joint"] == "joint3"
+        assert row["whip_time"] == row["instability_time"]  # the whip is located at the instability's sample
     assert rows[2, "null-space"]["instability_time"] > 1.0  # "near the movement end"
 
 
@@ -410,6 +411,12 @@ def test_local_dask_cluster_gives_the_same_table(reference_atlas, tmp_path):
         assert (tmp_path / name).stat().st_size > 0
     assert "## The paper's claims" in (tmp_path / "atlas.md").read_text().replace("### ", "## ")
     assert result.summary["verdicts"]["pinv"]["stable"] >= 1
+    # The whips' table: one row per resolver that whipped, counted again from the rows.
+    whipped = reference_atlas[reference_atlas["verdict"] == "whiplash"]
+    assert len(whipped)
+    for resolver, rows in whipped.groupby("resolver", sort=False):
+        joints = ", ".join(f"{joint} {count}" for joint, count in rows["aligned_joint"].value_counts().items())
+        assert f"\n| {resolver} | {len(rows)} | {joints} | " in (tmp_path / "atlas.md").read_text()
 
 
 @pytest.mark.slow

@@ -63,6 +63,11 @@ def test_the_choice_is_the_brute_force_pick_from_the_evidence_table(tuned):
     assert "**Chosen:** kinematic_weight=2, damping=10" in markdown
     assert "--resolver damped-null-space --option kinematic_weight=2 --option damping=10" in markdown
     assert markdown.count("| kinematic_weight=") == 4
+    # The settings as a table (docs/guide/tune.md says the sentences): the bound and the count of P from the runs.
+    assert written["criteria"] == {
+        "whip_high_at_most": 0.5, "peak_torque_ratio_at_most": 1.0, "median_torque_vs_pinv_below": 1.0
+    }  # fmt: skip
+    assert markdown.splitlines()[4].endswith(f"| 50% | {everywhere} of {written['movements']} |")
 
 
 def test_the_evidence_is_the_atlas_rows_counted_again(tuned):

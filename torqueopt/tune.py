@@ -1,47 +1,19 @@
-r"""Tuning a remedy per arm: the setting that saves the most torque without whipping or leaving a limit.
+"""Tuning a remedy per arm: the setting that saves the most torque without whipping or leaving a limit.
 
-:func:`tune` runs a seeded atlas (:func:`torqueopt.atlas.run_atlas`: batched runs, a Dask cluster, a progress
-bar, resumable) of ``pinv`` and every setting of a grid of a resolver's options on one arm, and chooses
+:func:`tune` runs a seeded atlas (:func:`torqueopt.atlas.run_atlas`) of ``pinv`` on one arm, then every setting
+of a grid of a resolver's options on the paths ``pinv`` handles (:func:`torqueopt.atlas.pinv_paths.handled_paths`),
+longest first, in chunks, dropping a setting as soon as the paths run so far decide that it fails; and chooses
+the setting with the largest median torque saving against ``pinv`` among those that whip with a Wilson 95 %
+upper bound of at most ``whiplash_bound``, stay within the torque, position and velocity limits on every one of
+those paths, and save torque at all (:func:`evidence`, :func:`choose`). Dropping early is exact: what decides a
+failure cannot be undone by the paths still to come (``eliminate=False`` runs every setting on every path, and a
+test compares). The guide, docs/guide/tune.md, says why each rule is what it is.
 
-    the setting with the largest median torque saving against ``pinv``, among those that, on the paths ``pinv``
-    handles, whip with a 95 % Wilson upper bound of at most 1 % and stay within the torque, position and
-    velocity limits wherever ``pinv`` does, and save torque at all.
-
-In the atlas's terms, on one arm with one population:
-
-* the paths ``pinv`` handles, :math:`P`: those where ``pinv``'s verdict is ``stable`` (within the 2x-limit
-  rule, the joints' position and velocity limits, on its path to 1 mm, completed) and its peak
-  :math:`|\tau|/\tau^+` at most 1;
-* a setting's whiplash rate: its ``whiplash`` verdicts on :math:`P` over :math:`|P|`, with the Wilson score
-  interval (:func:`torqueopt.atlas.stats.wilson_interval`); it qualifies when the upper end is at most
-  ``whiplash_bound`` (1 %: no whip at all needs :math:`|P| \ge 381`);
-* within the limits where ``pinv`` is: on every path of :math:`P`, peak :math:`|\tau|/\tau^+ \le 1` and no
-  position or velocity limit passed (``first_position_limit_violation`` and ``first_velocity_limit_violation``
-  NaN); one path of :math:`P` outside a limit disqualifies the setting;
-* its saving: one minus the median over :math:`P` of ``torque_vs_pinv`` (its peak :math:`|\tau|/\tau^+` over
-  ``pinv``'s on the same path); it must be above 0.
-
-Ties go to the setting listed first. A path a setting leaves by more than 1 mm (``lost path``, how bounded
-resolvers give way) is counted in the evidence but does not disqualify.
-
-How it runs, and why dropping settings early is exact. First ``pinv`` alone on the whole population (an
-atlas in ``out/pinv``): that gives :math:`P`, and the whiplash bound then says how many paths a setting
-needs at the least (381 for 1 %); with fewer in :math:`P` no setting can qualify, and none is run. Then
-the settings (with ``pinv`` beside them, the baseline of ``torque_vs_pinv``) run on the paths of
-:math:`P` only, longest movements first, in chunks of ``chunk_size``, a wave of chunks at a time. After
-each wave a setting is dropped when it is already certain to fail: it left a limit on a path of
-:math:`P` (one such path disqualifies), or its whips so far put the Wilson upper bound above the bound
-even with no more whips over all of :math:`P` (for a fixed count the upper bound only falls as the
-trials grow), or more than half of all of :math:`P` has already cost it at least ``pinv``'s peak torque
-(then so does the median). None can be undone by the paths still to come, so the choice is the one every setting
-on every path would give (``eliminate=False`` runs that, and a test compares them); the table shows a
-dropped setting's figures on the paths it ran, which fail the criteria as they stand.
-
-Files in ``out``: ``tune-config.json`` (the settings; what lets a killed tune resume), ``pinv/`` (the
-baseline's atlas), ``settings/chunks/`` (each chunk of the settings' rows, with a fingerprint of the tune
-and of the settings it ran: a killed tune resumes from them), and at the end, together, ``tune.json`` (criteria, every
-setting's evidence, the choice) and ``tune.md`` (the evidence table and the flags that reproduce the choice).
-Nothing is written before every check has passed, and only into a folder that is new, empty or this tune's.
+Files in ``out``: ``tune-config.json`` (the settings; what lets a killed tune resume), ``pinv/`` (the baseline's
+atlas), ``settings/chunks/`` (each chunk of the settings' rows, with a fingerprint of the tune and of the settings
+it ran), and at the end, together, ``tune.json`` (criteria, every setting's evidence, the choice) and ``tune.md``
+(the same as tables). Nothing is written before every check has passed, and only into a folder that is new, empty
+or this tune's.
 """
 
 from __future__ import annotations
@@ -55,6 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .atlas.jobs import RobotSpec
+from .atlas.pinv_paths import BASELINE, counts_on, handled_paths
+from .atlas.settings import path_kind
+from .atlas.stats import wilson_interval
 from .checks import number_in_range
 from .errors import InvalidInput, OutputError
 from .io import atomic_write, json_text, resumable_folder, writable_path, writable_paths, written_together
@@ -97,7 +73,6 @@ DEFAULT_PATHS = 200
 DEFAULT_CHUNK_SIZE = 64
 #: Largest tune (trajectory-steps: pinv, then every setting surviving on every path) started without being told.
 DEFAULT_MAX_STEPS = 1_000_000_000
-BASELINE = "pinv"
 _FORMAT = 1
 _CONFIG = "tune-config.json"
 _RESULT_FILES = ("tune.json", "tune.md")
@@ -125,16 +100,8 @@ def _grid_values(texts: list[str], name: str) -> dict | None:
     return grid
 
 
-def _robot(value, name):
-    from .atlas.jobs import RobotSpec
-
+def _robot(value, name) -> RobotSpec:
     return value if isinstance(value, RobotSpec) else RobotSpec(str(value))
-
-
-def _path_kind(text: str, name: str) -> str:
-    from .atlas.settings import path_kind
-
-    return path_kind(text, name)
 
 
 def default_grids_text() -> str:
@@ -211,7 +178,7 @@ class TuneSettings(Settings):
         metavar="P",
         doc="the largest Wilson 95 % upper bound of a qualifying setting's whiplash rate",
     )
-    path: str = setting("line", "line, min-jerk or circle (default line)", metavar="KIND", parse=_path_kind)
+    path: str = setting("line", "line, min-jerk or circle (default line)", metavar="KIND", parse=path_kind)
     accel: float | None = setting(
         None, "acceleration [m/s²] (default: sized to the arm, √2 x reach / 3 m)", unit="m/s²", metavar="A",
         parse=positive,
@@ -239,6 +206,14 @@ class TuneSettings(Settings):
     def check_together(self) -> None:
         count = len(settings_grid(self.resolver, self.grid, self.options)[1])
         durations = self.population_spec().durations
+        needed, paths = least_trials(self.whiplash_bound), self.paths
+        if paths * len(durations) < needed:  # even if pinv handled every movement, no setting could qualify
+            plural = "s" if len(durations) > 1 else ""
+            raise InvalidInput(
+                f"whiplash_bound={self.whiplash_bound:g} needs at least {needed} movements that pinv handles, and "
+                f"paths={paths} over {len(durations)} duration{plural} gives {paths * len(durations)} at most: give "
+                f"paths={math.ceil(needed / len(durations))} or more, or a larger whiplash_bound"
+            )
         total = self.paths * sum(round(d / self.dt) + 1 for d in durations) * (count + 2)
         if total > self.max_steps:
             raise InvalidInput(
@@ -296,14 +271,6 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     grid_options = tuple(settings.grid) if settings.grid is not None else tuple(DEFAULT_GRIDS[name])
     population = settings.population_spec()
     needed = least_trials(whiplash_bound)
-    durations = len(population.durations)
-    if paths * durations < needed:
-        # Refused before any work: even if pinv handled every movement, no setting could qualify.
-        raise InvalidInput(
-            f"whiplash_bound={whiplash_bound:g} needs at least {needed} movements that pinv handles, and "
-            f"paths={paths} over {durations} duration{'s' if durations > 1 else ''} gives {paths * durations} at "
-            f"most: give paths={math.ceil(needed / durations)} or more, or a larger whiplash_bound"
-        )
     out = writable_path(settings.out, directory=True)
     if out.exists() and not out.is_dir():
         raise OutputError(f"cannot write the tune to '{out}': it is a file; give a folder")
@@ -312,7 +279,7 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
     for setting_ in resolvers:
         setting_.check(loaded)
     config = _tune_config(settings, name, resolvers, fixed, grid_options, population)
-    resume = _check_folder(out, config)
+    resume = resumable_folder(out, _CONFIG, config, "tune")  # True: this tune is there to resume
     if not resume:
         text = json.dumps(config, indent=2, sort_keys=True).encode()
         atomic_write(out / _CONFIG, lambda handle: handle.write(text))
@@ -326,26 +293,17 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         )  # fmt: skip
     atlas_config = baseline.summary["config"]
     handled = handled_paths(baseline.table)
-    labels = [setting_.label for setting_ in resolvers]
     if len(handled) < needed:
-        rows_by_label = {label: _not_run(label, len(handled), needed) for label in labels}
+        rows_by_label = {setting_.label: _not_run(setting_.label, len(handled), needed) for setting_ in resolvers}
     else:
         # 2. The settings on those paths, longest movements first, chunk by chunk, each setting dropped as
         # soon as it is certain to fail (the module docstring).
-        by_path = {movement.path: movement for movement in _draw(loaded, population)}  # run_atlas's draw
-        ordered = sorted(handled, key=lambda path: (-by_path[path].duration, path))
-        chunk_size = settings.chunk_size
-        chunks = [[by_path[path] for path in ordered[i : i + chunk_size]] for i in range(0, len(ordered), chunk_size)]
+        chunks = _longest_first(loaded, population, handled, settings.chunk_size)
         rows_by_label = _run_settings(
             spec, resolvers, chunks, handled, out / "settings", config, dt=dt, workers=workers,
             progress=progress, whiplash_bound=whiplash_bound, eliminate=settings.eliminate,
         )  # fmt: skip
-    rows = []
-    for setting_ in resolvers:
-        row = rows_by_label[setting_.label]
-        row["options"] = {key: _json_value(value) for key, value in options_of(setting_, grid_options, fixed).items()}
-        row["flags"] = option_flags(name, row["options"])
-        rows.append(row)
+    rows = [_with_options(rows_by_label[setting_.label], setting_, name, grid_options, fixed) for setting_ in resolvers]
     chosen = choose(rows)
     summary = {
         "format": _FORMAT,
@@ -359,12 +317,18 @@ def tune(settings: TuneSettings | object = None, resolver: str | None = None, **
         "settings": rows,
         "chosen": chosen,
     }
-    markdown = write_markdown(summary).encode()
-    text = json_text(summary).encode()
+    markdown, text = write_markdown(summary).encode(), json_text(summary).encode()
     with written_together():
         atomic_write(out / "tune.json", lambda handle: handle.write(text))
         atomic_write(out / "tune.md", lambda handle: handle.write(markdown))
     return TuneResult(resolver=name, settings=rows, chosen=chosen, summary=summary, out=out)
+
+
+def _with_options(row: dict, setting: Resolver, name: str, grid_options, fixed: dict) -> dict:
+    """A setting's evidence row with its options spelled out and the flags that reproduce it."""
+    row["options"] = {key: _json_value(value) for key, value in options_of(setting, grid_options, fixed).items()}
+    row["flags"] = option_flags(name, row["options"])
+    return row
 
 
 def _settings_of(settings, resolver, keywords: dict) -> TuneSettings:
@@ -382,13 +346,8 @@ def _settings_of(settings, resolver, keywords: dict) -> TuneSettings:
 
 
 def _criteria(whiplash_bound: float) -> dict:
-    """The criteria as tune.json states them."""
-    return {
-        "paths pinv handles": "pinv's verdict stable and its peak |tau|/limit at most 1",
-        "whiplash": f"Wilson 95 % upper bound of the whiplash rate on those paths at most {whiplash_bound:g}",
-        "limits": "on every path pinv handles: peak |tau|/limit at most 1, no position or velocity limit passed",
-        "saving": "1 - median over those paths of the peak |tau|/limit over pinv's; above 0; the largest wins",
-    }
+    """The bars a setting must pass on the paths pinv handles, as tune.json records them (docs/guide/tune.md)."""
+    return {"whip_high_at_most": whiplash_bound, "peak_torque_ratio_at_most": 1.0, "median_torque_vs_pinv_below": 1.0}
 
 
 def _tune_config(settings: TuneSettings, name: str, resolvers, fixed: dict, grid_options, population) -> dict:
@@ -412,16 +371,8 @@ def _tune_config(settings: TuneSettings, name: str, resolvers, fixed: dict, grid
     }
 
 
-def handled_paths(table) -> list[int]:
-    """The paths pinv handles: its verdict ``stable`` and its peak torque ratio at most 1 (``table``: an atlas's rows)."""
-    pinv = table[table["resolver"] == BASELINE]
-    return sorted(int(p) for p in pinv.loc[(pinv["verdict"] == "stable") & (pinv["peak_torque_ratio"] <= 1.0), "path"])
-
-
 def least_trials(bound: float) -> int:
     """The fewest paths on which no whip at all has a Wilson 95 % upper bound of at most ``bound``."""
-    from .atlas.stats import wilson_interval
-
     z2 = 1.959963984540054**2
     count = max(1, math.floor(z2 * (1.0 - bound) / bound) - 1)  # z²/(n + z²) <= bound, from just below
     while wilson_interval(0, count)[1] > bound:
@@ -429,10 +380,13 @@ def least_trials(bound: float) -> int:
     return count
 
 
-def _draw(robot, population):
+def _longest_first(robot, population, handled: list[int], size: int) -> list[list]:
+    """The movements of the ``handled`` paths (run_atlas's draw), longest first, in chunks of ``size``."""
     from .atlas.population import draw_population
 
-    return draw_population(robot, population)
+    by_path = {movement.path: movement for movement in draw_population(robot, population)}
+    ordered = sorted(handled, key=lambda path: (-by_path[path].duration, path))
+    return [[by_path[path] for path in ordered[i : i + size]] for i in range(0, len(ordered), size)]
 
 
 def _not_run(label: str, handled: int, needed: int) -> dict:
@@ -577,35 +531,19 @@ def evidence(table, labels: list[str], whiplash_bound: float = WHIPLASH_BOUND, h
     ``torque_vs_pinv`` is not below 1), ``median_torque_vs_pinv``, ``saving``,
     ``qualifies`` and ``reason`` (the first criterion it fails, or None).
     """
-    from .atlas.stats import wilson_interval
-
     handled = handled_paths(table) if handled is None else list(handled)
     rows = []
     for label in labels:
         runs = table[table["resolver"] == label].set_index("path")
         on_handled = runs.loc[runs.index.intersection(handled)]
         count = len(on_handled)
-        whips = int((on_handled["verdict"] == "whiplash").sum())
-        low, high = wilson_interval(whips, count)
-        # NaN peak (no applied torque) is not "within": only a number at most 1 is.
-        over_torque = ~(on_handled["peak_torque_ratio"] <= 1.0)
-        over_position = on_handled["first_position_limit_violation"].notna()
-        over_velocity = on_handled["first_velocity_limit_violation"].notna()
         ratios = on_handled["torque_vs_pinv"].to_numpy(dtype=float)
         median = float(np.median(ratios)) if count and np.isfinite(ratios).all() else math.nan
         row = {
             "label": label,
             "paths": len(runs),
             "pinv_handles": count,
-            "whips": whips,
-            "whip_rate": whips / count if count else math.nan,
-            "whip_low": low,
-            "whip_high": high,
-            "over_torque": int(over_torque.sum()),
-            "over_position": int(over_position.sum()),
-            "over_velocity": int(over_velocity.sum()),
-            "over_limits": int((over_torque | over_position | over_velocity).sum()),
-            "lost_path": int((on_handled["verdict"] == "lost path").sum()),
+            **counts_on(on_handled),
             "not_below_pinv": int((~(ratios < 1.0)).sum()),
             "median_torque_vs_pinv": median,
             "saving": 1.0 - median,
@@ -630,15 +568,8 @@ def _failed_criterion(row: dict, whiplash_bound: float) -> str | None:
     return "; ".join(failed) or None
 
 
-def _certain_to_fail(row: dict, handled: int, whiplash_bound: float) -> bool:
-    """True when the paths run so far already decide that a setting fails (see the module docstring)."""
-    return bool(_certain_failures(row, handled, whiplash_bound))
-
-
 def _certain_failures(row: dict, handled: int, whiplash_bound: float) -> list[str]:
     """What the paths run so far already decide against a setting, whatever the rest of the paths give."""
-    from .atlas.stats import wilson_interval
-
     failures = []
     if row["over_limits"]:
         failures.append(f"outside a limit on {row['over_limits']} of the paths pinv handles")
@@ -690,65 +621,53 @@ def tuned_options(path: str | os.PathLike, robot: str | None = None) -> tuple[st
 
 
 def write_markdown(summary: dict) -> str:
-    """tune.md: the settings, the criteria, the evidence table and the choice."""
+    """tune.md: the settings, the evidence and the choice, as tables (docs/guide/tune.md says what they mean)."""
     config = summary["config"]
-    fixed = ", ".join(f"{k}={label_value(v)}" for k, v in config["fixed_options"].items()) or "none"
-    atlas = summary.get("atlas_config") or {}
-    accel = atlas.get("population", {}).get("accel", config["accel"])
-    accel_text = "sized to the arm" if accel is None else f"{accel:.4g} m/s²"
+    accel = (summary.get("atlas_config") or {}).get("population", {}).get("accel", config["accel"])
+    sized = " (sized to the arm)" if config["accel"] is None else ""
+    settings = {
+        "fixed options": _options_text(config["fixed_options"], "none"),
+        "settings": len(config["grid"]),
+        "seed": config["seed"],
+        "path": f"`{config['path']}`",
+        "acceleration [m/s²]": ("-" if accel is None else f"{accel:.4g}") + sized,
+        "durations [s]": ", ".join(f"{d:g}" for d in config["durations"]),
+        "movements per duration": config["paths"],
+        "dt [ms]": f"{config['dt'] * 1e3:g}",
+        "whiplash bound": f"{config['whiplash_bound']:.0%}",
+        "paths pinv handles": f"{summary['pinv_handles']} of {summary['movements']}",
+    }
     lines = [
         f"# Tuning {config['resolver']} on {summary['robot_name']}",
         "",
-        (
-            f"A seeded atlas (seed {config['seed']}, path `{config['path']}`, acceleration {accel_text}"
-            f"{' (the default for this arm: √2 m/s² x reach / 3 m)' if config['accel'] is None else ''}, durations "
-            f"{', '.join(f'{d:g}' for d in config['durations'])} s, {config['paths']} movements per duration, dt "
-            f"{config['dt'] * 1e3:g} ms) of pinv and {len(config['grid'])} settings of {config['resolver']} (fixed "
-            f"options: {fixed}): pinv on every movement, then the settings on the {summary['pinv_handles']} of the "
-            f"{summary['movements']} movements pinv handles, longest first, each dropped as soon as it was certain "
-            "to fail (`torqueopt.tune`)."
-        ),
-        "",
-        "A setting qualifies when, on the paths pinv handles (its verdict stable, its peak |τ|/limit at most 1):",
-        f"its whiplash rate's Wilson 95 % upper bound is at most {config['whiplash_bound']:.0%}; it stays within "
-        "the torque, position and velocity limits on every one of them; and its median peak |τ|/limit over "
-        "pinv's is below 1. The chosen setting saves the most (saving = 1 − that median).",
+        "| " + " | ".join(settings) + " |",
+        "|" + "---|" * len(settings),
+        "| " + " | ".join(str(value) for value in settings.values()) + " |",
         "",
         "| setting | stage | paths run (of those pinv handles) | whiplash [95 % CI] | over torque / position / velocity limits "
         "| lost path | median peak torque vs pinv | saving | qualifies |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in summary["settings"]:
-        options = ", ".join(f"{k}={label_value(v)}" for k, v in row["options"].items()) or "defaults"
         whiplash = (
             f"{row['whips']} ({_percent(row['whip_rate'])} [{_percent(row['whip_low'])}, {_percent(row['whip_high'])}])"
         )
         limits = f"{row['over_torque']} / {row['over_position']} / {row['over_velocity']}"
         verdict = "**yes**" if row["qualifies"] else f"no: {row['reason']}"
         lines.append(
-            f"| {options} | {row['stage']} | {row['pinv_handles']} | {whiplash} | {limits} | "
+            f"| {_options_text(row['options'])} | {row['stage']} | {row['pinv_handles']} | {whiplash} | {limits} | "
             f"{row['lost_path']} | {_number(row['median_torque_vs_pinv'])} | {_signed_percent(row['saving'])} | "
             f"{verdict} |"
         )
     chosen = summary["chosen"]
-    lines.append("")
     if chosen is None:
-        lines.append("**No setting qualifies** on this arm with this population: the table above shows why.")
-    else:
-        lines += [
-            f"**Chosen:** {', '.join(f'{k}={label_value(v)}' for k, v in chosen['options'].items()) or 'defaults'}: "
-            f"median peak torque {_number(chosen['median_torque_vs_pinv'])} of pinv's (saving "
-            f"{_signed_percent(chosen['saving'])}), whiplash {chosen['whips']} of {chosen['pinv_handles']} "
-            f"(95 % upper {_percent(chosen['whip_high'])}), within every limit where pinv is.",
-            "",
-            "Reproduce it (with a path of your own: `--direction`, `--duration`, ...; or `--options-from tune.json`):",
-            "",
-            "```",
-            f"torqueopt run --robot {config['robot']['source']} {chosen['flags']}",
-            "```",
-        ]
-    lines.append("")
-    return "\n".join(lines)
+        return "\n".join([*lines, "", "**No setting qualifies**", ""])
+    command = f"torqueopt run --robot {config['robot']['source']} {chosen['flags']}"
+    return "\n".join([*lines, "", f"**Chosen:** {_options_text(chosen['options'])}", "", "```", command, "```", ""])
+
+
+def _options_text(options: dict, empty: str = "defaults") -> str:
+    return ", ".join(f"{key}={label_value(value)}" for key, value in options.items()) or empty
 
 
 def _percent(value) -> str:
@@ -769,11 +688,6 @@ def _json_value(value):
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     return value
-
-
-def _check_folder(out: Path, config: dict) -> bool:
-    """True when ``out`` holds this tune (resume), False when it is new or empty; writes nothing."""
-    return resumable_folder(out, _CONFIG, config, "tune")
 
 
 tune.__doc__ = tune.__doc__.replace("        {arguments}", TuneSettings.arguments_doc("        "))

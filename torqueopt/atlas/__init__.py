@@ -189,6 +189,24 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     digest = config_digest(config)
     resume = _check_folder(out, config)
 
+    chunks, local_chunks, frames, done = _sweep(settings, out, movements, config, digest, resume)
+
+    order = [r.label for r in resolver_objects] + ([GLOBAL_RESOLVER] if frontier.global_optimum else [])
+    table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
+    if frontier.global_optimum:
+        table = add_global_ratios(table)
+    stored_traces = functools.partial(_stored_traces, out, chunks[:local_chunks], digest)
+    summary = _write_report(settings, out, table, config, loaded, movements, len(done), stored_traces)
+    return AtlasResult(table=table, summary=summary, out=out)
+
+
+run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
+
+
+def _sweep(settings: AtlasSettings, out: Path, movements, config: dict, digest: str, resume: bool) -> tuple:
+    """Run the chunks not done yet (read the others), holding the folder: (the chunks, how many are the resolvers'
+    before the global ones, ``{index: frame}`` of every chunk, the indices that were done before)."""
+    execution, frontier = settings.execution, settings.frontier
     chunks = _chunks(movements, execution.chunk_size)
     local_chunks = len(chunks)
     if frontier.global_optimum:  # the global rows in chunks of their own, after the resolvers' (smaller: ~1 s a path)
@@ -196,14 +214,16 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
     frames, rejected = read_chunks(out, len(chunks), digest) if resume else ({}, [])
     done = set(frames)
     jobs = _pending_jobs(settings, chunks, local_chunks, done, digest, config)
-    done_paths = sum(len(chunks[index]) for index in done)
     kept_paths = _kept_paths(settings, frames) if jobs else None
     if rejected:
         warnings.warn(
             f"recomputing {len(rejected)} of {len(chunks)} chunks, which do not match this atlas: {', '.join(rejected)}",
             TorqueoptWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
+    description = f"{command_name('torqueopt atlas')}: {len(movements):,} paths x {len(settings.resolvers)} resolvers"
+    if frontier.global_optimum:
+        description += " and the global optimum of each (a path counted twice)"
     # The scheduler is reached (or the cluster started) before the first file is written.
     with (
         contextlib.ExitStack() as lock,  # the folder, held while its chunks run (a second atlas would redo them)
@@ -218,30 +238,14 @@ def run_atlas(settings: AtlasSettings | object = None, *args, **keywords) -> Atl
         if jobs:
             frames.update(
                 run_chunks(
-                    jobs,
-                    out,
-                    client,
-                    progress=execution.progress,
+                    jobs, out, client, progress=execution.progress,
                     total_paths=len(movements) * (2 if frontier.global_optimum else 1),
-                    done_paths=done_paths,
-                    description=f"{command_name('torqueopt atlas')}: {len(movements):,} paths x {len(resolver_objects)} resolvers"
-                    + (" and the global optimum of each (a path counted twice)" if frontier.global_optimum else ""),
+                    done_paths=sum(len(chunks[index]) for index in done), description=description,
                     # This process loads what the report needs on the core the sweep's last chunks leave idle.
-                    once_a_worker_idles=import_scipy_stats_meanwhile,
-                    kept_paths=kept_paths,
+                    once_a_worker_idles=import_scipy_stats_meanwhile, kept_paths=kept_paths,
                 )
-            )
-
-    order = [r.label for r in resolver_objects] + ([GLOBAL_RESOLVER] if frontier.global_optimum else [])
-    table = collect(pandas, [frames[index] for index in range(len(chunks))], order)
-    if frontier.global_optimum:
-        table = add_global_ratios(table)
-    stored_traces = functools.partial(_stored_traces, out, chunks[:local_chunks], digest)
-    summary = _write_report(settings, out, table, config, loaded, movements, len(done), stored_traces)
-    return AtlasResult(table=table, summary=summary, out=out)
-
-
-run_atlas.__doc__ = run_atlas.__doc__.replace("        {arguments}", AtlasSettings.arguments_doc("        "))
+            )  # fmt: skip
+    return chunks, local_chunks, frames, done
 
 
 def _check_plant(settings: AtlasSettings, robot) -> None:

@@ -55,28 +55,18 @@ def cross_arm_table(summaries: dict[str, dict]) -> str:
         )
         stable_text = ", ".join(f"`{label}`" for label in stable) or "none"
         within_text = "; ".join(f"`{label}` {median_text(entries[label])}" for label in within)
-        if not within:
-            # Nearest: the stable one outside a limit on the fewest paths.
-            near = sorted(
-                stable, key=lambda label: (entries[label]["over_limits"], entries[label]["median_torque_vs_pinv"])
-            )
+        if not within:  # nearest: the stable one outside a limit on the fewest paths
+            near = _fewest_over(stable, entries)
             within_text = "none" + (
-                f" (nearest: `{near[0]}` outside a limit on {over_text(entries[near[0]])} of them, "
-                f"{median_text(entries[near[0]])})"
+                f" (nearest: `{near}` outside a limit on {over_text(entries[near])} of them, {median_text(entries[near])})"
                 if near
                 else ""
             )
-        if saving:
-            saving_text = "; ".join(f"`{label}` {median_text(entries[label])}" for label in saving)
-        else:
-            # Nearest the bar: stable and saving torque, the fewest paths outside a limit.
-            near = sorted(
-                (label for label in stable if entries[label]["saves_torque"]),
-                key=lambda label: (entries[label]["over_limits"], entries[label]["median_torque_vs_pinv"]),
-            )
+        saving_text = "; ".join(f"`{label}` {median_text(entries[label])}" for label in saving)
+        if not saving:  # nearest the bar: stable and saving torque, the fewest paths outside a limit
+            near = _fewest_over([label for label in stable if entries[label]["saves_torque"]], entries)
             saving_text = "none" + (
-                f" (nearest: `{near[0]}` {median_text(entries[near[0]])}, outside a limit on "
-                f"{over_text(entries[near[0]])} of them)"
+                f" (nearest: `{near}` {median_text(entries[near])}, outside a limit on {over_text(entries[near])} of them)"
                 if near
                 else ""
             )
@@ -84,6 +74,13 @@ def cross_arm_table(summaries: dict[str, dict]) -> str:
             f"| {arm} | {block['pinv_handles']} of {block['paths']} | {stable_text} | {within_text} | {saving_text} |"
         )
     return "\n".join(lines)
+
+
+def _fewest_over(labels: list[str], entries: dict) -> str | None:
+    """The label outside a limit on the fewest paths (then the lowest median torque), None when there is none."""
+    return min(
+        labels, key=lambda label: (entries[label]["over_limits"], entries[label]["median_torque_vs_pinv"]), default=None
+    )
 
 
 def load_summaries(paths: dict[str, str | os.PathLike]) -> dict[str, dict]:

@@ -139,32 +139,12 @@ def global_summary(table) -> dict | None:
         summary["problem_free_of_feasible"] = proportion(
             int((global_free & on_feasible).sum()), len(feasible_paths)
         ).as_dict()
-    local = {}
-    for resolver in dict.fromkeys(table["resolver"]):
-        if resolver == GLOBAL_RESOLVER:
-            continue
-        rows = table[table["resolver"] == resolver].set_index("path")
-        free = problem_free(rows)
-        on_converged = rows.index.isin(list(converged_paths))
-        failed_where_global_free = int((~free & rows.index.isin(list(free_paths))).sum())
-        local[resolver] = {
-            "runs": len(rows),
-            "problem_free": proportion(int(free.sum()), len(rows)).as_dict(),
-            "whiplash": proportion(int((rows["verdict"] == "whiplash").sum()), len(rows)).as_dict(),
-            "lost_path": int((rows["verdict"] == "lost path").sum()),
-            "fails_where_global_is_problem_free": failed_where_global_free,
-            "median_cost_vs_global": _median(rows["cost_vs_global"][on_converged]),
-            "median_peak_vs_global": _median(rows["peak_vs_global"][on_converged]),
-            "median_cost_vs_global_problem_free": _median(rows["cost_vs_global"][on_converged & free]),
-            "cheaper_than_global": int((rows["cost_vs_global"][on_converged] < 1.0 - 1e-6).sum()),
-            # The global optimum's cost over this method's, path by path (converged paths).
-            "median_global_cost_share": _median(1.0 / rows["cost_vs_global"][on_converged].to_numpy(float)),
-        }
-        if bounded:
-            on_feasible = rows.index.isin(list(feasible_paths))
-            local[resolver]["problem_free_of_feasible"] = proportion(
-                int((free & on_feasible).sum()), int(on_feasible.sum())
-            ).as_dict()
+    local = {
+        resolver: _distance(table[table["resolver"] == resolver].set_index("path"), converged_paths, free_paths,
+                            feasible_paths if bounded else None)
+        for resolver in dict.fromkeys(table["resolver"])
+        if resolver != GLOBAL_RESOLVER
+    }  # fmt: skip
     summary["local"] = local
     if local:
         best = min(
@@ -182,6 +162,30 @@ def global_summary(table) -> dict | None:
         summary["median_global_cost_vs_most_successful"] = local[best]["median_global_cost_share"]
         summary["median_global_cost_vs_cheapest"] = local[cheapest]["median_global_cost_share"]
     return summary
+
+
+def _distance(rows, converged_paths: set, free_paths: set, feasible_paths: set | None) -> dict:
+    """One local method's ``rows`` against the global optimum: its problem-free share, whips, lost paths, the paths
+    where it fails and the optimum does not, and its cost and peak over the optimum's (converged paths)."""
+    free = problem_free(rows)
+    on_converged = rows.index.isin(list(converged_paths))
+    item = {
+        "runs": len(rows),
+        "problem_free": proportion(int(free.sum()), len(rows)).as_dict(),
+        "whiplash": proportion(int((rows["verdict"] == "whiplash").sum()), len(rows)).as_dict(),
+        "lost_path": int((rows["verdict"] == "lost path").sum()),
+        "fails_where_global_is_problem_free": int((~free & rows.index.isin(list(free_paths))).sum()),
+        "median_cost_vs_global": _median(rows["cost_vs_global"][on_converged]),
+        "median_peak_vs_global": _median(rows["peak_vs_global"][on_converged]),
+        "median_cost_vs_global_problem_free": _median(rows["cost_vs_global"][on_converged & free]),
+        "cheaper_than_global": int((rows["cost_vs_global"][on_converged] < 1.0 - 1e-6).sum()),
+        # The global optimum's cost over this method's, path by path (converged paths).
+        "median_global_cost_share": _median(1.0 / rows["cost_vs_global"][on_converged].to_numpy(float)),
+    }
+    if feasible_paths is not None:
+        on_feasible = rows.index.isin(list(feasible_paths))
+        item["problem_free_of_feasible"] = proportion(int((free & on_feasible).sum()), int(on_feasible.sum())).as_dict()
+    return item
 
 
 def roc_curve(scores, labels) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -329,59 +333,50 @@ def _ratio(value: float) -> str:
     return "-" if not math.isfinite(value) else f"{value:.3g}"
 
 
+def _figures_table(figures: dict) -> list[str]:
+    return ["| figure | value |", "|---|---|", *(f"| {name} | {value} |" for name, value in figures.items())]
+
+
 def frontier_markdown(summary: dict) -> list[str]:
-    """The report's section on the global optimum and every local method's distance to it."""
+    """The report's section on the global optimum and every local method's distance to it, as tables
+    (docs/discussion/global-atlas.md says what they show)."""
     frontier = summary["global"]
-    statuses = ", ".join(f"{status} {count}" for status, count in frontier["optimizer_status"].items())
-    verdicts = ", ".join(f"{verdict} {count}" for verdict, count in frontier["verdicts"].items())
     bounded = "feasible_paths" in frontier
-    limits = (
-        "torque bounds and the URDF's joint limits imposed (shooting transcription)" if bounded else "no torque bounds"
-    )
+    paths, converged = frontier["paths"], frontier["converged"]
+    figures = {
+        "movements (`torqueopt.optimize`: ∫‖τ‖² dt, end free, warm start pinv's run)": f"{paths:,}",
+        "limits": "torque bounds and the URDF's joint limits (shooting)" if bounded else "no torque bounds",
+        "optimiser status": ", ".join(f"{status} {count}" for status, count in frontier["optimizer_status"].items()),
+        "IPOPT iterations, median (most)": f"{frontier['median_iterations']:.0f} ({frontier['max_iterations']:.0f})",
+        "replay tip error of a converged solve, largest [mm]": f"{frontier['max_replay_tip_error'] * 1e3:.3g}",
+        "solves not converged whose replay is more than 1 mm off": frontier.get("replay_off_path_not_converged", 0),
+        "verdicts of the replay": ", ".join(f"{verdict} {count}" for verdict, count in frontier["verdicts"].items()),
+        "problem-free (stable, peak torque within the limits)": f"{_share(frontier['problem_free'])} "
+        f"({frontier['problem_free']['successes']}/{paths})",
+        "stable": _share(frontier["stable"]),
+        "within the torque limits": _share(frontier["within_limits"]),
+        "problem-free where it converged": f"{frontier['problem_free_converged']['successes']} of {converged}",
+        "median cost / pinv's": _ratio(frontier.get("median_global_cost_vs_pinv", math.nan)),
+        f"median cost / the most successful local method's (`{frontier['most_successful_local']}`)": _ratio(
+            frontier["median_global_cost_vs_most_successful"]
+        ),
+        "completely successful local methods (problem-free wherever it is)": ", ".join(
+            frontier["completely_successful"]
+        )
+        or "none",
+    }
+    if bounded:
+        figures[f"infeasible paths (no motion within the limits, verdict `{INFEASIBLE}`)"] = (
+            f"{frontier['infeasible_paths']} of {paths}"
+        )
+        figures["problem-free on the feasible paths"] = (
+            f"{_share(frontier['problem_free_of_feasible'])} ({frontier['problem_free_of_feasible']['successes']}/"
+            f"{frontier['feasible_paths']})"
+        )
     lines = [
         "## The global optimum against the local methods",
         "",
-        (
-            f"`torqueopt.optimize` on each of the {frontier['paths']:,} movements (same start, line and duration; "
-            f"∫‖τ‖² dt, end free, {limits}, warm start pinv's run), judged from the open-loop replay of its "
-            f"torques. Optimiser: {statuses}; median {frontier['median_iterations']:.0f} IPOPT iterations (most "
-            f"{frontier['max_iterations']:.0f}); the replay of a converged solve within "
-            f"{frontier['max_replay_tip_error'] * 1e3:.3g} mm of the path"
-            + (
-                f"; {frontier['replay_off_path_not_converged']} of the solves that did not converge replay more "
-                "than 1 mm off it"
-                if frontier.get("replay_off_path_not_converged")
-                else ""
-            )
-            + f". Verdicts: {verdicts}."
-        ),
-        "",
-        (
-            f"Problem-free (verdict stable and peak torque within the limits): the global optimum on "
-            f"{_share(frontier['problem_free'])} of the paths ({frontier['problem_free']['successes']}/"
-            f"{frontier['paths']}; stable {_share(frontier['stable'])}, within the limits "
-            f"{_share(frontier['within_limits'])}; on {frontier['problem_free_converged']['successes']} of the "
-            f"{frontier['converged']} paths where it converged). Its median cost is "
-            f"{_ratio(frontier.get('median_global_cost_vs_pinv', math.nan))} of pinv's and "
-            f"{_ratio(frontier['median_global_cost_vs_most_successful'])} of the most successful local method's "
-            f"(`{frontier['most_successful_local']}`); completely successful local methods (problem-free wherever the "
-            f"global optimum is): {', '.join(frontier['completely_successful']) or 'none'}."
-        ),
-        *(
-            [
-                "",
-                f"Feasibility: on {frontier['infeasible_paths']} of the {frontier['paths']} paths no motion within "
-                f"the limits exists (verdict `{INFEASIBLE}`, the solver's evidence in `optimizer_evidence`): no "
-                f"resolver can be problem-free there. Over the {frontier['feasible_paths']} feasible paths the global "
-                f"optimum is problem-free on {_share(frontier['problem_free_of_feasible'])} "
-                f"({frontier['problem_free_of_feasible']['successes']}/{frontier['feasible_paths']}).",
-            ]
-            if bounded
-            else []
-        ),
-        "",
-        "Per method, on the paths where the optimiser converged for the ratios (cost = ∫‖τ‖² dt over the movement, "
-        "the same sum for every row):",
+        *_figures_table(figures),
         "",
         "| method | problem-free | "
         + ("problem-free, feasible paths | " if bounded else "")
@@ -402,38 +397,34 @@ def frontier_markdown(summary: dict) -> list[str]:
         + (f"{_share(frontier['problem_free_of_feasible'])} | " if bounded else "")
         + "- | - | 1 | 1 | 1 |"
     )
-    lines += ["", "Generated answer (the README's, without its link):", "", broader_answer(summary, link=False)]
     return lines
 
 
 def margin_markdown(summary: dict) -> list[str]:
-    """The report's section on the stability margin as a predictor of the whiplash verdict."""
+    """The report's section on the stability margin as a predictor of the whips, as tables."""
     margin = summary["margin"]
     every = summary["config"].get("margin", {}).get("every", math.nan)
     at, zero = margin["at_threshold"], margin["at_zero"]
-
-    def rates(item):
-        return (
-            f"true positives {_share(item['true_positive_rate'])}, false positives "
-            f"{_share(item['false_positive_rate'])}"
-        )
-
+    figures = {
+        "score: `peak_stability_margin`, σ every [ms]": f"{every * 1e3:g}",
+        "runs pooled (every torque resolver's)": f"{margin['runs']:,}",
+        f"held out ({margin['held_out']}): runs, whips": f"{margin['held_out_runs']:,}, {margin['held_out_whips']}",
+        "AUC, held out (even paths)": f"{margin['auc']:.3f} ({margin['train_auc']:.3f})",
+        f"at σ ≥ {at['threshold']:.3g} 1/s (chosen on the even paths): true, false positives": (
+            f"{_share(at['true_positive_rate'])}, {_share(at['false_positive_rate'])}"
+        ),
+        "at σ ≥ 0: true, false positives": f"{_share(zero['true_positive_rate'])}, {_share(zero['false_positive_rate'])}",
+        "held-out whips the margin warned of (positive before the instability)": (
+            f"{margin['warned_whips']} of {margin['held_out_whips']}"
+        ),
+        "their warning, median [s] (share of the time to the instability)": (
+            f"{margin['median_warning_time']:.3g} ({_ratio(margin['median_warning_fraction'])})"
+        ),
+    }
     lines = [
         "## The stability margin as a predictor of the whips",
         "",
-        (
-            f"Score: `peak_stability_margin` (σ every {every * 1e3:g} ms, before the instability on a whip, over the run "
-            f"otherwise); label: the whiplash verdict; every torque resolver's runs pooled ({margin['runs']:,}). Held "
-            f"out: {margin['held_out']}: {margin['held_out_runs']:,} runs, {margin['held_out_whips']} whips."
-        ),
-        "",
-        (
-            f"AUC on the held-out runs {margin['auc']:.3f} (on the even paths {margin['train_auc']:.3f}). At the "
-            f"threshold chosen on the even paths, σ ≥ {at['threshold']:.3g} 1/s: {rates(at)}; at σ ≥ 0: {rates(zero)}. "
-            f"The margin turned positive before {margin['warned_whips']} of the {margin['held_out_whips']} held-out "
-            f"whips, a median {margin['median_warning_time']:.3g} s before the instability "
-            f"({_ratio(margin['median_warning_fraction'])} of the time to it)."
-        ),
+        *_figures_table(figures),
         "",
         "| resolver | held-out runs | whips | AUC |",
         "|---|---|---|---|",

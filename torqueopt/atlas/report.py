@@ -172,13 +172,20 @@ def write_markdown(summary: dict) -> str:
     if summary.get("pinv_paths"):
         lines += ["", *pinv_paths_markdown(summary["pinv_paths"])]
     if summary["whips"]:
-        lines += ["", "## Where the whips happened", ""]
+        lines += [
+            "",
+            "## Where the whips happened",
+            "",
+            "| resolver | whips | joint nearest aligned at the instability (whips) | its median \\|angle\\| "
+            "| median top joint speed | median instability time / duration |",
+            "|---|---|---|---|---|---|",
+        ]
         for resolver, whip in summary["whips"].items():
             joints = ", ".join(f"{joint} {count}" for joint, count in whip["aligned_joint"].items())
             lines.append(
-                f"- {resolver}: {whip['count']} whips; joint nearest aligned at the instability: {joints}; median "
-                f"|angle| {whip['median_aligned_angle_deg']:.1f}°, median top joint speed {whip['median_whip_speed']:.3g} {whip.get('whip_speed_unit', 'rad/s')}, "
-                f"median instability at {whip['median_instability_time_fraction']:.0%} of the movement"
+                f"| {resolver} | {whip['count']} | {joints} | {whip['median_aligned_angle_deg']:.1f}° | "
+                f"{whip['median_whip_speed']:.3g} {whip.get('whip_speed_unit', 'rad/s')} | "
+                f"{whip['median_instability_time_fraction']:.0%} |"
             )
     if "global" in summary:
         lines += ["", *frontier_markdown(summary)]
@@ -217,29 +224,47 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    made = {}
     resolvers = summary["resolvers"]
     # Ten resolvers or fewer: the default cycle; more (every setting of every resolver): tab20, so none repeats.
     colours = {
         resolver: f"C{i}" if len(resolvers) <= 10 else plt.get_cmap("tab20")(i % 20)
         for i, resolver in enumerate(resolvers)
     }
+    made = {"unstable fraction against duration": _draw_fractions(summary, colours, out / "unstable_fraction.png")}
+    if "start_2" in table.columns and "start_3" not in table.columns:  # planar tasks
+        made["workspace map of start points by verdict"] = _draw_workspace(
+            table, summary, robot, out / "workspace_map.png"
+        )
+    made["histogram of instability times"] = _draw_instability_times(table, colours, out / "instability_time.png")
+    made["torque reduction against instability rate"] = _draw_tradeoff(table, summary, colours, out / "tradeoff.png")
+    if "margin" in summary:
+        made["ROC of the stability margin as a whip predictor, held-out paths"] = draw_margin_roc(
+            summary, out / "margin_roc.png"
+        )
+    return made
 
-    # 1. Unstable fraction against duration, per resolver, with Wilson intervals, for both criteria.
+
+def _bars(share: dict) -> np.ndarray:
+    """The error bar of a share's Wilson interval, (2, 1) below and above."""
+    return np.clip([[share["fraction"] - share["low"]], [share["high"] - share["fraction"]]], 0.0, None)
+
+
+def _draw_fractions(summary: dict, colours: dict, path: Path) -> str:
+    """Unstable fraction against duration, per resolver, with Wilson intervals, for both criteria."""
+    import matplotlib.pyplot as plt
+
+    resolvers = summary["resolvers"]
     figure, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for axis, criterion in zip(axes, summary["criteria"]):
         items = summary["unstable_fraction"][criterion]
         for offset, resolver in enumerate(resolvers):
             cells = [item for item in items if item["resolver"] == resolver and item["trials"]]
-            durations = np.array([c["duration"] for c in cells])
             shift = (offset - (len(resolvers) - 1) / 2) * 0.012 * (max(summary["durations"]) or 1)
-            fraction = np.array([c["fraction"] for c in cells])
-            error = np.clip(
-                [[c["fraction"] - c["low"] for c in cells], [c["high"] - c["fraction"] for c in cells]], 0.0, None
-            )
             axis.errorbar(
-                durations + shift, fraction, yerr=error, marker="o", capsize=3, label=resolver, color=colours[resolver]
-            )
+                np.array([c["duration"] for c in cells]) + shift, [c["fraction"] for c in cells],
+                yerr=np.hstack([_bars(c) for c in cells]) if cells else None, marker="o", capsize=3, label=resolver,
+                color=colours[resolver],
+            )  # fmt: skip
         axis.set_title(_SHORT_CRITERIA.get(criterion, criterion), fontsize=9)
         axis.set_xlabel("movement duration T [s]")
         axis.set_ylim(-0.02, 1.02)
@@ -247,75 +272,62 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
     axes[0].set_ylabel("unstable fraction (Wilson 95 % interval)")
     axes[0].legend(fontsize=8)
     figure.tight_layout()
-    made["unstable fraction against duration"] = _save(figure, out / "unstable_fraction.png")
+    return _save(figure, path)
 
-    # 2. Workspace map: start points coloured by verdict, one panel per resolver (planar tasks).
-    if "start_2" in table.columns and "start_3" not in table.columns:
-        verdict_colours = VERDICT_COLOURS  # joint limits and lost path were one purple here
-        longest = max(summary["durations"])
-        columns = min(len(resolvers), 4)
-        rows_of_panels = -(-len(resolvers) // columns)
-        figure, axes = plt.subplots(
-            rows_of_panels, columns, figsize=(3.4 * columns, 3.5 * rows_of_panels), squeeze=False
-        )
-        for axis in axes.flat[len(resolvers) :]:
-            axis.set_visible(False)
-        # A grid repeats each start point with several directions: there, colour by the share that whips.
-        longest_rows = table[table["duration"] == longest]
-        repeated = longest_rows.groupby(["resolver", "start_1", "start_2"]).size().max() > 1
-        for axis, resolver in zip(axes.flat, resolvers):
-            rows = table[(table["resolver"] == resolver) & (table["duration"] == longest)]
-            if repeated:
-                shares = rows.assign(whip=rows["verdict"] == "whiplash").groupby(["start_1", "start_2"])["whip"].mean()
-                starts = shares.index.to_frame(index=False)
-                points = axis.scatter(
-                    starts["start_1"],
-                    starts["start_2"],
-                    c=shares.to_numpy(),
-                    cmap="Reds",
-                    vmin=0,
-                    vmax=1,
-                    s=22,
-                    edgecolors="k",
-                    linewidths=0.3,
-                )
-                figure.colorbar(points, ax=axis, fraction=0.046, pad=0.04, label="share of directions that whip")
-            else:
-                for verdict, colour in verdict_colours.items():
-                    chosen = rows[rows["verdict"] == verdict]
-                    axis.scatter(
-                        chosen["start_1"],
-                        chosen["start_2"],
-                        s=10,
-                        color=colour,
-                        label=f"{verdict} ({len(chosen)})",
-                        linewidths=0,
-                    )
-            if robot.name == "planar3":
-                axis.add_patch(plt.Circle((0, 0), 3.0, fill=False, lw=0.6, color="k"))  # the arm's reach
-            axis.set_aspect("equal")
-            axis.set_title(f"{resolver}, T = {longest:g} s", fontsize=9)
-            axis.set_xlabel("start x [m]", fontsize=8)
-            axis.set_ylabel("start y [m]", fontsize=8)
-            if not repeated:
-                axis.legend(fontsize=6, loc="lower left", markerscale=1.5, handletextpad=0.2, borderpad=0.3)
-        figure.tight_layout()
-        made["workspace map of start points by verdict"] = _save(figure, out / "workspace_map.png")
 
-    # 3. Histograms of the instability time (as a fraction of the duration), per resolver.
+def _draw_workspace(table, summary: dict, robot, path: Path) -> str:
+    """Start points coloured by verdict at the longest duration, one panel per resolver; on a grid (several
+    directions from each start point), coloured by the share that whips."""
+    import matplotlib.pyplot as plt
+
+    resolvers, longest = summary["resolvers"], max(summary["durations"])
+    columns = min(len(resolvers), 4)
+    panel_rows = -(-len(resolvers) // columns)
+    figure, axes = plt.subplots(panel_rows, columns, figsize=(3.4 * columns, 3.5 * panel_rows), squeeze=False)
+    for axis in axes.flat[len(resolvers) :]:
+        axis.set_visible(False)
+    longest_rows = table[table["duration"] == longest]
+    repeated = longest_rows.groupby(["resolver", "start_1", "start_2"]).size().max() > 1
+    for axis, resolver in zip(axes.flat, resolvers):
+        rows = longest_rows[longest_rows["resolver"] == resolver]
+        if repeated:
+            shares = rows.assign(whip=rows["verdict"] == "whiplash").groupby(["start_1", "start_2"])["whip"].mean()
+            starts = shares.index.to_frame(index=False)
+            points = axis.scatter(
+                starts["start_1"], starts["start_2"], c=shares.to_numpy(), cmap="Reds", vmin=0, vmax=1, s=22,
+                edgecolors="k", linewidths=0.3,
+            )  # fmt: skip
+            figure.colorbar(points, ax=axis, fraction=0.046, pad=0.04, label="share of directions that whip")
+        else:
+            for verdict, colour in VERDICT_COLOURS.items():
+                chosen = rows[rows["verdict"] == verdict]
+                axis.scatter(
+                    chosen["start_1"], chosen["start_2"], s=10, color=colour, label=f"{verdict} ({len(chosen)})",
+                    linewidths=0,
+                )  # fmt: skip
+            axis.legend(fontsize=6, loc="lower left", markerscale=1.5, handletextpad=0.2, borderpad=0.3)
+        if robot.name == "planar3":
+            axis.add_patch(plt.Circle((0, 0), 3.0, fill=False, lw=0.6, color="k"))  # the arm's reach
+        axis.set_aspect("equal")
+        axis.set_title(f"{resolver}, T = {longest:g} s", fontsize=9)
+        axis.set_xlabel("start x [m]", fontsize=8)
+        axis.set_ylabel("start y [m]", fontsize=8)
+    figure.tight_layout()
+    return _save(figure, path)
+
+
+def _draw_instability_times(table, colours: dict, path: Path) -> str:
+    """Histograms of the instability time (as a fraction of the duration), per resolver."""
+    import matplotlib.pyplot as plt
+
     figure, axis = plt.subplots(figsize=(6.5, 4))
-    bins = np.linspace(0, 1, 21)
-    for resolver in resolvers:
+    for resolver in colours:
         rows = table[(table["resolver"] == resolver) & table["unstable"]]
         if len(rows):
             axis.hist(
-                rows["instability_time"] / rows["duration"],
-                bins=bins,
-                histtype="step",
-                lw=1.5,
-                label=f"{resolver} ({len(rows)})",
-                color=colours[resolver],
-            )
+                rows["instability_time"] / rows["duration"], bins=np.linspace(0, 1, 21), histtype="step", lw=1.5,
+                label=f"{resolver} ({len(rows)})", color=colours[resolver],
+            )  # fmt: skip
     axis.set_xlabel("instability time / duration (2x-limit rule)")
     axis.set_ylabel("runs")
     if axis.get_legend_handles_labels()[0]:
@@ -325,72 +337,60 @@ def write_figures(table, summary: dict, out: Path, robot) -> dict:
                   transform=axis.transAxes, fontsize=10)  # fmt: skip
     axis.grid(alpha=0.3)
     figure.tight_layout()
-    made["histogram of instability times"] = _save(figure, out / "instability_time.png")
+    return _save(figure, path)
 
-    # 4. Trade-off: torque reduction (on the paths where the method and pinv are both stable) against instability rate;
-    # with the global optimum, its point (a star) and a second panel: each method's median cost over the optimum's.
+
+def _draw_tradeoff(table, summary: dict, colours: dict, path: Path) -> str:
+    """Torque reduction (on the paths where the method and pinv are both stable) against the whiplash rate; with
+    the global optimum, its point (a star) and a second panel: each method's median cost over the optimum's."""
+    import matplotlib.pyplot as plt
+
     frontier = summary.get("global")
     if frontier is None:
         figure, axis = plt.subplots(figsize=(6.5, 4.5))
     else:
         figure, (axis, distance) = plt.subplots(1, 2, figsize=(13.5, 5.2))
+        _draw_distances(distance, frontier, colours)
     pinv_stable = set(table.loc[(table["resolver"] == "pinv") & (table["verdict"] == "stable"), "path"])
-    for resolver in resolvers:
+    for resolver in summary["resolvers"]:
         rows = table[table["resolver"] == resolver]
         calm = rows[(rows["verdict"] == "stable") & rows["path"].isin(pinv_stable)]
         ratio = calm["torque_vs_pinv"].to_numpy(dtype=float)
         ratio = ratio[np.isfinite(ratio)]
-        share = proportion(int((rows["verdict"] == "whiplash").sum()), len(rows))
+        share = proportion(int((rows["verdict"] == "whiplash").sum()), len(rows)).as_dict()
         if ratio.size:
             marker = "*" if resolver == GLOBAL_RESOLVER else ("o" if resolver in _PAPER_RESOLVERS else "s")
             axis.errorbar(
-                np.median(ratio),
-                share.fraction,
-                yerr=np.clip([[share.fraction - share.low], [share.high - share.fraction]], 0.0, None),
-                marker=marker,
-                capsize=3,
-                color=colours[resolver],
-                label=resolver,
-                linestyle="none",
+                np.median(ratio), share["fraction"], yerr=_bars(share), marker=marker, capsize=3,
+                color=colours[resolver], label=resolver, linestyle="none",
                 markersize=14 if resolver == GLOBAL_RESOLVER else 6,
-            )
+            )  # fmt: skip
     # pinv sits on x = 1 by definition: the reference line goes under the error bars, not over pinv's.
     axis.axvline(1.0, color="0.55", lw=0.8, ls="--", zorder=0.5)
     axis.set_xlabel("median peak |τ|/limit relative to pinv, paths where both are stable (left: less torque)")
     axis.set_ylabel("whiplash fraction, all durations")
     axis.legend(fontsize=8)
     axis.grid(alpha=0.3)
-    if frontier is not None:
-        _draw_distances(distance, frontier, colours)
     figure.tight_layout()
-    made["torque reduction against instability rate"] = _save(figure, out / "tradeoff.png")
-    if "margin" in summary:
-        made["ROC of the stability margin as a whip predictor, held-out paths"] = draw_margin_roc(
-            summary, out / "margin_roc.png"
-        )
-    return made
+    return _save(figure, path)
 
 
 def _draw_distances(axis, frontier: dict, colours: dict) -> None:
     """Each local method's median cost over the global optimum's (x, log) against its share of problem-free paths."""
     for resolver, item in frontier["local"].items():
-        cost = item["median_cost_vs_global"]
-        share = item["problem_free"]
+        cost, share = item["median_cost_vs_global"], item["problem_free"]
         if not math.isfinite(cost):
             continue
         marker = "o" if resolver in _PAPER_RESOLVERS else "s"
         axis.errorbar(
-            cost, share["fraction"],
-            yerr=np.clip([[share["fraction"] - share["low"]], [share["high"] - share["fraction"]]], 0.0, None),
-            marker=marker, capsize=3, color=colours.get(resolver, "k"), linestyle="none", label=resolver,
+            cost, share["fraction"], yerr=_bars(share), marker=marker, capsize=3, color=colours.get(resolver, "k"),
+            linestyle="none", label=resolver,
         )  # fmt: skip
         axis.annotate(resolver, (cost, share["fraction"]), fontsize=6, xytext=(4, 3), textcoords="offset points")
     own = frontier["problem_free"]
     axis.errorbar(
-        1.0, own["fraction"],
-        yerr=np.clip([[own["fraction"] - own["low"]], [own["high"] - own["fraction"]]], 0.0, None),
-        marker="*", markersize=14, capsize=3, color=colours.get(GLOBAL_RESOLVER, "k"), linestyle="none",
-        label=GLOBAL_RESOLVER,
+        1.0, own["fraction"], yerr=_bars(own), marker="*", markersize=14, capsize=3,
+        color=colours.get(GLOBAL_RESOLVER, "k"), linestyle="none", label=GLOBAL_RESOLVER,
     )  # fmt: skip
     axis.set_xscale("log")
     axis.set_xlabel("median ∫‖τ‖² dt / the global optimum's on the same path (log)")

@@ -143,7 +143,7 @@ def chunk_output(job: ResolverChunk | GlobalChunk) -> ChunkOutput:
         for movement, line, result, (kinetic, self_energy), pinv_peak in zip(
             movements, lines, results, energies, pinv_peaks
         ):
-            row = movement_columns(movement, resolver_label(resolver))
+            row = movement_columns(movement, resolver.label)  # its name and changed options: a setting is a resolver
             row["resolver_options"] = options_text
             row.update(run_row(result, kinetic, self_energy, pinv_peak, job.thresholds))
             row["cost"] = run_cost(result, robot)  # ∫‖τ − τ_mid‖² dt, optimize's criterion, on the run's grid
@@ -161,15 +161,8 @@ def chunk_output(job: ResolverChunk | GlobalChunk) -> ChunkOutput:
     kept = KeptPaths(job.keep_traces, job.parts_per_path)
     kept.tell_rows(rows)
     runs = [run for run in runs if kept.may_keep(run[0])]
-    labels = [resolver_label(resolver) for resolver in job.resolvers]
+    labels = [resolver.label for resolver in job.resolvers]
     return ChunkOutput(rows, Traces.pack(labels, runs, robot.nv, robot.model.njoints))  # arm_points' count
-
-
-def resolver_label(resolver: Resolver) -> str:
-    """The resolver as the table's ``resolver`` column writes it: its :attr:`~torqueopt.Resolver.label`,
-    the name with the options that differ from their defaults (``bounded-torque[joint_limits=off]``), so each
-    setting of one resolver is a resolver of its own in every table, figure and summary."""
-    return resolver.label
 
 
 def simulate_all(robot, resolver, lines, q0s, dt, batch, *, plant="pinocchio", plant_options=None):

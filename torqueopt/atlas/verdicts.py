@@ -257,46 +257,10 @@ def run_row(
     torque_vs_pinv = peak_ratio / pinv_peak_ratio if pinv_peak_ratio > 0 else math.nan
     runaway = bool(over_energy.any() or (math.isfinite(torque_vs_pinv) and torque_vs_pinv > thresholds.pinv_factor))
 
-    # The task Jacobian's singularity, or an algorithmic one (the extended Jacobian's), even at t = 0.
-    singular = result.stop_reason is not None and "Jacobian is singular" in result.stop_reason
-    if report.unstable:
-        from_the_start = report.time is not None and report.time <= result.t[0]
-        verdict = "whiplash" if runaway and not from_the_start else "too demanding"
-    elif position_violation is not None or velocity_violation is not None:
-        verdict = "joint limits"
-    elif singular:
-        verdict = "singular"
-    elif tip_error > DEFAULT_PATH_TOLERANCE or math.isnan(tip_error):
-        verdict = "lost path"
-    elif not result.completed:
-        verdict = "stopped early"
-    else:
-        verdict = "stable"
-
-    # Where the whip happened: at the instability, else at the peak demand.
-    if count:
-        whip_row = int(np.argmax(result.t >= report.time)) if report.unstable else int(np.argmax(ratios.max(axis=1)))
-        angles = _wrapped(result.joint_angles[whip_row])
-        candidates = np.arange(1, result.n) if result.n > 1 else np.arange(result.n)
-        aligned = int(candidates[np.argmin(np.abs(angles[candidates]))])
-        speeds = np.abs(result.v[whip_row])
-        fastest = int(np.argmax(speeds))
-        whip = {
-            "whip_time": float(result.t[whip_row]),
-            "aligned_joint": result.joint_names[aligned],
-            "aligned_angle": float(angles[aligned]),
-            "whip_speed_joint": result.joint_names[fastest],
-            "whip_speed": float(speeds[fastest]),
-        }
-    else:
-        whip = {
-            "whip_time": math.nan,
-            "aligned_joint": None,
-            "aligned_angle": math.nan,
-            "whip_speed_joint": None,
-            "whip_speed": math.nan,
-        }
-
+    verdict = _verdict(result, report, runaway, position_violation, velocity_violation, tip_error)
+    whip = (
+        _whip(result, report, ratios) if count else dict(zip(_WHIP_COLUMNS, (math.nan, None, math.nan, None, math.nan)))
+    )
     return {
         "unstable": bool(report.unstable),
         "verdict": verdict,
@@ -326,3 +290,38 @@ def run_row(
         "simulated_time": float(result.t[-1]) if count else 0.0,
         "steps": count,
     }
+
+
+def _verdict(result: SimResult, report, runaway: bool, position_violation, velocity_violation, tip_error) -> str:
+    """The verdict of a run (the module docstring), from its 2x-limit report and runaway flag."""
+    if report.unstable:
+        from_the_start = report.time is not None and report.time <= result.t[0]
+        return "whiplash" if runaway and not from_the_start else "too demanding"
+    if position_violation is not None or velocity_violation is not None:
+        return "joint limits"
+    # The task Jacobian's singularity, or an algorithmic one (the extended Jacobian's), even at t = 0.
+    if result.stop_reason is not None and "Jacobian is singular" in result.stop_reason:
+        return "singular"
+    if tip_error > DEFAULT_PATH_TOLERANCE or math.isnan(tip_error):
+        return "lost path"
+    return "stable" if result.completed else "stopped early"
+
+
+_WHIP_COLUMNS = ("whip_time", "aligned_joint", "aligned_angle", "whip_speed_joint", "whip_speed")
+
+
+def _whip(result: SimResult, report, ratios: np.ndarray) -> dict:
+    """Where the whip happened: at the instability, else at the peak demand (a run with samples)."""
+    whip_row = int(np.argmax(result.t >= report.time)) if report.unstable else int(np.argmax(ratios.max(axis=1)))
+    angles = _wrapped(result.joint_angles[whip_row])
+    candidates = np.arange(1, result.n) if result.n > 1 else np.arange(result.n)
+    aligned = int(candidates[np.argmin(np.abs(angles[candidates]))])
+    speeds = np.abs(result.v[whip_row])
+    fastest = int(np.argmax(speeds))
+    values = (
+        float(result.t[whip_row]),
+        result.joint_names[aligned],
+        float(angles[aligned]),
+        result.joint_names[fastest],
+    )
+    return dict(zip(_WHIP_COLUMNS, (*values, float(speeds[fastest]))))

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..result import SimResult
-from ..whiplash import WhiplashReport
 from .alignment import alignment_times
 
 if TYPE_CHECKING:
@@ -70,132 +69,134 @@ def check_claims(results: PaperResults) -> list[Claim]:
 
 
 def _check_claims(results: PaperResults) -> list[Claim]:
-    runs, judged = results.runs, results.whiplash
-    limit = np.asarray(results.scenario.torque_limit)
+    pinv_speed = float(np.abs(results.runs["long", "pinv"].v).max(initial=0.0))  # the long movement's fastest joint
+    return [
+        _claim_1(results.runs, np.asarray(results.scenario.torque_limit)),
+        _claim_2(results.runs),
+        _claim_3(results, pinv_speed),
+        _claim_4(results.runs),
+        _claim_5(results),
+        _claim_6(results.free_swing, pinv_speed),
+    ]
 
-    def peak(movement, name):
-        return runs[movement, name].peak_torque
 
-    def within(movement, name):
-        return runs[movement, name].first_limit_violation is None and runs[movement, name].completed
+def _peak(runs, movement: str, name: str) -> np.ndarray:
+    return runs[movement, name].peak_torque
 
-    claims = []
-    pinv, null = peak("short", "pinv"), peak("short", "null-space")
+
+def _within(runs, movement: str, name: str) -> bool:
+    return runs[movement, name].first_limit_violation is None and runs[movement, name].completed
+
+
+def _claim_1(runs, limit: np.ndarray) -> Claim:
+    pinv, null = _peak(runs, "short", "pinv"), _peak(runs, "short", "null-space")
     fraction = null[0] / pinv[0]
     pulled = (pinv[2] - null[2]) / limit[2]
-    claims.append(
-        Claim(
-            1,
-            "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
-            "away from its 6 N·m limit",
-            bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
-            {
-                "joint_1_fraction_of_pinv": fraction,
-                "small_fraction": SMALL_FRACTION,
-                "joint_3_pulled_away": pulled,
-                "pulled_away": PULLED_AWAY,
-            },
-        )
+    return Claim(
+        1,
+        "short: null-space cuts the peak joint-1 torque to a small fraction of pinv's and pulls joint 3 "
+        "away from its 6 N·m limit",
+        bool(fraction <= SMALL_FRACTION and pulled >= PULLED_AWAY),
+        {
+            "joint_1_fraction_of_pinv": fraction,
+            "small_fraction": SMALL_FRACTION,
+            "joint_3_pulled_away": pulled,
+            "pulled_away": PULLED_AWAY,
+        },
     )
 
-    pinv, null = peak("medium", "pinv"), peak("medium", "null-space")
-    claims.append(
-        Claim(
-            2,
-            "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
-            "limits, though joint 2 is larger",
-            bool(null[0] < pinv[0] and null[2] < pinv[2] and within("medium", "null-space") and null[1] > pinv[1]),
-            {"null_space_first_limit_violation": runs["medium", "null-space"].first_limit_violation},
-        )
+
+def _claim_2(runs) -> Claim:
+    pinv, null = _peak(runs, "medium", "pinv"), _peak(runs, "medium", "null-space")
+    return Claim(
+        2,
+        "medium: null-space still needs less peak torque than pinv at joints 1 and 3 and stays within all "
+        "limits, though joint 2 is larger",
+        bool(null[0] < pinv[0] and null[2] < pinv[2] and _within(runs, "medium", "null-space") and null[1] > pinv[1]),
+        {"null_space_first_limit_violation": runs["medium", "null-space"].first_limit_violation},
     )
 
-    long_pinv, long_null = runs["long", "pinv"], runs["long", "null-space"]
-    verdict = judged["long", "null-space"]
-    pinv_speed = float(np.abs(long_pinv.v).max(initial=0.0))
+
+def _claim_3(results: PaperResults, pinv_speed: float) -> Claim:
+    runs, judged = results.runs, results.whiplash
+    long_null, verdict = runs["long", "null-space"], judged["long", "null-space"]
     aligned = [t for t in alignment_times(long_null) if verdict.time is not None and t >= verdict.time - NEAR_ALIGNMENT]
     speed_at = [_speed_at(long_null, t) for t in aligned]
     fast = [pinv_speed > 0 and s >= HIGH_SPEED * pinv_speed for s in speed_at]
     late = bool(verdict.unstable and verdict.time > 0.5 * long_null.duration)
-    claims.append(
-        Claim(
-            3,
-            "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
-            "passing through alignment at high joint speeds",
-            bool(within("long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
-            {
-                "pinv_fastest_joint_speed": pinv_speed,
-                "alignment_times": aligned,
-                "fastest_joint_speed_at": speed_at,
-                "high_speed": HIGH_SPEED,
-                "near_alignment": NEAR_ALIGNMENT,
-            },
-        )
+    return Claim(
+        3,
+        "long: pinv stays within all limits; null-space goes unstable late in the movement, with links 2 and 3 "
+        "passing through alignment at high joint speeds",
+        bool(_within(runs, "long", "pinv") and not judged["long", "pinv"].unstable and late and any(fast)),
+        {
+            "pinv_fastest_joint_speed": pinv_speed,
+            "alignment_times": aligned,
+            "fastest_joint_speed_at": speed_at,
+            "high_speed": HIGH_SPEED,
+            "near_alignment": NEAR_ALIGNMENT,
+        },
     )
 
-    weighted, null = peak("short", "weighted-null-space"), peak("short", "null-space")
+
+def _claim_4(runs) -> Claim:
+    weighted, null = _peak(runs, "short", "weighted-null-space"), _peak(runs, "short", "null-space")
     ratio = weighted[2] / null[2]
-    claims.append(
-        Claim(
-            4,
-            "short: weighted-null-space makes joint 3's torque much smaller than null-space's at the expense of "
-            "joints 1 and 2, all within limits",
-            bool(
-                ratio <= MUCH_SMALLER
-                and weighted[0] > null[0]
-                and weighted[1] > null[1]
-                and within("short", "weighted-null-space")
-            ),
-            {"joint_3_fraction_of_null_space": ratio, "much_smaller": MUCH_SMALLER},
-        )
+    return Claim(
+        4,
+        "short: weighted-null-space makes joint 3's torque much smaller than null-space's at the expense of "
+        "joints 1 and 2, all within limits",
+        bool(
+            ratio <= MUCH_SMALLER
+            and weighted[0] > null[0]
+            and weighted[1] > null[1]
+            and _within(runs, "short", "weighted-null-space")
+        ),
+        {"joint_3_fraction_of_null_space": ratio, "much_smaller": MUCH_SMALLER},
     )
 
-    inertia, pinv, null = peak("short", "inertia-pinv"), peak("short", "pinv"), peak("short", "null-space")
+
+def _claim_5(results: PaperResults) -> Claim:
+    runs = results.runs
+    inertia, pinv = _peak(runs, "short", "inertia-pinv"), _peak(runs, "short", "pinv")
+    null = _peak(runs, "short", "null-space")
     between = [min(p, z) <= i <= max(p, z) for i, p, z in zip(inertia, pinv, null)]
-    unstable_long = {name: judged["long", name] for name in ("weighted-null-space", "inertia-pinv")}
-    claims.append(
-        Claim(
-            5,
-            "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
-            "movement lie between those of pinv and null-space for most joints",
-            bool(all(v.unstable for v in unstable_long.values()) and sum(between) > len(between) / 2),
-            {"joints_between": [i + 1 for i, b in enumerate(between) if b]},
-        )
+    unstable_long = [results.whiplash["long", name].unstable for name in ("weighted-null-space", "inertia-pinv")]
+    return Claim(
+        5,
+        "long: weighted-null-space and inertia-pinv go unstable too; inertia-pinv's torques in the short "
+        "movement lie between those of pinv and null-space for most joints",
+        bool(all(unstable_long) and sum(between) > len(between) / 2),
+        {"joints_between": [i + 1 for i, b in enumerate(between) if b]},
     )
 
-    swing = results.free_swing
+
+def _claim_6(swing: SimResult, pinv_speed: float) -> Claim:
     speed = np.abs(swing.v).max(axis=1, initial=0.0)
     peak_row = int(np.argmax(speed))
     peak_time, peak_speed = float(swing.t[peak_row]), float(speed[peak_row])
     swing_aligned = alignment_times(swing)
     nearest = min(swing_aligned, key=lambda t: abs(t - peak_time)) if swing_aligned else None
-    claims.append(
-        Claim(
-            6,
-            "the free-swinging arm shows the same whip: a joint-speed peak as links 2 and 3 straighten",
-            bool(
-                nearest is not None
-                and abs(nearest - peak_time) <= NEAR_ALIGNMENT
-                and pinv_speed > 0
-                and peak_speed >= HIGH_SPEED * pinv_speed
-            ),
-            {
-                "fastest_joint": swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))],
-                "peak_speed": peak_speed,
-                "peak_time": peak_time,
-                "pinv_fastest_joint_speed": pinv_speed,
-                "high_speed": HIGH_SPEED,
-                "near_alignment": NEAR_ALIGNMENT,
-            },
-        )
+    return Claim(
+        6,
+        "the free-swinging arm shows the same whip: a joint-speed peak as links 2 and 3 straighten",
+        bool(
+            nearest is not None
+            and abs(nearest - peak_time) <= NEAR_ALIGNMENT
+            and pinv_speed > 0
+            and peak_speed >= HIGH_SPEED * pinv_speed
+        ),
+        {
+            "fastest_joint": swing.joint_names[int(np.argmax(np.abs(swing.v[peak_row])))],
+            "peak_speed": peak_speed,
+            "peak_time": peak_time,
+            "pinv_fastest_joint_speed": pinv_speed,
+            "high_speed": HIGH_SPEED,
+            "near_alignment": NEAR_ALIGNMENT,
+        },
     )
-    return claims
 
 
 def _speed_at(result: SimResult, time: float) -> float:
     row = int(np.clip(np.searchsorted(result.t, time), 0, len(result.t) - 1))
     return float(np.abs(result.v[row]).max())
-
-
-def verdict_text(report: WhiplashReport) -> str:
-    """ "unstable from t = ... s", "lost path", "stopped early" or "stable", for summaries and figure titles."""
-    return report.summary
