@@ -42,7 +42,9 @@ replay of its torques.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import textwrap
 import time
 from dataclasses import dataclass
@@ -82,13 +84,14 @@ class Curve:
         """The atlas's resolver labels, left to right (the optimum comes from ``--global``)."""
         return [*LOCAL, *([ONE_STEP] if self.one_step else []), *(window_label(h) for h in self.horizons)]
 
-    def arguments(self, out) -> list[str]:
-        """The ``torqueopt atlas`` arguments of this curve's sweep into ``out``."""
+    def arguments(self, out, workers: int = 0) -> list[str]:
+        """The ``torqueopt atlas`` arguments of this curve's sweep into ``out`` on ``workers`` Dask worker processes
+        (0: in this process). The workers are no setting of the atlas: a sweep resumes with any count."""
         return [
             "--robot", self.robot, "--path", self.path, "--paths", str(self.planned_paths),
             "--durations", f"{self.duration:g}", "--seed", str(self.seed), "--resolvers", ",".join(self.resolvers()),
-            "--global", "--global-bounded", "--workers", "0", "--chunk-size", "1", "--no-figures", "--no-progress",
-            "--out", str(out),
+            "--global", "--global-bounded", "--workers", str(workers), "--chunk-size", "1", "--no-figures",
+            "--no-progress", "--out", str(out),
         ]  # fmt: skip
 
 
@@ -414,11 +417,48 @@ def _draw_curve(share_ax, cost_ax, curve: dict) -> None:
 
 
 # -- the commands -----------------------------------------------------------------------------------------------
-def run(curve: Curve, out: Path) -> int:
-    """The curve's atlas, in this process, resumed when ``out`` holds it already."""
+def run(curve: Curve, out: Path, workers: int = 0, times: Path | None = None) -> int:
+    """The curve's atlas on ``workers`` Dask worker processes (0: in this process), resumed when ``out`` holds it
+    already; with ``times``, each chunk's CPU time appended to that file (:func:`timed_chunks`)."""
     from torqueopt.cli import main as torqueopt_main
 
-    return torqueopt_main(["atlas", *curve.arguments(out)])
+    if times is None:
+        return torqueopt_main(["atlas", *curve.arguments(out, workers)])
+    if workers:
+        raise SystemExit("--times reads the CPU time of this process's chunks: give --workers 0")
+    with timed_chunks(times):
+        return torqueopt_main(["atlas", *curve.arguments(out)])
+
+
+@contextlib.contextmanager
+def timed_chunks(times: Path):
+    """Append one JSON line to ``times`` per chunk that this process computes while the block runs: its first path,
+    its part (``resolvers``: every resolver's run; ``optimum``: the whole-movement optimum), its CPU and wall
+    seconds, the load average and when it finished. A benchmark's instrument around the atlas's chunk function
+    (``torqueopt.atlas.sweep.chunk_output``): the chunks' rows are untouched."""
+    from torqueopt.atlas import sweep
+    from torqueopt.atlas.jobs import GlobalChunk
+
+    untimed = sweep.chunk_output
+
+    def chunk_output(job):
+        began, wall = time.process_time(), time.perf_counter()
+        output = untimed(job)
+        row = {
+            "path": int(job.movements[0].path), "paths": len(job.movements),
+            "part": "optimum" if isinstance(job, GlobalChunk) else "resolvers",
+            "cpu_seconds": round(time.process_time() - began, 3), "wall_seconds": round(time.perf_counter() - wall, 3),
+            "load": round(os.getloadavg()[0], 2), "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        }  # fmt: skip
+        with times.open("a") as handle:
+            handle.write(json.dumps(row) + "\n")
+        return output
+
+    sweep.chunk_output = chunk_output
+    try:
+        yield
+    finally:
+        sweep.chunk_output = untimed
 
 
 def movements_of(curve: Curve, atlas_folder: Path, paths: list[int]) -> tuple:
@@ -551,6 +591,14 @@ def main(argv=None) -> int:
     running = commands.add_parser("run", allow_abbrev=False, help="the curve's atlas (resumed)")
     running.add_argument("curve", choices=list(CURVES))
     running.add_argument("--out", type=Path, required=True)
+    running.add_argument(
+        "--workers",
+        type=int,
+        default=0,
+        help="Dask worker processes (default 0: this process); any count resumes the same folder",
+    )
+    running.add_argument("--times", type=Path, metavar="ROWS.jsonl",
+                         help="append each chunk's CPU time to this file (with --workers 0)")  # fmt: skip
     timing = commands.add_parser("time", allow_abbrev=False, help="CPU time per run on the first paths")
     timing.add_argument("curve", choices=list(CURVES))
     timing.add_argument("--atlas", type=Path, required=True)
@@ -572,7 +620,7 @@ def main(argv=None) -> int:
     summarising.add_argument("--readme", type=Path, help="write the README's answer block")
     arguments = parser.parse_args(argv)
     if arguments.command == "run":
-        return run(CURVES[arguments.curve], arguments.out)
+        return run(CURVES[arguments.curve], arguments.out, arguments.workers, arguments.times)
     if arguments.command == "time":
         time_methods(CURVES[arguments.curve], arguments.atlas, arguments.paths, arguments.out)
         return 0
