@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import textwrap
 import time
@@ -263,6 +264,81 @@ def answer_of(methods: list[dict]) -> dict:
         else None,
         "first_window_matching_optimum": matching["key"] if matching else None,
         "first_window_matching_optimum_text": matching["horizon_text"] if matching else None,
+    }
+
+
+# -- what a curve costs to run -----------------------------------------------------------------------------------
+def path_seconds(chunk_rows) -> dict:
+    """CPU seconds per whole path, ``{path: {"resolvers": s, "optimum": s}}``, from :func:`timed_chunks`' rows
+    (one path per chunk); a path without both parts is left out, a part timed twice (a chunk redone) counts once,
+    the last time."""
+    parts: dict = {}
+    for row in chunk_rows:
+        if row["paths"] != 1:
+            raise ValueError(f"a chunk of {row['paths']} paths at path {row['path']}: the curve runs one path a chunk")
+        parts.setdefault(row["path"], {})[row["part"]] = row["cpu_seconds"]
+    return {path: part for path, part in sorted(parts.items()) if set(part) == {"resolvers", "optimum"}}
+
+
+def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict:
+    """What ``curve`` costs: CPU seconds per path over the timed paths (mean, its 95 % interval from the standard
+    error, median, 90th percentile, largest; by part), and the hours its ``planned_paths`` take at that mean in
+    CPU time and in wall time on each count of ``workers`` busy cores; with ``method_rows`` (the ``time`` command's),
+    each method's mean CPU seconds per path and its share of their sum."""
+    seconds = path_seconds(chunk_rows)
+    totals = np.array([sum(part.values()) for part in seconds.values()], float)
+    if not totals.size:
+        raise SystemExit(f"no path of curve {curve.name} has both its chunks timed")
+    mean = float(totals.mean())
+    error = float(totals.std(ddof=1) / np.sqrt(totals.size)) if totals.size > 1 else math.nan
+    hours = curve.planned_paths * mean / 3600.0
+    item = {
+        "name": curve.name, "planned_paths": curve.planned_paths, "timed_paths": int(totals.size),
+        "paths": [int(path) for path in seconds],
+        "cpu_per_path": {
+            "mean": mean, "low": mean - 1.96 * error, "high": mean + 1.96 * error, "median": float(np.median(totals)),
+            "p90": float(np.percentile(totals, 90)), "max": float(totals.max()),
+        },
+        "cpu_per_path_by_part": {
+            part: float(np.mean([parts[part] for parts in seconds.values()])) for part in ("resolvers", "optimum")
+        },
+        "mean_load": float(np.mean([row["load"] for row in chunk_rows if row["path"] in seconds])),
+        "cpu_hours": hours,
+        "cpu_hours_low": curve.planned_paths * (mean - 1.96 * error) / 3600.0,
+        "cpu_hours_high": curve.planned_paths * (mean + 1.96 * error) / 3600.0,
+        "hours_on": [{"workers": count, "hours": hours / count} for count in workers],
+        "methods": [],
+    }  # fmt: skip
+    if method_rows:
+        by_method: dict = {}
+        for row in method_rows:
+            by_method.setdefault(row["method"], []).append(row["cpu_seconds"])
+        means = {label: float(np.mean(values)) for label, values in by_method.items()}
+        whole = sum(means.values())
+        for label, value in means.items():
+            seconds_of = horizon_of(label, curve.duration)
+            item["methods"].append({
+                "label": label, "key": method_key(label, curve.duration),
+                "name": _method_name(label, seconds_of, curve.duration), "timed_paths": len(by_method[label]),
+                "cpu_seconds_per_path": value, "share": value / whole,
+            })  # fmt: skip
+    return item
+
+
+def cost_summary(times: dict, method_times: dict | None = None, workers=(1, 2)) -> dict:
+    """The JSON of what the curves cost (``times``: curve name -> :func:`timed_chunks`' file; ``method_times``:
+    curve name -> the ``time`` command's file), with their sum in hours on each count of ``workers``."""
+    curves = []
+    for name, file in times.items():
+        rows = [json.loads(line) for line in Path(file).read_text().splitlines()]
+        methods = (method_times or {}).get(name)
+        method_rows = [json.loads(line) for line in Path(methods).read_text().splitlines()] if methods else None
+        curves.append(run_cost(CURVES[name], rows, method_rows, workers))
+    cpu = sum(curve["cpu_hours"] for curve in curves)
+    return {
+        "curves": curves,
+        "cpu_hours": cpu,
+        "hours_on": [{"workers": count, "hours": cpu / count} for count in workers],
     }
 
 
@@ -605,6 +681,11 @@ def main(argv=None) -> int:
     timing.add_argument("--paths", type=lambda text: [int(p) for p in text.split(",")], default=[0],
                         metavar="I,J,...", help="the paths (indices) to time (default 0)")  # fmt: skip
     timing.add_argument("--out", type=Path, required=True)
+    costing = commands.add_parser("cost", allow_abbrev=False, help="CPU per path and the curves' projected hours")
+    costing.add_argument("--times", action="append", required=True, metavar="CURVE=ROWS.jsonl",
+                         help="run --times's rows of a curve")  # fmt: skip
+    costing.add_argument("--methods", action="append", metavar="CURVE=ROWS.jsonl", help="the time command's rows")
+    costing.add_argument("--json", type=Path, required=True)
     summarising = commands.add_parser("summary", allow_abbrev=False, help="the JSON, the figure, the README")
     summarising.add_argument("--atlas", action="append", required=True, metavar="CURVE=FOLDER")
     summarising.add_argument("--timing", action="append", metavar="CURVE=ROWS.jsonl")
@@ -623,6 +704,18 @@ def main(argv=None) -> int:
         return run(CURVES[arguments.curve], arguments.out, arguments.workers, arguments.times)
     if arguments.command == "time":
         time_methods(CURVES[arguments.curve], arguments.atlas, arguments.paths, arguments.out)
+        return 0
+    if arguments.command == "cost":
+        result = cost_summary(_pairs(arguments.times), _pairs(arguments.methods))
+        arguments.json.write_text(json.dumps(result, indent=1) + "\n")
+        for curve in result["curves"]:
+            spread = curve["cpu_per_path"]
+            print(f"{curve['name']}: {curve['timed_paths']} paths, CPU per path {spread['mean']:.1f} s "
+                  f"[{spread['low']:.1f}, {spread['high']:.1f}] (median {spread['median']:.1f}, max {spread['max']:.1f}), "
+                  f"{curve['planned_paths']} paths: {curve['cpu_hours']:.1f} CPU hours")  # fmt: skip
+        print(f"all: {result['cpu_hours']:.1f} CPU hours; " + ", ".join(
+            f"{item['hours']:.1f} h on {item['workers']} cores" for item in result["hours_on"]))  # fmt: skip
+        print(f"wrote {arguments.json}")
         return 0
     others = {name: (int(text.split(":", 1)[0]), text.split(":", 1)[1]) for name, text in
               _pairs(arguments.replan_check).items()}  # fmt: skip
