@@ -13,28 +13,49 @@ under the same torque bounds and joint limits at the right edge:
   the torque bounds and joint limits, its default starts), which also say on which paths no motion within the
   limits exists (``infeasible for every resolver``).
 
-Three commands, one process at a time:
+Four commands:
 
-``run CURVE --out FOLDER``
-    the atlas of ``CURVE`` (:data:`CURVES`) in ``FOLDER``, one path per chunk, in this process (no Dask workers):
-    stopped at any moment (Ctrl-C, a kill), the same command resumes it, and the paths finish in order, so a
-    stopped sweep leaves a whole prefix of paths (:mod:`torqueopt.atlas.prefix`).
+``run CURVE --out FOLDER [--workers N] [--times ROWS.jsonl]``
+    the atlas of ``CURVE`` (:data:`CURVES`) in ``FOLDER``, one path per chunk, in this process (``--workers 0``,
+    the default) or on N Dask worker processes. The worker count is no setting of the atlas: any count resumes
+    the same folder, and the rows do not depend on it. The chunks go out in the order of their paths, so a sweep
+    stopped at any moment leaves a whole prefix of paths, and the chunks in flight (at most N) are lost; the same
+    command resumes it. Stop it with Ctrl-C (``kill -INT``) when N >= 1: the workers ignore it and the sweep ends
+    within seconds; in this process a Ctrl-C reaches IPOPT, which takes it as a stop of one solve and goes on, so
+    stop it with ``kill`` (SIGTERM). ``--times`` appends each chunk's CPU seconds to ROWS.jsonl (``--workers 0``).
 ``time CURVE --atlas FOLDER --paths I,J --out ROWS.jsonl``
     the CPU time [s] of every method's run on the paths I, J of that atlas, one JSON line per run (resumed
     from the lines already written): the atlas's rows carry no time, so that a chunk is a deterministic function
     of its settings.
+``cost --times CURVE=ROWS.jsonl ... [--methods CURVE=ROWS.jsonl ...] --json OUT.json``
+    the CPU seconds per path of ``run --times``'s rows, the hours the curve's planned paths take in CPU time and on
+    one and two busy cores, and (from ``time``'s rows) each method's share (:func:`run_cost`).
 ``summary --atlas CURVE=FOLDER ... --timing CURVE=ROWS.jsonl ... --json OUT.json --figure OUT.png``
     reads each atlas's finished prefix of paths and the timing rows, and writes per method: the problem-free
     share over all paths and over the feasible ones, the whiplash share (each with its Wilson 95 % interval),
     the median cost ∫‖τ − τ_mid‖² dt, its median ratio to the optimum's on the same path, the median peak
     torque ratio, the CPU time per control step; and the figure.
 
+What a path costs is IPOPT's work in the windows' solves (docs/discussion/horizon.md, "What it costs"): the
+atlas's own work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under
+0.1 s a path, the local methods about a second, the whole-movement optimum (two starts, phase-1 where no start
+meets the limits) a few seconds. Most of the windows' work is in solves that fail: once a window finds no motion
+within the limits, the run leaves the path under the fallback and every later solve of that run fails too. The
+one-step window is run, not read off ``bounded-torque[kinematic_weight=0]``'s row, although it solves the same
+step's problem: the window holds the tip to the path's position one step ahead where ``bounded-torque`` integrates
+accelerations and drifts (1.0 to 1.3 mm over a 2 s line, past the verdicts' 1 mm), and a failed window falls back
+to ``bounded-torque``'s defaults (``kinematic_weight=0.5``). On the first 13 planar3 paths their verdicts differ on
+4 (three drifts, one whip), while their costs agree within 0.3 % on the 5 paths with no infeasible step.
+
 A run is *problem-free* when its verdict is ``stable`` and its peak torque within the limits
 (:func:`torqueopt.atlas.frontier.problem_free`); the optimum's row is judged the same way, from the open-loop
 replay of its torques.
 
-    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3
+    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3 --workers 2
+    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3 --times runs/planar3-times.jsonl
     nice python benchmarks/horizon_curve.py time planar3 --atlas runs/planar3 --paths 1 --out runs/planar3-time.jsonl
+    python benchmarks/horizon_curve.py cost --times planar3=runs/planar3-times.jsonl \
+        --methods planar3=runs/planar3-time.jsonl --json docs/data/horizon_time.json
     python benchmarks/horizon_curve.py summary --atlas planar3=runs/planar3 --timing planar3=runs/planar3-time.jsonl \
         --json docs/data/horizon_curve.json --figure docs/horizon_curve.png
 """
@@ -282,7 +303,7 @@ def path_seconds(chunk_rows) -> dict:
 
 def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict:
     """What ``curve`` costs: CPU seconds per path over the timed paths (mean, its 95 % interval from the standard
-    error, median, 90th percentile, largest; by part), and the hours its ``planned_paths`` take at that mean in
+    error, cut at 0, median, 90th percentile, least, largest; by part), and the hours its ``planned_paths`` take at that mean in
     CPU time and in wall time on each count of ``workers`` busy cores; with ``method_rows`` (the ``time`` command's),
     each method's mean CPU seconds per path and its share of their sum."""
     seconds = path_seconds(chunk_rows)
@@ -296,15 +317,16 @@ def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict
         "name": curve.name, "planned_paths": curve.planned_paths, "timed_paths": int(totals.size),
         "paths": [int(path) for path in seconds],
         "cpu_per_path": {
-            "mean": mean, "low": mean - 1.96 * error, "high": mean + 1.96 * error, "median": float(np.median(totals)),
-            "p90": float(np.percentile(totals, 90)), "max": float(totals.max()),
+            "mean": mean, "low": max(mean - 1.96 * error, 0.0), "high": mean + 1.96 * error,
+            "median": float(np.median(totals)), "p90": float(np.percentile(totals, 90)), "min": float(totals.min()),
+            "max": float(totals.max()),
         },
         "cpu_per_path_by_part": {
             part: float(np.mean([parts[part] for parts in seconds.values()])) for part in ("resolvers", "optimum")
         },
         "mean_load": float(np.mean([row["load"] for row in chunk_rows if row["path"] in seconds])),
         "cpu_hours": hours,
-        "cpu_hours_low": curve.planned_paths * (mean - 1.96 * error) / 3600.0,
+        "cpu_hours_low": curve.planned_paths * max(mean - 1.96 * error, 0.0) / 3600.0,
         "cpu_hours_high": curve.planned_paths * (mean + 1.96 * error) / 3600.0,
         "hours_on": [{"workers": count, "hours": hours / count} for count in workers],
         "methods": [],
@@ -326,13 +348,18 @@ def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict
 
 
 def cost_summary(times: dict, method_times: dict | None = None, workers=(1, 2)) -> dict:
-    """The JSON of what the curves cost (``times``: curve name -> :func:`timed_chunks`' file; ``method_times``:
-    curve name -> the ``time`` command's file), with their sum in hours on each count of ``workers``."""
+    """The JSON of what the curves cost (``times``: curve name -> :func:`timed_chunks`' files, comma-separated;
+    ``method_times``: curve name -> the ``time`` command's files), with their sum in hours on each count of
+    ``workers``."""
+
+    def lines(files: str) -> list[dict]:
+        return [json.loads(line) for file in files.split(",") for line in Path(file).read_text().splitlines()]
+
     curves = []
-    for name, file in times.items():
-        rows = [json.loads(line) for line in Path(file).read_text().splitlines()]
+    for name, files in times.items():
+        rows = lines(files)
         methods = (method_times or {}).get(name)
-        method_rows = [json.loads(line) for line in Path(methods).read_text().splitlines()] if methods else None
+        method_rows = lines(methods) if methods else None
         curves.append(run_cost(CURVES[name], rows, method_rows, workers))
     cpu = sum(curve["cpu_hours"] for curve in curves)
     return {
@@ -683,7 +710,7 @@ def main(argv=None) -> int:
     timing.add_argument("--out", type=Path, required=True)
     costing = commands.add_parser("cost", allow_abbrev=False, help="CPU per path and the curves' projected hours")
     costing.add_argument("--times", action="append", required=True, metavar="CURVE=ROWS.jsonl",
-                         help="run --times's rows of a curve")  # fmt: skip
+                         help="run --times's rows of a curve (files: comma-separated)")  # fmt: skip
     costing.add_argument("--methods", action="append", metavar="CURVE=ROWS.jsonl", help="the time command's rows")
     costing.add_argument("--json", type=Path, required=True)
     summarising = commands.add_parser("summary", allow_abbrev=False, help="the JSON, the figure, the README")
