@@ -36,10 +36,12 @@ Four commands:
     the median cost ∫‖τ − τ_mid‖² dt, its median ratio to the optimum's on the same path, the median peak
     torque ratio, the CPU time per control step; and the figure.
 
-What a path costs is IPOPT's work in the windows' solves (docs/discussion/horizon.md, "What it costs"): the
-atlas's own work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under
-0.1 s a path, the local methods about a second, the whole-movement optimum (two starts, phase-1 where no start
-meets the limits) a few seconds. Most of the windows' work is in solves that fail: once a window finds no motion
+What a path costs is IPOPT's work in the windows' solves (docs/discussion/horizon.md, "What it costs";
+docs/data/horizon_time.json): planar3 took 105 s of CPU a path in the mean of paths 0, 1 and 13 (21 to 192 s, at a
+load of 14 to 21), so its 1,000 paths some 29 CPU hours, 15 h on two free cores (``--workers 2``). The atlas's own
+work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under
+0.1 s a path, the local methods about a second, the whole-movement optimum (two starts) a few seconds, about a
+minute where no start meets the limits and phase-1 runs from each. Most of the windows' work is in solves that fail: once a window finds no motion
 within the limits, the run leaves the path under the fallback and every later solve of that run fails too. The
 one-step window is run, not read off ``bounded-torque[kinematic_weight=0]``'s row, although it solves the same
 step's problem: the window holds the tip to the path's position one step ahead where ``bounded-torque`` integrates
