@@ -39,15 +39,15 @@ Four commands:
 What a path costs is IPOPT's work in the windows' solves (docs/discussion/horizon.md, "What it costs";
 docs/data/horizon_time.json): planar3 took 105 s of CPU a path in the mean of paths 0, 1 and 13 (21 to 192 s, at a
 load of 14 to 21), so its 1,000 paths some 29 CPU hours, 15 h on two free cores (``--workers 2``). The atlas's own
-work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under
-0.1 s a path, the local methods about a second, the whole-movement optimum (two starts) a few seconds, about a
-minute where no start meets the limits and phase-1 runs from each. Most of the windows' work is in solves that fail: once a window finds no motion
-within the limits, the run leaves the path under the fallback and every later solve of that run fails too. The
-one-step window is run, not read off ``bounded-torque[kinematic_weight=0]``'s row, although it solves the same
-step's problem: the window holds the tip to the path's position one step ahead where ``bounded-torque`` integrates
-accelerations and drifts (1.0 to 1.3 mm over a 2 s line, past the verdicts' 1 mm), and a failed window falls back
-to ``bounded-torque``'s defaults (``kinematic_weight=0.5``). On the first 13 planar3 paths their verdicts differ on
-4 (three drifts, one whip), while their costs agree within 0.3 % on the 5 paths with no infeasible step.
+work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under 0.1 s a path, the
+local methods about a second, the whole-movement optimum (two starts) a few seconds, about a minute where no start
+meets the limits and phase-1 runs from each. Most of the windows' work is in solves that fail: once a window finds no
+motion within the limits, the run leaves the path under the fallback and every later solve of that run fails too. The
+one-step window is run, not read off ``bounded-torque[kinematic_weight=0]``'s row, although it solves the same step's
+problem: the window holds the tip to the path's position one step ahead where ``bounded-torque`` integrates
+accelerations and drifts (1.0 to 1.3 mm over a 2 s line, past the verdicts' 1 mm), and a failed window falls back to
+``bounded-torque``'s defaults (``kinematic_weight=0.5``). On the first 13 planar3 paths their verdicts differ on 4
+(three drifts, one whip), while their costs agree within 0.3 % on the 5 paths with no infeasible step.
 
 A run is *problem-free* when its verdict is ``stable`` and its peak torque within the limits
 (:func:`torqueopt.atlas.frontier.problem_free`); the optimum's row is judged the same way, from the open-loop
@@ -305,9 +305,9 @@ def path_seconds(chunk_rows) -> dict:
 
 def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict:
     """What ``curve`` costs: CPU seconds per path over the timed paths (mean, its 95 % interval from the standard
-    error, cut at 0, median, 90th percentile, least, largest; by part), and the hours its ``planned_paths`` take at that mean in
-    CPU time and in wall time on each count of ``workers`` busy cores; with ``method_rows`` (the ``time`` command's),
-    each method's mean CPU seconds per path and its share of their sum."""
+    error, cut at 0, median, 90th percentile, least, largest; by part), and the hours its ``planned_paths`` take at
+    that mean in CPU time and in wall time on each count of ``workers`` busy cores; with ``method_rows`` (the
+    ``time`` command's), each method's mean CPU seconds per path and its share of their sum."""
     seconds = path_seconds(chunk_rows)
     totals = np.array([sum(part.values()) for part in seconds.values()], float)
     if not totals.size:
