@@ -13,28 +13,51 @@ under the same torque bounds and joint limits at the right edge:
   the torque bounds and joint limits, its default starts), which also say on which paths no motion within the
   limits exists (``infeasible for every resolver``).
 
-Three commands, one process at a time:
+Four commands:
 
-``run CURVE --out FOLDER``
-    the atlas of ``CURVE`` (:data:`CURVES`) in ``FOLDER``, one path per chunk, in this process (no Dask workers):
-    stopped at any moment (Ctrl-C, a kill), the same command resumes it, and the paths finish in order, so a
-    stopped sweep leaves a whole prefix of paths (:mod:`torqueopt.atlas.prefix`).
+``run CURVE --out FOLDER [--workers N] [--times ROWS.jsonl]``
+    the atlas of ``CURVE`` (:data:`CURVES`) in ``FOLDER``, one path per chunk, in this process (``--workers 0``,
+    the default) or on N Dask worker processes. The worker count is no setting of the atlas: any count resumes
+    the same folder, and the rows do not depend on it. The chunks go out in the order of their paths, so a sweep
+    stopped at any moment leaves a whole prefix of paths, and the chunks in flight (at most N) are lost; the same
+    command resumes it. Stop it with Ctrl-C (``kill -INT``) when N >= 1: the workers ignore it and the sweep ends
+    within seconds; in this process a Ctrl-C reaches IPOPT, which takes it as a stop of one solve and goes on, so
+    stop it with ``kill`` (SIGTERM). ``--times`` appends each chunk's CPU seconds to ROWS.jsonl (``--workers 0``).
 ``time CURVE --atlas FOLDER --paths I,J --out ROWS.jsonl``
     the CPU time [s] of every method's run on the paths I, J of that atlas, one JSON line per run (resumed
     from the lines already written): the atlas's rows carry no time, so that a chunk is a deterministic function
     of its settings.
+``cost --times CURVE=ROWS.jsonl ... [--methods CURVE=ROWS.jsonl ...] --json OUT.json``
+    the CPU seconds per path of ``run --times``'s rows, the hours the curve's planned paths take in CPU time and on
+    one and two busy cores, and (from ``time``'s rows) each method's share (:func:`run_cost`).
 ``summary --atlas CURVE=FOLDER ... --timing CURVE=ROWS.jsonl ... --json OUT.json --figure OUT.png``
     reads each atlas's finished prefix of paths and the timing rows, and writes per method: the problem-free
     share over all paths and over the feasible ones, the whiplash share (each with its Wilson 95 % interval),
     the median cost ∫‖τ − τ_mid‖² dt, its median ratio to the optimum's on the same path, the median peak
     torque ratio, the CPU time per control step; and the figure.
 
+What a path costs is IPOPT's work in the windows' solves (docs/discussion/horizon.md, "What it costs";
+docs/data/horizon_time.json): planar3 took 105 s of CPU a path in the mean of paths 0, 1 and 13 (21 to 192 s, at a
+load of 14 to 21), so its 1,000 paths some 29 CPU hours, 15 h on two free cores (``--workers 2``). The atlas's own
+work (loading, drawing the population, writing a chunk, reading the chunks on resuming) is under 0.1 s a path, the
+local methods about a second, the whole-movement optimum (two starts) a few seconds, about a minute where no start
+meets the limits and phase-1 runs from each. Most of the windows' work is in solves that fail: once a window finds no
+motion within the limits, the run leaves the path under the fallback and every later solve of that run fails too. The
+one-step window is run, not read off ``bounded-torque[kinematic_weight=0]``'s row, although it solves the same step's
+problem: the window holds the tip to the path's position one step ahead where ``bounded-torque`` integrates
+accelerations and drifts (1.0 to 1.3 mm over a 2 s line, past the verdicts' 1 mm), and a failed window falls back to
+``bounded-torque``'s defaults (``kinematic_weight=0.5``). On the first 13 planar3 paths their verdicts differ on 4
+(three drifts, one whip), while their costs agree within 0.3 % on the 5 paths with no infeasible step.
+
 A run is *problem-free* when its verdict is ``stable`` and its peak torque within the limits
 (:func:`torqueopt.atlas.frontier.problem_free`); the optimum's row is judged the same way, from the open-loop
 replay of its torques.
 
-    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3
+    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3 --workers 2
+    nice python benchmarks/horizon_curve.py run planar3 --out runs/planar3 --times runs/planar3-times.jsonl
     nice python benchmarks/horizon_curve.py time planar3 --atlas runs/planar3 --paths 1 --out runs/planar3-time.jsonl
+    python benchmarks/horizon_curve.py cost --times planar3=runs/planar3-times.jsonl \
+        --methods planar3=runs/planar3-time.jsonl --json docs/data/horizon_time.json
     python benchmarks/horizon_curve.py summary --atlas planar3=runs/planar3 --timing planar3=runs/planar3-time.jsonl \
         --json docs/data/horizon_curve.json --figure docs/horizon_curve.png
 """
@@ -42,7 +65,10 @@ replay of its torques.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import math
+import os
 import textwrap
 import time
 from dataclasses import dataclass
@@ -82,13 +108,14 @@ class Curve:
         """The atlas's resolver labels, left to right (the optimum comes from ``--global``)."""
         return [*LOCAL, *([ONE_STEP] if self.one_step else []), *(window_label(h) for h in self.horizons)]
 
-    def arguments(self, out) -> list[str]:
-        """The ``torqueopt atlas`` arguments of this curve's sweep into ``out``."""
+    def arguments(self, out, workers: int = 0) -> list[str]:
+        """The ``torqueopt atlas`` arguments of this curve's sweep into ``out`` on ``workers`` Dask worker processes
+        (0: in this process). The workers are no setting of the atlas: a sweep resumes with any count."""
         return [
             "--robot", self.robot, "--path", self.path, "--paths", str(self.planned_paths),
             "--durations", f"{self.duration:g}", "--seed", str(self.seed), "--resolvers", ",".join(self.resolvers()),
-            "--global", "--global-bounded", "--workers", "0", "--chunk-size", "1", "--no-figures", "--no-progress",
-            "--out", str(out),
+            "--global", "--global-bounded", "--workers", str(workers), "--chunk-size", "1", "--no-figures",
+            "--no-progress", "--out", str(out),
         ]  # fmt: skip
 
 
@@ -263,6 +290,87 @@ def answer_of(methods: list[dict]) -> dict:
     }
 
 
+# -- what a curve costs to run -----------------------------------------------------------------------------------
+def path_seconds(chunk_rows) -> dict:
+    """CPU seconds per whole path, ``{path: {"resolvers": s, "optimum": s}}``, from :func:`timed_chunks`' rows
+    (one path per chunk); a path without both parts is left out, a part timed twice (a chunk redone) counts once,
+    the last time."""
+    parts: dict = {}
+    for row in chunk_rows:
+        if row["paths"] != 1:
+            raise ValueError(f"a chunk of {row['paths']} paths at path {row['path']}: the curve runs one path a chunk")
+        parts.setdefault(row["path"], {})[row["part"]] = row["cpu_seconds"]
+    return {path: part for path, part in sorted(parts.items()) if set(part) == {"resolvers", "optimum"}}
+
+
+def run_cost(curve: Curve, chunk_rows, method_rows=None, workers=(1, 2)) -> dict:
+    """What ``curve`` costs: CPU seconds per path over the timed paths (mean, its 95 % interval from the standard
+    error, cut at 0, median, 90th percentile, least, largest; by part), and the hours its ``planned_paths`` take at
+    that mean in CPU time and in wall time on each count of ``workers`` busy cores; with ``method_rows`` (the
+    ``time`` command's), each method's mean CPU seconds per path and its share of their sum."""
+    seconds = path_seconds(chunk_rows)
+    totals = np.array([sum(part.values()) for part in seconds.values()], float)
+    if not totals.size:
+        raise SystemExit(f"no path of curve {curve.name} has both its chunks timed")
+    mean = float(totals.mean())
+    error = float(totals.std(ddof=1) / np.sqrt(totals.size)) if totals.size > 1 else math.nan
+    hours = curve.planned_paths * mean / 3600.0
+    item = {
+        "name": curve.name, "planned_paths": curve.planned_paths, "timed_paths": int(totals.size),
+        "paths": [int(path) for path in seconds],
+        "cpu_per_path": {
+            "mean": mean, "low": max(mean - 1.96 * error, 0.0), "high": mean + 1.96 * error,
+            "median": float(np.median(totals)), "p90": float(np.percentile(totals, 90)), "min": float(totals.min()),
+            "max": float(totals.max()),
+        },
+        "cpu_per_path_by_part": {
+            part: float(np.mean([parts[part] for parts in seconds.values()])) for part in ("resolvers", "optimum")
+        },
+        "mean_load": float(np.mean([row["load"] for row in chunk_rows if row["path"] in seconds])),
+        "cpu_hours": hours,
+        "cpu_hours_low": curve.planned_paths * max(mean - 1.96 * error, 0.0) / 3600.0,
+        "cpu_hours_high": curve.planned_paths * (mean + 1.96 * error) / 3600.0,
+        "hours_on": [{"workers": count, "hours": hours / count} for count in workers],
+        "methods": [],
+    }  # fmt: skip
+    if method_rows:
+        by_method: dict = {}
+        for row in method_rows:
+            by_method.setdefault(row["method"], []).append(row["cpu_seconds"])
+        means = {label: float(np.mean(values)) for label, values in by_method.items()}
+        whole = sum(means.values())
+        for label, value in means.items():
+            seconds_of = horizon_of(label, curve.duration)
+            item["methods"].append({
+                "label": label, "key": method_key(label, curve.duration),
+                "name": _method_name(label, seconds_of, curve.duration), "timed_paths": len(by_method[label]),
+                "cpu_seconds_per_path": value, "share": value / whole,
+            })  # fmt: skip
+    return item
+
+
+def cost_summary(times: dict, method_times: dict | None = None, workers=(1, 2)) -> dict:
+    """The JSON of what the curves cost (``times``: curve name -> :func:`timed_chunks`' files, comma-separated;
+    ``method_times``: curve name -> the ``time`` command's files), with their sum in hours on each count of
+    ``workers``."""
+
+    def lines(files: str) -> list[dict]:
+        return [json.loads(line) for file in files.split(",") for line in Path(file).read_text().splitlines()]
+
+    curves = []
+    for name, files in times.items():
+        rows = lines(files)
+        methods = (method_times or {}).get(name)
+        method_rows = lines(methods) if methods else None
+        curves.append(run_cost(CURVES[name], rows, method_rows, workers))
+    cpu = sum(curve["cpu_hours"] for curve in curves)
+    return {
+        "curves": curves,
+        "cpu_hours": cpu,
+        "hours_on": [{"workers": count, "hours": cpu / count} for count in workers],
+    }
+
+
 # -- the README's answer ----------------------------------------------------------------------------------------
 
 
@@ -414,11 +522,48 @@ def _draw_curve(share_ax, cost_ax, curve: dict) -> None:
 
 
 # -- the commands -----------------------------------------------------------------------------------------------
-def run(curve: Curve, out: Path) -> int:
-    """The curve's atlas, in this process, resumed when ``out`` holds it already."""
+def run(curve: Curve, out: Path, workers: int = 0, times: Path | None = None) -> int:
+    """The curve's atlas on ``workers`` Dask worker processes (0: in this process), resumed when ``out`` holds it
+    already; with ``times``, each chunk's CPU time appended to that file (:func:`timed_chunks`)."""
     from torqueopt.cli import main as torqueopt_main
 
-    return torqueopt_main(["atlas", *curve.arguments(out)])
+    if times is None:
+        return torqueopt_main(["atlas", *curve.arguments(out, workers)])
+    if workers:
+        raise SystemExit("--times reads the CPU time of this process's chunks: give --workers 0")
+    with timed_chunks(times):
+        return torqueopt_main(["atlas", *curve.arguments(out)])
+
+
+@contextlib.contextmanager
+def timed_chunks(times: Path):
+    """Append one JSON line to ``times`` per chunk that this process computes while the block runs: its first path,
+    its part (``resolvers``: every resolver's run; ``optimum``: the whole-movement optimum), its CPU and wall
+    seconds, the load average and when it finished. A benchmark's instrument around the atlas's chunk function
+    (``torqueopt.atlas.sweep.chunk_output``): the chunks' rows are untouched."""
+    from torqueopt.atlas import sweep
+    from torqueopt.atlas.jobs import GlobalChunk
+
+    untimed = sweep.chunk_output
+
+    def chunk_output(job):
+        began, wall = time.process_time(), time.perf_counter()
+        output = untimed(job)
+        row = {
+            "path": int(job.movements[0].path), "paths": len(job.movements),
+            "part": "optimum" if isinstance(job, GlobalChunk) else "resolvers",
+            "cpu_seconds": round(time.process_time() - began, 3), "wall_seconds": round(time.perf_counter() - wall, 3),
+            "load": round(os.getloadavg()[0], 2), "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        }  # fmt: skip
+        with times.open("a") as handle:
+            handle.write(json.dumps(row) + "\n")
+        return output
+
+    sweep.chunk_output = chunk_output
+    try:
+        yield
+    finally:
+        sweep.chunk_output = untimed
 
 
 def movements_of(curve: Curve, atlas_folder: Path, paths: list[int]) -> tuple:
@@ -551,12 +696,25 @@ def main(argv=None) -> int:
     running = commands.add_parser("run", allow_abbrev=False, help="the curve's atlas (resumed)")
     running.add_argument("curve", choices=list(CURVES))
     running.add_argument("--out", type=Path, required=True)
+    running.add_argument(
+        "--workers",
+        type=int,
+        default=0,
+        help="Dask worker processes (default 0: this process); any count resumes the same folder",
+    )
+    running.add_argument("--times", type=Path, metavar="ROWS.jsonl",
+                         help="append each chunk's CPU time to this file (with --workers 0)")  # fmt: skip
     timing = commands.add_parser("time", allow_abbrev=False, help="CPU time per run on the first paths")
     timing.add_argument("curve", choices=list(CURVES))
     timing.add_argument("--atlas", type=Path, required=True)
     timing.add_argument("--paths", type=lambda text: [int(p) for p in text.split(",")], default=[0],
                         metavar="I,J,...", help="the paths (indices) to time (default 0)")  # fmt: skip
     timing.add_argument("--out", type=Path, required=True)
+    costing = commands.add_parser("cost", allow_abbrev=False, help="CPU per path and the curves' projected hours")
+    costing.add_argument("--times", action="append", required=True, metavar="CURVE=ROWS.jsonl",
+                         help="run --times's rows of a curve (files: comma-separated)")  # fmt: skip
+    costing.add_argument("--methods", action="append", metavar="CURVE=ROWS.jsonl", help="the time command's rows")
+    costing.add_argument("--json", type=Path, required=True)
     summarising = commands.add_parser("summary", allow_abbrev=False, help="the JSON, the figure, the README")
     summarising.add_argument("--atlas", action="append", required=True, metavar="CURVE=FOLDER")
     summarising.add_argument("--timing", action="append", metavar="CURVE=ROWS.jsonl")
@@ -572,9 +730,21 @@ def main(argv=None) -> int:
     summarising.add_argument("--readme", type=Path, help="write the README's answer block")
     arguments = parser.parse_args(argv)
     if arguments.command == "run":
-        return run(CURVES[arguments.curve], arguments.out)
+        return run(CURVES[arguments.curve], arguments.out, arguments.workers, arguments.times)
     if arguments.command == "time":
         time_methods(CURVES[arguments.curve], arguments.atlas, arguments.paths, arguments.out)
+        return 0
+    if arguments.command == "cost":
+        result = cost_summary(_pairs(arguments.times), _pairs(arguments.methods))
+        arguments.json.write_text(json.dumps(result, indent=1) + "\n")
+        for curve in result["curves"]:
+            spread = curve["cpu_per_path"]
+            print(f"{curve['name']}: {curve['timed_paths']} paths, CPU per path {spread['mean']:.1f} s "
+                  f"[{spread['low']:.1f}, {spread['high']:.1f}] (median {spread['median']:.1f}, max {spread['max']:.1f}), "
+                  f"{curve['planned_paths']} paths: {curve['cpu_hours']:.1f} CPU hours")  # fmt: skip
+        print(f"all: {result['cpu_hours']:.1f} CPU hours; " + ", ".join(
+            f"{item['hours']:.1f} h on {item['workers']} cores" for item in result["hours_on"]))  # fmt: skip
+        print(f"wrote {arguments.json}")
         return 0
     others = {name: (int(text.split(":", 1)[0]), text.split(":", 1)[1]) for name, text in
               _pairs(arguments.replan_check).items()}  # fmt: skip

@@ -127,3 +127,38 @@ def test_the_figure_draws_the_shares_of_the_json(tmp_path):
     assert drawn["of the feasible paths"] == pytest.approx(
         [100 * m["problem_free_of_feasible"]["fraction"] for m in windows]
     )
+
+
+def test_the_cost_of_a_curve_is_counted_as_by_hand():
+    def chunk(path, part, cpu):
+        return {"path": path, "paths": 1, "part": part, "cpu_seconds": cpu, "load": 2.0}
+
+    rows = [
+        chunk(0, "resolvers", 10.0), chunk(0, "optimum", 2.0),
+        chunk(1, "resolvers", 99.0), chunk(1, "resolvers", 30.0), chunk(1, "optimum", 4.0),  # redone: the last counts
+        chunk(2, "resolvers", 5.0),  # its optimum not timed: left out
+    ]  # fmt: skip
+    methods = [
+        {"path": 0, "method": "pinv", "cpu_seconds": 1.0}, {"path": 1, "method": "pinv", "cpu_seconds": 3.0},
+        {"path": 0, "method": "receding-horizon[horizon=0.001]", "cpu_seconds": 6.0},
+    ]  # fmt: skip
+    cost = horizon_curve.run_cost(horizon_curve.CURVES["planar3"], rows, methods)
+    # paths 0 and 1: 12 and 34 s; mean 23, sample deviation √242, standard error √242/√2 = 11
+    assert cost["paths"] == [0, 1] and cost["timed_paths"] == 2
+    spread = cost["cpu_per_path"]
+    assert (spread["mean"], spread["median"], spread["min"], spread["max"]) == (23.0, 23.0, 12.0, 34.0)
+    assert spread["p90"] == pytest.approx(12 + 0.9 * 22, abs=1e-12)  # linear between the two
+    assert (spread["low"], spread["high"]) == pytest.approx((23 - 1.96 * 11, 23 + 1.96 * 11), abs=1e-12)
+    assert cost["cpu_per_path_by_part"] == {"resolvers": 20.0, "optimum": 3.0}
+    # 1,000 planned paths at 23 s: 23,000 s = 6.39 CPU hours, 3.19 h on two cores
+    assert cost["cpu_hours"] == pytest.approx(23000 / 3600, abs=1e-12)
+    assert cost["hours_on"] == [{"workers": 1, "hours": pytest.approx(23000 / 3600)},
+                                {"workers": 2, "hours": pytest.approx(11500 / 3600)}]  # fmt: skip
+    shares = {item["key"]: (item["cpu_seconds_per_path"], item["share"]) for item in cost["methods"]}
+    assert shares == {"pinv": (2.0, 0.25), "h1ms": (6.0, 0.75)}
+    # 12 and 134 s: the mean's interval, 73 ± 1.96 × 61, would reach below 0, where no mean can be
+    wide = horizon_curve.run_cost(horizon_curve.CURVES["planar3"], [*rows[:2], chunk(1, "resolvers", 130.0), *rows[4:]])
+    assert (wide["cpu_per_path"]["low"], wide["cpu_hours_low"]) == (0.0, 0.0)
+    assert wide["cpu_per_path"]["high"] == pytest.approx(73 + 1.96 * 61, abs=1e-12)
+    with pytest.raises(ValueError, match="a chunk of 2 paths at path 0"):
+        horizon_curve.path_seconds([{**chunk(0, "optimum", 1.0), "paths": 2}])
