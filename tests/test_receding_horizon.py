@@ -299,3 +299,24 @@ def test_a_failed_warm_window_is_solved_again_cold(paper_arm, monkeypatch):
     assert solved.status == cold.status == "converged"
     np.testing.assert_array_equal(solved.w, cold.w)
     assert solved.iterations == cold.iterations + 1
+
+
+def test_a_shifted_start_of_a_plan_meets_its_integration_rows(paper_arm):
+    """The warm start is the plan at the new knots t + kh: where those fall on the plan's own knots (a shift by
+    whole knots of 20 ms, which t + kh − t_plan reaches a rounding error either side), each knot takes its own
+    interval's acceleration, so the start meets the shooting rows q_{k+1} = q_k + h q̇_k + h²q̈_k/2,
+    q̇_{k+1} = q̇_k + h q̈_k (up to rounding) but in the intervals beyond the plan."""
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.6).anchored(paper_arm.task_position(q)[:2])
+    h = 0.02
+    program = HorizonProgram(RecedingHorizon(horizon=0.2, horizon_dt=h), paper_arm, h)
+    plan = program.solve(0.0, q, np.zeros(3), line.sample(h * np.arange(11)).position, None)
+    assert plan.status == "converged"
+    for planned in (0.02, 0.04, 0.2, 0.34):
+        for shift in (1, 2):
+            start = program.shifted_start(plan._replace(time=planned), planned + shift * h)
+            knots, speeds, accelerations = program.problem.split(start)
+            defect_q = knots[1:] - knots[:-1] - h * speeds[:-1] - 0.5 * h * h * accelerations
+            defect_v = speeds[1:] - speeds[:-1] - h * accelerations
+            assert np.abs(defect_q[:-shift]).max() < 1e-12 and np.abs(defect_v[:-shift]).max() < 1e-12
+            np.testing.assert_array_equal(accelerations[:-shift], plan.a[shift:])
