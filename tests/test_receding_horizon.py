@@ -93,14 +93,20 @@ def test_a_one_step_horizon_tends_to_bounded_torque_at_first_order(paper_arm):
     assert 5.0 < differences[0] / differences[1] < 20.0
 
 
-@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.slow)])
-def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, tmp_path, monkeypatch):
+@pytest.mark.parametrize(
+    "compiled, options", [(False, "warm"), pytest.param(True, "warm", marks=pytest.mark.slow), (False, "at bounds")]
+)
+def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, options, tmp_path, monkeypatch):
     """At each window's solve (its functions in CasADi's virtual machine, or compiled to C), from the state measured there, with IPOPT's multipliers: ∇f + ∂gᵀλ_g + λ_x = 0 with f, g and their derivatives from
     Pinocchio (the direct transcription's, not CasADi's), g within its bounds, and a multiplier only on an active
-    bound, of the right sign; the torque bounds act at some solves."""
+    bound, of the right sign; the torque bounds act at some solves. The warm solves start from WARM_OPTIONS, or
+    (``at bounds``) all from WARM_AT_BOUNDS_OPTIONS, which planar3's plans (no variable at a bound) never choose
+    themselves."""
     monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(receding_horizon, "COMPILE_FROM", 0 if compiled else receding_horizon.COMPILE_FROM)
     robot = paper_arm.with_torque_limit(TIGHT_LIMIT)
+    if options == "at bounds":
+        monkeypatch.setattr(receding_horizon, "WARM_OPTIONS", receding_horizon.WARM_AT_BOUNDS_OPTIONS)
     resolver = Capturing(horizon=0.04, horizon_dt=0.01, replan_every=10)
     run = torqueopt.simulate(robot, resolver, PAPER.line("short"), PAPER.q0, dt=2e-3, duration=0.3)
     assert run.completed
@@ -130,6 +136,8 @@ def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, tmp_path, monke
         active += int((np.abs(multipliers) > 1e-3).any())
     assert active >= 2
     assert np.all(np.abs(run.tau[:-1]) <= TIGHT_LIMIT * (1 + 1e-3))
+    n = problem.n  # no plan's variable after the fixed start is at a bound: warm_options keeps WARM_OPTIONS
+    assert all(np.abs(solved.lam_x[2 * n :]).max() <= receding_horizon.ACTIVE_MULTIPLIER for solved in step.solves)
 
 
 def test_a_window_computes_its_start_and_bounds_as_the_plain_functions(paper_arm):
@@ -253,9 +261,9 @@ def test_the_resolver_contract(paper_arm):
     report = check_resolver(
         "receding-horizon[horizon=0.02]",
         paper_arm,
-        options={"horizon": 0.04, "horizon_dt": 0.01, "replan_every": None, "fallback": None, "joint_limits": None},
+        options={"horizon": 0.04, "horizon_dt": 0.005, "replan_every": None, "fallback": None, "joint_limits": None},
     )
-    assert report.options == ("horizon=0.04", "horizon_dt=0.01", "terminal=rest")
+    assert report.options == ("horizon=0.04", "horizon_dt=0.005", "terminal=rest")
 
 
 def test_bad_options_and_tasks_are_one_line(paper_arm):
