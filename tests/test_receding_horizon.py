@@ -138,6 +138,8 @@ def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, options, tmp_pa
     assert np.all(np.abs(run.tau[:-1]) <= TIGHT_LIMIT * (1 + 1e-3))
     n = problem.n  # no plan's variable after the fixed start is at a bound: warm_options keeps WARM_OPTIONS
     assert all(np.abs(solved.lam_x[2 * n :]).max() <= receding_horizon.ACTIVE_MULTIPLIER for solved in step.solves)
+    if options == "warm":
+        assert all(step.program.warm_options(solved) is receding_horizon.WARM_OPTIONS for solved in step.solves)
 
 
 def test_a_window_computes_its_start_and_bounds_as_the_plain_functions(paper_arm):
