@@ -107,8 +107,8 @@ ACTIVE_MULTIPLIER = 1e-6
 COMPILE_FROM = 150
 #: A time within this fraction of a knot spacing short of a knot is taken at the knot by :func:`plan_state`: the
 #: shifted start's knot times t + kh − t_plan fall a rounding error either side of the plan's knots, and one short
-#: would take the previous interval's acceleration (defects of h·Δq̈ at the warm start: up to 6.5 rad/s on panda's
-#: 20 ms knots, where IPOPT then spent some 40 iterations restoring them).
+#: would take the previous interval's acceleration (a warm start off the integration rows by h·Δq̈: up to 6.5 rad/s
+#: on panda's 20 ms knots).
 KNOT_SNAP = 1e-9
 #: The terminal conditions by name (a number is a bound on the self-motion energy [J]).
 TERMINALS = ("free", "rest")
