@@ -29,7 +29,9 @@ when :math:`h = \Delta t`; over several steps, the plan's as
 :func:`torqueopt.optimize` maps its optimum to the simulation grid), so a
 horizon of the whole movement planned once is the whole-movement optimum.
 Each solve is warm-started from the previous plan shifted to the new knots
-(the first from the path's inverse kinematics). The NLP is built once per
+(the first from the path's inverse kinematics), IPOPT from a small barrier
+parameter, or a moderate one where that plan had a variable at its bound
+(:data:`WARM_AT_BOUNDS_OPTIONS`). The NLP is built once per
 robot, knot count and options (CasADi, IPOPT with the exact Hessian), its
 functions compiled to C for all but the smallest windows (:data:`COMPILE_FROM`);
 a solve costs IPOPT's iterations only.
