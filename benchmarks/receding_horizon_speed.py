@@ -4,11 +4,12 @@ Cases, interleaved round by round so a noisy neighbour hits both alike:
 
 * ``solves``: planar3 on the paper's long movement (2 s, xy task) and panda on a 0.5 s straight line of 0.1 m
   along +y from its default configuration (position task, gravity, the URDF's joint and torque limits), windows
-  of 0.1, 0.5 and 1 s (knots 5 ms: N = 20, 100, 200), replanned every 20 steps of 1 ms over the first
-  ``--planar-duration`` / ``--panda-duration`` seconds; each with the window's functions ``vm`` (expanded to SX,
-  CasADi's virtual machine) and ``compiled`` (C, compiled once per robot, N and options, kept on disk).
-  Per case: the median and largest CPU time of the warm solves (the first, from the path's inverse kinematics,
-  apart), IPOPT's iterations and the CPU per iteration.
+  of 0.1, 0.5 and 1 s (knots ``--knots`` apart, by default ``horizon_dt='auto'``), replanned every 20 steps of
+  1 ms over the first ``--planar-duration`` / ``--panda-duration`` seconds; each with the window's functions
+  ``vm`` (expanded to SX, CasADi's virtual machine) and ``compiled`` (C, compiled once per robot, N and options,
+  kept on disk), or those of ``--modes``. Per case: the median and largest CPU time of the warm solves (the
+  first, from the path's inverse kinematics, apart), IPOPT's iterations, the CPU per iteration, and the run's
+  cost (∫‖τ‖² dt over the part run) and largest tip error, to weigh a knot spacing's speed against its answer.
 * ``line``: planar3's whole 2 s long movement with a 0.5 s window replanned every 1, 5 and 20 steps: the CPU per
   control step of the whole run (solves, the steps between them and the simulation), ``vm`` and ``compiled``.
 
@@ -20,7 +21,7 @@ Cases, interleaved round by round so a noisy neighbour hits both alike:
 CPU time (``time.process_time``) rather than wall time: the machine is shared. The one-time builds and compiles
 happen in a round 0 that is not counted.
 
-    taskset -c 0 python benchmarks/receding_horizon_speed.py solves [--rounds 1]
+    taskset -c 0 python benchmarks/receding_horizon_speed.py solves [--rounds 1] [--knots 0.005 0.01 0.02 --modes compiled]
     taskset -c 0 python benchmarks/receding_horizon_speed.py line
     python benchmarks/receding_horizon_speed.py count --window 0.5
 """
@@ -80,34 +81,48 @@ def arms(planar_duration: float, panda_duration: float):
 
 
 def solves(arguments) -> None:
+    from torqueopt.optimal import run_cost
+
     robots = arms(arguments.planar_duration, arguments.panda_duration)
     table = {}
     for round_index in range(arguments.rounds + 1):
         for window in arguments.windows:
             for name in arguments.robots:
                 robot, line, q0, duration = robots[name]
-                for mode in MODES:
-                    resolver = Timed(mode, horizon=window, replan_every=20)
+                for mode, knots in ((mode, knots) for knots in arguments.knots for mode in arguments.modes):
+                    resolver = Timed(mode, horizon=window, horizon_dt=knots, replan_every=20)
                     run = torqueopt.simulate(robot, resolver, line, q0, dt=1e-3, duration=duration)
                     assert run.completed, (name, window, mode, run.stop_reason)
                     if round_index == 0:  # builds and compiles
                         continue
-                    record = table.setdefault((name, window, mode), {"cpu": [], "iterations": [], "failed": 0})
+                    h = resolver.knot_spacing(1e-3)
+                    record = table.setdefault(
+                        (name, window, round(window / h), mode),
+                        {
+                            "cpu": [],
+                            "iterations": [],
+                            "failed": 0,
+                            "cost": run_cost(run, robot),
+                            "tip": run.max_tip_error,
+                        },
+                    )
                     record["cpu"] += resolver.cpu[1:]
                     record["iterations"] += [solved.iterations for solved in resolver.solves[1:]]
                     record["failed"] += sum(s.status not in ("converged", "acceptable") for s in resolver.solves)
                     print(f"round {round_index} {name} {window:g} s {mode}: {1e3 * np.median(resolver.cpu[1:]):.1f} ms",
                           flush=True)  # fmt: skip
     print(
-        "\n| robot | window [s] | N | functions | CPU per solve, median (max) [ms] | iterations | CPU per iteration [ms] | failed |"
+        "\n| robot | window [s] | N | functions | CPU per solve, median (max) [ms] | iterations | CPU per iteration [ms] "
+        "| failed | run cost | tip error [m] |"
     )
-    print("|---|---:|---:|---|---:|---:|---:|---:|")
-    for (name, window, mode), record in table.items():
+    print("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+    for (name, window, intervals, mode), record in table.items():
         cpu = np.array(record["cpu"]) * 1e3
         iterations = np.array(record["iterations"])
         print(
-            f"| {name} | {window:g} | {round(window / 0.005)} | {mode} | {statistics.median(cpu):.1f} ({cpu.max():.1f}) "
-            f"| {statistics.median(iterations):.0f} | {cpu.sum() / iterations.sum():.2f} | {record['failed']} |"
+            f"| {name} | {window:g} | {intervals} | {mode} | {statistics.median(cpu):.1f} ({cpu.max():.1f}) "
+            f"| {statistics.median(iterations):.0f} | {cpu.sum() / iterations.sum():.2f} | {record['failed']} "
+            f"| {record['cost']:.6g} | {record['tip']:.2g} |"
         )
 
 
@@ -191,6 +206,8 @@ def main(argv=None):
     parser.add_argument("--rounds", type=int, default=1)
     parser.add_argument("--robots", nargs="+", default=["planar3", "panda"], choices=("planar3", "panda"))
     parser.add_argument("--windows", nargs="+", type=float, default=[0.1, 0.5, 1.0])
+    parser.add_argument("--knots", nargs="+", default=["auto"], help="solves: knot spacings [s] or 'auto'")
+    parser.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES, help="solves: the functions")
     parser.add_argument("--planar-duration", type=float, default=0.5, help="seconds of planar3's movement run [s]")
     parser.add_argument("--panda-duration", type=float, default=0.1, help="seconds of panda's line run [s]")
     arguments = parser.parse_args(argv)

@@ -93,14 +93,20 @@ def test_a_one_step_horizon_tends_to_bounded_torque_at_first_order(paper_arm):
     assert 5.0 < differences[0] / differences[1] < 20.0
 
 
-@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=pytest.mark.slow)])
-def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, tmp_path, monkeypatch):
+@pytest.mark.parametrize(
+    "compiled, options", [(False, "warm"), pytest.param(True, "warm", marks=pytest.mark.slow), (False, "at bounds")]
+)
+def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, options, tmp_path, monkeypatch):
     """At each window's solve (its functions in CasADi's virtual machine, or compiled to C), from the state measured there, with IPOPT's multipliers: ∇f + ∂gᵀλ_g + λ_x = 0 with f, g and their derivatives from
     Pinocchio (the direct transcription's, not CasADi's), g within its bounds, and a multiplier only on an active
-    bound, of the right sign; the torque bounds act at some solves."""
+    bound, of the right sign; the torque bounds act at some solves. The warm solves start from WARM_OPTIONS, or
+    (``at bounds``) all from WARM_AT_BOUNDS_OPTIONS, which planar3's plans (no variable at a bound) never choose
+    themselves."""
     monkeypatch.setenv("TORQUEOPT_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(receding_horizon, "COMPILE_FROM", 0 if compiled else receding_horizon.COMPILE_FROM)
     robot = paper_arm.with_torque_limit(TIGHT_LIMIT)
+    if options == "at bounds":
+        monkeypatch.setattr(receding_horizon, "WARM_OPTIONS", receding_horizon.WARM_AT_BOUNDS_OPTIONS)
     resolver = Capturing(horizon=0.04, horizon_dt=0.01, replan_every=10)
     run = torqueopt.simulate(robot, resolver, PAPER.line("short"), PAPER.q0, dt=2e-3, duration=0.3)
     assert run.completed
@@ -130,6 +136,10 @@ def test_kkt_conditions_hold_at_every_solve(paper_arm, compiled, tmp_path, monke
         active += int((np.abs(multipliers) > 1e-3).any())
     assert active >= 2
     assert np.all(np.abs(run.tau[:-1]) <= TIGHT_LIMIT * (1 + 1e-3))
+    n = problem.n  # no plan's variable after the fixed start is at a bound: warm_options keeps WARM_OPTIONS
+    assert all(np.abs(solved.lam_x[2 * n :]).max() <= receding_horizon.ACTIVE_MULTIPLIER for solved in step.solves)
+    if options == "warm":
+        assert all(step.program.warm_options(solved) is receding_horizon.WARM_OPTIONS for solved in step.solves)
 
 
 def test_a_window_computes_its_start_and_bounds_as_the_plain_functions(paper_arm):
@@ -253,9 +263,9 @@ def test_the_resolver_contract(paper_arm):
     report = check_resolver(
         "receding-horizon[horizon=0.02]",
         paper_arm,
-        options={"horizon": 0.04, "horizon_dt": 0.01, "replan_every": None, "fallback": None, "joint_limits": None},
+        options={"horizon": 0.04, "horizon_dt": 0.005, "replan_every": None, "fallback": None, "joint_limits": None},
     )
-    assert report.options == ("horizon=0.04", "horizon_dt=0.01", "terminal=rest")
+    assert report.options == ("horizon=0.04", "horizon_dt=0.005", "terminal=rest")
 
 
 def test_bad_options_and_tasks_are_one_line(paper_arm):
@@ -299,3 +309,24 @@ def test_a_failed_warm_window_is_solved_again_cold(paper_arm, monkeypatch):
     assert solved.status == cold.status == "converged"
     np.testing.assert_array_equal(solved.w, cold.w)
     assert solved.iterations == cold.iterations + 1
+
+
+def test_a_shifted_start_of_a_plan_meets_its_integration_rows(paper_arm):
+    """The warm start is the plan at the new knots t + kh: where those fall on the plan's own knots (a shift by
+    whole knots of 20 ms, which t + kh − t_plan reaches a rounding error either side), each knot takes its own
+    interval's acceleration, so the start meets the shooting rows q_{k+1} = q_k + h q̇_k + h²q̈_k/2,
+    q̇_{k+1} = q̇_k + h q̈_k (up to rounding) but in the intervals beyond the plan."""
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.6).anchored(paper_arm.task_position(q)[:2])
+    h = 0.02
+    program = HorizonProgram(RecedingHorizon(horizon=0.2, horizon_dt=h), paper_arm, h)
+    plan = program.solve(0.0, q, np.zeros(3), line.sample(h * np.arange(11)).position, None)
+    assert plan.status == "converged"
+    for planned in (0.02, 0.04, 0.2, 0.34):
+        for shift in (1, 2):
+            start = program.shifted_start(plan._replace(time=planned), planned + shift * h)
+            knots, speeds, accelerations = program.problem.split(start)
+            defect_q = knots[1:] - knots[:-1] - h * speeds[:-1] - 0.5 * h * h * accelerations
+            defect_v = speeds[1:] - speeds[:-1] - h * accelerations
+            assert np.abs(defect_q[:-shift]).max() < 1e-12 and np.abs(defect_v[:-shift]).max() < 1e-12
+            np.testing.assert_array_equal(accelerations[:-shift], plan.a[shift:])

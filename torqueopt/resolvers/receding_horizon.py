@@ -29,7 +29,9 @@ when :math:`h = \Delta t`; over several steps, the plan's as
 :func:`torqueopt.optimize` maps its optimum to the simulation grid), so a
 horizon of the whole movement planned once is the whole-movement optimum.
 Each solve is warm-started from the previous plan shifted to the new knots
-(the first from the path's inverse kinematics). The NLP is built once per
+(the first from the path's inverse kinematics), IPOPT from a small barrier
+parameter, or a moderate one where that plan had a variable at its bound
+(:data:`WARM_AT_BOUNDS_OPTIONS`). The NLP is built once per
 robot, knot count and options (CasADi, IPOPT with the exact Hessian), its
 functions compiled to C for all but the smallest windows (:data:`COMPILE_FROM`);
 a solve costs IPOPT's iterations only.
@@ -76,20 +78,40 @@ from .registry import RESOLVERS, register_resolver
 
 __all__ = ["RecedingHorizon", "HorizonSolve", "DEFAULT_KNOT_SPACING"]
 
-#: The knot spacing ``horizon_dt='auto'`` aims at [s]: the whole-movement optimum's default grid step.
-DEFAULT_KNOT_SPACING = 0.005
+#: The knot spacing ``horizon_dt='auto'`` aims at [s]. Twice the whole-movement optimum's default grid step: a
+#: window's work grows with its knots, and at 10 ms the closed loop's cost is that of 5 ms knots within 0.07 %
+#: (planar3's long line and a panda line, 0.5 s windows), its tip within 5e-6 m of the path; at 20 ms panda's
+#: cost is 3 % higher (benchmarks/receding_horizon_speed.py ``knots``).
+DEFAULT_KNOT_SPACING = 0.01
 #: IPOPT's tolerance and iteration budget per window.
 TOLERANCE = 1e-8
 MAX_ITERATIONS = 200
 #: IPOPT's start from a near-optimal point: a small barrier parameter, the point kept where it is (measured on
 #: planar3's long line, 0.5 s windows every 20 ms: median 5 iterations instead of 12, the same run to 4e-10).
 WARM_OPTIONS = {"ipopt.mu_init": 1e-6, "ipopt.warm_start_init_point": "yes"}
+#: IPOPT's start from a plan with variables at their bounds (joint speeds at their limits: panda's windows): the small
+#: barrier parameter would start them with no bound multipliers and then take steps cut short by the
+#: fraction-to-boundary rule for tens of iterations; a moderate one, left as soon as its subproblem is solved
+#: loosely and decreased fast, converges in about a third of them (panda, 0.5 s windows: median 15 iterations
+#: instead of 56; planar3, whose plans touch no bound, keeps :data:`WARM_OPTIONS`).
+WARM_AT_BOUNDS_OPTIONS = {
+    "ipopt.mu_init": 1e-2,
+    "ipopt.barrier_tol_factor": 1000.0,
+    "ipopt.mu_linear_decrease_factor": 0.05,
+}
+#: A bound multiplier above this (in IPOPT's unscaled units) marks a plan's variable as at its bound.
+ACTIVE_MULTIPLIER = 1e-6
 #: Windows of at least this many decision variables evaluate their NLP's functions as compiled C
 #: (``torqueopt.optimal.shooting.solve_shooting``'s ``compiled``: once per robot, knot count and options, kept
 #: on disk; CasADi's virtual machine where no C compiler exists). It pays from about 20 knots on planar3 (186
 #: variables) and on panda at any size (benchmarks/receding_horizon_speed.py); a compile takes about 10 s on planar3,
 #: minutes on panda, which the smallest windows (one control step, a few knots) would not earn back.
 COMPILE_FROM = 150
+#: A time within this fraction of a knot spacing short of a knot is taken at the knot by :func:`plan_state`: the
+#: shifted start's knot times t + kh − t_plan fall a rounding error either side of the plan's knots, and one short
+#: would take the previous interval's acceleration (a warm start off the integration rows by h·Δq̈: up to 6.5 rad/s
+#: on panda's 20 ms knots).
+KNOT_SNAP = 1e-9
 #: The terminal conditions by name (a number is a bound on the self-motion energy [J]).
 TERMINALS = ("free", "rest")
 
@@ -177,7 +199,7 @@ class RecedingHorizon(Resolver):
             unit="s",
             default="auto",
             meaning=(
-                "the knot spacing h of the window; 'auto': the multiple of the control step nearest 5 ms, "
+                "the knot spacing h of the window; 'auto': the multiple of the control step nearest 10 ms, "
                 "at most the horizon (one knot interval per step for a one-step horizon)"
             ),
             convert=_knot_spacing,
@@ -233,7 +255,7 @@ class RecedingHorizon(Resolver):
         return None if self.fallback == "none" else RESOLVERS.lookup(self.fallback)()
 
     def knot_spacing(self, dt: float | None) -> float:
-        """h [s]: ``horizon_dt``, or for 'auto' the multiple of ``dt`` nearest 5 ms, at most the horizon."""
+        """h [s]: ``horizon_dt``, or for 'auto' the multiple of ``dt`` nearest :data:`DEFAULT_KNOT_SPACING`, at most the horizon."""
         if self.horizon_dt != "auto":
             return float(self.horizon_dt)
         if dt is None:
@@ -299,9 +321,18 @@ class HorizonProgram:
         #: Whether the NLP's functions run as compiled C (:data:`COMPILE_FROM`).
         self.compiled = self.problem.size >= COMPILE_FROM
 
-    def solve(self, time: float, q, v, reference: np.ndarray, w0: np.ndarray | None) -> HorizonSolve:
+    def warm_options(self, plan: HorizonSolve) -> dict:
+        """IPOPT's options for a solve warm-started from ``plan``: :data:`WARM_AT_BOUNDS_OPTIONS` when a variable
+        of it after the fixed start is at a bound, else :data:`WARM_OPTIONS`."""
+        at_bounds = np.abs(plan.lam_x[2 * self.problem.n :]).max(initial=0.0) > ACTIVE_MULTIPLIER
+        return WARM_AT_BOUNDS_OPTIONS if at_bounds else WARM_OPTIONS
+
+    def solve(
+        self, time: float, q, v, reference: np.ndarray, w0: np.ndarray | None, warm_options: dict | None = None
+    ) -> HorizonSolve:
         """Plan from (q, v) with the task on ``reference`` (the path at the knots 0..N, (N+1)×m); ``w0`` the warm
-        start (None: the path's inverse kinematics)."""
+        start (None: the path's inverse kinematics), ``warm_options`` IPOPT's options for it (None:
+        :data:`WARM_OPTIONS`)."""
         from ..optimal.shooting import solve_shooting
 
         problem = self.problem
@@ -311,7 +342,8 @@ class HorizonProgram:
         if not warm:
             w0 = self.kinematic_start(q, v, reference)
         settings = {"tolerance": TOLERANCE, "max_iterations": MAX_ITERATIONS, "compiled": self.compiled}
-        solved = spent = solve_shooting(problem, w0, **settings, ipopt_options=WARM_OPTIONS if warm else None)
+        options = (WARM_OPTIONS if warm_options is None else warm_options) if warm else None
+        solved = spent = solve_shooting(problem, w0, **settings, ipopt_options=options)
         if warm and solved.status not in _OPTIMAL:
             # The small barrier parameter fails near the edge of feasibility where IPOPT's default start succeeds
             # (planar3's long line, 0.1 s windows, t = 1.90 s): try again from the same point, as a cold start.
@@ -352,9 +384,10 @@ class HorizonProgram:
 def plan_state(plan: HorizonSolve, h: float, s: float):
     """(q, q̇, q̈) of the plan ``s`` [s] after its start: piecewise quadratic within it, its last knot at rest beyond."""
     last = len(plan.a) - 1
-    if s >= (last + 1) * h:
+    knot = s / h + KNOT_SNAP  # a time a rounding error short of a knot is at that knot
+    if knot >= last + 1:
         return plan.q[-1], plan.v[-1], np.zeros_like(plan.a[-1])
-    k = min(max(int(s // h), 0), last)
+    k = min(max(int(knot // 1), 0), last)
     r = s - k * h
     return plan.q[k] + r * plan.v[k] + 0.5 * r * r * plan.a[k], plan.v[k] + r * plan.a[k], plan.a[k]
 
@@ -362,12 +395,13 @@ def plan_state(plan: HorizonSolve, h: float, s: float):
 def plan_states(plan: HorizonSolve, h: float, s: np.ndarray):
     """:func:`plan_state` at each of the times ``s`` [s] (the same numbers): (q, q̇, q̈), each len(s)×n."""
     last = len(plan.a) - 1
-    k = np.minimum(np.maximum((s // h).astype(int), 0), last)
+    knot = s / h + KNOT_SNAP
+    k = np.minimum(np.maximum((knot // 1).astype(int), 0), last)
     r = (s - k * h)[:, None]
     q = plan.q[k] + r * plan.v[k] + 0.5 * r * r * plan.a[k]
     v = plan.v[k] + r * plan.a[k]
     a = plan.a[k].copy()
-    beyond = s >= (last + 1) * h
+    beyond = knot >= last + 1
     q[beyond], v[beyond], a[beyond] = plan.q[-1], plan.v[-1], 0.0
     return q, v, a
 
@@ -425,8 +459,10 @@ class PathHorizonStep:
             knots = time + program.h * np.arange(program.intervals + 1)
             reference = np.asarray(self.trajectory.sample(knots).position, float)
             # From the last plan that solved, shifted (kept through failures); the first from the path's IK.
-            w0 = None if self.warm is None else program.shifted_start(self.warm, time)
-            solved = program.solve(time, terms.configuration, terms.joint_velocity, reference, w0)
+            w0, options = None, None
+            if self.warm is not None:
+                w0, options = program.shifted_start(self.warm, time), program.warm_options(self.warm)
+            solved = program.solve(time, terms.configuration, terms.joint_velocity, reference, w0, options)
             self.solves.append(solved)
             if solved.status not in _OPTIMAL:
                 self.plan, self.failed = None, solved
