@@ -316,20 +316,24 @@ def _through(distance, speed, scale, deceleration):
     return np.where((speed > 0.0) & (room > 0.0) & (through > deceleration), through, deceleration)
 
 
-def _approach_root(dt, speed, room, deceleration, scale):
-    r"""The largest a that keeps the next state under the approach curve of ``deceleration`` ā (module docstring).
-
-    ``speed`` [rad/s] is towards the limit, ``room`` [rad] the distance to it after the step at a = 0
-    (:math:`q^+ - q - \delta\dot q` before the upper limit), ``scale`` Nδ [s] (0: Del Prete's parabola). NaN
-    where no a does.
+def _viability_roots(dt, q, v, lower, upper, upper_brake, lower_brake, scale):
+    r"""(upper, lower) bound on a that keeps the next state under the approach curves of ``upper_brake`` ā⁺ before the
+    upper limit and ``lower_brake`` ā⁻ before the lower one (module docstring; ``scale`` Nδ [s], 0: Del Prete's
+    parabola). NaN where no a does.
     """
-    offset = deceleration * scale
-    reach = 0.5 * offset**2 / deceleration
-    return _larger_root(
+    offset, lower_offset = upper_brake * scale, lower_brake * scale
+    reach, lower_reach = 0.5 * offset**2 / upper_brake, 0.5 * lower_offset**2 / lower_brake
+    root_up = _larger_root(
         dt,
-        2.0 * dt * (speed + offset) + deceleration * dt**2,
-        (speed + offset) ** 2 - 2.0 * deceleration * (room + reach),
+        2.0 * dt * (v + offset) + upper_brake * dt**2,
+        (v + offset) ** 2 - 2.0 * upper_brake * (upper + reach - q - dt * v),
     )
+    root_down = -_larger_root(
+        dt,
+        2.0 * dt * (lower_offset - v) + lower_brake * dt**2,
+        (lower_offset - v) ** 2 - 2.0 * lower_brake * (q + dt * v - lower + lower_reach),
+    )
+    return root_up, root_down
 
 
 def _pick(candidates, choose):
@@ -396,20 +400,18 @@ def acceleration_bounds(
         # parabola itself. The larger root of δ²a² + B a + C = 0, in the form without cancellation where B > 0.
         # upper_brake stops the joint before its upper limit (a negative acceleration), lower_brake before its lower.
         scale = APPROACH_STEPS * dt if approach else 0.0
-        upper_room, lower_room = upper - q - dt * v, q + dt * v - lower
-        root_up = _approach_root(dt, v, upper_room, upper_brake, scale)
-        root_down = -_approach_root(dt, -v, lower_room, lower_brake, scale)
+        root_up, root_down = _viability_roots(dt, q, v, lower, upper, upper_brake, lower_brake, scale)
         # A state above ā's curve is asked back under it within one step where the torque box gives that braking, and
         # rides the curve through it where it does not (more than ā, and more than the torque gives).
         lowest, highest = (np.inf, -np.inf) if box_range is None else box_range
         ride_up = np.nan_to_num(root_up, nan=-np.inf) < lowest
         ride_down = np.nan_to_num(root_down, nan=np.inf) > highest
-        if ride_up.any():
-            through = _through(upper - q, v, scale, upper_brake)
-            root_up = np.where(ride_up, _approach_root(dt, v, upper_room, through, scale), root_up)
-        if ride_down.any():
-            through = _through(q - lower, -v, scale, lower_brake)
-            root_down = np.where(ride_down, -_approach_root(dt, -v, lower_room, through, scale), root_down)
+        if ride_up.any() or ride_down.any():
+            upper_ride = _through(upper - q, v, scale, upper_brake)
+            lower_ride = _through(q - lower, -v, scale, lower_brake)
+            ride_root_up, ride_root_down = _viability_roots(dt, q, v, lower, upper, upper_ride, lower_ride, scale)
+            root_up = np.where(ride_up, ride_root_up, root_up)
+            root_down = np.where(ride_down, ride_root_down, root_down)
     upper_viability = np.where(
         np.isfinite(upper_brake), np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step), np.inf
     )
