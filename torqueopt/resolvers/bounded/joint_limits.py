@@ -86,28 +86,29 @@ at each state from the torque limit, the mass matrix, the bias torque
 
 .. math::
 
-    \bar a_i = \tfrac12\,\frac{\tau^{max}_i - |b_i|}{H_{ii}}\quad\text{where}\quad
-    \tau^{max}_i - |b_i| \ge 0.1\,\tau^{max}_i,\qquad\text{else}\quad
-    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |g_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
+    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |b_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
 
 half the acceleration joint i's own torque gives it beyond the bias, with the
-other joints at rest. The half leaves torque for the task and for the other
-joints, which the real stop also moves. The velocity terms of the bias
-(Coriolis, centrifugal, the joints' damping and friction) are counted at
+other joints at rest (a tenth of the limit where the bias takes more than
+nine tenths). The half leaves torque for the task and for the other joints,
+which the real stop also moves. The velocity terms of the bias, :math:`b - g`
+(Coriolis, centrifugal, the joints' damping and friction), are counted at
 their value at the state: the task keeps the other joints moving while one
-brakes, and counting less lets a joint reach its limit faster than the torque
-the task leaves can stop it (tiago's atlases give up the task on more runs
-with the gravity torque alone: docs/guide/joint-limits.md). Where the bias
-leaves the joint less than a tenth of its limit, ā would be that tenth, and a
-state far from every limit could look unable to stop (on planar3, whose
-Coriolis torque can exceed a joint's whole limit, the step gave up the task
-8.5 rad from any limit). There the velocity terms, which take the joint's
-whole torque only at such speeds and fall as the joints slow, are not
-counted: ā is that of the gravity torque alone, and a tenth of the limit only
-where gravity itself takes more than nine tenths. A joint without a torque
-limit and without an acceleration limit can stop at once: it has no viability
-bound. :math:`\bar a_i` is the same in both directions, and it is not a proven
-bound.
+brakes, and counting less lets a joint reach its limit faster than the
+torque the task leaves can stop it (tiago's atlases give up the task on more
+runs with gravity alone: docs/guide/joint-limits.md). Where they take more
+than nine tenths of the torque gravity leaves,
+:math:`|b_i - g_i| > 0.9(\tau^{max}_i - |g_i|)`, ā would count on that tenth
+or less, and states far from every limit looked unable to stop (on planar3,
+whose Coriolis torque can exceed a joint's whole limit, the step gave up the
+task 8.5 rad from any limit). Velocity terms that large fall as the joints
+slow, and there ā is at least that of gravity alone,
+:math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\,\tau^{max}_i)/H_{ii}`. ā
+jumps where the velocity terms cross that share; a state that a smaller ā
+leaves above its curve is handled as above. A joint without a torque limit
+and without an acceleration limit can stop at once: it has no viability
+bound. :math:`\bar a_i` is the same in both directions, and it is not a
+proven bound.
 
 What the torque box really gives joint i at the state, each way, is the box
 LP of :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over :math:`\tau^- \le \tau \le \tau^+`.
@@ -171,7 +172,6 @@ __all__ = [
     "VELOCITY_MARGIN",
     "acceleration_bounds",
     "acceleration_range",
-    "bias_takes_the_limit",
     "stopping_deceleration",
 ]
 
@@ -189,8 +189,8 @@ POSITION_MARGIN = 1e-4
 APPROACH_STEPS = 10
 #: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
 STOPPING_FRACTION = 0.5
-#: The least share of the torque limit counted as available to stop; where the bias torque leaves less, ā counts
-#: gravity alone.
+#: The least share of the torque limit counted as available to stop, when the bias torque takes more; where the
+#: velocity terms take more than 1 − this of what gravity leaves, ā counts at least what gravity alone leaves.
 LEAST_STOPPING_SHARE = 0.1
 
 
@@ -282,25 +282,20 @@ def stopping_deceleration(
     before its lower one, from the torque limits [N·m], H and the bias torque b at the state of ``terms`` and the
     gravity torque :math:`g(q)` [N·m] there (module docstring).
 
-    :math:`\bar a_i = \tfrac12(\tau^{max}_i - |b_i|)/H_{ii}` where that leaves a tenth of the limit, else
-    :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}`; the same both ways, inf where the torque is
-    unbounded. ``gravity_torque`` is read only where the bias leaves less than a tenth. One state (n values each) or
-    a stack (B × n).
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, and at least
+    :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}` where the velocity terms :math:`|b_i - g_i|` take
+    more than nine tenths of :math:`\tau^{max}_i - |g_i|`; the same both ways, inf where the torque is unbounded. One
+    state (n values each) or a stack (B × n).
     """
     limit = np.minimum(torque_upper, -torque_lower)
     least = LEAST_STOPPING_SHARE * limit
-    beyond_bias = limit - np.abs(terms.bias_torque)
-    # Where the bias takes more than nine tenths, its velocity terms are not counted: they fall as the joints slow.
-    beyond_gravity = np.maximum(limit - np.abs(gravity_torque), least)
-    available = np.where(beyond_bias >= least, beyond_bias, beyond_gravity)
+    beyond_bias = np.maximum(limit - np.abs(terms.bias_torque), least)
+    # Velocity terms that take more than nine tenths of what gravity leaves are not counted: they fall as joints slow.
+    held = limit - np.abs(gravity_torque)
+    taken = np.abs(terms.bias_torque - gravity_torque) > (1.0 - LEAST_STOPPING_SHARE) * held
+    available = np.where(taken, np.maximum(beyond_bias, np.maximum(held, least)), beyond_bias)
     deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
     return deceleration, deceleration
-
-
-def bias_takes_the_limit(terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray) -> np.ndarray:
-    """Per joint (n, or B × n for a stack): does the bias torque leave it less than a tenth of its torque limit?"""
-    limit = np.minimum(torque_upper, -torque_lower)
-    return limit - np.abs(terms.bias_torque) < LEAST_STOPPING_SHARE * limit
 
 
 def _through(distance, speed, scale, deceleration):
@@ -482,14 +477,7 @@ class JointLimits:
         angles = configuration - self._neutral if self._euclidean else self.robot.joint_angles(configuration)
         angles = angles[..., joints]
         if self.derived:
-            robot = self.robot
-            # g(q) only at the states where some joint's bias takes more than nine tenths of its limit.
-            taken = bias_takes_the_limit(terms, robot.torque_upper, robot.torque_lower).any(axis=-1)
-            gravity = np.zeros(terms.bias_torque.shape)
-            if configuration.ndim == 1 and taken:
-                gravity = self.gravity_torque(configuration)
-            elif configuration.ndim > 1 and taken.any():
-                gravity[taken] = self.gravity_torque(configuration[taken])
+            gravity = self.gravity_torque(configuration)
             before_upper, before_lower = stopping_deceleration(
                 terms, self.robot.torque_upper, self.robot.torque_lower, gravity
             )
