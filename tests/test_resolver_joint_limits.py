@@ -744,7 +744,7 @@ def test_the_acceleration_range_is_the_box_lp(arms, rng):
     bias torque, one joint unbounded: the closed form of each joint's extreme accelerations over the box equals
     HiGHS's LP, per joint and each way (the unbounded joint: ±inf, and 0 N·m in the others' ranges). The deceleration
     the bounds count on is ½·max(τmax − |b|, 0.1 τmax)/Hᵢᵢ with the smaller side of an asymmetric box, and at least
-    ½·max(τmax − |g|, 0.1 τmax)/Hᵢᵢ where the velocity terms b − g take more than nine tenths of τmax − |g|, the same
+    ½·max(τmax − |g|, 0.1 τmax)/Hᵢᵢ where the velocity terms b − g alone take more than nine tenths of τmax, the same
     both ways."""
     from torqueopt.resolvers.bounded.joint_limits import acceleration_range, stopping_deceleration
 
@@ -765,7 +765,7 @@ def test_the_acceleration_range_is_the_box_lp(arms, rng):
             before_upper, before_lower = stopping_deceleration(terms, upper, lower, gravity)
             limit = np.minimum(upper, -lower)
             beyond_bias = np.maximum(limit - np.abs(terms.bias_torque), 0.1 * limit)
-            taken = np.abs(terms.bias_torque - gravity) > 0.9 * (limit - np.abs(gravity))
+            taken = np.abs(terms.bias_torque - gravity) > 0.9 * limit
             beyond_gravity = np.maximum(limit - np.abs(gravity), 0.1 * limit)
             available = np.where(taken, np.maximum(beyond_bias, beyond_gravity), beyond_bias)
             expected = 0.5 * available / np.diagonal(terms.inertia)
@@ -789,8 +789,8 @@ def test_the_issue_s_state_eight_radians_from_every_limit_keeps_the_task(planar3
     """planar3 at q = (−0.91, 2.19, 0.24) rad, q̇ = (1.31, −1.1, −1.26) rad/s, 8.5 rad from every limit. The ā that
     counted the whole bias torque took joint2's Coriolis torque (25.3 N·m, more than its 24 N·m) as lasting the whole
     stop: ā = ½·0.1·24 N·m/H₂₂ = 0.045 rad/s², the state was not viable and the step gave up the task ("position
-    limit (stopping distance) (lower) of joint joint2 by 229 rad/s²"). Where the velocity terms (Pinocchio's RNEA) take
-    more than nine tenths of what gravity leaves (joint2, and joint3: 5.66 of 6 N·m), ā counts gravity (none here):
+    limit (stopping distance) (lower) of joint joint2 by 229 rad/s²"). Where the velocity terms (Pinocchio's RNEA) alone
+    take more than nine tenths of the limit (joint2, and joint3: 5.66 of 6 N·m), ā counts gravity (none here):
     ā₂ = ½·24 N·m/H₂₂ = 0.45 rad/s², within the 6.4 rad/s² the torque box gives joint2 (HiGHS); joint1 counts its
     bias (21.2 of 54 N·m). Stopping from 1.1 rad/s takes 1.3 rad, no joint row binds and every bounded resolver's
     step is the one it takes with joint_limits=off (bounded-torque and minmax-torque keep the task)."""
@@ -838,10 +838,10 @@ def test_random_planar3_states_far_from_its_limits_keep_the_task(planar3):
         assert given_up == [21], (resolver, given_up)
 
 
-def test_the_deceleration_counts_the_bias_and_gravity_alone_where_the_velocity_terms_take_the_rest(arms, rng):
+def test_the_deceleration_counts_the_bias_and_gravity_alone_where_the_velocity_terms_take_the_limit(arms, rng):
     """At random panda and baxter states, at q̇ and at 4 q̇: ā = ½·max(τmax − |b|, 0.1 τmax)/Hᵢᵢ with b Pinocchio's RNEA at
-    (q, q̇), and at least ½·max(τmax − |g|, 0.1 τmax)/Hᵢᵢ (g the RNEA at rest) where the velocity terms b − g take more
-    than nine tenths of τmax − |g| (they fall as the joints slow). Both cases occur, and a stack of the same states
+    (q, q̇), and at least ½·max(τmax − |g|, 0.1 τmax)/Hᵢᵢ (g the RNEA at rest) where the velocity terms b − g alone take
+    more than nine tenths of τmax (they fall as the joints slow). Both cases occur, and a stack of the same states
     gives the same numbers."""
     from torqueopt.resolvers.stacks import StackTerms
 
@@ -859,7 +859,7 @@ def test_the_deceleration_counts_the_bias_and_gravity_alone_where_the_velocity_t
                 v = scale * rng.uniform(-2.0, 2.0, robot.nv)
                 bias = pin.rnea(robot.model, data, q, v, np.zeros(robot.nv))
                 gravity = pin.rnea(robot.model, data, q, np.zeros(robot.nv), np.zeros(robot.nv))
-                taken = np.abs(bias - gravity) > 0.9 * (limit - np.abs(gravity))
+                taken = np.abs(bias - gravity) > 0.9 * limit
                 with_bias = np.maximum(limit - np.abs(bias), 0.1 * limit)
                 available = np.where(taken, np.maximum(with_bias, limit - np.abs(gravity)), with_bias)
                 terms = robot.terms(q, v)

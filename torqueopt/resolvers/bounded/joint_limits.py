@@ -96,10 +96,10 @@ which the real stop also moves. The velocity terms of the bias, :math:`b - g`
 their value at the state: the task keeps the other joints moving while one
 brakes, and counting less lets a joint reach its limit faster than the
 torque the task leaves can stop it (tiago's atlases give up the task on more
-runs with gravity alone: docs/guide/joint-limits.md). Where they take more
-than nine tenths of the torque gravity leaves,
-:math:`|b_i - g_i| > 0.9(\tau^{max}_i - |g_i|)`, ā would count on that tenth
-or less, and states far from every limit looked unable to stop (on planar3,
+runs with gravity alone: docs/guide/joint-limits.md). Where they alone take
+more than nine tenths of the limit, :math:`|b_i - g_i| > 0.9\,\tau^{max}_i`,
+ā would count on a tenth of the limit, and states far from every limit
+looked unable to stop (on planar3,
 whose Coriolis torque can exceed a joint's whole limit, the step gave up the
 task 8.5 rad from any limit). Velocity terms that large fall as the joints
 slow, and there ā is at least that of gravity alone,
@@ -190,7 +190,7 @@ APPROACH_STEPS = 10
 #: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
 STOPPING_FRACTION = 0.5
 #: The least share of the torque limit counted as available to stop, when the bias torque takes more; where the
-#: velocity terms take more than 1 − this of what gravity leaves, ā counts at least what gravity alone leaves.
+#: velocity terms alone take more than 1 − this of the limit, ā counts at least what gravity alone leaves.
 LEAST_STOPPING_SHARE = 0.1
 
 
@@ -283,17 +283,16 @@ def stopping_deceleration(
     gravity torque :math:`g(q)` [N·m] there (module docstring).
 
     :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, and at least
-    :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}` where the velocity terms :math:`|b_i - g_i|` take
-    more than nine tenths of :math:`\tau^{max}_i - |g_i|`; the same both ways, inf where the torque is unbounded. One
+    :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}` where the velocity terms :math:`|b_i - g_i|` alone
+    take more than nine tenths of :math:`\tau^{max}_i`; the same both ways, inf where the torque is unbounded. One
     state (n values each) or a stack (B × n).
     """
     limit = np.minimum(torque_upper, -torque_lower)
     least = LEAST_STOPPING_SHARE * limit
     beyond_bias = np.maximum(limit - np.abs(terms.bias_torque), least)
-    # Velocity terms that take more than nine tenths of what gravity leaves are not counted: they fall as joints slow.
-    held = limit - np.abs(gravity_torque)
-    taken = np.abs(terms.bias_torque - gravity_torque) > (1.0 - LEAST_STOPPING_SHARE) * held
-    available = np.where(taken, np.maximum(beyond_bias, np.maximum(held, least)), beyond_bias)
+    # Velocity terms that alone take more than nine tenths of the limit are not counted: they fall as the joints slow.
+    taken = np.abs(terms.bias_torque - gravity_torque) > (1.0 - LEAST_STOPPING_SHARE) * limit
+    available = np.where(taken, np.maximum(beyond_bias, np.maximum(limit - np.abs(gravity_torque), least)), beyond_bias)
     deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
     return deceleration, deceleration
 
