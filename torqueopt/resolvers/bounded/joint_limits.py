@@ -98,10 +98,9 @@ brakes, and counting less lets a joint reach its limit faster than the
 torque the task leaves can stop it (tiago's atlases give up the task on more
 runs with gravity alone: docs/guide/joint-limits.md). Where they alone take
 more than nine tenths of the limit, :math:`|b_i - g_i| > 0.9\,\tau^{max}_i`,
-ā would count on a tenth of the limit, and states far from every limit
-looked unable to stop (on planar3,
-whose Coriolis torque can exceed a joint's whole limit, the step gave up the
-task 8.5 rad from any limit). Velocity terms that large fall as the joints
+counting them as if they lasted the whole stop made states far from every
+limit look unable to stop (on planar3, whose Coriolis torque can exceed a
+joint's whole limit, the step gave up the task 8.5 rad from any limit). Velocity terms that large fall as the joints
 slow, and there ā is at least that of gravity alone,
 :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\,\tau^{max}_i)/H_{ii}`. ā
 jumps where the velocity terms cross that share; a state that a smaller ā
