@@ -54,10 +54,11 @@ viability
     step is always allowed); mirrored at :math:`q^-_i`.
 
     A state above the curve of :math:`\bar a_i` (:math:`\bar a_i` is derived at
-    each state, and falls when the gravity torque grows) is not asked back under
-    it within one step: that asks more braking than :math:`\bar a_i`, up to
-    hundreds of rad/s², which no torque gives. The curve of the deceleration
-    that passes through the state,
+    each state, and falls when the bias torque grows) is asked back under it
+    within one step where the torque box gives the joint that braking (its
+    lowest acceleration at the state, :func:`acceleration_range`, is below the
+    bound). Where it does not (hundreds of rad/s² far from the limit, which no
+    torque gives), the curve of the deceleration that passes through the state,
 
     .. math::
 
@@ -68,7 +69,9 @@ viability
     the step asks for more only where that is more than the torque gives.
     Next to the limit (:math:`d \le N\delta\dot q_i`) no curve passes through
     the state, and the bound asks it back under the curve of :math:`\bar a_i`
-    (every curve there is :math:`\dot q \approx k d`).
+    (every curve there is :math:`\dot q \approx k d`). Riding through where
+    the box could bring the joint back let baxter's joints ride above their
+    curves and meet their torque limits later (docs/guide/joint-limits.md).
 velocity
     :math:`|\dot q_i^+| \le \dot q^{max}_i`:
     :math:`(-\dot q^{max}_i - \dot q_i)/\delta \le a \le (\dot q^{max}_i - \dot q_i)/\delta`.
@@ -77,27 +80,34 @@ acceleration
 
 The maximum deceleration :math:`\bar a_i` is the acceleration limit where
 one is given (option ``joint_acceleration_limit``). Otherwise it is derived
-at each state from the torque limit, the mass matrix and the gravity torque
-:math:`g(q)` (Pinocchio's ``computeGeneralizedGravity``),
+at each state from the torque limit, the mass matrix, the bias torque
+:math:`b = C(q, \dot q)\dot q + g(q)` and the gravity torque :math:`g(q)`
+(Pinocchio's ``computeGeneralizedGravity``),
 
 .. math::
 
-    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |g_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
+    \bar a_i = \tfrac12\,\frac{\max(\tau^{max}_i - |b_i|,\ 0.1\,\tau^{max}_i)}{H_{ii}},
 
-half the acceleration joint i's own torque gives it beyond what holds it
-against gravity, with the other joints at rest. When gravity alone takes more
-than nine tenths of the limit, a tenth of the limit is counted. The half
-leaves torque for the task and for the other joints, which the real stop
-also moves. The velocity terms of the bias torque :math:`b = C(q, \dot q)\dot q + g(q)`
-(Coriolis, centrifugal, the joints' damping and friction) are not counted:
-they fall with the speeds as the joints slow, and counting their value at
-the state as if it lasted the whole stop made states far from any limit
-look unable to stop (on planar3, whose Coriolis torque can exceed a joint's
-whole limit, the step gave up the task 8.5 rad from any limit:
-docs/guide/joint-limits.md). A joint
-without a torque limit and without an acceleration limit can stop at once:
-it has no viability bound. :math:`\bar a_i` is the same in both directions,
-and it is not a proven bound.
+half the acceleration joint i's own torque gives it beyond the bias, with the
+other joints at rest (a tenth of the limit where the bias takes more than
+nine tenths). The half leaves torque for the task and for the other joints,
+which the real stop also moves. The velocity terms of the bias, :math:`b - g`
+(Coriolis, centrifugal, the joints' damping and friction), are counted at
+their value at the state: the task keeps the other joints moving while one
+brakes, and counting less lets a joint reach its limit faster than the
+torque the task leaves can stop it (tiago's atlases give up the task on more
+runs with gravity alone: docs/guide/joint-limits.md). Where they alone take
+more than nine tenths of the limit, :math:`|b_i - g_i| > 0.9\,\tau^{max}_i`,
+counting them as if they lasted the whole stop made states far from every
+limit look unable to stop (on planar3, whose Coriolis torque can exceed a
+joint's whole limit, the step gave up the task 8.5 rad from any limit). Velocity terms that large fall as the joints
+slow, and there ā is at least that of gravity alone,
+:math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\,\tau^{max}_i)/H_{ii}`. ā
+jumps where the velocity terms cross that share; a state that a smaller ā
+leaves above its curve is handled as above. A joint without a torque limit
+and without an acceleration limit can stop at once: it has no viability
+bound. :math:`\bar a_i` is the same in both directions, and it is not a
+proven bound.
 
 What the torque box really gives joint i at the state, each way, is the box
 LP of :math:`\ddot q_i = [H^{-1}(\tau - b)]_i` over :math:`\tau^- \le \tau \le \tau^+`.
@@ -178,7 +188,8 @@ POSITION_MARGIN = 1e-4
 APPROACH_STEPS = 10
 #: Fraction of a joint's own torque-limited acceleration taken as its maximum deceleration.
 STOPPING_FRACTION = 0.5
-#: The least share of the torque limit counted as available to stop, when the bias torque takes more.
+#: The least share of the torque limit counted as available to stop, when the bias torque takes more; where the
+#: velocity terms alone take more than 1 − this of the limit, ā counts at least what gravity alone leaves.
 LEAST_STOPPING_SHARE = 0.1
 
 
@@ -267,14 +278,20 @@ def stopping_deceleration(
     terms: TaskTerms, torque_upper: np.ndarray, torque_lower: np.ndarray, gravity_torque: np.ndarray
 ):
     r"""(:math:`\bar a^+`, :math:`\bar a^-`) [rad/s²]: the deceleration counted on before each joint's upper limit and
-    before its lower one, from the torque limits [N·m], H at the state of ``terms`` and the gravity torque
-    :math:`g(q)` [N·m] there (module docstring).
+    before its lower one, from the torque limits [N·m], H and the bias torque b at the state of ``terms`` and the
+    gravity torque :math:`g(q)` [N·m] there (module docstring).
 
-    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}`, the same both ways; inf where the
-    torque is unbounded. One state (n values each) or a stack (B × n).
+    :math:`\bar a_i = \tfrac12\max(\tau^{max}_i - |b_i|, 0.1\tau^{max}_i)/H_{ii}`, and at least
+    :math:`\tfrac12\max(\tau^{max}_i - |g_i|, 0.1\tau^{max}_i)/H_{ii}` where the velocity terms :math:`|b_i - g_i|` alone
+    take more than nine tenths of :math:`\tau^{max}_i`; the same both ways, inf where the torque is unbounded. One
+    state (n values each) or a stack (B × n).
     """
     limit = np.minimum(torque_upper, -torque_lower)
-    available = np.maximum(limit - np.abs(gravity_torque), LEAST_STOPPING_SHARE * limit)
+    least = LEAST_STOPPING_SHARE * limit
+    beyond_bias = np.maximum(limit - np.abs(terms.bias_torque), least)
+    # Velocity terms that alone take more than nine tenths of the limit are not counted: they fall as the joints slow.
+    taken = np.abs(terms.bias_torque - gravity_torque) > (1.0 - LEAST_STOPPING_SHARE) * limit
+    available = np.where(taken, np.maximum(beyond_bias, np.maximum(limit - np.abs(gravity_torque), least)), beyond_bias)
     deceleration = STOPPING_FRACTION * available / np.diagonal(terms.inertia, axis1=-2, axis2=-1)
     return deceleration, deceleration
 
@@ -290,6 +307,26 @@ def _through(distance, speed, scale, deceleration):
         room = distance - scale * speed
         through = speed**2 / (2.0 * room)
     return np.where((speed > 0.0) & (room > 0.0) & (through > deceleration), through, deceleration)
+
+
+def _viability_roots(dt, q, v, lower, upper, upper_brake, lower_brake, scale):
+    r"""(upper, lower) bound on a that keeps the next state under the approach curves of ``upper_brake`` ā⁺ before the
+    upper limit and ``lower_brake`` ā⁻ before the lower one (module docstring; ``scale`` Nδ [s], 0: Del Prete's
+    parabola). NaN where no a does.
+    """
+    offset, lower_offset = upper_brake * scale, lower_brake * scale
+    reach, lower_reach = 0.5 * offset**2 / upper_brake, 0.5 * lower_offset**2 / lower_brake
+    root_up = _larger_root(
+        dt,
+        2.0 * dt * (v + offset) + upper_brake * dt**2,
+        (v + offset) ** 2 - 2.0 * upper_brake * (upper + reach - q - dt * v),
+    )
+    root_down = -_larger_root(
+        dt,
+        2.0 * dt * (lower_offset - v) + lower_brake * dt**2,
+        (lower_offset - v) ** 2 - 2.0 * lower_brake * (q + dt * v - lower + lower_reach),
+    )
+    return root_up, root_down
 
 
 def _pick(candidates, choose):
@@ -317,6 +354,7 @@ def acceleration_bounds(
     acceleration_limit,
     approach: bool = True,
     lower_deceleration=None,
+    box_range=None,
 ) -> AccelerationBounds:
     r"""Del Prete's bounds on :math:`\ddot q` (module docstring) for joints at ``angle`` [rad], ``velocity`` [rad/s].
 
@@ -327,7 +365,10 @@ def acceleration_bounds(
     (inf: at once), ``lower_deceleration`` :math:`\bar a^-`, before its lower limit (None: ``deceleration``),
     ``acceleration_limit``
     :math:`\ddot q^{max}` [rad/s²] (inf: none). ``approach=False`` is Del Prete's braking parabola
-    without the offset (w = 0), kept for comparison: it rebounds from a limit it is pushed into.
+    without the offset (w = 0), kept for comparison: it rebounds from a limit it is pushed into. ``box_range`` is
+    (lowest, highest) [rad/s²], what the torque box gives each joint at the state (:func:`acceleration_range`): a state
+    above its curve is asked back under it within one step where that lies within them, and rides the curve through it
+    where it does not (None: wherever it is above).
     """
     q, v, dt = np.asarray(angle, float), np.asarray(velocity, float), float(step)
     lower, upper = np.asarray(position_lower, float), np.asarray(position_upper, float)
@@ -352,21 +393,18 @@ def acceleration_bounds(
         # parabola itself. The larger root of δ²a² + B a + C = 0, in the form without cancellation where B > 0.
         # upper_brake stops the joint before its upper limit (a negative acceleration), lower_brake before its lower.
         scale = APPROACH_STEPS * dt if approach else 0.0
-        # A state above ā's curve rides the curve through it, not asked back under ā's within one step (more than ā).
-        upper_ride = _through(upper - q, v, scale, upper_brake)
-        lower_ride = _through(q - lower, -v, scale, lower_brake)
-        offset, lower_offset = upper_ride * scale, lower_ride * scale
-        reach, lower_reach = 0.5 * offset**2 / upper_ride, 0.5 * lower_offset**2 / lower_ride
-        root_up = _larger_root(
-            dt,
-            2.0 * dt * (v + offset) + upper_ride * dt**2,
-            (v + offset) ** 2 - 2.0 * upper_ride * (upper + reach - q - dt * v),
-        )
-        root_down = -_larger_root(
-            dt,
-            2.0 * dt * (lower_offset - v) + lower_ride * dt**2,
-            (lower_offset - v) ** 2 - 2.0 * lower_ride * (q + dt * v - lower + lower_reach),
-        )
+        root_up, root_down = _viability_roots(dt, q, v, lower, upper, upper_brake, lower_brake, scale)
+        # A state above ā's curve is asked back under it within one step where the torque box gives that braking, and
+        # rides the curve through it where it does not (more than ā, and more than the torque gives).
+        lowest, highest = (np.inf, -np.inf) if box_range is None else box_range
+        ride_up = np.nan_to_num(root_up, nan=-np.inf) < lowest
+        ride_down = np.nan_to_num(root_down, nan=np.inf) > highest
+        if ride_up.any() or ride_down.any():
+            upper_ride = _through(upper - q, v, scale, upper_brake)
+            lower_ride = _through(q - lower, -v, scale, lower_brake)
+            ride_root_up, ride_root_down = _viability_roots(dt, q, v, lower, upper, upper_ride, lower_ride, scale)
+            root_up = np.where(ride_up, ride_root_up, root_up)
+            root_down = np.where(ride_down, ride_root_down, root_down)
     upper_viability = np.where(
         np.isfinite(upper_brake), np.fmax(np.nan_to_num(root_up, nan=-np.inf), stop_in_step), np.inf
     )
@@ -444,6 +482,7 @@ class JointLimits:
             before_upper, before_lower = before_upper[..., joints], before_lower[..., joints]
         else:
             before_upper = before_lower = self._limit
+        lowest, highest = acceleration_range(terms, self.robot.torque_upper, self.robot.torque_lower)
         return acceleration_bounds(
             angles,
             terms.joint_velocity[..., joints],
@@ -454,6 +493,7 @@ class JointLimits:
             before_upper,
             self._limit,
             lower_deceleration=before_lower,
+            box_range=(lowest[..., joints], highest[..., joints]),
         )
 
     def gravity_torque(self, configuration: np.ndarray) -> np.ndarray:
