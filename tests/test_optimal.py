@@ -663,3 +663,32 @@ def test_ctrl_c_stops_ipopt_exits_130_and_writes_nothing(tmp_path):
     assert process.returncode == 130 and lines[-1] == "torqueopt optimize: interrupted\n", lines
     assert time.monotonic() - sent < 10  # one IPOPT iteration: a second or two on a loaded machine
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_ctrl_c_during_an_ipopt_solve_is_raised_when_it_returns():
+    """CasADi reads the pending signals while IPOPT runs and drops a KeyboardInterrupt it finds (its warning
+    "KeyboardInterruptException"): solved one after another, as receding-horizon's windows are, the solves went on
+    through a Ctrl-C. Through ``call_solver`` the Ctrl-C sent during a solve is raised as soon as that solve ends."""
+    import os
+    import signal
+    import threading
+    import time
+
+    import casadi
+
+    from torqueopt.optimal.ipopt import call_solver
+
+    x = casadi.SX.sym("x", 120)
+    problem = {"x": x, "f": casadi.sumsqr(x) ** 2 + casadi.sum1(casadi.sin(3 * x))}
+    solver = casadi.nlpsol("test_interrupt", "ipopt", problem, {"ipopt.print_level": 0, "print_time": False})
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # a background job starts with it ignored
+    try:
+        sent = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+        began = time.monotonic()
+        sent.start()
+        with pytest.raises(KeyboardInterrupt):
+            while time.monotonic() - began < 5.0:  # without the fix: 5 s of solves, no KeyboardInterrupt
+                call_solver(solver, x0=np.ones(120))
+        sent.join()
+    finally:
+        signal.signal(signal.SIGINT, previous)

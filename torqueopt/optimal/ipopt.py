@@ -19,12 +19,14 @@ BENCHMARKS.md, "Whole-path optimisation".
 
 from __future__ import annotations
 
+import signal
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import MissingDependency
+from ..progress import interrupt_deferred
 from .transcription import Transcription
 
 __all__ = ["STATUSES", "SolverOutput", "solve_transcription"]
@@ -119,6 +121,21 @@ def _function_class(casadi):
             return self.jacobian_function(name)
 
     return NumpyFunction
+
+
+def call_solver(solver, **arguments):
+    """``solver(**arguments)``, an IPOPT solve of CasADi's; a Ctrl-C heard during it is raised once it returns.
+
+    CasADi reads Python's pending signals while IPOPT runs and drops a KeyboardInterrupt it finds there: the solve
+    goes on, and so did the run that called it (a sweep of receding-horizon windows heard no Ctrl-C). Where Python's
+    own handler is in place (in the main thread), it is replaced for the solve by one that keeps the signal, which
+    is raised when the solve ends; a handler someone else installed (``torqueopt optimize``'s, which also stops IPOPT
+    at its next iteration) is left as it is.
+    """
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        return solver(**arguments)
+    with interrupt_deferred():
+        return solver(**arguments)
 
 
 def _iteration_callback(casadi, size: int, count: int, on_iteration):
@@ -257,7 +274,7 @@ def solve_transcription(
     lower_g, upper_g = problem.constraint_bounds()
     start = np.clip(np.asarray(w0, float), lower_x, upper_x)
     began = time.perf_counter()
-    answer = solver(x0=start, lbx=lower_x, ubx=upper_x, lbg=lower_g, ubg=upper_g)
+    answer = call_solver(solver, x0=start, lbx=lower_x, ubx=upper_x, lbg=lower_g, ubg=upper_g)
     seconds = time.perf_counter() - began
     stats = solver.stats()
     message = str(stats.get("return_status", "unknown"))

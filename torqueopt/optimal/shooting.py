@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..progress import command_name, said_if_slow
-from .ipopt import _STATUS, SolverOutput, _iteration_callback
+from .ipopt import _STATUS, SolverOutput, _iteration_callback, call_solver
 from .symbolic import _casadi, configuration_expression, model_digest, symbolic_dynamics
 from .transcription import Transcription
 
@@ -265,7 +265,7 @@ def solve_shooting(
     lower_g, upper_g = problem.constraint_bounds()
     start = np.clip(np.asarray(w0, float), lower_x, upper_x)
     began = time.perf_counter()
-    answer = solver(x0=start, p=problem.parameters(), lbx=lower_x, ubx=upper_x, lbg=lower_g, ubg=upper_g)
+    answer = call_solver(solver, x0=start, p=problem.parameters(), lbx=lower_x, ubx=upper_x, lbg=lower_g, ubg=upper_g)
     seconds = time.perf_counter() - began
     stats = solver.stats()
     message = str(stats.get("return_status", "unknown"))
@@ -481,7 +481,8 @@ def least_excess(
     g0 = np.asarray(solver.get_function("nlp_g")(np.append(start, 0.0), parameters)).reshape(-1)[equalities:]
     excess0 = float(np.max(np.abs(g0[: len(free_rows)]) - 1.0, initial=0.0, where=~free_rows))
     began = time.perf_counter()
-    answer = solver(
+    answer = call_solver(
+        solver,
         x0=np.append(start, max(excess0, 0.0)),
         p=parameters,
         lbx=np.append(lower_x, 0.0),
