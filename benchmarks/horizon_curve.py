@@ -7,8 +7,8 @@ under the same torque bounds and joint limits at the right edge:
 * local: ``pinv``, ``null-space`` (the paper's torque optimum, unbounded), ``damped-null-space`` (the kinematic
   remedy) and ``bounded-torque[kinematic_weight=0]`` (the paper's criterion under the torque bounds and joint
   limits: the one-step problem of the windows);
-* windows: ``receding-horizon[horizon=H,replan_every=R]`` (knots 5 ms, ``horizon_dt='auto'``; the one-step window
-  replans every step), :data:`REPLAN_EVERY` control steps between solves (see :func:`window_label`);
+* windows: ``receding-horizon[horizon=H,replan_every=R]`` (``horizon_dt='auto'``: 10 ms knots, 5 ms before
+  8 Dec 2026; the one-step window replans every step), :data:`REPLAN_EVERY` control steps between solves (see :func:`window_label`);
 * the optimum: the atlas's ``global-optimum`` rows with ``--global-bounded`` (the ``shooting`` transcription under
   the torque bounds and joint limits, its default starts), which also say on which paths no motion within the
   limits exists (``infeasible for every resolver``).
@@ -20,9 +20,10 @@ Four commands:
     the default) or on N Dask worker processes. The worker count is no setting of the atlas: any count resumes
     the same folder, and the rows do not depend on it. The chunks go out in the order of their paths, so a sweep
     stopped at any moment leaves a whole prefix of paths, and the chunks in flight (at most N) are lost; the same
-    command resumes it. Stop it with Ctrl-C (``kill -INT``) when N >= 1: the workers ignore it and the sweep ends
-    within seconds; in this process a Ctrl-C reaches IPOPT, which takes it as a stop of one solve and goes on, so
-    stop it with ``kill`` (SIGTERM). ``--times`` appends each chunk's CPU seconds to ROWS.jsonl (``--workers 0``).
+    command resumes it. Stop it with Ctrl-C (``kill -INT``): with N >= 1 the workers ignore it and the sweep ends
+    within seconds; in this process it ends when the IPOPT solve under way returns (a window's solve: seconds; the
+    whole-movement optimum's: up to its time limit). ``--times`` appends each chunk's CPU seconds to ROWS.jsonl
+    (``--workers 0``).
 ``time CURVE --atlas FOLDER --paths I,J --out ROWS.jsonl``
     the CPU time [s] of every method's run on the paths I, J of that atlas, one JSON line per run (resumed
     from the lines already written): the atlas's rows carry no time, so that a chunk is a deterministic function
