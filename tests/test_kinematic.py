@@ -589,12 +589,12 @@ def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):
 
 
 def assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, draw_q, rng, count):
-    """The extended Jacobian's stacked form on a stack of one (the row by Jacobi's formula, the curvature in closed
-    form) against its single-state step, :meth:`ExtendedJacobian.lu_step_functions` (the row from Pinocchio's
-    kinematic Hessian, J_ex's LU factors, the curvature by its central difference) at ``count`` drawn states
-    where J is not singular: q̇ and σmin/σmax at 1e-12, q̈ at 1e-9 (the difference's round-off is about 1e-10 of
-    q̈'s size)."""
-    tested = 0
+    """The extended Jacobian's stacked form on a stack of one (the row and the curvature in closed form from the
+    frame's J and J̇, J_ex⁻¹ by its adjugate) against its single-state step,
+    :meth:`ExtendedJacobian.lu_step_functions` (the row from Pinocchio's kinematic Hessian, J_ex's LU factors, the
+    curvature in closed form from the cofactors' rates) at ``count`` drawn states where J is not singular: q̇,
+    σmin/σmax and q̈ at 1e-12; two computations, which differ somewhere in the last bits."""
+    tested, differ = 0, False
     while tested < count:
         q = draw_q()
         velocity = rng.normal(size=q.size)
@@ -609,8 +609,9 @@ def assert_stacked_step_is_the_lu_reference(kinematics, fast, reference, draw_q,
         assert got_condition == pytest.approx(expected_condition, rel=1e-12)
         expected = reference[1](kinematics, velocity, command, command_rate)
         got = fast[1](kinematics.update(q), velocity, command, command_rate)
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
-        assert np.abs(got - expected).max() > 0.0  # two computations, not one
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+        differ = differ or not np.array_equal(got, expected) or not np.array_equal(got_rates, expected_rates)
+    assert differ  # two computations, not one
 
 
 @pytest.mark.parametrize("gain", [0.0, 5.0])
