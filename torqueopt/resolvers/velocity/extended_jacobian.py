@@ -3,6 +3,7 @@ r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of 
 from __future__ import annotations
 
 import math
+import operator
 from functools import cache, partial
 
 import eigenpy
@@ -90,8 +91,9 @@ def signed_cofactors(matrix: np.ndarray) -> np.ndarray:
     :math:`(-1)^m\det A = l\cdot n_J`. Row r is :math:`(-1)^{m+r}` :func:`null_vector` of A without row r (the
     cofactors by minors, exact where A is singular)."""
     n = matrix.shape[0]
-    if n == 3:  # row r is A_{r+1} × A_{r+2} (indices mod 3): the cross products of the other rows, in order
-        return cross_along(matrix[_NEXT], matrix[_AFTER_NEXT], 1)
+    if n == 3:  # row r is A_{r+1} × A_{r+2} (indices mod 3), on floats (numpy costs more per call on 3-vectors)
+        a, b, c = matrix.tolist()
+        return np.array((_cross(b, c), _cross(c, a), _cross(a, b)))
     return _row_signs(n) * null_vector(matrix[_minor_columns(n)])
 
 
@@ -100,8 +102,17 @@ def signed_cofactors_rate(matrix: np.ndarray, rate: np.ndarray) -> np.ndarray:
     row, so row r is the sum over A's other rows i of :math:`(-1)^{m+r}` :func:`null_vector` of A without row r
     and with row i replaced by :math:`\dot A_i` (the product rule, exact)."""
     n = matrix.shape[0]
+    if n == 3:  # the rate of A_{r+1} × A_{r+2}: Ȧ_{r+1} × A_{r+2} + A_{r+1} × Ȧ_{r+2}, on floats
+        (a, b, c), (da, db, dc) = matrix.tolist(), rate.tolist()
+        pairs = ((db, c, b, dc), (dc, a, c, da), (da, b, a, db))
+        return np.array([[x + y for x, y in zip(_cross(u, v), _cross(w, z))] for u, v, w, z in pairs])
     which, rows = _replaced_rows(n)
-    return _row_signs(n) * null_vector(np.stack((matrix, rate))[which, rows]).sum(axis=1)
+    return _row_signs(n) * null_vector(np.concatenate((matrix[None], rate[None]))[which, rows]).sum(axis=1)
+
+
+def _cross(a, b) -> list:
+    """a × b of two 3-vectors given as floats."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 @cache
@@ -114,10 +125,6 @@ def _replaced_rows(n: int) -> tuple[np.ndarray, np.ndarray]:
     for array in (which, rows):
         array.setflags(write=False)
     return which, rows
-
-
-#: Each row's next and the one after, mod 3.
-_NEXT, _AFTER_NEXT = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 
 @cache
@@ -213,7 +220,7 @@ class ExtendedJacobian(VelocityResolver):
         + n_J\cdot\nabla^2 p_{:,k}`, with :math:`[K;\ n_J]` A's signed cofactors (:func:`signed_cofactors`, exact
         where A is singular, as it is on G = 0) and :math:`\partial J/\partial q` Pinocchio's kinematic Hessian."""
         jacobian = task.jacobian(kinematics) if jacobian is None else jacobian
-        matrix = np.vstack((jacobian, self.objective.gradient(kinematics, task)))
+        matrix = np.concatenate((jacobian, self.objective.gradient(kinematics, task)[None]))
         cofactors = signed_cofactors(matrix)  # [K; n_J]
         # ∂G/∂θ, the last row of J_ex in Eq. (15): Σ_a K_a·∂J_a/∂θ (traces of Kᵀ ∂J/∂θ_k) + n_J·∇²p
         g_row = task.jacobian_derivative_traces(kinematics, cofactors[:-1].T)
@@ -243,11 +250,16 @@ class ExtendedJacobian(VelocityResolver):
         frame_rate = kinematics.frame_jacobian_time_variation(frame, velocity)
         jacobian_rate = frame_rate[task.rows]
         gradient_rate = self.objective.hessian(kinematics, task).dot(velocity)  # ∇²p q̇
-        cofactors_rate = signed_cofactors_rate(matrix, np.vstack((jacobian_rate, gradient_rate)))
+        cofactors_rate = signed_cofactors_rate(matrix, np.concatenate((jacobian_rate, gradient_rate[None])))
         _, traces_rate = _traces_and_rates(
             frame_jacobian.T.tolist(), frame_rate.T.tolist(), cofactors[:-1].T.tolist(), cofactors_rate[:-1].T.tolist()
         )
-        return jacobian_rate, float(velocity.dot(traces_rate) + cofactors_rate[-1].dot(gradient_rate))
+        normal_rate, speeds = cofactors_rate[-1].tolist(), velocity.tolist()
+        # q̇·(Σ_a K̇_a·∂J_a/∂q + K_a·d/dt ∂J_a/∂q) + ṅ_J·∇²p q̇, on floats
+        curvature = sum(map(operator.mul, traces_rate, speeds)) + sum(
+            map(operator.mul, normal_rate, gradient_rate.tolist())
+        )
+        return jacobian_rate, curvature
 
     def differenced_curvature(self, kinematics: Kinematics, task: FrameTask, velocity: np.ndarray) -> float:
         r""":math:`\dot q^\top\nabla^2 G\,\dot q` by a central difference of the row :math:`\partial G/\partial q`
@@ -682,8 +694,10 @@ def _algorithmic_singularity(alignment: float, tolerance: float) -> SingularJaco
 
 
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
-    scale = math.sqrt(g_row.dot(g_row)) * math.sqrt(normal.dot(normal))
-    return abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
+    """|∂G/∂q·n_J| / (|∂G/∂q| |n_J|), on floats (numpy costs more per call on these short vectors)."""
+    row, normal = g_row.tolist(), normal.tolist()
+    scale = math.sqrt(sum(map(operator.mul, row, row))) * math.sqrt(sum(map(operator.mul, normal, normal)))
+    return abs(sum(map(operator.mul, row, normal))) / scale if scale > 0 else 0.0
 
 
 def _hessian_criterion(value):
