@@ -13,14 +13,14 @@ import torqueopt
 from torqueopt.cli import main
 from torqueopt.errors import InvalidInput, NoRedundancy, SingularJacobian
 from torqueopt.kinematic import joint_rates
-from torqueopt.resolvers.velocity import JointLimits, manipulability, null_vector, null_vector_derivative
+from torqueopt.resolvers.velocity import JointLimits, manipulability
 from torqueopt.resolvers.velocity.obstacle_avoidance import activation
 from torqueopt.resolvers.velocity.pseudoinverse import inverse_inertia_at
 from torqueopt.tasks import FrameTask, Kinematics, ObstacleTask, PostureTask, prioritised_rates
 from torqueopt.whiplash import detect_whiplash
 
 from .conftest import PAPER_Q0
-from .test_tasks import central, five_point, planar_jacobian, planar_points
+from .test_tasks import central, planar_jacobian, planar_points
 from .velocity_oracles import stacked_steps
 
 LONG = torqueopt.StraightLine((1.0, 1.0), duration=2.0)
@@ -546,21 +546,6 @@ def test_a_callable_criterion_gets_its_gradient_by_differences(planar3):
     kinematics = Kinematics(planar3).update(q)
     np.testing.assert_allclose(resolver.objective.gradient(kinematics), np.sin(2 * q), atol=1e-8)
     np.testing.assert_allclose(resolver.objective.hessian(kinematics), np.diag(2 * np.cos(2 * q)), atol=1e-4)
-
-
-@pytest.mark.parametrize("m", [1, 2, 3, 6])
-def test_the_null_vector_derivative_is_that_of_the_generalised_cross_product(rng, m):
-    """∂n/∂q_k by the minors' cofactors against a five-point difference of :func:`null_vector` along
-    J(s) = J + s ∂J/∂q_k, for the task sizes the extended Jacobian meets (n = m + 1), a singular minor included."""
-    n = m + 1
-    jacobian, derivative = rng.normal(size=(m, n)), rng.normal(size=(m, n, n))
-    for singular in (False, True):
-        if singular and m > 1:
-            jacobian[:, 1] = jacobian[:, 2]  # every minor keeping both columns 1 and 2 is singular
-        got = null_vector_derivative(jacobian, derivative)
-        for k in range(n):
-            expected = five_point(lambda s, k=k: null_vector(jacobian + s * derivative[:, :, k]))
-            np.testing.assert_allclose(got[:, k], expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max()))
 
 
 def test_extended_jacobian_is_eqs_14_and_15(planar3, rng):

@@ -204,12 +204,23 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
 
 
 def test_the_signed_cofactors_and_their_rate_are_their_definitions(rng):
-    """``signed_cofactors`` of A = [J; l] against (−1)^m det(A)·A⁻ᵀ, and ``signed_cofactors_rate`` against a five-point
-    difference of it along A + sȦ, for n = 3 (the cross products on floats) and n = 4, 5 (the minors)."""
-    for n in (3, 4, 5):
-        for _ in range(5):
+    """``signed_cofactors`` of A against (−1)^m (−1)^(r+c) det(A without row r and column c) by LAPACK, and
+    ``signed_cofactors_rate`` against a five-point difference of it along A + sȦ, for n = 3 (the cross products on
+    floats) and n = 4, 5, 7 (the minors), A singular included (two equal columns: G = 0)."""
+    for n in (3, 4, 5, 7):
+        for singular in (False, True):
             matrix, rate = rng.normal(size=(n, n)), rng.normal(size=(n, n))
-            expected = (-1.0) ** (n - 1) * np.linalg.det(matrix) * np.linalg.inv(matrix).T
+            if singular:
+                matrix[:, 1] = matrix[:, 2]
+            expected = np.array(
+                [
+                    [
+                        (-1.0) ** (n - 1 + r + c) * np.linalg.det(np.delete(np.delete(matrix, r, 0), c, 1))
+                        for c in range(n)
+                    ]
+                    for r in range(n)
+                ]
+            )
             np.testing.assert_allclose(signed_cofactors(matrix), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
             h = 1e-3
 

@@ -25,7 +25,8 @@ from .pseudoinverse import StackedPseudoInverse
 __all__ = [
     "ExtendedJacobian",
     "null_vector",
-    "null_vector_derivative",
+    "signed_cofactors",
+    "signed_cofactors_rate",
 ]
 
 
@@ -59,30 +60,6 @@ def _alternating_signs(n: int) -> np.ndarray:
     signs = (-1.0) ** np.arange(n)
     signs.setflags(write=False)
     return signs
-
-
-@cache
-def _checkerboard_signs(m: int) -> np.ndarray:
-    """(−1)^(r + c) for r, c < m (built once per m, read-only)."""
-    signs = np.outer(_alternating_signs(m), _alternating_signs(m))
-    signs.setflags(write=False)
-    return signs
-
-
-def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
-    r""":math:`\partial n_i / \partial q_k` (n×n) of :func:`null_vector`, from :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
-
-    Each minor M's derivative by Jacobi's formula with its cofactors,
-    :math:`\partial \det M/\partial q_k = \sum_{r,c} (-1)^{r+c}\det M_{\setminus r,\setminus c}\;\partial M_{rc}/\partial q_k`
-    (the multilinearity of det, row by row), which stays exact where a minor itself is singular.
-    """
-    m, n = jacobian.shape
-    columns, others = _minor_columns(n), _minor_columns(m)
-    minors = jacobian[:, columns].transpose(1, 0, 2)  # (n, m, m): minor i is J without column i
-    # (n, m, m): the cofactors of each minor, from its (m − 1)×(m − 1) minors
-    cofactors = _checkerboard_signs(m) * determinants(minors[:, others[:, None, :, None], others[None, :, None, :]])
-    minor_derivatives = derivative[:, columns, :].transpose(1, 0, 2, 3).reshape(n, m * m, n)  # [i, (r, c), k]
-    return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
 def signed_cofactors(matrix: np.ndarray) -> np.ndarray:
@@ -152,9 +129,10 @@ class ExtendedJacobian(VelocityResolver):
     stationary points of p over the self-motion when :math:`G(q_0) = 0`):
     the configuration is a function of the tip position, and a closed tip
     path brings the joints back (the method is repeatable, unlike the
-    pseudoinverse). :math:`\partial G/\partial q` is analytic: the
-    criterion's Hessian and the derivative of :math:`n_J` through the
-    kinematic Hessian (:func:`~torqueopt.resolvers.velocity.null_vector_derivative`).
+    pseudoinverse). :math:`\partial G/\partial q` is analytic: Jacobi's formula on
+    :math:`G = (-1)^m\det[J;\ \nabla p^\top]`, with the cofactors
+    (:func:`~torqueopt.resolvers.velocity.signed_cofactors`), the criterion's
+    Hessian and Pinocchio's kinematic Hessian.
 
     The method has singularities of its own where :math:`J_{ex}` loses rank
     while J does not: where :math:`\partial G/\partial q` becomes orthogonal
