@@ -11,6 +11,8 @@ from torqueopt.resolvers.velocity import PostureDistance
 from torqueopt.resolvers.velocity.extended_jacobian import (
     StackedExtendedJacobian,
     null_vector,
+    signed_cofactors,
+    signed_cofactors_rate,
     stacked_row_cofactors,
 )
 from torqueopt.robot_copies import RobotForest
@@ -199,6 +201,63 @@ def test_the_closed_form_curvature_is_a_five_point_difference_of_the_row(planar3
             expected = (-slope(2 * h) + 8 * slope(h) - 8 * slope(-h) + slope(-2 * h)) / (12 * h)
             scale = np.abs(row).max() * velocity.dot(velocity) + abs(expected)
             assert abs(got - expected) <= 1e-10 * scale, (got, expected)
+
+
+def test_the_signed_cofactors_and_their_rate_are_their_definitions(rng):
+    """``signed_cofactors`` of A against (−1)^m (−1)^(r+c) det(A without row r and column c) by LAPACK, and
+    ``signed_cofactors_rate`` against a five-point difference of it along A + sȦ, for n = 3 (the cross products on
+    floats) and n = 4, 5, 7 (the minors), A singular included (two equal columns: G = 0)."""
+    for n in (3, 4, 5, 7):
+        for singular in (False, True):
+            matrix, rate = rng.normal(size=(n, n)), rng.normal(size=(n, n))
+            if singular:
+                matrix[:, 1] = matrix[:, 2]
+            expected = np.array(
+                [
+                    [
+                        (-1.0) ** (n - 1 + r + c) * np.linalg.det(np.delete(np.delete(matrix, r, 0), c, 1))
+                        for c in range(n)
+                    ]
+                    for r in range(n)
+                ]
+            )
+            np.testing.assert_allclose(signed_cofactors(matrix), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+            h = 1e-3
+
+            def along(s, matrix=matrix, rate=rate):
+                return signed_cofactors(matrix + s * rate)
+
+            difference = (8 * (along(h) - along(-h)) - (along(2 * h) - along(-2 * h))) / (12 * h)
+            got = signed_cofactors_rate(matrix, rate)
+            np.testing.assert_allclose(got, difference, rtol=0, atol=1e-9 * np.abs(difference).max())
+
+
+def test_the_closed_form_curvature_of_the_single_state_step_is_a_five_point_difference(planar3, panda4, rng):
+    r""":meth:`ExtendedJacobian.closed_curvature` (the cofactors' rates, the frame Jacobian's columns and rates)
+    against a five-point difference of the row :math:`\partial G/\partial q\cdot\dot q` from Pinocchio's kinematic
+    Hessian along q̇ (step 1e-3 rad, truncation near 1e-12) at 1e-10 of its scale, and against
+    :meth:`ExtendedJacobian.differenced_curvature` (central, 1e-5 rad: round-off near 1e-10) at 1e-9, for the joint
+    limits and a posture's distance; J̇ is Pinocchio's."""
+    for robot in (planar3, panda4):
+        task, kinematics = FrameTask.of_robot(robot), Kinematics(robot)
+        posture = PostureDistance(PostureTask(target=rng.uniform(-1.0, 1.0, robot.nv)))
+        for criterion in ("joint-limits", posture):
+            resolver = torqueopt.get_resolver("extended-jacobian", criterion=criterion)
+            for _ in range(6):
+                q, velocity = rng.uniform(-2.0, 2.0, robot.nv), rng.normal(size=robot.nv)
+                jacobian_rate, got = resolver.closed_curvature(kinematics.update(q), task, velocity)
+                np.testing.assert_array_equal(jacobian_rate, task.jacobian_rate(kinematics, velocity))
+                differenced = resolver.differenced_curvature(kinematics, task, velocity)
+                row = resolver.extended_row(kinematics, task)[1]
+
+                def slope(s, q=q, velocity=velocity, resolver=resolver):
+                    return resolver.extended_row(kinematics.update(q + s * velocity), task)[1].dot(velocity)
+
+                h = 1e-3 / np.linalg.norm(velocity)
+                expected = (-slope(2 * h) + 8 * slope(h) - 8 * slope(-h) + slope(-2 * h)) / (12 * h)
+                scale = np.abs(row).max() * velocity.dot(velocity) + abs(expected)
+                assert abs(got - expected) <= 1e-10 * scale, (got, expected)
+                assert abs(got - differenced) <= 1e-9 * scale, (got, differenced)
 
 
 @pytest.mark.parametrize("gain", [0.0, 2.0])

@@ -25,7 +25,8 @@ from .criteria import (
 from .extended_jacobian import (
     ExtendedJacobian,
     null_vector,
-    null_vector_derivative,
+    signed_cofactors,
+    signed_cofactors_rate,
 )
 from .gradient_projection import GradientProjection
 from .obstacle_avoidance import ObstacleAvoidance
@@ -49,7 +50,8 @@ __all__ = [
     "criterion_from",
     "manipulability",
     "null_vector",
-    "null_vector_derivative",
+    "signed_cofactors",
+    "signed_cofactors_rate",
     "VELOCITY_RESOLVERS",
 ]
 

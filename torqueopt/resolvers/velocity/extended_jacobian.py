@@ -3,6 +3,7 @@ r"""Baillieul's extended Jacobian (1985), Eq. (14), Eq. (15), for one degree of 
 from __future__ import annotations
 
 import math
+import operator
 from functools import cache, partial
 
 import eigenpy
@@ -17,14 +18,15 @@ from ...tasks import FrameTask, Kinematics, PerConfiguration
 from ..options import Option
 from ..registry import register_resolver
 from .base import POSITION_GAIN_OPTION, VelocityResolver, VelocityStack
-from .criteria import JointLimits, PostureDistance, criterion_from
+from .criteria import JointLimits, PostureDistance, _traces_and_rates, criterion_from
 from .options import criterion_spec
 from .pseudoinverse import StackedPseudoInverse
 
 __all__ = [
     "ExtendedJacobian",
     "null_vector",
-    "null_vector_derivative",
+    "signed_cofactors",
+    "signed_cofactors_rate",
 ]
 
 
@@ -39,12 +41,7 @@ def null_vector(jacobian: np.ndarray) -> np.ndarray:
     """
     m, n = jacobian.shape[-2:]
     if m == 2:
-        (a0, a1, a2), (b0, b1, b2) = (
-            (jacobian[..., row, 0], jacobian[..., row, 1], jacobian[..., row, 2]) for row in range(2)
-        )
-        normal = np.empty((*jacobian.shape[:-2], 3))
-        normal[..., 0], normal[..., 1], normal[..., 2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
-        return normal
+        return cross_along(jacobian[..., 0, :], jacobian[..., 1, :], jacobian.ndim - 2)
     minors = np.swapaxes(jacobian[..., _minor_columns(n)], -3, -2)  # (…, n, m, m): minor i is J without column i
     return _alternating_signs(n) * determinants(minors)
 
@@ -65,28 +62,54 @@ def _alternating_signs(n: int) -> np.ndarray:
     return signs
 
 
+def signed_cofactors(matrix: np.ndarray) -> np.ndarray:
+    r""":math:`(-1)^m` times the cofactor matrix of an n×n matrix :math:`A = [J;\ l^\top]` (n = m + 1): row a < m is
+    :math:`K_a = \partial((-1)^m\det A)/\partial J_a` and the last row is :func:`null_vector` of J, since
+    :math:`(-1)^m\det A = l\cdot n_J`. Row r is :math:`(-1)^{m+r}` :func:`null_vector` of A without row r (the
+    cofactors by minors, exact where A is singular)."""
+    n = matrix.shape[0]
+    if n == 3:  # row r is A_{r+1} × A_{r+2} (indices mod 3), on floats (numpy costs more per call on 3-vectors)
+        a, b, c = matrix.tolist()
+        return np.array((_cross(b, c), _cross(c, a), _cross(a, b)))
+    return _row_signs(n) * null_vector(matrix[_minor_columns(n)])
+
+
+def signed_cofactors_rate(matrix: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    r"""The rate of :func:`signed_cofactors` as A moves at :math:`\dot A`: :func:`null_vector` is linear in each
+    row, so row r is the sum over A's other rows i of :math:`(-1)^{m+r}` :func:`null_vector` of A without row r
+    and with row i replaced by :math:`\dot A_i` (the product rule, exact)."""
+    n = matrix.shape[0]
+    if n == 3:  # the rate of A_{r+1} × A_{r+2}: Ȧ_{r+1} × A_{r+2} + A_{r+1} × Ȧ_{r+2}, on floats
+        (a, b, c), (da, db, dc) = matrix.tolist(), rate.tolist()
+        pairs = ((db, c, b, dc), (dc, a, c, da), (da, b, a, db))
+        return np.array([[x + y for x, y in zip(_cross(u, v), _cross(w, z))] for u, v, w, z in pairs])
+    which, rows = _replaced_rows(n)
+    return _row_signs(n) * null_vector(np.concatenate((matrix[None], rate[None]))[which, rows]).sum(axis=1)
+
+
+def _cross(a, b) -> list:
+    """a × b of two 3-vectors given as floats."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
 @cache
-def _checkerboard_signs(m: int) -> np.ndarray:
-    """(−1)^(r + c) for r, c < m (built once per m, read-only)."""
-    signs = np.outer(_alternating_signs(m), _alternating_signs(m))
+def _replaced_rows(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """For :func:`signed_cofactors_rate`: (which, rows), (n, n − 1, n − 1) each, so that [A; Ȧ][which, rows][r, p] is A
+    without row r with its p-th remaining row taken from Ȧ (built once per n, read-only)."""
+    remaining = _minor_columns(n)  # row r: every row but r
+    which = np.broadcast_to(np.eye(n - 1, dtype=int), (n, n - 1, n - 1)).copy()
+    rows = np.broadcast_to(remaining[:, None, :], (n, n - 1, n - 1)).copy()
+    for array in (which, rows):
+        array.setflags(write=False)
+    return which, rows
+
+
+@cache
+def _row_signs(n: int) -> np.ndarray:
+    """(−1)^(n − 1 + r) for r < n as an (n, 1) column (built once per n, read-only)."""
+    signs = ((-1.0) ** (n - 1) * _alternating_signs(n))[:, None]
     signs.setflags(write=False)
     return signs
-
-
-def null_vector_derivative(jacobian: np.ndarray, derivative: np.ndarray) -> np.ndarray:
-    r""":math:`\partial n_i / \partial q_k` (n×n) of :func:`null_vector`, from :math:`D[:, j, k] = \partial J_{:,j}/\partial q_k`.
-
-    Each minor M's derivative by Jacobi's formula with its cofactors,
-    :math:`\partial \det M/\partial q_k = \sum_{r,c} (-1)^{r+c}\det M_{\setminus r,\setminus c}\;\partial M_{rc}/\partial q_k`
-    (the multilinearity of det, row by row), which stays exact where a minor itself is singular.
-    """
-    m, n = jacobian.shape
-    columns, others = _minor_columns(n), _minor_columns(m)
-    minors = jacobian[:, columns].transpose(1, 0, 2)  # (n, m, m): minor i is J without column i
-    # (n, m, m): the cofactors of each minor, from its (m − 1)×(m − 1) minors
-    cofactors = _checkerboard_signs(m) * determinants(minors[:, others[:, None, :, None], others[None, :, None, :]])
-    minor_derivatives = derivative[:, columns, :].transpose(1, 0, 2, 3).reshape(n, m * m, n)  # [i, (r, c), k]
-    return _alternating_signs(n)[:, None] * np.matmul(cofactors.reshape(n, 1, m * m), minor_derivatives)[:, 0, :]
 
 
 @register_resolver
@@ -106,9 +129,10 @@ class ExtendedJacobian(VelocityResolver):
     stationary points of p over the self-motion when :math:`G(q_0) = 0`):
     the configuration is a function of the tip position, and a closed tip
     path brings the joints back (the method is repeatable, unlike the
-    pseudoinverse). :math:`\partial G/\partial q` is analytic: the
-    criterion's Hessian and the derivative of :math:`n_J` through the
-    kinematic Hessian (:func:`~torqueopt.resolvers.velocity.null_vector_derivative`).
+    pseudoinverse). :math:`\partial G/\partial q` is analytic: Jacobi's formula on
+    :math:`G = (-1)^m\det[J;\ \nabla p^\top]`, with the cofactors
+    (:func:`~torqueopt.resolvers.velocity.signed_cofactors`), the criterion's
+    Hessian and Pinocchio's kinematic Hessian.
 
     The method has singularities of its own where :math:`J_{ex}` loses rank
     while J does not: where :math:`\partial G/\partial q` becomes orthogonal
@@ -162,20 +186,77 @@ class ExtendedJacobian(VelocityResolver):
         self.objective.check(robot)
 
     def extended_row(self, kinematics: Kinematics, task: FrameTask):
-        r"""(G, ∂G/∂q, n_J) at the kinematics' configuration, Eq. (14)."""
-        jacobian = task.jacobian(kinematics)
-        normal = null_vector(jacobian)
-        gradient = self.objective.gradient(kinematics, task)
-        hessian = self.objective.hessian(kinematics, task)
-        normal_derivative = null_vector_derivative(jacobian, task.jacobian_derivative(kinematics))
-        g_value = float(gradient.dot(normal))  # Eq. (14): G = ∂g/∂θ · n_J
-        g_row = normal.dot(hessian) + gradient.dot(normal_derivative)  # ∂G/∂θ, the last row of J_ex in Eq. (15)
-        return g_value, g_row, normal
+        r"""(G, ∂G/∂q, n_J) at the kinematics' configuration, Eq. (14) (the row by :meth:`row_and_cofactors`)."""
+        g_row, cofactors, matrix = self.row_and_cofactors(kinematics, task)
+        return float(matrix[-1].dot(cofactors[-1])), g_row, cofactors[-1]  # Eq. (14): G = ∂g/∂θ · n_J
+
+    def row_and_cofactors(self, kinematics: Kinematics, task: FrameTask, jacobian: np.ndarray | None = None):
+        r"""(∂G/∂q, :math:`[K;\ n_J]`, A) at the kinematics' configuration (``jacobian``: the task's J there, if read).
+
+        :math:`G = \nabla p\cdot n_J = (-1)^m\det A` with :math:`A = [J;\ \nabla p^\top]` (Eq. (14)), so Jacobi's
+        formula gives the row, :math:`\partial G/\partial q_k = \sum_a K_a\cdot\partial J_a/\partial q_k
+        + n_J\cdot\nabla^2 p_{:,k}`, with :math:`[K;\ n_J]` A's signed cofactors (:func:`signed_cofactors`, exact
+        where A is singular, as it is on G = 0) and :math:`\partial J/\partial q` Pinocchio's kinematic Hessian."""
+        jacobian = task.jacobian(kinematics) if jacobian is None else jacobian
+        matrix = np.concatenate((jacobian, self.objective.gradient(kinematics, task)[None]))
+        cofactors = signed_cofactors(matrix)  # [K; n_J]
+        # ∂G/∂θ, the last row of J_ex in Eq. (15): Σ_a K_a·∂J_a/∂θ (traces of Kᵀ ∂J/∂θ_k) + n_J·∇²p
+        g_row = task.jacobian_derivative_traces(kinematics, cofactors[:-1].T)
+        g_row += cofactors[-1].dot(self.objective.hessian(kinematics, task))
+        return g_row, cofactors, matrix
+
+    def closed_curvature(
+        self, kinematics: Kinematics, task: FrameTask, velocity: np.ndarray, matrix=None, cofactors=None
+    ):
+        r"""(:math:`\dot J`, :math:`\dot q^\top\nabla^2 G\,\dot q`) at the kinematics' configuration along q̇, the
+        curvature in closed form, for a criterion of constant Hessian (``joint-limits``, a posture's distance) on a
+        position task of a robot whose joints each have one degree of freedom (``matrix``, ``cofactors``: A and
+        its signed cofactors there, if computed).
+
+        :math:`\dot q^\top\nabla^2 G\,\dot q = \dot q\cdot\frac{d}{dt}\frac{\partial G}{\partial q}` along
+        :math:`q + t\dot q`, with the row of :meth:`row_and_cofactors` differentiated term by term:
+        :math:`\sum_a \dot K_a\cdot\partial J_a/\partial q_k + K_a\cdot\frac{d}{dt}\partial J_a/\partial q_k
+        + \dot n_J\cdot\nabla^2 p_{:,k}`; :math:`[\dot K;\ \dot n_J]` by :func:`signed_cofactors_rate` with
+        :math:`\dot A = [\dot J;\ (\nabla^2 p\,\dot q)^\top]`, and the two sums over the kinematic Hessian and its rate
+        from the frame Jacobian's columns and their rates (Pinocchio's ``getFrameJacobianTimeVariation``), as
+        the manipulability's curvature takes them (``criteria._traces_and_rates``, whose docstring derives
+        them); the stacked form's closed form (``StackedExtendedJacobian``) in another arrangement."""
+        if matrix is None:
+            _, cofactors, matrix = self.row_and_cofactors(kinematics, task)
+        frame = task.frame_id(kinematics)
+        frame_jacobian = kinematics.frame_jacobian(frame)
+        frame_rate = kinematics.frame_jacobian_time_variation(frame, velocity)
+        jacobian_rate = frame_rate[task.rows]
+        gradient_rate = self.objective.hessian(kinematics, task).dot(velocity)  # ∇²p q̇
+        cofactors_rate = signed_cofactors_rate(matrix, np.concatenate((jacobian_rate, gradient_rate[None])))
+        _, traces_rate = _traces_and_rates(
+            frame_jacobian.T.tolist(), frame_rate.T.tolist(), cofactors[:-1].T.tolist(), cofactors_rate[:-1].T.tolist()
+        )
+        normal_rate, speeds = cofactors_rate[-1].tolist(), velocity.tolist()
+        # q̇·(Σ_a K̇_a·∂J_a/∂q + K_a·d/dt ∂J_a/∂q) + ṅ_J·∇²p q̇, on floats
+        curvature = sum(map(operator.mul, traces_rate, speeds)) + sum(
+            map(operator.mul, normal_rate, gradient_rate.tolist())
+        )
+        return jacobian_rate, curvature
+
+    def differenced_curvature(self, kinematics: Kinematics, task: FrameTask, velocity: np.ndarray) -> float:
+        r""":math:`\dot q^\top\nabla^2 G\,\dot q` by a central difference of the row :math:`\partial G/\partial q`
+        along :math:`\dot q/|\dot q|` (step ``CURVATURE_STEP``): for a criterion without a constant Hessian, and
+        the plain reference :meth:`closed_curvature` is held to. It leaves the kinematics at their configuration,
+        updated again."""
+        speed = math.sqrt(velocity.dot(velocity))
+        if speed == 0.0:
+            return 0.0
+        robot, q, step = kinematics.robot, kinematics.q, CURVATURE_STEP / speed
+        forward = self.row_and_cofactors(kinematics.update(robot.integrate(q, step * velocity)), task)[0]
+        backward = self.row_and_cofactors(kinematics.update(robot.integrate(q, -step * velocity)), task)[0]
+        kinematics.update(q)
+        return float((forward - backward).dot(velocity)) / (2.0 * step)
 
     def alignment(self, kinematics: Kinematics, task: FrameTask) -> float:
         r""":math:`|\partial G/\partial q\cdot n_J|/(\|\partial G/\partial q\|\,\|n_J\|)`: 1 far from, 0 at an algorithmic singularity."""
-        _, g_row, normal = self.extended_row(kinematics, task)
-        return _alignment(g_row, normal)
+        g_row, cofactors, _ = self.row_and_cofactors(kinematics, task)
+        return _alignment(g_row, cofactors[-1])
 
     def stop_diagnosis(self, kinematics: Kinematics, task: FrameTask) -> str:
         return (
@@ -198,12 +279,13 @@ class ExtendedJacobian(VelocityResolver):
 
         with :math:`\dot J` from Pinocchio's Jacobian time variation at (q, q̇). The curvature
         :math:`\dot q^\top\nabla^2 G\,\dot q` of G along the motion needs third derivatives of the kinematics
-        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: it is
-        taken by a central difference of the row :math:`\partial G/\partial q` along :math:`\dot q/|\dot q|` (step
-        ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of the loop's four of the whole rate map
-        (:meth:`lu_step_functions`). The batch's stacked form (``StackedExtendedJacobian``) takes it in closed form
-        from the task frame's J and :math:`\dot J` for a diagonal quadratic criterion (``joint-limits``, a
-        posture's distance) on a robot whose joints add; the tests hold the closed form to the difference.
+        (:math:`\partial G/\partial q` already holds the kinematic Hessian), which Pinocchio does not give: for
+        ``joint-limits`` or a posture's distance on a position task of a robot whose joints add it is taken in
+        closed form from the task frame's Jacobian and its rate (:meth:`closed_curvature`), else by a central
+        difference of the row :math:`\partial G/\partial q` along :math:`\dot q/|\dot q|`
+        (:meth:`differenced_curvature`, step ``CURVATURE_STEP`` = 1e-5 rad), two evaluations of the row instead of
+        the loop's four of the whole rate map. The batch's stacked form (``StackedExtendedJacobian``) takes the
+        closed form for the same cases; the tests hold both to differences.
         """
         return self.step_functions(robot, task)[1]
 
@@ -214,39 +296,36 @@ class ExtendedJacobian(VelocityResolver):
 
     def lu_step_functions(self, robot: Robot, task: FrameTask):
         """Eq. (15)'s rates and their q̈ (None for ``pose``) for any n = m + 1 and any criterion with a Hessian,
-        sharing J_ex's LU factors at each configuration, the curvature by its central difference: the step where
-        the stacked form does not apply, and the reference the tests hold that form to."""
+        sharing J_ex's LU factors and A's cofactors at each configuration; the curvature by :meth:`closed_curvature`
+        where the stacked form applies, else by :meth:`differenced_curvature`: the reference the tests hold the
+        stacked form to."""
         condition_of = InverseCondition(robot.m, robot.nv, self.singular_tolerance)
         tolerance = self.algorithmic_tolerance
+        closed_form = task.kind != "pose" and robot.euclidean and _diagonal_quadratic(self.objective, robot) is not None
 
         @PerConfiguration
         def at_configuration(kinematics: Kinematics):
             jacobian = task.jacobian(kinematics)
             inverse_condition = condition_of(jacobian)  # J itself must keep full rank
-            _, g_row, normal = self.extended_row(kinematics, task)
-            alignment = _alignment(g_row, normal)
+            g_row, cofactors, matrix = self.row_and_cofactors(kinematics, task, jacobian)
+            alignment = _alignment(g_row, cofactors[-1])
             if not alignment >= tolerance:
                 raise _algorithmic_singularity(alignment, tolerance)
             # J_ex of Eq. (15), by Eigen's LU with partial pivoting (numpy's solve costs more than a 3×3 LU)
-            return eigenpy.PartialPivLU(np.concatenate((jacobian, g_row[None]))), inverse_condition
+            return eigenpy.PartialPivLU(np.concatenate((jacobian, g_row[None]))), inverse_condition, matrix, cofactors
 
         def rates(kinematics: Kinematics, task_velocity: np.ndarray):
-            extended, inverse_condition = at_configuration(kinematics)
+            extended, inverse_condition, _, _ = at_configuration(kinematics)
             # Eq. (15): J_ex q̇ = [ẋ; 0], inverted directly
             return extended.solve(np.concatenate((task_velocity, _ZERO))), inverse_condition
 
         def acceleration(kinematics: Kinematics, velocity: np.ndarray, command: np.ndarray, command_rate: np.ndarray):
-            q = kinematics.q
-            extended, _ = at_configuration(kinematics)
-            jacobian_rate = task.jacobian_rate(kinematics, velocity)
-            speed = math.sqrt(velocity.dot(velocity))
-            curvature = 0.0
-            if speed > 0.0:
-                step = CURVATURE_STEP / speed
-                forward = self.extended_row(kinematics.update(robot.integrate(q, step * velocity)), task)[1]
-                backward = self.extended_row(kinematics.update(robot.integrate(q, -step * velocity)), task)[1]
-                kinematics.update(q)
-                curvature = float((forward - backward).dot(velocity)) / (2.0 * step)  # q̇ᵀ∇²G q̇
+            extended, _, matrix, cofactors = at_configuration(kinematics)
+            if closed_form:
+                jacobian_rate, curvature = self.closed_curvature(kinematics, task, velocity, matrix, cofactors)
+            else:
+                jacobian_rate = task.jacobian_rate(kinematics, velocity)
+                curvature = self.differenced_curvature(kinematics, task, velocity)  # q̇ᵀ∇²G q̇
             # Eq. (15) differentiated: J_ex q̈ = [ċ − J̇q̇; −q̇ᵀ∇²G q̇]
             return extended.solve(np.append(command_rate - jacobian_rate.dot(velocity), -curvature))
 
@@ -593,8 +672,10 @@ def _algorithmic_singularity(alignment: float, tolerance: float) -> SingularJaco
 
 
 def _alignment(g_row: np.ndarray, normal: np.ndarray) -> float:
-    scale = math.sqrt(g_row.dot(g_row)) * math.sqrt(normal.dot(normal))
-    return abs(float(g_row.dot(normal))) / scale if scale > 0 else 0.0
+    """|∂G/∂q·n_J| / (|∂G/∂q| |n_J|), on floats (numpy costs more per call on these short vectors)."""
+    row, normal = g_row.tolist(), normal.tolist()
+    scale = math.sqrt(sum(map(operator.mul, row, row))) * math.sqrt(sum(map(operator.mul, normal, normal)))
+    return abs(sum(map(operator.mul, row, normal))) / scale if scale > 0 else 0.0
 
 
 def _hessian_criterion(value):

@@ -13,7 +13,6 @@ from ...tasks import (
     FrameTask,
     Kinematics,
     PerConfiguration,
-    pseudoinverse_rate,
     pseudoinverse_workspace,
     stacked_undamped_pseudoinverse,
     undamped_pseudoinverse,
@@ -227,13 +226,13 @@ class ObstacleAvoidance(VelocityResolver):
             # Ḃ = J̇_o N + J_o Ṅ, with Ṅ = −d/dt(J⁺J) = −(X + Xᵀ), X = J⁺J̇N, from the same d/dt J⁺
             turn = inverse.dot(jacobian_rate.dot(projector))
             projected_rate = point_jacobian_rate.dot(projector) - point_jacobian.dot(turn + turn.T)
-            projected_inverse_rate = pseudoinverse_rate(projected, projected_rate, projected_inverse)
             shortfall = repulsion - point_jacobian.dot(particular)  # e of Eq. (12)
             shortfall_rate = (
                 speed * normal_rate - point_jacobian_rate.dot(particular) - point_jacobian.dot(particular_rate)
             )
             phi = projected_inverse.dot(shortfall)  # Eq. (12)
-            phi_rate = projected_inverse_rate.dot(shortfall) + projected_inverse.dot(shortfall_rate)
+            phi_rate = pseudoinverse_rate_times(projected, projected_rate, projected_inverse, shortfall, phi)
+            phi_rate += projected_inverse.dot(shortfall_rate)
             # d/dt of Eq. (13)
             return particular_rate + gain_rate * phi + gain * phi_rate
 
@@ -572,6 +571,18 @@ class StackedObstacleAvoidance(StackedPseudoInverse):
         phi_rate += gain_rate * phi
         particular_rate += phi_rate
         return particular_rate.T.copy()
+
+
+def pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_times_vector) -> np.ndarray:
+    r""":math:`\frac{d}{dt}A^\dagger\,e` of one matrix, :func:`~torqueopt.tasks.pseudoinverse_rate` applied to a
+    vector e (``vector``, with :math:`y = A^\dagger e` given) in matrix-vector products, as
+    :func:`_pseudoinverse_rate_times` on stacks: :math:`A^\dagger(-\dot Ay + A^{\dagger\top}\dot A^\top(e - Ay) - A\,w) + w`
+    with :math:`w = \dot A^\top A^{\dagger\top}y`."""
+    along = matrix_rate.T.dot(inverse.T.dot(inverse_times_vector))  # ȦᵀA⁺ᵀy
+    inside = inverse.T.dot(matrix_rate.T.dot(vector - matrix.dot(inverse_times_vector)))
+    inside -= matrix_rate.dot(inverse_times_vector)
+    inside -= matrix.dot(along)
+    return inverse.dot(inside) + along
 
 
 def _pseudoinverse_rate_times(matrix, matrix_rate, inverse, vector, inverse_times_vector) -> np.ndarray:
