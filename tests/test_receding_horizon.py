@@ -330,3 +330,30 @@ def test_a_shifted_start_of_a_plan_meets_its_integration_rows(paper_arm):
             defect_v = speeds[1:] - speeds[:-1] - h * accelerations
             assert np.abs(defect_q[:-shift]).max() < 1e-12 and np.abs(defect_v[:-shift]).max() < 1e-12
             np.testing.assert_array_equal(accelerations[:-shift], plan.a[shift:])
+
+
+def test_a_warm_window_found_infeasible_is_not_solved_again(paper_arm, monkeypatch):
+    """A warm window IPOPT finds infeasible (here: its answer relabelled so) is reported as it ended, without the
+    cold retry that an iteration limit gets (the test above)."""
+    from torqueopt.optimal import shooting
+    from torqueopt.resolvers import receding_horizon
+
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
+    program = HorizonProgram(RecedingHorizon(horizon=0.05), paper_arm, 0.01)
+    first = program.solve(0.0, q, np.zeros(3), line.sample(0.01 * np.arange(6)).position, None)
+    start = program.shifted_start(first, 0.01)
+    later = first.q[1], first.v[1], line.sample(0.01 + 0.01 * np.arange(6)).position
+    calls = []
+    solve = shooting.solve_shooting
+
+    def infeasible(problem, w0, **settings):
+        calls.append(settings.get("ipopt_options"))
+        out = solve(problem, w0, **settings)
+        out.status, out.message = "infeasible", receding_horizon.PROVEN_INFEASIBLE
+        return out
+
+    monkeypatch.setattr(shooting, "solve_shooting", infeasible)
+    solved = program.solve(0.01, *later, start)
+    assert solved.status == "infeasible" and solved.message == "Infeasible_Problem_Detected"
+    assert len(calls) == 1 and calls[0] is not None  # the warm solve only

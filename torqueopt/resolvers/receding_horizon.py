@@ -344,9 +344,10 @@ class HorizonProgram:
         settings = {"tolerance": TOLERANCE, "max_iterations": MAX_ITERATIONS, "compiled": self.compiled}
         options = (WARM_OPTIONS if warm_options is None else warm_options) if warm else None
         solved = spent = solve_shooting(problem, w0, **settings, ipopt_options=options)
-        if warm and solved.status not in _OPTIMAL:
-            # The small barrier parameter fails near the edge of feasibility where IPOPT's default start succeeds
-            # (planar3's long line, 0.1 s windows, t = 1.90 s): try again from the same point, as a cold start.
+        if warm and solved.status not in _OPTIMAL and solved.message != PROVEN_INFEASIBLE:
+            # The small barrier parameter can stop short (an iteration limit) where IPOPT's default start succeeds:
+            # try again from the same point, as a cold start. Not after IPOPT found the window infeasible: on the
+            # horizon curve's planar3 paths no such retry found a plan (0 of 1,567 on one path).
             solved = solve_shooting(problem, w0, **settings)
             solved.iterations += spent.iterations
             solved.seconds += spent.seconds
@@ -429,6 +430,8 @@ class _Fallback:
 
 
 _OPTIMAL = ("converged", "acceptable")
+#: IPOPT's return that ends a warm window without a cold retry (its infeasibility detection converged).
+PROVEN_INFEASIBLE = "Infeasible_Problem_Detected"
 
 
 class PathHorizonStep:
