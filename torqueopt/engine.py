@@ -200,6 +200,10 @@ def stack_of_one(step):
     return advance
 
 
+#: The rows of a stack while none of its movements has stopped.
+EVERY_ROW = slice(None)
+
+
 class MovementStack:
     """The engine's lanes at the torque level: B movements of one robot and one resolver in (B, ...) stacks.
 
@@ -234,7 +238,7 @@ class MovementStack:
         self.limiting: list[dict] = [{} for _ in range(count)]
         self.active = np.arange(count)  # movement index of each stack row
         self.running = count > 0
-        self.where = slice(None)  # the rows of the running movements: plain slicing while none has stopped
+        self.where = EVERY_ROW  # the rows of the running movements: every row while none has stopped
         self._keep = None
         self.feedback, self.reference_rotations = feedback, reference_rotations
         if feedback is not None:
@@ -250,12 +254,15 @@ class MovementStack:
             return np.ascontiguousarray(np.swapaxes(np.array([getattr(sample, name) for sample in samples]), 0, 1))
 
         self.reference_acceleration = stacked("acceleration")
+        # A list of each step's rows: indexing a list costs far less than indexing an array.
+        self.command_rows = list(self.reference_acceleration)
         if self.feedback is not None:
             self.reference_position, self.reference_velocity = stacked("position"), stacked("velocity")
         return blocks[0][0].tolist()
 
     def command(self, j: int, terms, x):
-        return self.reference_acceleration[j, self.where]
+        rows = self.command_rows[j]
+        return rows if self.where is EVERY_ROW else rows[self.where]
 
     def _feedback_command(self, j: int, terms, x):
         where, feedback = self.where, self.feedback
@@ -272,7 +279,7 @@ class MovementStack:
                     )
         # For pose, x holds log(R R0ᵀ) and the reference orientation is R0, so reference − x = log(R0 Rᵀ).
         return (
-            self.reference_acceleration[j, where]
+            MovementStack.command(self, j, terms, x)
             + feedback.kd * (self.reference_velocity[j, where] - terms.task_velocity)
             + feedback.kp * position_error
         )
