@@ -245,7 +245,8 @@ def simulate_batch(
     lanes = MovementStack(
         robot, resolver, q, np.zeros((count, robot.nv)), dt, steps, references, solve=solve,
         terms=PinocchioTerms(robot).rows if looped else terms_provider(robot, count).terms,
-        advance=plant.step_stack, rules=StopRules(robot, max_torque_ratio, max_joint_speed), extras=extras,
+        advance=lambda q, v, tau, acceleration, movements: plant.step_stack(q, v, tau, dt, acceleration, movements),
+        rules=StopRules(robot, max_torque_ratio, max_joint_speed), extras=extras,
     )  # fmt: skip
     run_movements(lanes, steps)
     results = lanes.results(duration, descriptions, [plant.record(i) for i in range(count)])

@@ -43,7 +43,9 @@ from typing import Protocol
 
 import numpy as np
 
+from .integrators import RK4
 from .linalg import inverse_condition_number
+from .plants import PinocchioPlant
 from .result import SimResult, joint_limits_record
 from .run_records import build_result
 from .run_robot import robot_record
@@ -189,11 +191,17 @@ class StepLog:
         return columns, recorded
 
 
-def stack_of_one(step):
-    """A plant's one-state ``step(q, v, τ, dt, q̈)`` as the step of a stack of one: a run of its own steps in the
-    plant's own data (for MuJoCo) and by its one-state RK4 (for Pinocchio), as it always did."""
+def stack_of_one(plant, robot, dt: float):
+    """The step of a stack of one on ``plant``, ``(q, v, τ, q̈, movements) -> (q, v)``, as a run of its own steps.
 
-    def advance(q, v, tau, dt, acceleration, movements):
+    The Pinocchio plant's RK4 on the (1, ...) rows with its one-state ABA in its data; another plant's one-state
+    :meth:`~torqueopt.plants.Plant.step` (its own data, for MuJoCo) on the row.
+    """
+    if isinstance(plant, PinocchioPlant):
+        return RK4(plant.system, dt).stepper((1, robot.nq), one_row=True)
+    step = plant.step
+
+    def advance(q, v, tau, acceleration, movements):
         q, v = step(q[0], v[0], tau[0], dt, acceleration[0])
         return q[None], v[None]
 
@@ -212,8 +220,9 @@ class MovementStack:
     :class:`~torqueopt.terms.TermRows` for a resolver's single-state step, the
     forest's :class:`~torqueopt.resolvers.stacks.StackTerms` for a vectorised
     one), ``solve`` the resolver's step on stacks, ``advance`` the plant's step
-    on stacks (:meth:`~torqueopt.plants.Plant.step_stack`, or
-    :func:`stack_of_one` of its one-state step) and ``rules`` the stops. Row r of
+    on stacks ``(q, v, τ, q̈, movements) -> (q, v)`` (its
+    :meth:`~torqueopt.plants.Plant.step_stack`, or :func:`stack_of_one`) and
+    ``rules`` the stops. Row r of
     every stack is movement ``active[r]``; a movement that stops leaves the
     stacks at once. With ``feedback`` (terms as TermRows), the command is
     :math:`\\ddot x_{ref} + K_D(\\dot x_{ref} - J\\dot q) + K_P(x_{ref} - x)`, with
@@ -344,7 +353,7 @@ class MovementStack:
 
     def step(self, q, v, resolution, j: int, t: float):
         # For the Pinocchio plant, RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)).
-        q, v = self.advance(q, v, resolution.torque, self.dt, resolution.joint_acceleration, self.active)
+        q, v = self.advance(q, v, resolution.torque, resolution.joint_acceleration, self.active)
         rules = self.rules
         if not rules.any_speed_over(v):
             return q, v, False

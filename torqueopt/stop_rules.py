@@ -84,13 +84,13 @@ class StopRules:
         """Whether some row of a non-empty (B, n) stack fails :meth:`torques_over`: one reduction over the stack (a
         NaN carries through the maximum and fails the test), the rows sought only when it is True."""
         if len(torque) == 1:
-            return not all(map(operator.le, map(abs, torque[0].tolist()), self._torque_ceilings))
+            return not all(map(operator.le, map(abs, torque.tolist()[0]), self._torque_ceilings))
         return not (np.abs(torque).max(axis=0) <= self.torque_ceiling).all()
 
     def any_speed_over(self, velocity: np.ndarray) -> bool:
         """Whether some row of a non-empty (B, n) stack fails :meth:`speeds_over`, by one reduction over the stack."""
         if len(velocity) == 1:
-            return not all(map(operator.le, map(abs, velocity[0].tolist()), self._speed_ceilings))
+            return not all(map(operator.le, map(abs, velocity.tolist()[0]), self._speed_ceilings))
         return not np.abs(velocity).max() <= self.speed_ceiling
 
     def torque(self, tau: np.ndarray, t: float) -> str:

@@ -73,14 +73,10 @@ class PinocchioTerms:
     def rows(self, q: np.ndarray, v: np.ndarray):
         """(TermRows, task positions (B, m)) of every row of (B, nq) and (B, n) stacks, one state at a time.
 
-        A stack of one keeps the views of the data (its step reads them before the next call writes it); the rows
-        of a larger stack own their inertia (in the data's column-major layout, so that a step makes the same BLAS
-        calls as on the data) and bias.
+        Each row owns its inertia (in the data's column-major layout, so that a step makes the same BLAS calls as
+        on the data) and bias.
         """
         one, position = self.one, self.position
-        if len(q) == 1:
-            terms = one(q[0], v[0])
-            return TermRows((terms,)), position(terms)[None]
         found = []
         for configuration, velocity in zip(q, v):
             terms = one(configuration, velocity)
@@ -88,6 +84,17 @@ class PinocchioTerms:
                 terms._replace(inertia=np.array(terms.inertia, order="F"), bias_torque=terms.bias_torque.copy())
             )
         return TermRows(found), np.array([position(terms) for terms in found])
+
+    def stack_of_one(self):
+        """:meth:`rows` on a stack of one, as a bare function (what ``simulate`` calls at every step): the row's
+        terms keep their views of the data, which its step reads before the next call writes it."""
+        one, position = self.one, self.position
+
+        def rows(q: np.ndarray, v: np.ndarray):
+            terms = one(q[0], v[0])
+            return TermRows((terms,)), position(terms)[None]
+
+        return rows
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, nq) and (B, n) stacks, one state at a time."""
@@ -118,6 +125,17 @@ class ForestTerms:
     def __init__(self, robot: Robot):
         self.robot = robot
         self.forest = RobotForest(robot, max(1, TERMS_FOREST_DOFS // robot.nv))
+
+    def stack_of_one(self):
+        """:meth:`rows` on a stack of one, as a bare function (what ``simulate`` calls at every step): the row's
+        terms keep their views of the data, which its step reads before the next call writes it."""
+        one, position = self.one, self.position
+
+        def rows(q: np.ndarray, v: np.ndarray):
+            terms = one(q[0], v[0])
+            return TermRows((terms,)), position(terms)[None]
+
+        return rows
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, n) stacks, a few Pinocchio calls per forest pass."""

@@ -158,8 +158,6 @@ class LoopedStackStep:
         ``task_error`` and ``infeasible`` are None when every row realised its task; the rows of a stack of one are
         views of the step's own arrays (no copy per step).
         """
-        if len(task_accelerations) == 1:
-            return self._one_row(terms.row(0), task_accelerations[0], int(movements[0]))
         torques, accelerations, conditions = [], [], []
         failures, limiting, shortfalls = {}, {}, {}
         steps = self._steps
@@ -198,28 +196,32 @@ class LoopedStackStep:
             limiting,
         )
 
-    def _one_row(self, state, task_acceleration: np.ndarray, movement: int) -> StackResolution:
-        """:meth:`__call__` on a stack of one (what ``simulate`` steps): the resolution's own arrays as views."""
-        solve = self._steps.get(movement)
-        if solve is None:
-            solve = self._steps[movement] = self._make_step(movement)
-        try:
-            resolution = solve(state, task_acceleration)
-        except STOPPING_ERRORS as error:
-            not_applied = self._not_applied[None]
-            condition = (inverse_condition_number(state.jacobian),)
-            return StackResolution(not_applied, not_applied, condition, None, None, {0: str(error)}, None)
-        task_error, infeasible = resolution.task_error, resolution.infeasible
-        shortfall = task_error or infeasible
-        return StackResolution(
-            resolution.torque[None],
-            resolution.joint_acceleration[None],
-            (resolution.jacobian_inverse_condition,),
-            np.array([task_error]) if shortfall else None,
-            np.array([infeasible]) if shortfall else None,
-            None,
-            {0: resolution.limiting} if resolution.limiting else None,
-        )
+    def stack_of_one(self) -> StackStep:
+        """This step on a stack of one, movement 0 (what ``simulate`` steps), as a bare function: the resolution's own
+        arrays as (1, ...) views, no list built per step."""
+        solve = self._make_step(0)
+        not_applied = self._not_applied[None]
+
+        def step(terms, task_accelerations: np.ndarray, movements=None) -> StackResolution:
+            state = terms[0]
+            try:
+                resolution = solve(state, task_accelerations[0])
+            except STOPPING_ERRORS as error:
+                condition = (inverse_condition_number(state.jacobian),)
+                return StackResolution(not_applied, not_applied, condition, None, None, {0: str(error)}, None)
+            task_error, infeasible = resolution.task_error, resolution.infeasible
+            shortfall = task_error or infeasible
+            return StackResolution(
+                resolution.torque[None],
+                resolution.joint_acceleration[None],
+                (resolution.jacobian_inverse_condition,),
+                np.array([task_error]) if shortfall else None,
+                np.array([infeasible]) if shortfall else None,
+                None,
+                {0: resolution.limiting} if resolution.limiting else None,
+            )
+
+        return step
 
 
 def _stacked(rows: list, n: int) -> np.ndarray:
