@@ -317,7 +317,7 @@ class KinematicStack(MovementStack):
         self.gain = resolver.position_gain
         self.integrator = RK4(VelocityRates(robot, self._stage_rates), dt)
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-        self.log = StepLog(count, extras)
+        self.log = StepLog(robot, count, extras)
         self.stop_reason: list[str | None] = [None] * count
         self.stop_time: list[float | None] = [None] * count
         self.limiting: list[dict] = [{} for _ in range(count)]

@@ -43,9 +43,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .integrators import RK4
 from .linalg import inverse_condition_number
-from .plants import PinocchioPlant
 from .result import SimResult, joint_limits_record
 from .run_records import build_result
 from .run_robot import robot_record
@@ -149,8 +147,12 @@ class StepLog:
 
     FIELDS = ("q", "v", "acceleration", "tau", "x", "jacobian_inverse_condition")
 
-    def __init__(self, count: int, extras: bool):
+    def __init__(self, robot, count: int, extras: bool):
         self.count = count
+        n = robot.nv
+        #: Each field's shape per movement (a stack of one held as its row logs these; a stack, (B, ...) of them).
+        self.shapes = dict(zip(self.FIELDS, ((robot.nq,), (n,), (n,), (n,), (robot.m,), ())))
+        self.shapes.update(kinetic_energy=(), self_motion_energy=())
         self.steps: list[tuple] = []
         self.energies: list[tuple] | None = [] if extras else None
         self.shortfalls: list[tuple] = []
@@ -179,10 +181,13 @@ class StepLog:
             if not stretches:
                 columns[name] = np.empty((0, count))
                 continue
-            shape = np.shape(field[0])[1:]
+            shape = self.shapes[name]
             column = np.full((len(steps), count, *shape), np.nan)
             for first, end, movements in stretches:
-                column[first:end, movements] = np.array(field[first:end])
+                rows = field[first:end]
+                # joined by one concatenate where the rows are arrays (cheaper per row than np.array)
+                joined = np.concatenate(rows) if shape else np.array(rows)
+                column[first:end, movements] = joined.reshape(end - first, np.size(movements), *shape)
             columns[name] = column
         task_error, infeasible = np.zeros((len(steps), count)), np.zeros((len(steps), count), dtype=bool)
         for step, movements, error, flag in self.shortfalls:
@@ -191,19 +196,13 @@ class StepLog:
         return columns, recorded
 
 
-def stack_of_one(plant, robot, dt: float):
-    """The step of a stack of one on ``plant``, ``(q, v, τ, q̈, movements) -> (q, v)``, as a run of its own steps.
-
-    The Pinocchio plant's RK4 on the (1, ...) rows with its one-state ABA in its data; another plant's one-state
-    :meth:`~torqueopt.plants.Plant.step` (its own data, for MuJoCo) on the row.
-    """
-    if isinstance(plant, PinocchioPlant):
-        return RK4(plant.system, dt).stepper((1, robot.nq), one_row=True)
+def stack_of_one(plant, dt: float):
+    """The step of a stack of one held as its row, ``(q, v, τ, q̈, movements) -> (q, v)``: the plant's one-state
+    :meth:`~torqueopt.plants.Plant.step` (RK4 in its data for Pinocchio, its own MuJoCo data), as a run of its own."""
     step = plant.step
 
     def advance(q, v, tau, acceleration, movements):
-        q, v = step(q[0], v[0], tau[0], dt, acceleration[0])
-        return q[None], v[None]
+        return step(q, v, tau, dt, acceleration)
 
     return advance
 
@@ -224,7 +223,12 @@ class MovementStack:
     :meth:`~torqueopt.plants.Plant.step_stack`, or :func:`stack_of_one`) and
     ``rules`` the stops. Row r of
     every stack is movement ``active[r]``; a movement that stops leaves the
-    stacks at once. With ``feedback`` (terms as TermRows), the command is
+    stacks at once. A stack of one may be held as its row (``q`` of shape (nq,),
+    what ``simulate`` does): every stack is then its one row, (n,) for (1, n),
+    so that no step makes a view of it, and its pieces are the one-state
+    functions (:class:`~torqueopt.robot.TaskTerms`, the resolver's single-state
+    step, the plant's one-state step); it takes no ``extras``. With ``feedback``
+    (terms of single-state steps), the command is
     :math:`\\ddot x_{ref} + K_D(\\dot x_{ref} - J\\dot q) + K_P(x_{ref} - x)`, with
     the rotation rows of a turning ``pose`` path :math:`\\log(R_{ref}R^\top)`
     about each movement's ``reference_rotations``.
@@ -236,12 +240,13 @@ class MovementStack:
         self, robot, resolver, q: np.ndarray, v: np.ndarray, dt: float, steps: int, references: list, *,
         solve, terms, advance, rules, extras: bool = False, feedback=None, reference_rotations=None,
     ):  # fmt: skip
-        count = q.shape[0]
+        self.row = q.ndim == 1  # a stack of one held as its row
+        count = 1 if self.row else q.shape[0]
         self.robot, self.resolver, self.dt, self.steps, self.references = robot, resolver, dt, steps, references
         self.count, self.with_extras = count, extras
         self.q, self.v = q, v
         self.solve, self.terms, self.advance, self.rules = solve, terms, advance, rules
-        self.log = StepLog(count, extras)
+        self.log = StepLog(robot, count, extras)
         self.stop_reason: list[str | None] = [None] * count
         self.stop_time: list[float | None] = [None] * count
         self.limiting: list[dict] = [{} for _ in range(count)]
@@ -260,6 +265,8 @@ class MovementStack:
         self.start = start
 
         def stacked(name):  # time-major: [step, movement, coordinate]
+            if self.row:
+                return getattr(samples[0], name)
             return np.ascontiguousarray(np.swapaxes(np.array([getattr(sample, name) for sample in samples]), 0, 1))
 
         self.reference_acceleration = stacked("acceleration")
@@ -275,15 +282,18 @@ class MovementStack:
 
     def _feedback_command(self, j: int, terms, x):
         where, feedback = self.where, self.feedback
-        position_error = self.reference_position[j, where] - x
+        reference = self.reference_position[j, where]
+        position_error = reference - x
         if self.turning:
+            size = self.active.size
+            errors, references = position_error.reshape(size, -1), reference.reshape(size, -1)
             for row, movement in enumerate(self.active.tolist()):
                 if self.turning[movement]:
                     # log(R_ref Rᵀ), the world rotation vector that turns R onto R_ref (both about R0), not the
                     # difference of their rotation vectors about R0, which is it only to first order
-                    position_error[row, 3:] = rotation_error(
-                        self.reference_position[j, movement, 3:],
-                        terms.row(row).placement.rotation,
+                    errors[row, 3:] = rotation_error(
+                        references[row, 3:],
+                        (terms if self.row else terms.row(row)).placement.rotation,
                         self.reference_rotations[movement],
                     )
         # For pose, x holds log(R R0ᵀ) and the reference orientation is R0, so reference − x = log(R0 Rᵀ).
@@ -303,8 +313,10 @@ class MovementStack:
         if failures:  # no torque is applied at a row the resolver could not resolve
             failed = np.zeros(active.size, dtype=bool)
             failed[list(failures)] = True
-            torque = np.where(failed[:, None], np.nan, torque)
-            acceleration = np.where(failed[:, None], np.nan, acceleration)
+            torque = np.where(failed[:, None], np.nan, torque.reshape(active.size, -1)).reshape(torque.shape)
+            acceleration = np.where(failed[:, None], np.nan, acceleration.reshape(active.size, -1)).reshape(
+                acceleration.shape
+            )
             if task_error is not None:
                 task_error, infeasible = np.where(failed, 0.0, task_error), infeasible & ~failed
         log.steps.append((active, q, v, acceleration, torque, x, resolution.jacobian_inverse_condition))
@@ -316,12 +328,12 @@ class MovementStack:
         if resolution.limiting:
             for row, bounds in resolution.limiting.items():
                 self.limiting[int(active[row])][k] = bounds
-        if not failures:
-            if not rules.any_torque_over(torque):
-                return False
-            stopping = rules.torques_over(torque)
-        else:
-            stopping = failed | rules.torques_over(torque)
+        if not failures and not rules.any_torque_over(torque):
+            return False
+        torque = torque.reshape(active.size, -1)  # a row held as itself, as its stack
+        stopping = rules.torques_over(torque)
+        if failures:
+            stopping |= failed
         for row in np.flatnonzero(stopping).tolist():
             movement = int(active[row])
             if failures and row in failures:
@@ -345,11 +357,15 @@ class MovementStack:
         keep = self._keep
         self.active = self.where = self.active[keep]
         self.running = self.active.size > 0
+
+        def kept(stack):  # a row held as itself, as its stack
+            return stack.reshape(keep.size, -1)[keep]
+
         if resolution is not None:
             resolution = resolution._replace(
-                torque=resolution.torque[keep], joint_acceleration=resolution.joint_acceleration[keep]
+                torque=kept(resolution.torque), joint_acceleration=kept(resolution.joint_acceleration)
             )
-        return q[keep], v[keep], resolution
+        return kept(q), kept(v), resolution
 
     def step(self, q, v, resolution, j: int, t: float):
         # For the Pinocchio plant, RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)).
@@ -357,10 +373,11 @@ class MovementStack:
         rules = self.rules
         if not rules.any_speed_over(v):
             return q, v, False
-        fast = rules.speeds_over(v)
+        rows = v.reshape(self.active.size, -1)  # a row held as itself, as its stack
+        fast = rules.speeds_over(rows)
         for row in np.flatnonzero(fast).tolist():
             movement = int(self.active[row])
-            self.stop_reason[movement] = rules.speed(v[row], t, self.dt)
+            self.stop_reason[movement] = rules.speed(rows[row], t, self.dt)
             self.stop_time[movement] = t + self.dt
         self._keep = ~fast
         return q, v, True

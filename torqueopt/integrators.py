@@ -205,63 +205,49 @@ class RK4:
             self._step, self._shape = self.stepper(q.shape), q.shape
         return self._step(q, v, parameter, k1)
 
-    def stepper(self, shape, one_row: bool = False):
-        """:meth:`step` on states of ``shape`` alone, as a function: its rows' views and weights made once.
-
-        With ``one_row``, a stack of one, shape (1, nq), stepped by the one-state derivative (Pinocchio's ``aba``
-        on the system's data, as a run of its own): (1, ...) arrays in and out, one state's arithmetic inside.
-        """
+    def stepper(self, shape):
+        """:meth:`step` on states of ``shape`` alone, as a function: its rows' views and weights made once."""
         robot, system = self.robot, self.system
         stacked = len(shape) > 1
-        one_row = one_row and stacked and shape[0] == 1
         size = int(np.prod(shape[:-1], dtype=int)) * robot.nv
         velocity_shape = (*shape[:-1], robot.nv)
         euclidean = robot.euclidean
         second_order = system.order == 2
         weight2, weight3, weight4, weight_end = stage_weights(self.dt, system.order, euclidean)
-        derivative = system.derivative(stacked and not one_row)
+        derivative = system.derivative(stacked)
         # Rows [q] [v] k1 k2 k3 k4, each one state (or stack) long.
         names = (["q"] if euclidean else []) + (["v"] if second_order else []) + ["k1", "k2", "k3", "k4"]
         stages = np.zeros((len(names), size))
-        # a stack of one's rows are one state's: (1, n) arrays are copied in as (n,) ones
-        row_shape = (robot.nv,) if one_row else velocity_shape
-        rows = {name: stages[index].reshape(row_shape) for index, name in enumerate(names)}
+        rows = {name: stages[index].reshape(velocity_shape) for index, name in enumerate(names)}
         q_row, v_row, k1_row = rows.get("q"), rows.get("v"), rows["k1"]
         k2_row, k3_row, k4_row = rows["k2"], rows["k3"], rows["k4"]
         upto2, upto3, upto4 = (stages[: weight.shape[-1]] for weight in (weight2, weight3, weight4))
-        integrate_one = robot.integrate
         if stacked and not euclidean:
+            integrate_one = robot.integrate
 
             def integrate(q, increment):
                 return np.array([integrate_one(row, delta) for row, delta in zip(q, increment)])
 
         else:
             integrate = robot.integrate
-        # the configuration a stage's derivative reads, from the step's start and the stage's increment
-        stage_integrate = (lambda q, increment: integrate_one(q[0], increment)) if one_row else integrate
 
         if second_order:
             buffer = np.empty((2, size))
             end_shape = (2, *velocity_shape)
             # views that every stage's product refills: the configuration (or its increment) and the velocity
-            if one_row:
-                position, velocity = buffer[0], buffer[1]
-            else:
-                position, velocity = buffer[0].reshape(velocity_shape), buffer[1].reshape(velocity_shape)
+            position, velocity = buffer[0].reshape(velocity_shape), buffer[1].reshape(velocity_shape)
 
-            def rk4(q, v, tau, k1, movements=None):
+            def rk4(q, v, tau, k1):
                 if euclidean:
                     q_row[...] = q
                 v_row[...] = v
                 k1_row[...] = k1
-                if one_row:
-                    tau = tau[0]
                 weight2.dot(upto2, out=buffer)
-                k2_row[...] = derivative(position if euclidean else stage_integrate(q, position), velocity, tau)
+                k2_row[...] = derivative(position if euclidean else integrate(q, position), velocity, tau)
                 weight3.dot(upto3, out=buffer)
-                k3_row[...] = derivative(position if euclidean else stage_integrate(q, position), velocity, tau)
+                k3_row[...] = derivative(position if euclidean else integrate(q, position), velocity, tau)
                 weight4.dot(upto4, out=buffer)
-                k4_row[...] = derivative(position if euclidean else stage_integrate(q, position), velocity, tau)
+                k4_row[...] = derivative(position if euclidean else integrate(q, position), velocity, tau)
                 end = weight_end.dot(stages)
                 if stacked:
                     end = end.reshape(end_shape)

@@ -211,9 +211,9 @@ def simulate(
     solve = LoopedStackStep(resolver, robot, dt)
     solve.along([trajectory])
     lanes = MovementStack(
-        robot, resolver, q[None], v[None], dt, steps, [reference], solve=solve.stack_of_one(),
+        robot, resolver, q, v, dt, steps, [reference], solve=solve.stack_of_one(),
         terms=terms.stack_of_one(),
-        advance=stack_of_one(plant, robot, dt), rules=StopRules(robot, max_torque_ratio, max_joint_speed),
+        advance=stack_of_one(plant, dt), rules=StopRules(robot, max_torque_ratio, max_joint_speed),
         feedback=feedback, reference_rotations=[reference_rotation],
     )  # fmt: skip
     run_movements(lanes, steps)

@@ -86,15 +86,23 @@ class PinocchioTerms:
         return TermRows(found), np.array([position(terms) for terms in found])
 
     def stack_of_one(self):
-        """:meth:`rows` on a stack of one, as a bare function (what ``simulate`` calls at every step): the row's
-        terms keep their views of the data, which its step reads before the next call writes it."""
+        """``(q, v) -> (TaskTerms, x)`` of one state: the terms of a stack of one held as its row (what ``simulate``
+        calls at every step), which keep their views of the data (its step reads them before the next call)."""
         one, position = self.one, self.position
+        if self.robot.task == "pose":
 
-        def rows(q: np.ndarray, v: np.ndarray):
-            terms = one(q[0], v[0])
-            return TermRows((terms,)), position(terms)[None]
+            def terms_with_pose(q: np.ndarray, v: np.ndarray):
+                terms = one(q, v)
+                return terms, position(terms)
 
-        return rows
+            return terms_with_pose
+        rows = self.robot.task_rows
+
+        def terms_with_position(q: np.ndarray, v: np.ndarray):
+            terms = one(q, v)
+            return terms, terms.placement.translation[rows]
+
+        return terms_with_position
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, nq) and (B, n) stacks, one state at a time."""
@@ -127,15 +135,23 @@ class ForestTerms:
         self.forest = RobotForest(robot, max(1, TERMS_FOREST_DOFS // robot.nv))
 
     def stack_of_one(self):
-        """:meth:`rows` on a stack of one, as a bare function (what ``simulate`` calls at every step): the row's
-        terms keep their views of the data, which its step reads before the next call writes it."""
+        """``(q, v) -> (TaskTerms, x)`` of one state: the terms of a stack of one held as its row (what ``simulate``
+        calls at every step), which keep their views of the data (its step reads them before the next call)."""
         one, position = self.one, self.position
+        if self.robot.task == "pose":
 
-        def rows(q: np.ndarray, v: np.ndarray):
-            terms = one(q[0], v[0])
-            return TermRows((terms,)), position(terms)[None]
+            def terms_with_pose(q: np.ndarray, v: np.ndarray):
+                terms = one(q, v)
+                return terms, position(terms)
 
-        return rows
+            return terms_with_pose
+        rows = self.robot.task_rows
+
+        def terms_with_position(q: np.ndarray, v: np.ndarray):
+            terms = one(q, v)
+            return terms, terms.placement.translation[rows]
+
+        return terms_with_position
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, n) stacks, a few Pinocchio calls per forest pass."""

@@ -197,24 +197,23 @@ class LoopedStackStep:
         )
 
     def stack_of_one(self) -> StackStep:
-        """This step on a stack of one, movement 0 (what ``simulate`` steps), as a bare function: the resolution's own
-        arrays as (1, ...) views, no list built per step."""
+        """This step on a stack of one held as its row (what ``simulate`` steps), as a bare function
+        ``(TaskTerms, ẍ (m,), movements) -> StackResolution`` of the row: (n,) torque and q̈, a float σmin/σmax."""
         solve = self._make_step(0)
-        not_applied = self._not_applied[None]
+        not_applied = self._not_applied
 
-        def step(terms, task_accelerations: np.ndarray, movements=None) -> StackResolution:
-            state = terms[0]
+        def step(terms, task_acceleration: np.ndarray, movements=None) -> StackResolution:
             try:
-                resolution = solve(state, task_accelerations[0])
+                resolution = solve(terms, task_acceleration)
             except STOPPING_ERRORS as error:
-                condition = (inverse_condition_number(state.jacobian),)
+                condition = inverse_condition_number(terms.jacobian)
                 return StackResolution(not_applied, not_applied, condition, None, None, {0: str(error)}, None)
             task_error, infeasible = resolution.task_error, resolution.infeasible
             shortfall = task_error or infeasible
             return StackResolution(
-                resolution.torque[None],
-                resolution.joint_acceleration[None],
-                (resolution.jacobian_inverse_condition,),
+                resolution.torque,
+                resolution.joint_acceleration,
+                resolution.jacobian_inverse_condition,
                 np.array([task_error]) if shortfall else None,
                 np.array([infeasible]) if shortfall else None,
                 None,
