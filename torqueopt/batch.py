@@ -3,7 +3,7 @@ r"""Many movements advanced together: the engine on a batch axis, and :func:`tor
 :func:`simulate_batch` runs B movements of one robot and one resolver side
 by side, one time step for the whole batch at a time, through the engine's
 one loop body (:func:`torqueopt.engine.run_movements`, the loop of
-``simulate`` too) with the stacked forms of its pieces (:class:`MovementStack`):
+``simulate`` too) and its lanes (:class:`torqueopt.engine.MovementStack`), with the stacked forms of its pieces:
 
 * a terms provider (:mod:`torqueopt.terms`): :math:`H`,
   :math:`b = \dot q\cdot C\cdot\dot q + g`, :math:`J`, :math:`\dot J\dot q`

@@ -216,8 +216,8 @@ class MovementStack:
 
     :func:`torqueopt.simulate` runs a stack of one, ``simulate_batch`` many. The
     caller hands over the pieces: ``terms`` ``(q, v) -> (terms, x)`` (Pinocchio's
-    :class:`~torqueopt.terms.TermRows` for a resolver's single-state step, the
-    forest's :class:`~torqueopt.resolvers.stacks.StackTerms` for a vectorised
+    ``TermRows`` for a resolver's single-state step, the
+    forest's ``StackTerms`` for a vectorised
     one), ``solve`` the resolver's step on stacks, ``advance`` the plant's step
     on stacks ``(q, v, τ, q̈, movements) -> (q, v)`` (its
     :meth:`~torqueopt.plants.Plant.step_stack`, or :func:`stack_of_one`) and
@@ -385,7 +385,7 @@ class MovementStack:
     def results(
         self, duration: float, descriptions: list[dict], plants: list, dexterity: bool = False
     ) -> list[SimResult]:
-        """One :class:`SimResult` per movement from the log; ``plants`` the plant's record of each."""
+        """One :class:`~torqueopt.SimResult` per movement from the log; ``plants`` the plant's record of each."""
         robot, dt = self.robot, self.dt
         columns, recorded = self.log.columns()
         self.recorded = recorded

@@ -32,7 +32,7 @@ __all__ = ["ForestTerms", "PinocchioTerms", "TermRows", "terms_provider"]
 
 class TermRows(tuple):
     """The task terms of each row of a stack as one state's :class:`~torqueopt.robot.TaskTerms` (what a resolver's
-    single-state step reads, row by row), with :class:`StackTerms`' stacked fields made when asked for."""
+    single-state step reads, row by row), with the stacked fields the loop reads (H, J, J q̇) made when asked for."""
 
     __slots__ = ()
 
@@ -44,9 +44,7 @@ class TermRows(tuple):
         return np.array([getattr(row, name) for row in self])
 
     inertia = property(lambda self: self._stacked("inertia"))
-    bias_torque = property(lambda self: self._stacked("bias_torque"))
     jacobian = property(lambda self: self._stacked("jacobian"))
-    drift = property(lambda self: self._stacked("drift"))
     task_velocity = property(lambda self: self._stacked("task_velocity"))
 
 
@@ -133,25 +131,6 @@ class ForestTerms:
     def __init__(self, robot: Robot):
         self.robot = robot
         self.forest = RobotForest(robot, max(1, TERMS_FOREST_DOFS // robot.nv))
-
-    def stack_of_one(self):
-        """``(q, v) -> (TaskTerms, x)`` of one state: the terms of a stack of one held as its row (what ``simulate``
-        calls at every step), which keep their views of the data (its step reads them before the next call)."""
-        one, position = self.one, self.position
-        if self.robot.task == "pose":
-
-            def terms_with_pose(q: np.ndarray, v: np.ndarray):
-                terms = one(q, v)
-                return terms, position(terms)
-
-            return terms_with_pose
-        rows = self.robot.task_rows
-
-        def terms_with_position(q: np.ndarray, v: np.ndarray):
-            terms = one(q, v)
-            return terms, terms.placement.translation[rows]
-
-        return terms_with_position
 
     def terms(self, q: np.ndarray, v: np.ndarray):
         """(StackTerms, task positions) of every row of (B, n) stacks, a few Pinocchio calls per forest pass."""
