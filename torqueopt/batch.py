@@ -3,7 +3,7 @@ r"""Many movements advanced together: the engine on a batch axis, and :func:`tor
 :func:`simulate_batch` runs B movements of one robot and one resolver side
 by side, one time step for the whole batch at a time, through the engine's
 one loop body (:func:`torqueopt.engine.run_movements`, the loop of
-``simulate`` too) with the stacked forms of its pieces (:class:`MovementStack`):
+``simulate`` too) and its lanes (:class:`torqueopt.engine.MovementStack`), with the stacked forms of its pieces:
 
 * a terms provider (:mod:`torqueopt.terms`): :math:`H`,
   :math:`b = \dot q\cdot C\cdot\dot q + g`, :math:`J`, :math:`\dot J\dot q`
@@ -53,18 +53,16 @@ from collections.abc import Sequence
 import numpy as np
 
 from .checks import configuration_vector, positive_number, trajectory_dimension, whole_number
-from .engine import run_movements
+from .engine import MovementStack, StepLog, run_movements
 from .errors import InvalidInput
 from .integrators import RK4, VelocityRates
-from .linalg import inverse_condition_number
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolver, get_resolver
 from .resolvers.stacks import LoopedStackStep
-from .result import SimResult, joint_limits_record
+from .result import SimResult
 from .robot import Robot
 from .robot_copies import RobotForest
-from .run_records import REFERENCE_BLOCK, ReferenceBlocks, build_result
-from .run_robot import robot_record
+from .run_records import REFERENCE_BLOCK, ReferenceBlocks
 from .self_motion import self_motion_energy
 from .simulate import (
     DEFAULT_MAX_JOINT_SPEED,
@@ -155,39 +153,6 @@ def simulate_many(
     return results
 
 
-class _Logs:
-    """The batch's records, time-major ([step, movement], a step writes one contiguous block), grown a block at a time."""
-
-    def __init__(self, count: int, n: int, nq: int, m: int, extras: bool, block: int = REFERENCE_BLOCK):
-        self.count, self.n, self.nq, self.m, self.extras, self.block = count, n, nq, m, extras, block
-        self.blocks: list[dict] = []
-
-    def grow(self, rows: int) -> dict:
-        """A new block of ``rows`` steps; rows past a movement's stop stay unused."""
-        count, n = self.count, self.n
-        block = {
-            "q": np.empty((rows, count, self.nq)),
-            "v": np.empty((rows, count, n)),
-            "acceleration": np.full((rows, count, n), np.nan),
-            "tau": np.full((rows, count, n), np.nan),
-            "x": np.empty((rows, count, self.m)),
-            "jacobian_inverse_condition": np.empty((rows, count)),
-            "task_error": np.zeros((rows, count)),
-            "infeasible": np.zeros((rows, count), dtype=bool),
-        }
-        if self.extras:
-            block["kinetic_energy"] = np.empty((rows, count))
-            block["self_motion_energy"] = np.empty((rows, count))
-        self.blocks.append(block)
-        return block
-
-    def column(self, name: str, movement: int, length: int) -> np.ndarray:
-        """The first ``length`` rows of field ``name`` of ``movement`` (a fresh array)."""
-        parts = [block[name][:, movement] for block in self.blocks]
-        joined = np.concatenate(parts) if len(parts) > 1 else parts[0].copy()
-        return joined[:length]
-
-
 def simulate_batch(
     robot: Robot,
     resolver: str | Resolver,
@@ -271,206 +236,21 @@ def simulate_batch(
         plant = PinocchioPlant(robot, threads=threads)
     plant = make_plant(robot, plant, plant_options)
     plant.reset(dt)
+    solve = resolver.batch_solver(robot, dt)
+    # A resolver whose step is its single-state one looped row by row gains nothing from stacked terms: it gets
+    # simulate's own terms, row by row, and its runs equal simulate's bit for bit.
+    looped = isinstance(solve, LoopedStackStep)
+    if looped:
+        solve.along(reference.trajectory for reference in references)
     lanes = MovementStack(
-        robot, resolver, q, dt, steps, references, plant, extras, max_torque_ratio, max_joint_speed
+        robot, resolver, q, np.zeros((count, robot.nv)), dt, steps, references, solve=solve,
+        terms=PinocchioTerms(robot).rows if looped else terms_provider(robot, count).terms,
+        advance=lambda q, v, tau, acceleration, movements: plant.step_stack(q, v, tau, dt, acceleration, movements),
+        rules=StopRules(robot, max_torque_ratio, max_joint_speed), extras=extras,
     )  # fmt: skip
     run_movements(lanes, steps)
-    results = lanes.results(duration, descriptions)
-    return (results, lanes.extras()) if extras else results
-
-
-class MovementStack:
-    """The engine's lanes for B movements at the torque level: (B, ...) stacks (see :mod:`torqueopt.engine`).
-
-    The stacked forms of the engine's pieces: the forest's terms
-    (:class:`~torqueopt.terms.ForestTerms`), the resolver's step on stacks
-    (:meth:`Resolver.batch_solver <torqueopt.resolvers.base.Resolver.batch_solver>`),
-    the plant's :meth:`~torqueopt.plants.Plant.step_stack`,
-    time-major logs grown a block at a time and the ceiling tests of
-    :class:`~torqueopt.stop_rules.StopRules` on stacks. A resolver whose step is its
-    single-state one looped row by row gains nothing from stacked terms: it gets
-    ``simulate``'s own terms, row by row, and since a stack's RK4 does each
-    row's arithmetic as one state's, its runs equal ``simulate``'s bit for
-    bit. Row r of every stack is movement ``active[r]``; a movement that
-    stops leaves the stacks.
-    """
-
-    resolves_final = False
-
-    def __init__(
-        self, robot: Robot, resolver: Resolver, q: np.ndarray, dt: float, steps: int, references: list,
-        plant: Plant, extras: bool, max_torque_ratio: float, max_joint_speed: float,
-    ):  # fmt: skip
-        count = q.shape[0]
-        self.robot, self.resolver, self.dt, self.steps, self.references = robot, resolver, dt, steps, references
-        self.count, self.with_extras = count, extras
-        self.q, self.v = q, np.zeros((count, robot.nv))
-        self.solve = resolver.batch_solver(robot, dt)
-        self.plant = plant
-        looped = isinstance(self.solve, LoopedStackStep)
-        if looped:
-            self.solve.along(reference.trajectory for reference in references)
-        self.provider = PinocchioTerms(robot) if looped else terms_provider(robot, count)
-        #: The terms provider's ``(q, v) -> (StackTerms, task positions)``.
-        self.terms = self.provider.terms
-        self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
-        self.recorded = np.zeros(count, dtype=int)
-        self.stop_reason: list[str | None] = [None] * count
-        self.stop_time: list[float | None] = [None] * count
-        self.limiting: list[dict] = [{} for _ in range(count)]
-        self.active = np.arange(count)  # movement index of each batch row
-        self.running = count > 0
-        self.where = slice(None)  # the rows of the running movements: plain slicing while none has stopped
-        self._keep = None
-
-    def block(self, start: int) -> list[float]:
-        samples = [reference.block(start) for reference in self.references]
-        self.start = start
-        # Time-major: [step, movement, coordinate].
-        self.reference_acceleration = np.ascontiguousarray(
-            np.swapaxes(np.array([sample.acceleration for _, sample in samples]), 0, 1)
-        )
-        self.log = self.logs.grow(len(samples[0][0]))
-        return samples[0][0].tolist()
-
-    def command(self, j: int, terms, x):
-        return self.reference_acceleration[j, self.where]
-
-    def _record_state(self, j: int, q, v, x) -> None:
-        """Every state is recorded (q, v, x); torque and q̈ only where the resolver ran."""
-        where, log = self.where, self.log
-        log["q"][j, where] = q
-        log["v"][j, where] = v
-        log["x"][j, where] = x
-        self.recorded[where] = self.start + j + 1
-
-    def resolve(self, terms, command, j: int):
-        return self.solve(terms, command, self.active)
-
-    def record(self, j: int, t: float, q, v, x, terms, resolution) -> bool:
-        self._record_state(j, q, v, x)
-        log, where, active, rules = self.log, self.where, self.active, self.rules
-        torque, joint_acceleration = resolution.torque, resolution.joint_acceleration
-        failures = resolution.failures or {}
-        if self.with_extras:
-            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = _step_energies(terms, resolution, v)
-        log["jacobian_inverse_condition"][j, where] = resolution.jacobian_inverse_condition
-        if resolution.task_error is not None:
-            log["task_error"][j, where] = resolution.task_error
-            log["infeasible"][j, where] = resolution.infeasible
-        k = self.start + j
-        for row, bounds in (resolution.limiting or {}).items():
-            self.limiting[int(active[row])][k] = bounds
-        if failures:
-            failed = np.zeros(active.size, dtype=bool)
-            failed[list(failures)] = True
-            resolved = ~failed
-            log["acceleration"][j, active[resolved]] = joint_acceleration[resolved]
-            log["tau"][j, active[resolved]] = torque[resolved]
-            log["task_error"][j, active[failed]] = 0.0
-            log["infeasible"][j, active[failed]] = False
-            stopping = failed | (resolved & rules.torques_over(torque))
-        else:
-            log["acceleration"][j, where] = joint_acceleration
-            log["tau"][j, where] = torque
-            if not rules.any_torque_over(torque):
-                return False
-            stopping = rules.torques_over(torque)
-        if not stopping.any():
-            return False
-        for row in np.flatnonzero(stopping).tolist():
-            movement = int(active[row])
-            if row in failures:
-                self.stop_reason[movement] = rules.unresolved(failures[row], t)
-            else:
-                # The torque that ends the run stays in the result: peaks and verdicts count it.
-                self.stop_reason[movement] = rules.torque(torque[row], t)
-            self.stop_time[movement] = t
-        self._keep = ~stopping
-        return True
-
-    def record_final(self, j: int, q, v, x, terms) -> None:
-        # No torque is applied from the final state (NaN rows, as simulate).
-        self._record_state(j, q, v, x)
-        log, where = self.log, self.where
-        log["jacobian_inverse_condition"][j, where] = inverse_condition_number(terms.jacobian)
-        if self.with_extras:
-            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = self_motion_energy(
-                terms.inertia, v, jacobian=terms.jacobian
-            )
-
-    def compact(self, q, v, resolution):
-        keep = self._keep
-        self.active = self.where = self.active[keep]
-        self.running = self.active.size > 0
-        if resolution is not None:
-            resolution = resolution._replace(
-                torque=resolution.torque[keep], joint_acceleration=resolution.joint_acceleration[keep]
-            )
-        return q[keep], v[keep], resolution
-
-    def step(self, q, v, resolution, j: int, t: float):
-        # For the Pinocchio plant, RK4 with the torque held; k1 is the resolver's q̈ (= ABA(q, v, τ)), as in simulate.
-        q, v = self.plant.step_stack(q, v, resolution.torque, self.dt, resolution.joint_acceleration, self.active)
-        if not self.rules.any_speed_over(v):
-            return q, v, False
-        fast = self.rules.speeds_over(v)
-        for row in np.flatnonzero(fast).tolist():
-            movement = int(self.active[row])
-            self.stop_reason[movement] = self.rules.speed(v[row], t, self.dt)
-            self.stop_time[movement] = t + self.dt
-        self._keep = ~fast
-        return q, v, True
-
-    def results(self, duration: float, descriptions: list[dict]) -> list[SimResult]:
-        """One :class:`SimResult` per movement from the logs."""
-        robot, dt, logs, recorded = self.robot, self.dt, self.logs, self.recorded
-        joint_limits = joint_limits_record(*robot.joint_limits)
-        options = self.resolver.settings_for_file()
-        source = robot_record(robot)
-        times = dt * np.arange(int(recorded.max()))
-        results = []
-        for i in range(self.count):
-            length = int(recorded[i])
-            results.append(
-                build_result(
-                    robot,
-                    self.resolver,
-                    q=logs.column("q", i, length),
-                    v=logs.column("v", i, length),
-                    acceleration=logs.column("acceleration", i, length),
-                    tau=logs.column("tau", i, length),
-                    x=logs.column("x", i, length),
-                    jacobian_inverse_condition=logs.column("jacobian_inverse_condition", i, length),
-                    times=times,
-                    reference_position=self.references[i].positions(),
-                    dt=dt,
-                    duration=duration,
-                    stop_reason=self.stop_reason[i],
-                    stop_time=self.stop_time[i],
-                    trajectory=descriptions[i],
-                    task_error=logs.column("task_error", i, length),
-                    infeasible=logs.column("infeasible", i, length),
-                    limiting=self.limiting[i],
-                    joint_limits=joint_limits,
-                    resolver_options=options,
-                    plant=None if self.plant is None else self.plant.record(i),
-                    robot_source=source,
-                )
-            )
-        return results
-
-    def extras(self) -> list[BatchExtras]:
-        """One :class:`BatchExtras` per movement from the logs."""
-        logs, recorded = self.logs, self.recorded
-        return [
-            BatchExtras(
-                logs.column("kinetic_energy", i, int(recorded[i])),
-                logs.column("self_motion_energy", i, int(recorded[i])),
-            )
-            for i in range(self.count)
-        ]
+    results = lanes.results(duration, descriptions, [plant.record(i) for i in range(count)])
+    return (results, [BatchExtras(*pair) for pair in lanes.energies()]) if extras else results
 
 
 def _kinematic_stack(robot, resolver, stacked, trajectories, q0s, dt, steps, max_joint_speed, max_torque_ratio, extras):
@@ -488,8 +268,8 @@ def _kinematic_stack(robot, resolver, stacked, trajectories, q0s, dt, steps, max
         robot, resolver, stacked, q, dt, steps, references, max_torque_ratio, max_joint_speed, extras=extras
     )
     run_movements(lanes, steps)
-    results = lanes.results(trajectories[0].duration, descriptions)
-    return (results, lanes.extras()) if extras else results
+    results = lanes.results(trajectories[0].duration, descriptions, [None] * len(q0s))
+    return (results, [BatchExtras(*pair) for pair in lanes.energies()]) if extras else results
 
 
 class _EvenRows:
@@ -536,10 +316,8 @@ class KinematicStack(MovementStack):
         self.rows = robot.task_rows
         self.gain = resolver.position_gain
         self.integrator = RK4(VelocityRates(robot, self._stage_rates), dt)
-        self.plant = None  # the kinematic motion is integrated here; no torque drives a plant
         self.rules = StopRules(robot, max_torque_ratio, max_joint_speed)
-        self.logs = _Logs(count, robot.nv, robot.nq, robot.m, extras)
-        self.recorded = np.zeros(count, dtype=int)
+        self.log = StepLog(robot, count, extras)
         self.stop_reason: list[str | None] = [None] * count
         self.stop_time: list[float | None] = [None] * count
         self.limiting: list[dict] = [{} for _ in range(count)]
@@ -564,7 +342,6 @@ class KinematicStack(MovementStack):
         length = self.position.shape[0]
         # The block's steps: those whose end sample it holds, and the final sample once it holds it.
         stop = start + (length - 1) // 2 + (2 * start + length - 1 == 2 * self.steps)
-        self.log = self.logs.grow(stop - start)
         return (self.dt * np.arange(start, stop)).tolist()
 
     def _task(self, q, v=None, tip=None):
@@ -615,13 +392,8 @@ class KinematicStack(MovementStack):
 
     def record(self, j: int, t: float, q, v, x, jacobian, resolution) -> bool:
         torque, acceleration, velocity, conditions, failures = resolution
-        log, where, active, rules = self.log, self.where, self.active, self.rules
-        log["q"][j, where] = q
-        log["v"][j, where] = velocity
-        log["x"][j, where] = x
-        log["acceleration"][j, where] = acceleration
-        log["tau"][j, where] = torque
-        log["jacobian_inverse_condition"][j, where] = conditions
+        log, active, rules = self.log, self.active, self.rules
+        log.steps.append((active, q, velocity, acceleration, torque, x, conditions))
         if self.with_extras:
             # T and E_N at the recorded state: the stack's own (its ``energies``) when it gives them, else H the
             # step's own pass computed (the stacks that read it) or by CRBA alone, J the step's own
@@ -631,12 +403,12 @@ class KinematicStack(MovementStack):
                 own = self_motion_energy(
                     self.forest.inertia(q) if inertia is None else inertia, velocity, jacobian=jacobian
                 )
-            log["kinetic_energy"][j, where], log["self_motion_energy"][j, where] = own
+            log.energies.append(own)
         # A row where the method is undefined is not recorded (as in the kinematic loop).
         failed = np.zeros(active.size, dtype=bool)
         if failures:
             failed[list(failures)] = True
-        self.recorded[active[~failed]] = self.start + j + 1
+            log.unrecorded.extend(active[failed].tolist())
         fast = ~failed & rules.speeds_over(velocity)
         over = ~failed & ~fast & rules.torques_over(torque)
         stopping = failed | fast | over
@@ -713,22 +485,6 @@ def _kinematic_runs(robot, resolver, trajectories, q0s, dt, max_joint_speed, max
         terms, _ = provider.terms(result.q, result.v)
         more.append(BatchExtras(*self_motion_energy(terms.inertia, result.v, jacobian=terms.jacobian)))
     return results, more
-
-
-def _step_energies(terms, resolution, v: np.ndarray):
-    """The energies of a resolved step: from the step's null-space basis when it has one, else from J."""
-    failures = resolution.failures or {}
-    basis = resolution.basis
-    if basis is None and terms.jacobian.shape[1] < terms.jacobian.shape[2]:
-        return self_motion_energy(terms.inertia, v, jacobian=terms.jacobian)
-    kinetic, self_motion = self_motion_energy(terms.inertia, v, null_space_basis=basis)
-    if failures:  # the QR basis of a singular J is not its null space
-        singular = np.zeros(v.shape[0], dtype=bool)
-        singular[list(failures)] = True
-        kinetic[singular], self_motion[singular] = self_motion_energy(
-            terms.inertia[singular], v[singular], jacobian=terms.jacobian[singular]
-        )
-    return kinetic, self_motion
 
 
 def _check_pairs(trajectories: Sequence[Trajectory], q0s) -> None:

@@ -15,16 +15,15 @@ motion explodes (a joint speed beyond ``max_joint_speed`` or a torque beyond
 ``max_torque_ratio`` times its limit).
 
 The loop is the engine's (:func:`torqueopt.engine.run_movements`, the same
-loop body as the batch's and the velocity-level methods'), with the B = 1
-forms of its pieces (:class:`OneMovement`).
+loop body as the batch's and the velocity-level methods'), over a stack of one
+(:class:`~torqueopt.engine.MovementStack`): the resolver's single-state step,
+Pinocchio's terms on the run's own data and the plant's one-state step.
 """
 
 from __future__ import annotations
 
-import operator
 import warnings
 from dataclasses import dataclass, replace
-from functools import partial
 
 import numpy as np
 
@@ -38,18 +37,19 @@ from .checks import (
     trajectory_dimension,
     velocity_vector,
 )
-from .engine import run_movements
-from .errors import InvalidInput, SingularJacobian, SolverFailure, TorqueBoundsInfeasible, TorqueoptWarning
+from .engine import MovementStack, run_movements, stack_of_one
+from .errors import InvalidInput, TorqueoptWarning
 from .integrators import rk4_step
 from .linalg import inverse_condition_number
 from .plants import PinocchioPlant, Plant, make_plant
 from .resolvers import Resolution, Resolver, get_resolver
+from .resolvers.stacks import LoopedStackStep
 from .result import SimResult
 from .robot import Robot
-from .run_records import ReferenceBlocks, logged_row_bytes, run_result, task_reference
+from .run_records import ReferenceBlocks, logged_row_bytes, task_reference
 from .stop_rules import StopRules
 from .terms import PinocchioTerms
-from .trajectory import Trajectory, check_trajectory
+from .trajectory import Trajectory, check_trajectory, describe
 from .trajectory.orientation import rotation_error
 
 __all__ = ["simulate", "rk4_step", "resolve", "step_budget", "Feedback", "DEFAULT_MAX_STEPS"]
@@ -206,12 +206,18 @@ def simulate(
 
     # One Pinocchio data per run: runs in threads cannot race, and nothing
     # outside this run writes into the views its terms hold.
-    lanes = OneMovement(
-        robot, resolver, trajectory, q, v, dt, steps, reference, reference_rotation, feedback,
-        StopRules(robot, max_torque_ratio, max_joint_speed), plant, robot.model.createData(),
+    terms = PinocchioTerms(robot, robot.model.createData(), reference_rotation)
+    # The resolver's per-robot constants and workspaces are built once per run (solver_for_movement).
+    solve = LoopedStackStep(resolver, robot, dt)
+    solve.along([trajectory])
+    lanes = MovementStack(
+        robot, resolver, q, v, dt, steps, [reference], solve=solve.stack_of_one(),
+        terms=terms.stack_of_one(),
+        advance=stack_of_one(plant, dt), rules=StopRules(robot, max_torque_ratio, max_joint_speed),
+        feedback=feedback, reference_rotations=[reference_rotation],
     )  # fmt: skip
     run_movements(lanes, steps)
-    result = lanes.result(duration, dexterity, plant.record())
+    (result,) = lanes.results(duration, [describe(trajectory)], [plant.record()], dexterity)
     if margin:
         result = with_margins(
             robot, resolver.solver_for_run(robot, dt), result, trajectory, feedback, reference_rotation
@@ -228,151 +234,6 @@ def refuse_plant_at_velocity_level(resolver: Resolver, plant, plant_options) -> 
         )
 
 
-class OneMovement:
-    """The engine's lanes for B = 1 at the torque level: one state as plain vectors (see :mod:`torqueopt.engine`).
-
-    The B = 1 forms of the engine's pieces: the terms of Pinocchio on one
-    data (:class:`~torqueopt.terms.PinocchioTerms`), the resolver's
-    single-state step (a step that raises ends the movement), the plant's
-    step (:meth:`Plant.step <torqueopt.plants.Plant.step>`), a log of one tuple
-    per step and the ceiling tests on plain lists (cheaper than numpy at this
-    size).
-    """
-
-    resolves_final = False
-
-    def __init__(
-        self, robot: Robot, resolver: Resolver, trajectory: Trajectory, q, v, dt: float, steps: int,
-        reference: ReferenceBlocks, reference_rotation, feedback: Feedback | None, rules: StopRules, plant, data,
-    ):  # fmt: skip
-        self.robot, self.resolver, self.trajectory, self.dt, self.reference = robot, resolver, trajectory, dt, reference
-        self.q, self.v, self.feedback, self.rules = q, v, feedback, rules
-        self.running = True
-        self.stop_reason: str | None = None
-        self.stop_time: float | None = None
-        # One tuple per recorded step (q, v, q̈, τ, x, σmin/σmax): appending is far
-        # cheaper than writing six rows into preallocated arrays, and every array
-        # in it is fresh at each step, so nothing is overwritten later.
-        self.log: list[tuple] = []
-        # (row, task error, infeasible, limiting bounds) of the rows whose task was not realised exactly:
-        # most resolvers never give any up, so the common row costs one test.
-        self.shortfalls: list[tuple] = []
-        self.not_applied = np.full(robot.nv, np.nan)
-        # One test per vector and step, all(|value| <= ceiling), on plain lists.
-        self.torque_ceiling = rules.torque_ceiling.tolist()
-        self.speed_ceiling = [rules.speed_ceiling] * robot.nv
-        self.within = partial(map, operator.le)
-        # Built once per run: the resolver's per-robot constants and workspaces.
-        self.solve = resolver.solver_for_movement(robot, dt, trajectory)
-        # The plant reports its own state; the resolver's next torque is computed from it.
-        self.advance = plant.step
-        #: The engine's terms provider for B = 1 with the task position: ``(q, v) -> (TaskTerms, x)``.
-        self.terms = PinocchioTerms(robot, data).with_position(reference_rotation)
-        self.command = self._command if feedback is not None else self._reference_command
-        if feedback is not None and robot.task == "pose" and getattr(trajectory, "oriented", False):
-            self.reference_rotation = reference_rotation
-            self.command = self._turning_command
-
-    def block(self, start: int) -> list[float]:
-        block_times, sample = self.reference.block(start)
-        self.reference_position, self.reference_velocity = sample.position, sample.velocity
-        # A list of row views: indexing a list costs far less than indexing an array.
-        self.command_rows = list(sample.acceleration)
-        return block_times.tolist()
-
-    def _reference_command(self, j: int, terms, x):
-        return self.command_rows[j]
-
-    def _command(self, j: int, terms, x):
-        feedback = self.feedback
-        return (
-            self.command_rows[j]
-            + feedback.kd * (self.reference_velocity[j] - terms.task_velocity)
-            # For pose, x holds log(R R0ᵀ) and the reference orientation is R0,
-            # so reference − x = log(R0 Rᵀ) is exactly the rotation back to R0.
-            + feedback.kp * (self.reference_position[j] - x)
-        )
-
-    def _turning_command(self, j: int, terms, x):
-        feedback = self.feedback
-        reference = self.reference_position[j]
-        position_error = reference - x
-        # The orientation rows: log(R_ref Rᵀ), the world rotation vector that turns R onto R_ref (both about R0),
-        # not the difference of their rotation vectors about R0, which is it only to first order.
-        position_error[3:] = rotation_error(reference[3:], terms.placement.rotation, self.reference_rotation)
-        return (
-            self.command_rows[j]
-            + feedback.kd * (self.reference_velocity[j] - terms.task_velocity)
-            + feedback.kp * position_error
-        )
-
-    def resolve(self, terms, command, j: int):
-        try:
-            return self.solve(terms, command)
-        except (SingularJacobian, TorqueBoundsInfeasible, SolverFailure) as error:
-            return error
-
-    def record(self, j: int, t: float, q, v, x, terms, resolution) -> bool:
-        log = self.log
-        if isinstance(resolution, Exception):
-            self.stop_reason, self.stop_time = self.rules.unresolved(resolution, t), t
-            log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
-            return True
-        tau, joint_acceleration, inverse_condition, task_error, infeasible, limiting, _ = resolution
-        if task_error or infeasible or limiting:  # limiting alone: a planning resolver's fallback row
-            self.shortfalls.append((len(log), task_error, infeasible, limiting))
-        log.append((q, v, joint_acceleration, tau, x, inverse_condition))
-        if not all(self.within(map(abs, tau.tolist()), self.torque_ceiling)):
-            # The torque that ends the run stays in the result: peaks and verdicts count it.
-            self.stop_reason, self.stop_time = self.rules.torque(tau, t), t
-            return True
-        return False
-
-    def record_final(self, j: int, q, v, x, terms) -> None:
-        self.log.append((q, v, self.not_applied, self.not_applied, x, inverse_condition_number(terms.jacobian)))
-
-    def compact(self, q, v, resolution):
-        self.running = False
-        return q, v, resolution
-
-    def step(self, q, v, resolution, j: int, t: float):
-        q, v = self.advance(q, v, resolution[0], self.dt, resolution[1])
-        # RK4 weighs every stage acceleration that moves q into v as well, so a
-        # finite v after the step means a finite q.
-        if not all(self.within(map(abs, v.tolist()), self.speed_ceiling)):
-            self.stop_reason, self.stop_time = self.rules.speed(v, t, self.dt), t + self.dt
-            return q, v, True
-        return q, v, False
-
-    def result(self, duration: float, dexterity: bool, plant: dict) -> SimResult:
-        """The run's :class:`SimResult` from what was recorded."""
-        log = self.log
-        task_error_log = np.zeros(len(log))
-        infeasible_log = np.zeros(len(log), dtype=bool)
-        limiting_log = {}
-        for row, task_error, infeasible, limiting in self.shortfalls:
-            task_error_log[row], infeasible_log[row] = task_error, infeasible
-            if limiting:
-                limiting_log[row] = limiting
-        return run_result(
-            self.robot,
-            self.resolver,
-            log,
-            self.dt * np.arange(len(log)),
-            self.reference.positions(),
-            dt=self.dt,
-            duration=duration,
-            stop_reason=self.stop_reason,
-            stop_time=self.stop_time,
-            trajectory=self.trajectory,
-            task_error=task_error_log,
-            infeasible=infeasible_log,
-            limiting=limiting_log,
-            dexterity=dexterity,
-            plant=plant,
-        )
-
-
 def with_margins(
     robot: Robot, step, result: SimResult, trajectory: Trajectory, feedback: Feedback | None, reference_rotation=None
 ):
@@ -385,7 +246,7 @@ def with_margins(
         task_velocity = np.array([robot.terms(q, v).task_velocity for q, v in zip(result.q, result.v)])
         position_error = sample.position - result.x
         if robot.task == "pose" and getattr(trajectory, "oriented", False):
-            # as the run's command (OneMovement._turning_command): the rotation from R to R_ref
+            # as the run's command (MovementStack._feedback_command): the rotation from R to R_ref
             position_error[:, 3:] = [
                 rotation_error(row, robot.frame_placement(q).rotation, reference_rotation)
                 for row, q in zip(sample.position[:, 3:], result.q)

@@ -8,6 +8,7 @@ for every lanes form of :mod:`torqueopt.engine`.
 
 from __future__ import annotations
 
+import operator
 import sys
 
 import numpy as np
@@ -67,6 +68,9 @@ class StopRules:
     def __init__(self, robot: Robot, max_torque_ratio: float, max_joint_speed: float):
         self.robot, self.max_torque_ratio, self.max_joint_speed = robot, max_torque_ratio, max_joint_speed
         self.torque_ceiling, self.speed_ceiling = stop_ceilings(robot, max_torque_ratio, max_joint_speed)
+        # A stack of one held as its row (n,) is tested on plain lists, cheaper than numpy's reductions at that size.
+        self._torque_ceilings = self.torque_ceiling.tolist()
+        self._speed_ceilings = [self.speed_ceiling] * robot.nv
 
     def torques_over(self, torque: np.ndarray) -> np.ndarray:
         """Per row of a (B, n) stack: True where a torque fails its ceiling (or is not finite)."""
@@ -77,12 +81,16 @@ class StopRules:
         return ~(np.abs(velocity) <= self.speed_ceiling).all(axis=1)
 
     def any_torque_over(self, torque: np.ndarray) -> bool:
-        """Whether some row of a non-empty (B, n) stack fails :meth:`torques_over`: one reduction over the stack (a
-        NaN carries through the maximum and fails the test), the rows sought only when it is True."""
+        """Whether some row of a non-empty (B, n) stack (or one row, (n,)) fails :meth:`torques_over`: one reduction
+        over the stack (a NaN carries through the maximum and fails the test), the rows sought only when it is True."""
+        if torque.ndim == 1:
+            return not all(map(operator.le, map(abs, torque.tolist()), self._torque_ceilings))
         return not (np.abs(torque).max(axis=0) <= self.torque_ceiling).all()
 
     def any_speed_over(self, velocity: np.ndarray) -> bool:
         """Whether some row of a non-empty (B, n) stack fails :meth:`speeds_over`, by one reduction over the stack."""
+        if velocity.ndim == 1:
+            return not all(map(operator.le, map(abs, velocity.tolist()), self._speed_ceilings))
         return not np.abs(velocity).max() <= self.speed_ceiling
 
     def torque(self, tau: np.ndarray, t: float) -> str:

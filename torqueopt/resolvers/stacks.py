@@ -137,6 +137,7 @@ class LoopedStackStep:
         self.resolver, self.robot, self.dt = resolver, robot, dt
         self._steps: dict[int, Callable] = {}
         self.trajectories = None
+        self._not_applied = np.full(robot.nv, np.nan)
 
     def along(self, trajectories) -> None:
         """Give each movement its path (anchored), by movement index: a step that plans ahead follows it
@@ -151,31 +152,80 @@ class LoopedStackStep:
             return resolver.solver_for_movement(robot, self.dt, self.trajectories[movement])
         return resolver.solver_for_run(robot, self.dt)
 
-    def __call__(self, terms: StackTerms, task_accelerations: np.ndarray, movements: np.ndarray) -> StackResolution:
-        count, n = task_accelerations.shape[0], self.robot.nv
-        torque = np.full((count, n), np.nan)
-        acceleration = np.full((count, n), np.nan)
-        conditions = np.empty(count)
-        task_error = np.zeros(count)
-        infeasible = np.zeros(count, dtype=bool)
-        failures, limiting = {}, {}
+    def __call__(self, terms, task_accelerations: np.ndarray, movements: np.ndarray) -> StackResolution:
+        """The step of each row of ``terms`` (a :class:`StackTerms`, or :class:`~torqueopt.terms.TermRows`).
+
+        ``task_error`` and ``infeasible`` are None when every row realised its task; the rows of a stack of one are
+        views of the step's own arrays (no copy per step).
+        """
+        torques, accelerations, conditions = [], [], []
+        failures, limiting, shortfalls = {}, {}, {}
         steps = self._steps
         for row, movement in enumerate(movements.tolist()):
             solve = steps.get(movement)
             if solve is None:
                 solve = steps[movement] = self._make_step(movement)
+            state = terms.row(row)
             try:
-                resolution = solve(terms.row(row), task_accelerations[row])
+                resolution = solve(state, task_accelerations[row])
             except STOPPING_ERRORS as error:
                 failures[row] = str(error)
-                conditions[row] = inverse_condition_number(terms.jacobian[row])
+                torques.append(self._not_applied)
+                accelerations.append(self._not_applied)
+                conditions.append(inverse_condition_number(state.jacobian))
                 continue
-            torque[row], acceleration[row] = resolution.torque, resolution.joint_acceleration
-            conditions[row] = resolution.jacobian_inverse_condition
-            task_error[row], infeasible[row] = resolution.task_error, resolution.infeasible
+            torques.append(resolution.torque)
+            accelerations.append(resolution.joint_acceleration)
+            conditions.append(resolution.jacobian_inverse_condition)
+            if resolution.task_error or resolution.infeasible:
+                shortfalls[row] = resolution.task_error, resolution.infeasible
             if resolution.limiting:
                 limiting[row] = resolution.limiting
-        return StackResolution(torque, acceleration, conditions, task_error, infeasible, failures, limiting)
+        task_error = infeasible = None
+        if shortfalls:
+            task_error, infeasible = np.zeros(len(torques)), np.zeros(len(torques), dtype=bool)
+            for row, (error, flag) in shortfalls.items():
+                task_error[row], infeasible[row] = error, flag
+        return StackResolution(
+            _stacked(torques, self.robot.nv),
+            _stacked(accelerations, self.robot.nv),
+            np.array(conditions),
+            task_error,
+            infeasible,
+            failures,
+            limiting,
+        )
+
+    def stack_of_one(self) -> StackStep:
+        """This step on a stack of one held as its row (what ``simulate`` steps), as a bare function
+        ``(TaskTerms, ẍ (m,), movements) -> StackResolution`` of the row: (n,) torque and q̈, a float σmin/σmax."""
+        solve = self._make_step(0)
+        not_applied = self._not_applied
+
+        def step(terms, task_acceleration: np.ndarray, movements=None) -> StackResolution:
+            try:
+                resolution = solve(terms, task_acceleration)
+            except STOPPING_ERRORS as error:
+                condition = inverse_condition_number(terms.jacobian)
+                return StackResolution(not_applied, not_applied, condition, None, None, {0: str(error)}, None)
+            task_error, infeasible = resolution.task_error, resolution.infeasible
+            shortfall = task_error or infeasible
+            return StackResolution(
+                resolution.torque,
+                resolution.joint_acceleration,
+                resolution.jacobian_inverse_condition,
+                np.array([task_error]) if shortfall else None,
+                np.array([infeasible]) if shortfall else None,
+                None,
+                {0: resolution.limiting} if resolution.limiting else None,
+            )
+
+        return step
+
+
+def _stacked(rows: list, n: int) -> np.ndarray:
+    """The (B, n) stack of ``rows``."""
+    return np.array(rows).reshape(len(rows), n)
 
 
 def looped_stack_step(resolver, robot: Robot, dt: float | None = None) -> StackStep:

@@ -300,7 +300,8 @@ class BoundedStackStep:
                 rows = kept[hard]
                 resolution = self.single(_rows_of(terms, rows), task_accelerations[rows], movements[rows])
                 torque[rows], acceleration[rows] = resolution.torque, resolution.joint_acceleration
-                task_error[rows], infeasible[rows] = resolution.task_error, resolution.infeasible
+                if resolution.task_error is not None:  # None: every row realised its task
+                    task_error[rows], infeasible[rows] = resolution.task_error, resolution.infeasible
                 conditions[rows] = resolution.jacobian_inverse_condition
                 for index, text in resolution.failures.items():
                     failures[int(rows[index])] = text
