@@ -4,7 +4,8 @@ Every resolver's run from q0 follows the self-motion branch it starts on. Where 
 before the path ends, a motion within the limits may still exist on another: on panda line 13 of the atlas's
 population (2 s, torque bounds and joint limits) phase-1 found a least excess of 0.21 from pinv's and bounded-torque's
 runs (joints 1 and 2 past their limits at T) and 0.018 from damped-null-space's, yet from the end configuration with
-joints 1 and 3 turned by nearly π it found a motion within every limit, and the solve from it converged.
+joints 1 and 3 at -2.8 rad (the other one found has both at 0.3 rad) it found a motion within every limit, and the
+solve from it converged.
 
 :func:`branch_starts` makes such starts: each is a decision vector of the shooting program whose knots follow the path
 from q0 to one inverse-kinematics solution at the path's end. They are starts for the phase-1 problem

@@ -186,9 +186,11 @@ def optimize(
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
             cost are in ``result.starts``. Where no start ends within the limits, the phase-1
-            problem (``torqueopt.optimal.shooting.least_excess``) either proves there is no
-            motion within them (status ``infeasible``, evidence in ``result.feasibility``) or
-            gives one more start.
+            problem (``torqueopt.optimal.shooting.least_excess``), solved from a ``bounded-torque``
+            run, from starts on other self-motion branches (under joint limits) and from each
+            start's last point, either gives one more start (``phase-1 from <start>``) or is
+            the evidence that no motion within them exists (status ``infeasible``, in
+            ``result.feasibility``).
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
             (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
             CasADi's virtual machine evaluates them.
