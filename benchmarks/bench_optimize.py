@@ -16,14 +16,19 @@ Run on one core: taskset -c 0 python benchmarks/bench_optimize.py [--rounds 3] [
 torque bounds and joint limits on, both default starts (and the phase-1 problem where no start ends within
 the limits), compiled (the one-time compile is timed apart):
 convergence, iterations and time per solve. ``--grid-step`` sets the transcription grid (default 0.02 s),
-``--starts`` the warm starts (e.g. ``pinv``).
+``--starts`` the warm starts (e.g. ``pinv``). ``--out FILE`` appends one JSON line per path (status, cost, every
+start's record, phase-1's evidence, wall and CPU seconds of the optimize call) and skips the paths already in it,
+so a long run resumes; ``--only 3,13`` solves those paths alone. CPU time is the process's
+(``time.process_time``): under ``taskset -c 0`` it is the time on one core, whatever the load.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -96,17 +101,29 @@ def scipy_case(method):
     return f"planar3 short, 10 ms, scipy {method}", run
 
 
-def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...], starts=None) -> None:
+def shooting_population(
+    paths: int, grid_step: float, kinds: tuple[str, ...], starts=None, out: Path | None = None, only=None
+) -> None:
     from torqueopt.atlas.population import PopulationSpec, draw_population, movement_trajectory
 
     robot = torqueopt.load_robot("panda", task="position")
-    rows = []
+    done = {}
+    if out is not None and out.exists():
+        for line in out.read_text().splitlines():
+            record = json.loads(line)
+            done[(record["kind"], record["path"])] = record
+    records = []
     for kind, duration in (("line", 2.0), ("circle", 1.0)):
         if kind not in kinds:
             continue
         movements = draw_population(robot, PopulationSpec(paths=paths, durations=(duration,), path=kind, seed=0))
         for index, movement in enumerate(movements):
-            began = time.perf_counter()
+            if only is not None and index not in only:
+                continue
+            if (kind, index) in done:
+                records.append(done[(kind, index)])
+                continue
+            began, cpu = time.perf_counter(), time.process_time()
             result = optimize(
                 robot,
                 movement_trajectory(movement),
@@ -118,27 +135,54 @@ def shooting_population(paths: int, grid_step: float, kinds: tuple[str, ...], st
                 compiled=True,
                 starts=starts,
             )
-            wall = time.perf_counter() - began
+            record = {
+                "kind": kind,
+                "path": index,
+                "status": result.status,
+                "cost": result.cost,
+                "grid_cost": result.grid_cost,
+                "pinv_cost": result.warm_start_cost,
+                "warm_start": result.warm_start,
+                "wall": time.perf_counter() - began,
+                "cpu": time.process_time() - cpu,
+                "starts": result.starts,
+                "feasibility": result.feasibility,
+            }
+            records.append(record)
+            if out is not None:
+                with out.open("a") as stream:
+                    stream.write(json.dumps(record, default=float) + "\n")
             tried = "; ".join(
                 f"{s['warm_start']}: {s['status']} {s['iterations']} it {s['grid_cost']:.6g} ({s['seconds']:.2f} s)"
                 for s in result.starts
             )
-            rows.append((kind, result, wall))
             evidence = f" | phase-1: {result.feasibility['evidence']}" if result.feasibility else ""
             print(
                 f"{kind} {index:3d} {result.status:>16} cost {result.cost:12.6g} pinv {result.warm_start_cost:12.6g} "
-                f"wall {wall:7.2f} s | {tried}{evidence}",
+                f"wall {record['wall']:7.2f} s cpu {record['cpu']:7.2f} s | {tried}{evidence}",
                 flush=True,
             )
     for kind in kinds:
-        chosen = [(result, wall) for k, result, wall in rows if k == kind]
-        converged = sum(result.status == "converged" for result, _ in chosen)
-        proven = sum(bool(result.feasibility.get("proves_infeasible")) for result, _ in chosen)
-        seconds = [s["seconds"] for result, _ in chosen for s in result.starts]
-        iterations = [s["iterations"] for result, _ in chosen for s in result.starts]
+        chosen = [record for record in records if record["kind"] == kind]
+        if not chosen:
+            continue
+        counts = {}
+        for record in chosen:
+            counts[record["status"]] = counts.get(record["status"], 0) + 1
+        cpu = [record["cpu"] for record in chosen]
+        converged_cpu = [record["cpu"] for record in chosen if record["status"] == "converged"]
+        iterations = [s["iterations"] for record in chosen for s in record["starts"]]
         print(
-            f"{kind}: {converged}/{len(chosen)} converged, {proven} proven infeasible (phase-1); per solve (start) median {statistics.median(seconds):.2f} s, "
-            f"max {max(seconds):.2f} s; iterations median {statistics.median(iterations):g}, max {max(iterations)}"
+            f"{kind}: {len(chosen)} paths, "
+            + ", ".join(f"{status} {count}" for status, count in sorted(counts.items()))
+            + f"; CPU per optimize call median {statistics.median(cpu):.2f} s, max {max(cpu):.2f} s"
+            + (
+                f" (converged: median {statistics.median(converged_cpu):.2f} s, "
+                f"{sum(c <= 5.0 for c in converged_cpu)}/{len(converged_cpu)} within 5 s)"
+                if converged_cpu
+                else ""
+            )
+            + f"; iterations per start median {statistics.median(iterations):g}, max {max(iterations)}"
         )
 
 
@@ -152,10 +196,13 @@ def main() -> None:
     parser.add_argument(
         "--starts", default=None, help="of --shooting: comma-separated warm starts (default: optimize's)"
     )
+    parser.add_argument("--out", type=Path, default=None, help="of --shooting: JSON lines, appended, resumed")
+    parser.add_argument("--only", default=None, help="of --shooting: comma-separated path indices")
     args = parser.parse_args()
     if args.shooting:
         starts = tuple(args.starts.split(",")) if args.starts else None
-        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")), starts)
+        only = {int(index) for index in args.only.split(",")} if args.only else None
+        shooting_population(args.shooting, args.grid_step, tuple(args.kinds.split(",")), starts, args.out, only)
         return
     cases = [
         planar_case(0.01, "gauss-newton", False),

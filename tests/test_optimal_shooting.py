@@ -164,8 +164,50 @@ def test_a_torque_bound_below_gravity_is_reported_infeasible(too_weak):
     assert evidence["excess"] > 1.0  # the limits are a tenth of what holding the start needs
     assert evidence["evidence"].startswith("the least excess over the limits of a motion along the path is")
     assert "torque of joint" in evidence["binding"][0]
-    assert evidence["from"] == "pinv" and [entry["from"] for entry in evidence["tries"]] == ["pinv"]
+    # phase-1 from the limited start's run, then from pinv's point: the excess is set at t = 0, where q0 is given, so
+    # both reach the same t*
+    tries = evidence["tries"]
+    assert [entry["from"] for entry in tries] == ["bounded-torque[joint_limits=off]", "pinv"]
+    assert tries[0]["excess"] == pytest.approx(tries[1]["excess"], rel=1e-9)
     assert result.summary()["feasibility"] == evidence
+
+
+@pytest.mark.slow
+def test_phase_one_from_the_limited_start_rescues_starts_that_end_outside_the_limits(paper_arm, monkeypatch):
+    """When every start ends outside the limits, phase-1 runs first from bounded-torque's run (which keeps them), and
+    the motion within the limits it finds is solved to the optimum: the one a start that converges reaches (1e-6),
+    within the torque bounds by pin.rnea and within the joint limits."""
+    from torqueopt.optimal import whole_path
+
+    robot = paper_arm.with_torque_limit(np.array([2.0, 3.15, 4.2]) * 1.12)
+
+    def solve(**options):
+        return optimize(
+            robot, PAPER.line("short"), PAPER.q0, starts=("pinv",), grid_step=0.02, torque_bounds=True,
+            joint_limits=True, **options,
+        )  # fmt: skip
+
+    reference = solve()
+    assert reference.optimal and reference.feasibility == {}
+    calls = []
+    real = whole_path.solve_shooting
+
+    def first_stops_early(*args, **options):  # the start's solve stops after one iteration, outside the limits
+        calls.append(len(calls))
+        return real(*args, **{**options, "max_iterations": 1} if len(calls) == 1 else options)
+
+    monkeypatch.setattr(whole_path, "solve_shooting", first_stops_early)
+    rescued = solve()
+    assert [entry["warm_start"] for entry in rescued.starts] == ["pinv", "phase-1 from bounded-torque"]
+    assert rescued.starts[0]["status"] == "iteration limit"
+    assert rescued.feasibility["tries"][0]["from"] == "bounded-torque" and rescued.feasibility["excess"] <= 1e-6
+    assert rescued.optimal and rescued.warm_start == "phase-1 from bounded-torque"
+    assert rescued.grid_cost == pytest.approx(reference.grid_cost, rel=1e-6)
+    problem = rescued.solution["problem"]
+    assert _excess_by_pinocchio(problem, rescued.solution["w"]) <= 1e-6
+    q, _, _ = problem.split(rescued.solution["w"])
+    lower, upper, _ = robot.joint_limits
+    assert np.all(q >= lower - 1e-8) and np.all(q <= upper + 1e-8)
 
 
 @pytest.mark.slow

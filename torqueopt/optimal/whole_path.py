@@ -36,6 +36,7 @@ optimum; anything else is the last iterate, reported as such.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import replace
 
@@ -58,6 +59,7 @@ from ..robot import Robot
 from ..run_robot import robot_record
 from ..simulate import simulate
 from ..trajectory import check_trajectory, describe
+from .branches import branch_starts
 from .cost import torque_cost, weight_root
 from .ipopt import solve_transcription
 from .replay import replay_torques
@@ -184,9 +186,11 @@ def optimize(
             returned (the lowest cost; these are local optima of the whole-movement problem and
             different starts may reach different ones); every start's status, iterations and
             cost are in ``result.starts``. Where no start ends within the limits, the phase-1
-            problem (``torqueopt.optimal.shooting.least_excess``) either proves there is no
-            motion within them (status ``infeasible``, evidence in ``result.feasibility``) or
-            gives one more start.
+            problem (``torqueopt.optimal.shooting.least_excess``), solved from a ``bounded-torque``
+            run, from starts on other self-motion branches (under joint limits) and from each
+            start's last point, either gives one more start (``phase-1 from <start>``) or is
+            the evidence that no motion within them exists (status ``infeasible``, in
+            ``result.feasibility``).
         compiled: ``shooting`` only: generate the NLP's functions as C and compile them once
             (kept in ``torqueopt.optimal.shooting.cache_directory``); without a C compiler
             CasADi's virtual machine evaluates them.
@@ -317,7 +321,10 @@ def optimize(
     plan_error = np.linalg.norm(plan["x"][:, :linear] - reference[:, :linear], axis=1)
     start_cost = (
         torque_cost(start_run.tau[:steps], dt, root, midpoint)  # rows 0..M-1: every applied torque
-        if start_run.completed and len(start_run.t) == steps + 1 and math.isclose(start_run.dt, dt)
+        if start_run is not None
+        and start_run.completed
+        and len(start_run.t) == steps + 1
+        and math.isclose(start_run.dt, dt)
         else float("nan")
     )
     return OptimalResult(
@@ -378,6 +385,14 @@ def _start_run(robot, trajectory, q_start, dt, warm_start) -> tuple[SimResult, s
 PHASE_ONE = "phase-1"
 #: IPOPT's return when ``progress`` asked it to stop (``torqueopt optimize`` on Ctrl-C): no other start, no phase-1.
 _STOPPED = "User_Requested_Stop"
+#: The start tried first by phase-1 when no start ended within the limits: ``bounded-torque`` keeps the torque bounds
+#: and (its default ``joint_limits=on``, off where the problem has none) the joint limits at every step where it can, so its run is near a motion within
+#: them where pinv's and damped-null-space's drift to a joint limit (panda line 3 of the population: phase-1 found a
+#: least excess of 0.146 from both, a motion within every limit from this run).
+LIMITED_START = "bounded-torque"
+#: How many other self-motion branches (:func:`~torqueopt.optimal.branches.branch_starts`) phase-1 starts from after
+#: the limited start, under joint limits.
+BRANCH_STARTS = 4
 #: The order of preference of a start's outcome when no start converged.
 _PREFERENCE = ("converged", "acceptable", "iteration limit", "time limit", "failed", "infeasible")
 
@@ -400,10 +415,12 @@ def _solve_from_starts(
     """Solve the shooting program from every start; the best (status, then cost) and every start's record.
 
     When no start ends within the limits (``converged`` or ``acceptable``), the phase-1 problem
-    (:func:`~torqueopt.optimal.shooting.least_excess`) is solved from each start's last point, nearest
-    first, until one finds a motion within every limit: that motion is one more start (``phase-1 from
-    <start>``), solved like the others; else the least excess of those that ended at a local minimum
-    (``converged`` or ``acceptable``), when positive, makes the status ``infeasible`` (whatever IPOPT said).
+    (:func:`~torqueopt.optimal.shooting.least_excess`) is solved from a run of :data:`LIMITED_START` (which
+    keeps within the limits where it can), under joint limits from :data:`BRANCH_STARTS` starts on other
+    self-motion branches (:func:`~torqueopt.optimal.branches.branch_starts`), then from each start's last point, nearest first, until one
+    finds a motion within every limit: that motion is one more start (``phase-1 from <start>``), solved
+    like the others; else the least excess of those that ended at a local minimum (``converged`` or
+    ``acceptable``), when positive, makes the status ``infeasible`` (whatever IPOPT said).
 
     Returns ((run, name, SolverOutput) of the best, [("exact", SolverOutput)], [record per start],
     (the least phase-1 :class:`~torqueopt.optimal.shooting.Feasibility`, [(start, Feasibility)]) or None).
@@ -446,12 +463,24 @@ def _solve_from_starts(
         # No start reached a point within the limits: phase-1 from each start's last point, nearest first, until one
         # finds a motion within the limits; the least excess found is the evidence (different starts reach
         # different local minima: panda line 13 of the population, 0.21 from pinv's and 0.02 from a damped run's).
-        for run, name, solved in sorted(outcomes, key=lambda outcome: outcome[2].constraint_violation):
+        # IPOPT's own iterates from a start may wander off a motion within the limits (panda line 3: infeasible
+        # from the limited run itself), so phase-1 goes first from that run too.
+        points = [
+            (run, name, solved.w)
+            for run, name, solved in sorted(outcomes, key=lambda outcome: outcome[2].constraint_violation)
+        ]
+        limited = _limited_start(problem, robot)
+        if limited is not None and (max_time is None or spent < max_time):
+            run, _ = _start_run(robot, trajectory, q_start, dt, limited)
+            # then, where joint limits may cut q0's self-motion branch, the other branches, which no run from q0
+            # reaches (panda line 13); they have no run of their own
+            count = BRANCH_STARTS if problem.joint_limits else 0
+            branches = ((None, name, w) for name, w in branch_starts(problem, count))  # made when reached
+            points = itertools.chain([(run, limited.label, _warm_start(problem, run))], branches, points)
+        for run, name, point in points:
             if tries and max_time is not None and spent >= max_time:
                 break
-            found = least_excess(
-                problem, solved.w, tolerance=tolerance, max_iterations=max_iterations, max_time=max_time
-            )
+            found = least_excess(problem, point, tolerance=tolerance, max_iterations=max_iterations, max_time=max_time)
             spent += found.seconds
             tries.append((run, name, found))
             if found.answered and not found.proves_infeasible:
@@ -478,6 +507,16 @@ def _solve_from_starts(
     if feasibility is not None:
         feasibility = (feasibility, name, [(start, found) for _, start, found in tries])
     return best, [("exact", best[2])], records, feasibility
+
+
+def _limited_start(problem, robot) -> Resolver | None:
+    """:data:`LIMITED_START` with the problem's joint limits, or None where it cannot run (no finite torque limit, no
+    redundancy) or the problem has no limit to keep."""
+    if not (problem.torque_bounds or problem.joint_limits) or robot.nv <= robot.m:
+        return None
+    if not (np.isfinite(robot.torque_upper) & np.isfinite(robot.torque_lower)).any():
+        return None
+    return get_resolver(LIMITED_START, joint_limits="on" if problem.joint_limits else "off")
 
 
 def _feasibility_record(feasibility, name: str, tries) -> dict:
