@@ -291,18 +291,24 @@ def test_bad_options_and_tasks_are_one_line(paper_arm):
         )
 
 
+def second_window(paper_arm):
+    """The program of 50 ms windows on a short planar3 line, the state and path of its second window (after 10 ms)
+    and that window's warm start, shifted from the first window's plan."""
+    q = paper_arm.configuration(PAPER.q0)
+    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
+    program = HorizonProgram(RecedingHorizon(horizon=0.05), paper_arm, 0.01)
+    first = program.solve(0.0, q, np.zeros(3), line.sample(0.01 * np.arange(6)).position, None)
+    later = first.q[1], first.v[1], line.sample(0.01 + 0.01 * np.arange(6)).position
+    return program, later, program.shifted_start(first, 0.01)
+
+
 def test_a_failed_warm_window_is_solved_again_cold(paper_arm, monkeypatch):
     """A warm window that ends short of an optimum (here: one IPOPT iteration allowed) is solved again from the same
     point with IPOPT's default start: the plan is that cold solve's, and the iterations of both are counted."""
     from torqueopt.optimal.shooting import solve_shooting
     from torqueopt.resolvers import receding_horizon
 
-    q = paper_arm.configuration(PAPER.q0)
-    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
-    program = HorizonProgram(RecedingHorizon(horizon=0.05), paper_arm, 0.01)
-    first = program.solve(0.0, q, np.zeros(3), line.sample(0.01 * np.arange(6)).position, None)
-    start = program.shifted_start(first, 0.01)
-    later = first.q[1], first.v[1], line.sample(0.01 + 0.01 * np.arange(6)).position
+    program, later, start = second_window(paper_arm)
     monkeypatch.setattr(receding_horizon, "WARM_OPTIONS", {"ipopt.max_iter": 1})
     solved = program.solve(0.01, *later, start)
     cold = solve_shooting(program.problem, start, tolerance=receding_horizon.TOLERANCE)
@@ -338,12 +344,7 @@ def test_a_warm_window_found_infeasible_is_not_solved_again(paper_arm, monkeypat
     from torqueopt.optimal import shooting
     from torqueopt.resolvers import receding_horizon
 
-    q = paper_arm.configuration(PAPER.q0)
-    line = torqueopt.StraightLine([0.05, 0.02], duration=0.1).anchored(paper_arm.task_position(q)[:2])
-    program = HorizonProgram(RecedingHorizon(horizon=0.05), paper_arm, 0.01)
-    first = program.solve(0.0, q, np.zeros(3), line.sample(0.01 * np.arange(6)).position, None)
-    start = program.shifted_start(first, 0.01)
-    later = first.q[1], first.v[1], line.sample(0.01 + 0.01 * np.arange(6)).position
+    program, later, start = second_window(paper_arm)
     calls = []
     solve = shooting.solve_shooting
 
