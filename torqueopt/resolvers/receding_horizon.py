@@ -86,11 +86,12 @@ DEFAULT_KNOT_SPACING = 0.01
 #: IPOPT's tolerance and iteration budget per window.
 TOLERANCE = 1e-8
 MAX_ITERATIONS = 200
-#: IPOPT's start from a near-optimal point: a small barrier parameter, the point kept where it is (measured on
-#: planar3's long line, 0.5 s windows every 20 ms: median 5 iterations instead of 12, the same run to 4e-10).
+#: IPOPT's options for a start from a near-optimal point, a small barrier parameter and the point kept where it is
+#: (measured on planar3's long line, 0.5 s windows every 20 ms, median 5 iterations instead of 12, the same run to
+#: 4e-10).
 WARM_OPTIONS = {"ipopt.mu_init": 1e-6, "ipopt.warm_start_init_point": "yes"}
-#: IPOPT's start from a plan with variables at their bounds (joint speeds at their limits: panda's windows): the small
-#: barrier parameter would start them with no bound multipliers and then take steps cut short by the
+#: IPOPT's options for a start from a plan with variables at their bounds (joint speeds at their limits in panda's
+#: windows). The small barrier parameter would start them with no bound multipliers and then take steps cut short by the
 #: fraction-to-boundary rule for tens of iterations; a moderate one, left as soon as its subproblem is solved
 #: loosely and decreased fast, converges in about a third of them (panda, 0.5 s windows: median 15 iterations
 #: instead of 56; planar3, whose plans touch no bound, keeps :data:`WARM_OPTIONS`).
