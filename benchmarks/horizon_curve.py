@@ -620,28 +620,9 @@ def time_methods(curve: Curve, atlas_folder: Path, paths: list[int], out: Path) 
 
 def atlas_rows(folder: Path):
     """The rows of the whole paths 0 .. P-1 of an atlas folder (finished or stopped), with the global ratios."""
-    from torqueopt.atlas.global_optimum import add_global_ratios
-    from torqueopt.atlas.sweep import CHUNK_FOLDER, config_digest, read_chunk, require
+    from torqueopt.atlas.prefix import prefix_rows
 
-    pandas = require("pandas")
-    config = json.loads((folder / "atlas-config.json").read_text())
-    digest = config_digest(config)
-    frames = []
-    for path in sorted((folder / CHUNK_FOLDER).glob("chunk-*.parquet")):
-        frame, _ = read_chunk(path, digest, int(path.stem.split("-")[1]))
-        if frame is not None:
-            frames.append(frame)
-    table = pandas.concat(frames, ignore_index=True)
-    methods = [item.get("label", item["name"]) for item in config["resolvers"]] + [OPTIMUM]
-    complete = table.groupby("path")["resolver"].agg(lambda names: set(methods) <= set(names))
-    missing = complete.index[~complete.to_numpy()]
-    first_missing = int(missing.min()) if len(missing) else int(complete.index.max()) + 1
-    gaps = sorted(set(range(first_missing)) - set(complete.index))
-    prefix = min([first_missing, *gaps])
-    table = table[table["path"] < prefix]
-    rank = {name: i for i, name in enumerate(methods)}
-    table = table.assign(_rank=table["resolver"].map(rank)).sort_values(["path", "_rank"], kind="stable")
-    return add_global_ratios(table.drop(columns="_rank").reset_index(drop=True))
+    return prefix_rows(folder, json.loads((folder / "atlas-config.json").read_text()))[0]
 
 
 def replan_check(table, other_table) -> dict:

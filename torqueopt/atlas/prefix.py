@@ -29,28 +29,20 @@ from .global_optimum import GLOBAL_RESOLVER, add_global_ratios
 from .report import summarise, write_figures, write_markdown
 from .sweep import CHUNK_FOLDER, collect, config_digest, read_chunk, require
 
-__all__ = ["main", "prefix_report"]
+__all__ = ["main", "prefix_report", "prefix_rows"]
 
 
-def prefix_report(out, dest, *, note: str = "") -> dict:
-    """Write the report of the paths 0 .. P-1 whose runs have all landed in the atlas folder ``out`` into ``dest``.
+def prefix_rows(out, config: dict) -> tuple:
+    """(the rows of the paths 0 .. P-1 whose runs have all landed in the atlas folder ``out``, sorted by path and
+    resolver, with the global ratios where the atlas has a global optimum; P), ``config`` its ``atlas-config.json``.
 
-    Args:
-        out: the folder of a sweep (``atlas-config.json``, ``chunks/``).
-        dest: a new or empty folder for the report.
-        note: a paragraph put under the report's title (``{paths}`` is replaced by P).
-
-    Returns:
-        The summary, as ``dest/atlas.json`` holds it.
+    Raises:
+        InvalidInput: no chunk of this atlas has landed yet.
     """
     pandas = require("pandas")
-    out, dest = Path(out), Path(dest)
-    config = json.loads((out / "atlas-config.json").read_text())
-    if dest.exists() and any(dest.iterdir()):
-        raise InvalidInput(f"'{dest}' is not empty: give a new or empty folder for the report")
     digest = config_digest(config)
     frames = []
-    for path in sorted((out / CHUNK_FOLDER).glob("chunk-*.parquet")):
+    for path in sorted((Path(out) / CHUNK_FOLDER).glob("chunk-*.parquet")):
         frame, _ = read_chunk(path, digest, int(path.stem.split("-")[1]))
         if frame is not None:
             frames.append(frame)
@@ -64,11 +56,28 @@ def prefix_report(out, dest, *, note: str = "") -> dict:
     paths = 0
     while paths in whole:
         paths += 1
+    table = collect(pandas, [table[table["path"] < paths]], order)
+    return (add_global_ratios(table) if "global" in config else table), paths
+
+
+def prefix_report(out, dest, *, note: str = "") -> dict:
+    """Write the report of the paths 0 .. P-1 whose runs have all landed in the atlas folder ``out`` into ``dest``.
+
+    Args:
+        out: the folder of a sweep (``atlas-config.json``, ``chunks/``).
+        dest: a new or empty folder for the report.
+        note: a paragraph put under the report's title (``{paths}`` is replaced by P).
+
+    Returns:
+        The summary, as ``dest/atlas.json`` holds it.
+    """
+    out, dest = Path(out), Path(dest)
+    config = json.loads((out / "atlas-config.json").read_text())
+    if dest.exists() and any(dest.iterdir()):
+        raise InvalidInput(f"'{dest}' is not empty: give a new or empty folder for the report")
+    table, paths = prefix_rows(out, config)
     if not paths:
         raise InvalidInput(f"'{out}' has not finished every run of its first path yet")
-    table = collect(pandas, [table[table["path"] < paths]], order)
-    if "global" in config:
-        table = add_global_ratios(table)
     summary = summarise(table, config)
     if paths < int(config["movements"]):  # the report of a finished atlas is no part of one
         summary["partial"] = {"paths": paths, "of": int(config["movements"])}
